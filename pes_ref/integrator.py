@@ -1,0 +1,290 @@
+"""Time stepping (SPEC section 3) and its hand-derived adjoint, side by side.
+
+Each forward step is a list of named sub-steps; its adjoint, directly below it, is
+the same list reversed with mirrored names. Equation numbers refer to
+``docs/adjoint.md``.
+
+Dynamic mode, the paper's eqs. (2)-(3), with ``a = dt/(2m)``, ``c = dt gamma/(2m)``::
+
+    (S1) half_kick  P       = V_n + a F_n
+    (S2) drift      X_{n+1} = X_n + dt P                 = X_n + dt V_n + dt^2/(2m) F_n
+    (S3) force      F_{n+1} = F(X_{n+1}) + F_ext[n+1]
+    (S4) kick       V_{n+1} = P + a F_{n+1}                              (no damping)
+         kick_damp  V_{n+1} = (P - c V_n + a F_{n+1}) / (1 + c)        (damping)
+
+Its adjoint, per step, reversed: (B4) kick(_damp)^T, (B3) force^T, (B2) drift^T,
+(B1) half_kick^T.
+
+Quasistatic mode::
+
+    (Q1) force      F_n     = F(X_n) + F_ext[n]
+    (Q2) drift      X_{n+1} = X_n + mu F_n
+
+Adjoint: (QB2) drift^T, (QB1) force^T.
+
+The functions here are the numerical core: they trust their (validated) inputs, and
+they evaluate only the effects they are given. ``damping=None`` means no damping
+arithmetic at all, ``fext=None`` no external force, and a
+:class:`~pes_ref.forces.Field` without spring or walls evaluates neither.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .forces import Field, GradAccumulator, force, force_vjp
+
+__all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
+           "adjoint_quasistatic", "NonFiniteError"]
+
+
+class NonFiniteError(FloatingPointError):
+    """A trajectory left the finite numbers (usually: dt past the stability limit)."""
+
+
+class Trajectory(NamedTuple):
+    """The T+1 states of a run.
+
+    x, v, f : ndarray, shape (T+1, N, 2)
+        Positions (unwrapped), velocities (zeros in quasistatic mode) and the total
+        force ``F_n = F(X_n) + F_ext[n]`` acting at each state.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    f: np.ndarray
+
+
+def _total_force(field: Field, x: np.ndarray, fext_n, out: np.ndarray) -> None:
+    """(S3)/(Q1): ``out = -dU/dx(x) + F_ext[n]``; the external part only if the scene has one."""
+    force(field, x, out)
+    if fext_n is not None:
+        out += fext_n
+
+
+def _check_finite(traj: Trajectory, step_name: str) -> None:
+    """Refuse to return a trajectory that left the finite numbers."""
+    if not (np.isfinite(traj.x[-1]).all() and np.isfinite(traj.v[-1]).all()):
+        bad = int(np.argmax(~np.isfinite(traj.x).all(axis=(1, 2)) | ~np.isfinite(traj.v).all(axis=(1, 2))))
+        raise NonFiniteError(
+            f"the trajectory became non-finite at step {bad} ({step_name}); the step is probably past "
+            "the explicit stability limit of the stiffest term: reduce it")
+
+
+# =========================================================================== dynamic
+
+def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
+                     mass: np.ndarray, damping) -> Trajectory:
+    """Damped velocity Verlet of the paper's eqs. (2)-(3) (SPEC section 3).
+
+    Parameters
+    ----------
+    field : Field
+        The energy terms.
+    x0, v0 : ndarray, shape (N, 2)
+    fext : ndarray, shape (T+1, N, 2), or None
+        External force schedule; None when the scene has no external force.
+    dt : float
+    n_steps : int
+        T; the trajectory holds T+1 states.
+    mass : ndarray, broadcastable to (N, 2)
+    damping : ndarray broadcastable to (N, 2), or None for an undamped scene.
+
+    Returns
+    -------
+    Trajectory
+    """
+    T, N = n_steps, x0.shape[0]
+    x = np.empty((T + 1, N, 2))
+    v = np.empty((T + 1, N, 2))
+    f = np.empty((T + 1, N, 2))
+    a = np.broadcast_to(dt / (2.0 * mass), (N, 2)).copy()       # a = dt / 2m
+    damped = damping is not None
+    if damped:
+        c = np.broadcast_to(dt * damping / (2.0 * mass), (N, 2)).copy()   # c = dt gamma / 2m
+        inv_1pc = 1.0 / (1.0 + c)
+        cv = np.empty((N, 2))
+    p = np.empty((N, 2))
+    x[0] = x0
+    v[0] = v0
+    _total_force(field, x[0], None if fext is None else fext[0], f[0])
+    for n in range(T):
+        # (S1) half_kick: P = V_n + a F_n
+        np.multiply(a, f[n], out=p)
+        p += v[n]
+        # (S2) drift: X_{n+1} = X_n + dt P
+        np.multiply(p, dt, out=x[n + 1])
+        x[n + 1] += x[n]
+        # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
+        _total_force(field, x[n + 1], None if fext is None else fext[n + 1], f[n + 1])
+        # (S4) kick: V_{n+1} = P + a F_{n+1}, damped: (P - c V_n + a F_{n+1}) / (1 + c)
+        np.multiply(a, f[n + 1], out=v[n + 1])
+        v[n + 1] += p
+        if damped:
+            np.multiply(c, v[n], out=cv)
+            v[n + 1] -= cv
+            v[n + 1] *= inv_1pc
+    traj = Trajectory(x, v, f)
+    _check_finite(traj, f"dt={dt!r}")
+    return traj
+
+
+def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, damping,
+                    gx, gv, want: frozenset) -> dict:
+    """Backward pass of :func:`simulate_dynamic`: the same sub-steps reversed (eqs. (B1)-(B4)).
+
+    Parameters
+    ----------
+    field, dt, mass, damping
+        As given to :func:`simulate_dynamic`.
+    traj : Trajectory
+        Its output.
+    gx, gv : ndarray (T+1, N, 2) or None
+        Direct derivatives dL/dX_n and dL/dV_n of the objective (None means zero).
+    want : frozenset of str
+        Which gradients to compute, among ``values, x0, v0, force, mass, damping,
+        spring_k, spring_center``. Nothing else is accumulated.
+
+    Returns
+    -------
+    dict
+        Gradients: ``values`` (flat, n0*n1), ``x0``, ``v0`` (N, 2), ``force``
+        (T+1, N, 2), ``mass``, ``damping`` (N, 2, before reduction to the input's
+        shape), ``spring_k``, ``spring_center`` (N, 2).
+    """
+    x, v, f = traj
+    T, N = x.shape[0] - 1, x.shape[1]
+    acc = GradAccumulator(field, N, want)
+    a = np.broadcast_to(dt / (2.0 * mass), (N, 2)).copy()
+    damped = damping is not None
+    if damped:
+        c = np.broadcast_to(dt * damping / (2.0 * mass), (N, 2)).copy()
+        inv_1pc = 1.0 / (1.0 + c)
+    want_mass, want_damping = "mass" in want, "damping" in want
+    abar = np.zeros((N, 2)) if want_mass else None                   # dL/da
+    cbar = np.zeros((N, 2)) if (want_damping or (want_mass and damped)) else None  # dL/dc
+    gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
+
+    xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
+    vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
+    fbar = np.zeros((N, 2))
+    pbar = np.empty((N, 2))
+    vbar_prev = np.zeros((N, 2))
+    for n in range(T - 1, -1, -1):
+        # (B4) kick^T: P^ = d V^_{n+1} with d = 1/(1+c) (d = 1 undamped);
+        #      F^_{n+1} += a P^; a^ += F_{n+1} P^; c^ -= (V_n + V_{n+1}) P^; V^_n = -c P^
+        if damped:
+            np.multiply(vbar, inv_1pc, out=pbar)
+            np.multiply(c, pbar, out=vbar_prev)
+            np.negative(vbar_prev, out=vbar_prev)
+        else:
+            pbar[...] = vbar
+            vbar_prev[...] = 0.0
+        fbar += a * pbar
+        if abar is not None:
+            abar += f[n + 1] * pbar
+        if cbar is not None:
+            cbar -= (v[n] + v[n + 1]) * pbar
+        # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}; G^, k^, c^
+        if gforce is not None:
+            gforce[n + 1] = fbar
+        force_vjp(field, x[n + 1], fbar, xbar, acc)
+        # (B2) drift^T: P^ += dt X^_{n+1}; X^_n = X^_{n+1} (kept in xbar)
+        pbar += dt * xbar
+        # (B1) half_kick^T: V^_n += P^; F^_n = a P^; a^ += F_n P^
+        np.add(vbar_prev, pbar, out=vbar)
+        np.multiply(a, pbar, out=fbar)
+        if abar is not None:
+            abar += f[n] * pbar
+        # the objective's direct terms at step n
+        if gx is not None:
+            xbar += gx[n]
+        if gv is not None:
+            vbar += gv[n]
+    # (B0) adjoint of the initial force F_0 = F(X_0) + F_ext[0]
+    if gforce is not None:
+        gforce[0] = fbar
+    force_vjp(field, x[0], fbar, xbar, acc)
+
+    out = {"x0": xbar, "v0": vbar}
+    if acc.want_values:
+        out["values"] = acc.values
+    if gforce is not None:
+        out["force"] = gforce
+    # (P1) chain rule to the physical parameters: a = dt/2m, c = dt gamma/2m
+    if want_mass:
+        gm = -abar * a
+        if damped:
+            gm -= cbar * c
+        out["mass"] = gm / np.broadcast_to(mass, (N, 2))
+    if want_damping:
+        out["damping"] = cbar * a
+    if acc.want_k:
+        out["spring_k"] = acc.spring_k
+    if acc.want_center:
+        out["spring_center"] = acc.spring_center
+    return out
+
+
+# =========================================================================== quasistatic
+
+def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarray, n_steps: int) -> Trajectory:
+    """Quasistatic (overdamped) stepping ``X_{n+1} = X_n + mu F_n`` (SPEC section 3).
+
+    ``mobility`` has shape (2,). V is all zeros. ``f[T]`` is the force at the final
+    state (it moves nothing; it is kept so the trajectory has T+1 forces in both modes).
+    """
+    T, N = n_steps, x0.shape[0]
+    x = np.empty((T + 1, N, 2))
+    f = np.empty((T + 1, N, 2))
+    x[0] = x0
+    for n in range(T):
+        # (Q1) force: F_n = F(X_n) + F_ext[n]
+        _total_force(field, x[n], None if fext is None else fext[n], f[n])
+        # (Q2) drift: X_{n+1} = X_n + mu F_n
+        np.multiply(mobility, f[n], out=x[n + 1])
+        x[n + 1] += x[n]
+    _total_force(field, x[T], None if fext is None else fext[T], f[T])
+    traj = Trajectory(x, np.zeros_like(x), f)
+    _check_finite(traj, f"mobility={mobility.tolist()!r}")
+    return traj
+
+
+def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx, want: frozenset) -> dict:
+    """Backward pass of :func:`simulate_quasistatic` (eqs. (QB1)-(QB2)).
+
+    Returns ``x0`` (N, 2), and as wanted ``values`` (flat), ``force`` (T+1, N, 2; the
+    last entry is 0 since F_ext[T] moves nothing), ``mobility`` (2,), ``spring_k``,
+    ``spring_center`` (N, 2).
+    """
+    x, _, f = traj
+    T, N = x.shape[0] - 1, x.shape[1]
+    acc = GradAccumulator(field, N, want)
+    gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
+    mubar = np.zeros(2) if "mobility" in want else None
+    xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
+    fbar = np.empty((N, 2))
+    for n in range(T - 1, -1, -1):
+        # (QB2) drift^T: F^_n = mu X^_{n+1}; mu^ += sum_i F_n X^_{n+1}; X^_n = X^_{n+1} (kept)
+        np.multiply(mobility, xbar, out=fbar)
+        if mubar is not None:
+            mubar += np.einsum("id,id->d", f[n], xbar)
+        # (QB1) force^T at X_n: F_ext^[n] = F^_n; X^_n += -H_U F^_n; G^, k^, c^
+        if gforce is not None:
+            gforce[n] = fbar
+        force_vjp(field, x[n], fbar, xbar, acc)
+        if gx is not None:
+            xbar += gx[n]
+    out = {"x0": xbar}
+    if acc.want_values:
+        out["values"] = acc.values
+    if gforce is not None:
+        out["force"] = gforce
+    if mubar is not None:
+        out["mobility"] = mubar
+    if acc.want_k:
+        out["spring_k"] = acc.spring_k
+    if acc.want_center:
+        out["spring_center"] = acc.spring_center
+    return out

@@ -1,0 +1,133 @@
+"""Energy terms beside the grid: springs and walls (SPEC section 2).
+
+Each term is a small set of pure functions over plain arrays (energy, force added into
+a buffer, and the adjoint of that force), plus a frozen, validated config
+(:class:`Spring`, :class:`Walls`) that a :class:`~pes_ref.scene.Scene` names only when it
+has the effect. The force is ``-dU/dq``; the adjoint functions implement
+``docs/adjoint.md`` eqs. (A4)-(A6).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import checks
+
+__all__ = ["Spring", "Walls", "spring_delta", "spring_energy", "spring_add_force",
+           "spring_force_vjp", "wall_bounds", "wall_energy", "wall_add_force", "wall_force_vjp"]
+
+
+# --------------------------------------------------------------------------- springs
+
+def spring_delta(q: np.ndarray, center: np.ndarray, length: np.ndarray, periodic) -> np.ndarray:
+    """Spring extension delta, shape (N, 2).
+
+    ``delta_d = q_d - c_d`` on a non-periodic axis, the minimum image
+    ``((q_d - c_d + L_d/2) mod L_d) - L_d/2`` on a periodic one (SPEC section 2).
+    """
+    delta = q - center
+    for d in range(2):
+        if periodic[d]:
+            half = 0.5 * length[d]
+            delta[:, d] = np.mod(delta[:, d] + half, length[d]) - half
+    return delta
+
+
+def spring_energy(q, k, center, length, periodic) -> np.ndarray:
+    """U = sum_d k_d/2 delta_d^2 per point, shape (N,)."""
+    delta = spring_delta(q, center, length, periodic)
+    return 0.5 * np.sum(k * delta * delta, axis=1)
+
+
+def spring_add_force(q, k, center, length, periodic, out) -> None:
+    """out += -k * delta (the spring's force, SPEC section 2)."""
+    out -= k * spring_delta(q, center, length, periodic)
+
+
+def spring_force_vjp(q, k, center, length, periodic, w, xbar, want_k: bool, want_center: bool):
+    """Adjoint of the spring force ``F = -k delta`` applied to ``w`` (eq. (A4)).
+
+    Adds ``(dF/dq)^T w = -k w`` into ``xbar`` and returns ``(kbar, cbar)`` as (N, 2)
+    arrays (``kbar = -delta w``, ``cbar = +k w``), or ``None`` where not wanted.
+    """
+    xbar -= k * w
+    kbar = -spring_delta(q, center, length, periodic) * w if want_k else None
+    cbar = k * w if want_center else None
+    return kbar, cbar
+
+
+@dataclass(frozen=True)
+class Spring:
+    """A linear spring per axis: U = sum_d k_d/2 delta_d^2 (SPEC section 2).
+
+    Parameters
+    ----------
+    k : array_like, broadcastable to (N, 2), >= 0
+        Stiffness per axis (and optionally per particle).
+    center : array_like, broadcastable to (N, 2)
+        Rest position; on a periodic axis the minimum image is used.
+    """
+
+    k: np.ndarray
+    center: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "k", checks.as_float_array("spring_k", self.k, broadcast_to=None, nonneg=True))
+        object.__setattr__(self, "center", checks.as_float_array("spring_center", self.center))
+        for name, arr in (("spring_k", self.k), ("spring_center", self.center)):
+            if arr.ndim > 2 or (arr.ndim >= 1 and arr.shape[-1] not in (1, 2)):
+                raise ValueError(f"{name} must broadcast to (N, 2), got shape {arr.shape}")
+
+
+# --------------------------------------------------------------------------- walls
+
+def wall_bounds(lower, upper, margin: float, walls: np.ndarray):
+    """Wall positions per axis, each shape (2,): ``a_d = lower_d + w`` where the lower
+    wall is enabled (else -inf), ``b_d = upper_d - w`` where the upper one is (else +inf)."""
+    lo = np.where(walls[:, 0], lower + margin, -np.inf)
+    hi = np.where(walls[:, 1], upper - margin, np.inf)
+    return lo, hi
+
+
+def wall_energy(q, k: float, lo, hi) -> np.ndarray:
+    """U = k/2 (a - q)^2 below a, k/2 (q - b)^2 above b, else 0; shape (N,)."""
+    below = np.maximum(lo - q, 0.0)
+    above = np.maximum(q - hi, 0.0)
+    return 0.5 * k * np.sum(below * below + above * above, axis=1)
+
+
+def wall_add_force(q, k: float, lo, hi, out) -> None:
+    """out += k (a - q)^+ - k (q - b)^+ (the walls' push back into the domain)."""
+    out += k * (np.maximum(lo - q, 0.0) - np.maximum(q - hi, 0.0))
+
+
+def wall_force_vjp(q, k: float, lo, hi, w, xbar) -> None:
+    """Adjoint of the wall force applied to ``w`` (eq. (A5)): ``xbar += -k w`` where a
+    wall is active (``q < a`` or ``q > b``), else nothing."""
+    active = (q < lo) | (q > hi)
+    xbar -= k * np.where(active, w, 0.0)
+
+
+@dataclass(frozen=True)
+class Walls:
+    """Harmonic walls a margin inside the enabled edges of non-periodic axes (SPEC section 2).
+
+    Parameters
+    ----------
+    k : float > 0
+        Wall stiffness ``k_w``.
+    margin : float >= 0
+        How far inside the edge each wall sits.
+    edges : array_like of bool, shape (2, 2)
+        ``edges[d, 0]`` the lower wall of axis d, ``edges[d, 1]`` the upper one.
+    """
+
+    k: float
+    margin: float
+    edges: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "k", checks.as_positive_float("wall_k", self.k))
+        object.__setattr__(self, "margin", checks.as_nonneg_float("wall_margin", self.margin))
+        object.__setattr__(self, "edges", checks.as_bool_array("walls", self.edges, shape=(2, 2)))
