@@ -76,9 +76,9 @@ def force(field: Field, x: np.ndarray, out: np.ndarray) -> np.ndarray:
 def force_vjp(field: Field, x: np.ndarray, w: np.ndarray, xbar: np.ndarray, acc: GradAccumulator) -> None:
     """Adjoint of :func:`force` at ``x`` applied to the cotangent ``w`` (N, 2).
 
-    Adds ``(dF/dx)^T w = -H_U(x) w`` into ``xbar`` (eqs. (A2), (A4), (A5)) and the
-    parameter cotangents ``(dF/dG)^T w = -(d slope/dG)^T w`` (eq. (A3)) and the spring's
-    (eq. (A4)) into ``acc``.
+    Adds ``(dF/dx)^T w = -H_U(x) w`` into ``xbar`` and the parameter cotangents
+    ``(dF/dG)^T w = -(d slope/dG)^T w`` and the spring's into ``acc``
+    (``docs/adjoint.md`` eq. (A6), built from (A2)-(A5)).
     """
     cells = locate(x, field.lower, field.h, field.values.shape, field.periodic)
     xbar -= grid_slope_vjp_q(field.values, field.h, cells, w)

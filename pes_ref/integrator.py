@@ -29,6 +29,7 @@ arithmetic at all, ``fext=None`` no external force, and a
 """
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import numpy as np
@@ -72,8 +73,30 @@ def _check_finite(traj: Trajectory, step_name: str) -> None:
             "the explicit stability limit of the stiffest term: reduce it")
 
 
+def _check_step(x_next: np.ndarray, n_next: int, step_name: str) -> None:
+    """Refuse a non-finite position before it is looked up on the grid (a NaN cell index
+    would otherwise fail deep inside NumPy's indexing)."""
+    if not np.isfinite(x_next).all():
+        raise NonFiniteError(
+            f"the trajectory became non-finite at step {n_next} ({step_name}); the step is probably past "
+            "the explicit stability limit of the stiffest term: reduce it")
+
+
+def _reports_nonfinite(simulate_fn):
+    """Run a forward loop with overflow and invalid-operation warnings silenced, so that a
+    run past the stability limit always ends in :class:`NonFiniteError` (raised by
+    :func:`_check_step`) and never in a bare NumPy ``FloatingPointError`` or warning,
+    whatever the caller's ``np.errstate`` (docs/decisions.md, 'Non-finite runs')."""
+    @functools.wraps(simulate_fn)
+    def wrapper(*args, **kwargs):
+        with np.errstate(over="ignore", invalid="ignore"):
+            return simulate_fn(*args, **kwargs)
+    return wrapper
+
+
 # =========================================================================== dynamic
 
+@_reports_nonfinite
 def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
                      mass: np.ndarray, damping) -> Trajectory:
     """Damped velocity Verlet of the paper's eqs. (2)-(3) (SPEC section 3).
@@ -116,6 +139,7 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
         # (S2) drift: X_{n+1} = X_n + dt P
         np.multiply(p, dt, out=x[n + 1])
         x[n + 1] += x[n]
+        _check_step(x[n + 1], n + 1, f"dt={dt!r}")
         # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
         _total_force(field, x[n + 1], None if fext is None else fext[n + 1], f[n + 1])
         # (S4) kick: V_{n+1} = P + a F_{n+1}, damped: (P - c V_n + a F_{n+1}) / (1 + c)
@@ -229,6 +253,7 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
 
 # =========================================================================== quasistatic
 
+@_reports_nonfinite
 def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarray, n_steps: int) -> Trajectory:
     """Quasistatic (overdamped) stepping ``X_{n+1} = X_n + mu F_n`` (SPEC section 3).
 
@@ -245,6 +270,7 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
         # (Q2) drift: X_{n+1} = X_n + mu F_n
         np.multiply(mobility, f[n], out=x[n + 1])
         x[n + 1] += x[n]
+        _check_step(x[n + 1], n + 1, f"mobility={mobility.tolist()!r}")
     _total_force(field, x[T], None if fext is None else fext[T], f[T])
     traj = Trajectory(x, np.zeros_like(x), f)
     _check_finite(traj, f"mobility={mobility.tolist()!r}")

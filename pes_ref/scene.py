@@ -220,7 +220,9 @@ def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
     """
     x, v = traj.x, traj.v
     T1, N = x.shape[0], x.shape[1]
-    u = potential_energy(scene.field(), x.reshape(-1, 2)).reshape(T1, N)
+    fld = scene.field()
+    # one state at a time: per-particle spring arrays (N, 2) broadcast against (N, 2) only
+    u = np.stack([potential_energy(fld, x[n]) for n in range(T1)])
     m = np.broadcast_to(scene.mass, (N, 2))
     return u + 0.5 * np.sum(m * v * v, axis=2)
 

@@ -4,7 +4,7 @@ Each term is a small set of pure functions over plain arrays (energy, force adde
 a buffer, and the adjoint of that force), plus a frozen, validated config
 (:class:`Spring`, :class:`Walls`) that a :class:`~pes_ref.scene.Scene` names only when it
 has the effect. The force is ``-dU/dq``; the adjoint functions implement
-``docs/adjoint.md`` eqs. (A4)-(A6).
+``docs/adjoint.md`` eqs. (A4)-(A5).
 """
 from __future__ import annotations
 

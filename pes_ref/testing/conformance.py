@@ -1,0 +1,341 @@
+"""Check another implementation against the shipped conformance vectors.
+
+The vectors (:mod:`pes_ref.conformance`) are oracle cases with their reference results
+(SPEC section 6). An implementation plugs in one function per check:
+
+- :func:`check_simulate`: ``simulate_fn(case) -> {"x", "v", "energy"}``
+- :func:`check_gradients`: ``grad_fn(case) -> {"loss", "grad_<name>", ...}``
+- :func:`check_invalid`: ``load_fn(path)`` must refuse every invalid case file with a
+  ``ValueError`` or ``TypeError`` whose message names the key at fault (and accept
+  every valid one)
+
+where ``case`` is a dict of NumPy arrays as read by ``np.load(path, allow_pickle=False)``
+(strings are 0-d unicode arrays). Each check returns a list of :class:`VectorReport`
+and raises ``AssertionError`` listing every failing vector.
+
+Example
+-------
+>>> from pes_ref import oracle
+>>> from pes_ref.testing import conformance
+>>> reports = conformance.check_gradients(oracle.run_case)   # doctest: +SKIP
+
+Tolerances (:mod:`pes_ref.testing.tolerances`): an entry passes when
+``|got - want| <= atol + rtol |want|``. Trajectory keys (``x``, ``v``, ``energy``,
+``loss``) use ``TRAJ_RTOL``/``TRAJ_ATOL``; gradients use ``GRAD_RTOL`` and
+``GRAD_ATOL * max|want|`` (the largest entry of that gradient, or 1 for an all-zero one).
+The single number reported per array is ``max |got - want| / (atol/rtol + |want|)``, a
+relative error with a floor; the array passes when it is ``<= rtol``. On vectors
+flagged ``kink`` (a state exactly on a node, seam or clip edge, where the SPEC accepts
+any one-sided gradient) only the trajectory and the loss are binding.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ..conformance import LATEST, vectors_dir
+from .tolerances import GRAD_ATOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL
+
+__all__ = ["VectorReport", "load_manifest", "iter_vectors", "compare_results", "relative_errors",
+           "passes", "check_simulate", "check_gradients", "check_invalid", "TRAJECTORY_KEYS"]
+
+#: Result keys compared with the trajectory tolerances; every ``grad_*`` key uses the gradient ones.
+TRAJECTORY_KEYS = ("x", "v", "energy", "loss")
+_SIMULATE_KEYS = ("x", "v", "energy")
+#: Gradients that a quasistatic implementation may omit (SPEC section 5); if given, they must be zero.
+_QUASISTATIC_ZERO = ("grad_v0", "grad_mass", "grad_damping")
+
+
+class VectorReport(NamedTuple):
+    """The outcome of one vector in one check.
+
+    Attributes
+    ----------
+    id : str
+    ok : bool
+    errors : dict of str -> float
+        Normalized error per compared array (inf: missing, wrong shape or not finite).
+    note : str
+        What failed, or what was skipped.
+    """
+
+    id: str
+    ok: bool
+    errors: dict
+    note: str = ""
+
+    def __str__(self):
+        worst = max(self.errors.values(), default=0.0)
+        return f"{'ok' if self.ok else 'FAIL':4s}  {self.id:40s} max rel err {worst:.1e}  {self.note}".rstrip()
+
+
+# =========================================================================== reading vectors
+
+def _dir(version: str, directory) -> Path:
+    return Path(directory) if directory is not None else vectors_dir(version)
+
+
+def load_manifest(version: str = LATEST, *, directory=None) -> dict:
+    """The ``manifest.json`` of a vector set (``directory`` overrides the shipped folder)."""
+    return json.loads((_dir(version, directory) / "manifest.json").read_text(encoding="utf-8"))
+
+
+_CACHE: dict = {}
+
+
+def _read(path: Path) -> dict:
+    """The arrays of an ``.npz`` file (fresh copies; files are read once per change)."""
+    st = path.stat()
+    key = (str(path.resolve()), st.st_mtime_ns, st.st_size)
+    if key not in _CACHE:
+        with np.load(path, allow_pickle=False) as npz:
+            _CACHE[key] = {k: npz[k] for k in npz.files}
+    return {k: v.copy() for k, v in _CACHE[key].items()}
+
+
+def iter_vectors(version: str = LATEST, kind: str = "valid", *, directory=None):
+    """Yield the vectors of a set.
+
+    Parameters
+    ----------
+    version : str
+        "v1", ...
+    kind : {"valid", "invalid", "all"}
+    directory : path, optional
+        Read this folder instead of the shipped one.
+
+    Yields
+    ------
+    entry : dict
+        The manifest entry (``id``, ``comment``, ``kind``, ``flags``, ``case``, and
+        ``result`` or ``key`` and ``error``).
+    case : dict of str -> ndarray
+    expected : dict of str -> ndarray, or None for an invalid vector
+    """
+    if kind not in ("valid", "invalid", "all"):
+        raise ValueError(f"kind must be 'valid', 'invalid' or 'all', got {kind!r}")
+    folder = _dir(version, directory)
+    for entry in load_manifest(version, directory=folder)["vectors"]:
+        if kind != "all" and entry["kind"] != kind:
+            continue
+        case = _read(folder / entry["case"])
+        expected = _read(folder / entry["result"]) if entry["kind"] == "valid" else None
+        yield entry, case, expected
+
+
+# =========================================================================== comparing
+
+def _tolerance(name: str, want: np.ndarray):
+    if name in TRAJECTORY_KEYS:
+        return TRAJ_RTOL, TRAJ_ATOL
+    scale = float(np.max(np.abs(want), initial=0.0))
+    return GRAD_RTOL, GRAD_ATOL * (scale if scale > 0 else 1.0)
+
+
+def _error(name: str, got, want) -> float:
+    want = np.asarray(want, dtype=np.float64)
+    try:
+        got = np.asarray(got, dtype=np.float64)
+    except (TypeError, ValueError):
+        return float("inf")
+    if got.shape != want.shape or not np.all(np.isfinite(got)):
+        return float("inf")
+    if want.size == 0:
+        return 0.0
+    rtol, atol = _tolerance(name, want)
+    return float(np.max(np.abs(got - want) / (atol / rtol + np.abs(want))))
+
+
+def passes(name: str, error: float) -> bool:
+    """Whether a normalized error of array ``name`` is within the contract."""
+    return error <= (TRAJ_RTOL if name in TRAJECTORY_KEYS else GRAD_RTOL)
+
+
+def compare_results(got, want, names=None) -> dict:
+    """Normalized error of each array of ``want`` (or of ``names``) in ``got``.
+
+    Parameters
+    ----------
+    got, want : mapping of str -> array_like
+        Results (``want`` the reference).
+    names : iterable of str, optional
+        The keys to compare; default every key of ``want``.
+
+    Returns
+    -------
+    dict of str -> float
+        ``max |got - want| / (atol/rtol + |want|)`` per key (``inf`` when ``got`` lacks
+        the key, has another shape or holds NaN/inf); within the contract when
+        :func:`passes`.
+    """
+    names = list(want) if names is None else list(names)
+    return {k: (_error(k, got[k], want[k]) if k in got else float("inf")) for k in names}
+
+
+def relative_errors(got, want) -> dict:
+    """Alias of :func:`compare_results`."""
+    return compare_results(got, want)
+
+
+# =========================================================================== the checks
+
+def _finish(reports: list, what: str) -> list:
+    failed = [r for r in reports if not r.ok]
+    if failed:
+        lines = "\n".join(str(r) for r in failed)
+        raise AssertionError(f"{what}: {len(failed)} of {len(reports)} conformance vectors fail\n{lines}")
+    return reports
+
+
+def _call(fn, arg):
+    try:
+        return fn(arg), None
+    except Exception as exc:   # the implementation under test may raise anything
+        return None, f"raised {type(exc).__name__}: {exc}"
+
+
+def _report(vid: str, errors: dict, note: str = "") -> VectorReport:
+    bad = [k for k, e in errors.items() if not passes(k, e)]
+    if bad:
+        note = (f"out of tolerance: {bad} " + note).strip()
+    return VectorReport(vid, not bad, errors, note)
+
+
+def check_simulate(simulate_fn, version: str = LATEST, *, directory=None) -> list:
+    """Compare ``simulate_fn(case)``'s ``x``, ``v`` and ``energy`` with every valid vector.
+
+    Returns
+    -------
+    list of VectorReport
+
+    Raises
+    ------
+    AssertionError
+        Listing every vector whose trajectory is out of ``TRAJ_RTOL``/``TRAJ_ATOL``.
+    """
+    reports = []
+    for entry, case, want in iter_vectors(version, "valid", directory=directory):
+        got, failure = _call(simulate_fn, case)
+        if failure is not None:
+            reports.append(VectorReport(entry["id"], False, {}, failure))
+            continue
+        reports.append(_report(entry["id"], compare_results(got, want, _SIMULATE_KEYS)))
+    return _finish(reports, "check_simulate")
+
+
+def _gradient_names(entry: dict, want: dict, strict_kinks: bool):
+    names = ["loss"]
+    if strict_kinks or "kink" not in entry["flags"]:
+        names += sorted(k for k in want if k.startswith("grad_"))
+        return names, ""
+    return names, "kink: gradients not binding, only the loss compared"
+
+
+def _extra_zero_grads(case: dict, got: dict, want: dict) -> dict:
+    """Quasistatic gradients of v0, mass, damping that an implementation chose to return: must be 0."""
+    if str(case["mode"]) != "quasistatic":
+        return {}
+    out = {}
+    for key in _QUASISTATIC_ZERO:
+        if key in got and key not in want:
+            src = np.shape(case[key[len("grad_"):]])
+            out[key] = _error(key, got[key], np.zeros(src))
+    return out
+
+
+def check_gradients(grad_fn, version: str = LATEST, *, directory=None, strict_kinks: bool = False) -> list:
+    """Compare ``grad_fn(case)``'s ``loss`` and every ``grad_<name>`` with the valid vectors.
+
+    Parameters
+    ----------
+    grad_fn : callable, case dict -> dict
+        Must return ``loss`` and each ``grad_<name>`` that the expected result holds
+        (shaped like the case's input); ``grad_v0``, ``grad_mass``, ``grad_damping``
+        of a quasistatic case may be omitted, and must be zero if given. Other extra
+        keys are ignored.
+    strict_kinks : bool
+        Also compare gradients on vectors flagged ``kink`` (the reference's one-sided
+        choice); off by default, since the SPEC accepts any one-sided value there.
+
+    Returns
+    -------
+    list of VectorReport
+
+    Raises
+    ------
+    AssertionError
+        Listing every vector out of tolerance.
+    """
+    reports = []
+    for entry, case, want in iter_vectors(version, "valid", directory=directory):
+        got, failure = _call(grad_fn, case)
+        if failure is not None:
+            reports.append(VectorReport(entry["id"], False, {}, failure))
+            continue
+        names, note = _gradient_names(entry, want, strict_kinks)
+        errors = compare_results(got, want, names)
+        errors.update(_extra_zero_grads(case, got, want))
+        reports.append(_report(entry["id"], errors, note))
+    return _finish(reports, "check_gradients")
+
+
+def _refusal(entry: dict, path: Path, load_fn, require_key: bool, strict_types: bool) -> VectorReport:
+    try:
+        load_fn(str(path))
+    except (ValueError, TypeError) as exc:
+        message = str(exc)
+        if "\n" in message.strip():
+            return VectorReport(entry["id"], False, {}, f"message is more than one line: {message!r}")
+        if require_key and entry["key"] not in message:
+            return VectorReport(entry["id"], False, {}, f"message does not name key {entry['key']!r}: {message!r}")
+        declared = TypeError if entry["error"] == "TypeError" else ValueError
+        if strict_types and not isinstance(exc, declared):
+            return VectorReport(entry["id"], False, {}, f"raised {type(exc).__name__}, expected {entry['error']}")
+        return VectorReport(entry["id"], True, {}, f"refused: {message}")
+    except Exception as exc:
+        return VectorReport(entry["id"], False, {}, f"raised {type(exc).__name__} (not ValueError/TypeError): {exc}")
+    return VectorReport(entry["id"], False, {}, f"accepted an invalid case (key {entry['key']!r})")
+
+
+def check_invalid(load_fn, version: str = LATEST, *, directory=None, require_key: bool = True,
+                  strict_types: bool = False, check_valid: bool = True) -> list:
+    """Check that ``load_fn(path)`` refuses every invalid case file, and accepts the valid ones.
+
+    Parameters
+    ----------
+    load_fn : callable, str -> anything
+        Your implementation's reader and validator of a case file (e.g.
+        ``lambda p: my_load(dict(np.load(p)))``). It must raise ``ValueError`` or
+        ``TypeError`` on an invalid case.
+    require_key : bool
+        The one-line message must name the key at fault (SPEC section 6).
+    strict_types : bool
+        Also require the manifest's error type (``TypeError`` for data of the wrong
+        kind, ``ValueError`` otherwise).
+    check_valid : bool
+        Also require that no valid case is refused (a loader that refuses everything
+        fails).
+
+    Returns
+    -------
+    list of VectorReport
+
+    Raises
+    ------
+    AssertionError
+        Listing every case handled wrongly.
+    """
+    folder = _dir(version, directory)
+    reports = []
+    for entry in load_manifest(version, directory=folder)["vectors"]:
+        path = folder / entry["case"]
+        if entry["kind"] == "invalid":
+            reports.append(_refusal(entry, path, load_fn, require_key, strict_types))
+        elif check_valid:
+            _, failure = _call(load_fn, str(path))
+            reports.append(VectorReport(entry["id"], failure is None, {},
+                                        "accepted" if failure is None else f"valid case refused: {failure}"))
+    return _finish(reports, "check_invalid")

@@ -1,0 +1,349 @@
+"""The shipped conformance vectors and the checker that other implementations use."""
+import configparser
+import fnmatch
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pes_ref
+from pes_ref import cli, oracle
+from pes_ref.conformance import generate, vectors_dir
+from pes_ref.testing import conformance as conf
+from pes_ref.testing.tolerances import GRAD_RTOL, TRAJ_RTOL
+
+VECTORS = vectors_dir("v1")
+MANIFEST = conf.load_manifest("v1")
+ENTRIES = MANIFEST["vectors"]
+VALID = [e for e in ENTRIES if e["kind"] == "valid"]
+INVALID = [e for e in ENTRIES if e["kind"] == "invalid"]
+VALID_IDS = [e["id"] for e in VALID]
+ALL_IDS = [e["id"] for e in ENTRIES]
+
+
+_RUNS = {}
+
+
+def run_cached(case) -> dict:
+    """``oracle.run_case`` remembered per case content: the checker tests below run the
+    same vectors through many (mutated) implementations."""
+    key = tuple((k, v.dtype.str, v.shape, v.tobytes()) for k, v in sorted((k, np.asarray(v)) for k, v in case.items()))
+    if key not in _RUNS:
+        _RUNS[key] = oracle.run_case(case)
+    return {k: v.copy() for k, v in _RUNS[key].items()}
+
+
+@pytest.fixture(scope="module")
+def regenerated(tmp_path_factory):
+    """The vectors generated afresh by ``pes_ref conformance --write DIR`` (once per module),
+    into a folder that also holds a stale vector file and a file that is not a vector."""
+    folder = tmp_path_factory.mktemp("v1")
+    (folder / "stale.case.npz").write_bytes(b"old")
+    (folder / "keep.txt").write_text("not a vector")
+    assert cli.main(["conformance", "--write", str(folder), "--quiet"]) == 0
+    return folder
+
+
+def _load(folder: Path, name: str) -> dict:
+    return oracle.read_npz(folder / name)
+
+
+# =========================================================================== the shipped set
+
+@pytest.mark.parametrize("entry", VALID, ids=VALID_IDS)
+def test_shipped_result_matches_the_engine(entry):
+    got = oracle.run_case(oracle.load_case(VECTORS / entry["case"]))
+    want = _load(VECTORS, entry["result"])
+    assert sorted(got) == sorted(want)
+    errors = conf.compare_results(got, want)
+    assert all(conf.passes(k, e) for k, e in errors.items()), errors
+
+
+@pytest.mark.parametrize("vid", ALL_IDS)
+def test_regenerating_gives_identical_arrays(vid, regenerated):
+    entry = next(e for e in ENTRIES if e["id"] == vid)
+    for name in [entry["case"]] + ([entry["result"]] if "result" in entry else []):
+        fresh, shipped = _load(regenerated, name), _load(VECTORS, name)
+        assert sorted(fresh) == sorted(shipped), name
+        for key in shipped:
+            assert fresh[key].dtype == shipped[key].dtype and fresh[key].shape == shipped[key].shape, (name, key)
+            assert np.array_equal(fresh[key], shipped[key], equal_nan=shipped[key].dtype.kind == "f"), (name, key)
+
+
+def test_regenerated_manifest_is_identical(regenerated):
+    assert json.loads((regenerated / "manifest.json").read_text()) == MANIFEST
+    assert (regenerated / "manifest.json").read_bytes() == (VECTORS / "manifest.json").read_bytes()
+    names = sorted(p.name for p in regenerated.iterdir())
+    assert names == sorted([p.name for p in VECTORS.iterdir()] + ["keep.txt"])   # stale vector removed
+
+
+def test_manifest_lists_exactly_the_files():
+    listed = {"manifest.json"} | {e["case"] for e in ENTRIES} | {e["result"] for e in VALID}
+    assert {p.name for p in VECTORS.iterdir()} == listed
+    assert len(ALL_IDS) == len(set(ALL_IDS))
+    assert [e["tc_id"] for e in ENTRIES] == list(range(1, len(ENTRIES) + 1))
+    for e in INVALID:
+        assert e["key"] in oracle.CASE_KEYS or e["key"] == "gravity"
+        assert e["error"] in ("ValueError", "TypeError") and "result" not in e
+    assert MANIFEST["version"] == "v1"
+    assert MANIFEST["tolerances"]["TRAJ_RTOL"] == TRAJ_RTOL and MANIFEST["tolerances"]["GRAD_RTOL"] == GRAD_RTOL
+
+
+def test_the_set_is_small_and_shipped_as_package_data():
+    files = list(VECTORS.iterdir())
+    assert sum(p.stat().st_size for p in files) < 1_000_000
+    cfg = configparser.ConfigParser()
+    cfg.read(Path(pes_ref.__file__).resolve().parent.parent / "setup.cfg")
+    patterns = [p.strip() for p in cfg["options.package_data"]["pes_ref"].split(",")]
+    for p in files:
+        rel = p.relative_to(Path(pes_ref.__file__).resolve().parent).as_posix()
+        assert any(fnmatch.fnmatch(rel, pat) for pat in patterns), rel
+
+
+def _features(case: dict) -> set:
+    periodic = tuple(bool(p) for p in case["periodic"])
+    topo = {(False, False): "plane", (True, False): "cylinder-q0", (False, True): "cylinder-q1",
+            (True, True): "torus"}[periodic]
+    f = {topo, str(case["mode"]), str(case["objective"]), f"{topo}-{case['mode']}"}
+    if "when" in case:
+        f.add("funnel-" + str(case["when"]))
+    if "spring_k" in case:
+        f.add("spring")
+    if "walls" in case:
+        f |= {f"wall-{d}-{e}" for d in range(2) for e in range(2) if case["walls"][d, e]}
+    if "force" in case:
+        f.add("force")
+    if float(case.get("regularization", 0.0)) > 0:
+        f.add("regularization")
+    if np.ndim(case["mass"]) == 2:
+        f.add("mass-per-particle")
+    if np.shape(case["damping"]) == (2,):
+        f.add("damping-per-axis")
+    if np.all(case["damping"] == 0):
+        f.add("damping-zero")
+    f.add(f"T={int(case['n_steps'])}")
+    if case["values"].shape == (2, 2):
+        f.add("grid-2x2")
+    return f
+
+
+def test_coverage_of_the_valid_set():
+    seen = set()
+    for _, case, _ in conf.iter_vectors("v1"):
+        seen |= _features(case)
+    need = {f"{t}-{m}" for t in ("plane", "cylinder-q0", "cylinder-q1", "torus") for m in ("dynamic", "quasistatic")}
+    need |= {"funnel-final", "funnel-every_step", "oscillator", "quadratic", "spring", "force", "regularization",
+             "mass-per-particle", "damping-per-axis", "damping-zero", "T=0", "T=1", "grid-2x2"}
+    need |= {f"wall-{d}-{e}" for d in range(2) for e in range(2)}
+    assert need <= seen, need - seen
+    flags = {f for e in VALID for f in e["flags"]}
+    assert "kink" in flags
+
+
+def test_invalid_set_covers_every_rule():
+    ids = {e["id"] for e in INVALID}
+    for rule in ("values-1d", "x0-nan", "dt-inf", "mass-zero", "mass-negative", "dt-zero", "dt-negative",
+                 "damping-negative", "wall-on-periodic-axis", "unknown-key", "unknown-objective", "unknown-mode",
+                 "missing-values", "missing-mobility"):
+        assert rule in ids
+
+
+# =========================================================================== the checker against the oracle
+
+def test_checker_passes_the_reference_oracle():
+    n = len(VALID)
+    assert len(conf.check_simulate(run_cached)) == n
+    reports = conf.check_gradients(run_cached, strict_kinks=True)
+    assert len(reports) == n and all(r.ok for r in reports)
+    reports = conf.check_invalid(lambda p: oracle.validate_case(oracle.load_case(p)), strict_types=True)
+    assert len(reports) == len(ENTRIES) and all(r.ok for r in reports)
+
+
+def test_checker_reads_a_regenerated_folder(regenerated):
+    assert len(conf.check_simulate(run_cached, directory=regenerated)) == len(VALID)
+
+
+def _fingerprint(case) -> bytes:
+    return case["values"].tobytes() + case["x0"].tobytes()
+
+
+def test_kinks_are_not_binding_by_default():
+    kinked = {e["id"] for e in VALID if "kink" in e["flags"]}
+    prints = {_fingerprint(case) for e, case, _ in conf.iter_vectors("v1") if e["id"] in kinked}
+
+    def wrong_at_kinks(case):
+        result = run_cached(case)
+        if _fingerprint(case) in prints:
+            for k in result:
+                if k.startswith("grad_"):
+                    result[k] = -result[k]
+        return result
+    reports = conf.check_gradients(wrong_at_kinks)
+    assert {r.id for r in reports if "kink" in r.note} == kinked
+    with pytest.raises(AssertionError):
+        conf.check_gradients(wrong_at_kinks, strict_kinks=True)
+
+
+def _perturbed(name, how):
+    def fn(case):
+        result = run_cached(case)
+        result[name] = how(result[name], case)
+        return result
+    return fn
+
+
+def _dt_off(case):
+    case = dict(case)
+    case["dt"] = np.float64(float(case["dt"]) * (1 + 1e-9))
+    return run_cached(case)
+
+
+SIMULATE_MUTANTS = {
+    "x-relative-1e-10": _perturbed("x", lambda x, c: x * (1 + 1e-10)),
+    "v-shifted": _perturbed("v", lambda v, c: v + 1e-9),
+    "energy-without-kinetic": _perturbed("energy", lambda e, c: e - 1e-6),
+    "x-wrong-shape": _perturbed("x", lambda x, c: x[:-1]),
+    "x-nan": _perturbed("x", lambda x, c: np.where(np.arange(x.size).reshape(x.shape) == 0, np.nan, x)),
+    "dt-off-by-1e-9": _dt_off,
+    "missing-energy": lambda case: {k: v for k, v in run_cached(case).items() if k != "energy"},
+    "raises": lambda case: 1 / 0,
+}
+
+
+@pytest.mark.parametrize("name", sorted(SIMULATE_MUTANTS))
+def test_check_simulate_catches_a_wrong_implementation(name):
+    with pytest.raises(AssertionError, match="check_simulate"):
+        conf.check_simulate(SIMULATE_MUTANTS[name])
+
+
+def _drop(key):
+    return lambda case: {k: v for k, v in run_cached(case).items() if k != key}
+
+
+def _quasistatic_v0_grad(case):
+    result = run_cached(case)
+    if str(case["mode"]) == "quasistatic":
+        result["grad_v0"] = np.ones_like(case["v0"], dtype=float)
+    return result
+
+
+GRADIENT_MUTANTS = {
+    "values-scaled-1e-7": _perturbed("grad_values", lambda g, c: g * (1 + 1e-7)),
+    "force-transposed-in-time": _perturbed("grad_force", lambda g, c: g[::-1]),
+    "mass-sign": _perturbed("grad_mass", lambda g, c: -g),
+    "loss-off": _perturbed("loss", lambda g, c: g * (1 + 1e-10)),
+    "missing-grad-x0": _drop("grad_x0"),
+    "quasistatic-nonzero-grad-v0": _quasistatic_v0_grad,
+    "dt-off-by-1e-9": _dt_off,
+}
+
+
+@pytest.mark.parametrize("name", sorted(GRADIENT_MUTANTS))
+def test_check_gradients_catches_a_wrong_implementation(name):
+    with pytest.raises(AssertionError, match="check_gradients"):
+        conf.check_gradients(GRADIENT_MUTANTS[name])
+
+
+def test_quasistatic_zero_extras_are_accepted():
+    def with_zeros(case):
+        result = run_cached(case)
+        if str(case["mode"]) == "quasistatic":
+            for k in ("v0", "mass", "damping"):
+                result["grad_" + k] = np.zeros(np.shape(case[k]))
+        return result
+    conf.check_gradients(with_zeros)
+
+
+def _oracle_load(path):
+    return oracle.validate_case(oracle.load_case(path))
+
+
+def _silent_load(path):
+    try:
+        _oracle_load(path)
+    except oracle.CaseError as exc:
+        raise ValueError("bad case") from exc   # refuses, but does not name the key
+
+
+def _accept_everything(path):
+    return dict(np.load(path, allow_pickle=False))
+
+
+def _refuse_everything(path):
+    raise ValueError("case key 'values': nope " + " ".join(oracle.CASE_KEYS) + " gravity")
+
+
+def _wrong_exception(path):
+    try:
+        _oracle_load(path)
+    except oracle.CaseError as exc:
+        raise KeyError(str(exc)) from exc
+
+
+def _types_swapped(path):
+    try:
+        _oracle_load(path)
+    except oracle.CaseError as exc:
+        raise (ValueError if isinstance(exc, TypeError) else TypeError)(str(exc)) from exc
+
+
+LOADER_MUTANTS = {
+    "accepts-everything": (_accept_everything, {}),
+    "refuses-everything": (_refuse_everything, {}),
+    "message-without-key": (_silent_load, {}),
+    "raises-key-error": (_wrong_exception, {}),
+    "error-types-swapped": (_types_swapped, {"strict_types": True}),
+}
+
+
+@pytest.mark.parametrize("name", sorted(LOADER_MUTANTS))
+def test_check_invalid_catches_a_wrong_loader(name):
+    fn, kw = LOADER_MUTANTS[name]
+    with pytest.raises(AssertionError, match="check_invalid"):
+        conf.check_invalid(fn, **kw)
+
+
+def test_swapped_types_pass_unless_strict():
+    conf.check_invalid(_types_swapped)
+
+
+# =========================================================================== compare_results
+
+def test_compare_results_normalized_error():
+    want = {"x": np.array([1.0, 0.0]), "grad_values": np.array([2.0, 0.0])}
+    got = {"x": np.array([1.0 + 2e-12, 1e-12]), "grad_values": np.array([2.0, 1e-9])}
+    errors = conf.compare_results(got, want)
+    assert errors["x"] == pytest.approx(1e-12, rel=1e-3)         # 2e-12 / (1 + 1)
+    assert errors["grad_values"] == pytest.approx(5e-10, rel=1e-3)  # 1e-9 / (2 + 0)
+    assert conf.passes("x", errors["x"]) and conf.passes("grad_values", errors["grad_values"])
+    assert conf.compare_results({}, want) == {"x": np.inf, "grad_values": np.inf}
+    assert conf.compare_results({"x": np.zeros(3)}, {"x": np.zeros(2)}) == {"x": np.inf}
+    assert conf.compare_results({"grad_v0": np.full(2, 1e-12)}, {"grad_v0": np.zeros(2)})["grad_v0"] <= GRAD_RTOL
+
+
+# =========================================================================== the command line
+
+def test_cli_conformance_check_passes(capsys):
+    assert cli.main(["conformance", "--check"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == len(ENTRIES) + 1 and all(line.startswith("ok") for line in out[:-1])
+    assert "max rel err" in out[0] and out[-1].startswith("conformance check ok")
+
+
+def test_cli_conformance_check_fails_on_a_changed_vector(tmp_path, capsys, monkeypatch):
+    shipped = tmp_path / "v1"
+    shutil.copytree(VECTORS, shipped)
+    result = oracle.read_npz(shipped / "plane-dynamic.result.npz")
+    result["grad_values"] = result["grad_values"] * (1 + 1e-6)
+    oracle.write_result(result, shipped / "plane-dynamic.result.npz", overwrite=True)
+    (shipped / "torus-long.case.npz").unlink()
+    # the comparison is under test here, not the generator: "regenerate" by copying
+    monkeypatch.setattr(generate, "write_vectors", lambda d, **kw: shutil.copytree(VECTORS, d, dirs_exist_ok=True))
+    assert cli.main(["conformance", "--check", str(shipped), "--quiet"]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL  plane-dynamic" in out and "grad_values" in out and "FAIL  torus-long" in out
+    assert "FAILED: 2 of" in out
+    assert cli.main(["conformance", "--check", str(tmp_path / "nowhere")]) == 2
+    assert capsys.readouterr().err.startswith("error: ")
