@@ -221,8 +221,11 @@ def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
     x, v = traj.x, traj.v
     T1, N = x.shape[0], x.shape[1]
     fld = scene.field()
-    # one state at a time: per-particle spring arrays (N, 2) broadcast against (N, 2) only
-    u = np.stack([potential_energy(fld, x[n]) for n in range(T1)])
+    if fld.spring is not None:
+        # per-particle spring arrays (N, 2) or (N, 1) repeat over the T+1 flattened states
+        k, c = (np.broadcast_to(a, (T1, N, 2)).reshape(-1, 2) for a in fld.spring)
+        fld = fld._replace(spring=(k, c))
+    u = potential_energy(fld, x.reshape(-1, 2)).reshape(T1, N)
     m = np.broadcast_to(scene.mass, (N, 2))
     return u + 0.5 * np.sum(m * v * v, axis=2)
 
