@@ -5,6 +5,9 @@
 - :mod:`pes_ref.testing.strategies` hypothesis strategies that draw valid scenes
   (needs the ``test`` extra: hypothesis)
 - :mod:`pes_ref.testing.finite_differences` central differences and dot-product checks
+- :mod:`pes_ref.testing.properties` energy drift, periodic shift, grid roll and
+  finite-difference gradient checks for any ``simulate`` / ``value_and_grad``, and the
+  kink detectors that keep finite differences honest
 """
 from .tolerances import FD_EPS, FD_RTOL, GRAD_ATOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 
