@@ -197,6 +197,17 @@ def _call(fn, arg):
         return None, f"raised {type(exc).__name__}: {exc}"
 
 
+def _run_valid(fn, compare, version, directory) -> list:
+    """Call ``fn(case)`` on every valid vector; a raise fails that vector, otherwise
+    ``compare(entry, case, got, want)`` makes its report."""
+    reports = []
+    for entry, case, want in iter_vectors(version, "valid", directory=directory):
+        got, failure = _call(fn, case)
+        reports.append(VectorReport(entry["id"], False, {}, failure) if failure is not None
+                       else compare(entry, case, got, want))
+    return reports
+
+
 def _report(vid: str, errors: dict, note: str = "") -> VectorReport:
     bad = [k for k, e in errors.items() if not passes(k, e)]
     if bad:
@@ -216,14 +227,9 @@ def check_simulate(simulate_fn, version: str = LATEST, *, directory=None) -> lis
     AssertionError
         Listing every vector whose trajectory is out of ``TRAJ_RTOL``/``TRAJ_ATOL``.
     """
-    reports = []
-    for entry, case, want in iter_vectors(version, "valid", directory=directory):
-        got, failure = _call(simulate_fn, case)
-        if failure is not None:
-            reports.append(VectorReport(entry["id"], False, {}, failure))
-            continue
-        reports.append(_report(entry["id"], compare_results(got, want, _SIMULATE_KEYS)))
-    return _finish(reports, "check_simulate")
+    def compare(entry, case, got, want):
+        return _report(entry["id"], compare_results(got, want, _SIMULATE_KEYS))
+    return _finish(_run_valid(simulate_fn, compare, version, directory), "check_simulate")
 
 
 def _gradient_names(entry: dict, want: dict, strict_kinks: bool):
@@ -269,17 +275,12 @@ def check_gradients(grad_fn, version: str = LATEST, *, directory=None, strict_ki
     AssertionError
         Listing every vector out of tolerance.
     """
-    reports = []
-    for entry, case, want in iter_vectors(version, "valid", directory=directory):
-        got, failure = _call(grad_fn, case)
-        if failure is not None:
-            reports.append(VectorReport(entry["id"], False, {}, failure))
-            continue
+    def compare(entry, case, got, want):
         names, note = _gradient_names(entry, want, strict_kinks)
         errors = compare_results(got, want, names)
         errors.update(_extra_zero_grads(case, got, want))
-        reports.append(_report(entry["id"], errors, note))
-    return _finish(reports, "check_gradients")
+        return _report(entry["id"], errors, note)
+    return _finish(_run_valid(grad_fn, compare, version, directory), "check_gradients")
 
 
 def _refusal(entry: dict, path: Path, load_fn, require_key: bool, strict_types: bool) -> VectorReport:
