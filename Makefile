@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all test test-thorough figures conformance venv clean
+.PHONY: all test test-thorough figures validate bench conformance venv clean
 
 all: test
 
@@ -26,6 +26,19 @@ test-thorough: $(STAMP)
 # vectors are regenerated into a scratch folder and checked against the shipped ones.
 figures: $(STAMP)
 	$(PY) -m pes_ref conformance --check
+
+# validation/: every script prints its table and saves its plot; run_all.py writes REPORT.md.
+validate: $(STAMP)
+	$(PY) validation/run_all.py
+
+# The benchmark installs its optional extra (autograd, JAX) into the same venv first.
+BENCH_STAMP := $(VENV)/.installed-bench
+$(BENCH_STAMP): $(STAMP)
+	$(PY) -m pip install --quiet -e '.[test,bench]'
+	touch $(BENCH_STAMP)
+
+bench: $(BENCH_STAMP)
+	$(PY) -m pes_ref bench
 
 conformance: $(STAMP)
 	$(PY) -m pes_ref conformance --write

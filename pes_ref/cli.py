@@ -9,12 +9,15 @@ Commands:
   regenerate them into a scratch folder and compare them with the shipped ones.
 
 Each command is one ``_add_<name>(subparsers)`` function registered with
-:func:`command`; a later command (``analyze``, ``design``, ``evaluate``, ``bench``) adds
-itself the same way and sets ``func`` to a handler ``args -> exit code``.
+:func:`command` that sets ``func`` to a handler ``args -> exit code``. Commands of their
+own topic live in their own module, imported by :func:`build_parser`:
+``pes_ref.cli_analyze`` (``analyze``), ``pes_ref.cli_design`` (``design``,
+``evaluate``) and ``pes_ref.cli_bench`` (``bench``).
 """
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 import tempfile
 
@@ -27,6 +30,9 @@ EXIT_FAIL = 1    #: a check ran and failed (conformance --check)
 EXIT_ERROR = 2   #: bad input: a refused case, an existing result, a usage error
 
 _COMMANDS = []
+
+#: Modules that register further commands with :func:`command` when imported.
+COMMAND_MODULES = ("pes_ref.cli_analyze", "pes_ref.cli_design", "pes_ref.cli_bench")
 
 
 def command(add):
@@ -132,6 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"pes_ref {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
     sub.required = True
+    for module in COMMAND_MODULES:
+        importlib.import_module(module)
     for add in _COMMANDS:
         add(sub)
     return parser
