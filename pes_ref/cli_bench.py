@@ -1,4 +1,55 @@
-"""The ``bench`` command(s) of ``python -m pes_ref`` (registered with :func:`pes_ref.cli.command`)."""
+"""The ``bench`` command of ``python -m pes_ref`` (registered with :func:`pes_ref.cli.command`).
+
+``bench [--quick] [--out FILE.json] [--force] [--no-autodiff]`` runs :mod:`pes_ref.bench`, prints its
+tables and writes the results as JSON plus a scaling plot beside it. Without ``--out``
+the results go to ``bench/out/bench.json`` and ``bench/out/scaling.png``, the bench's own
+(git-ignored) output folder, replaced on every run; a file named with ``--out`` that
+exists is refused unless ``--force``.
+"""
 from __future__ import annotations
 
+import os
+
 from .cli import EXIT_ERROR, EXIT_OK, _error, command  # noqa: F401
+
+#: Where ``make bench`` leaves its results (git-ignored).
+DEFAULT_OUT = os.path.join("bench", "out", "bench.json")
+
+
+@command
+def _add_bench(sub) -> None:
+    p = sub.add_parser(
+        "bench", help="time the engine and write the numbers (issue 6)",
+        description="Time the forward and adjoint passes (N = 1 .. 65536 particles on a 200 x 200 grid, dynamic "
+                    "and quasistatic), peak memory, the cost of each effect, the growth with N and T, and the "
+                    "funnel and oscillator design gradients against autograd and JAX where installed. Prints "
+                    "tables and writes JSON plus a scaling plot. Medians over repeats, with min and max. "
+                    f"Default output: {DEFAULT_OUT} (replaced on every run).")
+    p.add_argument("--quick", action="store_true", help="tiny sizes: a smoke run of every section (seconds)")
+    p.add_argument("--out", metavar="FILE.json", default=None,
+                   help=f"write the results here (default {DEFAULT_OUT}); the plot goes beside it")
+    p.add_argument("--force", action="store_true", help="replace an existing --out file")
+    p.add_argument("--no-autodiff", action="store_true",
+                   help="do not run the autograd and JAX versions (reported as skipped)")
+    p.set_defaults(func=_run_bench)
+
+
+def _run_bench(args) -> int:
+    from . import bench
+    out = args.out or DEFAULT_OUT
+    overwrite = args.force or args.out is None
+    if args.out is not None and os.path.exists(out) and not args.force:
+        return _error(f"{out} exists; pass --force to replace it")
+    import dataclasses
+    cfg = bench.QUICK if args.quick else bench.FULL
+    if args.no_autodiff:
+        cfg = dataclasses.replace(cfg, autodiff=False)
+    res = bench.run(cfg)
+    print()
+    print(bench.format_report(res))
+    try:
+        json_path, png = bench.write_outputs(res, out, overwrite=overwrite)
+    except OSError as exc:
+        return _error(exc)
+    print(f"wrote {json_path} and {png}")
+    return EXIT_OK

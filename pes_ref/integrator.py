@@ -34,7 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .forces import Field, GradAccumulator, force, force_vjp
+from .forces import Field, ForceAdjoint, ForceKernel, force
 
 __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
            "adjoint_quasistatic", "NonFiniteError"]
@@ -57,25 +57,32 @@ class Trajectory(NamedTuple):
     f: np.ndarray
 
 
-def _total_force(field: Field, x: np.ndarray, fext_n, out: np.ndarray) -> None:
-    """(S3)/(Q1): ``out = -dU/dx(x) + F_ext[n]``; the external part only if the scene has one."""
-    force(field, x, out)
-    if fext_n is not None:
-        out += fext_n
-
-
 def _check_finite(traj: Trajectory, step_name: str) -> None:
-    """Refuse to return a trajectory that left the finite numbers."""
-    if not (np.isfinite(traj.x[-1]).all() and np.isfinite(traj.v[-1]).all()):
-        bad = int(np.argmax(~np.isfinite(traj.x).all(axis=(1, 2)) | ~np.isfinite(traj.v).all(axis=(1, 2))))
+    """Refuse to return a trajectory that left the finite numbers.
+
+    Checked once after the loop, not per step (docs/performance.md): a non-finite value
+    never becomes finite again in these updates, so the last state tells, and the first
+    bad state is then searched for. Until then the grid lookup of a NaN position gathers
+    a clipped (meaningless, but in-bounds) cell and yields NaN."""
+    if not (np.isfinite(traj.x[-1]).all() and np.isfinite(traj.v[-1]).all() and np.isfinite(traj.f[-1]).all()):
+        finite = [np.isfinite(a).all(axis=(1, 2)) for a in traj]
+        bad = int(np.argmax(~(finite[0] & finite[1] & finite[2])))
         raise NonFiniteError(
             f"the trajectory became non-finite at step {bad} ({step_name}); the step is probably past "
             "the explicit stability limit of the stiffest term: reduce it")
 
 
+def _total_force(field: Field, x: np.ndarray, fext_n, out: np.ndarray) -> None:
+    """(S3)/(Q1) as one call: ``out = -dU/dx(x) + F_ext[n]`` (for step loops built on
+    :func:`pes_ref.forces.force`; the loops here use a :class:`~pes_ref.forces.ForceKernel`)."""
+    force(field, x, out)
+    if fext_n is not None:
+        out += fext_n
+
+
 def _check_step(x_next: np.ndarray, n_next: int, step_name: str) -> None:
-    """Refuse a non-finite position before it is looked up on the grid (a NaN cell index
-    would otherwise fail deep inside NumPy's indexing)."""
+    """Refuse a non-finite position before it is looked up on the grid (for step loops
+    that check every step; the loops here check once, see :func:`_check_finite`)."""
     if not np.isfinite(x_next).all():
         raise NonFiniteError(
             f"the trajectory became non-finite at step {n_next} ({step_name}); the step is probably past "
@@ -85,7 +92,7 @@ def _check_step(x_next: np.ndarray, n_next: int, step_name: str) -> None:
 def _reports_nonfinite(simulate_fn):
     """Run a forward loop with overflow and invalid-operation warnings silenced, so that a
     run past the stability limit always ends in :class:`NonFiniteError` (raised by
-    :func:`_check_step`) and never in a bare NumPy ``FloatingPointError`` or warning,
+    :func:`_check_finite`) and never in a bare NumPy ``FloatingPointError`` or warning,
     whatever the caller's ``np.errstate`` (docs/decisions.md, 'Non-finite runs')."""
     @functools.wraps(simulate_fn)
     def wrapper(*args, **kwargs):
@@ -95,6 +102,23 @@ def _reports_nonfinite(simulate_fn):
 
 
 # =========================================================================== dynamic
+
+def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: int):
+    """Allocate a dynamic run's (T+1, N, 2) arrays x, v, f, store state 0 and its force
+    ``F_0 = F(X_0) + F_ext[0]``; return ``(x, v, f, force)`` with the run's force kernel
+    (shared by :func:`simulate_dynamic` and :func:`pes_ref.gjf.simulate_gjf`)."""
+    T, N = n_steps, x0.shape[0]
+    x = np.empty((T + 1, N, 2))
+    v = np.empty((T + 1, N, 2))
+    f = np.empty((T + 1, N, 2))
+    force = ForceKernel(field, N)
+    x[0] = x0
+    v[0] = v0
+    force(x[0], f[0])
+    if fext is not None:
+        f[0] += fext[0]
+    return x, v, f, force
+
 
 @_reports_nonfinite
 def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
@@ -118,10 +142,8 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
     -------
     Trajectory
     """
-    T, N = n_steps, x0.shape[0]
-    x = np.empty((T + 1, N, 2))
-    v = np.empty((T + 1, N, 2))
-    f = np.empty((T + 1, N, 2))
+    N = x0.shape[0]
+    x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps)
     a = np.broadcast_to(dt / (2.0 * mass), (N, 2)).copy()       # a = dt / 2m
     damped = damping is not None
     if damped:
@@ -129,26 +151,26 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
         inv_1pc = 1.0 / (1.0 + c)
         cv = np.empty((N, 2))
     p = np.empty((N, 2))
-    x[0] = x0
-    v[0] = v0
-    _total_force(field, x[0], None if fext is None else fext[0], f[0])
-    for n in range(T):
+    dt_ = np.array(dt)              # a 0-d array: no scalar conversion per call
+    # the loop runs over views (x_n, x_{n+1}, ...); nothing is allocated per step
+    for n, (xn, xn1, vn, vn1, fn, fn1) in enumerate(zip(x[:-1], x[1:], v[:-1], v[1:], f[:-1], f[1:])):
         # (S1) half_kick: P = V_n + a F_n
-        np.multiply(a, f[n], out=p)
-        p += v[n]
+        np.multiply(a, fn, out=p)
+        np.add(p, vn, out=p)
         # (S2) drift: X_{n+1} = X_n + dt P
-        np.multiply(p, dt, out=x[n + 1])
-        x[n + 1] += x[n]
-        _check_step(x[n + 1], n + 1, f"dt={dt!r}")
+        np.multiply(p, dt_, out=xn1)
+        np.add(xn1, xn, out=xn1)
         # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
-        _total_force(field, x[n + 1], None if fext is None else fext[n + 1], f[n + 1])
+        force(xn1, fn1)
+        if fext is not None:
+            np.add(fn1, fext[n + 1], out=fn1)
         # (S4) kick: V_{n+1} = P + a F_{n+1}, damped: (P - c V_n + a F_{n+1}) / (1 + c)
-        np.multiply(a, f[n + 1], out=v[n + 1])
-        v[n + 1] += p
+        np.multiply(a, fn1, out=vn1)
+        np.add(vn1, p, out=vn1)
         if damped:
-            np.multiply(c, v[n], out=cv)
-            v[n + 1] -= cv
-            v[n + 1] *= inv_1pc
+            np.multiply(c, vn, out=cv)
+            np.subtract(vn1, cv, out=vn1)
+            np.multiply(vn1, inv_1pc, out=vn1)
     traj = Trajectory(x, v, f)
     _check_finite(traj, f"dt={dt!r}")
     return traj
@@ -179,12 +201,13 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     """
     x, v, f = traj
     T, N = x.shape[0] - 1, x.shape[1]
-    acc = GradAccumulator(field, N, want)
+    adj = ForceAdjoint(field, x, want)
     a = np.broadcast_to(dt / (2.0 * mass), (N, 2)).copy()
     damped = damping is not None
     if damped:
         c = np.broadcast_to(dt * damping / (2.0 * mass), (N, 2)).copy()
         inv_1pc = 1.0 / (1.0 + c)
+        minus_c = -c
     want_mass, want_damping = "mass" in want, "damping" in want
     abar = np.zeros((N, 2)) if want_mass else None                   # dL/da
     cbar = np.zeros((N, 2)) if (want_damping or (want_mass and damped)) else None  # dL/dc
@@ -193,19 +216,19 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
     fbar = np.zeros((N, 2))
-    pbar = np.empty((N, 2))
-    vbar_prev = np.zeros((N, 2))
+    tmp = np.empty((N, 2))
+    dt_ = np.array(dt)
+    # undamped, P^ = V^_{n+1} and V^_n = P^: one buffer serves both
+    pbar = np.empty((N, 2)) if damped else vbar
+    vbar_prev = np.empty((N, 2)) if damped else None
     for n in range(T - 1, -1, -1):
         # (B4) kick^T: P^ = d V^_{n+1} with d = 1/(1+c) (d = 1 undamped);
         #      F^_{n+1} += a P^; a^ += F_{n+1} P^; c^ -= (V_n + V_{n+1}) P^; V^_n = -c P^
         if damped:
             np.multiply(vbar, inv_1pc, out=pbar)
-            np.multiply(c, pbar, out=vbar_prev)
-            np.negative(vbar_prev, out=vbar_prev)
-        else:
-            pbar[...] = vbar
-            vbar_prev[...] = 0.0
-        fbar += a * pbar
+            np.multiply(minus_c, pbar, out=vbar_prev)          # -(c P^), exactly
+        np.multiply(a, pbar, out=tmp)
+        np.add(fbar, tmp, out=fbar)
         if abar is not None:
             abar += f[n + 1] * pbar
         if cbar is not None:
@@ -213,27 +236,29 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
         # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}; G^, k^, c^
         if gforce is not None:
             gforce[n + 1] = fbar
-        force_vjp(field, x[n + 1], fbar, xbar, acc)
+        adj.vjp(n + 1, fbar, xbar)
         # (B2) drift^T: P^ += dt X^_{n+1}; X^_n = X^_{n+1} (kept in xbar)
-        pbar += dt * xbar
-        # (B1) half_kick^T: V^_n += P^; F^_n = a P^; a^ += F_n P^
-        np.add(vbar_prev, pbar, out=vbar)
+        np.multiply(xbar, dt_, out=tmp)
+        np.add(pbar, tmp, out=pbar)
+        # (B1) half_kick^T: V^_n += P^ (V^_n = -c P^ + P^ damped, P^ itself undamped);
+        #      F^_n = a P^; a^ += F_n P^
+        if damped:
+            np.add(vbar_prev, pbar, out=vbar)
         np.multiply(a, pbar, out=fbar)
         if abar is not None:
             abar += f[n] * pbar
         # the objective's direct terms at step n
         if gx is not None:
-            xbar += gx[n]
+            np.add(xbar, gx[n], out=xbar)
         if gv is not None:
-            vbar += gv[n]
+            np.add(vbar, gv[n], out=vbar)
     # (B0) adjoint of the initial force F_0 = F(X_0) + F_ext[0]
     if gforce is not None:
         gforce[0] = fbar
-    force_vjp(field, x[0], fbar, xbar, acc)
+    adj.vjp(0, fbar, xbar)
 
     out = {"x0": xbar, "v0": vbar}
-    if acc.want_values:
-        out["values"] = acc.values
+    out.update(adj.result())
     if gforce is not None:
         out["force"] = gforce
     # (P1) chain rule to the physical parameters: a = dt/2m, c = dt gamma/2m
@@ -244,10 +269,6 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
         out["mass"] = gm / np.broadcast_to(mass, (N, 2))
     if want_damping:
         out["damping"] = cbar * a
-    if acc.want_k:
-        out["spring_k"] = acc.spring_k
-    if acc.want_center:
-        out["spring_center"] = acc.spring_center
     return out
 
 
@@ -263,15 +284,20 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
     T, N = n_steps, x0.shape[0]
     x = np.empty((T + 1, N, 2))
     f = np.empty((T + 1, N, 2))
+    force = ForceKernel(field, N)
+    mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))   # (2,) would broadcast with an inner loop of 2
     x[0] = x0
-    for n in range(T):
+    for n, (xn, xn1, fn) in enumerate(zip(x[:-1], x[1:], f[:-1])):
         # (Q1) force: F_n = F(X_n) + F_ext[n]
-        _total_force(field, x[n], None if fext is None else fext[n], f[n])
+        force(xn, fn)
+        if fext is not None:
+            np.add(fn, fext[n], out=fn)
         # (Q2) drift: X_{n+1} = X_n + mu F_n
-        np.multiply(mobility, f[n], out=x[n + 1])
-        x[n + 1] += x[n]
-        _check_step(x[n + 1], n + 1, f"mobility={mobility.tolist()!r}")
-    _total_force(field, x[T], None if fext is None else fext[T], f[T])
+        np.multiply(mu, fn, out=xn1)
+        np.add(xn1, xn, out=xn1)
+    force(x[T], f[T])
+    if fext is not None:
+        f[T] += fext[T]
     traj = Trajectory(x, np.zeros_like(x), f)
     _check_finite(traj, f"mobility={mobility.tolist()!r}")
     return traj
@@ -286,31 +312,27 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
     """
     x, _, f = traj
     T, N = x.shape[0] - 1, x.shape[1]
-    acc = GradAccumulator(field, N, want)
+    adj = ForceAdjoint(field, x, want)
     gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
     mubar = np.zeros(2) if "mobility" in want else None
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     fbar = np.empty((N, 2))
+    mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))
     for n in range(T - 1, -1, -1):
         # (QB2) drift^T: F^_n = mu X^_{n+1}; mu^ += sum_i F_n X^_{n+1}; X^_n = X^_{n+1} (kept)
-        np.multiply(mobility, xbar, out=fbar)
+        np.multiply(mu, xbar, out=fbar)
         if mubar is not None:
             mubar += np.einsum("id,id->d", f[n], xbar)
         # (QB1) force^T at X_n: F_ext^[n] = F^_n; X^_n += -H_U F^_n; G^, k^, c^
         if gforce is not None:
             gforce[n] = fbar
-        force_vjp(field, x[n], fbar, xbar, acc)
+        adj.vjp(n, fbar, xbar)
         if gx is not None:
-            xbar += gx[n]
+            np.add(xbar, gx[n], out=xbar)
     out = {"x0": xbar}
-    if acc.want_values:
-        out["values"] = acc.values
+    out.update(adj.result())
     if gforce is not None:
         out["force"] = gforce
     if mubar is not None:
         out["mobility"] = mubar
-    if acc.want_k:
-        out["spring_k"] = acc.spring_k
-    if acc.want_center:
-        out["spring_center"] = acc.spring_center
     return out

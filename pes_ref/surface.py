@@ -24,7 +24,7 @@ import numpy as np
 
 from . import checks
 
-__all__ = ["Surface", "Cells", "spacing", "locate", "grid_energy", "grid_slope",
+__all__ = ["Surface", "Cells", "Locator", "spacing", "locate", "grid_energy", "grid_slope",
            "grid_slope_vjp_q", "grid_slope_vjp_values", "wrap"]
 
 
@@ -94,6 +94,118 @@ def locate(q: np.ndarray, lower: np.ndarray, h: np.ndarray, shape: tuple, period
     i0, i1, f0, s0 = _locate_axis(q[:, 0], lower[0], h[0], shape[0], bool(periodic[0]))
     j0, j1, f1, s1 = _locate_axis(q[:, 1], lower[1], h[1], shape[1], bool(periodic[1]))
     return Cells(i0, i1, j0, j1, f0, f1, s0, s1)
+
+
+class Located(NamedTuple):
+    """Cells of points of shape (..., 2) as the hot loop uses them (see :class:`Locator`).
+
+    ``cell`` (...,) intp is the flat index ``i0 * n1 + j0`` of the cell's lower corner;
+    ``f`` (..., 2) the fractions (f0, f1); ``inside`` (..., 2) the switches s0, s1 as
+    0.0 / 1.0 (a float mask multiplies ~2x faster than a bool one), or None on a torus
+    (all ones there).
+    """
+
+    cell: np.ndarray
+    f: np.ndarray
+    inside: np.ndarray | None
+
+
+try:   # the clip ufunc itself: one pass for both bounds, without np.clip's Python wrapper
+    from numpy._core.umath import clip as _clip
+except ImportError:  # NumPy < 2
+    from numpy.core.umath import clip as _clip
+
+
+_MINUS_INF = np.array(-np.inf)
+
+
+def _per_axis(c: np.ndarray, lead: tuple):
+    """A per-axis constant (2,) as an operand for (..., 2) arrays: a 0-d array when both
+    axes agree, else tiled to ``lead + (2,)``. (NumPy broadcasts a (2,) operand with an
+    inner loop of length 2, several times slower than a scalar or a same-shaped array;
+    and a 0-d array skips the conversion a Python float costs on every call.)"""
+    if c[0] == c[1]:
+        return np.array(c[0], dtype=np.float64)
+    return np.ascontiguousarray(np.broadcast_to(c, tuple(lead) + (2,)))
+
+
+class Locator:
+    """Both axes of :func:`locate` at once, into flat cell indices, with reusable buffers.
+
+    Same arithmetic as :func:`locate` (the same cells and bit-identical fractions),
+    written as a few whole-array operations on (..., 2) arrays instead of one pass per
+    axis: ``u = (q - lower) / h``; ``uc = clip(u, lo_d, hi_d)`` with ``(0, n_d - 1)`` on a
+    non-periodic axis and ``(-inf, inf)`` (a no-op) on a periodic one; ``k = min(floor(uc),
+    kmax_d)`` with ``kmax_d = n_d - 2`` or ``inf``; ``f = uc - k``; ``i = k - n_d floor(k /
+    n_d)`` (``k mod n_d``, exact for the integers ``|k| < 2**52``; the identity on a
+    non-periodic axis, where ``0 <= k <= n_d - 2``); ``cell = i0 n1 + i1``; ``s = (u == uc)``.
+    Operations that are no-ops for the topology are skipped: a torus never clips, a plane
+    never wraps.
+
+    A non-finite position gives a garbage cell index; callers gather with
+    ``mode="clip"`` so that it never fails, and check the finiteness of the trajectory
+    afterwards (the force there is NaN anyway).
+    """
+
+    def __init__(self, lower: np.ndarray, h: np.ndarray, shape: tuple, periodic):
+        per = np.array([bool(p) for p in periodic])
+        n = np.asarray(shape, dtype=np.float64)
+        self.shape = tuple(int(m) for m in shape)
+        self.size = self.shape[0] * self.shape[1]
+        self.consts = dict(lower=np.asarray(lower, dtype=np.float64), h=np.asarray(h, dtype=np.float64),
+                           clip_lo=np.where(per, -np.inf, 0.0), clip_hi=np.where(per, np.inf, n - 1.0),
+                           kmax=np.where(per, np.inf, n - 2.0), n=n)
+        self.n1 = np.array(float(shape[1]))
+        self.clips = not per.all()      # some axis is non-periodic: clip and switch
+        self.wraps = bool(per.any())    # some axis is periodic: k mod n
+
+    def buffers(self, lead: tuple) -> dict:
+        """Work arrays (and per-axis constants) for points of shape ``lead + (2,)``."""
+        lead = tuple(lead)
+        buf = {name: _per_axis(c, lead) for name, c in self.consts.items()}
+        buf.update(u=np.empty(lead + (2,)), k=np.empty(lead + (2,)), f=np.empty(lead + (2,)),
+                   cellf=np.empty(lead), cell=np.empty(lead, dtype=np.intp))
+        buf["k0"], buf["k1"] = buf["k"][..., 0], buf["k"][..., 1]
+        if self.clips:
+            buf.update(uc=np.empty(lead + (2,)), inside=np.empty(lead + (2,)))
+        if self.wraps:
+            buf["q"] = np.empty(lead + (2,))
+        return buf
+
+    @staticmethod
+    def head(buf: dict, m: int) -> dict:
+        """The first ``m`` rows (along the leading axis) of buffers from :meth:`buffers`."""
+        out = {name: (a[:m] if isinstance(a, np.ndarray) and a.ndim else a) for name, a in buf.items()}
+        out["k0"], out["k1"] = out["k"][..., 0], out["k"][..., 1]
+        return out
+
+    def locate(self, x: np.ndarray, buf: dict | None = None) -> Located:
+        """Locate points ``x`` (..., 2); ``buf`` from :meth:`buffers` (allocated if None)."""
+        if buf is None:
+            buf = self.buffers(x.shape[:-1])
+        u, k, f = buf["u"], buf["k"], buf["f"]
+        np.subtract(x, buf["lower"], out=u)
+        np.divide(u, buf["h"], out=u)
+        uc, inside = u, None
+        if self.clips:
+            uc, inside = buf["uc"], buf["inside"]
+            _clip(u, buf["clip_lo"], buf["clip_hi"], out=uc)
+            np.equal(u, uc, out=inside)
+        np.floor(uc, out=k)
+        if self.clips:
+            _clip(k, _MINUS_INF, buf["kmax"], out=k)
+        np.subtract(uc, k, out=f)
+        if self.wraps:
+            q, n = buf["q"], buf["n"]
+            np.divide(k, n, out=q)
+            np.floor(q, out=q)
+            np.multiply(q, n, out=q)
+            np.subtract(k, q, out=k)
+        cellf = buf["cellf"]
+        np.multiply(buf["k0"], self.n1, out=cellf)
+        np.add(cellf, buf["k1"], out=cellf)
+        np.copyto(buf["cell"], cellf, casting="unsafe")
+        return Located(buf["cell"], f, inside)
 
 
 def grid_energy(values: np.ndarray, c: Cells) -> np.ndarray:
@@ -189,12 +301,16 @@ class Surface:
         The domain's corners, ``upper > lower`` on both axes.
     periodic : sequence of 2 bool
         (False, False) plane, one True a cylinder, (True, True) a torus.
+    interpolation : {"bilinear", "bicubic"}
+        "bilinear" (default) is SPEC section 1, the paper's rule; "bicubic" the C1
+        Catmull-Rom option of :mod:`pes_ref.bicubic` (``docs/variants.md``).
     """
 
     values: np.ndarray
     lower: np.ndarray
     upper: np.ndarray
     periodic: tuple
+    interpolation: str = "bilinear"
 
     def __post_init__(self):
         values = checks.as_float_array("values", self.values, ndim=2)
@@ -209,6 +325,8 @@ class Surface:
         object.__setattr__(self, "lower", lower)
         object.__setattr__(self, "upper", upper)
         object.__setattr__(self, "periodic", periodic)
+        object.__setattr__(self, "interpolation",
+                           checks.as_choice("interpolation", self.interpolation, {"bilinear", "bicubic"}))
 
     @property
     def shape(self) -> tuple:
@@ -237,11 +355,20 @@ class Surface:
         return locate(q, self.lower, self.spacing, self.values.shape, self.periodic)
 
     def energy(self, q) -> np.ndarray:
-        """Bilinear energy at points ``q`` of shape (N, 2); returns (N,)."""
+        """Energy at points ``q`` of shape (N, 2) by the surface's interpolation; returns (N,)."""
+        if self.interpolation == "bicubic":
+            from . import bicubic   # bicubic imports this module
+            q = checks.as_float_array("q", q, shape=(None, 2))
+            return bicubic.point_energy(self.values, self.lower, self.spacing, self.periodic, q)
         return grid_energy(self.values, self.locate(q))
 
     def slope(self, q) -> np.ndarray:
-        """dE/dq at points ``q`` of shape (N, 2); returns (N, 2)."""
+        """dE/dq at points ``q`` of shape (N, 2) by the surface's interpolation; returns (N, 2)."""
+        if self.interpolation == "bicubic":
+            from . import bicubic
+            q = checks.as_float_array("q", q, shape=(None, 2))
+            out = bicubic.point_force(self.values, self.lower, self.spacing, self.periodic, q, np.empty(q.shape))
+            return np.negative(out, out=out)
         return grid_slope(self.values, self.spacing, self.locate(q))
 
     def wrap(self, q) -> np.ndarray:

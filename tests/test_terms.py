@@ -289,3 +289,44 @@ def test_walls_promotes():
 def test_walls_validation_names_the_argument(k, margin, edges, exc, name):
     with pytest.raises(exc, match=rf"\b{name}\b"):
         Walls(k, margin, edges)
+
+
+# --------------------------------------------------------------------------- the hot loop's kernels
+
+@pytest.mark.parametrize("periodic", PERIODICS, ids=PER_IDS)
+def test_spring_kernel_is_bit_identical_to_the_functions(periodic):
+    from pes_ref.terms import SpringKernel
+    rng = np.random.default_rng(21)
+    q, c = _spring_points(periodic, 7, 21)
+    k, w = rng.uniform(0.5, 2.0, (7, 2)), rng.standard_normal((7, 2))
+    kern = SpringKernel(k, c, LENGTH, periodic, 7)
+    base = rng.standard_normal((7, 2))
+    got, want = base.copy(), base.copy()
+    kern.add_force(q, got)
+    spring_add_force(q, k, c, LENGTH, periodic, want)
+    assert got.tobytes() == want.tobytes()
+    got_x, want_x = base.copy(), base.copy()
+    got_kc = kern.force_vjp(q, w, got_x, True, True)
+    want_kc = spring_force_vjp(q, k, c, LENGTH, periodic, w, want_x, True, True)
+    assert got_x.tobytes() == want_x.tobytes()
+    for a, b in zip(got_kc, want_kc):
+        assert a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("edges", [[[True, True], [True, True]], [[True, False], [False, True]],
+                                   [[True, True], [False, False]]], ids=["all", "two", "axis0"])
+def test_wall_kernel_is_bit_identical_to_the_functions(edges):
+    from pes_ref.terms import WallKernel
+    rng = np.random.default_rng(22)
+    lo, hi = wall_bounds(LOWER, UPPER, 0.1, np.array(edges))
+    q = LOWER + rng.uniform(-0.3, 1.3, (40, 2)) * LENGTH
+    w, base = rng.standard_normal((2, 40, 2))
+    kern = WallKernel(50.0, lo, hi, 40)
+    got, want = base.copy(), base.copy()
+    kern.add_force(q, got)
+    wall_add_force(q, 50.0, lo, hi, want)
+    assert got.tobytes() == want.tobytes() and not np.array_equal(got, base)
+    got, want = base.copy(), base.copy()
+    kern.force_vjp(q, w, got)
+    wall_force_vjp(q, 50.0, lo, hi, w, want)
+    assert got.tobytes() == want.tobytes() and not np.array_equal(got, base)

@@ -1,0 +1,63 @@
+"""Smoke tests of the benchmark (``python -m pes_ref bench``, issue 6) and the check that
+its autograd and JAX gradients agree with pes_ref's. Nothing here is timed: timings are
+what the benchmark prints, never a pass/fail criterion."""
+import json
+
+import numpy as np
+import pytest
+
+from pes_ref import bench_cases, cli
+from pes_ref.testing.tolerances import GRAD_RTOL
+
+SECTIONS = ("scaling", "memory", "effects", "exponents", "design", "targets", "machine", "versions", "date")
+
+
+def test_bench_quick_writes_json_and_plot(tmp_path, capsys):
+    out = tmp_path / "b.json"
+    assert cli.main(["bench", "--quick", "--no-autodiff", "--out", str(out)]) == cli.EXIT_OK
+    res = json.loads(out.read_text())
+    assert all(key in res for key in SECTIONS)
+    assert {(r["mode"], r["N"]) for r in res["scaling"]} == {(m, n) for m in ("dynamic", "quasistatic") for n in (1, 4)}
+    assert all(r["forward"]["min"] <= r["forward"]["median"] <= r["forward"]["max"] for r in res["scaling"])
+    assert [r["effect"] for r in res["effects"]["rows"]][0] == "bare" and len(res["effects"]["rows"]) == 9
+    assert all(r["autograd"]["status"] == "skipped" for r in res["design"])
+    assert (tmp_path / "b-scaling.png").stat().st_size > 0
+    printed = capsys.readouterr().out
+    assert "Targets (issue 6)" in printed and "bare scene / loop written for it alone" in printed
+
+
+def test_bench_refuses_to_replace_a_named_file(tmp_path, capsys):
+    out = tmp_path / "b.json"
+    out.write_text("mine")
+    assert cli.main(["bench", "--quick", "--out", str(out)]) == cli.EXIT_ERROR
+    assert out.read_text() == "mine"
+    assert "--force" in capsys.readouterr().err
+
+
+def _tiny(name):
+    kw = dict(funnel=dict(n_particles=3, n_steps=8, grid=9), oscillator=dict(n_particles=3, n_steps=8, grid=(6, 7)))
+    return bench_cases.CASES[name](**kw[name])
+
+
+def _agrees(module, name):
+    case = _tiny(name)
+    loss, grad = bench_cases.reference_gradient(case)
+    got_loss, got = module.gradient_fn(case)(case.values)
+    assert np.abs(grad).max() > 0
+    assert abs(got_loss - loss) <= GRAD_RTOL * abs(loss)
+    assert np.abs(got - grad).max() <= GRAD_RTOL * np.abs(grad).max()
+
+
+@pytest.mark.parametrize("name", ["funnel", "oscillator"])
+def test_autograd_version_gives_the_reference_gradient(name):
+    pytest.importorskip("autograd")
+    from pes_ref import bench_autograd
+    _agrees(bench_autograd, name)
+
+
+def test_jax_version_gives_the_reference_gradient():
+    """One case (the oscillator: cylinder, spring, walls, damping, torque) keeps the
+    JAX compile inside the test budget; the funnel's is checked by every bench run."""
+    pytest.importorskip("jax")
+    from pes_ref import bench_jax
+    _agrees(bench_jax, "oscillator")
