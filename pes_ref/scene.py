@@ -16,15 +16,17 @@ Example
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field as dc_field
 
 import numpy as np
 
-from . import checks
+from . import checks, stability
 from .effects import build_schedule, step_times
 from .forces import Field, potential_energy
-from .integrator import (Trajectory, adjoint_dynamic, adjoint_quasistatic, simulate_dynamic,
+from .integrator import (NonFiniteError, Trajectory, adjoint_dynamic, adjoint_quasistatic, simulate_dynamic,
                          simulate_quasistatic)
+from .gjf import adjoint_gjf, simulate_gjf
 from .objectives import regularization
 from .surface import Surface
 from .terms import Spring, Walls, wall_bounds
@@ -32,6 +34,9 @@ from .terms import Spring, Walls, wall_bounds
 __all__ = ["Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES"]
 
 MODES = ("dynamic", "quasistatic")
+#: Dynamic-mode steppers: the paper's damped Verlet (SPEC section 3) and the
+#: Gronbech-Jensen-Farago option (pes_ref/gjf.py, docs/variants.md).
+INTEGRATORS = ("verlet", "gjf")
 
 #: Every differentiable input of SPEC section 5, in a fixed order.
 GRADIENT_NAMES = ("values", "x0", "v0", "force", "mass", "damping", "spring_k", "spring_center", "mobility")
@@ -62,6 +67,9 @@ class Scene:
         External forces (:mod:`pes_ref.effects`); empty means none.
     t0 : float
         Time of state 0.
+    integrator : {"verlet", "gjf"}
+        Dynamic mode's step: "verlet" (default) is the paper's eqs. (2)-(3); "gjf" is the
+        second-order damped Gronbech-Jensen-Farago step (``docs/variants.md``).
     """
 
     surface: Surface
@@ -75,6 +83,7 @@ class Scene:
     walls: Walls | None = None
     effects: tuple = dc_field(default_factory=tuple)
     t0: float = 0.0
+    integrator: str = "verlet"
 
     def __post_init__(self):
         if not isinstance(self.surface, Surface):
@@ -84,6 +93,9 @@ class Scene:
         set_("n_steps", checks.as_nonneg_int("n_steps", self.n_steps))
         set_("t0", checks.as_finite_float("t0", self.t0))
         set_("mode", checks.as_choice("mode", self.mode, set(MODES)))
+        set_("integrator", checks.as_choice("integrator", self.integrator, set(INTEGRATORS)))
+        if self.mode != "dynamic" and self.integrator != "verlet":
+            raise ValueError(f"integrator={self.integrator!r} is for mode='dynamic' only; this scene is {self.mode}")
         set_("mass", _per_particle("mass", self.mass, positive=True))
         if self.damping is not None:
             set_("damping", _per_particle("damping", self.damping, nonneg=True))
@@ -126,7 +138,7 @@ class Scene:
         if self.walls is not None and self.walls.edges.any():
             lo, hi = wall_bounds(s.lower, s.upper, self.walls.margin, self.walls.edges)
             walls = (self.walls.k, lo, hi)
-        return Field(s.values, s.lower, s.spacing, s.length, s.periodic, spring, walls)
+        return Field(s.values, s.lower, s.spacing, s.length, s.periodic, spring, walls, s.interpolation)
 
     def times(self) -> np.ndarray:
         """t_n = t0 + n dt, shape (T+1,)."""
@@ -139,7 +151,7 @@ class Scene:
     def with_values(self, values) -> "Scene":
         """The same scene on a new grid of values (same domain and topology)."""
         s = self.surface
-        return _replace(self, surface=Surface(values, s.lower, s.upper, s.periodic))
+        return _replace(self, surface=Surface(values, s.lower, s.upper, s.periodic, s.interpolation))
 
 
 def _replace(scene: Scene, **kw) -> Scene:
@@ -205,11 +217,25 @@ def _resolve_fext(scene, fext, n):
     return checks.as_float_array("fext", fext, shape=(scene.n_steps + 1, n, 2))
 
 
+def _explains_nonfinite(forward):
+    """Re-raise the core's :class:`NonFiniteError` with the scene's stability limit and a
+    stable step (:func:`pes_ref.stability.advice`), instead of a bare "reduce it"."""
+    @functools.wraps(forward)
+    def wrapper(scene, *args, **kwargs):
+        try:
+            return forward(scene, *args, **kwargs)
+        except NonFiniteError as err:
+            raise NonFiniteError(f"{err}. {stability.advice(scene)}") from err
+    return wrapper
+
+
+@_explains_nonfinite
 def _forward(scene: Scene, x0, v0, fext) -> Trajectory:
     fld = scene.field()
     if scene.mode == "dynamic":
         damping = scene.damping if scene.damped else None
-        return simulate_dynamic(fld, x0, v0, fext, scene.dt, scene.n_steps, scene.mass, damping)
+        simulate_fn = simulate_gjf if scene.integrator == "gjf" else simulate_dynamic
+        return simulate_fn(fld, x0, v0, fext, scene.dt, scene.n_steps, scene.mass, damping)
     return simulate_quasistatic(fld, x0, fext, scene.mobility, scene.n_steps)
 
 
@@ -270,7 +296,8 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
     fld = scene.field()
     if scene.mode == "dynamic":
         damping = scene.damping if scene.damped else None
-        raw = adjoint_dynamic(fld, traj, scene.dt, scene.mass, damping, gx, gv, want)
+        adjoint_fn = adjoint_gjf if scene.integrator == "gjf" else adjoint_dynamic
+        raw = adjoint_fn(fld, traj, scene.dt, scene.mass, damping, gx, gv, want)
     else:
         raw = adjoint_quasistatic(fld, traj, scene.mobility, gx, want)
     grads = {}

@@ -35,6 +35,8 @@ import numpy as np
 
 from ..effects import step_times
 from ..scene import Scene
+from ..stability import grid_cross_curvature
+from ..surface import Surface
 from ..scene import energy as _energy
 from ..scene import simulate as _simulate
 from ..terms import Spring
@@ -45,23 +47,10 @@ __all__ = ["grid_cross_curvature", "grid_slope_bound", "max_frequency", "max_spe
            "kink_distance", "kink_signature",
            "relative_difference", "ShiftCheck", "check_periodic_shift", "rolled_scene", "check_grid_roll",
            "GradientCheck", "check_gradient_fd", "gradient_names", "get_parameter", "with_parameter",
-           "loss_conditioning"]
+           "loss_conditioning", "chaotic_case", "gradient_growth_rate"]
 
 
 # =========================================================================== stiffness
-
-def grid_cross_curvature(surface) -> float:
-    """max over cells of |G11 - G10 - G01 + G00| / (h0 h1): the bilinear surface's only
-    second derivative (its Hessian has eigenvalues +-this inside a cell)."""
-    s = surface
-    G = s.values
-    for d in range(2):
-        if s.periodic[d]:
-            G = np.concatenate((G, np.take(G, [0], axis=d)), axis=d)
-    hc = np.abs(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1])
-    h = s.spacing
-    return float(hc.max() / (h[0] * h[1]))
-
 
 def max_frequency(scene: Scene) -> float:
     """An upper bound on the angular frequency of the stiffest term, ``omega_max``.
@@ -794,3 +783,37 @@ def check_gradient_fd(value_and_grad_fn, scene: Scene, x0, v0, objective, names=
             out.resolution[name] = float(_beyond(noise, 0.0, scale))
         out.crossed[name] = bool(crossed)
     return out
+
+
+# =========================================================================== chaos
+
+def chaotic_case(dt: float = 0.02):
+    """``(scene, x0, v0)``: one particle whose motion is chaotic.
+
+    The smooth torus potential ``cos q0 + cos q1 + cos(q0 + 2 q1) / 2`` sampled on
+    16 x 16 nodes (2 pi periods), one particle with more kinetic energy than any
+    barrier: the gradient of its final state with respect to its start grows like
+    ``exp(lambda t)`` (:func:`gradient_growth_rate`).
+    """
+    n = 16
+    q = np.arange(n) * 2 * np.pi / n
+    G = np.cos(q[:, None]) + np.cos(q[None, :]) + 0.5 * np.cos(q[:, None] + 2 * q[None, :])
+    scene = Scene(Surface(G, (0, 0), (2 * np.pi, 2 * np.pi), (True, True)), dt=dt, n_steps=1)
+    return scene, np.array([[1.0, 2.0]]), np.array([[1.3, 0.7]])
+
+
+def gradient_growth_rate(value_and_grad_fn, scene: Scene, x0, v0, objective, n_steps_list) -> tuple:
+    """How fast ``|dL/dx0|`` grows with the horizon: ``(rate, norms)``.
+
+    ``norms[k] = |dL/dx0|`` at ``T = n_steps_list[k]``; ``rate`` the least-squares slope
+    of ``log norms`` against ``t = T dt`` (per unit time): the largest Lyapunov exponent
+    seen by the gradient on a chaotic scene, about 0 on an integrable one (polynomial
+    growth). A long-horizon gradient is then only as useful as ``exp(-rate t)``
+    says; the rate is to be reported, not hidden.
+    """
+    norms = []
+    for T in n_steps_list:
+        res = value_and_grad_fn(replace(scene, n_steps=int(T)), x0, v0, objective, wrt=["x0"])
+        norms.append(float(np.linalg.norm(res[1]["x0"])))
+    t = np.asarray(n_steps_list, dtype=np.float64) * scene.dt
+    return float(np.polyfit(t, np.log(norms), 1)[0]), np.asarray(norms)
