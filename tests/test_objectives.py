@@ -7,6 +7,7 @@ import pytest
 
 import pes_ref as pr
 from pes_ref import Custom, Funnel, Oscillator, Quadratic, regularization
+from pes_ref.objectives import OscillatorCycle
 from pes_ref.testing.finite_differences import central_gradient, relative_error
 from pes_ref.testing.tolerances import FD_RTOL, TRAJ_RTOL
 
@@ -145,6 +146,53 @@ def test_oscillator_validation_names_the_argument(kw, name):
     with pytest.raises(ValueError, match=rf"\b{name}\b"):
         Oscillator(**kw)
 
+
+
+def test_oscillator_cycle_value_by_hand():
+    # A = 2, w = 0.5, one state: particle (x, v) = (2, 0.5) has e = (4 + 1 - 4) / 4 = 0.25, particle
+    # (0, 0) has e = -4 / 4 = -1: sqrt(0.0625 + 1) / 2^2; the phase (time) does not matter
+    x = np.array([[[2.0, 9.0], [0.0, 9.0]]])
+    v = np.array([[[0.5, 7.0], [0.0, 7.0]]])
+    for t in (0.0, 1.3):
+        value, gx, gv = OscillatorCycle(2.0, 0.5).value_and_grad(x, v, np.array([t]))
+        assert value == pytest.approx(math.sqrt(1.0625) / 4, rel=TRAJ_RTOL)
+    # dl/dx = e x / (A root N^2) = 0.25 * 2 / (2 sqrt(1.0625) 4); dl/dv = e v / (w^2 A root N^2)
+    np.testing.assert_allclose(gx[0, 0, 0], 0.5 / (8 * math.sqrt(1.0625)), rtol=TRAJ_RTOL)
+    np.testing.assert_allclose(gv[0, 0, 0], 0.125 / (0.25 * 2 * 4 * math.sqrt(1.0625)), rtol=TRAJ_RTOL)
+    np.testing.assert_array_equal(gx[0, 1], 0.0)              # at the centre the radial derivative vanishes
+    np.testing.assert_array_equal(gx[..., 1], 0.0)
+
+
+def test_oscillator_cycle_is_zero_on_the_ellipse_at_any_phase():
+    A, w = 1.5, 2.0
+    t = np.linspace(0.0, 3.0, 7)
+    phase = np.array([0.0, 1.0, 2.5])
+    x = np.zeros((7, 3, 2))
+    v = np.zeros((7, 3, 2))
+    x[:, :, 0] = A * np.cos(w * t[:, None] + phase)
+    v[:, :, 0] = -A * w * np.sin(w * t[:, None] + phase)
+    value, gx, gv = OscillatorCycle(A, w).value_and_grad(x, v, t)
+    assert value == pytest.approx(0.0, abs=1e-14)
+
+
+@pytest.mark.parametrize("settle", [0.0, 0.35])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_oscillator_cycle_gradient_by_central_differences(seed, settle):
+    obj = OscillatorCycle(0.7, 2.5, settle=settle)
+    x, v, t = _random_traj(seed)
+    _check_grads_by_fd(obj, x, v, t)
+    if settle:                                   # steps before settle do not count
+        _, gx, gv = obj.value_and_grad(x, v, t)
+        np.testing.assert_array_equal(gx[t < settle], 0.0)
+        np.testing.assert_array_equal(gv[t < settle], 0.0)
+
+
+@pytest.mark.parametrize("kw, name", [(dict(amplitude=0.0, omega=1.0), "amplitude"),
+                                      (dict(amplitude=1.0, omega=-1.0), "omega"),
+                                      (dict(amplitude=1.0, omega=1.0, settle=np.nan), "settle")])
+def test_oscillator_cycle_validation_names_the_argument(kw, name):
+    with pytest.raises(ValueError, match=rf"\b{name}\b"):
+        OscillatorCycle(**kw)
 
 # --------------------------------------------------------------------------- quadratic
 

@@ -1,0 +1,101 @@
+"""``python -m pes_ref design`` and ``evaluate`` at tiny sizes (``--smoke``)."""
+import numpy as np
+import pytest
+
+from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main
+from pes_ref.design_file import load_design
+
+
+def run(capsys, *argv):
+    code = main(list(map(str, argv)))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def funnel_file(tmp_path, capsys):
+    path = tmp_path / "f.npz"
+    code, out, err = run(capsys, "design", "funnel", "--smoke", "--out", path, "--progress", 0)
+    assert code == EXIT_OK, err
+    return path
+
+
+def test_design_writes_a_loadable_file_with_progress(funnel_file, capsys):
+    st = load_design(funnel_file)
+    assert st.kind == "funnel" and st.iteration == 6 and st.status == "done"
+    assert st.values.shape == (12, 12) and len(st.history["loss"]) == 6
+
+
+def test_progress_line_and_summary(tmp_path, capsys):
+    code, out, err = run(capsys, "design", "oscillator", "--smoke", "--out", tmp_path / "o.npz", "--progress", 0)
+    assert code == EXIT_OK
+    line = err.strip().splitlines()[-1]
+    for part in ("design oscillator: it 6/6", "loss", "amp_err", "it/s", "left"):
+        assert part in line
+    assert out.startswith(f"wrote {tmp_path / 'o.npz'}: oscillator, iteration 6/6 (done)")
+
+
+def test_existing_out_is_refused_without_force(funnel_file, capsys):
+    before = funnel_file.read_bytes()
+    code, out, err = run(capsys, "design", "funnel", "--smoke", "--out", funnel_file, "--seed", 1)
+    assert code == EXIT_ERROR and err.startswith("error: ") and "exists" in err
+    assert funnel_file.read_bytes() == before
+    code, *_ = run(capsys, "design", "funnel", "--smoke", "--out", funnel_file, "--seed", 1, "--force", "--quiet")
+    assert code == EXIT_OK and load_design(funnel_file).seed == 1
+
+
+def test_resume_continues_like_an_uninterrupted_run(tmp_path, capsys):
+    a, b = tmp_path / "a.npz", tmp_path / "b.npz"
+    assert run(capsys, "design", "funnel", "--smoke", "--out", a, "--quiet")[0] == EXIT_OK
+    assert run(capsys, "design", "funnel", "--smoke", "--iterations", 3, "--out", b, "--quiet")[0] == EXIT_OK
+    assert run(capsys, "design", "funnel", "--smoke", "--resume", b, "--quiet")[0] == EXIT_OK   # back to 6, in place
+    sa, sb = load_design(a), load_design(b)
+    assert sb.iteration == 6
+    np.testing.assert_array_equal(sa.values, sb.values)
+    assert sa.history == sb.history
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["design", "oscillator", "--smoke", "--resume", "{f}", "--out", "{tmp}/o.npz"], "funnel design, not a oscillator"),
+    (["design", "funnel", "--resume", "{f}", "--set", "n_steps=80"], "another scene: n_steps"),
+    (["design", "funnel", "--set", "colour=red", "--out", "{tmp}/x.npz"], "--set 'colour=red'"),
+    (["design", "funnel", "--stages", "0-25", "--out", "{tmp}/x.npz"], "--stages '0-25'"),
+    (["evaluate", "{tmp}/nothing.npz"], "does not exist"),
+    (["evaluate", "{tmp}/text.npz"], "is not a design file"),
+])
+def test_bad_input_gets_one_error_line(funnel_file, tmp_path, capsys, argv, message):
+    (tmp_path / "text.npz").write_text("not a design")
+    argv = [a.format(f=funnel_file, tmp=tmp_path) for a in argv]
+    code, out, err = run(capsys, *argv)
+    assert code == EXIT_ERROR
+    assert err.count("\n") == 1 and err.startswith("error: ") and message in err
+    assert not (tmp_path / "o.npz").exists() and not (tmp_path / "x.npz").exists()
+
+
+def test_evaluate_prints_one_line_per_figure(funnel_file, capsys):
+    code, out, err = run(capsys, "evaluate", funnel_file, "--particles", 20)
+    assert code == EXIT_OK
+    lines = dict(line.split(": ", 1) for line in out.strip().splitlines())
+    for name in ("in_band_fraction", "exit_spread", "flat_in_band_fraction", "flat_exit_spread", "exited_fraction"):
+        assert 0.0 <= float(lines[name]) <= 2.0
+    assert lines["kind"] == "funnel" and lines["particles"] == "20"
+
+
+def test_evaluate_oscillator_figures(tmp_path, capsys):
+    path = tmp_path / "o.npz"
+    assert run(capsys, "design", "oscillator", "--smoke", "--out", path, "--quiet")[0] == EXIT_OK
+    code, out, err = run(capsys, "evaluate", path, "--particles", 3)
+    assert code == EXIT_OK
+    names = [line.split(":")[0] for line in out.strip().splitlines()]
+    for name in ("captured_fraction", "amplitude_error", "period_error", "flat_captured_fraction"):
+        assert name in names
+
+
+def test_non_finite_run_exits_1_with_its_last_finite_state(tmp_path, capsys):
+    path = tmp_path / "nf.npz"
+    code, out, err = run(capsys, "design", "funnel", "--smoke", "--out", path, "--lr", 10, "--lr-final", 10,
+                         "--set", "noise=0", "--set", "wall_k=1e6", "--set", "dt=0.01", "--set", "n_steps=200",
+                         "--set", "grid=8", "--optimizer", "rmsprop", "--quiet")
+    assert code == EXIT_FAIL and "non-finite" in err
+    st = load_design(path)
+    assert st.status.startswith("non-finite") and st.iteration == 0 and np.isfinite(st.values).all()

@@ -1,0 +1,111 @@
+"""Design files: round trip, bit-exact resume, refusals."""
+import os
+
+import numpy as np
+import pytest
+
+import pes_ref.designs as pd
+from pes_ref.design_file import DesignFileError, check_same_scene, load_design, save_design
+from pes_ref.designs import Plan
+
+TINY = dict(grid=9, n_steps=50, dt=0.05)
+
+
+def tiny(plan=None, kind="funnel", **kw):
+    if kind == "oscillator":
+        return pd.new_design("oscillator", seed=5, plan=plan or Plan(iterations=2, n_particles=3),
+                             grid0=6, grid1=6, n_steps=30)
+    return pd.new_design("funnel", seed=5, plan=plan or Plan(iterations=6, n_particles=6), **{**TINY, **kw})
+
+
+def assert_same_state(a, b):
+    assert type(a.problem) is type(b.problem) and a.problem == b.problem
+    assert a.plan == b.plan and a.seed == b.seed and a.iteration == b.iteration
+    np.testing.assert_array_equal(a.values, b.values)
+    assert a.history == b.history
+    sa, sb = a.optimizer.state_dict(), b.optimizer.state_dict()
+    assert sa.keys() == sb.keys()
+    for k in sa:
+        np.testing.assert_array_equal(sa[k], sb[k])
+
+
+@pytest.mark.parametrize("kind", ["funnel", "oscillator"])
+def test_round_trip_is_exact(tmp_path, kind):
+    st = pd.run_design(tiny(kind=kind))
+    save_design(tmp_path / "d.npz", st)
+    back = load_design(tmp_path / "d.npz")
+    assert_same_state(st, back)
+    assert back.status == "done"
+    assert [p.name for p in tmp_path.iterdir()] == ["d.npz"]      # no temporary file left behind
+
+
+@pytest.mark.parametrize("optimizer, stages", [
+    ("rmsprop", ((0, 0),)),
+    ("adam", ((0, 5), (3, 0))),          # the grid changes at the resume point: resample + reset
+    ("rmsprop", ((0, 5), (2, 0))),       # ... or before it
+])
+def test_save_and_resume_continues_bit_exactly(tmp_path, optimizer, stages):
+    plan = Plan(iterations=6, lr=0.01, lr_final=0.002, optimizer=optimizer, stages=stages, n_particles=6)
+    straight = pd.run_design(tiny(plan))
+    half = pd.run_design(tiny(plan), 3)
+    save_design(tmp_path / "half.npz", half)
+    resumed = pd.run_design(load_design(tmp_path / "half.npz"))
+    assert_same_state(straight, resumed)
+
+
+def test_existing_file_is_refused_unless_overwrite(tmp_path):
+    path = tmp_path / "d.npz"
+    path.write_bytes(b"precious")
+    st = tiny()
+    with pytest.raises(FileExistsError, match="d.npz exists"):
+        save_design(path, st)
+    assert path.read_bytes() == b"precious"
+    save_design(path, st, overwrite=True)
+    assert load_design(path).iteration == 0
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda p: p.write_text("hello"), "not a design file"),
+    (lambda p: np.savez(p, x=np.zeros(3)), "not a design file"),
+    (lambda p: np.savez(p, format=np.array("pes_ref.design"), version=np.array(1)), "missing keys"),
+])
+def test_files_that_are_not_designs_are_refused(tmp_path, make, match):
+    path = tmp_path / "bad.npz"
+    make(path)
+    with pytest.raises(DesignFileError, match=match):
+        load_design(path)
+
+
+def test_a_newer_version_is_refused(tmp_path):
+    path = tmp_path / "d.npz"
+    save_design(path, tiny())
+    data = dict(np.load(path))
+    data["version"] = np.array(99)
+    np.savez(path, **data)
+    with pytest.raises(DesignFileError, match="version 99"):
+        load_design(path)
+
+
+def test_missing_file():
+    with pytest.raises(FileNotFoundError, match="nowhere.npz"):
+        load_design("nowhere.npz")
+
+
+def test_resume_from_another_scene_is_refused():
+    st = tiny()
+    with pytest.raises(DesignFileError, match="funnel design, not a oscillator"):
+        check_same_scene(st, "oscillator")
+    with pytest.raises(DesignFileError, match="n_steps = 50 there, 80 asked"):
+        check_same_scene(st, "funnel", {"n_steps": 80})
+    check_same_scene(st, "funnel", {"n_steps": 50})       # the same scene: accepted
+
+
+def test_non_finite_stop_saves_the_last_finite_state(tmp_path):
+    plan = Plan(iterations=5, lr=10.0, lr_final=10.0, n_particles=4)
+    st = pd.new_design("funnel", seed=0, plan=plan, grid=8, n_steps=200, dt=0.01, noise=0.0, wall_k=1e6)
+    st = pd.run_design(st)
+    save_design(tmp_path / "nf.npz", st)
+    back = load_design(tmp_path / "nf.npz")
+    assert back.status.startswith("non-finite") and back.iteration == 0
+    assert np.isfinite(back.values).all()
+    assert_same_state(st, back)
