@@ -87,12 +87,13 @@ class OscillatorCycle:
     """A phase-free form of eq. (6): the distance to the target ellipse, not to one moving point.
 
     ``l_n = sqrt(sum_i e_{n,i}^2) / N^2`` for steps with ``t_n >= settle`` (0 before), with
-    ``e = (X_{n,i,0}^2 + (V_{n,i,0} / w)^2 - A^2) / (2 A)``, which is ``r - A`` to first order
-    in the phase-space radius ``r = sqrt(x^2 + (v/w)^2)``. Its zero set is the ellipse
+    ``e = r - A`` and ``r = sqrt(X_{n,i,0}^2 + (V_{n,i,0} / w)^2)`` the radius in the phase
+    plane scaled by w (a dead particle, r = 0, costs A like eq. (6)'s). Its zero set is the ellipse
     ``x^2 + (v/w)^2 = A^2``: every harmonic oscillation of amplitude A and frequency w at any
     phase, so a particle that keeps the cycle costs nothing whatever its phase slip (eq. (6)
     charges a phase slip as much as a dead oscillation). Beyond the paper. Derivatives
-    ``dl_n/dX = e x / (A root N^2)``, ``dl_n/dV = e v / (w^2 A root N^2)``, 0 where the root is 0.
+    ``dl_n/dX = e x / (r root N^2)``, ``dl_n/dV = e v / (w^2 r root N^2)``, taken as 0 where
+    the root or r is 0.
     """
 
     amplitude: float
@@ -108,15 +109,16 @@ class OscillatorCycle:
         n_particles = x.shape[1]
         A, w = self.amplitude, self.omega
         on = (np.asarray(t) >= self.settle)[:, None]
-        e = np.where(on, (x[:, :, 0] ** 2 + (v[:, :, 0] / w) ** 2 - A * A) / (2 * A), 0.0)
+        r = np.sqrt(x[:, :, 0] ** 2 + (v[:, :, 0] / w) ** 2)
+        e = np.where(on, r - A, 0.0)
         root = np.sqrt(np.sum(e * e, axis=1))
         scale = n_particles ** 2
         inv = np.divide(1.0, root * scale, out=np.zeros_like(root), where=root > 0)
-        de = e * inv[:, None]
+        de = np.divide(e * inv[:, None], r, out=np.zeros_like(r), where=r > 0)
         gx = np.zeros_like(x)
         gv = np.zeros_like(v)
-        gx[:, :, 0] = de * x[:, :, 0] / A
-        gv[:, :, 0] = de * v[:, :, 0] / (w * w * A)
+        gx[:, :, 0] = de * x[:, :, 0]
+        gv[:, :, 0] = de * v[:, :, 0] / (w * w)
         return float(np.sum(root) / scale), gx, gv
 
 

@@ -3,7 +3,9 @@ import numpy as np
 import pytest
 
 from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main
+from pes_ref.cli_design import OSCILLATOR_OBJECTIVE_NAMES
 from pes_ref.design_file import load_design
+from pes_ref.designs import OSCILLATOR_OBJECTIVES
 
 
 def run(capsys, *argv):
@@ -60,6 +62,7 @@ def test_resume_continues_like_an_uninterrupted_run(tmp_path, capsys):
     (["design", "funnel", "--resume", "{f}", "--set", "n_steps=80"], "another scene: n_steps"),
     (["design", "funnel", "--set", "colour=red", "--out", "{tmp}/x.npz"], "--set 'colour=red'"),
     (["design", "funnel", "--stages", "0-25", "--out", "{tmp}/x.npz"], "--stages '0-25'"),
+    (["design", "funnel", "--objective", "eq6", "--out", "{tmp}/x.npz"], "only the oscillator"),
     (["evaluate", "{tmp}/nothing.npz"], "does not exist"),
     (["evaluate", "{tmp}/text.npz"], "is not a design file"),
 ])
@@ -89,6 +92,22 @@ def test_evaluate_oscillator_figures(tmp_path, capsys):
     names = [line.split(":")[0] for line in out.strip().splitlines()]
     for name in ("captured_fraction", "amplitude_error", "period_error", "flat_captured_fraction"):
         assert name in names
+
+
+@pytest.mark.parametrize("objective", OSCILLATOR_OBJECTIVE_NAMES)
+def test_objective_selects_the_oscillator_setting_and_plan(tmp_path, capsys, objective):
+    assert set(OSCILLATOR_OBJECTIVE_NAMES) == set(OSCILLATOR_OBJECTIVES)
+    path = tmp_path / "o.npz"
+    code, out, err = run(capsys, "design", "oscillator", "--smoke", "--objective", objective, "--out", path, "--quiet")
+    assert code == EXIT_OK, err
+    st = load_design(path)
+    sets, plan = OSCILLATOR_OBJECTIVES[objective]
+    assert all(getattr(st.problem, k) == v for k, v in sets.items())
+    assert st.plan.lr == plan.lr and st.iteration == 6             # the setting's plan under the smoke preset
+    # resuming with the other objective is another scene, refused
+    other = [name for name in OSCILLATOR_OBJECTIVE_NAMES if name != objective][0]
+    code, out, err = run(capsys, "design", "oscillator", "--resume", path, "--objective", other, "--quiet")
+    assert code == EXIT_ERROR and "another scene" in err
 
 
 def test_non_finite_run_exits_1_with_its_last_finite_state(tmp_path, capsys):

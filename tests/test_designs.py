@@ -22,9 +22,15 @@ def tiny_state(kind="funnel", **kw):
     return pd.new_design("oscillator", seed=3, plan=plan, **{"grid0": 8, "grid1": 8, "n_steps": 60, **kw})
 
 
-@pytest.mark.parametrize("kind", ["funnel", "oscillator"])
-def test_design_gradient_matches_finite_differences(kind):
-    st = tiny_state(kind, **({"grid": 6, "n_steps": 40, "dt": 0.05} if kind == "funnel" else {"n_steps": 40}))
+@pytest.mark.parametrize("kind, extra", [
+    ("funnel", {"grid": 6, "n_steps": 40, "dt": 0.05}),
+    ("oscillator", {"n_steps": 40, "cost": "eq6"}),
+    # the phase-free cost with starts spread at rest and stratified torques; then eq. (6) before settle
+    ("oscillator", {"n_steps": 40, "cost": "cycle", "spread_share": 0.5, "stratified": True}),
+    ("oscillator", {"n_steps": 40, "cost": "phase_then_cycle", "settle_periods": 0.2}),
+])
+def test_design_gradient_matches_finite_differences(kind, extra):
+    st = tiny_state(kind, **extra)
     rng = np.random.default_rng(1)
     mask = st.problem.mask(st.values.shape)
     values = st.values + 0.05 * rng.standard_normal(st.values.shape) * mask
@@ -76,9 +82,10 @@ def test_short_design_improves_the_funnel_over_the_flat_surface():
     assert np.mean(st.history["loss"][-10:]) < np.mean(st.history["loss"][:10])
 
 
-def test_short_oscillator_design_lowers_its_objective():
+@pytest.mark.parametrize("cost", pd.OSCILLATOR_COSTS)
+def test_short_oscillator_design_lowers_its_objective(cost):
     plan = Plan(iterations=30, lr=0.02, lr_final=0.02, n_particles=8)
-    st = pd.run_design(tiny_state("oscillator", plan=plan, n_steps=150))
+    st = pd.run_design(tiny_state("oscillator", plan=plan, n_steps=150, cost=cost, settle_periods=1.0))
     assert st.status == "done"
     assert np.mean(st.history["loss"][-5:]) < np.mean(st.history["loss"][:5])
 
@@ -161,3 +168,32 @@ def test_bad_problem_parameters_are_refused(bad, match):
 def test_bad_plans_are_refused(bad, match):
     with pytest.raises(ValueError, match=match):
         Plan(**bad)
+
+
+@pytest.mark.parametrize("bad, match", [
+    (dict(cost="phase"), "cost"), (dict(spread_share=1.5), "spread_share"), (dict(settle_periods=-1.0), "settle"),
+])
+def test_bad_oscillator_parameters_are_refused(bad, match):
+    with pytest.raises(ValueError, match=match):
+        pd.OscillatorProblem(**bad)
+
+
+def test_oscillator_batch_spreads_starts_and_stratifies_torques():
+    prob = pd.OscillatorProblem(grid0=8, grid1=8, spread_share=0.5, stratified=True)
+    batch = prob.batch(prob.flat_values(), np.random.default_rng(0), 8)
+    torques = -batch.scene.effects[0].force[:, 1]
+    slot = (torques - prob.torque_min) / (prob.torque_max - prob.torque_min) * 8
+    np.testing.assert_array_equal(np.floor(slot), np.arange(8))      # one torque in each eighth of the range
+    np.testing.assert_array_equal(batch.x0[:4, 1], 0.0)                # the paper's starts ...
+    assert np.all(batch.x0[:4, 0] > prob.amplitude)
+    assert np.all(np.abs(batch.x0[4:, 0]) <= 1.5 * prob.amplitude)    # ... and the spread ones, at rest
+    assert np.all(batch.x0[4:, 1] > 0.0) and np.all(batch.v0 == 0.0)
+
+
+def test_oscillator_defaults_are_the_default_objective_setting():
+    sets, plan = pd.OSCILLATOR_OBJECTIVES[pd.DEFAULT_OSCILLATOR_OBJECTIVE]
+    problem = pd.OscillatorProblem()
+    assert {k: getattr(problem, k) for k in sets} == sets
+    assert pd.DEFAULT_PLANS["oscillator"] == plan
+    assert pd.OSCILLATOR_OBJECTIVES["eq6"][0]["cost"] == "eq6"             # the paper's setting stays available
+    assert pd.OSCILLATOR_OBJECTIVES["eq6"][0]["target_scale"] == 1.0

@@ -149,17 +149,18 @@ def test_oscillator_validation_names_the_argument(kw, name):
 
 
 def test_oscillator_cycle_value_by_hand():
-    # A = 2, w = 0.5, one state: particle (x, v) = (2, 0.5) has e = (4 + 1 - 4) / 4 = 0.25, particle
-    # (0, 0) has e = -4 / 4 = -1: sqrt(0.0625 + 1) / 2^2; the phase (time) does not matter
-    x = np.array([[[2.0, 9.0], [0.0, 9.0]]])
-    v = np.array([[[0.5, 7.0], [0.0, 7.0]]])
+    # A = 2, w = 0.5, one state: particle (x, v) = (3, 2) has r = sqrt(9 + 16) = 5, e = 3; particle
+    # (0, 0) has r = 0, e = -2: sqrt(9 + 4) / 2^2; the phase (time) does not matter
+    x = np.array([[[3.0, 9.0], [0.0, 9.0]]])
+    v = np.array([[[2.0, 7.0], [0.0, 7.0]]])
     for t in (0.0, 1.3):
         value, gx, gv = OscillatorCycle(2.0, 0.5).value_and_grad(x, v, np.array([t]))
-        assert value == pytest.approx(math.sqrt(1.0625) / 4, rel=TRAJ_RTOL)
-    # dl/dx = e x / (A root N^2) = 0.25 * 2 / (2 sqrt(1.0625) 4); dl/dv = e v / (w^2 A root N^2)
-    np.testing.assert_allclose(gx[0, 0, 0], 0.5 / (8 * math.sqrt(1.0625)), rtol=TRAJ_RTOL)
-    np.testing.assert_allclose(gv[0, 0, 0], 0.125 / (0.25 * 2 * 4 * math.sqrt(1.0625)), rtol=TRAJ_RTOL)
-    np.testing.assert_array_equal(gx[0, 1], 0.0)              # at the centre the radial derivative vanishes
+        assert value == pytest.approx(math.sqrt(13.0) / 4, rel=TRAJ_RTOL)
+    # dl/dx = e x / (r root N^2) = 3 * 3 / (5 sqrt(13) 4); dl/dv = e v / (w^2 r root N^2) = 3 * 2 / (0.25 ...)
+    np.testing.assert_allclose(gx[0, 0, 0], 9.0 / (20 * math.sqrt(13.0)), rtol=TRAJ_RTOL)
+    np.testing.assert_allclose(gv[0, 0, 0], 6.0 / (0.25 * 20 * math.sqrt(13.0)), rtol=TRAJ_RTOL)
+    np.testing.assert_array_equal(gx[0, 1], 0.0)              # r = 0: the derivative is taken as 0
+    np.testing.assert_array_equal(gv[0, 1], 0.0)
     np.testing.assert_array_equal(gx[..., 1], 0.0)
 
 
