@@ -138,8 +138,8 @@ class BilinearForce:
     """The grid force for N particles at a time, with its table and buffers (the forward hot loop).
 
     Per call: the :class:`~pes_ref.surface.Locator` operations, one ``take`` of the
-    (N, 4) coefficient rows, ``F0 = A0 + f1 D0`` and ``F1 = A1 + f0 D1`` on columns and,
-    unless the surface is a torus, ``F *= s``. Nothing is allocated. (Columns, not
+    (N, 4) coefficient rows, ``F0 = A0 + f1 D0`` and ``F1 = A1 + f0 D1`` on columns and
+    ``out = F s`` (a copy on a torus): 16 NumPy calls on a plane. Nothing is allocated. (Columns, not
     (N, 2) arrays with a swapped view: NumPy runs an operation on reversed or
     non-contiguous (N, 2) views with an inner loop of length 2, several times slower.)
     """
@@ -152,18 +152,36 @@ class BilinearForce:
         self.A0, self.A1, self.D0, self.D1 = (self.coef[:, i] for i in range(4))
         f = self.buf["f"]
         self.f0, self.f1 = f[:, 0], f[:, 1]
+        self.call = self._bind()
+
+    def _bind(self):
+        """The call as a closure over its buffers (no attribute lookups per step). The
+        force is built in a buffer of its own (whose column views are made once) and
+        written to ``out`` by the switches' multiplication (a copy on a torus)."""
+        locate_into = self.locator.bind(self.buf)
+        take, cell, coef = self.table.take, self.buf["cell"], self.coef
+        A0, A1, D0, D1, f0, f1 = self.A0, self.A1, self.D0, self.D1, self.f0, self.f1
+        mul, add, copyto = np.multiply, np.add, np.copyto
+        inside = self.buf["inside"] if self.locator.clips else None
+        F = np.empty(coef.shape[:1] + (2,))
+        F0, F1 = F[:, 0], F[:, 1]
+
+        def call(x, out):
+            locate_into(x)
+            take(cell, 0, coef, "clip")
+            mul(D0, f1, F0)
+            add(F0, A0, F0)
+            mul(D1, f0, F1)
+            add(F1, A1, F1)
+            if inside is None:
+                copyto(out, F)
+            else:
+                mul(F, inside, out)
+            return out
+        return call
 
     def __call__(self, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-        c = self.locator.locate(x, self.buf)
-        self.table.take(c.cell, axis=0, out=self.coef, mode="clip")
-        o0, o1 = out[:, 0], out[:, 1]
-        np.multiply(self.D0, self.f1, out=o0)
-        np.add(o0, self.A0, out=o0)
-        np.multiply(self.D1, self.f0, out=o1)
-        np.add(o1, self.A1, out=o1)
-        if c.inside is not None:
-            np.multiply(out, c.inside, out=out)
-        return out
+        return self.call(x, out)
 
 
 class BilinearForce1:
@@ -182,6 +200,7 @@ class BilinearForce1:
                      for d in range(2)]
         self.clips, self.wraps, self.n1 = loc.clips, loc.wraps, float(loc.n1)
         self.table = coefficient_table(field.values, field.h)
+        self.call = self.__call__
 
     def __call__(self, x: np.ndarray, out: np.ndarray) -> np.ndarray:
         ks, fs, ins = [0.0, 0.0], [0.0, 0.0], [1.0, 1.0]
@@ -242,10 +261,10 @@ class BilinearAdjoint:
             self.wts = np.empty((4, B * n))
             self.idx = np.empty(B * n, dtype=np.intp)
         self.tmp = np.empty(n)
-        self._w = self._xbar = None
         self.lo = n_states            # states [lo, hi) are located
         self.hi = n_states
         self.located = None
+        self.call = self._bind()
 
     def _load(self, n: int) -> None:
         """Locate the chunk of states ending at ``n``, ``sub`` states per lookup (the
@@ -303,20 +322,33 @@ class BilinearAdjoint:
 
     def vjp(self, n: int, w: np.ndarray, xbar: np.ndarray) -> None:
         """``xbar += (dF/dx)^T w = -H(x_n) w`` for state ``n``; records ``w`` for the grid gradient."""
-        if n < self.lo:
-            self._load(n)
-        b = n - self.lo
-        if self.want_values:
-            self.w[b] = w
-        if w is not self._w:          # the caller's buffers are the same every step: keep their column views
-            self._w, self._w0, self._w1 = w, w[:, 0], w[:, 1]
-        if xbar is not self._xbar:
-            self._xbar, self._x0, self._x1 = xbar, xbar[:, 0], xbar[:, 1]
-        hcs, tmp = self.hcs[b], self.tmp
-        np.multiply(hcs, self._w1, out=tmp)
-        np.subtract(self._x0, tmp, out=self._x0)
-        np.multiply(hcs, self._w0, out=tmp)
-        np.subtract(self._x1, tmp, out=self._x1)
+        self.call(n, w, xbar)
+
+    def _bind(self):
+        """:meth:`vjp` as a closure (bound once; no attribute lookups per step but the
+        chunk's start). The column views of ``w`` and ``xbar`` are kept while the caller
+        passes the same buffers, as a backward pass does."""
+        mul, sub, copyto = np.multiply, np.subtract, np.copyto
+        tmp, wbuf, want_values, load = self.tmp, getattr(self, "w", None), self.want_values, self._load
+        views = [None, None, None, None, None, None]     # w, w0, w1, xbar, x0, x1
+
+        def vjp(n, w, xbar):
+            if n < self.lo:
+                load(n)
+            b = n - self.lo
+            if want_values:
+                copyto(wbuf[b], w)
+            if w is not views[0]:
+                views[0:3] = w, w[:, 0], w[:, 1]
+            if xbar is not views[3]:
+                views[3:6] = xbar, xbar[:, 0], xbar[:, 1]
+            _, w0, w1, _, x0, x1 = views
+            hcs = self.hcs[b]
+            mul(hcs, w1, tmp)
+            sub(x0, tmp, x0)
+            mul(hcs, w0, tmp)
+            sub(x1, tmp, x1)
+        return vjp
 
     def values_grad(self) -> np.ndarray:
         """The accumulated ``sum_n (dF(x_n)/dG)^T w_n``, flat (n0*n1,)."""

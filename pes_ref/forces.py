@@ -210,12 +210,33 @@ class ForceKernel:
     def __init__(self, field: Field, n_particles: int):
         self.grid = grid_kernels(field)[0](field, n_particles)
         self.terms = _term_kernels(field, n_particles)
+        self.call = self._bind()
+
+    def _bind(self):
+        """``call(x, out)``: the force as one closure over the kernels' bound calls (a hot
+        loop calls it instead of :meth:`__call__`, without the attribute lookups)."""
+        grid = getattr(self.grid, "call", self.grid)
+        adds = tuple(t.bind_add_force() if hasattr(t, "bind_add_force") else t.add_force for t in self.terms)
+        if not adds:
+            return grid
+        if len(adds) == 1:
+            add0 = adds[0]
+
+            def call(x, out):
+                grid(x, out)
+                add0(x, out)
+                return out
+            return call
+
+        def call(x, out):
+            grid(x, out)
+            for add in adds:
+                add(x, out)
+            return out
+        return call
 
     def __call__(self, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-        self.grid(x, out)
-        for term in self.terms:
-            term.add_force(x, out)
-        return out
+        return self.call(x, out)
 
 
 class ForceAdjoint:
@@ -237,6 +258,22 @@ class ForceAdjoint:
                 self.spring = term
             else:
                 self.walls = term
+        self.call = self._bind()
+
+    def _bind(self):
+        """``call(n, w, xbar)``: :meth:`vjp` as a closure over the kernels' bound calls
+        (the grid's and the walls' alone when the field has no spring)."""
+        grid = getattr(self.grid, "call", self.grid.vjp)
+        if self.spring is not None:
+            return self.vjp
+        if self.walls is None:
+            return grid
+        walls = self.walls.bind_force_vjp(self.xs)
+
+        def call(n, w, xbar):
+            grid(n, w, xbar)
+            walls(n, w, xbar)
+        return call
 
     def vjp(self, n: int, w: np.ndarray, xbar: np.ndarray) -> None:
         self.grid.vjp(n, w, xbar)

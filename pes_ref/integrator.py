@@ -152,25 +152,32 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
         cv = np.empty((N, 2))
     p = np.empty((N, 2))
     dt_ = np.array(dt)              # a 0-d array: no scalar conversion per call
+    # ufuncs and the force's closure bound to locals, outputs passed positionally: at
+    # small N each step's cost is the calls' fixed cost (docs/performance.md)
+    mul, add, sub = np.multiply, np.add, np.subtract
+    fcall = force.call
+    ext = fext[1:] if fext is not None else [None] * n_steps
+    has_fext = fext is not None
+    # a F_n is computed once: by the kick of step n-1 (S4), reused by the half-kick (S1)
+    af = np.multiply(a, f[0])
     # the loop runs over views (x_n, x_{n+1}, ...); nothing is allocated per step
-    for n, (xn, xn1, vn, vn1, fn, fn1) in enumerate(zip(x[:-1], x[1:], v[:-1], v[1:], f[:-1], f[1:])):
+    for xn, xn1, vn, vn1, fn1, fe in zip(x[:-1], x[1:], v[:-1], v[1:], f[1:], ext):
         # (S1) half_kick: P = V_n + a F_n
-        np.multiply(a, fn, out=p)
-        np.add(p, vn, out=p)
+        add(af, vn, p)
         # (S2) drift: X_{n+1} = X_n + dt P
-        np.multiply(p, dt_, out=xn1)
-        np.add(xn1, xn, out=xn1)
+        mul(p, dt_, xn1)
+        add(xn1, xn, xn1)
         # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
-        force(xn1, fn1)
-        if fext is not None:
-            np.add(fn1, fext[n + 1], out=fn1)
+        fcall(xn1, fn1)
+        if has_fext:
+            add(fn1, fe, fn1)
         # (S4) kick: V_{n+1} = P + a F_{n+1}, damped: (P - c V_n + a F_{n+1}) / (1 + c)
-        np.multiply(a, fn1, out=vn1)
-        np.add(vn1, p, out=vn1)
+        mul(a, fn1, af)
+        add(af, p, vn1)
         if damped:
-            np.multiply(c, vn, out=cv)
-            np.subtract(vn1, cv, out=vn1)
-            np.multiply(vn1, inv_1pc, out=vn1)
+            mul(c, vn, cv)
+            sub(vn1, cv, vn1)
+            mul(vn1, inv_1pc, vn1)
     traj = Trajectory(x, v, f)
     _check_finite(traj, f"dt={dt!r}")
     return traj
@@ -221,14 +228,15 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     # undamped, P^ = V^_{n+1} and V^_n = P^: one buffer serves both
     pbar = np.empty((N, 2)) if damped else vbar
     vbar_prev = np.empty((N, 2)) if damped else None
+    mul, add, vjp = np.multiply, np.add, adj.call            # bound once (see simulate_dynamic)
     for n in range(T - 1, -1, -1):
         # (B4) kick^T: P^ = d V^_{n+1} with d = 1/(1+c) (d = 1 undamped);
         #      F^_{n+1} += a P^; a^ += F_{n+1} P^; c^ -= (V_n + V_{n+1}) P^; V^_n = -c P^
         if damped:
-            np.multiply(vbar, inv_1pc, out=pbar)
-            np.multiply(minus_c, pbar, out=vbar_prev)          # -(c P^), exactly
-        np.multiply(a, pbar, out=tmp)
-        np.add(fbar, tmp, out=fbar)
+            mul(vbar, inv_1pc, pbar)
+            mul(minus_c, pbar, vbar_prev)          # -(c P^), exactly
+        mul(a, pbar, tmp)
+        add(fbar, tmp, fbar)
         if abar is not None:
             abar += f[n + 1] * pbar
         if cbar is not None:
@@ -236,22 +244,22 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
         # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}; G^, k^, c^
         if gforce is not None:
             gforce[n + 1] = fbar
-        adj.vjp(n + 1, fbar, xbar)
+        vjp(n + 1, fbar, xbar)
         # (B2) drift^T: P^ += dt X^_{n+1}; X^_n = X^_{n+1} (kept in xbar)
-        np.multiply(xbar, dt_, out=tmp)
-        np.add(pbar, tmp, out=pbar)
+        mul(xbar, dt_, tmp)
+        add(pbar, tmp, pbar)
         # (B1) half_kick^T: V^_n += P^ (V^_n = -c P^ + P^ damped, P^ itself undamped);
         #      F^_n = a P^; a^ += F_n P^
         if damped:
-            np.add(vbar_prev, pbar, out=vbar)
-        np.multiply(a, pbar, out=fbar)
+            add(vbar_prev, pbar, vbar)
+        mul(a, pbar, fbar)
         if abar is not None:
             abar += f[n] * pbar
         # the objective's direct terms at step n
         if gx is not None:
-            np.add(xbar, gx[n], out=xbar)
+            add(xbar, gx[n], xbar)
         if gv is not None:
-            np.add(vbar, gv[n], out=vbar)
+            add(vbar, gv[n], vbar)
     # (B0) adjoint of the initial force F_0 = F(X_0) + F_ext[0]
     if gforce is not None:
         gforce[0] = fbar
@@ -287,14 +295,17 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
     force = ForceKernel(field, N)
     mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))   # (2,) would broadcast with an inner loop of 2
     x[0] = x0
-    for n, (xn, xn1, fn) in enumerate(zip(x[:-1], x[1:], f[:-1])):
+    mul, add, fcall = np.multiply, np.add, force.call      # bound once (see simulate_dynamic)
+    ext = fext[:-1] if fext is not None else [None] * n_steps
+    has_fext = fext is not None
+    for xn, xn1, fn, fe in zip(x[:-1], x[1:], f[:-1], ext):
         # (Q1) force: F_n = F(X_n) + F_ext[n]
-        force(xn, fn)
-        if fext is not None:
-            np.add(fn, fext[n], out=fn)
+        fcall(xn, fn)
+        if has_fext:
+            add(fn, fe, fn)
         # (Q2) drift: X_{n+1} = X_n + mu F_n
-        np.multiply(mu, fn, out=xn1)
-        np.add(xn1, xn, out=xn1)
+        mul(mu, fn, xn1)
+        add(xn1, xn, xn1)
     force(x[T], f[T])
     if fext is not None:
         f[T] += fext[T]
@@ -318,17 +329,18 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     fbar = np.empty((N, 2))
     mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))
+    mul, add, vjp = np.multiply, np.add, adj.call            # bound once (see simulate_dynamic)
     for n in range(T - 1, -1, -1):
         # (QB2) drift^T: F^_n = mu X^_{n+1}; mu^ += sum_i F_n X^_{n+1}; X^_n = X^_{n+1} (kept)
-        np.multiply(mu, xbar, out=fbar)
+        mul(mu, xbar, fbar)
         if mubar is not None:
             mubar += np.einsum("id,id->d", f[n], xbar)
         # (QB1) force^T at X_n: F_ext^[n] = F^_n; X^_n += -H_U F^_n; G^, k^, c^
         if gforce is not None:
             gforce[n] = fbar
-        adj.vjp(n, fbar, xbar)
+        vjp(n, fbar, xbar)
         if gx is not None:
-            np.add(xbar, gx[n], out=xbar)
+            add(xbar, gx[n], xbar)
     out = {"x0": xbar}
     out.update(adj.result())
     if gforce is not None:

@@ -179,6 +179,56 @@ class Locator:
         out["k0"], out["k1"] = out["k"][..., 0], out["k"][..., 1]
         return out
 
+    def bind(self, buf: dict):
+        """``locate_into(x)``: :meth:`locate` into the buffers ``buf`` (from :meth:`buffers`)
+        with everything bound once, for a hot loop that calls it every step.
+
+        The same operations (bit-identical cells, fractions and switches, read from
+        ``buf["cell"]``, ``buf["f"]``, ``buf["inside"]``), but the buffers, constants and
+        ufuncs are closure locals (no dict lookup or attribute access per call), the
+        ufuncs get their output positionally, and ``k0 n1 + k1`` is added straight into the
+        integer cell index (one call instead of an addition and a cast copy)."""
+        sub, div, mul, add, eq, floor = np.subtract, np.divide, np.multiply, np.add, np.equal, np.floor
+        clip, minus_inf, n1 = _clip, _MINUS_INF, self.n1
+        u, k, f, cellf, cell = buf["u"], buf["k"], buf["f"], buf["cellf"], buf["cell"]
+        k0, k1, lower, h = buf["k0"], buf["k1"], buf["lower"], buf["h"]
+        clips, wraps = self.clips, self.wraps
+        uc = buf["uc"] if clips else u
+        inside, lo, hi, kmax = (buf["inside"], buf["clip_lo"], buf["clip_hi"], buf["kmax"]) if clips else (None,) * 4
+        q, n = (buf["q"], buf["n"]) if wraps else (None, None)
+
+        if clips and not wraps:           # a plane: the common case, without branches
+            def locate_into(x):
+                sub(x, lower, u)
+                div(u, h, u)
+                clip(u, lo, hi, uc)
+                eq(u, uc, inside)
+                floor(uc, k)
+                clip(k, minus_inf, kmax, k)
+                sub(uc, k, f)
+                mul(k0, n1, cellf)
+                add(cellf, k1, cell, casting="unsafe")
+            return locate_into
+
+        def locate_into(x):
+            sub(x, lower, u)
+            div(u, h, u)
+            if clips:
+                clip(u, lo, hi, uc)
+                eq(u, uc, inside)
+            floor(uc, k)
+            if clips:
+                clip(k, minus_inf, kmax, k)
+            sub(uc, k, f)
+            if wraps:
+                div(k, n, q)
+                floor(q, q)
+                mul(q, n, q)
+                sub(k, q, k)
+            mul(k0, n1, cellf)
+            add(cellf, k1, cell, casting="unsafe")
+        return locate_into
+
     def locate(self, x: np.ndarray, buf: dict | None = None) -> Located:
         """Locate points ``x`` (..., 2); ``buf`` from :meth:`buffers` (allocated if None)."""
         if buf is None:

@@ -135,6 +135,48 @@ class WallKernel:
         np.multiply(buf, self.k, out=buf)
         np.add(out, buf, out=out)
 
+    def bind_add_force(self):
+        """:meth:`add_force` as a closure over the buffers (for the hot loop)."""
+        clip, sub, mul, add = _clip, np.subtract, np.multiply, np.add
+        lo, hi, k, buf = self.lo, self.hi, self.k, self.buf
+
+        def add_force(q, out):
+            clip(q, lo, hi, buf)
+            sub(buf, q, buf)
+            mul(buf, k, buf)
+            add(out, buf, out)
+        return add_force
+
+    #: States whose ``k (clip(q, a, b) != q)`` factors :meth:`bind_force_vjp` computes at once
+    #: (in particle-states): three whole-chunk operations instead of three per state.
+    CHUNK_ELEMENTS = 1 << 14
+
+    def bind_force_vjp(self, xs: np.ndarray):
+        """``force_vjp(n, w, xbar)`` for the stored states ``xs`` (T+1, N, 2), called for
+        states in descending order (a backward pass): the factors ``k s`` with ``s = (clip(q,
+        a, b) != q)`` are computed a chunk of states at a time, so that a state costs
+        ``xbar -= (k s) w``, two operations (bit-identical to :meth:`force_vjp` up to the
+        sign of a zero: s is 0 or 1)."""
+        clip, ne, mul, sub = _clip, np.not_equal, np.multiply, np.subtract
+        lo, hi, k, buf = self.lo, self.hi, self.k, self.buf
+        n_states, n = xs.shape[0], xs.shape[1]
+        chunk = max(1, min(n_states, self.CHUNK_ELEMENTS // max(n, 1)))
+        ks = np.empty((chunk,) + xs.shape[1:])
+        state = [n_states]          # the chunk holds states [state[0], state[0] + chunk)
+
+        def force_vjp(n, w, xbar):
+            if n < state[0]:
+                start = max(0, n + 1 - chunk)
+                m = n + 1 - start
+                km, q = ks[:m], xs[start:n + 1]
+                clip(q, lo, hi, km)
+                ne(km, q, km)
+                mul(km, k, km)
+                state[0] = start
+            mul(ks[n - state[0]], w, buf)
+            sub(xbar, buf, xbar)
+        return force_vjp
+
     def force_vjp(self, q, w, xbar) -> None:
         """xbar -= k w where a wall is active (eq. (A5))."""
         buf = self.buf
