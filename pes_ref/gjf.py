@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from .forces import Field, ForceAdjoint
-from .integrator import Trajectory, _check_finite, _reports_nonfinite, start_dynamic
+from .integrator import Trajectory, _check_finite, _reports_nonfinite, finish_dynamic_adjoint, start_dynamic
 
 __all__ = ["simulate_gjf", "adjoint_gjf"]
 
@@ -145,22 +145,6 @@ def adjoint_gjf(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, dam
             xbar += gx[n]
         if gv is not None:
             vbar += gv[n]
-    # (B0) adjoint of the initial force F_0 = F(X_0) + F_ext[0]
-    if gforce is not None:
-        gforce[0] = fbar
-    adj.vjp(0, fbar, xbar)
-
-    out = {"x0": xbar, "v0": vbar}
-    out.update(adj.result())
-    if gforce is not None:
-        out["force"] = gforce
-    # (GP1) c^ = -d^2 (d^ + 2 e^), then (P1): dL/dm = -(a^ a + c^ c)/m, dL/dgamma = c^ a
+    # (GP1) c^ = -d^2 (d^ + 2 e^); then (B0) and (P1): dL/dm = -(a^ a + c^ c)/m, dL/dgamma = c^ a
     cbar = None if sbar is None else -sbar * (d * d if damped else 1.0)
-    if want_mass:
-        gm = -abar * a
-        if damped:
-            gm -= cbar * c
-        out["mass"] = gm / np.broadcast_to(mass, (N, 2))
-    if want_damping:
-        out["damping"] = cbar * a
-    return out
+    return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping)

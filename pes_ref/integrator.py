@@ -260,21 +260,31 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
             add(xbar, gx[n], xbar)
         if gv is not None:
             add(vbar, gv[n], vbar)
+    return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c if damped else None,
+                                  mass, want_damping)
+
+
+def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping: bool) -> dict:
+    """The last piece of a dynamic adjoint (shared by :func:`adjoint_dynamic` and
+    :func:`pes_ref.gjf.adjoint_gjf`): (B0) the adjoint of the initial force
+    ``F_0 = F(X_0) + F_ext[0]``, then (P1) the chain rule from ``a = dt/2m`` and
+    ``c = dt gamma/2m`` to the physical parameters, ``dL/dm = -(a^ a + c^ c)/m`` and
+    ``dL/dgamma = c^ a``. ``abar`` is None unless the mass gradient is wanted; ``c`` is
+    None for an undamped scene. Returns the gradient dict."""
     # (B0) adjoint of the initial force F_0 = F(X_0) + F_ext[0]
     if gforce is not None:
         gforce[0] = fbar
     adj.vjp(0, fbar, xbar)
-
     out = {"x0": xbar, "v0": vbar}
     out.update(adj.result())
     if gforce is not None:
         out["force"] = gforce
-    # (P1) chain rule to the physical parameters: a = dt/2m, c = dt gamma/2m
-    if want_mass:
+    # (P1) chain rule to the physical parameters
+    if abar is not None:
         gm = -abar * a
-        if damped:
+        if c is not None:
             gm -= cbar * c
-        out["mass"] = gm / np.broadcast_to(mass, (N, 2))
+        out["mass"] = gm / np.broadcast_to(mass, (xbar.shape[0], 2))
     if want_damping:
         out["damping"] = cbar * a
     return out
