@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all test test-thorough figures validate bench conformance venv clean
+.PHONY: all test test-thorough figures validate oscillator-plans bench conformance venv clean
 
 all: test
 
@@ -31,6 +31,11 @@ figures: $(STAMP)
 # validation/: every script prints its table and saves its plot; run_all.py writes REPORT.md.
 validate: $(STAMP)
 	$(PY) validation/run_all.py
+
+# The oscillator training plans of docs/synthesis.md (about an hour): runs every plan whose
+# record is missing from validation/out/oscillator_plans/, then prints the summary table.
+oscillator-plans: $(STAMP)
+	$(PY) validation/experiments/oscillator_plans.py --all
 
 # The benchmark installs its optional extra (autograd, JAX) into the same venv first.
 BENCH_STAMP := $(VENV)/.installed-bench

@@ -45,6 +45,7 @@ FIGURES = (
     ("fig09_phase_torques", "oscillator"),
     ("fig10_grid_paths", "oscillator"),
     ("fig11_grid_cycles", "oscillator"),
+    ("fig12_torque_capture", "oscillator"),
     ("fig01_ratchet", None),
     ("fig02_dartgun", None),
     ("fig03_dartgun_cspace", None),

@@ -197,3 +197,32 @@ def test_oscillator_defaults_are_the_default_objective_setting():
     assert pd.DEFAULT_PLANS["oscillator"] == plan
     assert pd.OSCILLATOR_OBJECTIVES["eq6"][0]["cost"] == "eq6"             # the paper's setting stays available
     assert pd.OSCILLATOR_OBJECTIVES["eq6"][0]["target_scale"] == 1.0
+
+
+# --------------------------------------------------------------------------- the hand-drawn escapement
+
+def test_escapement_values_shape_and_periodicity():
+    p = pd.OscillatorProblem()
+    v = pd.escapement_values(p)
+    assert v.shape == p.shape() and np.isfinite(v).all()
+    # the teeth repeat every 2 pi / teeth along q1 (32 nodes, 4 teeth: every 8 nodes)
+    np.testing.assert_allclose(np.roll(v, 8, axis=1), v, atol=1e-12)
+    assert pd.escapement_values(p, (16, 64)).shape == (16, 64)
+    np.testing.assert_array_equal(pd.escapement_values(p, h=0.0, kappa=0.0), 0.0)
+
+
+@pytest.mark.parametrize("kwargs, error, word", [
+    ({"shape": (32,)}, ValueError, "shape"),
+    ({"shape": (0, 32)}, ValueError, "shape"),
+    ({"h": -1.0}, ValueError, "h"),
+    ({"kappa": float("nan")}, ValueError, "kappa"),
+    ({"teeth": 0}, ValueError, "teeth"),
+])
+def test_escapement_values_bad_input(kwargs, error, word):
+    with pytest.raises(error, match=word):
+        pd.escapement_values(pd.OscillatorProblem(), **kwargs)
+
+
+def test_escapement_values_needs_the_oscillator():
+    with pytest.raises(TypeError, match="OscillatorProblem"):
+        pd.escapement_values(pd.FunnelProblem())
