@@ -36,7 +36,7 @@ Run: ``python validation/experiments/oscillator_plans.py PLAN [--seed S] [--iter
 [--out DIR] [--force] [--smoke]``; ``--list`` prints the plans. Each writes
 ``DIR/PLAN_sS.json`` (settings, checkpoints, losses) and ``DIR/PLAN_sS.npz`` (the grid
 at every checkpoint); an existing file is refused unless ``--force``. A full plan takes
-1.5-5 minutes on one core; ``make oscillator-plans`` runs them all (about an hour).
+2-7 minutes (measured two at a time on 2 cores); ``make oscillator-plans`` runs them all (about an hour).
 """
 from __future__ import annotations
 
