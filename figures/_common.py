@@ -61,7 +61,7 @@ def design_state(args, kind: str):
     (``python -m pes_ref design KIND --smoke``) into ``OUT/cache/KIND-smoke.npz``.
     """
     from pes_ref.cli import main as cli_main
-    from pes_ref.design_file import DesignFileError, load_design
+    from pes_ref.synthesis.design_file import DesignFileError, load_design
 
     path = args.design
     if path is None and args.smoke:
@@ -161,9 +161,9 @@ def draw_paths(ax, surface, x, colors, lw: float = 0.8, alpha: float = 0.9, labe
 
 
 def draw_parts(ax, part0, part1, q, labels, colors=("#9ecae1", "#fdae6b")):
-    """Both parts posed at C-space point ``q`` (2,) by :func:`pes_ref.geometry.posed_vertices`."""
+    """Both parts posed at C-space point ``q`` (2,) by :func:`pes_ref.devices.geometry.posed_vertices`."""
     from matplotlib.patches import Polygon as Patch
-    from pes_ref.geometry import posed_vertices
+    from pes_ref.devices.geometry import posed_vertices
 
     for verts, label, color in zip(posed_vertices(part0, part1, q[0], q[1]), labels, colors):
         ax.add_patch(Patch(verts, closed=True, facecolor=color, edgecolor="k", lw=0.8, label=label))

@@ -1,4 +1,4 @@
-"""The dart gun runs that Figs. 2-4 draw, all through :mod:`pes_ref.dartgun`."""
+"""The dart gun runs that Figs. 2-4 draw, all through :mod:`pes_ref.devices.dartgun`."""
 from __future__ import annotations
 
 import dataclasses
@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pes_ref import dartgun
+from pes_ref.devices import dartgun
 
 #: The reload push and the fire time (force units, seconds): the defaults of
 #: ``python -m pes_ref analyze dartgun``; the trigger forces drawn are two of its four.

@@ -1,6 +1,6 @@
 """Figure 1: a ratchet and pawl beside its toroidal configuration space (blocked / free / boundary).
 
-(a) the wheel and pawl of :mod:`pes_ref.ratchet` drawn at the engaged rest state;
+(a) the wheel and pawl of :mod:`pes_ref.devices.ratchet` drawn at the engaged rest state;
 (b) their C-space, the torus unrolled onto [0, 2 pi) x [-pi, pi), with the paths of the
 wheel under a forward and a backward torque; (c) the same C-space on a torus.
 """
@@ -12,7 +12,7 @@ import numpy as np
 from matplotlib.colors import to_rgb
 
 from figures import _common as C
-from pes_ref import ratchet
+from pes_ref.devices import ratchet
 
 NAME = "fig01_ratchet_cspace"
 #: Torque on the wheel for the two example paths and how long they run (the CLI's defaults).

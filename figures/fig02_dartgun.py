@@ -1,6 +1,6 @@
 """Figure 2: the spring-loaded dart gun and its trigger, drawn from the geometry the analysis uses.
 
-The dart and the trigger tooth are the polygons of :func:`pes_ref.dartgun.dartgun_parts`,
+The dart and the trigger tooth are the polygons of :func:`pes_ref.devices.dartgun.dartgun_parts`,
 posed at three states the library computes: the unloaded rest state, the latched state
 after a reload, and a moment of the fire run after the trigger is pulled. The springs
 are drawn as zigzags between the parts and the gun's frame (drawing only).
@@ -11,7 +11,7 @@ import numpy as np
 
 from figures import _common as C
 from figures import _dartgun as G
-from pes_ref import dartgun
+from pes_ref.devices import dartgun
 
 NAME = "fig02_dartgun"
 #: The trigger pull drawn (force units), one that fires (Fig. 4).

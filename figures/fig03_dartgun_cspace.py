@@ -1,7 +1,7 @@
 """Figure 3: the dart gun mechanism's C-space, a plane (translation q0 of the dart, q1 of the trigger).
 
 (a) the simplified mechanism at q = (0, 0) with its two motions; (b) the blocked, free
-and boundary regions that :meth:`pes_ref.cspace.CSpaceGrid.blocked` and ``.distance``
+and boundary regions that :meth:`pes_ref.devices.cspace.CSpaceGrid.blocked` and ``.distance``
 compute on the analysis grid, with the unloaded rest state and the latched state marked.
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ import numpy as np
 
 from figures import _common as C
 from figures import _dartgun as G
-from pes_ref import dartgun
+from pes_ref.devices import dartgun
 
 NAME = "fig03_dartgun_cspace"
 

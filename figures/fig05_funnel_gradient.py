@@ -1,7 +1,7 @@
 """Figure 5: the design gradient dL/dE of one funnel iteration, with the particle paths behind it.
 
 The paper's Fig. 5 is lost from our copy; its text says the gradient is zero wherever no
-particle passes. :func:`pes_ref.designs.design_gradient` returns one iteration's masked
+particle passes. :func:`pes_ref.synthesis.designs.design_gradient` returns one iteration's masked
 gradient of the funnel objective (eq. (5)) with respect to every grid value, and the
 paths of that iteration's particles. (a) the first iteration, on the flat starting surface
 at the design's final resolution; (b) the iteration after the last one, on the designed
@@ -14,8 +14,8 @@ import numpy as np
 from matplotlib.colors import ListedColormap, SymLogNorm
 
 from figures import _common as C
-from pes_ref import designs
-from pes_ref.surface import Surface
+from pes_ref.synthesis import designs
+from pes_ref.core.surface import Surface
 
 NAME = "fig05_funnel_gradient"
 #: The colour scale is linear below this percentile of the nonzero |dL/dE| and logarithmic

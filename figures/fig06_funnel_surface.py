@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from figures import _common as C
-from pes_ref import designs
-from pes_ref.surface import Surface
+from pes_ref.synthesis import designs
+from pes_ref.core.surface import Surface
 
 NAME = "fig06_funnel_surface"
 

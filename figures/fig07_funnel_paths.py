@@ -1,9 +1,9 @@
 """Figure 7: particle paths on the synthesized funnel surface, held-out particles included.
 
 (a) paths on the designed surface: one training batch (the particles of the run's next
-iteration, :func:`pes_ref.designs.design_gradient`) and held-out particles drawn with a
-seed training never uses (:func:`pes_ref.designs.funnel_paths`); (b) where the held-out
-particles leave the bottom edge (:func:`pes_ref.designs.exit_positions`), on the design
+iteration, :func:`pes_ref.synthesis.designs.design_gradient`) and held-out particles drawn with a
+seed training never uses (:func:`pes_ref.synthesis.designs.funnel_paths`); (b) where the held-out
+particles leave the bottom edge (:func:`pes_ref.synthesis.designs.exit_positions`), on the design
 and on the flat starting surface.
 """
 from __future__ import annotations
@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from figures import _common as C
-from pes_ref import designs
-from pes_ref.surface import Surface
+from pes_ref.synthesis import designs
+from pes_ref.core.surface import Surface
 
 NAME = "fig07_funnel_paths"
 #: Held-out seed and count: the defaults of ``python -m pes_ref evaluate``.

@@ -3,7 +3,7 @@
 (a) the designed grid values of the oscillator design file (computed by ``python -m
 pes_ref design oscillator``) on the cylinder, q1 periodic; the scene adds the linear
 spring on q0. (b) 50 particles with torques evenly from the minimum to the maximum of the
-design range (:func:`pes_ref.designs.oscillator_torque_sweep`), started at rest at
+design range (:func:`pes_ref.synthesis.designs.oscillator_torque_sweep`), started at rest at
 q1 = 0 and q0 = the target amplitude, as the paper's text says.
 """
 from __future__ import annotations
@@ -11,8 +11,8 @@ from __future__ import annotations
 import dataclasses
 
 from figures import _common as C
-from pes_ref import designs
-from pes_ref.surface import Surface
+from pes_ref.synthesis import designs
+from pes_ref.core.surface import Surface
 
 NAME = "fig08_oscillator"
 #: Particles of the torque sweep (the paper's 50).

@@ -2,7 +2,7 @@
 
 The particles of Fig. 8 (all started at rest at q1 = 0, q0 = the target amplitude, each
 with its own torque from the minimum to the maximum of the design range), run by
-:func:`pes_ref.designs.oscillator_torque_sweep`; :func:`pes_ref.designs.phase_space`
+:func:`pes_ref.synthesis.designs.oscillator_torque_sweep`; :func:`pes_ref.synthesis.designs.phase_space`
 keeps the states after the first three target periods. A closed loop near the target
 orbit of eq. (6) is a stable oscillation.
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from figures import _common as C
 from figures.fig08_oscillator import PERIODS, torque_sweep
-from pes_ref import designs
+from pes_ref.synthesis import designs
 
 NAME = "fig09_phase_torques"
 #: Target periods discarded as the transient (the paper's three); the rest of Fig. 8's run is drawn.

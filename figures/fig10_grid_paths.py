@@ -1,14 +1,14 @@
 """Figure 10: particle paths from a 5 x 5 grid of starting positions at rest, maximum torque.
 
-:func:`pes_ref.designs.oscillator_grid_starts` starts 25 particles at rest on a 5 x 5
+:func:`pes_ref.synthesis.designs.oscillator_grid_starts` starts 25 particles at rest on a 5 x 5
 grid of (q0, q1) and pushes each with the design's maximum torque; their paths over the
 evaluation run (the problem's ``eval_periods`` target periods) are drawn on the surface.
 """
 from __future__ import annotations
 
 from figures import _common as C
-from pes_ref import designs
-from pes_ref.surface import Surface
+from pes_ref.synthesis import designs
+from pes_ref.core.surface import Surface
 
 NAME = "fig10_grid_paths"
 

@@ -1,16 +1,16 @@
 """Figure 11: the phase-space cycles the grid-started particles reach after 15 periods.
 
-The 25 particles of Fig. 10 (:func:`pes_ref.designs.oscillator_grid_starts`, at rest on a
+The 25 particles of Fig. 10 (:func:`pes_ref.synthesis.designs.oscillator_grid_starts`, at rest on a
 5 x 5 grid, maximum torque), run for 15 + 3 target periods; the last three periods in phase
-space (:func:`pes_ref.designs.phase_space`). The title counts the particles that reach the
-cycle by the library's test (:func:`pes_ref.designs.cycle_figures`).
+space (:func:`pes_ref.synthesis.designs.phase_space`). The title counts the particles that reach the
+cycle by the library's test (:func:`pes_ref.synthesis.designs.cycle_figures`).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from figures import _common as C
-from pes_ref import designs
+from pes_ref.synthesis import designs
 
 NAME = "fig11_grid_cycles"
 #: Target periods before the drawn window (the paper's 15), then periods drawn.

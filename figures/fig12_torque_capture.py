@@ -2,8 +2,8 @@
 
 The torque sweep of ``python -m pes_ref evaluate`` (50 torques evenly from the minimum to
 the maximum, started like the training batch, seed 12345, 15 target periods), run on the
-oscillator design and on the hand-drawn escapement (:func:`pes_ref.designs.escapement_values`,
-no optimization), analysed by :func:`pes_ref.designs.cycle_figures` over the last 3 periods.
+oscillator design and on the hand-drawn escapement (:func:`pes_ref.synthesis.designs.escapement_values`,
+no optimization), analysed by :func:`pes_ref.synthesis.designs.cycle_figures` over the last 3 periods.
 (a) amplitude of q0 per torque, filled where the particle reaches the cycle (amplitude and
 period within 25% of the targets, drift below 5% of A), with the 25% band; (b) how far q1
 turns per target period: the free-running speed ``tau / damping1`` is a straight line
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from figures import _common as C
-from pes_ref import designs
+from pes_ref.synthesis import designs
 
 NAME = "fig12_torque_capture"
 #: Held-out seed and particle count of ``evaluate``.

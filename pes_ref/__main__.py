@@ -1,7 +1,7 @@
-"""``python -m pes_ref``: the command line of :mod:`pes_ref.cli`."""
+"""``python -m pes_ref``: the command line of :mod:`pes_ref.cli.main`."""
 import sys
 
-from .cli import main
+from pes_ref.cli import main
 
 if __name__ == "__main__":
     sys.exit(main())

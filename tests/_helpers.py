@@ -1,7 +1,7 @@
 """Small helpers shared by the unit tests (not a test module)."""
 import numpy as np
 
-from pes_ref.testing.tolerances import FD_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL
 
 #: A dot-product test whose VJP side is below this carries no information.
 NONTRIVIAL = 1e-8

@@ -6,8 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from pes_ref import bench_cases, cli
-from pes_ref.testing.tolerances import GRAD_RTOL
+from pes_ref import cli
+from pes_ref.bench import cases as bench_cases
+from pes_ref.oracle.tolerances import GRAD_RTOL
 
 SECTIONS = ("scaling", "memory", "effects", "exponents", "design", "targets", "machine", "versions", "date")
 
@@ -51,7 +52,7 @@ def _agrees(module, name):
 @pytest.mark.parametrize("name", ["funnel", "oscillator"])
 def test_autograd_version_gives_the_reference_gradient(name):
     pytest.importorskip("autograd")
-    from pes_ref import bench_autograd
+    from pes_ref.bench import with_autograd as bench_autograd
     _agrees(bench_autograd, name)
 
 
@@ -59,5 +60,5 @@ def test_jax_version_gives_the_reference_gradient():
     """One case (the oscillator: cylinder, spring, walls, damping, torque) keeps the
     JAX compile inside the test budget; the funnel's is checked by every bench run."""
     pytest.importorskip("jax")
-    from pes_ref import bench_jax
+    from pes_ref.bench import with_jax as bench_jax
     _agrees(bench_jax, "oscillator")

@@ -1,16 +1,17 @@
-"""Unit tests of pes_ref.bicubic: the C1 Catmull-Rom surface (an option beside the paper's
+"""Unit tests of pes_ref.core.bicubic: the C1 Catmull-Rom surface (an option beside the paper's
 bilinear rule), its derivatives and adjoints, and what it does to the accuracy."""
 import numpy as np
 import pytest
 
 import pes_ref as pr
 from _helpers import TOPOLOGIES, assert_dot
-from pes_ref import Surface, bicubic as bc
+from pes_ref import Surface
+from pes_ref.core import bicubic as bc
 from pes_ref.testing import properties as pp
-from pes_ref.forces import Field
-from pes_ref.surface import Cells, grid_slope as bilinear_slope, locate, spacing
+from pes_ref.core.forces import Field
+from pes_ref.core.surface import Cells, grid_slope as bilinear_slope, locate, spacing
 from pes_ref.testing.finite_differences import check_vjp, relative_error
-from pes_ref.testing.tolerances import FD_EPS, FD_RTOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL, TRAJ_RTOL
 
 TOPO_IDS = sorted(TOPOLOGIES)
 SHAPES = [(6, 5), (3, 4), (2, 3), (4, 2)]          # 2 and 3 nodes: the ghost rules' corner cases

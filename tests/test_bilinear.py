@@ -1,14 +1,14 @@
-"""Unit tests of pes_ref.bilinear, the hot loop's grid force and its adjoint, and of the
-:class:`pes_ref.surface.Locator` they use: the same numbers as the textbook functions
-of pes_ref.surface (SPEC section 1), bit for bit where the arithmetic is the same."""
+"""Unit tests of pes_ref.core.bilinear, the hot loop's grid force and its adjoint, and of the
+:class:`pes_ref.core.surface.Locator` they use: the same numbers as the textbook functions
+of pes_ref.core.surface (SPEC section 1), bit for bit where the arithmetic is the same."""
 import numpy as np
 import pytest
 
 import pes_ref as pr
 from _helpers import TOPOLOGIES
-from pes_ref import bilinear
-from pes_ref.surface import Locator, grid_slope, grid_slope_vjp_q, grid_slope_vjp_values, locate
-from pes_ref.testing.tolerances import TRAJ_ATOL, TRAJ_RTOL
+from pes_ref.core import bilinear
+from pes_ref.core.surface import Locator, grid_slope, grid_slope_vjp_q, grid_slope_vjp_values, locate
+from pes_ref.oracle.tolerances import TRAJ_ATOL, TRAJ_RTOL
 
 SHAPE = (6, 5)
 LOWER, UPPER = np.array([0.0, -0.5]), np.array([1.2, 0.5])
@@ -142,7 +142,7 @@ def test_one_particle_runs_exactly_as_in_a_batch(topology, mode):
 def test_the_pointwise_fallback_gives_the_kernels_numbers(monkeypatch, mode):
     """The hot loop through the single-call functions (the path of an interpolation
     without a kernel of its own) agrees with the table kernels to rounding."""
-    import pes_ref.forces as forces_mod
+    import pes_ref.core.forces as forces_mod
     rng = np.random.default_rng(7)
     surf = pr.Surface(rng.uniform(-1, 1, SHAPE), LOWER, UPPER, (True, False))
     kw = dict(mobility=(0.01, 0.02)) if mode == "quasistatic" else dict(damping=0.2)

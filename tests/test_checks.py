@@ -1,9 +1,9 @@
-"""Unit tests of pes_ref.checks: the validation boundary (docs/decisions.md item 12)."""
+"""Unit tests of pes_ref.core.checks: the validation boundary (docs/decisions.md item 12)."""
 import numpy as np
 import pytest
 
-from pes_ref import checks
-from pes_ref.testing.tolerances import TRAJ_RTOL
+from pes_ref.core import checks
+from pes_ref.oracle.tolerances import TRAJ_RTOL
 
 NAME = "my_arg"          # a distinctive argument name that every error must quote
 NAME_RE = rf"\b{NAME}\b"

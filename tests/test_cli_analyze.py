@@ -1,4 +1,4 @@
-"""``python -m pes_ref analyze ratchet|dartgun``: output lines, help and errors (pes_ref.cli_analyze)."""
+"""``python -m pes_ref analyze ratchet|dartgun``: output lines, help and errors (pes_ref.cli.analyze)."""
 import re
 
 import pytest

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main
-from pes_ref.cli_design import OSCILLATOR_OBJECTIVE_NAMES
-from pes_ref.design_file import load_design
-from pes_ref.designs import OSCILLATOR_OBJECTIVES
+from pes_ref.cli.design import OSCILLATOR_OBJECTIVE_NAMES
+from pes_ref.synthesis.design_file import load_design
+from pes_ref.synthesis.designs import OSCILLATOR_OBJECTIVES
 
 
 def run(capsys, *argv):

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 import pes_ref
-from pes_ref import cli, oracle
-from pes_ref.conformance import generate, vectors_dir
+from pes_ref import cli
+from pes_ref.oracle import case as oracle
+from pes_ref.oracle.conformance import generate, vectors_dir
 from pes_ref.testing import conformance as conf
-from pes_ref.testing.tolerances import GRAD_RTOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import GRAD_RTOL, TRAJ_RTOL
 
 VECTORS = vectors_dir("v1")
 MANIFEST = conf.load_manifest("v1")

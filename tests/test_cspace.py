@@ -1,12 +1,13 @@
-"""Blocked regions, the signed distance field, eq. (1) and its cap, grid springs (pes_ref.cspace)."""
+"""Blocked regions, the signed distance field, eq. (1) and its cap, grid springs (pes_ref.devices.cspace)."""
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
 import pes_ref as pr
-from pes_ref import cspace as c, geometry as g
+from pes_ref.devices import cspace as c
+from pes_ref.devices import geometry as g
 from pes_ref.testing.finite_differences import directional_derivative, relative_error
-from pes_ref.testing.tolerances import FD_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL
 
 TWO_PI = 2 * np.pi
 

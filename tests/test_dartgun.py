@@ -1,10 +1,10 @@
-"""The paper's dart gun (Figs. 2-4) on a plane: reload and fire outcomes (pes_ref.dartgun)."""
+"""The paper's dart gun (Figs. 2-4) on a plane: reload and fire outcomes (pes_ref.devices.dartgun)."""
 import dataclasses
 
 import numpy as np
 import pytest
 
-from pes_ref import dartgun as D
+from pes_ref.devices import dartgun as D
 
 #: A coarser grid and step than the default (same geometry; dt still 16x inside the
 #: stability limit of this grid) keep the module under ~3 s.

@@ -4,9 +4,9 @@ import os
 import numpy as np
 import pytest
 
-import pes_ref.designs as pd
-from pes_ref.design_file import DesignFileError, check_same_scene, load_design, save_design
-from pes_ref.designs import Plan
+import pes_ref.synthesis.designs as pd
+from pes_ref.synthesis.design_file import DesignFileError, check_same_scene, load_design, save_design
+from pes_ref.synthesis.designs import Plan
 
 TINY = dict(grid=9, n_steps=50, dt=0.05)
 

@@ -5,10 +5,10 @@ import signal
 import numpy as np
 import pytest
 
-import pes_ref.designs as pd
-from pes_ref.designs import Plan
+import pes_ref.synthesis.designs as pd
+from pes_ref.synthesis.designs import Plan
 from pes_ref.testing.finite_differences import directional_derivative, relative_error
-from pes_ref.testing.tolerances import FD_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL
 
 #: A tiny funnel (13 x 13 grid, 100 steps) on which 40 iterations take about a second.
 TINY_FUNNEL = dict(grid=13, n_steps=100, dt=0.035)

@@ -9,7 +9,7 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
-@pytest.mark.parametrize("module", ["pes_ref.scene", "pes_ref.oracle", "pes_ref.optimizers"])
+@pytest.mark.parametrize("module", ["pes_ref.core.scene", "pes_ref.oracle.case", "pes_ref.synthesis.optimizers"])
 def test_docstring_examples(module):
     result = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
     assert result.attempted > 0 and result.failed == 0

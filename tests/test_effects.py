@@ -1,9 +1,9 @@
-"""Unit tests of pes_ref.effects: external force effects and their schedule (SPEC section 2)."""
+"""Unit tests of pes_ref.core.effects: external force effects and their schedule (SPEC section 2)."""
 import numpy as np
 import pytest
 
 from pes_ref import Constant, Noise, PerParticle, Schedule, Window, build_schedule
-from pes_ref.effects import step_times
+from pes_ref.core.effects import step_times
 
 N, T = 3, 8
 #: dt and t0 are dyadic so that every t_n = t0 + n dt is exact and window edges can sit on it.

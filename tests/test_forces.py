@@ -1,15 +1,15 @@
-"""Unit tests of pes_ref.forces: the total conservative force, its adjoint, and the
+"""Unit tests of pes_ref.core.forces: the total conservative force, its adjoint, and the
 guarantee that an effect a scene does not name costs nothing."""
 import numpy as np
 import pytest
 
 import pes_ref as pr
-import pes_ref.forces as forces_mod
-import pes_ref.scene as scene_mod
+import pes_ref.core.forces as forces_mod
+import pes_ref.core.scene as scene_mod
 from _helpers import TOPOLOGIES, assert_dot, kink_distance
-from pes_ref.forces import GradAccumulator, force, force_vjp, potential_energy
+from pes_ref.core.forces import GradAccumulator, force, force_vjp, potential_energy
 from pes_ref.testing.finite_differences import central_gradient, check_vjp, relative_error
-from pes_ref.testing.tolerances import FD_RTOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
 
 N = 6
 #: Points used in derivative checks keep at least this distance from every kink.

@@ -1,9 +1,9 @@
-"""Polygons, motions, posing and the positive-area overlap test (pes_ref.geometry)."""
+"""Polygons, motions, posing and the positive-area overlap test (pes_ref.devices.geometry)."""
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from pes_ref import geometry as g
+from pes_ref.devices import geometry as g
 
 SQUARE = g.rectangle(0.0, 0.0, 1.0, 1.0).vertices
 #: A non-convex L: the unit square's upper-right quarter is missing.

@@ -1,4 +1,4 @@
-"""Unit tests of pes_ref.gjf: the Gronbech-Jensen-Farago step (an option beside the paper's
+"""Unit tests of pes_ref.core.gjf: the Gronbech-Jensen-Farago step (an option beside the paper's
 damped Verlet), its adjoint against central differences, and its order of accuracy."""
 import dataclasses
 
@@ -8,11 +8,11 @@ from scipy.linalg import expm
 
 import pes_ref as pr
 from _helpers import TOPOLOGIES, assert_dot
-from pes_ref.gjf import adjoint_gjf, simulate_gjf
-from pes_ref.integrator import adjoint_dynamic, simulate_dynamic
+from pes_ref.core.gjf import adjoint_gjf, simulate_gjf
+from pes_ref.core.integrator import adjoint_dynamic, simulate_dynamic
 from pes_ref.testing import properties as pp
 from pes_ref.testing.finite_differences import check_vjp
-from pes_ref.testing.tolerances import FD_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL
 
 #: One step computed by hand from the published formulas (another association of the same
 #: arithmetic as the package's sub-steps) agrees to a few ulps.

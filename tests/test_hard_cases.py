@@ -1,6 +1,6 @@
 """Hard cases that must stay numerically stable (issue 5).
 
-Stiff terms near and past the explicit stability limit (:mod:`pes_ref.stability`),
+Stiff terms near and past the explicit stability limit (:mod:`pes_ref.core.stability`),
 huge surfaces, eq. (1) near its singularity, particles on the grid's special points,
 tiny and long runs, a chaotic scene whose gradient grows exponentially (the growth is
 measured and reported, not hidden), and input dtypes and memory layouts.
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import pes_ref as pr
-from pes_ref import stability
-from pes_ref.cspace import apf_energy
+from pes_ref.core import stability
+from pes_ref.devices.cspace import apf_energy
 from pes_ref.testing import properties as pp
-from pes_ref.testing.tolerances import FD_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL
 
 #: Velocity Verlet on a harmonic mode (omega dt = w) conserves E - w^2/8 omega^2 q^2,
 #: so max_n |E_n - E_0| <= (w^2/4) / (1 - w^2/4) E_0: the exact bound of a bounded
@@ -41,7 +41,7 @@ def _plane(values=None, periodic=(False, False), shape=(3, 3), lower=(0.0, 0.0),
 def test_damping_leaves_the_limit_at_two(c):
     """The damped step's amplification matrix (scaled harmonic mode, c = dt gamma / 2m)
     has spectral radius <= 1 up to omega dt = 2 and > 1 beyond, for every damping: the
-    limit of :mod:`pes_ref.stability` does not depend on gamma."""
+    limit of :mod:`pes_ref.core.stability` does not depend on gamma."""
     def radius(w):
         y_row = np.array([1.0 - w * w / 2.0, 1.0])                          # y' = (1 - w^2/2) y + u
         u_row = (np.array([0.0, 1.0 - c]) - w * w / 2.0 * (np.array([1.0, 0.0]) + y_row)) / (1.0 + c)

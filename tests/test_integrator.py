@@ -1,4 +1,4 @@
-"""Unit tests of pes_ref.integrator: the time stepping of SPEC section 3 and its adjoint
+"""Unit tests of pes_ref.core.integrator: the time stepping of SPEC section 3 and its adjoint
 (section 5), through the scene layer and directly."""
 import dataclasses
 import functools
@@ -9,9 +9,9 @@ import pytest
 
 import pes_ref as pr
 from _helpers import TOPOLOGIES, kink_distance
-from pes_ref.integrator import simulate_dynamic
+from pes_ref.core.integrator import simulate_dynamic
 from pes_ref.testing.finite_differences import central_gradient, relative_error
-from pes_ref.testing.tolerances import FD_EPS, FD_RTOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL, TRAJ_RTOL
 
 #: One step computed by hand from SPEC section 3's formulas (a different association of
 #: the same arithmetic as the package's sub-steps) agrees to a few ulps.

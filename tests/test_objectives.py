@@ -1,4 +1,4 @@
-"""Unit tests of pes_ref.objectives (SPEC section 4): values by hand, derivatives by
+"""Unit tests of pes_ref.core.objectives (SPEC section 4): values by hand, derivatives by
 central differences."""
 import math
 
@@ -7,9 +7,9 @@ import pytest
 
 import pes_ref as pr
 from pes_ref import Custom, Funnel, Oscillator, Quadratic, regularization
-from pes_ref.objectives import OscillatorCycle
+from pes_ref.core.objectives import OscillatorCycle
 from pes_ref.testing.finite_differences import central_gradient, relative_error
-from pes_ref.testing.tolerances import FD_RTOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
 
 # A tiny trajectory: T + 1 = 3 states, N = 2 particles.
 X = np.array([[[0.0, 9.0], [1.0, 9.0]],

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from pes_ref.optimizers import Adam, RMSprop, clip_by_norm, make_optimizer, optimizer_from_state
+from pes_ref.synthesis.optimizers import Adam, RMSprop, clip_by_norm, make_optimizer, optimizer_from_state
 
 G1 = np.array([0.5, -2.0])
 G2 = np.array([1.0, 4.0])

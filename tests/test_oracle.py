@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 import pes_ref
-from pes_ref import cli, oracle
+from pes_ref import cli
+from pes_ref.oracle import case as oracle
+from pes_ref.oracle.conformance import vectors_dir
 from pes_ref.testing.conformance import load_manifest
 
 ROOT = Path(pes_ref.__file__).resolve().parent.parent
-VECTORS = Path(pes_ref.__file__).resolve().parent / "conformance" / "v1"
+VECTORS = vectors_dir("v1")
 MANIFEST = load_manifest("v1")["vectors"]
 VALID = [e for e in MANIFEST if e["kind"] == "valid"]
 INVALID = [e for e in MANIFEST if e["kind"] == "invalid"]

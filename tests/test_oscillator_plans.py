@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import pes_ref.designs as pd
-from pes_ref.objectives import Oscillator
+import pes_ref.synthesis.designs as pd
+from pes_ref.core.objectives import Oscillator
 from pes_ref.testing.finite_differences import central_gradient, relative_error
-from pes_ref.testing.tolerances import FD_RTOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "validation" / "experiments"))
 plans = importlib.import_module("oscillator_plans")

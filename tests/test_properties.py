@@ -17,10 +17,10 @@ from hypothesis import assume, event, given, note, settings
 from hypothesis import strategies as st
 
 import pes_ref as pr
-from pes_ref.forces import force
+from pes_ref.core.forces import force
 from pes_ref.testing import properties as pp
 from pes_ref.testing import strategies as pst
-from pes_ref.testing.tolerances import FD_RTOL, GRAD_RTOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL, GRAD_RTOL, TRAJ_RTOL
 
 # ----------------------------------------------------------------------------- budgets
 #: Examples per cheap property: the loaded profile's count (200 by default).

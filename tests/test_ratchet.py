@@ -1,10 +1,10 @@
-"""The ratchet and pawl on a torus: direction selectivity (pes_ref.ratchet)."""
+"""The ratchet and pawl on a torus: direction selectivity (pes_ref.devices.ratchet)."""
 import dataclasses
 
 import numpy as np
 import pytest
 
-from pes_ref import ratchet as R
+from pes_ref.devices import ratchet as R
 
 #: A coarser grid and step than the default (same geometry; dt still ~30x inside the
 #: stability limit of this grid) keep the module under ~2 s.

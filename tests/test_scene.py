@@ -1,4 +1,4 @@
-"""Unit tests of pes_ref.scene: validation of Scene / simulate / value_and_grad, input
+"""Unit tests of pes_ref.core.scene: validation of Scene / simulate / value_and_grad, input
 promotion and non-mutation, and determinism."""
 import dataclasses
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import pes_ref as pr
-from pes_ref.testing.tolerances import TRAJ_ATOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import TRAJ_ATOL, TRAJ_RTOL
 
 N = 2
 

@@ -1,15 +1,15 @@
-"""Unit tests of pes_ref.surface against SPEC section 1."""
+"""Unit tests of pes_ref.core.surface against SPEC section 1."""
 import math
 
 import numpy as np
 import pytest
 
 from pes_ref import Surface
-from pes_ref.surface import (grid_energy, grid_slope, grid_slope_vjp_q, grid_slope_vjp_values, locate,
+from pes_ref.core.surface import (grid_energy, grid_slope, grid_slope_vjp_q, grid_slope_vjp_values, locate,
                              spacing, wrap)
 from pes_ref.testing.finite_differences import central_gradient, check_vjp, relative_error
 from _helpers import TOPOLOGIES, assert_dot
-from pes_ref.testing.tolerances import FD_RTOL, TRAJ_ATOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 
 TOPO_IDS = sorted(TOPOLOGIES)
 

@@ -1,13 +1,13 @@
-"""Unit tests of pes_ref.terms: springs and walls (SPEC section 2)."""
+"""Unit tests of pes_ref.core.terms: springs and walls (SPEC section 2)."""
 import numpy as np
 import pytest
 
 from pes_ref import Spring, Walls
-from pes_ref.terms import (spring_add_force, spring_delta, spring_energy, spring_force_vjp, wall_add_force,
+from pes_ref.core.terms import (spring_add_force, spring_delta, spring_energy, spring_force_vjp, wall_add_force,
                            wall_bounds, wall_energy, wall_force_vjp)
 from pes_ref.testing.finite_differences import central_gradient, check_vjp, relative_error
 from _helpers import assert_dot
-from pes_ref.testing.tolerances import FD_RTOL, TRAJ_ATOL, TRAJ_RTOL
+from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 
 LOWER = np.array([0.0, -1.0])
 UPPER = np.array([1.0, 1.0])
@@ -295,7 +295,7 @@ def test_walls_validation_names_the_argument(k, margin, edges, exc, name):
 
 @pytest.mark.parametrize("periodic", PERIODICS, ids=PER_IDS)
 def test_spring_kernel_is_bit_identical_to_the_functions(periodic):
-    from pes_ref.terms import SpringKernel
+    from pes_ref.core.terms import SpringKernel
     rng = np.random.default_rng(21)
     q, c = _spring_points(periodic, 7, 21)
     k, w = rng.uniform(0.5, 2.0, (7, 2)), rng.standard_normal((7, 2))
@@ -316,7 +316,7 @@ def test_spring_kernel_is_bit_identical_to_the_functions(periodic):
 @pytest.mark.parametrize("edges", [[[True, True], [True, True]], [[True, False], [False, True]],
                                    [[True, True], [False, False]]], ids=["all", "two", "axis0"])
 def test_wall_kernel_is_bit_identical_to_the_functions(edges):
-    from pes_ref.terms import WallKernel
+    from pes_ref.core.terms import WallKernel
     rng = np.random.default_rng(22)
     lo, hi = wall_bounds(LOWER, UPPER, 0.1, np.array(edges))
     q = LOWER + rng.uniform(-0.3, 1.3, (40, 2)) * LENGTH

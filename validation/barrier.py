@@ -1,10 +1,10 @@
 """Barrier stiffness: eq. (1)'s v and r_c against the largest usable dt and the cost of an analysis.
 
 A C-space whose blocked region is the half plane q0 < 0 (signed distance r = q0) is
-turned into a surface by the paper's eq. (1) (``pes_ref.cspace.apf_energy``, capped
+turned into a surface by the paper's eq. (1) (``pes_ref.devices.cspace.apf_energy``, capped
 below ``r_min = h/2``). For each barrier strength v and cut-off r_c the script
 reports the grid's stiffness and the explicit stability limit of
-:mod:`pes_ref.stability`, the analytic curvature at ``r_min`` and at the turning point
+:mod:`pes_ref.core.stability`, the analytic curvature at ``r_min`` and at the turning point
 of a particle thrown at the barrier, the largest dt (found by bisection) that still
 conserves that particle's energy to 5%, and what a device analysis of one time unit
 then costs. A second table shows a stiff one-sided wall near its limit.
@@ -19,8 +19,8 @@ import numpy as np
 
 from _common import Fragment, parse_args, plt, topic_of, wall_time
 import pes_ref as pr
-from pes_ref import stability
-from pes_ref.cspace import apf_curvature, apf_energy, default_r_min
+from pes_ref.core import stability
+from pes_ref.devices.cspace import apf_curvature, apf_energy, default_r_min
 
 #: "Usable" step: the thrown particle's energy error stays below this fraction of its energy.
 ENERGY_TOL = 0.05
@@ -73,7 +73,7 @@ def main(argv=None) -> int:
     frag = Fragment(topic, "Barrier stiffness: eq. (1) against the stable time step", args.out, intro=(
         f"Blocked half plane q0 < 0, grid spacing h = {h:g}, eq. (1) capped below r_min = h/2; a unit-mass particle "
         f"with kinetic energy {KINETIC:g} is thrown at the barrier. dt_max = 2 / sqrt(K) with K the grid's "
-        f"stiffness (pes_ref.stability); 'usable dt' keeps that particle's energy error <= {ENERGY_TOL:.0%} "
+        f"stiffness (pes_ref.core.stability); 'usable dt' keeps that particle's energy error <= {ENERGY_TOL:.0%} "
         "(bisection); the cost is that of one time unit of one particle at the usable dt."))
     rows = []
     for v in vs:

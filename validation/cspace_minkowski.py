@@ -6,7 +6,7 @@ the convex hull of all pairwise vertex differences). On n x n grids the sampled 
 (the midpoints of grid edges whose two nodes differ, blocked / free) is compared with the
 exact boundary of M both ways (the Hausdorff distance), in units and in grid spacings;
 nodes classified on the wrong side of M are counted; the signed distance field of
-``pes_ref.cspace.signed_distance`` is compared with the exact signed distance to M within
+``pes_ref.devices.cspace.signed_distance`` is compared with the exact signed distance to M within
 a band of width ``BAND`` spacings around the boundary; and the time to compute the blocked
 region is recorded (both polygons have ``N_EDGES`` edges).
 
@@ -20,7 +20,8 @@ import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
 from _common import Fragment, fit_order, parse_args, plt, topic_of
-from pes_ref import cspace, geometry
+from pes_ref.devices import cspace
+from pes_ref.devices import geometry
 
 #: Edges of each polygon (the issue's "two ~50-edge polygons").
 N_EDGES = 50

@@ -17,7 +17,7 @@ from scipy.integrate import solve_ivp
 from _common import (Fragment, analytic_force, analytic_potential, fit_order, option_available, parse_args, plt,
                      topic_of, wall_time)
 import pes_ref as pr
-from pes_ref.forces import force
+from pes_ref.core.forces import force
 
 
 #: Steps of the timing run (M particles): time per particle-step of pr.simulate.

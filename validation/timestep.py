@@ -21,7 +21,7 @@ from scipy.integrate import solve_ivp
 from _common import (Fragment, analytic_potential, fit_order, option_available, parse_args, plt, topic_of,
                      wall_time)
 import pes_ref as pr
-from pes_ref.forces import force
+from pes_ref.core.forces import force
 
 #: The reference's tolerances: rtol 1e-12 as the issue asks; atol far below any error measured.
 REF_RTOL, REF_ATOL = 1e-12, 1e-14

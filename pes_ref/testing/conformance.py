@@ -1,6 +1,6 @@
 """Check another implementation against the shipped conformance vectors.
 
-The vectors (:mod:`pes_ref.conformance`) are oracle cases with their reference results
+The vectors (:mod:`pes_ref.oracle.conformance`) are oracle cases with their reference results
 (SPEC section 6). An implementation plugs in one function per check:
 
 - :func:`check_simulate`: ``simulate_fn(case) -> {"x", "v", "energy"}``
@@ -19,7 +19,7 @@ Example
 >>> from pes_ref.testing import conformance
 >>> reports = conformance.check_gradients(oracle.run_case)   # doctest: +SKIP
 
-Tolerances (:mod:`pes_ref.testing.tolerances`): an entry passes when
+Tolerances (:mod:`pes_ref.oracle.tolerances`): an entry passes when
 ``|got - want| <= atol + rtol |want|``. Trajectory keys (``x``, ``v``, ``energy``,
 ``loss``) use ``TRAJ_RTOL``/``TRAJ_ATOL``; gradients use ``GRAD_RTOL`` and
 ``GRAD_ATOL * max|want|`` (the largest entry of that gradient, or 1 for an all-zero one).
@@ -36,8 +36,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..conformance import LATEST, vectors_dir
-from .tolerances import GRAD_ATOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL
+from pes_ref.oracle.conformance import LATEST, vectors_dir
+from pes_ref.oracle.tolerances import GRAD_ATOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 
 __all__ = ["VectorReport", "load_manifest", "iter_vectors", "compare_results", "relative_errors",
            "passes", "check_simulate", "check_gradients", "check_invalid", "TRAJECTORY_KEYS"]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .tolerances import FD_EPS
+from pes_ref.oracle.tolerances import FD_EPS
 
 __all__ = ["central_gradient", "directional_derivative", "check_vjp", "relative_error"]
 

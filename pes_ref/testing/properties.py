@@ -33,14 +33,14 @@ from dataclasses import dataclass, field as dc_field, replace
 
 import numpy as np
 
-from ..effects import step_times
-from ..scene import Scene
-from ..stability import grid_cross_curvature
-from ..surface import Surface
-from ..scene import energy as _energy
-from ..scene import simulate as _simulate
-from ..terms import Spring
-from .tolerances import FD_EPS
+from pes_ref.core.effects import step_times
+from pes_ref.core.scene import Scene
+from pes_ref.core.stability import grid_cross_curvature
+from pes_ref.core.surface import Surface
+from pes_ref.core.scene import energy as _energy
+from pes_ref.core.scene import simulate as _simulate
+from pes_ref.core.terms import Spring
+from pes_ref.oracle.tolerances import FD_EPS
 
 __all__ = ["grid_cross_curvature", "grid_slope_bound", "max_frequency", "max_speed",
            "EnergyDrift", "energy_drift", "energy_error_budget", "DriftRatio", "drift_ratio",
@@ -679,7 +679,7 @@ def check_gradient_fd(value_and_grad_fn, scene: Scene, x0, v0, objective, names=
         the signature of :func:`pes_ref.value_and_grad`; ``grads[name]`` shaped like the
         input (``fext`` is passed as the realized (T+1, N, 2) schedule).
     scene, x0, v0 : the case
-    objective : an object with ``value_and_grad(x, v, t)`` (:mod:`pes_ref.objectives`)
+    objective : an object with ``value_and_grad(x, v, t)`` (:mod:`pes_ref.core.objectives`)
     names : sequence of str, optional
         Gradients to check (default :func:`gradient_names`).
     regularization_weight : float

@@ -27,12 +27,12 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import strategies as st
 
-from ..effects import Constant, Noise, PerParticle, Window
-from ..objectives import Funnel, Oscillator, Quadratic
-from ..scene import Scene
-from ..surface import Surface
-from ..terms import Spring, Walls
-from .properties import grid_cross_curvature, max_frequency
+from pes_ref.core.effects import Constant, Noise, PerParticle, Window
+from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
+from pes_ref.core.scene import Scene
+from pes_ref.core.surface import Surface
+from pes_ref.core.terms import Spring, Walls
+from pes_ref.testing.properties import grid_cross_curvature, max_frequency
 
 __all__ = ["TOPOLOGIES", "topologies", "seeds", "surfaces", "states", "scenes", "scene_cases",
            "objectives"]

@@ -1,18 +1,5 @@
-"""Tolerances of the numerical contract (SPEC preamble and section 5), as named constants.
+"""The contract's tolerances, for tests: re-exported from their home,
+:mod:`pes_ref.oracle.tolerances`."""
+from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL, GRAD_ATOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 
-Other implementations compare against the reference with these; the project's own
-tests use them too, so that a tolerance is never loosened in one place only.
-"""
-
-#: Trajectories (x, v, energy, loss) of a conforming implementation, relative (SPEC preamble).
-TRAJ_RTOL = 1e-12
-#: ... and the absolute floor under which entries count as zero.
-TRAJ_ATOL = 1e-12
-#: Gradients of a conforming implementation, relative (SPEC preamble).
-GRAD_RTOL = 1e-9
-#: ... and the absolute floor, scaled by the largest entry of the gradient compared.
-GRAD_ATOL = 1e-9
-#: The adjoint against central finite differences, away from kinks (issue 2: below 1e-6).
-FD_RTOL = 1e-6
-#: The default central-difference step, relative to the parameter's scale.
-FD_EPS = 1e-6
+__all__ = ["TRAJ_RTOL", "TRAJ_ATOL", "GRAD_RTOL", "GRAD_ATOL", "FD_RTOL", "FD_EPS"]

@@ -2,14 +2,14 @@
 
 Every row of the tables "Plans tried in the third session" in ``docs/synthesis.md``
 is one named plan here (:data:`PLANS`); this script regenerates it. A plan is the
-package's oscillator problem (:class:`pes_ref.designs.OscillatorProblem`) and plan
-machinery (:class:`pes_ref.designs.Plan`: RMSprop, learning-rate decay, coarse-to-fine
+package's oscillator problem (:class:`pes_ref.synthesis.designs.OscillatorProblem`) and plan
+machinery (:class:`pes_ref.synthesis.designs.Plan`: RMSprop, learning-rate decay, coarse-to-fine
 stages) plus the training variations that are not package options:
 
 - ``cost="window"``: :class:`WindowPhase`, eq. (6) with its reference phase refitted per
   particle in each period-long window (a phase slip between windows costs nothing, a
   period error within a window does);
-- ``init="escapement"``: the hand-drawn escapement surface (:func:`pes_ref.designs.escapement_values`);
+- ``init="escapement"``: the hand-drawn escapement surface (:func:`pes_ref.synthesis.designs.escapement_values`);
 - ``torque_widen``: the batch's torque range grows from a narrow band to the full range;
 - ``cycle_share``: that share of each batch starts on the target cycle at a random phase
   and a random q1;
@@ -55,10 +55,10 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-import pes_ref.designs as pd  # noqa: E402
-from pes_ref.designs import escapement_values  # noqa: E402
-from pes_ref.objectives import Oscillator, OscillatorCycle  # noqa: E402
-from pes_ref.scene import simulate, value_and_grad  # noqa: E402
+import pes_ref.synthesis.designs as pd  # noqa: E402
+from pes_ref.synthesis.designs import escapement_values  # noqa: E402
+from pes_ref.core.objectives import Oscillator, OscillatorCycle  # noqa: E402
+from pes_ref.core.scene import simulate, value_and_grad  # noqa: E402
 
 DEFAULT_OUT = ROOT / "validation" / "out" / "oscillator_plans"
 #: Seeds of the two evaluation sets: the held-out one of ``evaluate`` and a validation set.

@@ -1,0 +1,10 @@
+"""The benchmark (``python -m pes_ref bench``): what accuracy and each effect cost in time.
+
+- :mod:`pes_ref.bench.benchmark`      the benchmark itself and its report
+- :mod:`pes_ref.bench.cases`          the benchmark's scenes
+- :mod:`pes_ref.bench.spec`           the step written for autodiff frameworks
+- :mod:`pes_ref.bench.with_autograd` / :mod:`pes_ref.bench.with_jax`  the optional comparisons
+"""
+from pes_ref.bench.benchmark import FULL, QUICK, Config, format_report, run, write_outputs
+
+__all__ = ["Config", "FULL", "QUICK", "run", "format_report", "write_outputs"]

@@ -1,0 +1,175 @@
+"""The ``design`` command of ``python -m pes_ref``.
+
+- ``design funnel|oscillator [--iterations N] [--seed S] [--out FILE.npz] [--resume FILE.npz]
+  [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C]
+  [--particles N] [--objective overshoot|eq6] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
+  run (or continue) a design and write its file (:mod:`pes_ref.synthesis.design_file`). A progress line goes to stderr
+  every ``--progress`` seconds; Ctrl-C finishes the iteration, saves and exits 0; a run that
+  goes non-finite saves its last finite state and exits 1.
+
+``--smoke`` is a tiny preset for tests and a quick look (see ``docs/synthesis.md``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+
+from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, error
+
+#: The ``--smoke`` preset: problem overrides per kind, and the plan's (iterations, particles, stages).
+SMOKE = {
+    "funnel": ({"grid": 12, "n_steps": 60, "dt": 0.05}, (6, 8, ((0, 0),))),
+    "oscillator": ({"grid0": 8, "grid1": 8, "n_steps": 60, "eval_periods": 4}, (6, 4, ((0, 0),))),
+}
+METRIC_NAMES = {"funnel": "in_band", "oscillator": "amp_err"}
+#: ``--objective`` choices: the keys of :data:`pes_ref.synthesis.designs.OSCILLATOR_OBJECTIVES` (tested equal).
+OSCILLATOR_OBJECTIVE_NAMES = ("overshoot", "eq6")
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "design", help="design a funnel or an oscillator by gradient descent (paper Figs. 6-11)",
+        description="Optimize the grid values of a potential energy surface for the paper's funnel or "
+                    "oscillator objective and write the design (grid, scene parameters, seed, loss history, "
+                    "optimizer state) to FILE.npz. --iterations is the total count to reach, also on --resume. "
+                    "Ctrl-C stops after the current iteration and saves. An existing --out is refused unless "
+                    "--force; with --resume and no --out the resumed file itself is updated.")
+    p.add_argument("kind", choices=["funnel", "oscillator"])
+    p.add_argument("--iterations", type=int, default=None, help="total iterations (default: the plan's)")
+    p.add_argument("--seed", type=int, default=None, help="run seed (default 0; a resumed run keeps its own)")
+    p.add_argument("--out", default=None, metavar="FILE.npz", help="design file to write (default KIND.npz)")
+    p.add_argument("--resume", default=None, metavar="FILE.npz", help="continue the run saved in this file")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="override one scene parameter (e.g. --set n_steps=200); repeatable")
+    p.add_argument("--lr", type=float, default=None, help="initial learning rate (default: the plan's)")
+    p.add_argument("--lr-final", type=float, default=None, help="learning rate reached at the last iteration")
+    p.add_argument("--objective", choices=OSCILLATOR_OBJECTIVE_NAMES, default=None,
+                   help="oscillator only: named training setting, 'overshoot' (default: eq. (6) + eq. (7) aimed "
+                        "at 1.4 times the target amplitude) or 'eq6' (the paper's setting, aimed at the target "
+                        "amplitude); evaluation is the same for both")
+    p.add_argument("--optimizer", choices=["rmsprop", "adam"], default=None)
+    p.add_argument("--clip", type=float, default=None, help="clip the gradient to this norm")
+    p.add_argument("--particles", type=int, default=None, help="particles per iteration")
+    grp = p.add_mutually_exclusive_group()
+    grp.add_argument("--stages", default=None, metavar="IT:GRID,...",
+                     help="coarse-to-fine grid stages, e.g. 0:25,100:50,200:0 (0 = the scene's grid)")
+    grp.add_argument("--no-stages", action="store_true", help="plain run on the scene's grid from the start")
+    p.add_argument("--smoke", action="store_true", help="tiny preset (a few iterations on a tiny grid)")
+    p.add_argument("--progress", type=float, default=2.0, metavar="SECONDS", help="progress line period")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=_run_design)
+
+
+def _parse_sets(items, problem_cls) -> dict:
+    fields = {f.name: f for f in dataclasses.fields(problem_cls)}
+    out = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or name not in fields:
+            raise ValueError(f"--set {item!r}: expected NAME=VALUE with NAME one of {sorted(fields)}")
+        default = fields[name].default
+        try:
+            out[name] = type(default)(text) if not isinstance(default, bool) else text.lower() in ("1", "true")
+        except ValueError:
+            raise ValueError(f"--set {item!r}: {text!r} is not a {type(default).__name__}") from None
+    return out
+
+
+def _parse_stages(text: str) -> tuple:
+    try:
+        return tuple(tuple(int(x) for x in part.split(":")) for part in text.split(","))
+    except ValueError:
+        raise ValueError(f"--stages {text!r}: expected IT:GRID pairs separated by commas, e.g. 0:25,100:0") from None
+
+
+def _plan_overrides(args) -> dict:
+    out = {}
+    for name, key in (("iterations", "iterations"), ("lr", "lr"), ("lr_final", "lr_final"),
+                      ("optimizer", "optimizer"), ("clip", "clip"), ("particles", "n_particles")):
+        if getattr(args, name) is not None:
+            out[key] = getattr(args, name)
+    if args.stages is not None:
+        out["stages"] = _parse_stages(args.stages)
+    if args.no_stages:
+        out["stages"] = ((0, 0),)
+    return out
+
+
+def _format_time(seconds: float) -> str:
+    if not seconds < float("inf"):
+        return "?"
+    seconds = int(round(seconds))
+    return f"{seconds // 60}:{seconds % 60:02d}"
+
+
+def _run_design(args) -> int:
+    from pes_ref.synthesis import designs
+    from pes_ref.synthesis.design_file import check_same_scene, load_design, save_design
+    try:
+        sets = _parse_sets(args.set, designs.PROBLEMS[args.kind])
+        plan_over = _plan_overrides(args)
+        base_plan = designs.DEFAULT_PLANS[args.kind]
+        if args.objective is not None:
+            if args.kind != "oscillator":
+                raise ValueError(f"--objective {args.objective}: only the oscillator has a choice of objective")
+            obj_sets, base_plan = designs.OSCILLATOR_OBJECTIVES[args.objective]
+            sets = {**obj_sets, **sets}
+        if args.smoke:
+            smoke_sets, (its, parts, stages) = SMOKE[args.kind]
+            sets = {**smoke_sets, **sets}
+            plan_over = {"iterations": its, "n_particles": parts, "stages": stages, **plan_over}
+        if args.resume is not None:
+            state = load_design(args.resume)
+            check_same_scene(state, args.kind, sets)
+            if args.seed is not None and args.seed != state.seed:
+                raise ValueError(f"--seed {args.seed} differs from the resumed run's seed {state.seed}")
+            if "optimizer" in plan_over and plan_over["optimizer"] != state.plan.optimizer:
+                raise ValueError(f"--optimizer {plan_over['optimizer']} differs from the resumed run's "
+                                 f"{state.plan.optimizer}")
+            state.plan = dataclasses.replace(state.plan, **plan_over)
+            out = args.out if args.out is not None else args.resume
+            may_overwrite = args.force or os.path.abspath(out) == os.path.abspath(args.resume)
+        else:
+            plan = dataclasses.replace(base_plan, **plan_over)
+            state = designs.new_design(args.kind, seed=0 if args.seed is None else args.seed, plan=plan, **sets)
+            out = args.out if args.out is not None else f"{args.kind}.npz"
+            may_overwrite = args.force
+        if os.path.exists(out) and not may_overwrite:
+            raise FileExistsError(f"{out} exists; refusing to overwrite it (use --force or another --out)")
+    except (OSError, ValueError, TypeError) as exc:
+        return error(exc)
+
+    metric_name = METRIC_NAMES[args.kind]
+
+    def progress(p):
+        if not args.quiet:
+            print(f"design {args.kind}: it {p.iteration}/{p.total} | loss {p.loss:.4g} | {metric_name} "
+                  f"{p.metric:.3f} | {p.it_per_s:.1f} it/s | left {_format_time(p.seconds_left)}",
+                  file=sys.stderr, flush=True)
+
+    def checkpoint(s):
+        save_design(out, s, overwrite=True)
+
+    start = state.iteration
+    try:
+        save_design(out, state, overwrite=may_overwrite)       # claims the file before the long run
+        state = designs.run_design(state, state.plan.iterations, callback=progress, progress_every=args.progress,
+                                   checkpoint=checkpoint)
+        save_design(out, state, overwrite=True)
+    except (OSError, ValueError) as exc:
+        return error(exc)
+    done = state.iteration - start
+    rate = done / state.elapsed if state.elapsed > 0 else 0.0
+    loss = state.history["loss"][-1] if state.history["loss"] else float("nan")
+    metric = state.history["metric"][-1] if state.history["metric"] else float("nan")
+    print(f"wrote {out}: {args.kind}, iteration {state.iteration}/{state.plan.iterations} ({state.status.split(':')[0]}), "
+          f"loss {loss:.6g}, {metric_name} {metric:.3f}, {done} iterations this run at {rate:.2f} it/s")
+    if state.status.startswith("non-finite"):
+        print(f"error: the run went non-finite and stopped; the last finite state (iteration {state.iteration}) "
+              f"is saved: {state.status}", file=sys.stderr)
+        return EXIT_FAIL
+    if state.status == "interrupted":
+        print(f"interrupted; continue with: python -m pes_ref design {args.kind} --resume {out}", file=sys.stderr)
+    return EXIT_OK

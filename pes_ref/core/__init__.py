@@ -1,0 +1,7 @@
+"""The numerical core: surfaces and their interpolations, energy terms, external forces,
+the steppers and their hand-derived adjoints, objectives, the stability limit, input
+checks, and the scene layer (``Scene``, ``simulate``, ``value_and_grad``) over them.
+
+Nothing here imports from a layer above (the oracle, devices, synthesis, bench, cli,
+testing); ``make test`` checks this with import-linter (``setup.cfg``).
+"""

@@ -1,0 +1,134 @@
+"""External force effects and the schedule they build (SPEC section 2).
+
+A scene lists the effects that push its particles; :func:`build_schedule` turns that
+list into the realized external force ``F_ext`` of shape (T+1, N, 2), entry ``n``
+acting at ``t_n = t0 + n dt``. A scene with no effect has no schedule at all
+(``None``) and the integrator then adds nothing. Noise is drawn once, here, from
+``numpy.random.default_rng(seed)``; the realized schedule is what the oracle records.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pes_ref.core import checks
+
+__all__ = ["Constant", "PerParticle", "Window", "Noise", "Schedule", "build_schedule", "step_times"]
+
+
+def step_times(n_steps: int, dt: float, t0: float = 0.0) -> np.ndarray:
+    """Times t_n = t0 + n dt, n = 0..T, shape (T+1,)."""
+    return t0 + dt * np.arange(n_steps + 1, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Constant:
+    """The same force on every particle at every step; ``force`` shape (2,)."""
+
+    force: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "force", checks.as_float_array("Constant.force", self.force, shape=(2,)))
+
+    def add_to(self, sched: np.ndarray, times: np.ndarray) -> None:
+        sched += self.force
+
+
+@dataclass(frozen=True)
+class PerParticle:
+    """A constant force per particle; ``force`` shape (N, 2)."""
+
+    force: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "force", checks.as_float_array("PerParticle.force", self.force, shape=(None, 2)))
+
+    def add_to(self, sched, times) -> None:
+        if self.force.shape[0] != sched.shape[1]:
+            raise ValueError(
+                f"PerParticle.force must have shape ({sched.shape[1]}, 2) for {sched.shape[1]} particles, "
+                f"got {self.force.shape}")
+        sched += self.force
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Gaussian force noise, independent per step, particle and axis.
+
+    ``std`` (2,) >= 0 is the per-axis standard deviation; the draws are
+    ``default_rng(seed).standard_normal((T+1, N, 2)) * std``.
+    """
+
+    std: np.ndarray
+    seed: int
+
+    def __post_init__(self):
+        object.__setattr__(self, "std", checks.as_float_array("Noise.std", self.std, shape=(2,), nonneg=True))
+        object.__setattr__(self, "seed", checks.as_nonneg_int("Noise.seed", self.seed))
+
+    def add_to(self, sched, times) -> None:
+        sched += np.random.default_rng(self.seed).standard_normal(sched.shape) * self.std
+
+
+@dataclass(frozen=True)
+class Window:
+    """Another effect, on only for ``t_start <= t_n < t_end``."""
+
+    effect: object
+    t_start: float
+    t_end: float
+
+    def __post_init__(self):
+        if not hasattr(self.effect, "add_to"):
+            raise TypeError(f"Window.effect must be an effect (Constant, PerParticle, Noise, ...), got {self.effect!r}")
+        object.__setattr__(self, "t_start", checks.as_finite_float("Window.t_start", self.t_start))
+        object.__setattr__(self, "t_end", checks.as_finite_float("Window.t_end", self.t_end))
+        if not self.t_end > self.t_start:
+            raise ValueError(f"Window.t_end must be > t_start, got [{self.t_start}, {self.t_end})")
+
+    def add_to(self, sched, times) -> None:
+        inner = np.zeros_like(sched)
+        self.effect.add_to(inner, times)
+        on = (times >= self.t_start) & (times < self.t_end)
+        sched[on] += inner[on]
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """An explicit, realized schedule of shape (T+1, N, 2) (what an oracle case stores)."""
+
+    force: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "force", checks.as_float_array("force", self.force, ndim=3))
+        if self.force.shape[-1] != 2:
+            raise ValueError(f"force must have shape (T+1, N, 2), got {self.force.shape}")
+
+    def add_to(self, sched, times) -> None:
+        if self.force.shape != sched.shape:
+            raise ValueError(f"force must have shape {sched.shape} (T+1, N, 2), got {self.force.shape}")
+        sched += self.force
+
+
+def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float = 0.0):
+    """Realize the external force schedule of a list of effects.
+
+    Parameters
+    ----------
+    effects : sequence of effects
+    n_particles, n_steps : int
+    dt, t0 : float
+
+    Returns
+    -------
+    ndarray, shape (T+1, N, 2), or None when ``effects`` is empty
+        ``F_ext[n]`` acts at ``t_n = t0 + n dt`` (SPEC section 2).
+    """
+    if not effects:
+        return None
+    sched = np.zeros((n_steps + 1, n_particles, 2))
+    times = step_times(n_steps, dt, t0)
+    for effect in effects:
+        effect.add_to(sched, times)
+    return sched

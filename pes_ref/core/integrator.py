@@ -1,0 +1,360 @@
+"""Time stepping (SPEC section 3) and its hand-derived adjoint, side by side.
+
+Each forward step is a list of named sub-steps; its adjoint, directly below it, is
+the same list reversed with mirrored names. Equation numbers refer to
+``docs/adjoint.md``.
+
+Dynamic mode, the paper's eqs. (2)-(3), with ``a = dt/(2m)``, ``c = dt gamma/(2m)``::
+
+    (S1) half_kick  P       = V_n + a F_n
+    (S2) drift      X_{n+1} = X_n + dt P                 = X_n + dt V_n + dt^2/(2m) F_n
+    (S3) force      F_{n+1} = F(X_{n+1}) + F_ext[n+1]
+    (S4) kick       V_{n+1} = P + a F_{n+1}                              (no damping)
+         kick_damp  V_{n+1} = (P - c V_n + a F_{n+1}) / (1 + c)        (damping)
+
+Its adjoint, per step, reversed: (B4) kick(_damp)^T, (B3) force^T, (B2) drift^T,
+(B1) half_kick^T.
+
+Quasistatic mode::
+
+    (Q1) force      F_n     = F(X_n) + F_ext[n]
+    (Q2) drift      X_{n+1} = X_n + mu F_n
+
+Adjoint: (QB2) drift^T, (QB1) force^T.
+
+The functions here are the numerical core: they trust their (validated) inputs, and
+they evaluate only the effects they are given. ``damping=None`` means no damping
+arithmetic at all, ``fext=None`` no external force, and a
+:class:`~pes_ref.core.forces.Field` without spring or walls evaluates neither.
+"""
+from __future__ import annotations
+
+import functools
+from typing import NamedTuple
+
+import numpy as np
+
+from pes_ref.core.forces import Field, ForceAdjoint, ForceKernel, force
+
+__all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
+           "adjoint_quasistatic", "NonFiniteError"]
+
+
+class NonFiniteError(FloatingPointError):
+    """A trajectory left the finite numbers (usually: dt past the stability limit)."""
+
+
+class Trajectory(NamedTuple):
+    """The T+1 states of a run.
+
+    x, v, f : ndarray, shape (T+1, N, 2)
+        Positions (unwrapped), velocities (zeros in quasistatic mode) and the total
+        force ``F_n = F(X_n) + F_ext[n]`` acting at each state.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    f: np.ndarray
+
+
+def _check_finite(traj: Trajectory, step_name: str) -> None:
+    """Refuse to return a trajectory that left the finite numbers.
+
+    Checked once after the loop, not per step (docs/performance.md): a non-finite value
+    never becomes finite again in these updates, so the last state tells, and the first
+    bad state is then searched for. Until then the grid lookup of a NaN position gathers
+    a clipped (meaningless, but in-bounds) cell and yields NaN."""
+    if not (np.isfinite(traj.x[-1]).all() and np.isfinite(traj.v[-1]).all() and np.isfinite(traj.f[-1]).all()):
+        finite = [np.isfinite(a).all(axis=(1, 2)) for a in traj]
+        bad = int(np.argmax(~(finite[0] & finite[1] & finite[2])))
+        raise NonFiniteError(
+            f"the trajectory became non-finite at step {bad} ({step_name}); the step is probably past "
+            "the explicit stability limit of the stiffest term: reduce it")
+
+
+def _total_force(field: Field, x: np.ndarray, fext_n, out: np.ndarray) -> None:
+    """(S3)/(Q1) as one call: ``out = -dU/dx(x) + F_ext[n]`` (for step loops built on
+    :func:`pes_ref.core.forces.force`; the loops here use a :class:`~pes_ref.core.forces.ForceKernel`)."""
+    force(field, x, out)
+    if fext_n is not None:
+        out += fext_n
+
+
+def _check_step(x_next: np.ndarray, n_next: int, step_name: str) -> None:
+    """Refuse a non-finite position before it is looked up on the grid (for step loops
+    that check every step; the loops here check once, see :func:`_check_finite`)."""
+    if not np.isfinite(x_next).all():
+        raise NonFiniteError(
+            f"the trajectory became non-finite at step {n_next} ({step_name}); the step is probably past "
+            "the explicit stability limit of the stiffest term: reduce it")
+
+
+def _reports_nonfinite(simulate_fn):
+    """Run a forward loop with overflow and invalid-operation warnings silenced, so that a
+    run past the stability limit always ends in :class:`NonFiniteError` (raised by
+    :func:`_check_finite`) and never in a bare NumPy ``FloatingPointError`` or warning,
+    whatever the caller's ``np.errstate`` (docs/decisions.md, 'Non-finite runs')."""
+    @functools.wraps(simulate_fn)
+    def wrapper(*args, **kwargs):
+        with np.errstate(over="ignore", invalid="ignore"):
+            return simulate_fn(*args, **kwargs)
+    return wrapper
+
+
+# =========================================================================== dynamic
+
+def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: int):
+    """Allocate a dynamic run's (T+1, N, 2) arrays x, v, f, store state 0 and its force
+    ``F_0 = F(X_0) + F_ext[0]``; return ``(x, v, f, force)`` with the run's force kernel
+    (shared by :func:`simulate_dynamic` and :func:`pes_ref.core.gjf.simulate_gjf`)."""
+    T, N = n_steps, x0.shape[0]
+    x = np.empty((T + 1, N, 2))
+    v = np.empty((T + 1, N, 2))
+    f = np.empty((T + 1, N, 2))
+    force = ForceKernel(field, N)
+    x[0] = x0
+    v[0] = v0
+    force(x[0], f[0])
+    if fext is not None:
+        f[0] += fext[0]
+    return x, v, f, force
+
+
+@_reports_nonfinite
+def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
+                     mass: np.ndarray, damping) -> Trajectory:
+    """Damped velocity Verlet of the paper's eqs. (2)-(3) (SPEC section 3).
+
+    Parameters
+    ----------
+    field : Field
+        The energy terms.
+    x0, v0 : ndarray, shape (N, 2)
+    fext : ndarray, shape (T+1, N, 2), or None
+        External force schedule; None when the scene has no external force.
+    dt : float
+    n_steps : int
+        T; the trajectory holds T+1 states.
+    mass : ndarray, broadcastable to (N, 2)
+    damping : ndarray broadcastable to (N, 2), or None for an undamped scene.
+
+    Returns
+    -------
+    Trajectory
+    """
+    N = x0.shape[0]
+    x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps)
+    a = np.broadcast_to(dt / (2.0 * mass), (N, 2)).copy()       # a = dt / 2m
+    damped = damping is not None
+    if damped:
+        c = np.broadcast_to(dt * damping / (2.0 * mass), (N, 2)).copy()   # c = dt gamma / 2m
+        inv_1pc = 1.0 / (1.0 + c)
+        cv = np.empty((N, 2))
+    p = np.empty((N, 2))
+    dt_ = np.array(dt)              # a 0-d array: no scalar conversion per call
+    # ufuncs and the force's closure bound to locals, outputs passed positionally: at
+    # small N each step's cost is the calls' fixed cost (docs/performance.md)
+    mul, add, sub = np.multiply, np.add, np.subtract
+    fcall = force.call
+    ext = fext[1:] if fext is not None else [None] * n_steps
+    has_fext = fext is not None
+    # a F_n is computed once: by the kick of step n-1 (S4), reused by the half-kick (S1)
+    af = np.multiply(a, f[0])
+    # the loop runs over views (x_n, x_{n+1}, ...); nothing is allocated per step
+    for xn, xn1, vn, vn1, fn1, fe in zip(x[:-1], x[1:], v[:-1], v[1:], f[1:], ext):
+        # (S1) half_kick: P = V_n + a F_n
+        add(af, vn, p)
+        # (S2) drift: X_{n+1} = X_n + dt P
+        mul(p, dt_, xn1)
+        add(xn1, xn, xn1)
+        # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
+        fcall(xn1, fn1)
+        if has_fext:
+            add(fn1, fe, fn1)
+        # (S4) kick: V_{n+1} = P + a F_{n+1}, damped: (P - c V_n + a F_{n+1}) / (1 + c)
+        mul(a, fn1, af)
+        add(af, p, vn1)
+        if damped:
+            mul(c, vn, cv)
+            sub(vn1, cv, vn1)
+            mul(vn1, inv_1pc, vn1)
+    traj = Trajectory(x, v, f)
+    _check_finite(traj, f"dt={dt!r}")
+    return traj
+
+
+def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, damping,
+                    gx, gv, want: frozenset) -> dict:
+    """Backward pass of :func:`simulate_dynamic`: the same sub-steps reversed (eqs. (B1)-(B4)).
+
+    Parameters
+    ----------
+    field, dt, mass, damping
+        As given to :func:`simulate_dynamic`.
+    traj : Trajectory
+        Its output.
+    gx, gv : ndarray (T+1, N, 2) or None
+        Direct derivatives dL/dX_n and dL/dV_n of the objective (None means zero).
+    want : frozenset of str
+        Which gradients to compute, among ``values, x0, v0, force, mass, damping,
+        spring_k, spring_center``. Nothing else is accumulated.
+
+    Returns
+    -------
+    dict
+        Gradients: ``values`` (flat, n0*n1), ``x0``, ``v0`` (N, 2), ``force``
+        (T+1, N, 2), ``mass``, ``damping`` (N, 2, before reduction to the input's
+        shape), ``spring_k``, ``spring_center`` (N, 2).
+    """
+    x, v, f = traj
+    T, N = x.shape[0] - 1, x.shape[1]
+    adj = ForceAdjoint(field, x, want)
+    a = np.broadcast_to(dt / (2.0 * mass), (N, 2)).copy()
+    damped = damping is not None
+    if damped:
+        c = np.broadcast_to(dt * damping / (2.0 * mass), (N, 2)).copy()
+        inv_1pc = 1.0 / (1.0 + c)
+        minus_c = -c
+    want_mass, want_damping = "mass" in want, "damping" in want
+    abar = np.zeros((N, 2)) if want_mass else None                   # dL/da
+    cbar = np.zeros((N, 2)) if (want_damping or (want_mass and damped)) else None  # dL/dc
+    gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
+
+    xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
+    vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
+    fbar = np.zeros((N, 2))
+    tmp = np.empty((N, 2))
+    dt_ = np.array(dt)
+    # undamped, P^ = V^_{n+1} and V^_n = P^: one buffer serves both
+    pbar = np.empty((N, 2)) if damped else vbar
+    vbar_prev = np.empty((N, 2)) if damped else None
+    mul, add, vjp = np.multiply, np.add, adj.call            # bound once (see simulate_dynamic)
+    for n in range(T - 1, -1, -1):
+        # (B4) kick^T: P^ = d V^_{n+1} with d = 1/(1+c) (d = 1 undamped);
+        #      F^_{n+1} += a P^; a^ += F_{n+1} P^; c^ -= (V_n + V_{n+1}) P^; V^_n = -c P^
+        if damped:
+            mul(vbar, inv_1pc, pbar)
+            mul(minus_c, pbar, vbar_prev)          # -(c P^), exactly
+        mul(a, pbar, tmp)
+        add(fbar, tmp, fbar)
+        if abar is not None:
+            abar += f[n + 1] * pbar
+        if cbar is not None:
+            cbar -= (v[n] + v[n + 1]) * pbar
+        # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}; G^, k^, c^
+        if gforce is not None:
+            gforce[n + 1] = fbar
+        vjp(n + 1, fbar, xbar)
+        # (B2) drift^T: P^ += dt X^_{n+1}; X^_n = X^_{n+1} (kept in xbar)
+        mul(xbar, dt_, tmp)
+        add(pbar, tmp, pbar)
+        # (B1) half_kick^T: V^_n += P^ (V^_n = -c P^ + P^ damped, P^ itself undamped);
+        #      F^_n = a P^; a^ += F_n P^
+        if damped:
+            add(vbar_prev, pbar, vbar)
+        mul(a, pbar, fbar)
+        if abar is not None:
+            abar += f[n] * pbar
+        # the objective's direct terms at step n
+        if gx is not None:
+            add(xbar, gx[n], xbar)
+        if gv is not None:
+            add(vbar, gv[n], vbar)
+    return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c if damped else None,
+                                  mass, want_damping)
+
+
+def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping: bool) -> dict:
+    """The last piece of a dynamic adjoint (shared by :func:`adjoint_dynamic` and
+    :func:`pes_ref.core.gjf.adjoint_gjf`): (B0) the adjoint of the initial force
+    ``F_0 = F(X_0) + F_ext[0]``, then (P1) the chain rule from ``a = dt/2m`` and
+    ``c = dt gamma/2m`` to the physical parameters, ``dL/dm = -(a^ a + c^ c)/m`` and
+    ``dL/dgamma = c^ a``. ``abar`` is None unless the mass gradient is wanted; ``c`` is
+    None for an undamped scene. Returns the gradient dict."""
+    # (B0) adjoint of the initial force F_0 = F(X_0) + F_ext[0]
+    if gforce is not None:
+        gforce[0] = fbar
+    adj.vjp(0, fbar, xbar)
+    out = {"x0": xbar, "v0": vbar}
+    out.update(adj.result())
+    if gforce is not None:
+        out["force"] = gforce
+    # (P1) chain rule to the physical parameters
+    if abar is not None:
+        gm = -abar * a
+        if c is not None:
+            gm -= cbar * c
+        out["mass"] = gm / np.broadcast_to(mass, (xbar.shape[0], 2))
+    if want_damping:
+        out["damping"] = cbar * a
+    return out
+
+
+# =========================================================================== quasistatic
+
+@_reports_nonfinite
+def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarray, n_steps: int) -> Trajectory:
+    """Quasistatic (overdamped) stepping ``X_{n+1} = X_n + mu F_n`` (SPEC section 3).
+
+    ``mobility`` has shape (2,). V is all zeros. ``f[T]`` is the force at the final
+    state (it moves nothing; it is kept so the trajectory has T+1 forces in both modes).
+    """
+    T, N = n_steps, x0.shape[0]
+    x = np.empty((T + 1, N, 2))
+    f = np.empty((T + 1, N, 2))
+    force = ForceKernel(field, N)
+    mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))   # (2,) would broadcast with an inner loop of 2
+    x[0] = x0
+    mul, add, fcall = np.multiply, np.add, force.call      # bound once (see simulate_dynamic)
+    ext = fext[:-1] if fext is not None else [None] * n_steps
+    has_fext = fext is not None
+    for xn, xn1, fn, fe in zip(x[:-1], x[1:], f[:-1], ext):
+        # (Q1) force: F_n = F(X_n) + F_ext[n]
+        fcall(xn, fn)
+        if has_fext:
+            add(fn, fe, fn)
+        # (Q2) drift: X_{n+1} = X_n + mu F_n
+        mul(mu, fn, xn1)
+        add(xn1, xn, xn1)
+    force(x[T], f[T])
+    if fext is not None:
+        f[T] += fext[T]
+    traj = Trajectory(x, np.zeros_like(x), f)
+    _check_finite(traj, f"mobility={mobility.tolist()!r}")
+    return traj
+
+
+def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx, want: frozenset) -> dict:
+    """Backward pass of :func:`simulate_quasistatic` (eqs. (QB1)-(QB2)).
+
+    Returns ``x0`` (N, 2), and as wanted ``values`` (flat), ``force`` (T+1, N, 2; the
+    last entry is 0 since F_ext[T] moves nothing), ``mobility`` (2,), ``spring_k``,
+    ``spring_center`` (N, 2).
+    """
+    x, _, f = traj
+    T, N = x.shape[0] - 1, x.shape[1]
+    adj = ForceAdjoint(field, x, want)
+    gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
+    mubar = np.zeros(2) if "mobility" in want else None
+    xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
+    fbar = np.empty((N, 2))
+    mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))
+    mul, add, vjp = np.multiply, np.add, adj.call            # bound once (see simulate_dynamic)
+    for n in range(T - 1, -1, -1):
+        # (QB2) drift^T: F^_n = mu X^_{n+1}; mu^ += sum_i F_n X^_{n+1}; X^_n = X^_{n+1} (kept)
+        mul(mu, xbar, fbar)
+        if mubar is not None:
+            mubar += np.einsum("id,id->d", f[n], xbar)
+        # (QB1) force^T at X_n: F_ext^[n] = F^_n; X^_n += -H_U F^_n; G^, k^, c^
+        if gforce is not None:
+            gforce[n] = fbar
+        vjp(n, fbar, xbar)
+        if gx is not None:
+            add(xbar, gx[n], xbar)
+    out = {"x0": xbar}
+    out.update(adj.result())
+    if gforce is not None:
+        out["force"] = gforce
+    if mubar is not None:
+        out["mobility"] = mubar
+    return out

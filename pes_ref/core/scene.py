@@ -1,0 +1,342 @@
+"""Scenes: the frozen, validated configuration layer over the numerical core.
+
+A :class:`Scene` names a surface and exactly the effects it has (springs, walls,
+damping, external force effects, per-particle mass); :func:`simulate` and
+:func:`value_and_grad` validate the initial state once, then run the pure core of
+:mod:`pes_ref.core.integrator`, which evaluates nothing that the scene does not name.
+
+Example
+-------
+>>> import numpy as np, pes_ref as pr
+>>> surf = pr.Surface(np.zeros((8, 8)), lower=(0, 0), upper=(1, 1), periodic=(True, False))
+>>> scene = pr.Scene(surf, dt=0.01, n_steps=10, damping=0.1)
+>>> traj = pr.simulate(scene, x0=[[0.2, 0.5]], v0=[[1.0, 0.0]])
+>>> traj.x.shape
+(11, 1, 2)
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field as dc_field
+
+import numpy as np
+
+from pes_ref.core import checks
+from pes_ref.core import stability
+from pes_ref.core.effects import build_schedule, step_times
+from pes_ref.core.forces import Field, potential_energy
+from pes_ref.core.integrator import (NonFiniteError, Trajectory, adjoint_dynamic, adjoint_quasistatic, simulate_dynamic,
+                         simulate_quasistatic)
+from pes_ref.core.gjf import adjoint_gjf, simulate_gjf
+from pes_ref.core.objectives import regularization
+from pes_ref.core.surface import Surface
+from pes_ref.core.terms import Spring, Walls, wall_bounds
+
+__all__ = ["Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES"]
+
+MODES = ("dynamic", "quasistatic")
+#: Dynamic-mode steppers: the paper's damped Verlet (SPEC section 3) and the
+#: Gronbech-Jensen-Farago option (pes_ref/gjf.py, docs/variants.md).
+INTEGRATORS = ("verlet", "gjf")
+
+#: Every differentiable input of SPEC section 5, in a fixed order.
+GRADIENT_NAMES = ("values", "x0", "v0", "force", "mass", "damping", "spring_k", "spring_center", "mobility")
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A surface plus the effects that act on its particles (SPEC sections 2-3).
+
+    Parameters
+    ----------
+    surface : Surface
+    dt : float > 0
+        Time step (dynamic) or the time between states (quasistatic; ``t_n = t0 + n dt``).
+    n_steps : int >= 0
+        T; a run holds T+1 states.
+    mode : {"dynamic", "quasistatic"}
+    mass : array_like broadcastable to (N, 2), > 0
+        Per axis (shape (2,)), per particle ((N, 1) or (N, 2)) or one scalar.
+    damping : array_like broadcastable to (N, 2), >= 0, or None
+        None (the default) is an undamped scene: no damping arithmetic at all.
+    mobility : array_like (2,), > 0
+        Quasistatic mode only (required there).
+    spring : Spring or None
+    walls : Walls or None
+        Only on non-periodic axes.
+    effects : sequence of effects
+        External forces (:mod:`pes_ref.core.effects`); empty means none.
+    t0 : float
+        Time of state 0.
+    integrator : {"verlet", "gjf"}
+        Dynamic mode's step: "verlet" (default) is the paper's eqs. (2)-(3); "gjf" is the
+        second-order damped Gronbech-Jensen-Farago step (``docs/variants.md``).
+    """
+
+    surface: Surface
+    dt: float
+    n_steps: int
+    mode: str = "dynamic"
+    mass: np.ndarray = 1.0
+    damping: np.ndarray | None = None
+    mobility: np.ndarray | None = None
+    spring: Spring | None = None
+    walls: Walls | None = None
+    effects: tuple = dc_field(default_factory=tuple)
+    t0: float = 0.0
+    integrator: str = "verlet"
+
+    def __post_init__(self):
+        if not isinstance(self.surface, Surface):
+            raise TypeError(f"surface must be a pes_ref.Surface, got {type(self.surface).__name__}")
+        set_ = lambda k, val: object.__setattr__(self, k, val)  # noqa: E731
+        set_("dt", checks.as_positive_float("dt", self.dt))
+        set_("n_steps", checks.as_nonneg_int("n_steps", self.n_steps))
+        set_("t0", checks.as_finite_float("t0", self.t0))
+        set_("mode", checks.as_choice("mode", self.mode, set(MODES)))
+        set_("integrator", checks.as_choice("integrator", self.integrator, set(INTEGRATORS)))
+        if self.mode != "dynamic" and self.integrator != "verlet":
+            raise ValueError(f"integrator={self.integrator!r} is for mode='dynamic' only; this scene is {self.mode}")
+        set_("mass", _per_particle("mass", self.mass, positive=True))
+        if self.damping is not None:
+            set_("damping", _per_particle("damping", self.damping, nonneg=True))
+        if self.mode == "quasistatic":
+            if self.mobility is None:
+                raise ValueError("mobility is required in quasistatic mode (shape (2,), > 0)")
+            set_("mobility", checks.as_float_array("mobility", self.mobility, shape=(2,), positive=True))
+        elif self.mobility is not None:
+            raise ValueError("mobility is only for mode='quasistatic'; this scene is dynamic")
+        if self.spring is not None and not isinstance(self.spring, Spring):
+            raise TypeError(f"spring must be a pes_ref.Spring or None, got {type(self.spring).__name__}")
+        if self.walls is not None:
+            if not isinstance(self.walls, Walls):
+                raise TypeError(f"walls must be a pes_ref.Walls or None, got {type(self.walls).__name__}")
+            for d in range(2):
+                if self.surface.periodic[d] and self.walls.edges[d].any():
+                    raise ValueError(f"walls: axis {d} is periodic and cannot have a wall "
+                                     f"(walls[{d}] = {self.walls.edges[d].tolist()})")
+                if self.walls.edges[d].all() and 2 * self.walls.margin >= self.surface.length[d]:
+                    raise ValueError(f"wall_margin={self.walls.margin} leaves no room between the two walls "
+                                     f"of axis {d} (length {self.surface.length[d]})")
+        effects = tuple(self.effects)
+        for e in effects:
+            if not hasattr(e, "add_to"):
+                raise TypeError(f"effects must be pes_ref effects (Constant, PerParticle, Noise, Window, "
+                                f"Schedule), got {e!r}")
+        set_("effects", effects)
+
+    # ------------------------------------------------------------------ derived plain arrays
+    @property
+    def damped(self) -> bool:
+        """True when the scene has damping that is not zero everywhere."""
+        return self.damping is not None and bool(np.any(self.damping != 0))
+
+    def field(self) -> Field:
+        """The plain-array energy terms for the core (:class:`pes_ref.core.forces.Field`)."""
+        s = self.surface
+        spring = None if self.spring is None else (self.spring.k, self.spring.center)
+        walls = None
+        if self.walls is not None and self.walls.edges.any():
+            lo, hi = wall_bounds(s.lower, s.upper, self.walls.margin, self.walls.edges)
+            walls = (self.walls.k, lo, hi)
+        return Field(s.values, s.lower, s.spacing, s.length, s.periodic, spring, walls, s.interpolation)
+
+    def times(self) -> np.ndarray:
+        """t_n = t0 + n dt, shape (T+1,)."""
+        return step_times(self.n_steps, self.dt, self.t0)
+
+    def schedule(self, n_particles: int):
+        """The realized external force (T+1, N, 2), or None without effects."""
+        return build_schedule(self.effects, n_particles, self.n_steps, self.dt, self.t0)
+
+    def with_values(self, values) -> "Scene":
+        """The same scene on a new grid of values (same domain and topology)."""
+        s = self.surface
+        return _replace(self, surface=Surface(values, s.lower, s.upper, s.periodic, s.interpolation))
+
+
+def _replace(scene: Scene, **kw) -> Scene:
+    from dataclasses import replace
+    return replace(scene, **kw)
+
+
+def _per_particle(name, value, **kw):
+    arr = checks.as_float_array(name, value, **kw)
+    if arr.ndim > 2 or (arr.ndim >= 1 and arr.shape[-1] not in (1, 2)):
+        raise ValueError(f"{name} must broadcast to (N, 2): a scalar, (2,), (N, 1) or (N, 2); got shape {arr.shape}")
+    return arr
+
+
+def _check_state(scene: Scene, x0, v0):
+    x0 = checks.as_float_array("x0", x0, shape=(None, 2))
+    n = x0.shape[0]
+    if n < 1:
+        raise ValueError("x0 must hold at least one particle, got shape (0, 2)")
+    if v0 is None:
+        v0 = np.zeros((n, 2))
+    else:
+        v0 = checks.as_float_array("v0", v0, shape=(n, 2))
+    for name, arr in (("mass", scene.mass), ("damping", scene.damping),
+                      ("spring_k", None if scene.spring is None else scene.spring.k),
+                      ("spring_center", None if scene.spring is None else scene.spring.center)):
+        if arr is not None:
+            try:
+                np.broadcast_to(arr, (n, 2))
+            except ValueError:
+                raise ValueError(f"{name} of shape {arr.shape} does not broadcast to (N, 2) = ({n}, 2)") from None
+    return x0, v0
+
+
+def simulate(scene: Scene, x0, v0=None, *, fext="scene") -> Trajectory:
+    """Run a scene forward (SPEC section 3).
+
+    Parameters
+    ----------
+    scene : Scene
+    x0 : array_like, shape (N, 2)
+        Initial positions (unwrapped coordinates).
+    v0 : array_like, shape (N, 2), optional
+        Initial velocities (zeros if omitted; ignored in quasistatic mode).
+    fext : "scene", None or ndarray (T+1, N, 2)
+        The external force; by default the schedule the scene's effects realize.
+
+    Returns
+    -------
+    Trajectory
+        ``x``, ``v``, ``f`` of shape (T+1, N, 2).
+    """
+    x0, v0 = _check_state(scene, x0, v0)
+    fext = _resolve_fext(scene, fext, x0.shape[0])
+    return _forward(scene, x0, v0, fext)
+
+
+def _resolve_fext(scene, fext, n):
+    if isinstance(fext, str) and fext == "scene":
+        return scene.schedule(n)
+    if fext is None:
+        return None
+    return checks.as_float_array("fext", fext, shape=(scene.n_steps + 1, n, 2))
+
+
+def _explains_nonfinite(forward):
+    """Re-raise the core's :class:`NonFiniteError` with the scene's stability limit and a
+    stable step (:func:`pes_ref.core.stability.advice`), instead of a bare "reduce it"."""
+    @functools.wraps(forward)
+    def wrapper(scene, *args, **kwargs):
+        try:
+            return forward(scene, *args, **kwargs)
+        except NonFiniteError as err:
+            raise NonFiniteError(f"{err}. {stability.advice(scene)}") from err
+    return wrapper
+
+
+@_explains_nonfinite
+def _forward(scene: Scene, x0, v0, fext) -> Trajectory:
+    fld = scene.field()
+    if scene.mode == "dynamic":
+        damping = scene.damping if scene.damped else None
+        simulate_fn = simulate_gjf if scene.integrator == "gjf" else simulate_dynamic
+        return simulate_fn(fld, x0, v0, fext, scene.dt, scene.n_steps, scene.mass, damping)
+    return simulate_quasistatic(fld, x0, fext, scene.mobility, scene.n_steps)
+
+
+def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
+    """Total energy per state and particle, shape (T+1, N) (SPEC section 6).
+
+    Kinetic ``sum_d m_d v_d^2 / 2`` plus ``U = U_grid + U_spring + U_wall``.
+    """
+    x, v = traj.x, traj.v
+    T1, N = x.shape[0], x.shape[1]
+    fld = scene.field()
+    if fld.spring is not None:
+        # per-particle spring arrays (N, 2) or (N, 1) repeat over the T+1 flattened states
+        k, c = (np.broadcast_to(a, (T1, N, 2)).reshape(-1, 2) for a in fld.spring)
+        fld = fld._replace(spring=(k, c))
+    u = potential_energy(fld, x.reshape(-1, 2)).reshape(T1, N)
+    m = np.broadcast_to(scene.mass, (N, 2))
+    return u + 0.5 * np.sum(m * v * v, axis=2)
+
+
+def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: float = 0.0,
+                   wrt=None, fext="scene"):
+    """The loss of a run and its exact gradients by the hand-derived adjoint (SPEC sections 4-5).
+
+    Parameters
+    ----------
+    scene : Scene
+    x0, v0 : array_like (N, 2)
+    objective : object with ``value_and_grad(x, v, t)``
+        One of :mod:`pes_ref.core.objectives` or a user's own.
+    regularization_weight : float >= 0
+        R of the paper's eq. (7).
+    wrt : iterable of str, optional
+        Which gradients to compute (default: all that the scene uses; see
+        :data:`GRADIENT_NAMES`). Only those are accumulated.
+    fext : "scene", None or ndarray (T+1, N, 2)
+        As in :func:`simulate`.
+
+    Returns
+    -------
+    loss : float
+    grads : dict of str -> ndarray
+        Each gradient shaped like its input (``values`` (n0, n1); ``mass``,
+        ``damping``, ``spring_k``, ``spring_center`` reduced to their input's shape;
+        ``force`` (T+1, N, 2); ``mobility`` (2,)).
+    traj : Trajectory
+    """
+    x0, v0 = _check_state(scene, x0, v0)
+    if not hasattr(objective, "value_and_grad"):
+        raise TypeError(f"objective must have a value_and_grad(x, v, t) method, got {objective!r}")
+    R = checks.as_nonneg_float("regularization_weight", regularization_weight)
+    want = _wanted(scene, wrt)
+    n = x0.shape[0]
+    fext = _resolve_fext(scene, fext, n)
+    traj = _forward(scene, x0, v0, fext)
+    loss, gx, gv = objective.value_and_grad(traj.x, traj.v, scene.times())
+    reg, greg = regularization(scene.surface.values, R)
+    fld = scene.field()
+    if scene.mode == "dynamic":
+        damping = scene.damping if scene.damped else None
+        adjoint_fn = adjoint_gjf if scene.integrator == "gjf" else adjoint_dynamic
+        raw = adjoint_fn(fld, traj, scene.dt, scene.mass, damping, gx, gv, want)
+    else:
+        raw = adjoint_quasistatic(fld, traj, scene.mobility, gx, want)
+    grads = {}
+    for name in GRADIENT_NAMES:
+        if name not in want:
+            continue
+        g = raw[name]
+        if name == "values":
+            g = g.reshape(scene.surface.shape)
+            if greg is not None:
+                g = g + greg
+        elif name in ("mass", "damping"):
+            src = getattr(scene, name)
+            g = checks.reduce_to_shape(np.broadcast_to(g, (n, 2)), np.shape(src) if src is not None else ())
+        elif name in ("spring_k", "spring_center"):
+            src = getattr(scene.spring, name.split("_")[1])
+            g = checks.reduce_to_shape(g, np.shape(src))
+        grads[name] = g
+    return loss + reg, grads, traj
+
+
+def _wanted(scene: Scene, wrt) -> frozenset:
+    usable = {"values", "x0", "force"}
+    if scene.mode == "dynamic":
+        usable |= {"v0", "mass", "damping"}
+    else:
+        usable |= {"mobility"}   # v0, mass and damping play no part (SPEC section 5)
+    if scene.spring is not None:
+        usable |= {"spring_k", "spring_center"}
+    if wrt is None:
+        return frozenset(usable)
+    if isinstance(wrt, str):
+        wrt = (wrt,)
+    wrt = frozenset(wrt)
+    unknown = wrt - set(GRADIENT_NAMES)
+    if unknown:
+        raise ValueError(f"wrt names unknown gradients {sorted(unknown)}; choose from {list(GRADIENT_NAMES)}")
+    missing = wrt - usable
+    if missing:
+        raise ValueError(f"wrt asks for {sorted(missing)}, which this scene does not have")
+    return wrt

@@ -1,0 +1,639 @@
+"""Generate the conformance vectors (``python -m pes_ref conformance --write [DIR]``).
+
+Every vector is built here from a seeded :class:`numpy.random.Generator` (the seed is
+derived from the vector's id, so adding or reordering vectors changes no other one),
+written as a case file with :func:`pes_ref.oracle.case.save_case`, and, if valid, run
+through the oracle :func:`pes_ref.oracle.case.run_case` (the only source of expected
+results). Invalid vectors are run through :func:`pes_ref.oracle.case.validate_case` too, to
+check that the oracle refuses them with the declared key and error type.
+
+Topologies use a node spacing of 0.25 on every axis, so node and seam positions are
+exact in binary and the edge-state vectors really sit on a node or a seam.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pes_ref.oracle import case as oracle
+from pes_ref.core.effects import Constant, Noise, PerParticle, Window, build_schedule
+from pes_ref.testing import tolerances
+from pes_ref.testing.conformance import compare_results, passes
+from pes_ref.oracle.conformance import vectors_dir
+
+__all__ = ["VERSION", "Vector", "build_vectors", "write_vectors", "compare_dirs", "main"]
+
+#: The generator named in the v1 manifest: the module path of the vectors' release (it now
+#: lives at pes_ref.oracle.conformance.generate; the old path still imports). Frozen with v1.
+GENERATOR = "pes_ref.conformance.generate"
+
+VERSION = "v1"
+_SEED = 20210921
+
+# name -> (shape, lower, upper, periodic); every spacing is 0.25
+TOPOLOGIES = {
+    "plane": ((5, 7), (0.0, 0.0), (1.0, 1.5), (False, False)),
+    "cylinder-q0": ((8, 5), (0.0, -0.5), (2.0, 0.5), (True, False)),
+    "cylinder-q1": ((5, 8), (-0.5, 0.0), (0.5, 2.0), (False, True)),
+    "torus": ((4, 8), (0.0, 0.0), (1.0, 2.0), (True, True)),
+}
+
+
+@dataclass
+class Vector:
+    """One conformance vector.
+
+    Attributes
+    ----------
+    id : str
+        Unique, also the file stem.
+    comment : str
+        What it covers.
+    case : dict
+        The case keys (as :func:`pes_ref.oracle.case.save_case` takes them).
+    kind : {"valid", "invalid"}
+    flags : list of str
+        ``kink``: a state sits exactly on a kink (node, seam, clip edge), where the
+        SPEC accepts any one-sided gradient; conformance checkers compare only the
+        trajectory and the loss there. Other flags are informational.
+    key, error : str
+        Invalid vectors: the key at fault and the error type ("ValueError" or "TypeError").
+    """
+
+    id: str
+    comment: str
+    case: dict
+    kind: str = "valid"
+    flags: list = field(default_factory=list)
+    key: str | None = None
+    error: str | None = None
+
+
+# =========================================================================== case builders
+
+def _rng(vid: str) -> np.random.Generator:
+    digest = hashlib.sha256(vid.encode()).digest()
+    return np.random.default_rng([_SEED, int.from_bytes(digest[:8], "little")])
+
+
+def _case(rng, topology="plane", *, n=2, mode="dynamic", n_steps=20, dt=0.05, shape=None,
+          objective="funnel-final", speed=0.5, **extra) -> dict:
+    """A valid case: random grid and state on a topology, and one objective."""
+    shp, lower, upper, periodic = TOPOLOGIES[topology]
+    if shape is not None:
+        shp = shape
+    lower, upper = np.array(lower), np.array(upper)
+    case = {
+        "values": rng.normal(0.0, 0.5, shp),
+        "lower": lower,
+        "upper": upper,
+        "periodic": np.array(periodic),
+        "dt": np.float64(dt),
+        "n_steps": np.int64(n_steps),
+        "mode": mode,
+        "mass": np.float64(1.0),
+        "damping": np.float64(0.0),
+        "x0": lower + (upper - lower) * rng.uniform(0.15, 0.85, (n, 2)),
+        "v0": rng.normal(0.0, speed, (n, 2)),
+    }
+    if mode == "quasistatic":
+        case["mobility"] = np.array([0.02, 0.03])
+    case.update(_objective(rng, objective, n_steps, n))
+    case.update(extra)
+    return case
+
+
+def _objective(rng, kind: str, n_steps: int, n: int) -> dict:
+    if kind == "funnel-final":
+        return {"objective": "funnel", "target": np.float64(0.6), "when": "final"}
+    if kind == "funnel-every":
+        return {"objective": "funnel", "target": np.float64(0.4), "when": "every_step"}
+    if kind == "oscillator":
+        return {"objective": "oscillator", "amplitude": np.float64(0.3), "omega": np.float64(2.0)}
+    if kind == "quadratic":
+        return {"objective": "quadratic", "wx": np.float64(1.0), "wv": np.float64(0.5),
+                "xref": rng.uniform(0.0, 1.0, (n, 2)), "vref": np.array([0.1, -0.2])}
+    if kind == "quadratic-arrays":
+        t1 = n_steps + 1
+        return {"objective": "quadratic", "wx": rng.uniform(0.5, 2.0, (t1, 1, 2)),
+                "wv": rng.uniform(0.0, 1.0, (t1, n, 2)), "xref": rng.uniform(0.0, 1.0, (t1, n, 2)),
+                "vref": np.float64(0.0)}
+    if kind == "quadratic-velocity":
+        return {"objective": "quadratic", "wx": np.float64(0.0), "wv": np.float64(1.0),
+                "xref": np.float64(0.0), "vref": np.array([0.3, 0.0])}
+    raise ValueError(f"unknown objective kind {kind!r}")
+
+
+def _force(case: dict, *effects) -> np.ndarray:
+    """Realize effects into the case's ``force`` schedule (what the oracle records)."""
+    n = case["x0"].shape[0]
+    return build_schedule(effects, n, int(case["n_steps"]), float(case["dt"]), float(case.get("t0", 0.0)))
+
+
+def _walls(*edges) -> dict:
+    w = np.zeros((2, 2), dtype=bool)
+    for d, e in edges:
+        w[d, e] = True
+    return {"wall_k": np.float64(40.0), "wall_margin": np.float64(0.1), "walls": w}
+
+
+# =========================================================================== valid vectors
+
+def _valid(vid: str, comment: str, build, flags=()) -> Vector:
+    return Vector(vid, comment, build(_rng(vid)), "valid", list(flags))
+
+
+def _topology_vectors():
+    yield _valid("plane-dynamic", "plane, dynamic, no effects, zero damping, funnel at the final step",
+                 lambda r: _case(r, "plane", n=3, n_steps=24))
+    yield _valid("cylinder-q0-dynamic", "cylinder periodic in q0, damped, particles cross the seam, "
+                 "funnel at every step",
+                 lambda r: _case(r, "cylinder-q0", n=2, n_steps=24, objective="funnel-every",
+                                 damping=np.float64(0.2), v0=np.array([[3.0, 0.1], [-2.5, -0.2]])))
+    yield _valid("cylinder-q1-dynamic", "cylinder periodic in q1, particles cross the seam, oscillator",
+                 lambda r: _case(r, "cylinder-q1", n=2, n_steps=24, objective="oscillator",
+                                 v0=np.array([[0.1, 3.0], [-0.2, -2.5]])))
+    yield _valid("torus-dynamic", "torus, both seams crossed, quadratic, regularization",
+                 lambda r: _case(r, "torus", n=3, n_steps=24, objective="quadratic",
+                                 v0=np.array([[2.0, 3.0], [-1.5, 2.5], [0.5, -3.5]]),
+                                 regularization=np.float64(0.01)))
+    yield _valid("plane-quasistatic", "plane, quasistatic, funnel at the final step",
+                 lambda r: _case(r, "plane", n=3, mode="quasistatic", n_steps=24))
+    yield _valid("cylinder-q0-quasistatic", "cylinder periodic in q0, quasistatic, quadratic",
+                 lambda r: _case(r, "cylinder-q0", mode="quasistatic", n_steps=24, objective="quadratic"))
+    yield _valid("cylinder-q1-quasistatic", "cylinder periodic in q1, quasistatic, funnel at every step",
+                 lambda r: _case(r, "cylinder-q1", mode="quasistatic", n_steps=24, objective="funnel-every"))
+    yield _valid("torus-quasistatic", "torus, quasistatic, oscillator (V is zero), regularization",
+                 lambda r: _case(r, "torus", n=3, mode="quasistatic", n_steps=24, objective="oscillator",
+                                 regularization=np.float64(0.05)))
+
+
+def _spring_wall_vectors():
+    yield _valid("spring-per-axis", "plane, spring with per-axis k and center (2,), quadratic",
+                 lambda r: _case(r, "plane", n=3, objective="quadratic",
+                                 spring_k=np.array([2.0, 3.0]), spring_center=np.array([0.5, 0.75])))
+    yield _valid("spring-per-particle-torus", "torus, per-particle spring (N, 2): minimum image on both axes",
+                 lambda r: _case(r, "torus", n=3, objective="funnel-every", speed=1.5,
+                                 spring_k=r.uniform(1.0, 4.0, (3, 2)), spring_center=r.uniform(0.0, 2.0, (3, 2))))
+    yield _valid("spring-cylinder-q0-quasistatic", "cylinder q0, quasistatic, spring k (N, 1), center (2,) "
+                 "on the far side of the seam",
+                 lambda r: _case(r, "cylinder-q0", n=2, mode="quasistatic", objective="quadratic",
+                                 spring_k=np.array([[1.5], [3.0]]), spring_center=np.array([1.9, 0.1]),
+                                 x0=np.array([[0.2, -0.1], [0.7, 0.2]])))
+    edges = {"q0-lower": (0, 0), "q0-upper": (0, 1), "q1-lower": (1, 0), "q1-upper": (1, 1)}
+    for name, (d, e) in edges.items():
+        def build(r, d=d, e=e):
+            case = _case(r, "plane", n=2, n_steps=30, objective="quadratic", **_walls((d, e)))
+            lo, hi = case["lower"][d], case["upper"][d]
+            case["x0"][:, d] = [lo + 0.2, lo + 0.3] if e == 0 else [hi - 0.2, hi - 0.3]
+            case["v0"][:, d] = [-1.5, -1.0] if e == 0 else [1.5, 1.0]
+            return case
+        yield _valid(f"wall-{name}", f"plane, only the {name.replace('-', ' ')} wall; particles run into it", build)
+    yield _valid("walls-all-quasistatic", "plane, all four walls, quasistatic, constant force pushing "
+                 "particles into the upper walls",
+                 lambda r: _with_force(_case(r, "plane", n=3, mode="quasistatic", n_steps=20, objective="quadratic",
+                                             **_walls((0, 0), (0, 1), (1, 0), (1, 1))),
+                                       Constant([6.0, 8.0])))
+    yield _valid("walls-cylinder-q0", "cylinder q0, both walls on the non-periodic axis q1, dynamic, damped",
+                 lambda r: _case(r, "cylinder-q0", n=2, n_steps=30, damping=np.float64(0.1),
+                                 v0=np.array([[1.0, 2.0], [-1.0, -2.0]]), **_walls((1, 0), (1, 1))))
+    yield _valid("walls-cylinder-q1-quasistatic", "cylinder q1, both walls on q0, quasistatic, force into the wall",
+                 lambda r: _with_force(_case(r, "cylinder-q1", n=2, mode="quasistatic", n_steps=20,
+                                             objective="funnel-every", **_walls((0, 0), (0, 1))),
+                                       Constant([-7.0, 1.0])))
+
+
+def _with_force(case: dict, *effects) -> dict:
+    case["force"] = _force(case, *effects)
+    return case
+
+
+def _force_vectors():
+    yield _valid("force-constant", "plane, constant external force",
+                 lambda r: _with_force(_case(r, "plane", n=2), Constant([0.5, -0.3])))
+    yield _valid("force-per-particle", "plane, a constant force per particle",
+                 lambda r: _with_force(_case(r, "plane", n=3, objective="quadratic"),
+                                       PerParticle(r.normal(0.0, 0.5, (3, 2)))))
+    yield _valid("force-window", "plane, a force on for t in [0.4, 0.8) only, t0 = 0.1",
+                 lambda r: _with_force(_case(r, "plane", n=2, objective="oscillator", t0=np.float64(0.1)),
+                                       Window(Constant([1.0, 0.5]), 0.4, 0.8)))
+    yield _valid("force-noise", "plane, Gaussian force noise (std (0.3, 0.1), seed 7) realized into force",
+                 lambda r: _with_force(_case(r, "plane", n=2, objective="funnel-every"),
+                                       Noise([0.3, 0.1], 7)))
+    yield _valid("force-combined-torus-quasistatic", "torus, quasistatic: constant + windowed per-particle "
+                 "force + noise; grad_force[T] is 0",
+                 lambda r: _with_force(_case(r, "torus", n=3, mode="quasistatic", objective="quadratic"),
+                                       Constant([0.2, 0.1]), Window(PerParticle(r.normal(0, 1, (3, 2))), 0.2, 0.6),
+                                       Noise([0.5, 0.5], 11)))
+    yield _valid("force-window-quasistatic", "plane, quasistatic, a windowed force reaching the last state",
+                 lambda r: _with_force(_case(r, "plane", n=2, mode="quasistatic"),
+                                       Window(Constant([2.0, -1.0]), 0.5, 5.0)))
+
+
+def _mass_damping_vectors():
+    yield _valid("mass-per-particle", "plane, mass per particle (N, 1), oscillator",
+                 lambda r: _case(r, "plane", n=3, objective="oscillator", mass=np.array([[0.5], [1.0], [2.0]])))
+    yield _valid("mass-damping-per-particle-axis", "cylinder q1, mass and damping (N, 2)",
+                 lambda r: _case(r, "cylinder-q1", n=3, objective="quadratic", mass=r.uniform(0.5, 2.0, (3, 2)),
+                                 damping=r.uniform(0.0, 1.0, (3, 2))))
+    yield _valid("mass-damping-per-axis", "plane, mass (2,) and damping (2,) per axis",
+                 lambda r: _case(r, "plane", n=2, objective="funnel-every", mass=np.array([0.8, 1.5]),
+                                 damping=np.array([0.2, 0.7])))
+    yield _valid("damping-per-particle", "torus, damping per particle (N, 1), one of them zero",
+                 lambda r: _case(r, "torus", n=3, objective="oscillator", damping=np.array([[0.0], [0.3], [1.0]])))
+    yield _valid("damping-zero-per-axis", "plane, damping (2,) all zero: the undamped step, but "
+                 "grad_damping is still owed",
+                 lambda r: _case(r, "plane", n=2, objective="quadratic", damping=np.zeros(2)))
+    yield _valid("damping-strong", "plane, heavy damping (gamma dt / 2m = 0.5)",
+                 lambda r: _case(r, "plane", n=2, damping=np.float64(20.0), speed=2.0))
+
+
+def _objective_vectors():
+    yield _valid("oscillator-t0", "cylinder q0, oscillator with t0 = 0.35",
+                 lambda r: _case(r, "cylinder-q0", n=2, objective="oscillator", t0=np.float64(0.35)))
+
+    def zero_root(r):
+        case = _case(r, "plane", n=1, objective="oscillator")
+        case["x0"][0, 0] = 0.3    # = A cos(0)
+        case["v0"][0, 0] = 0.0    # = -A w sin(0)
+        return case
+    yield _valid("oscillator-zero-root", "oscillator whose root argument is exactly 0 at n = 0 "
+                 "(its derivative is taken as 0 there)", zero_root, flags=["zero-root"])
+    yield _valid("quadratic-arrays", "quadratic with weights and references of shape (T+1, 1, 2) and (T+1, N, 2)",
+                 lambda r: _case(r, "cylinder-q1", n=2, objective="quadratic-arrays"))
+    yield _valid("quadratic-velocity", "quadratic on velocities only (wx = 0)",
+                 lambda r: _case(r, "plane", n=2, objective="quadratic-velocity"))
+    yield _valid("quadratic-quasistatic-arrays", "quasistatic, quadratic with (T+1, N, 2) arrays, regularization",
+                 lambda r: _case(r, "torus", n=2, mode="quasistatic", objective="quadratic-arrays",
+                                 regularization=np.float64(0.02)))
+    yield _valid("regularization", "plane, dynamic, funnel plus regularization R = 0.1",
+                 lambda r: _case(r, "plane", n=2, regularization=np.float64(0.1)))
+
+
+def _grid_vectors():
+    yield _valid("plane-2x2", "plane on the smallest grid, 2 x 2, dynamic",
+                 lambda r: _case(r, "plane", n=2, shape=(2, 2), objective="quadratic"))
+    yield _valid("torus-2x2-quasistatic", "torus on a 2 x 2 grid, quasistatic",
+                 lambda r: _case(r, "torus", n=2, shape=(2, 2), mode="quasistatic", objective="funnel-every"))
+    yield _valid("cylinder-q1-2x2", "cylinder q1 on a 2 x 2 grid, dynamic, fast particles",
+                 lambda r: _case(r, "cylinder-q1", n=2, shape=(2, 2), objective="oscillator", speed=3.0))
+    yield _valid("integer-dtypes", "plane with integer values, lower, upper and mass (read as float64)",
+                 lambda r: _case(r, "plane", n=2, values=r.integers(-2, 3, (5, 7)), lower=np.array([0, 0]),
+                                 upper=np.array([1, 2]), mass=np.int64(2)), flags=["dtype"])
+    yield _valid("everything-cylinder-q1", "cylinder q1: spring, walls on q0, per-particle force and mass, "
+                 "per-axis damping, quadratic, regularization",
+                 lambda r: _with_force(_case(r, "cylinder-q1", n=3, n_steps=40, objective="quadratic",
+                                             mass=np.array([[1.0], [2.0], [0.5]]), damping=np.array([0.1, 0.3]),
+                                             spring_k=np.array([1.0, 2.0]), spring_center=np.array([0.0, 1.9]),
+                                             regularization=np.float64(0.01), **_walls((0, 0), (0, 1))),
+                                       PerParticle(r.normal(0.0, 1.0, (3, 2)))))
+    yield _valid("torus-long", "torus, dynamic, 40 steps, four particles, oscillator",
+                 lambda r: _case(r, "torus", n=4, n_steps=40, objective="oscillator", speed=1.0))
+
+
+def _edge_vectors():
+    def on_node(r):
+        case = _case(r, "plane", n=3, objective="quadratic")
+        case["x0"] = np.array([[0.25, 0.5], [0.5, 1.0], [0.75, 0.25]])
+        case["v0"] = np.zeros((3, 2))
+        return case
+    yield _valid("on-node", "plane, particles start at rest exactly on interior nodes", on_node, flags=["kink"])
+
+    def on_edge(r):
+        case = _case(r, "plane", n=2, mode="quasistatic")
+        case["x0"] = np.array([[1.0, 0.5], [0.0, 1.5]])   # on the upper / lower edge nodes
+        return case
+    yield _valid("on-domain-edge", "plane, quasistatic, particles exactly on the domain's edge nodes (clip edge)",
+                 on_edge, flags=["kink"])
+
+    def on_seam(r):
+        case = _case(r, "cylinder-q0", n=3, objective="quadratic")
+        case["x0"] = np.array([[0.0, 0.1], [2.0, -0.2], [-2.0, 0.3]])   # the seam, unwrapped three ways
+        return case
+    yield _valid("on-seam-cylinder-q0", "cylinder q0, particles exactly on the seam at q0 = 0, 2 and -2",
+                 on_seam, flags=["kink"])
+
+    def on_seam_torus(r):
+        case = _case(r, "torus", n=2, mode="quasistatic", objective="quadratic")
+        case["x0"] = np.array([[1.0, 2.0], [0.0, 0.0]])
+        return case
+    yield _valid("on-seam-torus-quasistatic", "torus, quasistatic, particles on the corner of both seams",
+                 on_seam_torus, flags=["kink"])
+
+    def far_outside(r):
+        case = _case(r, "plane", n=3, objective="quadratic")
+        case["x0"] = np.array([[0.4, 10.0], [-5.0, 0.7], [7.5, -9.0]])
+        case["v0"] = np.array([[0.3, 1.0], [-1.0, 0.2], [1.0, -1.0]])
+        return case
+    yield _valid("far-outside", "plane, particles far outside one or both non-periodic axes (slope 0 there)",
+                 far_outside)
+
+    def far_outside_spring(r):
+        case = _case(r, "cylinder-q0", n=2, mode="quasistatic", objective="funnel-every", n_steps=30,
+                     spring_k=np.array([0.0, 2.0]), spring_center=np.array([0.0, 0.0]),
+                     mobility=np.array([0.05, 0.1]))
+        case["x0"] = np.array([[0.3, 4.0], [1.1, -3.0]])
+        return case
+    yield _valid("far-outside-spring-quasistatic", "cylinder q0, quasistatic, a spring pulls particles back "
+                 "from far outside q1 into the grid", far_outside_spring)
+    yield _valid("steps-0-dynamic", "T = 0: one state, no step", lambda r: _case(r, "plane", n=2, n_steps=0,
+                                                                                 objective="quadratic"))
+    yield _valid("steps-0-quasistatic", "T = 0, quasistatic", lambda r: _case(r, "torus", n=2, n_steps=0,
+                                                                              mode="quasistatic"))
+    yield _valid("steps-1-dynamic", "T = 1, with a force", lambda r: _with_force(
+        _case(r, "cylinder-q0", n=2, n_steps=1, objective="oscillator"), Constant([0.3, 0.3])))
+    yield _valid("steps-1-quasistatic", "T = 1, quasistatic, spring",
+                 lambda r: _case(r, "plane", n=1, n_steps=1, mode="quasistatic", objective="quadratic",
+                                 spring_k=np.float64(1.0), spring_center=np.array([0.5, 0.5])))
+
+
+def valid_vectors() -> list:
+    """All valid vectors, in manifest order."""
+    out = []
+    for group in (_topology_vectors, _spring_wall_vectors, _force_vectors, _mass_damping_vectors,
+                  _objective_vectors, _grid_vectors, _edge_vectors):
+        out.extend(group())
+    return out
+
+
+# =========================================================================== invalid vectors
+
+def _base_dynamic() -> dict:
+    return _case(_rng("invalid-base-dynamic"), "plane", n=2, n_steps=5, objective="funnel-final")
+
+
+def _base_quasistatic() -> dict:
+    return _case(_rng("invalid-base-quasistatic"), "cylinder-q0", n=2, n_steps=5, mode="quasistatic",
+                 objective="quadratic")
+
+
+def _invalid(vid, comment, key, error, *, drop=(), base=_base_dynamic, **changes) -> Vector:
+    case = base()
+    for k in drop:
+        del case[k]
+    case.update(changes)
+    return Vector(vid, comment, case, "invalid", [], key, error)
+
+
+def invalid_vectors() -> list:
+    """All invalid vectors: each breaks exactly one rule, named by ``key``."""
+    nan2 = np.array([[0.2, np.nan], [0.5, 0.5]])
+    V, T = "ValueError", "TypeError"
+    q = _base_quasistatic
+    return [
+        # missing and unknown keys
+        _invalid("missing-values", "required key values absent", "values", V, drop=["values"]),
+        _invalid("missing-mass", "required key mass absent", "mass", V, drop=["mass"]),
+        _invalid("missing-v0-quasistatic", "v0 is required in quasistatic mode too", "v0", V, drop=["v0"], base=q),
+        _invalid("missing-damping-quasistatic", "damping is required in quasistatic mode too", "damping", V,
+                 drop=["damping"], base=q),
+        _invalid("missing-objective", "required key objective absent", "objective", V,
+                 drop=["objective", "target", "when"]),
+        _invalid("missing-mobility", "quasistatic mode needs mobility", "mobility", V, drop=["mobility"], base=q),
+        _invalid("missing-target", "funnel needs target", "target", V, drop=["target"]),
+        _invalid("missing-vref", "quadratic needs all of wx, wv, xref, vref", "vref", V, drop=["vref"], base=q),
+        _invalid("unknown-key", "a key the SPEC does not name", "gravity", V, gravity=np.float64(9.81)),
+        _invalid("unknown-objective", "objective 'banana'", "objective", V, objective="banana"),
+        _invalid("unknown-mode", "mode 'stochastic'", "mode", V, mode="stochastic"),
+        _invalid("unknown-when", "funnel when 'sometimes'", "when", V, when="sometimes"),
+        _invalid("foreign-objective-param", "omega belongs to the oscillator, not the funnel", "omega", V,
+                 omega=np.float64(1.0)),
+        _invalid("mobility-in-dynamic", "mobility is refused in dynamic mode", "mobility", V,
+                 mobility=np.array([0.1, 0.1])),
+        _invalid("spring-without-center", "spring_k and spring_center come together", "spring_center", V,
+                 spring_k=np.float64(1.0)),
+        _invalid("walls-without-k", "wall_k, wall_margin, walls come together", "wall_k", V,
+                 wall_margin=np.float64(0.1), walls=np.ones((2, 2), dtype=bool)),
+        # shapes
+        _invalid("values-1d", "values must be 2-D", "values", V, values=np.zeros(7)),
+        _invalid("values-one-node", "values needs 2 nodes per axis", "values", V, values=np.zeros((1, 7))),
+        _invalid("lower-shape", "lower must have shape (2,)", "lower", V, lower=np.zeros(3)),
+        _invalid("periodic-shape", "periodic must have shape (2,)", "periodic", V, periodic=np.array([False] * 3)),
+        _invalid("x0-shape", "x0 must have shape (N, 2)", "x0", V, x0=np.zeros((2, 3))),
+        _invalid("x0-empty", "x0 must hold a particle", "x0", V, x0=np.zeros((0, 2)), v0=np.zeros((0, 2))),
+        _invalid("v0-particle-count", "v0 with another N than x0", "v0", V, v0=np.zeros((3, 2))),
+        _invalid("mass-particle-count", "mass (N+1, 2) does not broadcast to (N, 2)", "mass", V, mass=np.ones((3, 2))),
+        _invalid("damping-3d", "damping (1, N, 2) does not broadcast to (N, 2)", "damping", V,
+                 damping=np.zeros((1, 2, 2))),
+        _invalid("force-steps", "force with T entries instead of T+1", "force", V, force=np.zeros((5, 2, 2))),
+        _invalid("force-particles", "force with another N", "force", V, force=np.zeros((6, 3, 2))),
+        _invalid("walls-shape", "walls must have shape (2, 2)", "walls", V, wall_k=np.float64(10.0),
+                 wall_margin=np.float64(0.1), walls=np.array([True, True])),
+        _invalid("mobility-shape", "mobility must have shape (2,)", "mobility", V, mobility=np.ones(3) * 0.1,
+                 base=q),
+        _invalid("xref-shape", "xref does not broadcast to (T+1, N, 2)", "xref", V, xref=np.zeros((2, 3)), base=q),
+        _invalid("dt-not-scalar", "dt must be a 0-d array", "dt", V, dt=np.array([0.05])),
+        # non-finite
+        _invalid("x0-nan", "NaN in x0", "x0", V, x0=nan2),
+        _invalid("values-nan", "NaN in values", "values", V, values=np.full((5, 7), np.nan)),
+        _invalid("force-nan", "NaN in force", "force", V, force=np.full((6, 2, 2), np.nan)),
+        _invalid("spring-center-nan", "NaN in spring_center", "spring_center", V, spring_k=np.float64(1.0),
+                 spring_center=np.array([np.nan, 0.0])),
+        _invalid("dt-inf", "dt = inf", "dt", V, dt=np.float64(np.inf)),
+        _invalid("v0-inf", "-inf in v0", "v0", V, v0=np.array([[0.0, -np.inf], [0.0, 0.0]])),
+        _invalid("mass-inf", "mass = inf", "mass", V, mass=np.float64(np.inf)),
+        _invalid("target-nan", "funnel target NaN", "target", V, target=np.float64(np.nan)),
+        # signs and ranges
+        _invalid("mass-zero", "m = 0", "mass", V, mass=np.float64(0.0)),
+        _invalid("mass-negative", "one m < 0", "mass", V, mass=np.array([[1.0, 1.0], [1.0, -0.5]])),
+        _invalid("dt-zero", "dt = 0", "dt", V, dt=np.float64(0.0)),
+        _invalid("dt-negative", "dt < 0", "dt", V, dt=np.float64(-0.05)),
+        _invalid("damping-negative", "gamma < 0", "damping", V, damping=np.array([0.1, -0.1])),
+        _invalid("upper-not-above-lower", "upper <= lower on axis 1", "upper", V, upper=np.array([1.0, 0.0])),
+        _invalid("spring-k-negative", "spring_k < 0", "spring_k", V, spring_k=np.float64(-1.0),
+                 spring_center=np.zeros(2)),
+        _invalid("wall-k-zero", "wall_k must be > 0", "wall_k", V, wall_k=np.float64(0.0),
+                 wall_margin=np.float64(0.1), walls=np.ones((2, 2), dtype=bool)),
+        _invalid("wall-margin-negative", "wall_margin < 0", "wall_margin", V, wall_k=np.float64(10.0),
+                 wall_margin=np.float64(-0.1), walls=np.ones((2, 2), dtype=bool)),
+        _invalid("wall-margin-no-room", "two walls on axis 0 whose margins meet", "wall_margin", V,
+                 wall_k=np.float64(10.0), wall_margin=np.float64(0.5), walls=np.array([[True, True], [False, False]])),
+        _invalid("wall-on-periodic-axis", "a wall on the periodic axis of a cylinder", "walls", V, base=q,
+                 wall_k=np.float64(10.0), wall_margin=np.float64(0.1), walls=np.array([[True, False], [False, False]])),
+        _invalid("mobility-zero", "mobility must be > 0", "mobility", V, mobility=np.array([0.1, 0.0]), base=q),
+        _invalid("regularization-negative", "R < 0", "regularization", V, regularization=np.float64(-0.1)),
+        _invalid("n-steps-negative", "n_steps < 0", "n_steps", V, n_steps=np.int64(-1)),
+        _invalid("periodic-two", "periodic holds a 2", "periodic", V, periodic=np.array([0, 2])),
+        # data types
+        _invalid("n-steps-float", "n_steps must be an integer", "n_steps", T, n_steps=np.float64(5.0)),
+        _invalid("mode-bytes", "strings are 0-d unicode arrays, not bytes", "mode", T, mode=np.array(b"dynamic")),
+        _invalid("objective-1d", "strings are 0-d unicode arrays, not (1,) arrays", "objective", T,
+                 objective=np.array(["funnel"])),
+        _invalid("values-string", "values holds strings", "values", T, values=np.array([["a", "b"], ["c", "d"]])),
+        _invalid("values-complex", "values holds complex numbers", "values", T, values=np.zeros((5, 7), complex)),
+        _invalid("mass-bool", "mass holds a bool", "mass", T, mass=np.bool_(True)),
+        _invalid("periodic-float", "periodic holds floats", "periodic", T, periodic=np.array([0.0, 1.0])),
+        _invalid("dt-string", "dt holds a string", "dt", T, dt="0.05"),
+    ]
+
+
+def build_vectors() -> list:
+    """Every vector of this version: valid ones first, then invalid ones."""
+    vectors = valid_vectors() + invalid_vectors()
+    ids = [v.id for v in vectors]
+    dup = sorted({i for i in ids if ids.count(i) > 1})
+    if dup:
+        raise RuntimeError(f"duplicate vector ids {dup}")
+    return vectors
+
+
+# =========================================================================== writing
+
+def _expected_refusal(vec: Vector):
+    """Run the oracle's validation on an invalid vector and check it refuses as declared."""
+    try:
+        oracle.validate_case(vec.case)
+    except oracle.CaseError as exc:
+        got = "TypeError" if isinstance(exc, TypeError) else "ValueError"
+        if exc.key != vec.key or got != vec.error:
+            raise RuntimeError(f"invalid vector {vec.id}: the oracle refused key {exc.key!r} with {got}, "
+                               f"declared {vec.key!r} with {vec.error} ({exc})") from None
+        return str(exc)
+    raise RuntimeError(f"invalid vector {vec.id}: the oracle accepted it")
+
+
+def _entry(tc_id: int, vec: Vector) -> dict:
+    entry = {"tc_id": tc_id, "id": vec.id, "comment": vec.comment, "kind": vec.kind,
+             "flags": list(vec.flags), "case": f"{vec.id}.case.npz"}
+    if vec.kind == "valid":
+        entry["result"] = f"{vec.id}.result.npz"
+    else:
+        entry["key"] = vec.key
+        entry["error"] = vec.error
+    return entry
+
+
+def manifest_header() -> dict:
+    """The manifest's fixed part: format, version, tolerances."""
+    return {
+        "format": "pes_ref conformance vectors (SPEC.md section 6 case/result .npz files)",
+        "version": VERSION,
+        "spec": "SPEC.md sections 1-6; the format: docs/oracle.md",
+        "generator": GENERATOR,
+        "tolerances": {
+            "TRAJ_RTOL": tolerances.TRAJ_RTOL, "TRAJ_ATOL": tolerances.TRAJ_ATOL,
+            "GRAD_RTOL": tolerances.GRAD_RTOL, "GRAD_ATOL": tolerances.GRAD_ATOL,
+            "rule": "|got - want| <= atol + rtol |want| per entry; trajectory keys (x, v, energy, loss) "
+                    "use TRAJ_*, gradient keys (grad_*) use GRAD_RTOL and GRAD_ATOL * max|want| "
+                    "(max|want| taken as 1 for an all-zero gradient)",
+            "kink": "on vectors flagged 'kink' only x, v, energy and loss are binding",
+        },
+    }
+
+
+def write_vectors(directory=None, *, quiet: bool = True) -> dict:
+    """Build every vector, write its files and the manifest into ``directory``.
+
+    Parameters
+    ----------
+    directory : path, optional
+        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v1``.
+        Created if missing; vector files of this naming scheme that are no longer
+        part of the set are removed.
+
+    Returns
+    -------
+    dict
+        The manifest.
+    """
+    directory = Path(vectors_dir(VERSION) if directory is None else directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    entries = []
+    for tc_id, vec in enumerate(build_vectors(), start=1):
+        entry = _entry(tc_id, vec)
+        if vec.kind == "invalid":
+            _expected_refusal(vec)
+        oracle.save_case(directory / entry["case"], **vec.case)
+        if vec.kind == "valid":
+            result = oracle.run_case(oracle.load_case(directory / entry["case"]))
+            oracle.write_result(result, directory / entry["result"], overwrite=True)
+        entries.append(entry)
+        if not quiet:
+            print(f"wrote {vec.kind:7s} {vec.id}")
+    keep = {e["case"] for e in entries} | {e["result"] for e in entries if "result" in e}
+    for stale in sorted(directory.glob("*.npz")):
+        if stale.name not in keep and (stale.name.endswith(".case.npz") or stale.name.endswith(".result.npz")):
+            stale.unlink()
+            if not quiet:
+                print(f"removed stale {stale.name}")
+    manifest = dict(manifest_header(), vectors=entries)
+    tmp = directory / ".manifest.json.tmp"
+    tmp.write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+    os.replace(tmp, directory / "manifest.json")
+    return manifest
+
+
+# =========================================================================== comparing two folders
+
+def _same_case(a: dict, b: dict) -> str | None:
+    if sorted(a) != sorted(b):
+        return f"case keys differ: {sorted(set(a) ^ set(b))}"
+    for k in a:
+        same_kind = a[k].dtype == b[k].dtype and a[k].shape == b[k].shape
+        if not (same_kind and np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind in "fc")):
+            return f"case key {k!r} differs"
+    return None
+
+
+def _compare_vector(entry: dict, other, want_dir: Path, got_dir: Path) -> tuple:
+    vid = entry["id"]
+    if other is None:
+        return vid, False, float("inf"), "missing from the regenerated set"
+    if other != entry:
+        return vid, False, float("inf"), "manifest entry differs"
+    detail = _same_case(oracle.load_case(want_dir / entry["case"]), oracle.load_case(got_dir / entry["case"]))
+    if detail is not None:
+        return vid, False, float("inf"), detail
+    if entry["kind"] != "valid":
+        return vid, True, 0.0, "invalid case identical"
+    errors = compare_results(oracle.read_npz(got_dir / entry["result"], what="result"),
+                             oracle.read_npz(want_dir / entry["result"], what="result"))
+    bad = [k for k, e in errors.items() if not passes(k, e)]
+    worst = max(errors.values(), default=0.0)
+    return vid, not bad, worst, f"out of tolerance: {bad}" if bad else "ok"
+
+
+def compare_dirs(want_dir, got_dir) -> list:
+    """Compare a vector folder ``got_dir`` with ``want_dir`` (e.g. fresh against shipped).
+
+    Cases must be identical; results must agree within the contract's tolerances.
+
+    Returns
+    -------
+    list of (id, ok, max_error, detail)
+        ``max_error`` is the largest normalized error of the result (see
+        :func:`pes_ref.testing.conformance.compare_results`); ``detail`` explains a failure.
+    """
+    want_dir, got_dir = Path(want_dir), Path(got_dir)
+    want_m = json.loads((want_dir / "manifest.json").read_text(encoding="utf-8"))
+    got_m = json.loads((got_dir / "manifest.json").read_text(encoding="utf-8"))
+    rows = []
+    got_entries = {e["id"]: e for e in got_m["vectors"]}
+    for entry in want_m["vectors"]:
+        other = got_entries.pop(entry["id"], None)
+        try:
+            rows.append(_compare_vector(entry, other, want_dir, got_dir))
+        except (OSError, oracle.CaseError) as exc:
+            rows.append((entry["id"], False, float("inf"), f"cannot read: {exc}"))
+    for vid in got_entries:
+        rows.append((vid, False, float("inf"), "not in the shipped set"))
+    return rows
+
+
+def main(argv=None) -> int:
+    """``python -m pes_ref.oracle.conformance.generate [DIR]``: write the vectors."""
+    argv = sys.argv[1:] if argv is None else argv
+    manifest = write_vectors(argv[0] if argv else None, quiet=False)
+    n_valid = sum(e["kind"] == "valid" for e in manifest["vectors"])
+    print(f"{len(manifest['vectors'])} vectors ({n_valid} valid, {len(manifest['vectors']) - n_valid} invalid)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,144 @@
+"""Design files: one ``.npz`` holding a design run, to evaluate, plot or resume it.
+
+Keys (all plain arrays; loaded with ``allow_pickle=False``):
+
+==================  =====================================================================
+``format``          the string ``"pes_ref.design"``
+``version``         int, :data:`VERSION`
+``kind``            ``"funnel"`` or ``"oscillator"``
+``problem``         JSON text of the problem's fields (the scene parameters)
+``plan``            JSON text of the plan's fields (optimizer, learning rates, stages, ...)
+``seed``            int, the run's seed
+``iteration``       int, iterations finished
+``values``          (n0, n1) float64, the grid after ``iteration`` iterations
+``loss``            (iteration,) float64, loss per iteration
+``metric``          (iteration,) float64, design metric per iteration
+``status``          ``"done"``, ``"interrupted"``, ``"non-finite: ..."``, ...
+``elapsed``         float, wall seconds spent so far (information only)
+``opt_<name>``      the optimizer's :meth:`state_dict` entries
+==================  =====================================================================
+
+A file is written to a temporary file in the target folder and moved into place, so a
+crash never leaves half a design; an existing file is refused unless ``overwrite=True``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import tempfile
+import zipfile
+
+import numpy as np
+
+from pes_ref.synthesis.designs import PROBLEMS, DesignState, Plan
+from pes_ref.synthesis.optimizers import optimizer_from_state
+
+__all__ = ["save_design", "load_design", "check_same_scene", "DesignFileError", "FORMAT", "VERSION"]
+
+FORMAT = "pes_ref.design"
+VERSION = 1
+_REQUIRED = ("format", "version", "kind", "problem", "plan", "seed", "iteration", "values", "loss", "metric",
+             "status", "elapsed")
+
+
+class DesignFileError(ValueError):
+    """A file that is not a readable design, or one from another scene."""
+
+
+def _fields(obj) -> dict:
+    return {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}
+
+
+def save_design(path, state: DesignState, *, overwrite: bool = False) -> None:
+    """Write ``state`` to ``path`` (``.npz``); refuse an existing file unless ``overwrite``."""
+    path = os.fspath(path)
+    if os.path.exists(path) and not overwrite:
+        raise FileExistsError(f"{path} exists; refusing to overwrite it (use --force / overwrite=True)")
+    arrays = {
+        "format": np.array(FORMAT), "version": np.array(VERSION, dtype=np.int64),
+        "kind": np.array(state.kind),
+        "problem": np.array(json.dumps(_fields(state.problem), sort_keys=True)),
+        "plan": np.array(json.dumps(_fields(state.plan), sort_keys=True)),
+        "seed": np.array(state.seed, dtype=np.int64), "iteration": np.array(state.iteration, dtype=np.int64),
+        "values": np.asarray(state.values, dtype=np.float64),
+        "loss": np.asarray(state.history["loss"], dtype=np.float64).reshape(-1),
+        "metric": np.asarray(state.history["metric"], dtype=np.float64).reshape(-1),
+        "status": np.array(state.status), "elapsed": np.array(float(state.elapsed)),
+    }
+    for k, v in state.optimizer.state_dict().items():
+        arrays["opt_" + k] = v
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".design-", suffix=".npz.tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+
+
+def load_design(path) -> DesignState:
+    """Read a design file back into a :class:`~pes_ref.synthesis.designs.DesignState` (bit-exact).
+
+    Raises
+    ------
+    DesignFileError
+        If ``path`` is not an ``.npz`` design file of a version this package reads.
+    FileNotFoundError
+        If it does not exist.
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"design file {path} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
+        raise DesignFileError(f"{path} is not a design file (not a readable .npz: {exc})") from None
+    if str(data.get("format", "")) != FORMAT:
+        raise DesignFileError(f"{path} is not a design file (no format tag {FORMAT!r}; "
+                              f"keys {sorted(data)[:8]})")
+    missing = [k for k in _REQUIRED if k not in data]
+    if missing:
+        raise DesignFileError(f"{path} is a damaged design file: missing keys {missing}")
+    version = int(data["version"])
+    if version != VERSION:
+        raise DesignFileError(f"{path} is a design file of version {version}; this pes_ref reads version {VERSION}")
+    kind = str(data["kind"])
+    if kind not in PROBLEMS:
+        raise DesignFileError(f"{path} has unknown design kind {kind!r}; expected one of {sorted(PROBLEMS)}")
+    try:
+        problem = PROBLEMS[kind](**json.loads(str(data["problem"])))
+        plan_fields = json.loads(str(data["plan"]))
+        plan_fields["stages"] = tuple(tuple(s) for s in plan_fields["stages"])
+        plan = Plan(**plan_fields)
+        opt = optimizer_from_state({k[4:]: v for k, v in data.items() if k.startswith("opt_")})
+    except (TypeError, KeyError, ValueError) as exc:
+        raise DesignFileError(f"{path} is a damaged design file: {exc}") from None
+    iteration = int(data["iteration"])
+    loss, metric = data["loss"], data["metric"]
+    if loss.shape != (iteration,) or metric.shape != (iteration,):
+        raise DesignFileError(f"{path} is a damaged design file: history lengths {loss.shape}, {metric.shape} "
+                              f"for iteration {iteration}")
+    return DesignState(problem, plan, int(data["seed"]), np.array(data["values"], dtype=np.float64), opt,
+                       iteration, {"loss": loss.tolist(), "metric": metric.tolist()}, str(data["status"]),
+                       float(data["elapsed"]))
+
+
+def check_same_scene(state: DesignState, kind: str, overrides: dict | None = None) -> None:
+    """Refuse to resume ``state`` as a ``kind`` run with problem ``overrides`` it does not have.
+
+    Raises :class:`DesignFileError` naming the first difference.
+    """
+    if state.kind != kind:
+        raise DesignFileError(f"the resume file is a {state.kind} design, not a {kind} one (another scene)")
+    have = _fields(state.problem)
+    for name, value in (overrides or {}).items():
+        if name not in have:
+            raise DesignFileError(f"{kind} scenes have no parameter {name!r}")
+        if have[name] != value:
+            raise DesignFileError(f"the resume file is from another scene: {name} = {have[name]!r} there, "
+                                  f"{value!r} asked for")
