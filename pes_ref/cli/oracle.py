@@ -1,30 +1,68 @@
-"""The ``oracle`` command: ``oracle CASE.npz RESULT.npz [--force]`` runs one case file
-(docs/spec.md) and writes its result; a refused case prints one line ``error: <message>``
-and exits 2, writing nothing."""
+"""The ``oracle`` command: runs case files (docs/spec.md section 8) and writes their
+results (section 9). ``oracle CASE.npz RESULT.npz [CASE.npz RESULT.npz ...]`` takes
+pairs; ``oracle CASE.npz ... --out-dir DIR`` writes ``DIR/<case name>.result.npz`` for
+each case. Many cases in one process pay the start-up once. A refused case prints one
+line ``error: <message>`` and writes nothing; the exit status is 2 if any case was
+refused."""
 from __future__ import annotations
 
-from pes_ref.cli.common import EXIT_OK, error
+import argparse
+import os
+
+from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, error
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
-        "oracle", help="run one case file and write its result file (SPEC section 6)",
-        description="Run the case CASE.npz with the reference engine and write RESULT.npz: x, v, energy, "
-                    "loss and grad_<name> for every differentiable input the case uses. A case that breaks "
-                    "the SPEC is refused with one line 'error: case key ...' on stderr and exit status 2, "
-                    "and nothing is written. The result is written to a temporary file and moved into place.")
-    p.add_argument("case", metavar="CASE.npz", help="the case file to run")
-    p.add_argument("result", metavar="RESULT.npz", help="the result file to write")
-    p.add_argument("--force", action="store_true", help="overwrite RESULT.npz if it exists (default: refuse)")
+        "oracle", help="run case files and write their result files (docs/spec.md)",
+        description="Run each case with the reference engine and write its result: x, v, energy, loss and "
+                    "grad_<name> for every differentiable input the case uses (docs/spec.md sections 8-9). "
+                    "A case that breaks the spec is refused with one line 'error: case key ...' on stderr and "
+                    "nothing is written for it; the exit status is then 2. Each result is written to a "
+                    "temporary file and moved into place.",
+        epilog="examples:\n"
+               "  python -m pes_ref oracle pes_ref/oracle/conformance/v1/plane-dynamic.case.npz r.npz\n"
+               "  python -m pes_ref oracle a.case.npz b.case.npz --out-dir results/",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="CASE.npz RESULT.npz pairs, or (with --out-dir) case files")
+    p.add_argument("--out-dir", default=None, metavar="DIR",
+                   help="write DIR/<case name>.result.npz for each case file given")
+    p.add_argument("--force", action="store_true", help="overwrite results that exist (default: refuse)")
     p.set_defaults(func=_run_oracle)
+
+
+def _result_name(case_path: str, out_dir: str) -> str:
+    name = os.path.basename(case_path)
+    for suffix in (".case.npz", ".npz"):
+        if name.endswith(suffix):
+            name = name[: -len(suffix)]
+            break
+    return os.path.join(out_dir, name + ".result.npz")
+
+
+def _pairs(args) -> list:
+    if args.out_dir is not None:
+        return [(c, _result_name(c, args.out_dir)) for c in args.files]
+    if len(args.files) % 2:
+        raise ValueError(f"oracle takes CASE.npz RESULT.npz pairs (or case files with --out-dir); got "
+                         f"{len(args.files)} file names")
+    return list(zip(args.files[::2], args.files[1::2]))
 
 
 def _run_oracle(args) -> int:
     from pes_ref.oracle import case as oracle
     try:
-        result = oracle.run_case_file(args.case, args.result, overwrite=args.force)
-    except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
+        pairs = _pairs(args)
+    except ValueError as exc:
         return error(exc)
-    t1, n = result["x"].shape[:2]
-    print(f"wrote {args.result}: T = {t1 - 1}, N = {n}, loss = {float(result['loss']):.17g}")
-    return EXIT_OK
+    status = EXIT_OK
+    for case_path, result_path in pairs:
+        try:
+            result = oracle.run_case_file(case_path, result_path, overwrite=args.force)
+        except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
+            status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)
+            continue
+        t1, n = result["x"].shape[:2]
+        print(f"wrote {result_path}: T = {t1 - 1}, N = {n}, loss = {float(result['loss']):.17g}")
+    return status if status == EXIT_OK else EXIT_ERROR

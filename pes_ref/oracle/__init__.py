@@ -2,6 +2,7 @@
 contract's tolerances, and the versioned conformance vectors.
 
 - :mod:`pes_ref.oracle.case`         case validation, running a case, result keys
+- :mod:`pes_ref.oracle.from_scene`   a Scene, state and objective as a case
 - :mod:`pes_ref.oracle.tolerances`   the tolerances of the contract
 - :mod:`pes_ref.oracle.conformance`  the shipped vectors and their generator
 """
@@ -9,10 +10,11 @@ from pes_ref.oracle.case import (CASE_KEYS, KEY_GROUPS, OBJECTIVE_PARAMS, OPTION
                                  CaseError, CaseTypeError, ResultExistsError, ValidCase, load_case, read_npz,
                                  result_keys, run_case, run_case_file, save_case, validate_case, write_npz,
                                  write_result)
+from pes_ref.oracle.from_scene import case_from_scene
 
 __all__ = [
     "CaseError", "CaseTypeError", "ResultExistsError", "ValidCase",
     "REQUIRED_KEYS", "OPTIONAL_KEYS", "OBJECTIVE_PARAMS", "CASE_KEYS", "KEY_GROUPS",
     "load_case", "validate_case", "run_case", "write_result", "run_case_file", "save_case",
-    "read_npz", "write_npz", "result_keys",
+    "read_npz", "write_npz", "result_keys", "case_from_scene",
 ]

@@ -1,0 +1,62 @@
+"""The ``check`` command: conformance of any program, in any language, through its
+command line (:mod:`pes_ref.testing.check`, docs/spec.md section 13)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, error
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "check", help="check another implementation's program against the vectors and fresh random cases",
+        description="Run PROGRAM on every shipped conformance vector (valid ones compared with the reference "
+                    "result within the tolerances of docs/spec.md; invalid ones must exit non-zero and write "
+                    "nothing) and on N fresh random cases drawn from pes_ref's own strategies (well-conditioned "
+                    "ones only), computed by pes_ref too. Prints one line per case and 'N passed, M failed'; "
+                    "exits 0 only when every case passes.",
+        epilog="examples:\n"
+               "  python -m pes_ref check --cmd \"./my_impl {case} {result}\" --random 100 --seed 1\n"
+               "  python -m pes_ref check --cmd \"python examples/jax_pes/pes_jax.py {pairs}\" --report r.json",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--cmd", required=True, metavar="TEMPLATE",
+                   help="the program: {case} and {result} are replaced by one case's paths (one process per "
+                        "case), or {pairs} by CASE1 RESULT1 CASE2 RESULT2 ... (one process for all valid cases)")
+    p.add_argument("--random", type=int, default=0, metavar="N", help="fresh random cases to draw (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random cases (default 0)")
+    p.add_argument("--no-vectors", action="store_true", help="skip the shipped vectors")
+    p.add_argument("--only", action="append", default=None, metavar="ID", help="run only this vector (repeatable)")
+    p.add_argument("--timeout", type=float, default=60.0, metavar="SECONDS",
+                   help="time allowed per case (default 60)")
+    p.add_argument("--report", default=None, metavar="FILE.json", help="write a JSON report")
+    p.add_argument("--keep", default=None, metavar="DIR", help="keep each failing case in DIR with reproduce.sh")
+    p.add_argument("--quiet", action="store_true", help="print only failures and the closing line")
+    p.set_defaults(func=_run_check)
+
+
+def _run_check(args) -> int:
+    from pes_ref.testing import check as chk
+    if args.random < 0:
+        return error(f"--random must be >= 0, got {args.random}")
+    if not args.timeout > 0:
+        return error(f"--timeout must be > 0 seconds, got {args.timeout}")
+    if args.no_vectors and args.random == 0:
+        return error("--no-vectors with --random 0 leaves nothing to check")
+
+    def show(outcome):
+        if not args.quiet or not outcome.ok:
+            print(outcome.line(), flush=True)
+    try:
+        if args.random:
+            print(f"drawing {args.random} random cases (seed {args.seed}; conditioning bound "
+                  f"{chk.CONDITION_BOUND:g}: a {chk.PROBE:g} perturbation of x0 may grow at most that much)",
+                  file=sys.stderr, flush=True)
+        report = chk.check(args.cmd, vectors=not args.no_vectors, random=args.random, seed=args.seed,
+                           timeout=args.timeout, keep=args.keep, only=args.only, progress=show)
+        if args.report:
+            chk.write_report(report, args.report)
+    except (ValueError, ImportError, RuntimeError, OSError) as exc:
+        return error(exc)
+    print(report.summary())
+    return EXIT_OK if report.ok else EXIT_FAIL
