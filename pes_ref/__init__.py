@@ -1,46 +1,68 @@
 """pes_ref: the reference NumPy implementation of potential energy surfaces for the
 conceptual design and analysis of mechanical systems (Manion & Fuge, DETC2021).
 
-The numerical contract is ``SPEC.md`` (shipped beside the paper); the adjoint is
-derived in ``docs/adjoint.md``. Modules, one idea each:
+The numerical contract is ``docs/spec.md``; the adjoint is
+derived in ``docs/adjoint.md``. Subpackages by layer, imports only downward (docs/architecture.md):
 
-- :mod:`pes_ref.core.surface`    grid lookup, bilinear energy and slope, their adjoints
-- :mod:`pes_ref.core.bilinear`   the hot loop's per-cell coefficient tables for the bilinear grid force and its adjoint
-- :mod:`pes_ref.core.terms`      springs and walls
-- :mod:`pes_ref.core.effects`    external force effects and their schedule
-- :mod:`pes_ref.core.forces`     the total conservative force and its adjoint
-- :mod:`pes_ref.core.integrator` damped velocity Verlet / quasistatic steps and their adjoints
-- :mod:`pes_ref.core.gjf`        option: the second-order damped Gronbech-Jensen-Farago step and its adjoint
-- :mod:`pes_ref.core.bicubic`    option: the C1 bicubic (Catmull-Rom) surface and its adjoints
-- :mod:`pes_ref.core.objectives` trajectory objectives and regularization
-- :mod:`pes_ref.core.scene`      the frozen scene layer: ``simulate``, ``value_and_grad``
-- :mod:`pes_ref.core.stability`  the explicit step's stability limit, named in errors past it
-- :mod:`pes_ref.oracle.case`     the case/result ``.npz`` interchange format
-- :mod:`pes_ref.devices.geometry` / :mod:`pes_ref.devices.cspace` parts -> C-space -> eq. (1) surface; devices in :mod:`pes_ref.devices.ratchet`, :mod:`pes_ref.devices.dartgun`
-- :mod:`pes_ref.synthesis.optimizers` / :mod:`pes_ref.synthesis.designs` / :mod:`pes_ref.synthesis.design_file` RMSprop, Adam; the funnel and oscillator designs and their files
-- :mod:`pes_ref.bench.benchmark`      the benchmark (``python -m pes_ref bench``)
-- :mod:`pes_ref.testing`    conformance helpers and hypothesis strategies for other implementations
+- :mod:`pes_ref.core`       surfaces, energy terms, effects, steppers and their adjoints, the scene layer
+- :mod:`pes_ref.oracle`     the case/result ``.npz`` interchange format, tolerances, conformance vectors
+- :mod:`pes_ref.devices`    part geometry -> C-space -> eq. (1) surface; the ratchet and the dart gun
+- :mod:`pes_ref.synthesis`  optimizers, the funnel and oscillator designs, design files
+- :mod:`pes_ref.bench`      the benchmark (``python -m pes_ref bench``)
+- :mod:`pes_ref.testing`    conformance checks, hypothesis strategies and properties for other implementations
+- :mod:`pes_ref.cli`        the command line (``python -m pes_ref``)
+
+The names below are re-exported here and imported on first use, so that a command
+that needs only the core (``python -m pes_ref oracle``) does not pay for the rest.
 """
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from pes_ref import _moved
-from pes_ref.devices.cspace import CSpaceGrid, GridSpring, apf_energy
-from pes_ref.core.effects import Constant, Noise, PerParticle, Schedule, Window, build_schedule
-from pes_ref.core.integrator import NonFiniteError, Trajectory
-from pes_ref.core.objectives import Custom, Funnel, Oscillator, Quadratic, regularization
-from pes_ref.synthesis.optimizers import Adam, RMSprop
-from pes_ref.core.scene import GRADIENT_NAMES, Scene, energy, simulate, value_and_grad
-from pes_ref.core.surface import Surface
-from pes_ref.devices.geometry import Part, Polygon, Rotation, Translation
-from pes_ref.core.terms import Spring, Walls
 
 __version__ = "0.1.0"
 
 _moved.install()   # old flat import paths keep working, with a DeprecationWarning
 
-__all__ = [
-    "Surface", "Spring", "Walls", "Constant", "PerParticle", "Noise", "Window", "Schedule",
-    "build_schedule", "Scene", "simulate", "value_and_grad", "energy", "Trajectory",
-    "NonFiniteError", "Funnel", "Oscillator", "Quadratic", "Custom", "regularization",
-    "GRADIENT_NAMES", "__version__",
-    "Polygon", "Translation", "Rotation", "Part", "CSpaceGrid", "GridSpring", "apf_energy",
-    "RMSprop", "Adam",
-]
+#: Each public name and the module it lives in (imported on first access, PEP 562).
+_EXPORTS = {
+    **dict.fromkeys(("Surface",), "pes_ref.core.surface"),
+    **dict.fromkeys(("Spring", "Walls"), "pes_ref.core.terms"),
+    **dict.fromkeys(("Constant", "PerParticle", "Noise", "Window", "Schedule", "build_schedule"),
+                    "pes_ref.core.effects"),
+    **dict.fromkeys(("Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES"), "pes_ref.core.scene"),
+    **dict.fromkeys(("Trajectory", "NonFiniteError"), "pes_ref.core.integrator"),
+    **dict.fromkeys(("Funnel", "Oscillator", "Quadratic", "Custom", "regularization"), "pes_ref.core.objectives"),
+    **dict.fromkeys(("Polygon", "Translation", "Rotation", "Part"), "pes_ref.devices.geometry"),
+    **dict.fromkeys(("CSpaceGrid", "GridSpring", "apf_energy"), "pes_ref.devices.cspace"),
+    **dict.fromkeys(("RMSprop", "Adam"), "pes_ref.synthesis.optimizers"),
+}
+
+__all__ = [*_EXPORTS, "__version__"]
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'pes_ref' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))
+
+
+if TYPE_CHECKING:   # for type checkers and IDEs: the same names, imported eagerly
+    from pes_ref.core.effects import Constant, Noise, PerParticle, Schedule, Window, build_schedule  # noqa: F401
+    from pes_ref.core.integrator import NonFiniteError, Trajectory  # noqa: F401
+    from pes_ref.core.objectives import Custom, Funnel, Oscillator, Quadratic, regularization  # noqa: F401
+    from pes_ref.core.scene import GRADIENT_NAMES, Scene, energy, simulate, value_and_grad  # noqa: F401
+    from pes_ref.core.surface import Surface  # noqa: F401
+    from pes_ref.core.terms import Spring, Walls  # noqa: F401
+    from pes_ref.devices.cspace import CSpaceGrid, GridSpring, apf_energy  # noqa: F401
+    from pes_ref.devices.geometry import Part, Polygon, Rotation, Translation  # noqa: F401
+    from pes_ref.synthesis.optimizers import Adam, RMSprop  # noqa: F401

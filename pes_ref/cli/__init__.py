@@ -7,12 +7,15 @@ shows them. Exit codes and the one-line error are in :mod:`pes_ref.cli.common`.
 from __future__ import annotations
 
 import argparse
+import os
+import signal
+import sys
 
 from pes_ref import __version__
 from pes_ref.cli import analyze, bench, check, conformance, design, evaluate, oracle
-from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_OK
+from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, error
 
-__all__ = ["main", "build_parser", "COMMANDS", "EXIT_OK", "EXIT_FAIL", "EXIT_ERROR"]
+__all__ = ["main", "build_parser", "COMMANDS", "EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED"]
 
 #: The commands, in the order of ``--help``.
 COMMANDS = (oracle, check, conformance, analyze, design, evaluate, bench)
@@ -32,11 +35,41 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminate(signum, frame):
+    """SIGTERM (a batch scheduler preempting the run) stops the run like Ctrl-C does."""
+    raise KeyboardInterrupt
+
+
 def main(argv=None) -> int:
-    """Run the command line; return the exit status (0 ok, 1 check failed, 2 error)."""
+    """Run the command line; return the exit status (0 ok, 1 check failed, 2 error, 130 interrupted).
+
+    No traceback reaches the user: a closed pipe (``pes_ref evaluate F | head -1``) ends
+    quietly as the Python docs recommend for SIGPIPE; Ctrl-C and SIGTERM end with 130
+    after the command has saved what it can; anything unexpected is one ``error:`` line
+    (set ``PES_REF_DEBUG=1`` to see the traceback).
+    """
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:   # --help, --version, usage errors
         return exc.code if isinstance(exc.code, int) else EXIT_OK
-    return args.func(args)
+    previous = signal.signal(signal.SIGTERM, _terminate) if argv is None else None
+    try:
+        status = args.func(args)
+        sys.stdout.flush()
+        return status
+    except BrokenPipeError:
+        devnull = os.open(os.devnull, os.O_WRONLY)   # Python docs, "Note on SIGPIPE"
+        os.dup2(devnull, sys.stdout.fileno())
+        return EXIT_FAIL
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as exc:   # the last line of defence: no traceback for a user
+        if os.environ.get("PES_REF_DEBUG"):
+            raise
+        return error(f"internal error ({type(exc).__name__}: {exc}); please report it, with the command "
+                     f"(PES_REF_DEBUG=1 shows the traceback)")
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 
 from pes_ref.core import checks
-from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, error  # noqa: F401
+from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error  # noqa: F401
 
 #: Option defaults, and the ``--smoke`` preset (a smaller grid, shorter runs, coarser
 #: searches: for tests and a quick look; same geometry). An option given explicitly wins.
@@ -42,12 +42,12 @@ def _floats(option: str, text: str) -> list:
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser(
-        "analyze", help="analyze a device on its potential energy surface (ratchet, dart gun)",
+    p = add_command(sub, "analyze", help="analyze a device on its potential energy surface (ratchet, dart gun)",
         description="Build a device's C-space from its part geometry, turn it into a potential energy "
                     "surface (eq. (1) plus its springs) and run the analyses of the paper's "
                     "'Contribution 2'. Prints one 'name: value unit' line per figure, with run times. "
-                    "See docs/geometry.md.")
+                    "See docs/geometry.md.",
+        examples=['analyze ratchet --smoke', 'analyze dartgun --reload-force 25 --trigger-forces 10,20'])
     dev = p.add_subparsers(dest="device", metavar="DEVICE", title="devices")
     dev.required = True
 

@@ -10,20 +10,20 @@ from __future__ import annotations
 
 import os
 
-from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, error  # noqa: F401
+from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error  # noqa: F401
 
 #: Where ``make bench`` leaves its results (git-ignored).
 DEFAULT_OUT = os.path.join("bench", "out", "bench.json")
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser(
-        "bench", help="time the engine and write the numbers (issue 6)",
+    p = add_command(sub, "bench", help="time the engine and write the numbers (what accuracy and each effect cost)",
         description="Time the forward and adjoint passes (N = 1 .. 65536 particles on a 200 x 200 grid, dynamic "
                     "and quasistatic), peak memory, the cost of each effect, the growth with N and T, and the "
                     "funnel and oscillator design gradients against autograd and JAX where installed. Prints "
                     "tables and writes JSON plus a scaling plot. Medians over repeats, with min and max. "
-                    f"Default output: {DEFAULT_OUT} (replaced on every run).")
+                    f"Default output: {DEFAULT_OUT} (replaced on every run).",
+        examples=['bench --quick --out /tmp/bench.json', 'bench'])
     p.add_argument("--quick", action="store_true", help="tiny sizes: a smoke run of every section (seconds)")
     p.add_argument("--out", metavar="FILE.json", default=None,
                    help=f"write the results here (default {DEFAULT_OUT}); the plot goes beside it")

@@ -5,21 +5,17 @@ from __future__ import annotations
 import argparse
 import sys
 
-from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, error
+from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, add_command, error
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser(
-        "check", help="check another implementation's program against the vectors and fresh random cases",
+    p = add_command(sub, "check", help="check another implementation's program against the vectors and fresh random cases",
         description="Run PROGRAM on every shipped conformance vector (valid ones compared with the reference "
                     "result within the tolerances of docs/spec.md; invalid ones must exit non-zero and write "
                     "nothing) and on N fresh random cases drawn from pes_ref's own strategies (well-conditioned "
                     "ones only), computed by pes_ref too. Prints one line per case and 'N passed, M failed'; "
                     "exits 0 only when every case passes.",
-        epilog="examples:\n"
-               "  python -m pes_ref check --cmd \"./my_impl {case} {result}\" --random 100 --seed 1\n"
-               "  python -m pes_ref check --cmd \"python examples/jax_pes/pes_jax.py {pairs}\" --report r.json",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        examples=['check --cmd "./my_impl {case} {result}" --random 100 --seed 1', 'check --cmd "python examples/jax_pes/pes_jax.py {pairs}" --report check.json'])
     p.add_argument("--cmd", required=True, metavar="TEMPLATE",
                    help="the program: {case} and {result} are replaced by one case's paths (one process per "
                         "case), or {pairs} by CASE1 RESULT1 CASE2 RESULT2 ... (one process for all valid cases)")

@@ -15,7 +15,7 @@ import dataclasses
 import os
 import sys
 
-from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, error
+from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error
 
 #: The ``--smoke`` preset: problem overrides per kind, and the plan's (iterations, particles, stages).
 SMOKE = {
@@ -28,30 +28,32 @@ OSCILLATOR_OBJECTIVE_NAMES = ("overshoot", "eq6")
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser(
-        "design", help="design a funnel or an oscillator by gradient descent (paper Figs. 6-11)",
+    p = add_command(sub, "design", help="design a funnel or an oscillator by gradient descent (paper Figs. 6-11)",
         description="Optimize the grid values of a potential energy surface for the paper's funnel or "
                     "oscillator objective and write the design (grid, scene parameters, seed, loss history, "
                     "optimizer state) to FILE.npz. --iterations is the total count to reach, also on --resume. "
                     "Ctrl-C stops after the current iteration and saves. An existing --out is refused unless "
-                    "--force; with --resume and no --out the resumed file itself is updated.")
-    p.add_argument("kind", choices=["funnel", "oscillator"])
+                    "--force; with --resume and no --out the resumed file itself is updated.",
+        examples=['design funnel --out funnel.npz', 'design oscillator --seed 1 --out osc.npz && python -m pes_ref evaluate osc.npz'])
+    p.add_argument("kind", choices=["funnel", "oscillator"], help="the device to design")
     p.add_argument("--iterations", type=int, default=None, help="total iterations (default: the plan's)")
     p.add_argument("--seed", type=int, default=None, help="run seed (default 0; a resumed run keeps its own)")
     p.add_argument("--out", default=None, metavar="FILE.npz", help="design file to write (default KIND.npz)")
     p.add_argument("--resume", default=None, metavar="FILE.npz", help="continue the run saved in this file")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="override one scene parameter (e.g. --set n_steps=200); repeatable")
+                   help="override one scene parameter (e.g. --set n_steps=200); repeatable; the names: "
+                        + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in _set_names().items()))
     p.add_argument("--lr", type=float, default=None, help="initial learning rate (default: the plan's)")
-    p.add_argument("--lr-final", type=float, default=None, help="learning rate reached at the last iteration")
+    p.add_argument("--lr-final", type=float, default=None, help="learning rate reached at the last iteration (default: the plan's)")
     p.add_argument("--objective", choices=OSCILLATOR_OBJECTIVE_NAMES, default=None,
                    help="oscillator only: named training setting, 'overshoot' (default: eq. (6) + eq. (7) aimed "
                         "at 1.4 times the target amplitude) or 'eq6' (the paper's setting, aimed at the target "
                         "amplitude); evaluation is the same for both")
-    p.add_argument("--optimizer", choices=["rmsprop", "adam"], default=None)
-    p.add_argument("--clip", type=float, default=None, help="clip the gradient to this norm")
-    p.add_argument("--particles", type=int, default=None, help="particles per iteration")
+    p.add_argument("--optimizer", choices=["rmsprop", "adam"], default=None,
+                   help="the optimizer (default: the plan's; a resumed run keeps its own)")
+    p.add_argument("--clip", type=float, default=None, help="clip the gradient to this norm (default: the plan's)")
+    p.add_argument("--particles", type=int, default=None, help="particles per iteration (default: the plan's)")
     grp = p.add_mutually_exclusive_group()
     grp.add_argument("--stages", default=None, metavar="IT:GRID,...",
                      help="coarse-to-fine grid stages, e.g. 0:25,100:50,200:0 (0 = the scene's grid)")
@@ -60,6 +62,12 @@ def add_parser(sub) -> None:
     p.add_argument("--progress", type=float, default=2.0, metavar="SECONDS", help="progress line period")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_run_design)
+
+
+def _set_names() -> dict:
+    """The names ``--set`` takes, per kind: the fields of each design problem."""
+    from pes_ref.synthesis import designs
+    return {kind: [f.name for f in dataclasses.fields(cls)] for kind, cls in designs.PROBLEMS.items()}
 
 
 def _parse_sets(items, problem_cls) -> dict:
@@ -171,5 +179,7 @@ def _run_design(args) -> int:
               f"is saved: {state.status}", file=sys.stderr)
         return EXIT_FAIL
     if state.status == "interrupted":
-        print(f"interrupted; continue with: python -m pes_ref design {args.kind} --resume {out}", file=sys.stderr)
+        print(f"interrupted; saved; continue with: python -m pes_ref design {args.kind} --resume {out}",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
     return EXIT_OK

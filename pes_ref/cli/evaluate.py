@@ -2,18 +2,18 @@
 [--particles N]`` prints one ``name: value`` line per figure of a saved design."""
 from __future__ import annotations
 
-from pes_ref.cli.common import EXIT_OK, error
+from pes_ref.cli.common import EXIT_OK, add_command, error
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser(
-        "evaluate", help="evaluate a saved design on held-out particles",
+    p = add_command(sub, "evaluate", help="evaluate a saved design on held-out particles",
         description="Simulate held-out particles (a new seed) on a saved design and print one 'name: value' "
-                    "line per figure. Funnel: in_band_fraction (exit |q0 - target| < 10%% of the width), "
+                    "line per figure. Funnel: in_band_fraction (exit |q0 - target| < 10% of the width), "
                     "exit_spread, exited_fraction, and the same on the flat starting surface (flat_*). "
                     "Oscillator: captured_fraction (torque sweep plus 5 x 5 starts at rest with the maximum "
                     "torque), amplitude_error and period_error (relative, worst over the captured particles), "
-                    "and flat_captured_fraction.")
+                    "and flat_captured_fraction.",
+        examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191'])
     p.add_argument("file", metavar="FILE.npz")
     p.add_argument("--seed", type=int, default=12345, help="held-out seed (default 12345; training uses others)")
     p.add_argument("--particles", type=int, default=None,

@@ -9,21 +9,17 @@ from __future__ import annotations
 import argparse
 import os
 
-from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, error
+from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser(
-        "oracle", help="run case files and write their result files (docs/spec.md)",
+    p = add_command(sub, "oracle", help="run case files and write their result files (docs/spec.md)",
         description="Run each case with the reference engine and write its result: x, v, energy, loss and "
                     "grad_<name> for every differentiable input the case uses (docs/spec.md sections 8-9). "
                     "A case that breaks the spec is refused with one line 'error: case key ...' on stderr and "
                     "nothing is written for it; the exit status is then 2. Each result is written to a "
                     "temporary file and moved into place.",
-        epilog="examples:\n"
-               "  python -m pes_ref oracle pes_ref/oracle/conformance/v1/plane-dynamic.case.npz r.npz\n"
-               "  python -m pes_ref oracle a.case.npz b.case.npz --out-dir results/",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        examples=['oracle pes_ref/oracle/conformance/v1/plane-dynamic.case.npz result.npz', 'oracle a.case.npz b.case.npz --out-dir results/'])
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="CASE.npz RESULT.npz pairs, or (with --out-dir) case files")
     p.add_argument("--out-dir", default=None, metavar="DIR",
@@ -50,6 +46,18 @@ def _pairs(args) -> list:
     return list(zip(args.files[::2], args.files[1::2]))
 
 
+def _check_destination(path: str, force: bool) -> None:
+    """Refuse before computing: the result's folder must exist and be writable, and an
+    existing result is kept unless ``--force``."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(f"cannot write {path}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise PermissionError(f"cannot write {path}: folder {folder} is not writable")
+    if os.path.exists(path) and not force:
+        raise FileExistsError(f"{path} exists; refusing to overwrite it (use --force or another name)")
+
+
 def _run_oracle(args) -> int:
     from pes_ref.oracle import case as oracle
     try:
@@ -59,6 +67,7 @@ def _run_oracle(args) -> int:
     status = EXIT_OK
     for case_path, result_path in pairs:
         try:
+            _check_destination(result_path, args.force)
             result = oracle.run_case_file(case_path, result_path, overwrite=args.force)
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
             status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)
