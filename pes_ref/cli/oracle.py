@@ -46,7 +46,7 @@ def _pairs(args) -> list:
     return list(zip(args.files[::2], args.files[1::2]))
 
 
-def _check_destination(path: str, force: bool) -> None:
+def _check_destination(oracle, path: str, force: bool) -> None:
     """Refuse before computing: the result's folder must exist and be writable, and an
     existing result is kept unless ``--force``."""
     folder = os.path.dirname(os.path.abspath(path))
@@ -55,7 +55,7 @@ def _check_destination(path: str, force: bool) -> None:
     if not os.access(folder, os.W_OK | os.X_OK):
         raise PermissionError(f"cannot write {path}: folder {folder} is not writable")
     if os.path.exists(path) and not force:
-        raise FileExistsError(f"{path} exists; refusing to overwrite it (use --force or another name)")
+        raise oracle.ResultExistsError(path)
 
 
 def _run_oracle(args) -> int:
@@ -67,7 +67,7 @@ def _run_oracle(args) -> int:
     status = EXIT_OK
     for case_path, result_path in pairs:
         try:
-            _check_destination(result_path, args.force)
+            _check_destination(oracle, result_path, args.force)
             result = oracle.run_case_file(case_path, result_path, overwrite=args.force)
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
             status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)
