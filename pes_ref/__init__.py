@@ -17,7 +17,7 @@ derived in ``docs/adjoint.md``. Modules, one idea each:
 - :mod:`pes_ref.core.stability`  the explicit step's stability limit, named in errors past it
 - :mod:`pes_ref.oracle.case`     the case/result ``.npz`` interchange format
 - :mod:`pes_ref.devices.geometry` / :mod:`pes_ref.devices.cspace` parts -> C-space -> eq. (1) surface; devices in :mod:`pes_ref.devices.ratchet`, :mod:`pes_ref.devices.dartgun`
-- :mod:`pes_ref.synthesis.optimizers` / :mod:`pes_ref.synthesis.designs` / :mod:`pes_ref.synthesis.design_file` RMSprop, Adam; the funnel and oscillator designs and their files
+- :mod:`pes_ref.synthesis`  RMSprop, Adam; the funnel and oscillator design problems, plans, runs, evaluation and design files
 - :mod:`pes_ref.bench.benchmark`      the benchmark (``python -m pes_ref bench``)
 - :mod:`pes_ref.testing`    conformance helpers and hypothesis strategies for other implementations
 """
