@@ -1,7 +1,7 @@
 """Figure 5: the design gradient dL/dE of one funnel iteration, with the particle paths behind it.
 
 The paper's Fig. 5 is lost from our copy; its text says the gradient is zero wherever no
-particle passes. :func:`pes_ref.synthesis.designs.design_gradient` returns one iteration's masked
+particle passes. :func:`pes_ref.synthesis.training.design_gradient` returns one iteration's masked
 gradient of the funnel objective (eq. (5)) with respect to every grid value, and the
 paths of that iteration's particles. (a) the first iteration, on the flat starting surface
 at the design's final resolution; (b) the iteration after the last one, on the designed
@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.colors import ListedColormap, SymLogNorm
 
 from figures import _common as C
-from pes_ref.synthesis import designs
+from pes_ref.synthesis import design_gradient
 from pes_ref.core.surface import Surface
 
 NAME = "fig05_funnel_gradient"
@@ -64,8 +64,8 @@ def main(argv=None) -> int:
     state = C.design_state(args, "funnel")
     problem, n = state.problem, state.plan.n_particles
     flat = problem.flat_values()
-    first = designs.design_gradient(problem, flat, seed=state.seed, iteration=0, n_particles=n)
-    last = designs.design_gradient(problem, state.values, seed=state.seed, iteration=state.iteration, n_particles=n)
+    first = design_gradient(problem, flat, seed=state.seed, iteration=0, n_particles=n)
+    last = design_gradient(problem, state.values, seed=state.seed, iteration=state.iteration, n_particles=n)
     fig, axes = C.plt.subplots(1, 2, figsize=(13, 5.6), constrained_layout=True)
     panel(axes[0], problem, flat, first, f"(a) iteration 0, flat starting surface, {n} particles")
     panel(axes[1], problem, state.values, last, f"(b) iteration {state.iteration}, designed surface, {n} particles")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from figures import _common as C
-from pes_ref.synthesis import designs
+from pes_ref.synthesis import IN_BAND_SHARE
 from pes_ref.core.surface import Surface
 
 NAME = "fig06_funnel_surface"
@@ -41,7 +41,7 @@ def main(argv=None) -> int:
     ax2 = axh.twinx()
     ax2.plot(it, state.history["metric"], color="#ff7f0e", lw=0.8)
     ax2.set_ylim(0, 1)
-    ax2.set_ylabel(f"batch share exiting within {100 * designs.IN_BAND_SHARE:g}% of the width of x0",
+    ax2.set_ylabel(f"batch share exiting within {100 * IN_BAND_SHARE:g}% of the width of x0",
                    color="#ff7f0e")
     for stage in state.plan.stages[1:]:          # coarse-to-fine stages: (start iteration, grid, ...)
         n0, n1 = state.plan.grid_at(stage[0], p)

@@ -1,9 +1,9 @@
 """Figure 7: particle paths on the synthesized funnel surface, held-out particles included.
 
 (a) paths on the designed surface: one training batch (the particles of the run's next
-iteration, :func:`pes_ref.synthesis.designs.design_gradient`) and held-out particles drawn with a
-seed training never uses (:func:`pes_ref.synthesis.designs.funnel_paths`); (b) where the held-out
-particles leave the bottom edge (:func:`pes_ref.synthesis.designs.exit_positions`), on the design
+iteration, :func:`pes_ref.synthesis.training.design_gradient`) and held-out particles drawn with a
+seed training never uses (:func:`pes_ref.synthesis.analysis.funnel_paths`); (b) where the held-out
+particles leave the bottom edge (:func:`pes_ref.synthesis.problems.exit_positions`), on the design
 and on the flat starting surface.
 """
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from figures import _common as C
-from pes_ref.synthesis import designs
+from pes_ref.synthesis import IN_BAND_SHARE, design_gradient, exit_positions, funnel_paths
 from pes_ref.core.surface import Surface
 
 NAME = "fig07_funnel_paths"
@@ -25,12 +25,12 @@ def main(argv=None) -> int:
     p = state.problem
     n_held = 20 if args.smoke else HELD_OUT
     surface = Surface(state.values, p.lower, p.upper, p.periodic)
-    train = designs.design_gradient(p, state.values, seed=state.seed, iteration=state.iteration,
-                                    n_particles=state.plan.n_particles)
-    held = designs.funnel_paths(p, state.values, n_particles=n_held, seed=HELD_OUT_SEED)
-    flat = designs.funnel_paths(p, p.flat_values(state.values.shape), n_particles=n_held, seed=HELD_OUT_SEED)
-    exits = designs.exit_positions(p, held.traj)
-    exits_flat = designs.exit_positions(p, flat.traj)
+    train = design_gradient(p, state.values, seed=state.seed, iteration=state.iteration,
+                            n_particles=state.plan.n_particles)
+    held = funnel_paths(p, state.values, n_particles=n_held, seed=HELD_OUT_SEED)
+    flat = funnel_paths(p, p.flat_values(state.values.shape), n_particles=n_held, seed=HELD_OUT_SEED)
+    exits = exit_positions(p, held.traj)
+    exits_flat = exit_positions(p, flat.traj)
 
     fig, (ax, axh) = C.plt.subplots(1, 2, figsize=(12.5, 5.2), width_ratios=[1.25, 1.0], constrained_layout=True)
     C.energy_image(ax, surface, "designed energy E (energy units)", cmap="Greys")
@@ -38,7 +38,7 @@ def main(argv=None) -> int:
                  label=f"held-out particles ({n_held}, seed {HELD_OUT_SEED})")
     C.draw_paths(ax, surface, train.traj.x, "#1f77b4", lw=0.6, alpha=0.7,
                  label=f"a training batch ({train.x0.shape[0]}, iteration {state.iteration})")
-    band = designs.IN_BAND_SHARE * p.width
+    band = IN_BAND_SHARE * p.width
     ax.axvspan(p.target - band, p.target + band, ymax=0.04, color="#ff7f0e", alpha=0.8, label="target exit band")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, fontsize=7)
     ax.set_xlabel("x = q0 (length units)")

@@ -3,7 +3,7 @@
 (a) the designed grid values of the oscillator design file (computed by ``python -m
 pes_ref design oscillator``) on the cylinder, q1 periodic; the scene adds the linear
 spring on q0. (b) 50 particles with torques evenly from the minimum to the maximum of the
-design range (:func:`pes_ref.synthesis.designs.oscillator_torque_sweep`), started at rest at
+design range (:func:`pes_ref.synthesis.analysis.oscillator_torque_sweep`), started at rest at
 q1 = 0 and q0 = the target amplitude, as the paper's text says.
 """
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 
 from figures import _common as C
-from pes_ref.synthesis import designs
+from pes_ref.synthesis import oscillator_torque_sweep
 from pes_ref.core.surface import Surface
 
 NAME = "fig08_oscillator"
@@ -28,7 +28,7 @@ def torque_sweep(doc: str, argv):
     state = C.design_state(args, "oscillator")
     p = dataclasses.replace(state.problem, kick=0.0, start_noise=0.0)
     n = 8 if args.smoke else PARTICLES
-    return args, state, p, designs.oscillator_torque_sweep(p, state.values, n_particles=n, periods=PERIODS)
+    return args, state, p, oscillator_torque_sweep(p, state.values, n_particles=n, periods=PERIODS)
 
 
 def main(argv=None) -> int:

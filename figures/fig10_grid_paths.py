@@ -1,13 +1,13 @@
 """Figure 10: particle paths from a 5 x 5 grid of starting positions at rest, maximum torque.
 
-:func:`pes_ref.synthesis.designs.oscillator_grid_starts` starts 25 particles at rest on a 5 x 5
+:func:`pes_ref.synthesis.analysis.oscillator_grid_starts` starts 25 particles at rest on a 5 x 5
 grid of (q0, q1) and pushes each with the design's maximum torque; their paths over the
 evaluation run (the problem's ``eval_periods`` target periods) are drawn on the surface.
 """
 from __future__ import annotations
 
 from figures import _common as C
-from pes_ref.synthesis import designs
+from pes_ref.synthesis import oscillator_grid_starts
 from pes_ref.core.surface import Surface
 
 NAME = "fig10_grid_paths"
@@ -17,7 +17,7 @@ def main(argv=None) -> int:
     args = C.parser(__doc__.splitlines()[0], design_kind="oscillator").parse_args(argv)
     state = C.design_state(args, "oscillator")
     p = state.problem
-    grid = designs.oscillator_grid_starts(p, state.values, periods=p.eval_periods)
+    grid = oscillator_grid_starts(p, state.values, periods=p.eval_periods)
     surface = Surface(state.values, p.lower, p.upper, p.periodic)
     fig, ax = C.plt.subplots(figsize=(8.5, 6), constrained_layout=True)
     C.energy_image(ax, surface, "designed energy E (energy units)", cmap="Greys")

@@ -2,8 +2,8 @@
 
 The torque sweep of ``python -m pes_ref evaluate`` (50 torques evenly from the minimum to
 the maximum, started like the training batch, seed 12345, 15 target periods), run on the
-oscillator design and on the hand-drawn escapement (:func:`pes_ref.synthesis.designs.escapement_values`,
-no optimization), analysed by :func:`pes_ref.synthesis.designs.cycle_figures` over the last 3 periods.
+oscillator design and on the hand-drawn escapement (:func:`pes_ref.synthesis.escapement.escapement_values`,
+no optimization), analysed by :func:`pes_ref.synthesis.analysis.cycle_figures` over the last 3 periods.
 (a) amplitude of q0 per torque, filled where the particle reaches the cycle (amplitude and
 period within 25% of the targets, drift below 5% of A), with the 25% band; (b) how far q1
 turns per target period: the free-running speed ``tau / damping1`` is a straight line
@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from figures import _common as C
-from pes_ref.synthesis import designs
+from pes_ref.synthesis import (ANALYSIS_PERIODS, CYCLE_TOLERANCE, cycle_figures, escapement_values,
+                               oscillator_torque_sweep)
 
 NAME = "fig12_torque_capture"
 #: Held-out seed and particle count of ``evaluate``.
@@ -23,11 +24,11 @@ SEED, PARTICLES = 12345, 50
 
 def sweep_figures(problem, values, n, periods):
     """Torques, amplitude, captured mask and q1 advance per target period (last 3 periods)."""
-    sweep = designs.oscillator_torque_sweep(problem, values, n, periods, seed=SEED)
-    amp, _, _, captured = designs.cycle_figures(problem, sweep.traj)
+    sweep = oscillator_torque_sweep(problem, values, n, periods, seed=SEED)
+    amp, _, _, captured = cycle_figures(problem, sweep.traj)
     per = int(round(problem.period / problem.dt))
     q1 = sweep.traj.x[:, :, 1]
-    advance = -(q1[-1] - q1[-designs.ANALYSIS_PERIODS * per - 1]) / designs.ANALYSIS_PERIODS
+    advance = -(q1[-1] - q1[-ANALYSIS_PERIODS * per - 1]) / ANALYSIS_PERIODS
     return sweep.torques, amp, captured, advance
 
 
@@ -37,11 +38,11 @@ def main(argv=None) -> int:
     p = state.problem
     n, periods = (8, 4) if args.smoke else (PARTICLES, None)
     rows = [(f"design ({state.iteration} iterations)", "#1f77b4", "o", state.values),
-            ("hand-drawn escapement (not optimized)", "#d62728", "s", designs.escapement_values(p, state.values.shape))]
+            ("hand-drawn escapement (not optimized)", "#d62728", "s", escapement_values(p, state.values.shape))]
     fig, (ax0, ax1) = C.plt.subplots(1, 2, figsize=(13, 4.8), constrained_layout=True)
     A = p.amplitude
-    ax0.axhspan((1 - designs.CYCLE_TOLERANCE) * A, (1 + designs.CYCLE_TOLERANCE) * A, color="#dddddd",
-                label=f"target amplitude A = {A:g} +- {designs.CYCLE_TOLERANCE:.0%}")
+    ax0.axhspan((1 - CYCLE_TOLERANCE) * A, (1 + CYCLE_TOLERANCE) * A, color="#dddddd",
+                label=f"target amplitude A = {A:g} +- {CYCLE_TOLERANCE:.0%}")
     for label, color, marker, values in rows:
         tau, amp, cap, adv = sweep_figures(p, values, n, periods)
         share = f"{np.mean(cap):.0%} captured"

@@ -7,7 +7,7 @@ derived in ``docs/adjoint.md``. Subpackages by layer, imports only downward (doc
 - :mod:`pes_ref.core`       surfaces, energy terms, effects, steppers and their adjoints, the scene layer
 - :mod:`pes_ref.oracle`     the case/result ``.npz`` interchange format, tolerances, conformance vectors
 - :mod:`pes_ref.devices`    part geometry -> C-space -> eq. (1) surface; the ratchet and the dart gun
-- :mod:`pes_ref.synthesis`  optimizers, the funnel and oscillator designs, design files
+- :mod:`pes_ref.synthesis`  optimizers; the funnel and oscillator problems, plans, training, evaluation, design files
 - :mod:`pes_ref.bench`      the benchmark (``python -m pes_ref bench``)
 - :mod:`pes_ref.testing`    conformance checks, hypothesis strategies and properties for other implementations
 - :mod:`pes_ref.cli`        the command line (``python -m pes_ref``)

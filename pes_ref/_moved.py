@@ -34,8 +34,10 @@ MOVED = {
     "pes_ref.ratchet": "pes_ref.devices.ratchet",
     "pes_ref.dartgun": "pes_ref.devices.dartgun",
     "pes_ref.optimizers": "pes_ref.synthesis.optimizers",
-    "pes_ref.designs": "pes_ref.synthesis.designs",
+    "pes_ref.designs": "pes_ref.synthesis",
     "pes_ref.design_file": "pes_ref.synthesis.design_file",
+    # designs.py split into problems, plans, resampling, training, analysis, escapement (issue 12)
+    "pes_ref.synthesis.designs": "pes_ref.synthesis",
 }
 
 

@@ -4,8 +4,7 @@ import pytest
 
 from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main
 from pes_ref.cli.design import OSCILLATOR_OBJECTIVE_NAMES
-from pes_ref.synthesis.design_file import load_design
-from pes_ref.synthesis.designs import OSCILLATOR_OBJECTIVES
+from pes_ref.synthesis import OSCILLATOR_OBJECTIVES, load_design
 
 
 def run(capsys, *argv):

@@ -4,18 +4,18 @@ import os
 import numpy as np
 import pytest
 
-import pes_ref.synthesis.designs as pd
+from pes_ref import synthesis
+from pes_ref.synthesis import Plan, design_file
 from pes_ref.synthesis.design_file import DesignFileError, check_same_scene, load_design, save_design
-from pes_ref.synthesis.designs import Plan
 
 TINY = dict(grid=9, n_steps=50, dt=0.05)
 
 
 def tiny(plan=None, kind="funnel", **kw):
     if kind == "oscillator":
-        return pd.new_design("oscillator", seed=5, plan=plan or Plan(iterations=2, n_particles=3),
+        return synthesis.new_design("oscillator", seed=5, plan=plan or Plan(iterations=2, n_particles=3),
                              grid0=6, grid1=6, n_steps=30)
-    return pd.new_design("funnel", seed=5, plan=plan or Plan(iterations=6, n_particles=6), **{**TINY, **kw})
+    return synthesis.new_design("funnel", seed=5, plan=plan or Plan(iterations=6, n_particles=6), **{**TINY, **kw})
 
 
 def assert_same_state(a, b):
@@ -31,7 +31,7 @@ def assert_same_state(a, b):
 
 @pytest.mark.parametrize("kind", ["funnel", "oscillator"])
 def test_round_trip_is_exact(tmp_path, kind):
-    st = pd.run_design(tiny(kind=kind))
+    st = synthesis.run_design(tiny(kind=kind))
     save_design(tmp_path / "d.npz", st)
     back = load_design(tmp_path / "d.npz")
     assert_same_state(st, back)
@@ -46,10 +46,10 @@ def test_round_trip_is_exact(tmp_path, kind):
 ])
 def test_save_and_resume_continues_bit_exactly(tmp_path, optimizer, stages):
     plan = Plan(iterations=6, lr=0.01, lr_final=0.002, optimizer=optimizer, stages=stages, n_particles=6)
-    straight = pd.run_design(tiny(plan))
-    half = pd.run_design(tiny(plan), 3)
+    straight = synthesis.run_design(tiny(plan))
+    half = synthesis.run_design(tiny(plan), 3)
     save_design(tmp_path / "half.npz", half)
-    resumed = pd.run_design(load_design(tmp_path / "half.npz"))
+    resumed = synthesis.run_design(load_design(tmp_path / "half.npz"))
     assert_same_state(straight, resumed)
 
 
@@ -62,6 +62,40 @@ def test_existing_file_is_refused_unless_overwrite(tmp_path):
     assert path.read_bytes() == b"precious"
     save_design(path, st, overwrite=True)
     assert load_design(path).iteration == 0
+
+
+def test_save_design_hands_the_existence_check_to_the_atomic_writer(tmp_path, monkeypatch):
+    # save_design itself never asks whether the file exists (a check-then-write race): it hands
+    # the arrays and overwrite to the one atomic writer, which refuses or replaces in one step
+    calls = []
+    monkeypatch.setattr(design_file, "write_npz", lambda *a, **kw: calls.append((a, kw)))
+
+    def no_check(*_):
+        raise AssertionError("save_design checked the file system itself")
+    for name in ("exists", "lexists", "isfile"):
+        monkeypatch.setattr(os.path, name, no_check)
+    st = tiny()
+    for overwrite in (False, True):
+        save_design(tmp_path / "d.npz", st, overwrite=overwrite)
+    assert [(a[0], kw) for a, kw in calls] == [(tmp_path / "d.npz", {"overwrite": False, "compress": False}),
+                                                (tmp_path / "d.npz", {"overwrite": True, "compress": False})]
+    assert calls[0][0][1].keys() == design_file.design_arrays(st).keys()
+
+
+def test_a_file_appearing_during_the_save_is_not_replaced(tmp_path, monkeypatch):
+    # another writer creates the file after save_design has started (while it builds the arrays)
+    path = tmp_path / "d.npz"
+    build = design_file.design_arrays
+
+    def build_then_race(state):
+        arrays = build(state)
+        path.write_bytes(b"the other writer's")
+        return arrays
+    monkeypatch.setattr(design_file, "design_arrays", build_then_race)
+    with pytest.raises(FileExistsError, match="d.npz exists"):
+        save_design(path, tiny())
+    assert path.read_bytes() == b"the other writer's"
+    assert [p.name for p in tmp_path.iterdir()] == ["d.npz"]      # no temporary file left behind
 
 
 @pytest.mark.parametrize("make, match", [
@@ -102,8 +136,8 @@ def test_resume_from_another_scene_is_refused():
 
 def test_non_finite_stop_saves_the_last_finite_state(tmp_path):
     plan = Plan(iterations=5, lr=10.0, lr_final=10.0, n_particles=4)
-    st = pd.new_design("funnel", seed=0, plan=plan, grid=8, n_steps=200, dt=0.01, noise=0.0, wall_k=1e6)
-    st = pd.run_design(st)
+    st = synthesis.new_design("funnel", seed=0, plan=plan, grid=8, n_steps=200, dt=0.01, noise=0.0, wall_k=1e6)
+    st = synthesis.run_design(st)
     save_design(tmp_path / "nf.npz", st)
     back = load_design(tmp_path / "nf.npz")
     assert back.status.startswith("non-finite") and back.iteration == 0

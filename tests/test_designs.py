@@ -1,12 +1,14 @@
 """Design problems and the design loop: gradients, resampling, stopping, improvement on a small funnel."""
+import importlib
 import os
 import signal
+import sys
 
 import numpy as np
 import pytest
 
-import pes_ref.synthesis.designs as pd
-from pes_ref.synthesis.designs import Plan
+from pes_ref import synthesis
+from pes_ref.synthesis import Plan
 from pes_ref.testing.finite_differences import directional_derivative, relative_error
 from pes_ref.oracle.tolerances import FD_RTOL
 
@@ -17,9 +19,9 @@ TINY_PLAN = Plan(iterations=40, lr=0.005, lr_final=0.005, n_particles=16)
 
 def tiny_state(kind="funnel", **kw):
     if kind == "funnel":
-        return pd.new_design("funnel", seed=3, plan=kw.pop("plan", TINY_PLAN), **{**TINY_FUNNEL, **kw})
+        return synthesis.new_design("funnel", seed=3, plan=kw.pop("plan", TINY_PLAN), **{**TINY_FUNNEL, **kw})
     plan = kw.pop("plan", Plan(iterations=4, lr=0.01, lr_final=0.01, n_particles=4))
-    return pd.new_design("oscillator", seed=3, plan=plan, **{"grid0": 8, "grid1": 8, "n_steps": 60, **kw})
+    return synthesis.new_design("oscillator", seed=3, plan=plan, **{"grid0": 8, "grid1": 8, "n_steps": 60, **kw})
 
 
 @pytest.mark.parametrize("kind, extra", [
@@ -34,10 +36,10 @@ def test_design_gradient_matches_finite_differences(kind, extra):
     rng = np.random.default_rng(1)
     mask = st.problem.mask(st.values.shape)
     values = st.values + 0.05 * rng.standard_normal(st.values.shape) * mask
-    step = pd.design_gradient(st.problem, values, seed=3, iteration=0, n_particles=3)
+    step = synthesis.design_gradient(st.problem, values, seed=3, iteration=0, n_particles=3)
 
     def loss(v):
-        return pd.design_gradient(st.problem, v, seed=3, iteration=0, n_particles=3).loss
+        return synthesis.design_gradient(st.problem, v, seed=3, iteration=0, n_particles=3).loss
 
     for _ in range(3):                       # random directions over the designed values
         u = rng.standard_normal(values.shape) * mask
@@ -46,7 +48,7 @@ def test_design_gradient_matches_finite_differences(kind, extra):
 
 
 def test_funnel_strips_are_held_at_zero():
-    st = pd.run_design(tiny_state(plan=Plan(iterations=3, lr=0.01, lr_final=0.01, n_particles=8)))
+    st = synthesis.run_design(tiny_state(plan=Plan(iterations=3, lr=0.01, lr_final=0.01, n_particles=8)))
     mask = st.problem.mask(st.values.shape)
     q1 = np.linspace(0.0, st.problem.height, st.values.shape[1])
     assert not mask[:, q1 >= st.problem.height - st.problem.start_zone].any()
@@ -67,14 +69,14 @@ def test_resample_is_exact_on_bilinear_functions(periodic):
     # linear along a non-periodic axis; along a periodic one only a constant is exactly representable
     f = (lambda a, b: 2 * a - 0.5 * a * b + b) if not periodic[1] else (lambda a, b: 3 * a - 1)
     coarse, fine = (5, 9), (17, 33)
-    got = pd.resample(f(*nodes(coarse)), lower, upper, periodic, fine)
+    got = synthesis.resample(f(*nodes(coarse)), lower, upper, periodic, fine)
     np.testing.assert_allclose(got, f(*nodes(fine)), rtol=1e-13, atol=1e-13)
 
 
 def test_short_design_improves_the_funnel_over_the_flat_surface():
-    st = pd.run_design(tiny_state())
+    st = synthesis.run_design(tiny_state())
     assert st.status == "done" and st.iteration == TINY_PLAN.iterations
-    figures = pd.evaluate(st.problem, st.values, seed=7, n_particles=200)
+    figures = synthesis.evaluate(st.problem, st.values, seed=7, n_particles=200)
     # the flat surface passes only the ~10-20% that happen to start in the band; the design must at
     # least double that share and narrow the exits
     assert figures["in_band_fraction"] >= 2 * figures["flat_in_band_fraction"]
@@ -82,10 +84,10 @@ def test_short_design_improves_the_funnel_over_the_flat_surface():
     assert np.mean(st.history["loss"][-10:]) < np.mean(st.history["loss"][:10])
 
 
-@pytest.mark.parametrize("cost", pd.OSCILLATOR_COSTS)
+@pytest.mark.parametrize("cost", synthesis.OSCILLATOR_COSTS)
 def test_short_oscillator_design_lowers_its_objective(cost):
     plan = Plan(iterations=30, lr=0.02, lr_final=0.02, n_particles=8)
-    st = pd.run_design(tiny_state("oscillator", plan=plan, n_steps=150, cost=cost, settle_periods=1.0))
+    st = synthesis.run_design(tiny_state("oscillator", plan=plan, n_steps=150, cost=cost, settle_periods=1.0))
     assert st.status == "done"
     assert np.mean(st.history["loss"][-5:]) < np.mean(st.history["loss"][:5])
 
@@ -98,7 +100,8 @@ def test_ctrl_c_stops_after_the_iteration_with_its_state():
             sent.append(True)
             os.kill(os.getpid(), signal.SIGINT)
 
-    st = pd.run_design(tiny_state(plan=Plan(iterations=10, n_particles=4)), callback=interrupt, progress_every=0.0)
+    st = synthesis.run_design(tiny_state(plan=Plan(iterations=10, n_particles=4)), callback=interrupt,
+                              progress_every=0.0)
     assert st.status == "interrupted"
     assert st.iteration == 2                    # the flag is seen before iteration 2 starts
     assert len(st.history["loss"]) == 2
@@ -109,20 +112,20 @@ def test_non_finite_run_stops_at_the_last_finite_state():
     # stiff walls past the stability limit: harmless while the surface is flat (no particle
     # reaches a wall), fatal once a large first step slings particles into them
     plan = Plan(iterations=5, lr=10.0, lr_final=10.0, n_particles=4)
-    st = pd.new_design("funnel", seed=0, plan=plan, grid=8, n_steps=200, dt=0.01, noise=0.0, wall_k=1e6)
+    st = synthesis.new_design("funnel", seed=0, plan=plan, grid=8, n_steps=200, dt=0.01, noise=0.0, wall_k=1e6)
     start = st.values.copy()
-    st = pd.run_design(st)
+    st = synthesis.run_design(st)
     assert st.status.startswith("non-finite: iteration 1")
     assert st.iteration == 0 and st.history["loss"] == []
     np.testing.assert_array_equal(st.values, start)
-    assert np.isfinite(pd.design_gradient(st.problem, st.values, seed=0, iteration=0, n_particles=4).loss)
+    assert np.isfinite(synthesis.design_gradient(st.problem, st.values, seed=0, iteration=0, n_particles=4).loss)
 
 
 def test_coarse_to_fine_stages_resample_and_reset():
     plan = Plan(iterations=4, lr=0.01, lr_final=0.01, n_particles=4, stages=((0, 7), (2, 0)))
-    st = pd.run_design(tiny_state(plan=plan), 2)
+    st = synthesis.run_design(tiny_state(plan=plan), 2)
     assert st.values.shape == (7, 7)
-    st = pd.run_design(st)
+    st = synthesis.run_design(st)
     assert st.values.shape == (13, 13) and st.optimizer.t == 2
     assert plan.lr_at(3, st.problem) == pytest.approx(0.01 * 7 / 13)
 
@@ -131,15 +134,15 @@ def test_coarse_to_fine_stages_resample_and_reset():
 def test_figures_api_shapes(kind):
     st = tiny_state(kind)
     if kind == "funnel":
-        paths = pd.funnel_paths(st.problem, st.values, n_particles=5, seed=2)
+        paths = synthesis.funnel_paths(st.problem, st.values, n_particles=5, seed=2)
         assert paths.traj.x.shape == (101, 5, 2)
-        assert pd.exit_positions(st.problem, paths.traj).shape == (5,)
+        assert synthesis.exit_positions(st.problem, paths.traj).shape == (5,)
         return
-    sweep = pd.oscillator_torque_sweep(st.problem, st.values, n_particles=4, periods=2)
+    sweep = synthesis.oscillator_torque_sweep(st.problem, st.values, n_particles=4, periods=2)
     assert sweep.torques[0] == st.problem.torque_min and sweep.torques[-1] == st.problem.torque_max
-    grid = pd.oscillator_grid_starts(st.problem, st.values, periods=2)
+    grid = synthesis.oscillator_grid_starts(st.problem, st.values, periods=2)
     assert grid.x0.shape == (25, 2) and np.all(grid.traj.v[0] == 0)
-    q0, dq0 = pd.phase_space(st.problem, sweep.traj, after_periods=1)
+    q0, dq0 = synthesis.phase_space(st.problem, sweep.traj, after_periods=1)
     assert q0.shape == dq0.shape and q0.shape[1] == 4
 
 
@@ -147,8 +150,8 @@ def test_cycle_figures_recognise_a_free_oscillation():
     # the flat surface with no damping along q0 and no torque: a pure spring oscillation of amplitude
     # A(1 + kick) at the spring's own frequency, which is the target's
     st = tiny_state("oscillator", damping0=0.0, kick=0.1, start_noise=0.0, torque_min=0.0, torque_max=0.0)
-    sweep = pd.oscillator_torque_sweep(st.problem, st.problem.flat_values((8, 8)), n_particles=2, periods=5)
-    amp, period, drift, captured = pd.cycle_figures(st.problem, sweep.traj)
+    sweep = synthesis.oscillator_torque_sweep(st.problem, st.problem.flat_values((8, 8)), n_particles=2, periods=5)
+    amp, period, drift, captured = synthesis.cycle_figures(st.problem, sweep.traj)
     np.testing.assert_allclose(amp, 1.1, rtol=1e-3)
     np.testing.assert_allclose(period, 2 * np.pi, rtol=1e-3)
     assert captured.all()
@@ -159,7 +162,7 @@ def test_cycle_figures_recognise_a_free_oscillation():
 ])
 def test_bad_problem_parameters_are_refused(bad, match):
     with pytest.raises(ValueError, match=match):
-        pd.FunnelProblem(**bad)
+        synthesis.FunnelProblem(**bad)
 
 
 @pytest.mark.parametrize("bad, match", [
@@ -175,11 +178,11 @@ def test_bad_plans_are_refused(bad, match):
 ])
 def test_bad_oscillator_parameters_are_refused(bad, match):
     with pytest.raises(ValueError, match=match):
-        pd.OscillatorProblem(**bad)
+        synthesis.OscillatorProblem(**bad)
 
 
 def test_oscillator_batch_spreads_starts_and_stratifies_torques():
-    prob = pd.OscillatorProblem(grid0=8, grid1=8, spread_share=0.5, stratified=True)
+    prob = synthesis.OscillatorProblem(grid0=8, grid1=8, spread_share=0.5, stratified=True)
     batch = prob.batch(prob.flat_values(), np.random.default_rng(0), 8)
     torques = -batch.scene.effects[0].force[:, 1]
     slot = (torques - prob.torque_min) / (prob.torque_max - prob.torque_min) * 8
@@ -191,24 +194,24 @@ def test_oscillator_batch_spreads_starts_and_stratifies_torques():
 
 
 def test_oscillator_defaults_are_the_default_objective_setting():
-    sets, plan = pd.OSCILLATOR_OBJECTIVES[pd.DEFAULT_OSCILLATOR_OBJECTIVE]
-    problem = pd.OscillatorProblem()
+    sets, plan = synthesis.OSCILLATOR_OBJECTIVES[synthesis.DEFAULT_OSCILLATOR_OBJECTIVE]
+    problem = synthesis.OscillatorProblem()
     assert {k: getattr(problem, k) for k in sets} == sets
-    assert pd.DEFAULT_PLANS["oscillator"] == plan
-    assert pd.OSCILLATOR_OBJECTIVES["eq6"][0]["cost"] == "eq6"             # the paper's setting stays available
-    assert pd.OSCILLATOR_OBJECTIVES["eq6"][0]["target_scale"] == 1.0
+    assert synthesis.DEFAULT_PLANS["oscillator"] == plan
+    assert synthesis.OSCILLATOR_OBJECTIVES["eq6"][0]["cost"] == "eq6"             # the paper's setting stays available
+    assert synthesis.OSCILLATOR_OBJECTIVES["eq6"][0]["target_scale"] == 1.0
 
 
 # --------------------------------------------------------------------------- the hand-drawn escapement
 
 def test_escapement_values_shape_and_periodicity():
-    p = pd.OscillatorProblem()
-    v = pd.escapement_values(p)
+    p = synthesis.OscillatorProblem()
+    v = synthesis.escapement_values(p)
     assert v.shape == p.shape() and np.isfinite(v).all()
     # the teeth repeat every 2 pi / teeth along q1 (32 nodes, 4 teeth: every 8 nodes)
     np.testing.assert_allclose(np.roll(v, 8, axis=1), v, atol=1e-12)
-    assert pd.escapement_values(p, (16, 64)).shape == (16, 64)
-    np.testing.assert_array_equal(pd.escapement_values(p, h=0.0, kappa=0.0), 0.0)
+    assert synthesis.escapement_values(p, (16, 64)).shape == (16, 64)
+    np.testing.assert_array_equal(synthesis.escapement_values(p, h=0.0, kappa=0.0), 0.0)
 
 
 @pytest.mark.parametrize("kwargs, error, word", [
@@ -220,9 +223,19 @@ def test_escapement_values_shape_and_periodicity():
 ])
 def test_escapement_values_bad_input(kwargs, error, word):
     with pytest.raises(error, match=word):
-        pd.escapement_values(pd.OscillatorProblem(), **kwargs)
+        synthesis.escapement_values(synthesis.OscillatorProblem(), **kwargs)
 
 
 def test_escapement_values_needs_the_oscillator():
     with pytest.raises(TypeError, match="OscillatorProblem"):
-        pd.escapement_values(pd.FunnelProblem())
+        synthesis.escapement_values(synthesis.FunnelProblem())
+
+
+# --------------------------------------------------------------------------- the old module paths
+
+@pytest.mark.parametrize("old", ["pes_ref.designs", "pes_ref.synthesis.designs"])
+def test_the_old_designs_module_path_gives_the_synthesis_api_with_a_warning(old, monkeypatch):
+    monkeypatch.delitem(sys.modules, old, raising=False)
+    with pytest.warns(DeprecationWarning, match=f"{old} moved to pes_ref.synthesis"):
+        module = importlib.import_module(old)
+    assert module.new_design is synthesis.new_design and module.evaluate is synthesis.evaluate

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import pes_ref.synthesis.designs as pd
+from pes_ref import synthesis
 from pes_ref.core.objectives import Oscillator
 from pes_ref.testing.finite_differences import central_gradient, relative_error
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
@@ -70,8 +70,8 @@ def test_window_phase_equals_eq6_at_the_reference_phase():
 
 def test_escapement_scores_what_the_docs_say():
     """The hand-drawn escapement (no optimization) on the default problem: the documented 0.88."""
-    problem = pd.OscillatorProblem()
-    values = pd.escapement_values(problem)
+    problem = synthesis.OscillatorProblem()
+    values = synthesis.escapement_values(problem)
     assert values.shape == (32, 32) and np.isfinite(values).all()
     assert plans.held_out(problem, values)["captured"] == pytest.approx(ESCAPEMENT_CAPTURED, abs=0.005)
 

@@ -61,23 +61,6 @@ def test_wheel_and_pawl_parts():
     np.testing.assert_allclose(pawl.motion.pivot, DESIGN.pivot)
 
 
-@pytest.mark.parametrize("threshold", [0.0, 0.37, 0.999])
-def test_threshold_search_brackets_a_monotone_test(threshold):
-    calls = []
-
-    def passes(values):
-        calls.append(len(values))
-        return np.asarray(values) >= threshold
-    found = R.threshold_search(passes, 0.0, 1.0, 1e-3)
-    assert threshold <= found <= threshold + 1e-3
-    assert len(calls) <= 6
-
-
-def test_threshold_search_refuses_a_failing_upper_end():
-    with pytest.raises(ValueError, match="hi=1"):
-        R.threshold_search(lambda v: np.zeros(len(v), bool), 0.0, 1.0, 0.1)
-
-
 @pytest.mark.parametrize("kw, match", [
     ({"hook_radius": 1.2}, "root_radius < hook_radius < tip_radius"),
     ({"steep_width": 1.0}, "steep_width"),

@@ -23,7 +23,7 @@ SMOKE = {
     "oscillator": ({"grid0": 8, "grid1": 8, "n_steps": 60, "eval_periods": 4}, (6, 4, ((0, 0),))),
 }
 METRIC_NAMES = {"funnel": "in_band", "oscillator": "amp_err"}
-#: ``--objective`` choices: the keys of :data:`pes_ref.synthesis.designs.OSCILLATOR_OBJECTIVES` (tested equal).
+#: ``--objective`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_OBJECTIVES` (tested equal).
 OSCILLATOR_OBJECTIVE_NAMES = ("overshoot", "eq6")
 
 
@@ -113,16 +113,16 @@ def _format_time(seconds: float) -> str:
 
 
 def _run_design(args) -> int:
-    from pes_ref.synthesis import designs
-    from pes_ref.synthesis.design_file import check_same_scene, load_design, save_design
+    from pes_ref import synthesis
+    from pes_ref.synthesis import check_same_scene, load_design, save_design
     try:
-        sets = _parse_sets(args.set, designs.PROBLEMS[args.kind])
+        sets = _parse_sets(args.set, synthesis.PROBLEMS[args.kind])
         plan_over = _plan_overrides(args)
-        base_plan = designs.DEFAULT_PLANS[args.kind]
+        base_plan = synthesis.DEFAULT_PLANS[args.kind]
         if args.objective is not None:
             if args.kind != "oscillator":
                 raise ValueError(f"--objective {args.objective}: only the oscillator has a choice of objective")
-            obj_sets, base_plan = designs.OSCILLATOR_OBJECTIVES[args.objective]
+            obj_sets, base_plan = synthesis.OSCILLATOR_OBJECTIVES[args.objective]
             sets = {**obj_sets, **sets}
         if args.smoke:
             smoke_sets, (its, parts, stages) = SMOKE[args.kind]
@@ -141,7 +141,7 @@ def _run_design(args) -> int:
             may_overwrite = args.force or os.path.abspath(out) == os.path.abspath(args.resume)
         else:
             plan = dataclasses.replace(base_plan, **plan_over)
-            state = designs.new_design(args.kind, seed=0 if args.seed is None else args.seed, plan=plan, **sets)
+            state = synthesis.new_design(args.kind, seed=0 if args.seed is None else args.seed, plan=plan, **sets)
             out = args.out if args.out is not None else f"{args.kind}.npz"
             may_overwrite = args.force
         if os.path.exists(out) and not may_overwrite:
@@ -163,8 +163,8 @@ def _run_design(args) -> int:
     start = state.iteration
     try:
         save_design(out, state, overwrite=may_overwrite)       # claims the file before the long run
-        state = designs.run_design(state, state.plan.iterations, callback=progress, progress_every=args.progress,
-                                   checkpoint=checkpoint)
+        state = synthesis.run_design(state, state.plan.iterations, callback=progress, progress_every=args.progress,
+                                     checkpoint=checkpoint)
         save_design(out, state, overwrite=True)
     except (OSError, ValueError) as exc:
         return error(exc)

@@ -22,12 +22,11 @@ def add_parser(sub) -> None:
 
 
 def _run_evaluate(args) -> int:
-    from pes_ref.synthesis import designs
-    from pes_ref.synthesis.design_file import load_design
+    from pes_ref.synthesis import evaluate, load_design
     from pes_ref.core.integrator import NonFiniteError
     try:
         state = load_design(args.file)
-        figures = designs.evaluate(state.problem, state.values, seed=args.seed, n_particles=args.particles)
+        figures = evaluate(state.problem, state.values, seed=args.seed, n_particles=args.particles)
     except (OSError, ValueError, TypeError, NonFiniteError) as exc:
         return error(exc)
     print(f"kind: {state.kind}")

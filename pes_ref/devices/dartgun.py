@@ -29,8 +29,8 @@ from pes_ref.core import checks
 from pes_ref.devices.cspace import CSpaceGrid, GridSpring
 from pes_ref.core.effects import PerParticle, Window
 from pes_ref.devices.geometry import Part, Polygon, Translation, rectangle
+from pes_ref.devices.probes import grid_stiffness, threshold_search
 from pes_ref.core.integrator import Trajectory
-from pes_ref.devices.ratchet import grid_stiffness, threshold_search
 from pes_ref.core.scene import Scene, simulate
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Walls
@@ -242,7 +242,7 @@ def latched_state(design: DartGunDesign, surface: Surface | None = None, start=N
 
 def min_reload_force(design: DartGunDesign, push_time: float, hi: float, tol: float,
                      surface: Surface | None = None, start=None, duration: float = 3.0) -> float:
-    """Smallest reload force that latches (:func:`pes_ref.devices.ratchet.threshold_search`)."""
+    """Smallest reload force that latches (:func:`pes_ref.devices.probes.threshold_search`)."""
     surface = dartgun_surface(design) if surface is None else surface
     start = dartgun_start(design, surface) if start is None else start
     return threshold_search(lambda f: run_reload(design, f, push_time, duration, surface, start).latched,

@@ -26,13 +26,13 @@ from pes_ref.core import checks
 from pes_ref.devices.cspace import CSpaceGrid, GridSpring
 from pes_ref.core.effects import PerParticle
 from pes_ref.devices.geometry import Part, Polygon, Rotation
+from pes_ref.devices.probes import grid_stiffness, threshold_search
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.scene import Scene, simulate
 from pes_ref.core.surface import Surface
 
 __all__ = ["RatchetDesign", "ratchet_parts", "ratchet_cspace", "ratchet_surface", "ratchet_start",
-           "ratchet_scene", "run_ratchet", "min_advancing_torque", "RatchetReport", "analyze_ratchet",
-           "threshold_search"]
+           "ratchet_scene", "run_ratchet", "min_advancing_torque", "RatchetReport", "analyze_ratchet"]
 
 
 @dataclass(frozen=True)
@@ -149,29 +149,6 @@ def run_ratchet(design: RatchetDesign, torques, duration: float, surface: Surfac
     return simulate(ratchet_scene(design, torques, duration, surface), x0)
 
 
-def threshold_search(passes, lo: float, hi: float, tol: float, batch: int = 7) -> float:
-    """Smallest value in [lo, hi] for which the monotone test ``passes`` holds, to within tol.
-
-    Bisection generalized to ``batch`` interior points per round (each round evaluates
-    ``passes(values) -> bool array`` once, so a simulator can run them as one batch of
-    particles): the bracket shrinks by ``batch + 1`` per round. Returns ``hi`` when the
-    test fails everywhere below it; ``passes(hi)`` must hold (else a ValueError).
-    """
-    lo, hi, tol = float(lo), float(hi), checks.as_positive_float("tol", tol)
-    if not bool(np.asarray(passes(np.array([hi])))[0]):
-        raise ValueError(f"the test fails at the upper end of the search, hi={hi:g}; raise hi")
-    while hi - lo > tol:
-        vals = np.linspace(lo, hi, batch + 2)[1:-1]
-        ok = np.asarray(passes(vals), dtype=bool)
-        if ok.any():
-            k = int(np.argmax(ok))
-            hi = vals[k]
-            lo = vals[k - 1] if k > 0 else lo
-        else:
-            lo = vals[-1]
-    return hi
-
-
 def _advances(design, surface, start, duration):
     def passes(torques):
         x = run_ratchet(design, torques, duration, surface, start).x
@@ -202,7 +179,7 @@ class RatchetReport:
     blocked_fraction: float
     grid: tuple
     dt: float
-    stiffness_max: float           # largest barrier curvature on the grid (d2E/dq^2 by differences)
+    stiffness_max: float           # largest barrier curvature on the grid (probes.grid_stiffness)
     dt_limit: float                # 2 sqrt(m_min / stiffness_max)
     times: dict = dc_field(default_factory=dict)
 
@@ -222,19 +199,6 @@ class RatchetReport:
             f"barrier_stiffness_max: {self.stiffness_max:.6g} torque-unit/rad",
             f"dt_stability_limit: {self.dt_limit:.6g} s",
         ] + [f"time_{k}: {v:.3g} s" for k, v in self.times.items()]
-
-
-def grid_stiffness(surface: Surface) -> float:
-    """Largest second difference of the grid values along either axis, per unit length^2."""
-    g, h = surface.values, surface.spacing
-    out = 0.0
-    for d in range(2):
-        if surface.periodic[d]:
-            d2 = np.roll(g, -1, d) - 2 * g + np.roll(g, 1, d)
-        else:
-            d2 = np.diff(g, 2, axis=d)
-        out = max(out, float(np.max(np.abs(d2))) / h[d] ** 2)
-    return out
 
 
 def analyze_ratchet(design: RatchetDesign = RatchetDesign(), torque: float = 1.0, duration: float = 10.0,

@@ -18,23 +18,27 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 ``opt_<name>``      the optimizer's :meth:`state_dict` entries
 ==================  =====================================================================
 
-A file is written to a temporary file in the target folder and moved into place, so a
-crash never leaves half a design; an existing file is refused unless ``overwrite=True``.
+The members are stored uncompressed. The file is written by the package's one atomic
+``.npz`` writer (:func:`write_npz`): a crash never leaves half a design, and the writer,
+not a check here beforehand, refuses an existing file unless ``overwrite=True``.
 """
 from __future__ import annotations
 
 import dataclasses
 import json
 import os
-import tempfile
 import zipfile
 
 import numpy as np
 
-from pes_ref.synthesis.designs import PROBLEMS, DesignState, Plan
+from pes_ref.oracle.case import write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
+from pes_ref.synthesis.plans import Plan
+from pes_ref.synthesis.problems import PROBLEMS
+from pes_ref.synthesis.training import DesignState
 
-__all__ = ["save_design", "load_design", "check_same_scene", "DesignFileError", "FORMAT", "VERSION"]
+__all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "DesignFileError", "FORMAT",
+           "VERSION"]
 
 FORMAT = "pes_ref.design"
 VERSION = 1
@@ -51,10 +55,22 @@ def _fields(obj) -> dict:
 
 
 def save_design(path, state: DesignState, *, overwrite: bool = False) -> None:
-    """Write ``state`` to ``path`` (``.npz``); refuse an existing file unless ``overwrite``."""
-    path = os.fspath(path)
-    if os.path.exists(path) and not overwrite:
-        raise FileExistsError(f"{path} exists; refusing to overwrite it (use --force / overwrite=True)")
+    """Write ``state`` to ``path`` (``.npz``); refuse an existing file unless ``overwrite``.
+
+    Raises
+    ------
+    FileExistsError
+        If ``path`` exists and ``overwrite`` is False (the file is left as it was).
+    """
+    try:
+        write_npz(path, design_arrays(state), overwrite=overwrite, compress=False)
+    except FileExistsError:
+        raise FileExistsError(f"{os.fspath(path)} exists; refusing to overwrite it "
+                              "(use --force / overwrite=True)") from None
+
+
+def design_arrays(state: DesignState) -> dict:
+    """The named arrays of a design file (the keys of the module docstring) holding ``state``."""
     arrays = {
         "format": np.array(FORMAT), "version": np.array(VERSION, dtype=np.int64),
         "kind": np.array(state.kind),
@@ -68,20 +84,11 @@ def save_design(path, state: DesignState, *, overwrite: bool = False) -> None:
     }
     for k, v in state.optimizer.state_dict().items():
         arrays["opt_" + k] = v
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".design-", suffix=".npz.tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+    return arrays
 
 
 def load_design(path) -> DesignState:
-    """Read a design file back into a :class:`~pes_ref.synthesis.designs.DesignState` (bit-exact).
+    """Read a design file back into a :class:`~pes_ref.synthesis.training.DesignState` (bit-exact).
 
     Raises
     ------

@@ -2,14 +2,14 @@
 
 Every row of the tables "Plans tried in the third session" in ``docs/synthesis.md``
 is one named plan here (:data:`PLANS`); this script regenerates it. A plan is the
-package's oscillator problem (:class:`pes_ref.synthesis.designs.OscillatorProblem`) and plan
-machinery (:class:`pes_ref.synthesis.designs.Plan`: RMSprop, learning-rate decay, coarse-to-fine
+package's oscillator problem (:class:`pes_ref.synthesis.problems.OscillatorProblem`) and plan
+machinery (:class:`pes_ref.synthesis.plans.Plan`: RMSprop, learning-rate decay, coarse-to-fine
 stages) plus the training variations that are not package options:
 
 - ``cost="window"``: :class:`WindowPhase`, eq. (6) with its reference phase refitted per
   particle in each period-long window (a phase slip between windows costs nothing, a
   period error within a window does);
-- ``init="escapement"``: the hand-drawn escapement surface (:func:`pes_ref.synthesis.designs.escapement_values`);
+- ``init="escapement"``: the hand-drawn escapement surface (:func:`pes_ref.synthesis.escapement.escapement_values`);
 - ``torque_widen``: the batch's torque range grows from a narrow band to the full range;
 - ``cycle_share``: that share of each batch starts on the target cycle at a random phase
   and a random q1;
@@ -55,8 +55,8 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-import pes_ref.synthesis.designs as pd  # noqa: E402
-from pes_ref.synthesis.designs import escapement_values  # noqa: E402
+from pes_ref.synthesis import (OscillatorProblem, Plan, cycle_figures, escapement_values,  # noqa: E402
+                               oscillator_grid_starts, oscillator_torque_sweep, resample)
 from pes_ref.core.objectives import Oscillator, OscillatorCycle  # noqa: E402
 from pes_ref.core.scene import simulate, value_and_grad  # noqa: E402
 
@@ -179,15 +179,15 @@ def basis_matrix(shape, K: int, M: int) -> np.ndarray:
     return np.einsum("im,jf->ijmf", P, F).reshape(shape[0], shape[1], -1)
 
 
-def problem_of(s: Setting) -> pd.OscillatorProblem:
-    return pd.OscillatorProblem(target_scale=s.target_scale, torque_min=s.torque_min, torque_max=s.torque_max,
-                                damping0=s.damping0, damping1=s.damping1)
+def problem_of(s: Setting) -> OscillatorProblem:
+    return OscillatorProblem(target_scale=s.target_scale, torque_min=s.torque_min, torque_max=s.torque_max,
+                             damping0=s.damping0, damping1=s.damping1)
 
 
-def plan_of(s: Setting) -> pd.Plan:
+def plan_of(s: Setting) -> Plan:
     """The package's plan: RMSprop, lr decaying over the whole run, the stages."""
-    return pd.Plan(iterations=s.iterations, lr=s.lr, lr_final=s.lr_final, decay_iterations=s.iterations,
-                   stages=s.stages, n_particles=s.n_particles)
+    return Plan(iterations=s.iterations, lr=s.lr, lr_final=s.lr_final, decay_iterations=s.iterations,
+                stages=s.stages, n_particles=s.n_particles)
 
 
 def objective_of(s: Setting, problem):
@@ -235,9 +235,9 @@ def batch(s: Setting, problem, values, rng, k: int, n_steps):
 
 def held_out(problem, values, n_sweep=50, periods=None) -> dict:
     """The captured shares of ``python -m pes_ref evaluate`` (sweep and 5 x 5 grid, seed 12345)."""
-    sweep = pd.oscillator_torque_sweep(problem, values, n_sweep, periods, seed=HELD_OUT_SEED)
-    grid = pd.oscillator_grid_starts(problem, values, periods)
-    s, g = pd.cycle_figures(problem, sweep.traj)[3], pd.cycle_figures(problem, grid.traj)[3]
+    sweep = oscillator_torque_sweep(problem, values, n_sweep, periods, seed=HELD_OUT_SEED)
+    grid = oscillator_grid_starts(problem, values, periods)
+    s, g = cycle_figures(problem, sweep.traj)[3], cycle_figures(problem, grid.traj)[3]
     return {"captured": float(np.mean(np.concatenate([s, g]))), "sweep": float(np.mean(s)), "grid": float(np.mean(g))}
 
 
@@ -251,8 +251,8 @@ def validation_share(problem, values, n=50, periods=None) -> float:
     x0[:m, 0] = rng.uniform(-1.5 * A, 1.5 * A, m)
     x0[:m, 1] = rng.uniform(0, 2 * np.pi, m)
     periods = problem.eval_periods if periods is None else periods
-    traj = simulate(pd._long_scene(problem, values, torques, periods), x0)
-    return float(np.mean(pd.cycle_figures(problem, traj)[3]))
+    traj = simulate(problem.torque_scene(values, torques, periods), x0)
+    return float(np.mean(cycle_figures(problem, traj)[3]))
 
 
 def initial_surface(s: Setting, problem, shape, seed: int):
@@ -301,7 +301,7 @@ def run(s: Setting, seed: int = 0, progress=print, eval_periods=None, n_eval=50,
         if theta is not None:
             values = surface(target)
         elif values.shape != target:
-            values = pd.resample(values, problem.lower, problem.upper, problem.periodic, target)
+            values = resample(values, problem.lower, problem.upper, problem.periodic, target)
             opt.reset()
         draw = 0 if s.fixed_batch else k
         x0, v0, scene = batch(s, problem, values, np.random.default_rng([seed, draw]), draw, plan.steps_at(k))
@@ -354,7 +354,7 @@ def rank(surfaces: dict, n_steps: int = 1000, n_batches: int = 16, n_particles: 
     default sampler (seeds ``[7, b]``) run for ``n_steps`` steps, without eq. (7).
 
     Returns rows ``(name, eq6 at A, eq6 at 1.4 A, window at A)``."""
-    problem = pd.OscillatorProblem()
+    problem = OscillatorProblem()
     costs = (Oscillator(problem.amplitude, problem.omega), Oscillator(1.4 * problem.amplitude, problem.omega),
              WindowPhase(problem.amplitude, problem.omega, problem.period))
     rows = []
@@ -419,7 +419,7 @@ def main(argv=None) -> int:
         print(summary(args.out))
         return 0
     if args.rank is not None:
-        problem = pd.OscillatorProblem()
+        problem = OscillatorProblem()
         surfaces = {"flat": problem.flat_values(), "escapement": escapement_values(problem)}
         for spec in args.rank:
             path, _, key = spec.rpartition(":")
@@ -428,8 +428,8 @@ def main(argv=None) -> int:
             with np.load(path) as grids:
                 if key not in grids.files:
                     ap.error(f"{path} has no grid {key!r} (it has {', '.join(grids.files)})")
-                surfaces[spec] = pd.resample(grids[key], problem.lower, problem.upper, problem.periodic,
-                                             problem.shape())
+                surfaces[spec] = resample(grids[key], problem.lower, problem.upper, problem.periodic,
+                                          problem.shape())
         steps, batches = (60, 2) if args.smoke else (1000, 16)
         print(f"Training costs over {steps} steps, {batches} batches of 16 (the default sampler, seeds [7, b]):\n")
         print("| surface | eq. (6) at A | eq. (6) at 1.4 A | window at A |")

@@ -1,0 +1,172 @@
+"""Held-out analysis of a design: paths, torque sweeps, phase space, cycle figures, :func:`evaluate`.
+
+Held-out particles come from seeds training never uses. The funnel's figures are where its
+particles exit (:func:`pes_ref.synthesis.problems.exit_positions`); the oscillator's are
+per-particle amplitude, period and drift over the last :data:`ANALYSIS_PERIODS` periods
+(:func:`cycle_figures`), and whether a particle reaches the target cycle. :func:`evaluate`
+gives the figures of ``python -m pes_ref evaluate``.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from pes_ref.core import checks
+from pes_ref.core.integrator import Trajectory
+from pes_ref.core.scene import simulate
+from pes_ref.synthesis.problems import FunnelProblem, OscillatorProblem, exit_positions
+
+__all__ = ["Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
+           "phase_space", "cycle_figures", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS"]
+
+#: Oscillator cycle test: a held-out particle "reaches the cycle" when, over the analysis window
+#: after the transient, its amplitude and period are within this relative error of the targets ...
+CYCLE_TOLERANCE = 0.25
+#: ... and its amplitude changes by less than this share of the target amplitude between the
+#: first and the last period of the window (a sustained, not a decaying, oscillation).
+CYCLE_DRIFT = 0.05
+#: Periods at the end of an oscillator evaluation run that are analysed (the rest is transient).
+ANALYSIS_PERIODS = 3
+
+
+class Paths(NamedTuple):
+    """Held-out starts (N, 2) and their trajectory."""
+
+    x0: np.ndarray
+    traj: Trajectory
+
+
+class TorqueSweep(NamedTuple):
+    """Torques (N,) evenly over the design range, their starts (N, 2) and trajectory."""
+
+    torques: np.ndarray
+    x0: np.ndarray
+    traj: Trajectory
+
+
+def funnel_paths(problem: FunnelProblem, values, n_particles: int = 200, seed: int = 1) -> Paths:
+    """Held-out funnel particles: the training sampler with ``default_rng(seed)``."""
+    batch = problem.batch(np.asarray(values, dtype=np.float64), np.random.default_rng(seed), n_particles)
+    return Paths(batch.x0, simulate(batch.scene, batch.x0, batch.v0))
+
+
+def oscillator_torque_sweep(problem: OscillatorProblem, values, n_particles: int = 50, periods: float | None = None,
+                            seed: int = 1) -> TorqueSweep:
+    """Particles with torques evenly from min to max, started like the training batch (Figs. 8-9).
+
+    Start q0 = amplitude (1 + kick) + start_noise * normal from ``default_rng(seed)``;
+    simulated for ``periods`` target periods (default ``problem.eval_periods``).
+    """
+    periods = problem.eval_periods if periods is None else periods
+    torques = np.linspace(problem.torque_min, problem.torque_max, n_particles)
+    q0 = problem.amplitude * (1.0 + problem.kick) + problem.start_noise * \
+        np.random.default_rng(seed).standard_normal(n_particles)
+    x0 = np.stack([q0, np.zeros(n_particles)], axis=1)
+    return TorqueSweep(torques, x0, simulate(problem.torque_scene(values, torques, periods), x0))
+
+
+def oscillator_grid_starts(problem: OscillatorProblem, values, periods: float | None = None, n: int = 5) -> Paths:
+    """An n x n grid of starts at rest with the maximum torque (Figs. 10-11).
+
+    q0 evenly in ``[-1.5 A, 1.5 A]`` (A the target amplitude), q1 evenly over the
+    period ``[0, 2 pi)``.
+    """
+    periods = problem.eval_periods if periods is None else periods
+    a = np.linspace(-1.5 * problem.amplitude, 1.5 * problem.amplitude, n)
+    b = np.arange(n) * (problem.upper[1] - problem.lower[1]) / n
+    x0 = np.stack(np.meshgrid(a, b, indexing="ij"), axis=-1).reshape(-1, 2)
+    torques = np.full(x0.shape[0], problem.torque_max)
+    return Paths(x0, simulate(problem.torque_scene(values, torques, periods), x0))
+
+
+def phase_space(problem: OscillatorProblem, traj: Trajectory, after_periods: float):
+    """(q0, dq0/dt) of every state after ``after_periods`` target periods, each (T', N)."""
+    start = int(math.ceil(after_periods * problem.period / problem.dt))
+    return traj.x[start:, :, 0], traj.v[start:, :, 0]
+
+
+def cycle_figures(problem: OscillatorProblem, traj: Trajectory):
+    """Per-particle amplitude, period, drift over the last ``ANALYSIS_PERIODS`` periods.
+
+    Returns ``(amplitude, period, drift, captured)``, each (N,): amplitude ``(max - min)/2``
+    of q0 over the window; period the mean spacing of upward crossings of q0's window mean
+    (linearly interpolated; NaN with fewer than two); drift ``|a_last - a_first| / A``
+    between the window's first and last period; captured where amplitude and period are
+    within :data:`CYCLE_TOLERANCE` of the targets and drift below :data:`CYCLE_DRIFT`.
+    """
+    per = int(round(problem.period / problem.dt))
+    q = traj.x[-ANALYSIS_PERIODS * per - 1:, :, 0]
+    amp = 0.5 * (q.max(axis=0) - q.min(axis=0))
+    first, last = q[:per + 1], q[-per - 1:]
+    drift = np.abs(0.5 * (last.max(0) - last.min(0)) - 0.5 * (first.max(0) - first.min(0))) / problem.amplitude
+    c = q - q.mean(axis=0)
+    periods = np.full(q.shape[1], np.nan)
+    for i in range(q.shape[1]):
+        up = np.nonzero((c[:-1, i] < 0) & (c[1:, i] >= 0))[0]
+        if up.size >= 2:
+            tcross = (up + c[up, i] / (c[up, i] - c[up + 1, i])) * problem.dt
+            periods[i] = np.mean(np.diff(tcross))
+    with np.errstate(invalid="ignore"):
+        amp_err = np.abs(amp - problem.amplitude) / problem.amplitude
+        per_err = np.abs(periods - problem.period) / problem.period
+        captured = (amp_err < CYCLE_TOLERANCE) & (per_err < CYCLE_TOLERANCE) & (drift < CYCLE_DRIFT)
+    return amp, periods, drift, captured
+
+
+def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None) -> dict:
+    """The figures of ``python -m pes_ref evaluate``: name -> float.
+
+    Funnel (``n_particles`` default 200, held-out seed ``seed``): ``in_band_fraction``,
+    ``exit_spread`` (std of exit q0), ``exited_fraction``, and the same three on the flat
+    starting surface (``flat_*``). Oscillator (``n_particles`` default 50 for the torque
+    sweep, plus the 5 x 5 grid of starts): ``captured_fraction`` (both sets together),
+    ``sweep_captured_fraction``, ``grid_captured_fraction``, ``amplitude_error`` and
+    ``period_error`` (relative, worst over the captured particles; NaN if none) and
+    ``flat_captured_fraction``.
+    """
+    values = checks.as_float_array("values", values, ndim=2)
+    seed = checks.as_nonneg_int("seed", seed)
+    evaluate_kind, default_n = _EVALUATIONS[problem.kind]
+    n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
+    return evaluate_kind(problem, values, seed, n)
+
+
+def _evaluate_funnel(problem: FunnelProblem, values, seed: int, n: int) -> dict:
+    out = {}
+    for prefix, vals in (("", values), ("flat_", problem.flat_values(values.shape))):
+        paths = funnel_paths(problem, vals, n, seed)
+        exits = exit_positions(problem, paths.traj)
+        out[prefix + "in_band_fraction"] = float(np.mean(problem.in_band(exits)))
+        done = exits[np.isfinite(exits)]
+        out[prefix + "exit_spread"] = float(np.std(done)) if done.size else float("nan")
+        out[prefix + "exited_fraction"] = float(np.mean(np.isfinite(exits)))
+    out["particles"] = float(n)
+    return out
+
+
+def _evaluate_oscillator(problem: OscillatorProblem, values, seed: int, n: int) -> dict:
+    out = {}
+    for prefix, vals in (("", values), ("flat_", problem.flat_values(values.shape))):
+        sweep = oscillator_torque_sweep(problem, vals, n, seed=seed)
+        grid = oscillator_grid_starts(problem, vals)
+        fig_s, fig_g = cycle_figures(problem, sweep.traj), cycle_figures(problem, grid.traj)
+        captured = np.concatenate([fig_s[3], fig_g[3]])
+        out[prefix + "captured_fraction"] = float(np.mean(captured))
+        if prefix:
+            continue
+        out["sweep_captured_fraction"] = float(np.mean(fig_s[3]))
+        out["grid_captured_fraction"] = float(np.mean(fig_g[3]))
+        amp = np.concatenate([fig_s[0], fig_g[0]])[captured]
+        per = np.concatenate([fig_s[1], fig_g[1]])[captured]
+        out["amplitude_error"] = float(np.max(np.abs(amp - problem.amplitude)) / problem.amplitude) \
+            if amp.size else float("nan")
+        out["period_error"] = float(np.max(np.abs(per - problem.period)) / problem.period) \
+            if per.size else float("nan")
+    out["particles"] = float(n + 25)
+    return out
+
+
+#: Per problem kind: the evaluation and its default ``n_particles``.
+_EVALUATIONS = {"funnel": (_evaluate_funnel, 200), "oscillator": (_evaluate_oscillator, 50)}

@@ -1,0 +1,334 @@
+"""The paper's two design problems: the funnel (Figs. 6-7) and the oscillator (Figs. 8-11).
+
+A *problem* is a frozen dataclass holding the physics of one scene (domain, forces,
+damping, objective, particle sampler) at a final grid resolution; :data:`PROBLEMS` names
+them by kind. Each problem draws a training batch (:meth:`batch`) from a generator it is
+given and scores a batch's trajectory with its design metric (:meth:`batch_metric`): the
+funnel's share of the batch that exits within :data:`IN_BAND_SHARE` of the domain width
+from the target; the oscillator's relative amplitude error over the batch's last simulated
+period. How a problem is optimized is a plan (:mod:`pes_ref.synthesis.plans`); see
+``docs/synthesis.md`` for the choices the paper leaves open.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+
+from pes_ref.core import checks
+from pes_ref.core.effects import Constant, Noise, PerParticle
+from pes_ref.core.integrator import Trajectory
+from pes_ref.core.objectives import Funnel, Oscillator, OscillatorCycle
+from pes_ref.core.scene import Scene
+from pes_ref.core.surface import Surface
+from pes_ref.core.terms import Spring, Walls
+
+__all__ = ["FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
+           "IN_BAND_SHARE", "exit_positions"]
+
+#: A funnel particle is "in band" when its exit |q0 - target| is below this share of the width (issue 4).
+IN_BAND_SHARE = 0.10
+
+
+class Batch(NamedTuple):
+    """One iteration's particles: starts (N, 2), velocities (N, 2) and the scene with their effects."""
+
+    x0: np.ndarray
+    v0: np.ndarray
+    scene: Scene
+
+
+class _Problem:
+    """What both problems share: the initial grid, the flat surface, the design mask."""
+
+    def mask(self, shape: tuple) -> np.ndarray:
+        """1.0 where a grid value is designed (everywhere unless a problem holds some at zero)."""
+        return np.ones(shape)
+
+    def initial_values(self, rng, shape: tuple) -> np.ndarray:
+        """Small random values (std ``init_scale``) to break symmetry, zero where held."""
+        return rng.standard_normal(shape) * self.init_scale * self.mask(shape)
+
+    def flat_values(self, shape: tuple | None = None) -> np.ndarray:
+        """The flat starting surface: zeros."""
+        return np.zeros(self.shape() if shape is None else shape)
+
+
+@dataclass(frozen=True)
+class FunnelProblem(_Problem):
+    """The funnel of the paper's Figs. 6-7 on the plane ``[-width/2, width/2] x [0, height]``.
+
+    Particles start at uniform random q0 across the top, ``start_depth`` below it, inside
+    a strip of depth ``start_zone`` held at zero energy; a strip of depth ``exit_zone`` at
+    the bottom is held at zero too, so that the surface, which extends as a constant
+    beyond the bottom edge, cannot keep steering particles after they exit; a constant force ``-force`` along
+    q1 plus Gaussian noise of std ``noise`` per step and axis push them down; walls of
+    stiffness ``wall_k`` stand ``wall_margin`` inside the two side edges (q0). The
+    objective is eq. (5), ``sum_i (q0_i - target)^2`` at the final step (``when =
+    "final"``) or summed over every step (``"every_step"``), plus eq. (7) with weight
+    ``regularization``. Grid axis 0 is q0, axis 1 is q1; ``grid`` nodes per axis.
+    """
+
+    kind: ClassVar[str] = "funnel"
+    grid: int = 200
+    width: float = 2.0
+    height: float = 2.0
+    start_zone: float = 0.3
+    exit_zone: float = 0.05
+    start_depth: float = 0.1
+    force: float = 1.0
+    noise: float = 0.3
+    damping: float = 1.0
+    dt: float = 0.01
+    n_steps: int = 350
+    target: float = 0.0
+    wall_k: float = 1000.0
+    wall_margin: float = 0.02
+    init_scale: float = 1e-3
+    when: str = "final"
+    regularization: float = 0.0
+
+    def __post_init__(self):
+        _check_fields(self)
+        checks.as_choice("when", self.when, {"final", "every_step"})
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def lower(self):
+        return (-self.width / 2, 0.0)
+
+    @property
+    def upper(self):
+        return (self.width / 2, self.height)
+
+    periodic = (False, False)
+
+    def shape(self, grid: int | None = None) -> tuple:
+        n = self.grid if grid is None else grid
+        return (n, n)
+
+    def mask(self, shape: tuple) -> np.ndarray:
+        """1.0 where a grid value is designed, 0.0 in the start and exit strips held at zero energy."""
+        q1 = np.linspace(self.lower[1], self.upper[1], shape[1])
+        free = ((q1 < self.height - self.start_zone) & (q1 >= self.exit_zone)).astype(np.float64)
+        return np.broadcast_to(free[None, :], shape).copy()
+
+    def scene(self, values, effects=()) -> Scene:
+        """The design's scene on grid ``values`` with the given per-batch effects."""
+        return Scene(Surface(values, self.lower, self.upper, self.periodic), dt=self.dt, n_steps=self.n_steps,
+                     damping=(self.damping, self.damping),
+                     walls=Walls(k=self.wall_k, margin=self.wall_margin, edges=[[True, True], [False, False]]),
+                     effects=tuple(effects))
+
+    def objective(self):
+        return Funnel(target=self.target, when=self.when)
+
+    def batch(self, values, rng, n_particles: int, n_steps: int | None = None) -> Batch:
+        """Particles uniformly across the top, constant downward force plus seeded noise."""
+        half = self.width / 2 - self.wall_margin
+        q0 = rng.uniform(-half, half, n_particles)
+        x0 = np.stack([q0, np.full(n_particles, self.height - self.start_depth)], axis=1)
+        effects = (Constant((0.0, -self.force)),
+                   Noise(std=(self.noise, self.noise), seed=int(rng.integers(2 ** 63 - 1))))
+        scene = self.scene(values, effects)
+        if n_steps is not None:
+            scene = dataclasses.replace(scene, n_steps=n_steps)
+        return Batch(x0, np.zeros_like(x0), scene)
+
+    def batch_metric(self, traj: Trajectory) -> float:
+        """Share of the batch whose exit |q0 - target| < 10% of the width."""
+        return float(np.mean(self.in_band(exit_positions(self, traj))))
+
+    def in_band(self, exits: np.ndarray) -> np.ndarray:
+        """Where an exit q0 is within :data:`IN_BAND_SHARE` of the width from the target (False for NaN)."""
+        with np.errstate(invalid="ignore"):
+            return np.abs(exits - self.target) < IN_BAND_SHARE * self.width
+
+
+def exit_positions(problem: FunnelProblem, traj: Trajectory) -> np.ndarray:
+    """q0 at the first state at or below the bottom edge (q1 <= 0), NaN if a path never gets there."""
+    below = traj.x[:, :, 1] <= problem.lower[1]
+    first = np.argmax(below, axis=0)
+    exits = traj.x[first, np.arange(traj.x.shape[1]), 0]
+    return np.where(below.any(axis=0), exits, np.nan)
+
+
+@dataclass(frozen=True)
+class OscillatorProblem(_Problem):
+    """The oscillator of the paper's Figs. 8-11 on the cylinder ``[-q0_extent, q0_extent] x [0, 2 pi)``.
+
+    q1 (an angle) is periodic. A linear spring ``spring_k`` pulls q0 to 0 (natural
+    frequency ``sqrt(spring_k / mass)``); damping ``damping0`` along q0 is much lower than
+    ``damping1`` along q1; each particle feels a constant torque ``-tau`` along q1 with
+    ``tau`` uniform in ``[torque_min, torque_max]``. Particles start at rest at
+    ``q1 = 0``, ``q0 = amplitude (1 + kick) + start_noise * normal``. The objective is
+    eq. (6) summed over every step with target ``amplitude`` and ``omega``, plus eq. (7)
+    with weight ``regularization``. Walls stand ``wall_margin`` inside the q0 edges.
+
+    Training choices beyond the paper (the held-out evaluation always uses ``amplitude``):
+    ``target_scale`` multiplies the amplitude the training cost aims at (the designs' cycles
+    fall short of their training target, so aiming above A lands them nearer A); ``cost``
+    is ``"eq6"`` (the paper's), ``"cycle"`` (:class:`pes_ref.core.objectives.OscillatorCycle`, the
+    phase-free distance to the target ellipse, counted from ``settle_periods`` periods on)
+    or ``"phase_then_cycle"`` (:class:`PhaseThenCycle`: eq. (6) before ``settle_periods``,
+    the cycle cost after); ``stratified`` draws one torque per equal slice of the range;
+    ``spread_share`` of each batch starts at rest anywhere in ``[-1.5 A, 1.5 A] x [0, 2 pi)``
+    like the 5 x 5 grid. :data:`OSCILLATOR_OBJECTIVES` holds the named settings.
+    """
+
+    kind: ClassVar[str] = "oscillator"
+    grid0: int = 32
+    grid1: int = 32
+    q0_extent: float = 2.5
+    amplitude: float = 1.0
+    omega: float = 1.0
+    spring_k: float = 1.0
+    mass: float = 1.0
+    damping0: float = 0.05
+    damping1: float = 2.0
+    torque_min: float = 0.5
+    torque_max: float = 1.0
+    kick: float = 0.2
+    start_noise: float = 0.05
+    dt: float = 0.05
+    n_steps: int = 500
+    eval_periods: int = 15
+    wall_k: float = 100.0
+    wall_margin: float = 0.05
+    init_scale: float = 1e-3
+    regularization: float = 1e-4
+    cost: str = "eq6"
+    settle_periods: float = 0.0
+    target_scale: float = 1.4
+    spread_share: float = 0.0
+    stratified: bool = False
+
+    def __post_init__(self):
+        _check_fields(self)
+        checks.as_choice("cost", self.cost, set(OSCILLATOR_COSTS))
+        if self.spread_share > 1.0:
+            raise ValueError(f"spread_share must be in [0, 1], got {self.spread_share!r}")
+
+    @property
+    def lower(self):
+        return (-self.q0_extent, 0.0)
+
+    @property
+    def upper(self):
+        return (self.q0_extent, 2 * math.pi)
+
+    periodic = (False, True)
+
+    @property
+    def period(self) -> float:
+        return 2 * math.pi / self.omega
+
+    def shape(self, grid: int | None = None) -> tuple:
+        if grid is None:
+            return (self.grid0, self.grid1)
+        return (grid, max(4, round(grid * self.grid1 / self.grid0)))
+
+    def scene(self, values, effects=(), n_steps: int | None = None) -> Scene:
+        return Scene(Surface(values, self.lower, self.upper, self.periodic), dt=self.dt,
+                     n_steps=self.n_steps if n_steps is None else n_steps,
+                     mass=self.mass, damping=(self.damping0, self.damping1),
+                     spring=Spring(k=(self.spring_k, 0.0), center=(0.0, 0.0)),
+                     walls=Walls(k=self.wall_k, margin=self.wall_margin, edges=[[True, True], [False, False]]),
+                     effects=tuple(effects))
+
+    def objective(self):
+        """The training cost named by ``cost`` (:data:`OSCILLATOR_COSTS`), aimed at ``amplitude * target_scale``."""
+        return _COST_BUILDERS[self.cost](self)
+
+    def eq6_cost(self) -> Oscillator:
+        """Eq. (6) aimed at ``amplitude * target_scale``."""
+        return Oscillator(amplitude=self.amplitude * self.target_scale, omega=self.omega)
+
+    def cycle_cost(self) -> OscillatorCycle:
+        """The phase-free cycle cost aimed at ``amplitude * target_scale``, from ``settle_periods`` on."""
+        return OscillatorCycle(amplitude=self.amplitude * self.target_scale, omega=self.omega,
+                               settle=self.settle_periods * self.period)
+
+    def torque_effect(self, torques) -> PerParticle:
+        torques = np.asarray(torques, dtype=np.float64)
+        return PerParticle(np.stack([np.zeros_like(torques), -torques], axis=1))
+
+    def torque_scene(self, values, torques, periods: float) -> Scene:
+        """The scene on grid ``values`` with one torque per particle, ``periods`` target periods long."""
+        n_steps = int(math.ceil(periods * self.period / self.dt))
+        return self.scene(np.asarray(values, dtype=np.float64), (self.torque_effect(torques),), n_steps)
+
+    def batch(self, values, rng, n_particles: int, n_steps: int | None = None) -> Batch:
+        """Starts beyond the target amplitude plus noise at q1 = 0, torques uniform in the range."""
+        q0 = self.amplitude * (1.0 + self.kick) + self.start_noise * rng.standard_normal(n_particles)
+        x0 = np.stack([q0, np.zeros(n_particles)], axis=1)
+        torques = rng.uniform(self.torque_min, self.torque_max, n_particles)
+        if self.stratified:          # one torque per equal slice of [min, max]: the whole range every batch
+            u = (np.arange(n_particles) + rng.uniform(size=n_particles)) / n_particles
+            torques = self.torque_min + (self.torque_max - self.torque_min) * u
+        m = int(round(self.spread_share * n_particles))
+        if m:                        # the last m start at rest anywhere, like the 5 x 5 grid of Figs. 10-11
+            x0[-m:, 0] = rng.uniform(-1.5 * self.amplitude, 1.5 * self.amplitude, m)
+            x0[-m:, 1] = rng.uniform(self.lower[1], self.upper[1], m)
+        return Batch(x0, np.zeros_like(x0), self.scene(values, (self.torque_effect(torques),), n_steps))
+
+    def batch_metric(self, traj: Trajectory) -> float:
+        """Relative error of the batch's mean amplitude over its last simulated period."""
+        steps = max(2, int(round(self.period / self.dt)))
+        q0 = traj.x[-steps:, :, 0]
+        amp = 0.5 * (q0.max(axis=0) - q0.min(axis=0))
+        return float(abs(np.mean(amp) - self.amplitude) / self.amplitude)
+
+
+@dataclass(frozen=True)
+class PhaseThenCycle:
+    """Eq. (6) on the steps before ``cycle.settle``, the phase-free :class:`OscillatorCycle` from then on.
+
+    Early on every particle is still near the reference's phase (all start at rest near
+    ``q0 = A (1 + kick)``, the reference's phase 0), so eq. (6) is a well-aimed signal there;
+    later it would charge a phase slip, which the cycle cost does not.
+    """
+
+    eq6: Oscillator
+    cycle: OscillatorCycle
+
+    def value_and_grad(self, x, v, t):
+        k = int(np.searchsorted(np.asarray(t), self.cycle.settle, side="left"))   # steps with t < settle
+        value, gx, gv = self.cycle.value_and_grad(x, v, t)
+        if k:
+            v6, gx6, gv6 = self.eq6.value_and_grad(x[:k], v[:k], t[:k])
+            value += v6
+            gx[:k] += gx6
+            gv[:k] += gv6
+        return value, gx, gv
+
+
+#: The design problems by kind.
+PROBLEMS = {"funnel": FunnelProblem, "oscillator": OscillatorProblem}
+#: The oscillator's training costs by name (``OscillatorProblem.cost``): the paper's eq. (6), its
+#: phase-free form (``OscillatorCycle``) and eq. (6) then the phase-free form (:class:`PhaseThenCycle`).
+_COST_BUILDERS = {
+    "eq6": OscillatorProblem.eq6_cost,
+    "cycle": OscillatorProblem.cycle_cost,
+    "phase_then_cycle": lambda problem: PhaseThenCycle(problem.eq6_cost(), problem.cycle_cost()),
+}
+#: The names of the oscillator's training costs.
+OSCILLATOR_COSTS = tuple(_COST_BUILDERS)
+
+
+def _check_fields(problem) -> None:
+    """Validate every numeric field: ints > 0, floats finite and >= 0 (``target`` any finite)."""
+    for f in dataclasses.fields(problem):
+        val = getattr(problem, f.name)
+        if isinstance(f.default, bool) or isinstance(f.default, str):
+            continue
+        if isinstance(f.default, int):
+            object.__setattr__(problem, f.name, checks.as_positive_int(f.name, val))
+        elif f.name == "target":
+            object.__setattr__(problem, f.name, checks.as_finite_float(f.name, val))
+        else:
+            object.__setattr__(problem, f.name, checks.as_nonneg_float(f.name, val))
+
