@@ -304,10 +304,13 @@ def _walls(raw: Mapping):
 
 
 def _scene(raw: Mapping, mode: str, n: int) -> Scene:
-    mobility = _numeric("mobility", raw["mobility"]) if mode == "quasistatic" else None
+    """The scene; its keys' kinds and N-shapes are checked in the order of the arguments
+    below, their values by :class:`Surface`, :class:`Spring`, :class:`Walls` as each is
+    built and then by :class:`Scene` (dt, n_steps, t0, mass, damping, mobility, walls)."""
     return Scene(_surface(raw), dt=_scalar("dt", raw["dt"]), n_steps=_integer("n_steps", raw["n_steps"]),
                  mode=mode, mass=_per_particle("mass", raw["mass"], n),
-                 damping=_per_particle("damping", raw["damping"], n), mobility=mobility,
+                 damping=_per_particle("damping", raw["damping"], n),
+                 mobility=_numeric("mobility", raw["mobility"]) if mode == "quasistatic" else None,
                  spring=_spring(raw, n), walls=_walls(raw), t0=_scalar("t0", raw.get("t0", 0.0)))
 
 
