@@ -1,4 +1,10 @@
 """Small helpers shared by the unit tests (not a test module)."""
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 
 from pes_ref.oracle.tolerances import FD_RTOL
@@ -28,3 +34,50 @@ def kink_distance(field, x) -> float:
     walls = None if field.walls is None else field.walls[1:]
     return distance_to_kinks(x, field.lower, field.h, field.values.shape, field.periodic, field.length,
                              walls=walls, spring=field.spring)
+
+
+#: The repository (the folder of ``pes_ref``, ``validation``, ``figures``).
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def load_script(path):
+    """Import the script at ``path`` (under ``validation/``, say) as a module, from its
+    path: nothing is put on ``sys.path``. It is registered in ``sys.modules`` under a
+    name of its own (dataclasses look their module up there), once per run.
+
+    Only for scripts that import nothing from their own folder."""
+    path = Path(path).resolve()
+    name = "_script_" + "_".join(path.relative_to(ROOT).with_suffix("").parts)
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            del sys.modules[name]
+            raise
+    return sys.modules[name]
+
+
+#: ``python -c`` code that runs ``argv[1]`` as ``python SCRIPT ARGS`` would (its folder
+#: first on sys.path, as ``__main__``), with floating-point errors raising as
+#: tests/conftest.py makes them in this process.
+_RUN_STRICT = """import os, runpy, sys
+import numpy
+numpy.seterr(over="raise", invalid="raise", divide="raise", under="ignore")
+script = sys.argv[1]
+sys.argv = sys.argv[1:]
+sys.path.insert(0, os.path.dirname(script))
+runpy.run_path(script, run_name="__main__")
+"""
+
+
+def run_script(path, *args, timeout: float = 300) -> subprocess.CompletedProcess:
+    """Run the script at ``path`` with ``args`` in a fresh Python (this interpreter, this
+    checkout's ``pes_ref`` first), floating-point errors raising; stdout and stderr
+    captured as text."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+               MPLBACKEND="Agg")
+    return subprocess.run([sys.executable, "-c", _RUN_STRICT, str(path), *map(str, args)], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=timeout)
