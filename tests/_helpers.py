@@ -5,8 +5,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from pes_ref.oracle.tolerances import FD_RTOL
 from pes_ref.testing.properties import distance_to_kinks
 

@@ -8,6 +8,9 @@ and write both, so a case is the unit of cross-implementation testing (the shipp
 conformance vectors of :mod:`pes_ref.oracle.conformance` are cases plus their results).
 
 The format decisions that the SPEC leaves open are written down in ``docs/oracle.md``.
+This module holds the format (which keys, which kinds of data), the validation of a
+case and running it; the ``.npz`` files are read and written by
+:mod:`pes_ref.oracle.npz`, and its errors are those of :mod:`pes_ref.oracle.errors`.
 
 Example
 -------
