@@ -1,7 +1,12 @@
 """Small helpers shared by the unit tests (not a test module)."""
-import numpy as np
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 from pes_ref.oracle.tolerances import FD_RTOL
+from pes_ref.testing.properties import distance_to_kinks
 
 #: A dot-product test whose VJP side is below this carries no information.
 NONTRIVIAL = 1e-8
@@ -22,28 +27,55 @@ def assert_dot(lhs: float, rhs: float) -> None:
 
 def kink_distance(field, x) -> float:
     """The smallest distance from any position in ``x`` (..., N, 2) to a kink of the
-    force (SPEC section 5): a cell edge or clip edge of the grid, a wall onset, or the
-    minimum-image seam of a spring on a periodic axis."""
-    x = np.asarray(x)
-    n_particles = x.shape[-2]
-    best = np.inf
-    for d in range(2):
-        q = x[..., d]
-        h, n = field.h[d], field.values.shape[d]
-        u = (q - field.lower[d]) / h
-        if field.periodic[d]:
-            dist = np.abs(u - np.round(u)) * h
-        else:
-            dist = np.abs(u - np.round(np.clip(u, 0.0, n - 1.0))) * h
-        best = min(best, float(dist.min()))
-        if field.walls is not None:
-            _, lo, hi = field.walls
-            for b in (lo[d], hi[d]):
-                if np.isfinite(b):
-                    best = min(best, float(np.abs(q - b).min()))
-        if field.spring is not None and field.periodic[d]:
-            c = np.broadcast_to(field.spring[1], (n_particles, 2))[:, d]
-            L = field.length[d]
-            m = np.mod(q - c + 0.5 * L, L)
-            best = min(best, float(np.minimum(m, L - m).min()))
-    return best
+    force of ``field`` (the core's plain-array description of a scene, SPEC section 5):
+    :func:`pes_ref.testing.properties.distance_to_kinks` of its grid, walls and spring."""
+    walls = None if field.walls is None else field.walls[1:]
+    return distance_to_kinks(x, field.lower, field.h, field.values.shape, field.periodic, field.length,
+                             walls=walls, spring=field.spring)
+
+
+#: The repository (the folder of ``pes_ref``, ``validation``, ``figures``).
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def load_script(path):
+    """Import the script at ``path`` (under ``validation/``, say) as a module, from its
+    path: nothing is put on ``sys.path``. It is registered in ``sys.modules`` under a
+    name of its own (dataclasses look their module up there), once per run.
+
+    Only for scripts that import nothing from their own folder."""
+    path = Path(path).resolve()
+    name = "_script_" + "_".join(path.relative_to(ROOT).with_suffix("").parts)
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            del sys.modules[name]
+            raise
+    return sys.modules[name]
+
+
+#: ``python -c`` code that runs ``argv[1]`` as ``python SCRIPT ARGS`` would (its folder
+#: first on sys.path, as ``__main__``), with floating-point errors raising as
+#: tests/conftest.py makes them in this process.
+_RUN_STRICT = """import os, runpy, sys
+import numpy
+numpy.seterr(over="raise", invalid="raise", divide="raise", under="ignore")
+script = sys.argv[1]
+sys.argv = sys.argv[1:]
+sys.path.insert(0, os.path.dirname(script))
+runpy.run_path(script, run_name="__main__")
+"""
+
+
+def run_script(path, *args, timeout: float = 300) -> subprocess.CompletedProcess:
+    """Run the script at ``path`` with ``args`` in a fresh Python (this interpreter, this
+    checkout's ``pes_ref`` first), floating-point errors raising; stdout and stderr
+    captured as text."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+               MPLBACKEND="Agg")
+    return subprocess.run([sys.executable, "-c", _RUN_STRICT, str(path), *map(str, args)], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=timeout)

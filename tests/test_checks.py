@@ -9,6 +9,18 @@ NAME = "my_arg"          # a distinctive argument name that every error must quo
 NAME_RE = rf"\b{NAME}\b"
 
 
+def assert_rejects(exc, fn, *args, **kw):
+    """``fn(*args, **kw)`` raises one keyed error: a :class:`checks.InputError` whose
+    ``key`` is NAME and whose message names it, a ``TypeError`` (an
+    :class:`checks.InputTypeError`) exactly when ``exc`` is ``TypeError``."""
+    with pytest.raises(checks.InputError, match=NAME_RE) as info:
+        fn(*args, **kw)
+    assert info.value.key == NAME
+    assert isinstance(info.value, ValueError)
+    assert isinstance(info.value, TypeError) == (exc is TypeError)
+    assert isinstance(info.value, checks.InputTypeError) == (exc is TypeError)
+
+
 # --------------------------------------------------------------------------- inputs
 
 def _readonly(a):
@@ -98,8 +110,7 @@ def test_as_float_array_broadcastable_keeps_own_shape(value, broadcast_to):
     ([1.0, -1e-300], {"nonneg": True}, ValueError),
 ])
 def test_as_float_array_rejections_name_the_argument(value, kw, exc):
-    with pytest.raises(exc, match=NAME_RE):
-        checks.as_float_array(NAME, value, **kw)
+    assert_rejects(exc, checks.as_float_array, NAME, value, **kw)
 
 
 def test_as_float_array_finite_false_admits_inf():
@@ -146,8 +157,7 @@ def test_as_bool_array_accepts_and_never_touches_the_input(kind):
     ([[True, False]], ValueError),
 ])
 def test_as_bool_array_rejections_name_the_argument(value, exc):
-    with pytest.raises(exc, match=NAME_RE):
-        checks.as_bool_array(NAME, value, shape=(2,))
+    assert_rejects(exc, checks.as_bool_array, NAME, value, shape=(2,))
 
 
 # --------------------------------------------------------------------------- scalars
@@ -182,8 +192,7 @@ def test_float_scalars_promote_to_python_float(fn, value, want):
     (checks.as_nonneg_float, np.nan, ValueError),
 ], ids=lambda p: getattr(p, "__name__", repr(p)))
 def test_float_scalar_rejections_name_the_argument(fn, value, exc):
-    with pytest.raises(exc, match=NAME_RE):
-        fn(NAME, value)
+    assert_rejects(exc, fn, NAME, value)
 
 
 @pytest.mark.parametrize("fn, value, want", [
@@ -205,8 +214,7 @@ def test_int_scalars_accept_integers(fn, value, want):
     (checks.as_positive_int, 2.5, TypeError),
 ], ids=lambda p: getattr(p, "__name__", repr(p)))
 def test_int_scalar_rejections_name_the_argument(fn, value, exc):
-    with pytest.raises(exc, match=NAME_RE):
-        fn(NAME, value)
+    assert_rejects(exc, fn, NAME, value)
 
 
 @pytest.mark.parametrize("value", ["a", np.array("a")])
@@ -218,8 +226,7 @@ def test_as_choice_accepts_str_and_0d_unicode(value):
 @pytest.mark.parametrize("value, exc", [("c", ValueError), (1, TypeError), (None, TypeError),
                                         (np.array(["a"]), TypeError)])
 def test_as_choice_rejections_name_the_argument(value, exc):
-    with pytest.raises(exc, match=NAME_RE):
-        checks.as_choice(NAME, value, {"a", "b"})
+    assert_rejects(exc, checks.as_choice, NAME, value, {"a", "b"})
 
 
 # --------------------------------------------------------------------------- reduce_to_shape

@@ -11,7 +11,6 @@ import json
 import os
 import shutil
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,10 +19,7 @@ from pes_ref.cli import main as cli_main
 
 from matplotlib.image import imread
 
-ROOT = str(Path(__file__).resolve().parents[1])
-if ROOT not in sys.path:          # the figure scripts live beside the package, not in it
-    sys.path.insert(0, ROOT)
-from figures import make_all  # noqa: E402
+from figures import make_all   # the package beside pes_ref (the repository is on pytest's pythonpath: setup.cfg)
 
 #: A PNG smaller than this many bytes cannot hold labelled axes and data (the coarse
 #: smoke PNGs of our figures are 15 kB and more; an empty figure with a title is ~2 kB).

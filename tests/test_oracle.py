@@ -9,6 +9,7 @@ import pytest
 
 import pes_ref
 from pes_ref import cli
+from pes_ref.core import checks
 from pes_ref.oracle import case as oracle
 from pes_ref.oracle.conformance import vectors_dir
 from pes_ref.testing.conformance import load_manifest
@@ -207,6 +208,30 @@ def test_more_invalid_cases_name_their_key(name):
     with pytest.raises(oracle.CaseError) as info:
         oracle.run_case(case)
     _assert_case_error(info.value, key, error)
+
+
+@pytest.mark.parametrize("core_error, key, error", [
+    (checks.InputError("upper", "the domain is empty"), "upper", "ValueError"),
+    (checks.InputTypeError("walls", "not a bool array"), "walls", "TypeError"),
+    (checks.InputError("surface", "a message that names no key at all"), "values", "ValueError"),
+])
+def test_core_errors_name_the_case_key_by_their_key_not_their_message(core_error, key, error, monkeypatch):
+    """The key comes from the core's keyed error (``exc.key``, translated by
+    CORE_NAME_TO_CASE_KEY), never from its message."""
+    def refuse(*args, **kwargs):
+        raise core_error
+    monkeypatch.setattr(oracle, "Surface", refuse)
+    with pytest.raises(oracle.CaseError) as info:
+        oracle.validate_case(base_case())
+    _assert_case_error(info.value, key, error)
+    assert info.value.reason == str(core_error)
+
+
+def test_case_errors_are_keyed_input_errors():
+    assert issubclass(oracle.CaseError, checks.InputError)
+    assert issubclass(oracle.CaseTypeError, checks.InputTypeError)
+    assert set(oracle.CORE_NAME_TO_CASE_KEY.values()) <= set(oracle.CASE_KEYS)
+    assert not set(oracle.CORE_NAME_TO_CASE_KEY) & set(oracle.CASE_KEYS)
 
 
 def test_a_case_must_be_a_mapping():

@@ -2,10 +2,7 @@
 escapement's documented score, and every kind of plan at smoke size."""
 from __future__ import annotations
 
-import importlib
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,8 +12,9 @@ from pes_ref.core.objectives import Oscillator
 from pes_ref.testing.finite_differences import central_gradient, relative_error
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "validation" / "experiments"))
-plans = importlib.import_module("oscillator_plans")
+from _helpers import ROOT, load_script
+
+plans = load_script(ROOT / "validation" / "experiments" / "oscillator_plans.py")
 
 #: The hand-drawn escapement's held-out captured share, as docs/synthesis.md reports it.
 ESCAPEMENT_CAPTURED = 0.88

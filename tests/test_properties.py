@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 
 import pes_ref as pr
 from pes_ref.core.forces import force
+from pes_ref.core.scene import MODES
 from pes_ref.testing import properties as pp
 from pes_ref.testing import strategies as pst
 from pes_ref.oracle.tolerances import FD_RTOL, GRAD_RTOL, TRAJ_RTOL
@@ -114,7 +115,6 @@ FD_KINK_MARGIN = 1e-5
 
 NON_TORUS = pst.TOPOLOGIES[:3]
 PERIODIC = pst.TOPOLOGIES[1:]
-MODES = ("dynamic", "quasistatic")
 
 
 def _topology_id(t):

@@ -1,28 +1,22 @@
 """Every validation script runs (``--smoke``) and writes its fragment and plot; run_all
-collects the fragments into a report whose image links resolve.
+collects fragments into a report whose image links resolve.
 
-The scripts run in this process (``main(["--smoke", "--out", tmp])``), so the strict
-floating-point mode of ``conftest.py`` applies to them too.
+Each script runs in its own process, as ``make validate`` runs it, with floating-point
+errors raising as ``conftest.py`` makes them here; run_all itself is imported from its
+path. Every test stands alone: none needs another to have run first.
 """
 from __future__ import annotations
 
-import importlib
 import re
-import sys
-from pathlib import Path
 
 import pytest
 
-VALIDATION = Path(__file__).resolve().parents[1] / "validation"
-sys.path.insert(0, str(VALIDATION))
-run_all = importlib.import_module("run_all")
+from _helpers import ROOT, load_script, run_script
+
+VALIDATION = ROOT / "validation"
+run_all = load_script(VALIDATION / "run_all.py")
 
 TOPICS = run_all.discover()
-
-
-@pytest.fixture(scope="module")
-def out_dir(tmp_path_factory):
-    return tmp_path_factory.mktemp("validation")
 
 
 def test_discovers_the_scripts():
@@ -32,33 +26,48 @@ def test_discovers_the_scripts():
 
 
 @pytest.mark.parametrize("topic", TOPICS)
-def test_script_smoke(topic, out_dir, capsys):
-    """``main(["--smoke", "--out", DIR])`` returns 0, prints a table, writes DIR/<topic>.md
-    (a '## ' heading, a table, one or more sentences) and every PNG it links."""
-    module = importlib.import_module(topic)
-    assert module.main(["--smoke", "--out", str(out_dir)]) == 0
-    assert "|---" in capsys.readouterr().out
-    md = (out_dir / f"{topic}.md").read_text()
+def test_script_smoke(topic, tmp_path):
+    """``python validation/<topic>.py --smoke --out DIR`` exits 0, prints a table, writes
+    DIR/<topic>.md (a '## ' heading, a table, one or more sentences) and every PNG it links."""
+    proc = run_script(VALIDATION / f"{topic}.py", "--smoke", "--out", tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "|---" in proc.stdout
+    md = (tmp_path / f"{topic}.md").read_text()
     assert md.startswith("## ")
     assert "|---" in md and "\n- " in md
     images = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
     assert images, "no plot linked"
     for img in images:
-        assert (out_dir / img).stat().st_size > 0
+        assert (tmp_path / img).stat().st_size > 0
 
 
-def test_report_collects_fragments(out_dir):
-    """The report starts with the generated-file marker, has every fragment, and its
-    image links point at files that exist (relative to the report)."""
-    report = out_dir / "report" / "REPORT.md"
-    report.parent.mkdir(exist_ok=True)
-    done = [t for t in TOPICS if (out_dir / f"{t}.md").exists()]
-    assert done, "run the smoke tests first (same module)"
-    text = run_all.collect(done, out_dir, report, {t: (0.0, 0, "", 0.0) for t in done}, "test")
+def _fragment(out, topic: str) -> str:
+    """A fragment as the scripts write it: heading, table, image link, a sentence."""
+    (out / f"{topic}.png").write_bytes(b"png")
+    text = f"## The {topic} study\n\n| a | b |\n|---|---|\n| 1 | 2 |\n\n![{topic} plot]({topic}.png)\n\n- it holds.\n"
+    (out / f"{topic}.md").write_text(text)
+    return text
+
+
+def test_report_collects_fragments(tmp_path):
+    """The report starts with the generated-file marker, has every fragment (and says so
+    for a script without one), and its image links point at files that exist (relative
+    to the report)."""
+    out, report = tmp_path / "out", tmp_path / "report" / "REPORT.md"
+    out.mkdir()
+    report.parent.mkdir()
+    done, failed = TOPICS[:2], TOPICS[2]
+    for t in done:
+        _fragment(out, t)
+    timings = {t: (1.0, 0, "", 1.0) for t in done} | {failed: (1.0, 1, "boom", 1.0)}
+    text = run_all.collect(done + [failed], out, report, timings, "test")
     assert text.startswith(run_all.MARKER)
     for t in done:
-        assert (out_dir / f"{t}.md").read_text().splitlines()[0] in text
-    for img in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text):
+        assert f"## The {t} study" in text and f"| validation/{t}.py | 1.0 | 1.0 | ok |" in text
+    assert f"(no fragment: validation/{failed}.py failed" in text and "FAILED (1)" in text
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
+    assert len(links) == len(done)
+    for img in links:
         assert (report.parent / img).exists(), img
 
 

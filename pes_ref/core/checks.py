@@ -2,9 +2,11 @@
 
 Every public entry point converts its inputs here, once: to a float64 (or bool)
 NumPy array of the right shape, finite, with the sign it must have. A bad input
-raises one :class:`ValueError` or :class:`TypeError` whose message names the
-argument and quotes the offending value; the numerical core after the boundary
-trusts its inputs and never checks again.
+raises one :class:`InputError` (a ``ValueError``) or :class:`InputTypeError` (also a
+``TypeError``) whose message names the argument and quotes the offending value, and
+whose ``key`` attribute is the argument's name, so a caller that maps arguments to its
+own names (the oracle's case keys) never parses a message. The numerical core after
+the boundary trusts its inputs and never checks again.
 
 Inputs are never modified: a converted array is a copy whenever the caller's
 array is not already a float64 array (and it is never written to by the core).
@@ -14,6 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "InputError",
+    "InputTypeError",
     "as_float_array",
     "as_bool_array",
     "as_positive_int",
@@ -24,6 +28,27 @@ __all__ = [
     "as_choice",
     "reduce_to_shape",
 ]
+
+
+class InputError(ValueError):
+    """A bad value of one argument.
+
+    Parameters
+    ----------
+    key : str or None
+        The argument's name (None when no single argument is at fault).
+    message : str
+        The whole message; it names the argument and quotes the bad value.
+    """
+
+    def __init__(self, key: str | None, message: str):
+        super().__init__(message)
+        self.key = key
+
+
+class InputTypeError(InputError, TypeError):
+    """An argument holding the wrong kind of data (a string where a number belongs, a
+    float count, an object array ...): both an :class:`InputError` and a ``TypeError``."""
 
 
 def _quote(value, limit: int = 80) -> str:
@@ -71,38 +96,38 @@ def as_float_array(
         float64, never a view that the core could write back into the caller's data.
     """
     if isinstance(value, (str, bytes)):
-        raise TypeError(f"{name} must be a real number array, got the string {_quote(value)}")
+        raise InputTypeError(name, f"{name} must be a real number array, got the string {_quote(value)}")
     try:
         arr = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
-        raise TypeError(f"{name} must be a real number array, got {_quote(value)} ({exc})") from None
+        raise InputTypeError(name, f"{name} must be a real number array, got {_quote(value)} ({exc})") from None
     if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
-        raise TypeError(f"{name} must be a real number array, got dtype {arr.dtype} ({_quote(value)})")
+        raise InputTypeError(name, f"{name} must be a real number array, got dtype {arr.dtype} ({_quote(value)})")
     if np.iscomplexobj(arr):
-        raise TypeError(f"{name} must be real, got complex values {_quote(value)}")
+        raise InputTypeError(name, f"{name} must be real, got complex values {_quote(value)}")
     arr = np.array(arr, dtype=np.float64, copy=True)
     if ndim is not None and arr.ndim != ndim:
-        raise ValueError(f"{name} must have {ndim} dimension(s), got shape {arr.shape}")
+        raise InputError(name, f"{name} must have {ndim} dimension(s), got shape {arr.shape}")
     if shape is not None:
         ok = len(shape) == arr.ndim and all(s is None or s == a for s, a in zip(shape, arr.shape))
         if not ok:
             want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
-            raise ValueError(f"{name} must have shape {want}, got shape {arr.shape}")
+            raise InputError(name, f"{name} must have shape {want}, got shape {arr.shape}")
     if broadcast_to is not None:
         try:
             np.broadcast_shapes(arr.shape, tuple(broadcast_to))
             if np.broadcast_shapes(arr.shape, tuple(broadcast_to)) != tuple(broadcast_to):
                 raise ValueError
         except ValueError:
-            raise ValueError(
-                f"{name} must broadcast to shape {tuple(broadcast_to)}, got shape {arr.shape}"
+            raise InputError(
+                name, f"{name} must broadcast to shape {tuple(broadcast_to)}, got shape {arr.shape}"
             ) from None
     if finite and not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {_quote(arr)}")
+        raise InputError(name, f"{name} must be finite, got {_quote(arr)}")
     if positive and not np.all(arr > 0):
-        raise ValueError(f"{name} must be > 0, got {_quote(arr)}")
+        raise InputError(name, f"{name} must be > 0, got {_quote(arr)}")
     if nonneg and not np.all(arr >= 0):
-        raise ValueError(f"{name} must be >= 0, got {_quote(arr)}")
+        raise InputError(name, f"{name} must be >= 0, got {_quote(arr)}")
     arr.setflags(write=False)
     return arr
 
@@ -115,12 +140,12 @@ def as_bool_array(name: str, value, *, shape: tuple) -> np.ndarray:
     arr = np.asarray(value)
     if arr.dtype != bool:
         if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
-            raise TypeError(f"{name} must be booleans, got dtype {arr.dtype} ({_quote(value)})")
+            raise InputTypeError(name, f"{name} must be booleans, got dtype {arr.dtype} ({_quote(value)})")
         if not np.all((arr == 0) | (arr == 1)):
-            raise ValueError(f"{name} must be booleans (0/1), got {_quote(value)}")
+            raise InputError(name, f"{name} must be booleans (0/1), got {_quote(value)}")
         arr = arr.astype(bool)
     if arr.shape != tuple(shape):
-        raise ValueError(f"{name} must have shape {tuple(shape)}, got shape {arr.shape}")
+        raise InputError(name, f"{name} must have shape {tuple(shape)}, got shape {arr.shape}")
     arr = arr.copy()
     arr.setflags(write=False)
     return arr
@@ -128,12 +153,12 @@ def as_bool_array(name: str, value, *, shape: tuple) -> np.ndarray:
 
 def _as_scalar(name: str, value) -> float:
     if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a number, got the bool {value!r}")
+        raise InputTypeError(name, f"{name} must be a number, got the bool {value!r}")
     arr = np.asarray(value)
     if arr.ndim != 0:
-        raise ValueError(f"{name} must be a scalar, got shape {arr.shape}")
+        raise InputError(name, f"{name} must be a scalar, got shape {arr.shape}")
     if not (np.issubdtype(arr.dtype, np.number)) or np.iscomplexobj(arr):
-        raise TypeError(f"{name} must be a real number, got {_quote(value)}")
+        raise InputTypeError(name, f"{name} must be a real number, got {_quote(value)}")
     return float(arr)
 
 
@@ -141,7 +166,7 @@ def as_finite_float(name: str, value) -> float:
     """A finite real scalar."""
     x = _as_scalar(name, value)
     if not np.isfinite(x):
-        raise ValueError(f"{name} must be finite, got {x!r}")
+        raise InputError(name, f"{name} must be finite, got {x!r}")
     return x
 
 
@@ -149,7 +174,7 @@ def as_positive_float(name: str, value) -> float:
     """A finite real scalar > 0."""
     x = as_finite_float(name, value)
     if not x > 0:
-        raise ValueError(f"{name} must be > 0, got {x!r}")
+        raise InputError(name, f"{name} must be > 0, got {x!r}")
     return x
 
 
@@ -157,20 +182,20 @@ def as_nonneg_float(name: str, value) -> float:
     """A finite real scalar >= 0."""
     x = as_finite_float(name, value)
     if not x >= 0:
-        raise ValueError(f"{name} must be >= 0, got {x!r}")
+        raise InputError(name, f"{name} must be >= 0, got {x!r}")
     return x
 
 
 def as_nonneg_int(name: str, value) -> int:
     """An integer >= 0 (an integral float such as ``3.0`` is refused: counts are ints)."""
     if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be an integer, got the bool {value!r}")
+        raise InputTypeError(name, f"{name} must be an integer, got the bool {value!r}")
     arr = np.asarray(value)
     if arr.ndim != 0 or not np.issubdtype(arr.dtype, np.integer):
-        raise TypeError(f"{name} must be an integer, got {_quote(value)}")
+        raise InputTypeError(name, f"{name} must be an integer, got {_quote(value)}")
     x = int(arr)
     if x < 0:
-        raise ValueError(f"{name} must be >= 0, got {x}")
+        raise InputError(name, f"{name} must be >= 0, got {x}")
     return x
 
 
@@ -178,7 +203,7 @@ def as_positive_int(name: str, value) -> int:
     """An integer >= 1."""
     x = as_nonneg_int(name, value)
     if x < 1:
-        raise ValueError(f"{name} must be >= 1, got {x}")
+        raise InputError(name, f"{name} must be >= 1, got {x}")
     return x
 
 
@@ -187,9 +212,9 @@ def as_choice(name: str, value, choices) -> str:
     if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind == "U":
         value = str(value)
     if not isinstance(value, str):
-        raise TypeError(f"{name} must be one of {sorted(choices)}, got {_quote(value)}")
+        raise InputTypeError(name, f"{name} must be one of {sorted(choices)}, got {_quote(value)}")
     if value not in choices:
-        raise ValueError(f"{name} must be one of {sorted(choices)}, got {value!r}")
+        raise InputError(name, f"{name} must be one of {sorted(choices)}, got {value!r}")
     return value
 
 

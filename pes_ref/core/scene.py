@@ -88,7 +88,8 @@ class Scene:
 
     def __post_init__(self):
         if not isinstance(self.surface, Surface):
-            raise TypeError(f"surface must be a pes_ref.Surface, got {type(self.surface).__name__}")
+            raise checks.InputTypeError("surface",
+                                        f"surface must be a pes_ref.Surface, got {type(self.surface).__name__}")
         set_ = lambda k, val: object.__setattr__(self, k, val)  # noqa: E731
         set_("dt", checks.as_positive_float("dt", self.dt))
         set_("n_steps", checks.as_nonneg_int("n_steps", self.n_steps))
@@ -96,33 +97,38 @@ class Scene:
         set_("mode", checks.as_choice("mode", self.mode, set(MODES)))
         set_("integrator", checks.as_choice("integrator", self.integrator, set(INTEGRATORS)))
         if self.mode != "dynamic" and self.integrator != "verlet":
-            raise ValueError(f"integrator={self.integrator!r} is for mode='dynamic' only; this scene is {self.mode}")
+            raise checks.InputError("integrator", f"integrator={self.integrator!r} is for mode='dynamic' only; "
+                                                  f"this scene is {self.mode}")
         set_("mass", _per_particle("mass", self.mass, positive=True))
         if self.damping is not None:
             set_("damping", _per_particle("damping", self.damping, nonneg=True))
         if self.mode == "quasistatic":
             if self.mobility is None:
-                raise ValueError("mobility is required in quasistatic mode (shape (2,), > 0)")
+                raise checks.InputError("mobility", "mobility is required in quasistatic mode (shape (2,), > 0)")
             set_("mobility", checks.as_float_array("mobility", self.mobility, shape=(2,), positive=True))
         elif self.mobility is not None:
-            raise ValueError("mobility is only for mode='quasistatic'; this scene is dynamic")
+            raise checks.InputError("mobility", "mobility is only for mode='quasistatic'; this scene is dynamic")
         if self.spring is not None and not isinstance(self.spring, Spring):
-            raise TypeError(f"spring must be a pes_ref.Spring or None, got {type(self.spring).__name__}")
+            raise checks.InputTypeError("spring",
+                                        f"spring must be a pes_ref.Spring or None, got {type(self.spring).__name__}")
         if self.walls is not None:
             if not isinstance(self.walls, Walls):
-                raise TypeError(f"walls must be a pes_ref.Walls or None, got {type(self.walls).__name__}")
+                raise checks.InputTypeError("walls",
+                                            f"walls must be a pes_ref.Walls or None, got {type(self.walls).__name__}")
             for d in range(2):
                 if self.surface.periodic[d] and self.walls.edges[d].any():
-                    raise ValueError(f"walls: axis {d} is periodic and cannot have a wall "
-                                     f"(walls[{d}] = {self.walls.edges[d].tolist()})")
+                    raise checks.InputError("walls", f"walls: axis {d} is periodic and cannot have a wall "
+                                                     f"(walls[{d}] = {self.walls.edges[d].tolist()})")
                 if self.walls.edges[d].all() and 2 * self.walls.margin >= self.surface.length[d]:
-                    raise ValueError(f"wall_margin={self.walls.margin} leaves no room between the two walls "
-                                     f"of axis {d} (length {self.surface.length[d]})")
+                    raise checks.InputError("wall_margin",
+                                            f"wall_margin={self.walls.margin} leaves no room between the two walls "
+                                            f"of axis {d} (length {self.surface.length[d]})")
         effects = tuple(self.effects)
         for e in effects:
             if not hasattr(e, "add_to"):
-                raise TypeError(f"effects must be pes_ref effects (Constant, PerParticle, Noise, Window, "
-                                f"Schedule), got {e!r}")
+                raise checks.InputTypeError("effects",
+                                            f"effects must be pes_ref effects (Constant, PerParticle, Noise, Window, "
+                                            f"Schedule), got {e!r}")
         set_("effects", effects)
 
     # ------------------------------------------------------------------ derived plain arrays
@@ -163,7 +169,8 @@ def _replace(scene: Scene, **kw) -> Scene:
 def _per_particle(name, value, **kw):
     arr = checks.as_float_array(name, value, **kw)
     if arr.ndim > 2 or (arr.ndim >= 1 and arr.shape[-1] not in (1, 2)):
-        raise ValueError(f"{name} must broadcast to (N, 2): a scalar, (2,), (N, 1) or (N, 2); got shape {arr.shape}")
+        raise checks.InputError(name, f"{name} must broadcast to (N, 2): a scalar, (2,), (N, 1) or (N, 2); "
+                                      f"got shape {arr.shape}")
     return arr
 
 

@@ -365,11 +365,12 @@ class Surface:
     def __post_init__(self):
         values = checks.as_float_array("values", self.values, ndim=2)
         if values.shape[0] < 2 or values.shape[1] < 2:
-            raise ValueError(f"values must have at least 2 nodes per axis, got shape {values.shape}")
+            raise checks.InputError("values", f"values must have at least 2 nodes per axis, got shape {values.shape}")
         lower = checks.as_float_array("lower", self.lower, shape=(2,))
         upper = checks.as_float_array("upper", self.upper, shape=(2,))
         if not np.all(upper > lower):
-            raise ValueError(f"upper must be > lower on both axes, got lower={lower.tolist()}, upper={upper.tolist()}")
+            raise checks.InputError("upper", f"upper must be > lower on both axes, got lower={lower.tolist()}, "
+                                             f"upper={upper.tolist()}")
         periodic = tuple(bool(p) for p in checks.as_bool_array("periodic", self.periodic, shape=(2,)))
         object.__setattr__(self, "values", values)
         object.__setattr__(self, "lower", lower)

@@ -79,7 +79,7 @@ class Spring:
         object.__setattr__(self, "center", checks.as_float_array("spring_center", self.center))
         for name, arr in (("spring_k", self.k), ("spring_center", self.center)):
             if arr.ndim > 2 or (arr.ndim >= 1 and arr.shape[-1] not in (1, 2)):
-                raise ValueError(f"{name} must broadcast to (N, 2), got shape {arr.shape}")
+                raise checks.InputError(name, f"{name} must broadcast to (N, 2), got shape {arr.shape}")
 
 
 # --------------------------------------------------------------------------- walls

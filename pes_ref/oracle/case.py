@@ -8,6 +8,9 @@ and write both, so a case is the unit of cross-implementation testing (the shipp
 conformance vectors of :mod:`pes_ref.oracle.conformance` are cases plus their results).
 
 The format decisions that the SPEC leaves open are written down in ``docs/oracle.md``.
+This module holds the format (which keys, which kinds of data), the validation of a
+case and running it; the ``.npz`` files are read and written by
+:mod:`pes_ref.oracle.npz`, and its errors are those of :mod:`pes_ref.oracle.errors`.
 
 Example
 -------
@@ -25,11 +28,7 @@ Example
 """
 from __future__ import annotations
 
-import errno
 import os
-import re
-import secrets
-import zipfile
 from collections.abc import Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -38,18 +37,18 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
-from pes_ref.core.scene import GRADIENT_NAMES, Scene, energy, value_and_grad
+from pes_ref.core.scene import GRADIENT_NAMES, MODES, Scene, energy, value_and_grad
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
+from pes_ref.oracle.errors import CaseError, CaseTypeError, ResultExistsError
+from pes_ref.oracle.npz import read_npz, write_npz
 
 __all__ = [
     "CaseError", "CaseTypeError", "ResultExistsError", "ValidCase",
     "REQUIRED_KEYS", "OPTIONAL_KEYS", "OBJECTIVE_PARAMS", "CASE_KEYS", "KEY_GROUPS",
     "load_case", "validate_case", "run_case", "write_result", "run_case_file", "save_case",
-    "read_npz", "write_npz", "result_keys",
+    "read_npz", "write_npz", "result_keys", "grad_names_for",
 ]
-
-MODES = ("dynamic", "quasistatic")
 
 #: Keys every case must hold (SPEC section 6: the keys without brackets). ``v0``, ``mass``
 #: and ``damping`` are required in quasistatic mode too, although they play no part there.
@@ -74,173 +73,18 @@ KEY_GROUPS = (("spring_k", "spring_center"), ("wall_k", "wall_margin", "walls"))
 #: Every key a case may hold, in the SPEC's order.
 CASE_KEYS = REQUIRED_KEYS + OPTIONAL_KEYS + tuple(p for ps in OBJECTIVE_PARAMS.values() for p in ps)
 
-_STRING_KEYS = ("mode", "objective", "when")
-_FIXED_DATE = (1980, 1, 1, 0, 0, 0)   # the zip epoch: written files do not depend on the clock
-_ZIP64_ABOVE = 1 << 30                # zip64 headers only for members that may need them
+#: The names the core's errors carry (:attr:`pes_ref.core.checks.InputError.key`) that
+#: are not case keys, and the case key each stands for. The core names every argument
+#: the oracle hands it after its case key (``wall_margin``, ``walls``, ``spring_k`` ...),
+#: so only the names of whole objects, which a case never holds, need translating.
+CORE_NAME_TO_CASE_KEY = {
+    "surface": "values",        # the Surface built from values, lower, upper, periodic
+    "spring": "spring_k",       # the Spring built from spring_k, spring_center
+    "effects": "force",         # the external force (a case holds it as the force schedule)
+}
 
 
-# =========================================================================== errors
-
-class CaseError(ValueError):
-    """A case that breaks SPEC section 6.
-
-    Parameters
-    ----------
-    key : str or None
-        The case key at fault (None for a file that is not a readable ``.npz`` at all).
-    reason : str
-        What is wrong with it.
-
-    The message is ``"case key '<key>': <reason>"``, one line.
-    """
-
-    def __init__(self, key: str | None, reason: str):
-        self.key = key
-        self.reason = " ".join(str(reason).split())
-        super().__init__(self.reason if key is None else f"case key {key!r}: {self.reason}")
-
-
-class CaseTypeError(CaseError, TypeError):
-    """A case key holding the wrong kind of data (a string where a number belongs, a
-    float ``n_steps``, an object array ...). Both a :class:`CaseError` and a ``TypeError``."""
-
-
-class ResultExistsError(FileExistsError):
-    """The result file exists already and ``overwrite`` was not asked for."""
-
-    def __init__(self, path):
-        self.path = os.fspath(path)
-        super().__init__(f"result file {self.path!r} exists already; refusing to overwrite it "
-                         "(pass overwrite=True, or --force on the command line)")
-
-    def __str__(self):
-        return self.args[0]
-
-
-@contextmanager
-def _about(key: str):
-    """Turn a ValueError/TypeError of the checks layer into a CaseError naming ``key``."""
-    try:
-        yield
-    except CaseError:
-        raise
-    except TypeError as exc:
-        raise CaseTypeError(key, str(exc)) from None
-    except ValueError as exc:
-        raise CaseError(key, str(exc)) from None
-
-
-# =========================================================================== npz files
-
-def read_npz(path, *, what: str = "case") -> dict:
-    """Read every array of an ``.npz`` file without pickle.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-    what : str
-        "case" or "result", for the error messages.
-
-    Returns
-    -------
-    dict of str -> ndarray
-
-    Raises
-    ------
-    OSError
-        The file cannot be opened (missing, a directory, no permission).
-    CaseError
-        The file is not an ``.npz`` archive, or a member cannot be read without pickle.
-    """
-    path = os.fspath(path)
-    try:
-        npz = np.load(path, allow_pickle=False)
-    except OSError:
-        raise
-    except Exception as exc:  # not a zip, truncated zip, an .npy with object dtype ...
-        raise CaseError(None, f"{what} file {path!r} is not a readable .npz archive ({exc})") from None
-    if not isinstance(npz, np.lib.npyio.NpzFile):
-        raise CaseError(None, f"{what} file {path!r} holds a single .npy array, not an .npz archive of named arrays")
-    out = {}
-    with npz:
-        for key in npz.files:
-            try:
-                value = npz[key]
-            except ValueError as exc:
-                raise CaseTypeError(key, f"cannot be read without pickle ({exc}); {what}s hold "
-                                         "numeric, bool or unicode arrays only") from None
-            except Exception as exc:
-                raise CaseError(key, f"cannot be read from {path!r} ({exc})") from None
-            if not isinstance(value, np.ndarray):
-                raise CaseTypeError(key, f"is not a .npy array inside {path!r}")
-            out[key] = value
-    return out
-
-
-def _as_storable(key, value) -> np.ndarray:
-    if not isinstance(key, str) or not key.isidentifier():
-        raise ValueError(f"array names must be identifiers, got {key!r}")
-    arr = np.asarray(value)   # a Python str becomes a 0-d unicode array
-    if arr.dtype.hasobject:
-        raise TypeError(f"{key}: object arrays cannot be stored (they would need pickle)")
-    return arr
-
-
-def write_npz(path, arrays: Mapping, *, overwrite: bool = False, compress: bool = True) -> None:
-    """Write named arrays to an ``.npz`` file atomically and reproducibly.
-
-    The archive is written to a temporary file in the same folder, then moved into
-    place with :func:`os.replace` (or hard-linked, which fails if ``path`` exists when
-    ``overwrite`` is False), so a reader never sees half a file. Every member carries
-    the same fixed date, so the same arrays always give the same bytes.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file to write (no ``.npz`` suffix is added).
-    arrays : mapping of str -> array_like
-        Python strings become 0-d unicode arrays; object arrays are refused.
-    overwrite : bool
-        Replace an existing file; otherwise raise :class:`ResultExistsError`.
-    compress : bool
-        Deflate the members (``np.load`` reads both).
-    """
-    path = os.fspath(path)
-    items = [(k, _as_storable(k, v)) for k, v in arrays.items()]
-    if not overwrite and os.path.lexists(path):
-        raise ResultExistsError(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise FileNotFoundError(errno.ENOENT, "the folder to write into does not exist", folder)
-    tmp = os.path.join(folder, f".{os.path.basename(path)}.{secrets.token_hex(6)}.tmp")
-    method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
-    try:
-        with open(tmp, "xb") as fh, zipfile.ZipFile(fh, "w", compression=method) as zf:
-            for key, arr in items:
-                info = zipfile.ZipInfo(key + ".npy", date_time=_FIXED_DATE)
-                info.compress_type = method
-                info.external_attr = 0o644 << 16
-                with zf.open(info, "w", force_zip64=arr.nbytes > _ZIP64_ABOVE) as member:
-                    np.lib.format.write_array(member, arr, allow_pickle=False)
-        _move_into_place(tmp, path, overwrite)
-    finally:
-        if os.path.lexists(tmp):
-            os.unlink(tmp)
-
-
-def _move_into_place(tmp: str, path: str, overwrite: bool) -> None:
-    if overwrite:
-        os.replace(tmp, path)
-        return
-    try:
-        os.link(tmp, path)            # atomic "create if absent"
-    except FileExistsError:
-        raise ResultExistsError(path) from None
-    except OSError:                   # a file system without hard links
-        if os.path.lexists(path):
-            raise ResultExistsError(path) from None
-        os.replace(tmp, path)
-
+# =========================================================================== files
 
 def load_case(path) -> dict:
     """Read a case file: ``np.load(path, allow_pickle=False)`` into a plain dict.
@@ -268,7 +112,7 @@ def save_case(path, *, overwrite: bool = True, compress: bool = True, **keys) ->
     -------
     >>> save_case("c.npz", values=np.zeros((2, 2)), mode="dynamic", ...)  # doctest: +SKIP
     """
-    write_npz(path, keys, overwrite=overwrite, compress=compress)
+    write_npz(path, keys, overwrite=overwrite, compress=compress, what="case")
 
 
 # =========================================================================== validation
@@ -303,6 +147,22 @@ class ValidCase:
                      self.force, self.grad_names))
 
 
+@contextmanager
+def _core_checks():
+    """Turn the core's keyed :class:`~pes_ref.core.checks.InputError` into a
+    :class:`CaseError` naming the case key (:data:`CORE_NAME_TO_CASE_KEY`); a
+    :class:`~pes_ref.core.checks.InputTypeError` becomes a :class:`CaseTypeError`."""
+    try:
+        yield
+    except CaseError:
+        raise
+    except checks.InputError as exc:
+        key = CORE_NAME_TO_CASE_KEY.get(exc.key, exc.key)
+        raise (CaseTypeError if isinstance(exc, TypeError) else CaseError)(key, str(exc)) from None
+
+
+# ---------------------------------------------------------------- the file format: kinds of data
+
 def _describe(value) -> str:
     arr = np.asarray(value) if not isinstance(value, (str, bytes)) else None
     if arr is None:
@@ -324,28 +184,28 @@ def _numeric(key: str, value) -> np.ndarray:
     return arr
 
 
-def _array(key: str, value, **kw) -> np.ndarray:
-    """A float64 array through :func:`pes_ref.core.checks.as_float_array`, errors naming ``key``."""
-    arr = _numeric(key, value)
-    with _about(key):
-        return checks.as_float_array(key, arr, **kw)
-
-
-def _scalar(key: str, value, check=checks.as_finite_float) -> float:
+def _scalar(key: str, value) -> np.ndarray:
+    """A 0-d integer or float array (its value is checked by whoever takes it)."""
     arr = _numeric(key, value)
     if arr.ndim != 0:
         raise CaseError(key, f"{key} must be a scalar (a 0-d array), got shape {arr.shape}")
-    with _about(key):
-        return check(key, arr)
+    return arr
 
 
-def _integer(key: str, value) -> int:
+def _integer(key: str, value) -> np.ndarray:
     if isinstance(value, (str, bytes)) or np.asarray(value).dtype.kind not in "iu":
         raise CaseTypeError(key, f"{key} must be an integer (a 0-d integer array), got {_describe(value)}")
     if np.asarray(value).ndim != 0:
         raise CaseError(key, f"{key} must be a scalar (a 0-d array), got shape {np.asarray(value).shape}")
-    with _about(key):
-        return checks.as_nonneg_int(key, np.asarray(value))
+    return np.asarray(value)
+
+
+def _flags(key: str, value) -> np.ndarray:
+    """A bool (or 0/1 integer) array; its shape and values are checked by whoever takes it."""
+    arr = np.asarray(value) if not isinstance(value, (str, bytes)) else None
+    if arr is None or arr.dtype.kind not in "biu":
+        raise CaseTypeError(key, f"{key} must be a bool array, got {_describe(value)}")
+    return arr
 
 
 def _string(key: str, value, choices) -> str:
@@ -354,18 +214,12 @@ def _string(key: str, value, choices) -> str:
         value = str(value)
     if not isinstance(value, str):
         raise CaseTypeError(key, f"{key} must be a string stored as a 0-d unicode array, got {_describe(value)}")
-    if value not in choices:
+    if choices is not None and value not in choices:
         raise CaseError(key, f"{key} must be one of {list(choices)}, got {value!r}")
     return value
 
 
-def _flags(key: str, value, shape: tuple) -> np.ndarray:
-    arr = np.asarray(value) if not isinstance(value, (str, bytes)) else None
-    if arr is None or arr.dtype.kind not in "biu":
-        raise CaseTypeError(key, f"{key} must be a bool array, got {_describe(value)}")
-    with _about(key):
-        return checks.as_bool_array(key, arr, shape=shape)
-
+# ---------------------------------------------------------------- which keys a case holds
 
 def _check_key_names(raw: Mapping) -> None:
     for key in raw:
@@ -402,89 +256,92 @@ def _check_key_rules(raw: Mapping, mode: str, objective: str) -> None:
                                      f"only {present}")
 
 
-def _surface(raw: Mapping) -> Surface:
-    values = _array("values", raw["values"], ndim=2)
-    if values.shape[0] < 2 or values.shape[1] < 2:
-        raise CaseError("values", f"values must have at least 2 nodes per axis, got shape {values.shape}")
-    lower = _array("lower", raw["lower"], shape=(2,))
-    upper = _array("upper", raw["upper"], shape=(2,))
-    if not np.all(upper > lower):
-        raise CaseError("upper", f"upper must be > lower on both axes, got lower={lower.tolist()}, "
-                                 f"upper={upper.tolist()}")
-    periodic = _flags("periodic", raw["periodic"], (2,))
-    with _about("values"):
-        return Surface(values, lower, upper, tuple(bool(p) for p in periodic))
-
+# ---------------------------------------------------------------- the shapes that N and T set
 
 def _state(raw: Mapping):
-    x0 = _array("x0", raw["x0"], shape=(None, 2))
-    if x0.shape[0] < 1:
-        raise CaseError("x0", "x0 must hold at least one particle, got shape (0, 2)")
-    n = x0.shape[0]
-    v0 = _array("v0", raw["v0"])
+    """x0 (N, 2) with N >= 1 and v0 like it, as float64: the initial state is no part of a
+    scene, so it is checked here (with :func:`pes_ref.core.checks.as_float_array`)."""
+    with _core_checks():
+        x0 = checks.as_float_array("x0", _numeric("x0", raw["x0"]), shape=(None, 2))
+        if x0.shape[0] < 1:
+            raise CaseError("x0", "x0 must hold at least one particle, got shape (0, 2)")
+        n = x0.shape[0]
+        v0 = checks.as_float_array("v0", _numeric("v0", raw["v0"]))
     if v0.shape != (n, 2):
         raise CaseError("v0", f"v0 must have shape (N, 2) = ({n}, 2) like x0, got shape {v0.shape}")
     return x0, v0
 
 
-def _per_particle(key: str, value, n: int, **kw) -> np.ndarray:
-    """mass, damping, spring_k, spring_center: a scalar, (2,), (N, 1), (N, 2) (or (1,), (1, 1), (1, 2))."""
+def _per_particle(key: str, value, n: int) -> np.ndarray:
+    """mass, damping, spring_k, spring_center: numbers that broadcast to the case's (N, 2)
+    (a scalar, (2,), (N, 1), (N, 2), or (1,), (1, 1), (1, 2)). Their values are the
+    core's to check."""
     arr = _numeric(key, value)
-    if arr.ndim > 2:
+    try:
+        fits = np.broadcast_shapes(arr.shape, (n, 2)) == (n, 2)
+    except ValueError:
+        fits = False
+    if not fits:
         raise CaseError(key, f"{key} must broadcast to (N, 2) = ({n}, 2), got shape {arr.shape}")
-    return _array(key, arr, broadcast_to=(n, 2), **kw)
+    return arr
 
 
-def _walls(raw: Mapping, surface: Surface):
+# ---------------------------------------------------------------- building what the core checks
+
+def _surface(raw: Mapping) -> Surface:
+    arrays = [_numeric(k, raw[k]) for k in ("values", "lower", "upper")]
+    return Surface(*arrays, _flags("periodic", raw["periodic"]))
+
+
+def _spring(raw: Mapping, n: int):
+    if "spring_k" not in raw:
+        return None
+    return Spring(_per_particle("spring_k", raw["spring_k"], n), _per_particle("spring_center", raw["spring_center"], n))
+
+
+def _walls(raw: Mapping):
     if "walls" not in raw:
         return None
-    k = _scalar("wall_k", raw["wall_k"], checks.as_positive_float)
-    margin = _scalar("wall_margin", raw["wall_margin"], checks.as_nonneg_float)
-    edges = _flags("walls", raw["walls"], (2, 2))
-    for d in range(2):
-        if surface.periodic[d] and edges[d].any():
-            raise CaseError("walls", f"axis {d} is periodic and cannot have a wall "
-                                     f"(walls[{d}] = {edges[d].tolist()})")
-        if edges[d].all() and 2 * margin >= surface.length[d]:
-            raise CaseError("wall_margin", f"wall_margin={margin} leaves no room between the two walls "
-                                           f"of axis {d} (length {surface.length[d]})")
-    with _about("walls"):
-        return Walls(k, margin, edges)
+    return Walls(_scalar("wall_k", raw["wall_k"]), _scalar("wall_margin", raw["wall_margin"]),
+                 _flags("walls", raw["walls"]))
 
 
-def _objective(raw: Mapping, name: str, shape: tuple):
-    if name == "funnel":
-        target = _scalar("target", raw["target"])
-        when = _string("when", raw["when"], ("final", "every_step"))
-        return Funnel(target, when)
-    if name == "oscillator":
-        return Oscillator(_scalar("amplitude", raw["amplitude"]), _scalar("omega", raw["omega"]))
-    params = {p: _array(p, raw[p], broadcast_to=shape) for p in OBJECTIVE_PARAMS["quadratic"]}
-    return Quadratic(**params)
+def _scene(raw: Mapping, mode: str, n: int) -> Scene:
+    """The scene; its keys' kinds and N-shapes are checked in the order of the arguments
+    below, their values by :class:`Surface`, :class:`Spring`, :class:`Walls` as each is
+    built and then by :class:`Scene` (dt, n_steps, t0, mass, damping, mobility, walls)."""
+    return Scene(_surface(raw), dt=_scalar("dt", raw["dt"]), n_steps=_integer("n_steps", raw["n_steps"]),
+                 mode=mode, mass=_per_particle("mass", raw["mass"], n),
+                 damping=_per_particle("damping", raw["damping"], n),
+                 mobility=_numeric("mobility", raw["mobility"]) if mode == "quasistatic" else None,
+                 spring=_spring(raw, n), walls=_walls(raw), t0=_scalar("t0", raw.get("t0", 0.0)))
 
 
-_KEY_IN_MESSAGE = re.compile(r"^(\w+)")
+def _funnel(raw: Mapping, shape: tuple):
+    return Funnel(_scalar("target", raw["target"]), _string("when", raw["when"], None))
 
 
-def _scene(surface, raw, mode, n, dt, n_steps, t0) -> Scene:
-    mass = _per_particle("mass", raw["mass"], n, positive=True)
-    damping = _per_particle("damping", raw["damping"], n, nonneg=True)
-    mobility = _array("mobility", raw["mobility"], shape=(2,), positive=True) if mode == "quasistatic" else None
-    spring = None
-    if "spring_k" in raw:
-        k = _per_particle("spring_k", raw["spring_k"], n, nonneg=True)
-        center = _per_particle("spring_center", raw["spring_center"], n)
-        with _about("spring_k"):
-            spring = Spring(k, center)
-    walls = _walls(raw, surface)
-    try:
-        return Scene(surface, dt=dt, n_steps=n_steps, mode=mode, mass=mass, damping=damping,
-                     mobility=mobility, spring=spring, walls=walls, t0=t0)
-    except (TypeError, ValueError) as exc:   # not expected after the checks above; name a key anyway
-        m = _KEY_IN_MESSAGE.match(str(exc))
-        key = m.group(1) if m and m.group(1) in CASE_KEYS else "mode"
-        with _about(key):
-            raise
+def _oscillator(raw: Mapping, shape: tuple):
+    return Oscillator(_scalar("amplitude", raw["amplitude"]), _scalar("omega", raw["omega"]))
+
+
+def _quadratic(raw: Mapping, shape: tuple):
+    objective = Quadratic(**{p: _numeric(p, raw[p]) for p in OBJECTIVE_PARAMS["quadratic"]})
+    objective.check_shape(shape)            # each parameter broadcasts to the run's (T+1, N, 2)
+    return objective
+
+
+#: How each objective is built from its parameters, for a run of states shaped ``shape``.
+_OBJECTIVES = {"funnel": _funnel, "oscillator": _oscillator, "quadratic": _quadratic}
+
+
+def _force(raw: Mapping, shape: tuple) -> np.ndarray:
+    if "force" not in raw:
+        return np.zeros(shape)
+    force = _numeric("force", raw["force"])
+    if force.shape != shape:
+        raise CaseError("force", f"force must have shape (T+1, N, 2) = {shape}, got shape {force.shape}")
+    return checks.as_float_array("force", force)
 
 
 def grad_names_for(mode: str, has_spring: bool) -> tuple:
@@ -508,6 +365,14 @@ def result_keys(grad_names) -> tuple:
 def validate_case(raw: Mapping) -> ValidCase:
     """Check a case against SPEC section 6 and build what the engine runs.
 
+    The oracle checks what is particular to the file format: which keys a case holds,
+    the kind of data in each (numbers of integer or float dtype, 0-d scalars, integer
+    ``n_steps``, bool flags, 0-d unicode strings) and the shapes that the case's N and
+    T set. The values themselves (finite, signs, shapes of the grid and the domain,
+    walls on periodic axes ...) are checked once, by the core's own constructors
+    (:class:`~pes_ref.Surface`, :class:`~pes_ref.Spring`, :class:`~pes_ref.Walls`,
+    :class:`~pes_ref.Scene`, the objectives), whose keyed errors name the case key.
+
     Parameters
     ----------
     raw : mapping of str -> array_like
@@ -524,7 +389,8 @@ def validate_case(raw: Mapping) -> ValidCase:
         The first rule the case breaks, naming its key (a :class:`CaseTypeError`, also
         a ``TypeError``, when the key holds the wrong kind of data). Keys are checked
         in a fixed order: names (unknown, then missing), mode and objective, the key
-        rules (objective parameters, mobility, groups), then each key's value.
+        rules (objective parameters, mobility, groups), the initial state, the scene's
+        keys, the force, the objective's parameters, the regularization.
     """
     if not isinstance(raw, Mapping):
         raise CaseTypeError(None, f"a case is a mapping of key -> array, got {type(raw).__name__}")
@@ -533,22 +399,14 @@ def validate_case(raw: Mapping) -> ValidCase:
     objective_name = _string("objective", raw["objective"], tuple(OBJECTIVE_PARAMS))
     _check_key_rules(raw, mode, objective_name)
 
-    surface = _surface(raw)
-    dt = _scalar("dt", raw["dt"], checks.as_positive_float)
-    n_steps = _integer("n_steps", raw["n_steps"])
-    t0 = _scalar("t0", raw.get("t0", 0.0))
     x0, v0 = _state(raw)
     n = x0.shape[0]
-    scene = _scene(surface, raw, mode, n, dt, n_steps, t0)
-    shape = (n_steps + 1, n, 2)
-    if "force" in raw:
-        force = _array("force", raw["force"])
-        if force.shape != shape:
-            raise CaseError("force", f"force must have shape (T+1, N, 2) = {shape}, got shape {force.shape}")
-    else:
-        force = np.zeros(shape)
-    objective = _objective(raw, objective_name, shape)
-    reg = _scalar("regularization", raw.get("regularization", 0.0), checks.as_nonneg_float)
+    with _core_checks():
+        scene = _scene(raw, mode, n)
+        shape = (scene.n_steps + 1, n, 2)
+        force = _force(raw, shape)
+        objective = _OBJECTIVES[objective_name](raw, shape)
+        reg = checks.as_nonneg_float("regularization", _scalar("regularization", raw.get("regularization", 0.0)))
     return ValidCase(scene, x0, v0, force, objective, reg, grad_names_for(mode, scene.spring is not None))
 
 

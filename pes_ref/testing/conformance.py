@@ -19,7 +19,8 @@ Example
 >>> from pes_ref.testing import conformance
 >>> reports = conformance.check_gradients(oracle.run_case)   # doctest: +SKIP
 
-Tolerances (:mod:`pes_ref.oracle.tolerances`): an entry passes when
+The comparison is :mod:`pes_ref.oracle.compare` (re-exported here: :func:`compare_results`,
+:func:`passes`, :data:`TRAJECTORY_KEYS`). Tolerances (:mod:`pes_ref.oracle.tolerances`): an entry passes when
 ``|got - want| <= atol + rtol |want|``. Trajectory keys (``x``, ``v``, ``energy``,
 ``loss``) use ``TRAJ_RTOL``/``TRAJ_ATOL``; gradients use ``GRAD_RTOL`` and
 ``GRAD_ATOL * max|want|`` (the largest entry of that gradient, or 1 for an all-zero one).
@@ -36,14 +37,12 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pes_ref.oracle.compare import TRAJECTORY_KEYS, array_error, compare_results, passes
 from pes_ref.oracle.conformance import LATEST, vectors_dir
-from pes_ref.oracle.tolerances import GRAD_ATOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 
 __all__ = ["VectorReport", "load_manifest", "iter_vectors", "compare_results", "relative_errors",
            "passes", "check_simulate", "check_gradients", "check_invalid", "TRAJECTORY_KEYS"]
 
-#: Result keys compared with the trajectory tolerances; every ``grad_*`` key uses the gradient ones.
-TRAJECTORY_KEYS = ("x", "v", "energy", "loss")
 _SIMULATE_KEYS = ("x", "v", "energy")
 #: Gradients that a quasistatic implementation may omit (SPEC section 5); if given, they must be zero.
 _QUASISTATIC_ZERO = ("grad_v0", "grad_mass", "grad_damping")
@@ -128,53 +127,6 @@ def iter_vectors(version: str = LATEST, kind: str = "valid", *, directory=None):
 
 # =========================================================================== comparing
 
-def _tolerance(name: str, want: np.ndarray):
-    if name in TRAJECTORY_KEYS:
-        return TRAJ_RTOL, TRAJ_ATOL
-    scale = float(np.max(np.abs(want), initial=0.0))
-    return GRAD_RTOL, GRAD_ATOL * (scale if scale > 0 else 1.0)
-
-
-def _error(name: str, got, want) -> float:
-    want = np.asarray(want, dtype=np.float64)
-    try:
-        got = np.asarray(got, dtype=np.float64)
-    except (TypeError, ValueError):
-        return float("inf")
-    if got.shape != want.shape or not np.all(np.isfinite(got)):
-        return float("inf")
-    if want.size == 0:
-        return 0.0
-    rtol, atol = _tolerance(name, want)
-    return float(np.max(np.abs(got - want) / (atol / rtol + np.abs(want))))
-
-
-def passes(name: str, error: float) -> bool:
-    """Whether a normalized error of array ``name`` is within the contract."""
-    return error <= (TRAJ_RTOL if name in TRAJECTORY_KEYS else GRAD_RTOL)
-
-
-def compare_results(got, want, names=None) -> dict:
-    """Normalized error of each array of ``want`` (or of ``names``) in ``got``.
-
-    Parameters
-    ----------
-    got, want : mapping of str -> array_like
-        Results (``want`` the reference).
-    names : iterable of str, optional
-        The keys to compare; default every key of ``want``.
-
-    Returns
-    -------
-    dict of str -> float
-        ``max |got - want| / (atol/rtol + |want|)`` per key (``inf`` when ``got`` lacks
-        the key, has another shape or holds NaN/inf); within the contract when
-        :func:`passes`.
-    """
-    names = list(want) if names is None else list(names)
-    return {k: (_error(k, got[k], want[k]) if k in got else float("inf")) for k in names}
-
-
 def relative_errors(got, want) -> dict:
     """Alias of :func:`compare_results`."""
     return compare_results(got, want)
@@ -248,7 +200,7 @@ def _extra_zero_grads(case: dict, got: dict, want: dict) -> dict:
     for key in _QUASISTATIC_ZERO:
         if key in got and key not in want:
             src = np.shape(case[key[len("grad_"):]])
-            out[key] = _error(key, got[key], np.zeros(src))
+            out[key] = array_error(key, got[key], np.zeros(src))
     return out
 
 

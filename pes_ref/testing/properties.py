@@ -35,16 +35,17 @@ import numpy as np
 
 from pes_ref.core.effects import step_times
 from pes_ref.core.scene import Scene
-from pes_ref.core.stability import grid_cross_curvature
-from pes_ref.core.surface import Surface
 from pes_ref.core.scene import energy as _energy
 from pes_ref.core.scene import simulate as _simulate
-from pes_ref.core.terms import Spring
+from pes_ref.core.stability import grid_cross_curvature
+from pes_ref.core.surface import Surface
+from pes_ref.core.terms import Spring, wall_bounds
+from pes_ref.oracle.case import grad_names_for
 from pes_ref.oracle.tolerances import FD_EPS
 
-__all__ = ["grid_cross_curvature", "grid_slope_bound", "max_frequency", "max_speed",
+__all__ = ["grid_cross_curvature", "grid_slope_bound", "stiffness_bound", "max_frequency", "max_speed",
            "EnergyDrift", "energy_drift", "energy_error_budget", "DriftRatio", "drift_ratio",
-           "kink_distance", "kink_signature",
+           "kink_distance", "distance_to_kinks", "kink_signature",
            "relative_difference", "ShiftCheck", "check_periodic_shift", "rolled_scene", "check_grid_roll",
            "GradientCheck", "check_gradient_fd", "gradient_names", "get_parameter", "with_parameter",
            "loss_conditioning", "chaotic_case", "gradient_growth_rate"]
@@ -52,20 +53,35 @@ __all__ = ["grid_cross_curvature", "grid_slope_bound", "max_frequency", "max_spe
 
 # =========================================================================== stiffness
 
-def max_frequency(scene: Scene) -> float:
-    """An upper bound on the angular frequency of the stiffest term, ``omega_max``.
+def stiffness_bound(scene: Scene) -> float:
+    """``K = c_grid + max k_spring + k_wall``: the stiffness that :func:`max_frequency`
+    and the strategies' time steps and mobilities (:mod:`pes_ref.testing.strategies`)
+    are scaled by.
 
-    ``omega_max^2 = (max k_spring + k_wall + c_grid) / min m``, where ``c_grid`` is the
-    largest cross curvature of the bilinear grid. Velocity Verlet is stable for
-    ``omega_max dt < 2`` and its O(dt^2) energy error scales with ``(omega_max dt)^2``.
-    Zero for a scene with no position-dependent force.
+    ``c_grid`` is the largest cross curvature of the bilinear grid,
+    :func:`pes_ref.core.stability.grid_cross_curvature`. Unlike the core's stability
+    limit (:func:`pes_ref.core.stability.axis_stiffness`) it leaves out the slope's
+    jumps at cell edges (they are kinks, which the energy tests budget for separately)
+    and adds the terms of both axes together. 0 for a scene with no
+    position-dependent force.
     """
     K = grid_cross_curvature(scene.surface)
     if scene.spring is not None:
         K += float(np.max(scene.spring.k))
     if scene.walls is not None and scene.walls.edges.any():
         K += scene.walls.k
-    return float(np.sqrt(K / float(np.min(scene.mass))))
+    return K
+
+
+def max_frequency(scene: Scene) -> float:
+    """An upper bound on the angular frequency of the stiffest term, ``omega_max``.
+
+    ``omega_max^2 = K / min m`` with ``K`` the :func:`stiffness_bound` (``max k_spring +
+    k_wall + c_grid``). Velocity Verlet is stable for ``omega_max dt < 2`` and its
+    O(dt^2) energy error scales with ``(omega_max dt)^2``. Zero for a scene with no
+    position-dependent force.
+    """
+    return float(np.sqrt(stiffness_bound(scene) / float(np.min(scene.mass))))
 
 
 def max_speed(scene: Scene, x0, v0) -> float:
@@ -282,37 +298,70 @@ def kink_distance(scene: Scene, x, *, grid: bool = True) -> float:
     Returns
     -------
     float
+        :func:`distance_to_kinks` of the scene's grid, walls and spring.
+    """
+    s = scene.surface
+    walls = None if scene.walls is None else wall_bounds(s.lower, s.upper, scene.walls.margin, scene.walls.edges)
+    spring = None if scene.spring is None else (scene.spring.k, scene.spring.center)
+    return distance_to_kinks(x, s.lower, s.spacing, s.shape, s.periodic, s.length,
+                             walls=walls, spring=spring, grid=grid)
+
+
+def distance_to_kinks(x, lower, h, shape, periodic, length, *, walls=None, spring=None,
+                      grid: bool = True) -> float:
+    """The smallest distance from any position in ``x`` to a kink of a force, given as
+    plain arrays (:func:`kink_distance` takes them from a scene; the unit tests of the
+    force kernels from their plain-array description).
+
+    Parameters
+    ----------
+    x : array_like, shape (..., N, 2)
+        Positions (unwrapped).
+    lower, h, length : array_like (2,)
+        The grid's lower corner, node spacing and domain length.
+    shape : (n0, n1)
+        The grid's shape.
+    periodic : sequence of 2 bool
+    walls : (lo, hi) of arrays (2,), optional
+        The wall positions, ``-inf``/``inf`` where an axis has none
+        (:func:`pes_ref.core.terms.wall_bounds`).
+    spring : (k, center), optional
+        Broadcastable to (N, 2); a seam counts on a periodic axis where ``k_d != 0``.
+    grid : bool
+        Count the grid's cell edges (see :func:`kink_distance`).
+
+    Returns
+    -------
+    float
         Distance in position units, per axis (the kinks are lines ``q_d = const``):
         cell edges, wall onsets ``a_d``/``b_d``, and the minimum-image seam
         ``c_d + L_d/2 (mod L_d)`` of a spring with ``k_d != 0`` on a periodic axis.
-        ``inf`` when the scene has none.
+        ``inf`` when there is none.
     """
-    x, N = _axis_arrays(scene, x)
-    s = scene.surface
-    h = s.spacing
+    x = np.asarray(x, dtype=np.float64)
+    N = x.shape[-2]
     best = np.inf
     for d in range(2):
         q = x[..., d]
         if grid:
-            u = (q - s.lower[d]) / h[d]
-            if s.periodic[d]:
+            u = (q - lower[d]) / h[d]
+            if periodic[d]:
                 fr = u - np.floor(u)
                 dist = h[d] * np.minimum(fr, 1.0 - fr)
             else:
-                uc = np.clip(u, 0.0, s.shape[d] - 1.0)
+                uc = np.clip(u, 0.0, shape[d] - 1.0)
                 fr = uc - np.floor(uc)
                 dist = np.where(u != uc, np.abs(u - uc), np.minimum(fr, 1.0 - fr)) * h[d]
             best = min(best, float(dist.min()))
-        if scene.walls is not None:
-            if scene.walls.edges[d, 0]:
-                best = min(best, float(np.abs(q - (s.lower[d] + scene.walls.margin)).min()))
-            if scene.walls.edges[d, 1]:
-                best = min(best, float(np.abs(q - (s.upper[d] - scene.walls.margin)).min()))
-        if scene.spring is not None and s.periodic[d]:
-            k = np.broadcast_to(scene.spring.k, (N, 2))[:, d]
+        if walls is not None:
+            for b in (walls[0][d], walls[1][d]):
+                if np.isfinite(b):
+                    best = min(best, float(np.abs(q - b).min()))
+        if spring is not None and periodic[d]:
+            k = np.broadcast_to(spring[0], (N, 2))[:, d]
             if np.any(k != 0):
-                c = np.broadcast_to(scene.spring.center, (N, 2))[:, d]
-                L = s.length[d]
+                c = np.broadcast_to(spring[1], (N, 2))[:, d]
+                L = length[d]
                 w = (q - c + 0.5 * L) / L
                 fr = w - np.floor(w)
                 dist = L * np.minimum(fr, 1.0 - fr)
@@ -486,18 +535,9 @@ def check_grid_roll(simulate_fn, scene: Scene, x0, v0, *, axis: int = 0, k: int 
 # =========================================================================== gradients
 
 def gradient_names(scene: Scene) -> tuple:
-    """The gradients of SPEC section 5 that a scene has, in :data:`pes_ref.GRADIENT_NAMES` order."""
-    names = ["values", "x0"]
-    if scene.mode == "dynamic":
-        names.append("v0")
-    names.append("force")
-    if scene.mode == "dynamic":
-        names += ["mass", "damping"]
-    if scene.spring is not None:
-        names += ["spring_k", "spring_center"]
-    if scene.mode == "quasistatic":
-        names.append("mobility")
-    return tuple(names)
+    """The gradients of SPEC section 5 that a scene has, in :data:`pes_ref.GRADIENT_NAMES` order
+    (:func:`pes_ref.oracle.case.grad_names_for` of its mode and spring)."""
+    return grad_names_for(scene.mode, scene.spring is not None)
 
 
 def get_parameter(scene: Scene, x0, v0, fext, name: str) -> np.ndarray:

@@ -29,10 +29,10 @@ from hypothesis import strategies as st
 
 from pes_ref.core.effects import Constant, Noise, PerParticle, Window
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
-from pes_ref.core.scene import Scene
+from pes_ref.core.scene import MODES, Scene
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
-from pes_ref.testing.properties import grid_cross_curvature, max_frequency
+from pes_ref.testing.properties import max_frequency, stiffness_bound
 
 __all__ = ["TOPOLOGIES", "topologies", "seeds", "surfaces", "states", "scenes", "scene_cases",
            "objectives"]
@@ -213,7 +213,7 @@ def scenes(draw, n_particles: int = 1, *, topology=None, mode=None, damped=None,
     SearchStrategy[Scene]
     """
     N = int(n_particles)
-    mode = _resolve(draw, mode, st.sampled_from(("dynamic", "quasistatic")))
+    mode = _resolve(draw, mode, st.sampled_from(MODES))
     if surface is None:
         surface = draw(surfaces(topology, min_nodes=min_nodes, max_nodes=max_nodes, constant=smooth_only,
                                 min_amplitude=min_amplitude, max_amplitude=max_amplitude))
@@ -287,15 +287,10 @@ def scenes(draw, n_particles: int = 1, *, topology=None, mode=None, damped=None,
         eff.append(Noise(rng.uniform(0.0, 1.0, size=2), draw(seeds())))
 
     # -- the time step (or mobility) from the stiffest term: omega_max dt = r
-    K = 0.0
-    if spring_obj is not None:
-        K += float(np.max(spring_obj.k))
-    if walls_obj is not None and walls_obj.edges.any():
-        K += walls_obj.k
-    K += grid_cross_curvature(surface)
+    probe = Scene(surface, dt=1.0, n_steps=0, mass=mass, spring=spring_obj, walls=walls_obj)
+    K = stiffness_bound(probe)
     mobility = None
     if mode == "dynamic":
-        probe = Scene(surface, dt=1.0, n_steps=0, mass=mass, spring=spring_obj, walls=walls_obj)
         omega = max_frequency(probe)
         if omega_dt is None:
             dt = min(draw(_floats(*dt_range)), max_omega_dt / omega if omega > 0 else np.inf)

@@ -14,18 +14,18 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from pes_ref.oracle import case as oracle
 from pes_ref.core.effects import Constant, Noise, PerParticle, Window, build_schedule
-from pes_ref.testing import tolerances
-from pes_ref.testing.conformance import compare_results, passes
+from pes_ref.oracle import case as oracle
+from pes_ref.oracle import tolerances
+from pes_ref.oracle.compare import compare_results, passes
 from pes_ref.oracle.conformance import vectors_dir
+from pes_ref.oracle.npz import atomic_file
 
 __all__ = ["VERSION", "Vector", "build_vectors", "write_vectors", "compare_dirs", "main"]
 
@@ -563,9 +563,8 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
             if not quiet:
                 print(f"removed stale {stale.name}")
     manifest = dict(manifest_header(), vectors=entries)
-    tmp = directory / ".manifest.json.tmp"
-    tmp.write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
-    os.replace(tmp, directory / "manifest.json")
+    with atomic_file(directory / "manifest.json", overwrite=True, what="manifest") as fh:
+        fh.write((json.dumps(manifest, indent=1) + "\n").encode("utf-8"))
     return manifest
 
 
@@ -608,7 +607,7 @@ def compare_dirs(want_dir, got_dir) -> list:
     -------
     list of (id, ok, max_error, detail)
         ``max_error`` is the largest normalized error of the result (see
-        :func:`pes_ref.testing.conformance.compare_results`); ``detail`` explains a failure.
+        :func:`pes_ref.oracle.compare.compare_results`); ``detail`` explains a failure.
     """
     want_dir, got_dir = Path(want_dir), Path(got_dir)
     want_m = json.loads((want_dir / "manifest.json").read_text(encoding="utf-8"))

@@ -1,0 +1,71 @@
+"""Comparing a result with the reference, by the contract's tolerances.
+
+``|got - want| <= atol + rtol |want|`` per entry: trajectory keys (``x``, ``v``,
+``energy``, ``loss``) use ``TRAJ_RTOL``/``TRAJ_ATOL``; gradients use ``GRAD_RTOL`` and
+``GRAD_ATOL * max|want|`` (the largest entry of that gradient, or 1 for an all-zero
+one) (:mod:`pes_ref.oracle.tolerances`). The single number per array is
+``max |got - want| / (atol/rtol + |want|)``, a relative error with a floor; the array
+passes when it is ``<= rtol``.
+
+Used by the generator's check of regenerated vectors
+(:mod:`pes_ref.oracle.conformance.generate`) and by the conformance checks that other
+implementations run (:mod:`pes_ref.testing.conformance`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from pes_ref.oracle.tolerances import GRAD_ATOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL
+
+__all__ = ["TRAJECTORY_KEYS", "array_error", "passes", "compare_results"]
+
+#: Result keys compared with the trajectory tolerances; every ``grad_*`` key uses the gradient ones.
+TRAJECTORY_KEYS = ("x", "v", "energy", "loss")
+
+
+def _tolerance(name: str, want: np.ndarray):
+    if name in TRAJECTORY_KEYS:
+        return TRAJ_RTOL, TRAJ_ATOL
+    scale = float(np.max(np.abs(want), initial=0.0))
+    return GRAD_RTOL, GRAD_ATOL * (scale if scale > 0 else 1.0)
+
+
+def array_error(name: str, got, want) -> float:
+    """The normalized error of array ``name``: ``max |got - want| / (atol/rtol + |want|)``
+    (``inf`` when ``got`` is not a real array of ``want``'s shape, or holds NaN/inf)."""
+    want = np.asarray(want, dtype=np.float64)
+    try:
+        got = np.asarray(got, dtype=np.float64)
+    except (TypeError, ValueError):
+        return float("inf")
+    if got.shape != want.shape or not np.all(np.isfinite(got)):
+        return float("inf")
+    if want.size == 0:
+        return 0.0
+    rtol, atol = _tolerance(name, want)
+    return float(np.max(np.abs(got - want) / (atol / rtol + np.abs(want))))
+
+
+def passes(name: str, error: float) -> bool:
+    """Whether a normalized error of array ``name`` is within the contract."""
+    return error <= (TRAJ_RTOL if name in TRAJECTORY_KEYS else GRAD_RTOL)
+
+
+def compare_results(got, want, names=None) -> dict:
+    """Normalized error of each array of ``want`` (or of ``names``) in ``got``.
+
+    Parameters
+    ----------
+    got, want : mapping of str -> array_like
+        Results (``want`` the reference).
+    names : iterable of str, optional
+        The keys to compare; default every key of ``want``.
+
+    Returns
+    -------
+    dict of str -> float
+        :func:`array_error` per key (``inf`` when ``got`` lacks the key); within the
+        contract when :func:`passes`.
+    """
+    names = list(want) if names is None else list(names)
+    return {k: (array_error(k, got[k], want[k]) if k in got else float("inf")) for k in names}

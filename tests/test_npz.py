@@ -1,0 +1,114 @@
+"""pes_ref.oracle.npz: the one atomic .npz writer (and reader).
+
+A file is published in one step: a reader never sees half of it, a failed write leaves
+nothing behind, and without ``overwrite`` an existing file is never replaced, not even
+one that appears while the archive is being written (no check-then-replace race), with
+or without hard links.
+"""
+import errno
+import os
+
+import numpy as np
+import pytest
+
+from pes_ref.oracle import npz
+from pes_ref.oracle.errors import ResultExistsError
+
+ARRAYS = {"a": np.arange(6.0).reshape(2, 3), "name": "text", "n": np.int64(3)}
+
+
+def _concurrent_writer(monkeypatch, path, content=b"theirs"):
+    """Make another writer create ``path`` while our archive is being written (between
+    the early existence check and the publication)."""
+    write_array = np.lib.format.write_array
+
+    def write_then_race(*args, **kwargs):
+        if not os.path.lexists(path):
+            path.write_bytes(content)
+        return write_array(*args, **kwargs)
+
+    monkeypatch.setattr(np.lib.format, "write_array", write_then_race)
+
+
+def _no_hard_links(monkeypatch):
+    def link(src, dst, *args, **kwargs):
+        raise PermissionError(errno.EPERM, "Operation not permitted", src)
+    monkeypatch.setattr(os, "link", link)
+
+
+def test_round_trip(tmp_path):
+    npz.write_npz(tmp_path / "r.npz", ARRAYS)
+    back = npz.read_npz(tmp_path / "r.npz")
+    assert sorted(back) == sorted(ARRAYS)
+    np.testing.assert_array_equal(back["a"], ARRAYS["a"])
+    assert back["name"].dtype.kind == "U" and str(back["name"]) == "text"
+    assert os.listdir(tmp_path) == ["r.npz"]      # no temporary file left
+
+
+def test_same_arrays_same_bytes(tmp_path):
+    npz.write_npz(tmp_path / "a.npz", ARRAYS)
+    npz.write_npz(tmp_path / "b.npz", ARRAYS)
+    assert (tmp_path / "a.npz").read_bytes() == (tmp_path / "b.npz").read_bytes()
+
+
+@pytest.mark.parametrize("links", [True, False], ids=["hard-links", "no-hard-links"])
+def test_a_file_that_appears_while_writing_is_never_replaced(tmp_path, monkeypatch, links):
+    path = tmp_path / "r.npz"
+    _concurrent_writer(monkeypatch, path)
+    if not links:
+        _no_hard_links(monkeypatch)
+    with pytest.raises(ResultExistsError):
+        npz.write_npz(path, ARRAYS)
+    assert path.read_bytes() == b"theirs"
+    assert os.listdir(tmp_path) == ["r.npz"]
+
+
+@pytest.mark.parametrize("links", [True, False], ids=["hard-links", "no-hard-links"])
+def test_publishes_a_new_file(tmp_path, monkeypatch, links):
+    if not links:
+        _no_hard_links(monkeypatch)
+    npz.write_npz(tmp_path / "r.npz", ARRAYS)
+    np.testing.assert_array_equal(npz.read_npz(tmp_path / "r.npz")["a"], ARRAYS["a"])
+    assert os.listdir(tmp_path) == ["r.npz"]
+
+
+def test_an_existing_file_is_refused_before_writing(tmp_path, monkeypatch):
+    (tmp_path / "r.npz").write_bytes(b"precious")
+    monkeypatch.setattr(np.lib.format, "write_array", None)   # writing anything would fail otherwise
+    with pytest.raises(ResultExistsError, match="design file .* exists already"):
+        npz.write_npz(tmp_path / "r.npz", ARRAYS, what="design")
+    assert (tmp_path / "r.npz").read_bytes() == b"precious"
+
+
+def test_overwrite_replaces(tmp_path, monkeypatch):
+    path = tmp_path / "r.npz"
+    _concurrent_writer(monkeypatch, path)
+    npz.write_npz(path, ARRAYS, overwrite=True)
+    np.testing.assert_array_equal(npz.read_npz(path)["a"], ARRAYS["a"])
+    assert os.listdir(tmp_path) == ["r.npz"]
+
+
+def test_a_failed_write_leaves_nothing(tmp_path):
+    class Boom(Exception):
+        pass
+
+    with pytest.raises(Boom):
+        with npz.atomic_file(tmp_path / "r.bin") as fh:
+            fh.write(b"half")
+            raise Boom
+    assert os.listdir(tmp_path) == []
+
+
+def test_other_link_errors_are_not_hidden(tmp_path, monkeypatch):
+    def link(src, dst, *args, **kwargs):
+        raise OSError(errno.EIO, "Input/output error", src)
+    monkeypatch.setattr(os, "link", link)
+    with pytest.raises(OSError) as info:
+        npz.write_npz(tmp_path / "r.npz", ARRAYS)
+    assert info.value.errno == errno.EIO
+    assert os.listdir(tmp_path) == []
+
+
+def test_missing_folder(tmp_path):
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        npz.write_npz(tmp_path / "no" / "r.npz", ARRAYS)
