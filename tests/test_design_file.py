@@ -57,7 +57,7 @@ def test_existing_file_is_refused_unless_overwrite(tmp_path):
     path = tmp_path / "d.npz"
     path.write_bytes(b"precious")
     st = tiny()
-    with pytest.raises(FileExistsError, match="d.npz exists"):
+    with pytest.raises(FileExistsError, match="d.npz' exists already"):
         save_design(path, st)
     assert path.read_bytes() == b"precious"
     save_design(path, st, overwrite=True)
@@ -77,8 +77,9 @@ def test_save_design_hands_the_existence_check_to_the_atomic_writer(tmp_path, mo
     st = tiny()
     for overwrite in (False, True):
         save_design(tmp_path / "d.npz", st, overwrite=overwrite)
-    assert [(a[0], kw) for a, kw in calls] == [(tmp_path / "d.npz", {"overwrite": False, "compress": False}),
-                                                (tmp_path / "d.npz", {"overwrite": True, "compress": False})]
+    assert [(a[0], kw) for a, kw in calls] == [(tmp_path / "d.npz", {"overwrite": False, "compress": False, "what": "design"}),
+                                                (tmp_path / "d.npz", {"overwrite": True, "compress": False,
+                                                                      "what": "design"})]
     assert calls[0][0][1].keys() == design_file.design_arrays(st).keys()
 
 
@@ -92,7 +93,7 @@ def test_a_file_appearing_during_the_save_is_not_replaced(tmp_path, monkeypatch)
         path.write_bytes(b"the other writer's")
         return arrays
     monkeypatch.setattr(design_file, "design_arrays", build_then_race)
-    with pytest.raises(FileExistsError, match="d.npz exists"):
+    with pytest.raises(FileExistsError, match="d.npz' exists already"):
         save_design(path, tiny())
     assert path.read_bytes() == b"the other writer's"
     assert [p.name for p in tmp_path.iterdir()] == ["d.npz"]      # no temporary file left behind

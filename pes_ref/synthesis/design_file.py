@@ -31,7 +31,7 @@ import zipfile
 
 import numpy as np
 
-from pes_ref.oracle.case import write_npz
+from pes_ref.oracle.npz import write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
 from pes_ref.synthesis.plans import Plan
 from pes_ref.synthesis.problems import PROBLEMS
@@ -62,11 +62,7 @@ def save_design(path, state: DesignState, *, overwrite: bool = False) -> None:
     FileExistsError
         If ``path`` exists and ``overwrite`` is False (the file is left as it was).
     """
-    try:
-        write_npz(path, design_arrays(state), overwrite=overwrite, compress=False)
-    except FileExistsError:
-        raise FileExistsError(f"{os.fspath(path)} exists; refusing to overwrite it "
-                              "(use --force / overwrite=True)") from None
+    write_npz(path, design_arrays(state), overwrite=overwrite, compress=False, what="design")
 
 
 def design_arrays(state: DesignState) -> dict:

@@ -29,7 +29,6 @@ The same check runs on a Python function (:func:`check` with ``runner`` a callab
 from __future__ import annotations
 
 import json
-import os
 import shlex
 import subprocess
 import tempfile
@@ -42,8 +41,10 @@ import numpy as np
 from pes_ref.oracle.case import CaseError, run_case, save_case, validate_case
 from pes_ref.oracle.conformance import LATEST
 from pes_ref.oracle.from_scene import case_from_scene
+from pes_ref.oracle.npz import atomic_file
 from pes_ref.oracle.tolerances import TRAJ_RTOL
-from pes_ref.testing.conformance import (TRAJECTORY_KEYS, compare_results, iter_vectors, passes)
+from pes_ref.oracle.compare import TRAJECTORY_KEYS, compare_results, passes
+from pes_ref.testing.conformance import iter_vectors
 
 __all__ = ["CaseOutcome", "CheckReport", "check", "draw_cases", "condition_number", "write_report",
            "PROBE", "CONDITION_BOUND", "Program"]
@@ -391,8 +392,6 @@ def _valid_outcome(case_id, case, want, flags, result: Path, status, err, second
 
 def write_report(report: CheckReport, path) -> None:
     """The report as JSON (written whole, then moved into place)."""
-    path = Path(path)
-    tmp = path.with_name(path.name + f".tmp{os.getpid()}")
-    tmp.write_text(json.dumps(report.to_json(), indent=1, default=float))
-    os.replace(tmp, path)
+    with atomic_file(path, overwrite=True, what="report") as f:
+        f.write(json.dumps(report.to_json(), indent=1, default=float).encode())
 
