@@ -4,14 +4,17 @@ conceptual design and analysis of mechanical systems (Manion & Fuge, DETC2021).
 The numerical contract is ``SPEC.md`` (shipped beside the paper); the adjoint is
 derived in ``docs/adjoint.md``. Modules, one idea each:
 
-- :mod:`pes_ref.core.surface`    grid lookup, bilinear energy and slope, their adjoints
-- :mod:`pes_ref.core.bilinear`   the hot loop's per-cell coefficient tables for the bilinear grid force and its adjoint
+- :mod:`pes_ref.core.grid`       the grid lookup (spacing, cell and fraction, wrap) with the hot loop's fast path
+- :mod:`pes_ref.core.surface`    the validated ``Surface``: energy and slope by its interpolation
+- :mod:`pes_ref.core.bilinear`   the bilinear rule: energy, slope, force, adjoints; the hot loop's tables and kernels
+- :mod:`pes_ref.core.bicubic`    option: the C1 bicubic (Catmull-Rom) surface and its adjoints
+- :mod:`pes_ref.core.interpolations` the registry of grid interpolations ("bilinear", "bicubic")
+- :mod:`pes_ref.core.kernels`    the hot loop's kernel interfaces (typing protocols)
 - :mod:`pes_ref.core.terms`      springs and walls
 - :mod:`pes_ref.core.effects`    external force effects and their schedule
 - :mod:`pes_ref.core.forces`     the total conservative force and its adjoint
 - :mod:`pes_ref.core.integrator` damped velocity Verlet / quasistatic steps and their adjoints
 - :mod:`pes_ref.core.gjf`        option: the second-order damped Gronbech-Jensen-Farago step and its adjoint
-- :mod:`pes_ref.core.bicubic`    option: the C1 bicubic (Catmull-Rom) surface and its adjoints
 - :mod:`pes_ref.core.objectives` trajectory objectives and regularization
 - :mod:`pes_ref.core.scene`      the frozen scene layer: ``simulate``, ``value_and_grad``
 - :mod:`pes_ref.core.stability`  the explicit step's stability limit, named in errors past it
