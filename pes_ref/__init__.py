@@ -15,8 +15,9 @@ derived in ``docs/adjoint.md``. Modules, one idea each:
 - :mod:`pes_ref.core.forces`     the total conservative force and its adjoint
 - :mod:`pes_ref.core.integrator` damped velocity Verlet / quasistatic steps and their adjoints
 - :mod:`pes_ref.core.gjf`        option: the second-order damped Gronbech-Jensen-Farago step and its adjoint
+- :mod:`pes_ref.core.steppers`   the registry of steppers by (mode, integrator)
 - :mod:`pes_ref.core.objectives` trajectory objectives and regularization
-- :mod:`pes_ref.core.scene`      the frozen scene layer: ``simulate``, ``value_and_grad``
+- :mod:`pes_ref.core.scene`      the frozen scene layer: ``simulate``, ``value_and_grad``, ``gradient_names``
 - :mod:`pes_ref.core.stability`  the explicit step's stability limit, named in errors past it
 - :mod:`pes_ref.oracle.case`     the case/result ``.npz`` interchange format
 - :mod:`pes_ref.devices.geometry` / :mod:`pes_ref.devices.cspace` parts -> C-space -> eq. (1) surface; devices in :mod:`pes_ref.devices.ratchet`, :mod:`pes_ref.devices.dartgun`
