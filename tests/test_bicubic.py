@@ -9,7 +9,8 @@ from pes_ref import Surface
 from pes_ref.core import bicubic as bc
 from pes_ref.testing import properties as pp
 from pes_ref.core.forces import Field
-from pes_ref.core.surface import Cells, grid_slope as bilinear_slope, locate, spacing
+from pes_ref.core.bilinear import grid_slope as bilinear_slope
+from pes_ref.core.grid import Cells, locate, spacing
 from pes_ref.testing.finite_differences import check_vjp, relative_error
 from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL, TRAJ_RTOL
 
@@ -239,7 +240,7 @@ def test_kernels_match_the_pure_functions(topology):
     xbar, gvalues = np.zeros((7, 2)), np.zeros(values.size)
     for n in range(3, -1, -1):
         c = locate(xs[n], LOWER, h, values.shape, periodic)
-        np.testing.assert_allclose(kernel(xs[n], out), -bc.grid_slope(coef, h, c), rtol=TRAJ_RTOL, atol=TRAJ_RTOL)
+        np.testing.assert_allclose(kernel.call(xs[n], out), -bc.grid_slope(coef, h, c), rtol=TRAJ_RTOL, atol=TRAJ_RTOL)
         xb = np.zeros((7, 2))
         adjoint.vjp(n, ws[n], xb)
         np.testing.assert_allclose(xb, -bc.grid_slope_vjp_q(coef, h, c, ws[n]), rtol=TRAJ_RTOL, atol=TRAJ_RTOL)

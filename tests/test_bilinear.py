@@ -1,13 +1,14 @@
 """Unit tests of pes_ref.core.bilinear, the hot loop's grid force and its adjoint, and of the
-:class:`pes_ref.core.surface.Locator` they use: the same numbers as the textbook functions
-of pes_ref.core.surface (SPEC section 1), bit for bit where the arithmetic is the same."""
+:class:`pes_ref.core.grid.Locator` they use: the same numbers as the textbook functions
+(SPEC section 1), bit for bit where the arithmetic is the same."""
 import numpy as np
 import pytest
 
 import pes_ref as pr
 from _helpers import TOPOLOGIES
 from pes_ref.core import bilinear
-from pes_ref.core.surface import Locator, grid_slope, grid_slope_vjp_q, grid_slope_vjp_values, locate
+from pes_ref.core.bilinear import grid_slope, grid_slope_vjp_q, grid_slope_vjp_values
+from pes_ref.core.grid import Locator, locate
 from pes_ref.oracle.tolerances import TRAJ_ATOL, TRAJ_RTOL
 
 SHAPE = (6, 5)
@@ -32,27 +33,74 @@ def _points(n, seed, spread=1.0):
     return x
 
 
+def _locate_axis(q, lower, h, n, periodic):
+    """SPEC section 1's cell, fraction and switch along one axis, written per axis with
+    np.mod and np.minimum (independent of the package's whole-array lookup)."""
+    u = (q - lower) / h
+    if periodic:
+        k = np.floor(u)
+        return np.mod(k, n).astype(np.intp), u - k, np.ones_like(u)
+    uc = np.clip(u, 0.0, n - 1.0)
+    i0 = np.minimum(np.floor(uc), n - 2).astype(np.intp)
+    return i0, uc - i0, ((u >= 0.0) & (u <= n - 1.0)).astype(np.float64)
+
+
 @pytest.mark.parametrize("topology", sorted(TOPOLOGIES))
 @pytest.mark.parametrize("lead", [(7,), (3, 9)])
-def test_locator_matches_locate_bit_for_bit(topology, lead):
+def test_locator_matches_the_per_axis_formulas_bit_for_bit(topology, lead):
     field = _field(topology)
     x = _points(int(np.prod(lead)), 1, spread=4.0).reshape(lead + (2,))
     got = Locator(field.lower, field.h, SHAPE, field.periodic).locate(x)
-    c = locate(x.reshape(-1, 2), field.lower, field.h, SHAPE, field.periodic)
-    np.testing.assert_array_equal(got.cell.reshape(-1), c.i0 * SHAPE[1] + c.j0)
-    assert got.f.reshape(-1, 2).tobytes() == np.stack([c.f0, c.f1], axis=1).tobytes()
+    flat = x.reshape(-1, 2)
+    (i0, f0, s0), (j0, f1, s1) = (_locate_axis(flat[:, d], field.lower[d], field.h[d], SHAPE[d], field.periodic[d])
+                                  for d in range(2))
+    np.testing.assert_array_equal(got.cell.reshape(-1), i0 * SHAPE[1] + j0)
+    assert got.f.reshape(-1, 2).tobytes() == np.stack([f0, f1], axis=1).tobytes()
     if all(field.periodic):
         assert got.inside is None
     else:
-        np.testing.assert_array_equal(got.inside.reshape(-1, 2), np.stack([c.s0, c.s1], axis=1))
+        np.testing.assert_array_equal(got.inside.reshape(-1, 2), np.stack([s0, s1], axis=1))
+
+
+@pytest.mark.parametrize("topology", sorted(TOPOLOGIES))
+def test_scalar_lookup_matches_the_vectorized_one_bit_for_bit(topology):
+    """Locator.bind_scalar (one particle, Python floats) gives the cells, fractions and
+    switches of Locator.bind, and None for a non-finite position."""
+    field = _field(topology)
+    loc = Locator(field.lower, field.h, SHAPE, field.periodic)
+    x = _points(60, 9, spread=4.0)
+    vec = loc.locate(x)
+    locate1 = loc.bind_scalar()
+    inside = vec.inside if vec.inside is not None else np.ones((60, 2))
+    for i in range(60):
+        cell, f0, f1, s0, s1 = locate1(x[i:i + 1])
+        assert cell == vec.cell[i]
+        assert np.array([f0, f1]).tobytes() == vec.f[i].tobytes()
+        assert (s0, s1) == tuple(inside[i])
+    for bad in (np.nan, np.inf, -np.inf):
+        assert locate1(np.array([[0.3, bad]])) is None
+
+
+def test_cells_are_the_located_cells_per_axis():
+    """locate (per axis, for the textbook functions) is a view of Locator.locate."""
+    for topology in TOPOLOGIES:
+        field = _field(topology)
+        x = _points(30, 10, spread=4.0)
+        loc = Locator(field.lower, field.h, SHAPE, field.periodic).locate(x)
+        c = locate(x, field.lower, field.h, SHAPE, field.periodic)
+        np.testing.assert_array_equal(c.i0 * SHAPE[1] + c.j0, loc.cell)
+        for d, (lo, hi) in enumerate(((c.i0, c.i1), (c.j0, c.j1))):
+            want = lo + 1 if not field.periodic[d] else (lo + 1) % SHAPE[d]
+            np.testing.assert_array_equal(hi, want)
+            assert (lo >= 0).all() and (hi < SHAPE[d]).all()
 
 
 @pytest.mark.parametrize("topology", sorted(TOPOLOGIES))
 def test_table_kernels_agree_bit_for_bit_and_with_the_textbook_slope(topology):
     field = _field(topology)
     x = _points(40, 2, spread=4.0)
-    vec = bilinear.BilinearForce(field, 40)(x, np.empty((40, 2)))
-    one = np.concatenate([bilinear.BilinearForce1(field)(x[i:i + 1], np.empty((1, 2))) for i in range(40)])
+    vec = bilinear.BilinearForce(field, 40).call(x, np.empty((40, 2)))
+    one = np.concatenate([bilinear.BilinearForce1(field).call(x[i:i + 1], np.empty((1, 2))) for i in range(40)])
     point = bilinear.point_force(field.values, field.lower, field.h, field.periodic, x, np.empty((40, 2)))
     assert vec.tobytes() == one.tobytes() == point.tobytes()
     slope = grid_slope(field.values, field.h, locate(x, field.lower, field.h, SHAPE, field.periodic))
@@ -67,8 +115,8 @@ def test_a_non_finite_position_gives_no_error(bad):
     field = _field("cylinder0")
     x = np.array([[bad, 0.1], [0.3, 0.2]])
     with np.errstate(over="ignore", invalid="ignore"):
-        out = bilinear.BilinearForce(field, 2)(x, np.empty((2, 2)))
-        one = bilinear.BilinearForce1(field)(x[:1], np.empty((1, 2)))
+        out = bilinear.BilinearForce(field, 2).call(x, np.empty((2, 2)))
+        one = bilinear.BilinearForce1(field).call(x[:1], np.empty((1, 2)))
     assert np.isfinite(out[1]).all()
     assert not np.isfinite(one).all()
 
@@ -136,22 +184,3 @@ def test_one_particle_runs_exactly_as_in_a_batch(topology, mode):
     one = pr.simulate(scene, x0[:1], v0[:1])
     for a, b in zip(one, both):
         assert a.tobytes() == np.ascontiguousarray(b[:, :1]).tobytes()
-
-
-@pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
-def test_the_pointwise_fallback_gives_the_kernels_numbers(monkeypatch, mode):
-    """The hot loop through the single-call functions (the path of an interpolation
-    without a kernel of its own) agrees with the table kernels to rounding."""
-    import pes_ref.core.forces as forces_mod
-    rng = np.random.default_rng(7)
-    surf = pr.Surface(rng.uniform(-1, 1, SHAPE), LOWER, UPPER, (True, False))
-    kw = dict(mobility=(0.01, 0.02)) if mode == "quasistatic" else dict(damping=0.2)
-    scene = pr.Scene(surf, dt=0.02, n_steps=20, mode=mode, **kw)
-    x0 = LOWER + rng.uniform(0.2, 0.8, (4, 2)) * (UPPER - LOWER)
-    args = (scene, x0, rng.standard_normal((4, 2)), pr.Quadratic(wx=1.0, wv=0.5))
-    loss, grads, traj = pr.value_and_grad(*args)
-    monkeypatch.setattr(forces_mod, "grid_kernels", lambda field: (forces_mod._PointwiseGrid,) * 2)
-    loss_p, grads_p, traj_p = pr.value_and_grad(*args)
-    np.testing.assert_allclose(traj_p.x, traj.x, rtol=TRAJ_RTOL, atol=TRAJ_ATOL)
-    for name, g in grads.items():
-        np.testing.assert_allclose(grads_p[name], g, rtol=1e3 * TRAJ_RTOL, atol=1e3 * TRAJ_ATOL * np.abs(g).max())

@@ -1,13 +1,18 @@
 """Unit tests of pes_ref.core.forces: the total conservative force, its adjoint, and the
 guarantee that an effect a scene does not name costs nothing."""
+from collections import Counter
+
 import numpy as np
 import pytest
 
 import pes_ref as pr
 import pes_ref.core.forces as forces_mod
-import pes_ref.core.scene as scene_mod
+import pes_ref.core.steppers as steppers_mod
+import pes_ref.core.terms as terms_mod
 from _helpers import TOPOLOGIES, assert_dot, kink_distance
-from pes_ref.core.forces import GradAccumulator, force, force_vjp, potential_energy
+from pes_ref.core.forces import ForceAdjoint, ForceKernel, GradAccumulator, force, force_vjp, potential_energy
+from pes_ref.core.interpolations import INTERPOLATIONS, interpolation
+from pes_ref.core.kernels import GridAdjoint, GridForce, TermAdjoint, TermForce
 from pes_ref.testing.finite_differences import central_gradient, check_vjp, relative_error
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
 
@@ -167,10 +172,47 @@ def test_grad_accumulator_without_spring_allocates_no_spring_gradients():
     assert acc.spring_k is None and acc.spring_center is None
 
 
+# --------------------------------------------------------------------------- registry and kernels
+
+@pytest.mark.parametrize("name", sorted(INTERPOLATIONS))
+@pytest.mark.parametrize("n_particles", [1, N])
+def test_every_kernel_has_its_protocol(name, n_particles):
+    """Each interpolation's kernels and the term kernels provide the one hot-loop callable
+    of their protocol; ForceKernel and ForceAdjoint chain them."""
+    scene = _scene("plane", "grid+spring+walls")
+    field = scene.field()._replace(interpolation=name, spring=tuple(a[:n_particles] for a in scene.field().spring))
+    xs = np.stack([_points(field, s, n_particles) for s in range(3)])
+    rule = interpolation(name)
+    assert isinstance(rule.forward(field, n_particles), GridForce)
+    assert isinstance(rule.adjoint(field, xs, True), GridAdjoint)
+    fk, fa = ForceKernel(field, n_particles), ForceAdjoint(field, xs, frozenset({"values", "spring_k"}))
+    assert all(isinstance(t, TermForce) for t in fk.terms) and len(fk.terms) == 2
+    assert all(isinstance(t, TermAdjoint) for t in fa.terms) and len(fa.terms) == 2
+    got = fk.call(xs[0], np.empty((n_particles, 2)))
+    assert got.tobytes() == _force(field, xs[0]).tobytes()
+    for n in range(2, -1, -1):
+        fa.vjp(n, np.ones((n_particles, 2)), np.zeros((n_particles, 2)))
+    assert sorted(fa.result()) == ["spring_k", "values"]
+
+
+def test_an_unknown_interpolation_is_refused_naming_it():
+    with pytest.raises(ValueError, match=r"interpolation must be one of \['bicubic', 'bilinear'\], got 'spline'"):
+        interpolation("spline")
+    field = _scene("plane", "grid").field()._replace(interpolation="spline")
+    with pytest.raises(ValueError, match="got 'spline'"):
+        ForceKernel(field, N)
+
+
 # --------------------------------------------------------------------------- costs nothing
 
-SPRING_FUNCS = ("spring_add_force", "spring_energy", "spring_force_vjp")
-WALL_FUNCS = ("wall_add_force", "wall_energy", "wall_force_vjp")
+#: The single-call functions of each term (reached by energy() and force_vjp()).
+TERM_FUNCS = {"spring": ("spring_add_force", "spring_energy", "spring_force_vjp"),
+              "walls": ("wall_add_force", "wall_energy", "wall_force_vjp")}
+#: The hot loop's kernels of each term, forward and adjoint, with the one callable each
+#: exposes to the loop.
+TERM_KERNELS = {"spring": ((terms_mod.SpringKernel, "add_force"), (terms_mod.SpringAdjoint, "force_vjp")),
+                "walls": ((terms_mod.WallKernel, "add_force"), (terms_mod.WallAdjoint, "force_vjp"))}
+T_STEPS = 6
 
 
 def _forbid(monkeypatch, module, names):
@@ -180,7 +222,30 @@ def _forbid(monkeypatch, module, names):
         monkeypatch.setattr(module, name, boom)
 
 
+def _watch_kernels(monkeypatch):
+    """Count, per term kernel class, the kernels built (wherever they are built from) and
+    the hot loop's calls of the callable each exposes: returns the two Counters."""
+    built, calls = Counter(), Counter()
+    for cls, attr in (k for pair in TERM_KERNELS.values() for k in pair):
+        def init(self, *args, _cls=cls, _attr=attr, _init=cls.__init__, **kwargs):
+            _init(self, *args, **kwargs)
+            built[_cls.__name__] += 1
+            real = getattr(self, _attr)
+
+            def counted(*a, _real=real, _name=_cls.__name__):
+                calls[_name] += 1
+                return _real(*a)
+            setattr(self, _attr, counted)
+        monkeypatch.setattr(cls, "__init__", init)
+    return built, calls
+
+
+def _names(terms) -> set:
+    return {cls.__name__ for term in terms for cls, _ in TERM_KERNELS[term]}
+
+
 def _run_everything(scene, n=3):
+    """simulate, value_and_grad (forward and backward), energy and a single force_vjp."""
     x0 = scene.surface.lower + np.linspace(0.2, 0.8, 2 * n).reshape(n, 2) * scene.surface.length
     v0 = np.full((n, 2), 0.3)
     traj = pr.simulate(scene, x0, v0)
@@ -195,40 +260,67 @@ def _bare(topology, mode, **kw):
     periodic = TOPOLOGIES[topology]
     surf = pr.Surface(np.random.default_rng(0).uniform(-1, 1, (5, 4)), (0, 0), (1, 1), periodic)
     extra = {"mobility": (0.01, 0.02)} if mode == "quasistatic" else {}
-    return pr.Scene(surf, dt=0.05, n_steps=6, mode=mode, **extra, **kw)
+    return pr.Scene(surf, dt=0.05, n_steps=T_STEPS, mode=mode, **extra, **kw)
+
+
+def _assert_never_ran(monkeypatch, scene, absent, present=()):
+    """Run everything on ``scene`` with the single-call functions of the ``absent`` terms
+    forbidden and every term kernel watched: no kernel of an absent term was built or
+    called, forward or backward; each kernel of a ``present`` term ran in the hot loop."""
+    _forbid(monkeypatch, forces_mod, [f for term in absent for f in TERM_FUNCS[term]])
+    built, calls = _watch_kernels(monkeypatch)
+    _run_everything(scene)
+    assert not _names(absent) & (set(built) | set(calls)), (dict(built), dict(calls))
+    for name in _names(present):
+        assert calls[name] > 0, (name, dict(calls))
 
 
 @pytest.mark.parametrize("topology", sorted(TOPOLOGIES))
 @pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
-def test_a_bare_scene_never_calls_spring_or_wall_code(monkeypatch, topology, mode):
-    _forbid(monkeypatch, forces_mod, SPRING_FUNCS + WALL_FUNCS)
-    _run_everything(_bare(topology, mode))
+def test_a_bare_scene_never_runs_spring_or_wall_code(monkeypatch, topology, mode):
+    _assert_never_ran(monkeypatch, _bare(topology, mode), absent=("spring", "walls"))
 
 
 @pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
-def test_a_spring_only_scene_never_calls_wall_code(monkeypatch, mode):
-    _forbid(monkeypatch, forces_mod, WALL_FUNCS)
-    _run_everything(_bare("plane", mode, spring=pr.Spring(1.0, (0.5, 0.5))))
+def test_a_spring_only_scene_never_runs_wall_code(monkeypatch, mode):
+    _assert_never_ran(monkeypatch, _bare("plane", mode, spring=pr.Spring(1.0, (0.5, 0.5))),
+                      absent=("walls",), present=("spring",))
 
 
 @pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
-def test_a_walls_only_scene_never_calls_spring_code(monkeypatch, mode):
-    _forbid(monkeypatch, forces_mod, SPRING_FUNCS)
-    _run_everything(_bare("plane", mode, walls=pr.Walls(10.0, 0.1, np.ones((2, 2), bool))))
+def test_a_walls_only_scene_never_runs_spring_code(monkeypatch, mode):
+    _assert_never_ran(monkeypatch, _bare("plane", mode, walls=pr.Walls(10.0, 0.1, np.ones((2, 2), bool))),
+                      absent=("spring",), present=("walls",))
 
 
 def test_walls_with_no_enabled_edge_cost_nothing(monkeypatch):
-    _forbid(monkeypatch, forces_mod, WALL_FUNCS)
-    _run_everything(_bare("plane", "dynamic", walls=pr.Walls(10.0, 0.1, np.zeros((2, 2), bool))))
+    _assert_never_ran(monkeypatch, _bare("plane", "dynamic", walls=pr.Walls(10.0, 0.1, np.zeros((2, 2), bool))),
+                      absent=("walls",))
 
 
-@pytest.mark.parametrize("kw, forbidden", [
-    (dict(spring=pr.Spring(1.0, (0.5, 0.5))), SPRING_FUNCS),
-    (dict(walls=pr.Walls(10.0, 0.1, np.ones((2, 2), bool))), WALL_FUNCS),
+@pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
+@pytest.mark.parametrize("term, kw", [
+    ("spring", dict(spring=pr.Spring(1.0, (0.5, 0.5)))),
+    ("walls", dict(walls=pr.Walls(10.0, 0.1, np.ones((2, 2), bool)))),
 ])
-def test_the_patch_is_effective_when_the_scene_names_the_term(monkeypatch, kw, forbidden):
-    """Positive control: the monkeypatch above does catch a call when there is one."""
-    _forbid(monkeypatch, forces_mod, forbidden)
+def test_the_watch_sees_every_hot_loop_call_of_a_named_term(monkeypatch, mode, term, kw):
+    """Positive control for the tests above: when the scene names the term, the watch
+    counts one forward kernel per forward run and one adjoint kernel for the backward run,
+    and every call the loops make (T+1 forces per run; T+1 vjps dynamic, T quasistatic)."""
+    built, calls = _watch_kernels(monkeypatch)
+    _run_everything(_bare("plane", mode, **kw))
+    (fwd, _), (adj, _) = ((cls.__name__, attr) for cls, attr in TERM_KERNELS[term])
+    assert dict(built) == {fwd: 2, adj: 1}
+    assert dict(calls) == {fwd: 2 * (T_STEPS + 1), adj: T_STEPS + (mode == "dynamic")}
+
+
+@pytest.mark.parametrize("term, kw", [
+    ("spring", dict(spring=pr.Spring(1.0, (0.5, 0.5)))),
+    ("walls", dict(walls=pr.Walls(10.0, 0.1, np.ones((2, 2), bool)))),
+])
+def test_the_forbidden_functions_are_reached_when_the_scene_names_the_term(monkeypatch, term, kw):
+    """Positive control: energy() and force_vjp() do reach the patched functions."""
+    _forbid(monkeypatch, forces_mod, TERM_FUNCS[term])
     with pytest.raises(AssertionError, match="was called"):
         _run_everything(_bare("plane", "dynamic", **kw))
 
@@ -243,7 +335,7 @@ RANDOM_FUNCS = ("default_rng", "Generator", "RandomState", "seed", "random", "ra
                          ids=["bare", "deterministic_effects"])
 def test_a_scene_without_noise_never_calls_numpy_random(monkeypatch, topology, mode, kw):
     scene = _bare(topology, mode, **kw)
-    with monkeypatch.context() as m:   # restored before teardown, where test tools may seed NumPy
+    with monkeypatch.context() as m:     # undone before teardown, where pytest-randomly reseeds
         _forbid(m, np.random, RANDOM_FUNCS)
         _run_everything(scene)
 
@@ -251,45 +343,48 @@ def test_a_scene_without_noise_never_calls_numpy_random(monkeypatch, topology, m
 def test_a_scene_with_noise_does_call_numpy_random(monkeypatch):
     """Positive control for the test above."""
     scene = _bare("plane", "dynamic", effects=[pr.Noise((0.1, 0.1), seed=0)])
-    _forbid(monkeypatch, np.random, RANDOM_FUNCS)
-    with pytest.raises(AssertionError, match="default_rng was called"):
+    with monkeypatch.context() as m, pytest.raises(AssertionError, match="default_rng was called"):
+        _forbid(m, np.random, RANDOM_FUNCS)
         _run_everything(scene)
 
 
-def _spy(monkeypatch, name, calls):
-    real = getattr(scene_mod, name)
+def _spy_steppers(monkeypatch):
+    """Record what every registered stepper receives, forward and backward: a list of
+    ``("simulate", fext, params)`` and ``("adjoint", None, params)``."""
+    calls = []
+    for key, real in list(steppers_mod.STEPPERS.items()):
+        def simulate(field, x0, v0, fext, params, _real=real):
+            calls.append(("simulate", fext, params))
+            return _real.simulate(field, x0, v0, fext, params)
 
-    def spy(*args, **kwargs):
-        calls.append((name, args, kwargs))
-        return real(*args, **kwargs)
+        def adjoint(field, traj, params, gx, gv, want, _real=real):
+            calls.append(("adjoint", None, params))
+            return _real.adjoint(field, traj, params, gx, gv, want)
+        monkeypatch.setitem(steppers_mod.STEPPERS, key, real._replace(simulate=simulate, adjoint=adjoint))
+    return calls
 
-    monkeypatch.setattr(scene_mod, name, spy)
 
-
+@pytest.mark.parametrize("integrator", ["verlet", "gjf"])
 @pytest.mark.parametrize("damping, reaches_core", [
     (None, False), (0.0, False), (np.zeros(2), False), (np.zeros((3, 2)), False),
     (0.2, True), (np.array([0.0, 0.1]), True),
 ])
-def test_an_undamped_scene_never_enters_the_damping_branch(monkeypatch, damping, reaches_core):
-    """The core receives damping=None (no damping arithmetic) unless some gamma is nonzero."""
-    calls = []
-    _spy(monkeypatch, "simulate_dynamic", calls)
-    _spy(monkeypatch, "adjoint_dynamic", calls)
-    _run_everything(_bare("cylinder0", "dynamic", damping=damping))
-    # simulate_dynamic(field, x0, v0, fext, dt, n_steps, mass, damping)
-    # adjoint_dynamic(field, traj, dt, mass, damping, gx, gv, want)
-    seen = [args[7] if name == "simulate_dynamic" else args[4] for name, args, _ in calls]
-    assert len(seen) == 3
-    assert all((d is not None) == reaches_core for d in seen)
+def test_an_undamped_scene_gives_the_core_no_damping(monkeypatch, integrator, damping, reaches_core):
+    """The steppers receive damping=None (no damping arithmetic, forward or backward)
+    unless some gamma is nonzero."""
+    calls = _spy_steppers(monkeypatch)
+    _run_everything(_bare("cylinder0", "dynamic", damping=damping, integrator=integrator))
+    assert [what for what, _, _ in calls] == ["simulate", "simulate", "adjoint"]
+    assert all((params.damping is not None) == reaches_core for _, _, params in calls)
 
 
 @pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
-def test_a_scene_without_effects_gives_the_core_no_external_force(monkeypatch, mode):
-    calls = []
-    name = "simulate_dynamic" if mode == "dynamic" else "simulate_quasistatic"
-    _spy(monkeypatch, name, calls)
-    _run_everything(_bare("plane", mode))
-    assert calls and all(args[3 if mode == "dynamic" else 2] is None for _, args, _ in calls)
+@pytest.mark.parametrize("effects, reaches_core", [((), False), ((pr.Constant((0.1, 0.0)),), True)])
+def test_a_scene_without_effects_gives_the_core_no_external_force(monkeypatch, mode, effects, reaches_core):
+    calls = _spy_steppers(monkeypatch)
+    _run_everything(_bare("plane", mode, effects=effects))
+    forwards = [fext for what, fext, _ in calls if what == "simulate"]
+    assert len(forwards) == 2 and all((fext is not None) == reaches_core for fext in forwards)
 
 
 @pytest.mark.parametrize("topology", sorted(TOPOLOGIES))

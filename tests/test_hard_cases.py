@@ -66,6 +66,19 @@ def test_limit_of_a_sampled_parabola_is_its_curvature():
     assert stability.stability_limit(scene).stiffness == pytest.approx([50.0, 0.0])
 
 
+@pytest.mark.parametrize("periodic", [(False, False), (True, False), (False, True), (True, True)])
+def test_grid_stiffness_is_the_largest_second_difference(periodic):
+    """One home for the grid's edge stiffness: ``grid_stiffness`` is the larger of the two
+    axes' ``grid_second_difference``, and the same number, bit for bit, as the devices'
+    own copy (:func:`pes_ref.devices.ratchet.grid_stiffness`) that will call it."""
+    from pes_ref.devices.ratchet import grid_stiffness as devices_grid_stiffness
+    rng = np.random.default_rng(9)
+    surf = pr.Surface(rng.uniform(-3.0, 3.0, (9, 7)), (0.0, -1.0), (2.0, 0.5), periodic)
+    per_axis = stability.grid_second_difference(surf)
+    assert stability.grid_stiffness(surf) == max(per_axis) > 0.0
+    assert stability.grid_stiffness(surf) == devices_grid_stiffness(surf)
+
+
 def _stiff_scenes():
     """(name, scene, x0, v0) with one stiff linear term each, dynamic and quasistatic.
 

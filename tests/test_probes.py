@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from pes_ref.core.surface import Surface
-from pes_ref.devices.probes import grid_stiffness, threshold_search
+from pes_ref.core.stability import grid_stiffness
+from pes_ref.devices.probes import threshold_search
 
 
 @pytest.mark.parametrize("threshold", [0.0, 0.37, 0.999])

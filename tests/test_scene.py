@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 import pes_ref as pr
+from pes_ref.core import steppers
+from pes_ref.core.scene import gradient_names
 from pes_ref.oracle.tolerances import TRAJ_ATOL, TRAJ_RTOL
 
 N = 2
@@ -197,6 +199,24 @@ def test_default_gradients_are_those_the_scene_uses(mode, spring, want):
     _, grads, _ = pr.value_and_grad(scene, X0, V0, pr.Funnel())
     assert set(grads) == want
     assert set(grads) <= set(pr.GRADIENT_NAMES)
+    assert tuple(grads) == gradient_names(mode, spring)       # the one home, in GRADIENT_NAMES order
+
+
+def test_gradient_names_refuses_an_unknown_mode_naming_it():
+    with pytest.raises(ValueError, match="mode must be one of .* got 'overdamped'"):
+        gradient_names("overdamped", False)
+
+
+def test_modes_and_integrators_come_from_the_stepper_registry():
+    assert steppers.MODES == ("dynamic", "quasistatic") and steppers.INTEGRATORS == ("verlet", "gjf")
+    assert set(steppers.STEPPERS) == {(m, i) for m in steppers.MODES for i in steppers.INTEGRATORS} - {
+        ("quasistatic", "gjf")}
+    assert steppers.modes_of("gjf") == ("dynamic",)
+
+
+def test_an_unknown_stepper_is_refused_naming_it():
+    with pytest.raises(ValueError, match="no stepper for mode='quasistatic' with integrator='gjf'"):
+        steppers.stepper("quasistatic", "gjf")
 
 
 def test_objective_without_value_and_grad_is_refused():

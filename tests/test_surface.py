@@ -1,12 +1,13 @@
-"""Unit tests of pes_ref.core.surface against SPEC section 1."""
+"""Unit tests of pes_ref.core.surface, the grid lookup of pes_ref.core.grid and the bilinear
+rule's textbook functions of pes_ref.core.bilinear, against SPEC section 1."""
 import math
 
 import numpy as np
 import pytest
 
 from pes_ref import Surface
-from pes_ref.core.surface import (grid_energy, grid_slope, grid_slope_vjp_q, grid_slope_vjp_values, locate,
-                             spacing, wrap)
+from pes_ref.core.bilinear import grid_energy, grid_slope, grid_slope_vjp_q, grid_slope_vjp_values
+from pes_ref.core.grid import locate, spacing, wrap
 from pes_ref.testing.finite_differences import central_gradient, check_vjp, relative_error
 from _helpers import TOPOLOGIES, assert_dot
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_ATOL, TRAJ_RTOL

@@ -294,39 +294,61 @@ def test_walls_validation_names_the_argument(k, margin, edges, exc, name):
 # --------------------------------------------------------------------------- the hot loop's kernels
 
 @pytest.mark.parametrize("periodic", PERIODICS, ids=PER_IDS)
-def test_spring_kernel_is_bit_identical_to_the_functions(periodic):
-    from pes_ref.core.terms import SpringKernel
+@pytest.mark.parametrize("want_k, want_center", [(True, True), (True, False), (False, True), (False, False)])
+def test_spring_kernels_are_bit_identical_to_the_functions(periodic, want_k, want_center):
+    """The forward kernel's add_force and the adjoint kernel's force_vjp over stored states
+    (descending, as a backward pass calls it) equal the functions, bit for bit."""
+    from pes_ref.core.terms import SpringAdjoint, SpringKernel
     rng = np.random.default_rng(21)
-    q, c = _spring_points(periodic, 7, 21)
-    k, w = rng.uniform(0.5, 2.0, (7, 2)), rng.standard_normal((7, 2))
-    kern = SpringKernel(k, c, LENGTH, periodic, 7)
-    base = rng.standard_normal((7, 2))
+    T1, N = 5, 7
+    c = _spring_points(periodic, N, 21)[1]
+    xs = np.stack([_spring_points(periodic, N, 21 + t)[0] for t in range(T1)])
+    k, ws = rng.uniform(0.5, 2.0, (N, 2)), rng.standard_normal((T1, N, 2))
+    base = rng.standard_normal((N, 2))
     got, want = base.copy(), base.copy()
-    kern.add_force(q, got)
-    spring_add_force(q, k, c, LENGTH, periodic, want)
+    SpringKernel(k, c, LENGTH, periodic, N).add_force(xs[0], got)
+    spring_add_force(xs[0], k, c, LENGTH, periodic, want)
     assert got.tobytes() == want.tobytes()
+    adj = SpringAdjoint(k, c, LENGTH, periodic, xs, want_k, want_center)
     got_x, want_x = base.copy(), base.copy()
-    got_kc = kern.force_vjp(q, w, got_x, True, True)
-    want_kc = spring_force_vjp(q, k, c, LENGTH, periodic, w, want_x, True, True)
+    want_k_sum, want_c_sum = np.zeros((N, 2)), np.zeros((N, 2))
+    for n in range(T1 - 1, -1, -1):
+        adj.force_vjp(n, ws[n], got_x)
+        kbar, cbar = spring_force_vjp(xs[n], k, c, LENGTH, periodic, ws[n], want_x, want_k, want_center)
+        if want_k:
+            want_k_sum += kbar
+        if want_center:
+            want_c_sum += cbar
     assert got_x.tobytes() == want_x.tobytes()
-    for a, b in zip(got_kc, want_kc):
-        assert a.tobytes() == b.tobytes()
+    grads = adj.gradients()
+    assert sorted(grads) == sorted(name for name, on in (("spring_k", want_k), ("spring_center", want_center)) if on)
+    for name, want_sum in (("spring_k", want_k_sum), ("spring_center", want_c_sum)):
+        if name in grads:
+            assert grads[name].tobytes() == want_sum.tobytes()
 
 
 @pytest.mark.parametrize("edges", [[[True, True], [True, True]], [[True, False], [False, True]],
                                    [[True, True], [False, False]]], ids=["all", "two", "axis0"])
-def test_wall_kernel_is_bit_identical_to_the_functions(edges):
-    from pes_ref.core.terms import WallKernel
+@pytest.mark.parametrize("chunk", [8, 1 << 14], ids=["chunked", "one-chunk"])
+def test_wall_kernels_are_bit_identical_to_the_functions(monkeypatch, edges, chunk):
+    """The forward kernel's add_force and the adjoint kernel's force_vjp over stored states
+    (a chunk of ``k s`` factors at a time, partial chunks included) equal the functions."""
+    from pes_ref.core.terms import WallAdjoint, WallKernel
+    monkeypatch.setattr(WallAdjoint, "CHUNK_ELEMENTS", chunk)
     rng = np.random.default_rng(22)
     lo, hi = wall_bounds(LOWER, UPPER, 0.1, np.array(edges))
-    q = LOWER + rng.uniform(-0.3, 1.3, (40, 2)) * LENGTH
-    w, base = rng.standard_normal((2, 40, 2))
-    kern = WallKernel(50.0, lo, hi, 40)
+    T1, N = 9, 3
+    xs = LOWER + rng.uniform(-0.3, 1.3, (T1, N, 2)) * LENGTH
+    ws = rng.standard_normal((T1, N, 2))
+    base = rng.standard_normal((N, 2))
     got, want = base.copy(), base.copy()
-    kern.add_force(q, got)
-    wall_add_force(q, 50.0, lo, hi, want)
+    WallKernel(50.0, lo, hi, N).add_force(xs[0], got)
+    wall_add_force(xs[0], 50.0, lo, hi, want)
     assert got.tobytes() == want.tobytes() and not np.array_equal(got, base)
+    adj = WallAdjoint(50.0, lo, hi, xs)
     got, want = base.copy(), base.copy()
-    kern.force_vjp(q, w, got)
-    wall_force_vjp(q, 50.0, lo, hi, w, want)
+    for n in range(T1 - 1, -1, -1):
+        adj.force_vjp(n, ws[n], got)
+        wall_force_vjp(xs[n], 50.0, lo, hi, ws[n], want)
     assert got.tobytes() == want.tobytes() and not np.array_equal(got, base)
+    assert adj.gradients() == {}

@@ -34,7 +34,7 @@ import numpy as np
 from pes_ref import __version__
 from pes_ref.bench.cases import CASES, reference_gradient, reference_objective, reference_scene, smooth_surface
 from pes_ref.core.effects import Constant, Noise, Window
-from pes_ref.core.forces import grid_kernels
+from pes_ref.core.interpolations import interpolation
 from pes_ref.core.integrator import adjoint_dynamic, adjoint_quasistatic
 from pes_ref.core.objectives import Funnel
 from pes_ref.core.scene import Scene, simulate, value_and_grad
@@ -191,7 +191,7 @@ def _hand_loop(scene: Scene, x0, v0):
     dt = scene.dt
 
     def run():
-        force = grid_kernels(field)[0](field, N)
+        force = interpolation(field.interpolation).forward(field, N).call
         x, v, f = np.empty((T + 1, N, 2)), np.empty((T + 1, N, 2)), np.empty((T + 1, N, 2))
         p = np.empty((N, 2))
         x[0], v[0] = x0, v0

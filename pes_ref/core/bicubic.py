@@ -24,24 +24,27 @@ reproduces every polynomial of degree <= 2 per axis exactly, up to the edges
 (``docs/variants.md``).
 
 Cells, fractions and the in-range switches are those of the bilinear rule
-(:func:`pes_ref.core.surface.locate`, SPEC section 1): outside a non-periodic axis the surface
+(:mod:`pes_ref.core.grid`, SPEC section 1): outside a non-periodic axis the surface
 is constant along it and its slope along it is 0. The surface is C1 (value and slope
 continuous across cell edges), so the force no longer jumps at cell edges; its Hessian
 still does. Equation numbers refer to section 11 of ``docs/adjoint.md``.
 
 The functions are pure and vectorized over N points; the coefficient table
-(:func:`cell_coefficients`) depends on the grid only and is computed once per run.
+(:func:`cell_coefficients`) depends on the grid only and is computed once per run. The
+point functions (``point_*``) and the kernels (:class:`BicubicForce`,
+:class:`BicubicAdjoint`) are this rule's entry in
+:data:`pes_ref.core.interpolations.INTERPOLATIONS`.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from pes_ref.core.surface import Cells, Locator
+from pes_ref.core.grid import Cells, Located, Locator
 
 __all__ = ["CATMULL_ROM", "cell_coefficients", "cell_coefficients_vjp", "grid_energy", "grid_slope",
            "grid_slope_vjp_q", "grid_slope_vjp_coefficients", "grid_slope_vjp_values", "slope_table",
            "hessian_table", "point_energy",
-           "point_force", "point_force_vjp", "BicubicForce", "BicubicAdjoint"]
+           "point_slope", "point_force", "point_force_vjp", "BicubicForce", "BicubicAdjoint"]
 
 #: K of (C1): the Catmull-Rom cubic's power coefficients (rows f^0..f^3) from nodes c-1..c+2.
 CATMULL_ROM = 0.5 * np.array([[0.0, 2.0, 0.0, 0.0],
@@ -109,7 +112,7 @@ def cell_coefficients(values: np.ndarray, periodic) -> np.ndarray:
 
     A linear map of ``values`` (n0, n1): extend both axes, then apply K along each. On
     a non-periodic axis the last node starts no cell; its row (column) is zero, so the
-    table is indexed like the grid (flat cell ``i n1 + j``, as :class:`~pes_ref.core.surface.Locator`).
+    table is indexed like the grid (flat cell ``i n1 + j``, as :class:`~pes_ref.core.grid.Locator`).
     """
     n0, n1 = values.shape
     e = _extend(_extend(values, 0, bool(periodic[0])), 1, bool(periodic[1]))
@@ -244,7 +247,7 @@ def _scatter(cell: np.ndarray, weights: np.ndarray, size: int) -> np.ndarray:
 # --------------------------------------------------------------------------- pure functions on Cells
 
 def grid_energy(coef: np.ndarray, c: Cells) -> np.ndarray:
-    """Bicubic energy (C2) at points located by :func:`pes_ref.core.surface.locate`, shape (N,)."""
+    """Bicubic energy (C2) at points located by :func:`pes_ref.core.grid.locate`, shape (N,)."""
     return _energy(coef[c.i0, c.j0], c.f0, c.f1)
 
 
@@ -273,14 +276,14 @@ def grid_slope_vjp_coefficients(h: np.ndarray, c: Cells, w: np.ndarray, shape: t
 def grid_slope_vjp_values(h: np.ndarray, c: Cells, w: np.ndarray, shape: tuple, periodic) -> np.ndarray:
     """Transpose of the slope's Jacobian with respect to the grid values applied to ``w``:
     (CB2) then (CB3). Returns the flat (n0*n1,) array, as
-    :func:`pes_ref.core.surface.grid_slope_vjp_values` does for the bilinear rule."""
+    :func:`pes_ref.core.bilinear.grid_slope_vjp_values` does for the bilinear rule."""
     return cell_coefficients_vjp(grid_slope_vjp_coefficients(h, c, w, tuple(shape)), periodic)
 
 
 # --------------------------------------------------------------------------- the force path
 
 def _switches(loc):
-    """s0, s1 from a :class:`~pes_ref.core.surface.Located` (1.0 on a torus)."""
+    """s0, s1 from a :class:`~pes_ref.core.grid.Located` (1.0 on a torus)."""
     if loc.inside is None:
         return 1.0, 1.0
     return loc.inside[..., 0], loc.inside[..., 1]
@@ -293,9 +296,15 @@ def point_energy(values, lower, h, periodic, x) -> np.ndarray:
     return _energy(coef[loc.cell], loc.f[:, 0], loc.f[:, 1])
 
 
+def point_slope(values, lower, h, periodic, x) -> np.ndarray:
+    """The bicubic slope dE/dx at points x (N, 2), shape (N, 2): minus :func:`point_force`."""
+    out = point_force(values, lower, h, periodic, x, np.empty(x.shape))
+    return np.negative(out, out=out)
+
+
 def point_force(values, lower, h, periodic, x, out) -> np.ndarray:
     """The bicubic grid force ``-dE/dx`` at points x (N, 2) into ``out`` (one-off calls)."""
-    return BicubicForce.from_grid(values, lower, h, periodic, x.shape[0])(x, out)
+    return BicubicForce.from_grid(values, lower, h, periodic, x.shape[0]).call(x, out)
 
 
 def point_force_vjp(values, lower, h, periodic, x, w, xbar, gvalues) -> None:
@@ -309,10 +318,10 @@ def point_force_vjp(values, lower, h, periodic, x, w, xbar, gvalues) -> None:
 
 class BicubicForce:
     """The bicubic grid force for N particles at a time, its slope table (C3) built once
-    (the forward hot loop; the interface of :class:`pes_ref.core.bilinear.BilinearForce`).
+    (the forward hot loop; a :class:`~pes_ref.core.kernels.GridForce`).
 
-    Per call: locate, one ``np.take`` of the (N, 2, 16) slope rows, the (N, 16) monomials,
-    one batched matmul, the switches."""
+    ``call(x, out)``, bound once here: locate, one ``np.take`` of the (N, 2, 16) slope
+    rows, the (N, 16) monomials, one batched matmul, the switches."""
 
     def __init__(self, field, n_particles: int):
         self._setup(field.values, field.lower, field.h, field.periodic, n_particles)
@@ -329,18 +338,27 @@ class BicubicForce:
         self.buf = self.locator.buffers((n_particles,))
         self.rows = np.empty((n_particles, 2, 16))
         self.powers, self.monomials = _monomial_buffers(n_particles)
+        self.call = self._bind()
 
-    def __call__(self, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-        loc = self.locator.locate(x, self.buf)
-        np.take(self.table, loc.cell, axis=0, out=self.rows, mode="clip")
-        np.einsum("nrj,nj->nr", self.rows, _monomials_into(loc.f, self.powers, self.monomials), out=out)
-        if loc.inside is not None:
-            np.multiply(out, loc.inside, out=out)
-        return out
+    def _bind(self):
+        locate_into, table, rows, powers, monomials = (self.locator.bind(self.buf), self.table, self.rows,
+                                                       self.powers, self.monomials)
+        cell, f = self.buf["cell"], self.buf["f"]
+        inside = self.buf["inside"] if self.locator.clips else None
+
+        def call(x, out):
+            locate_into(x)
+            np.take(table, cell, axis=0, out=rows, mode="clip")
+            np.einsum("nrj,nj->nr", rows, _monomials_into(f, powers, monomials), out=out)
+            if inside is not None:
+                np.multiply(out, inside, out=out)
+            return out
+        return call
 
 
 class BicubicAdjoint:
-    """The adjoint of :class:`BicubicForce` over stored states ``xs`` (T+1, N, 2), (C4), (CB2)-(CB3).
+    """The adjoint of :class:`BicubicForce` over stored states ``xs`` (T+1, N, 2), (C4), (CB2)-(CB3)
+    (a :class:`~pes_ref.core.kernels.GridAdjoint`).
 
     ``vjp(n, w, xbar)`` (states in descending order) does ``xbar -= H(x_n) w`` and keeps
     the coefficient weights of ``w``; they are scattered into the table's gradient with
@@ -367,9 +385,14 @@ class BicubicAdjoint:
         self.want_values = want_values
         self.gtab = np.zeros((self.locator.size, 16)) if want_values else None
         self.pending = []
+        buf = self.locator.buffers(xs.shape[1:2])
+        self.locate_into = self.locator.bind(buf)
+        self.located = Located(buf["cell"], buf["f"], buf["inside"] if self.locator.clips else None)
 
     def vjp(self, n: int, w: np.ndarray, xbar: np.ndarray) -> None:
-        loc = self.locator.locate(self.xs[n])
+        """``xbar -= H(x_n) w`` (C4), and the coefficient weights of ``w`` kept (CB2)."""
+        self.locate_into(self.xs[n])
+        loc = self.located
         f0, f1 = loc.f[:, 0], loc.f[:, 1]
         s0, s1 = _switches(loc)
         xbar -= _hessian_times(np.take(self.table, loc.cell, axis=0, mode="clip"), f0, f1, s0, s1, w)

@@ -1,23 +1,35 @@
-"""The bilinear grid force as the hot loop computes it: per-cell coefficients, one gather a step.
+"""The bilinear rule of SPEC section 1 (the paper's): energy, slope, force and their adjoints,
+pointwise and as the hot loop computes them.
 
-SPEC section 1; ``docs/adjoint.md`` eqs. (A1)-(A3); ``docs/performance.md``. On the cell
-whose lower corner is node (i, j), with corners ``g00 = G[i, j]``, ``g10 = G[i+1, j]``,
-``g01 = G[i, j+1]``, ``g11 = G[i+1, j+1]`` (indices wrapped on a periodic axis), the
-force of the bilinear energy is affine in the fractions::
+On the cell whose lower corner is node (i, j) (located by :mod:`pes_ref.core.grid`), with
+corners ``g00 = G[i, j]``, ``g10 = G[i+1, j]``, ``g01 = G[i, j+1]``, ``g11 = G[i+1, j+1]``
+(indices wrapped on a periodic axis), fractions ``f0, f1`` and switches ``s0, s1``::
+
+    E = (1-f0)(1-f1) g00 + f0(1-f1) g10 + (1-f0) f1 g01 + f0 f1 g11
+
+The textbook functions (:func:`grid_energy`, :func:`grid_slope`, :func:`grid_slope_vjp_q`,
+:func:`grid_slope_vjp_values`; ``docs/adjoint.md`` eqs. (A1)-(A3)) take located
+:class:`~pes_ref.core.grid.Cells`. The force of the bilinear energy is affine in the
+fractions::
 
     F0 = s0 (A0 + f1 D0),   A0 = -(g10 - g00) / h0,   D0 = -((g11 - g01) - (g10 - g00)) / h0
     F1 = s1 (A1 + f0 D1),   A1 = -(g01 - g00) / h1,   D1 = -((g11 - g10) - (g01 - g00)) / h1
 
 and its Hessian has only the constant cross term ``Hc = s0 s1 (g11 - g10 - g01 + g00) /
 (h0 h1)`` (eq. (A2)). :func:`coefficient_table` computes ``[A0, A1, D0, D1]`` for every
-cell once per surface, so a step gathers one row of 4 numbers per particle instead of 4
-corners and recomputing their differences. The numbers equal those of
-:func:`pes_ref.core.surface.grid_slope` up to rounding (a few ulp; the formula is regrouped).
+cell once per surface, so a step of the hot loop (:class:`BilinearForce`,
+``docs/performance.md``) gathers one row of 4 numbers per particle instead of 4 corners
+and recomputing their differences. Its numbers equal those of :func:`grid_slope` up to
+rounding (a few ulp; the formula is regrouped); :func:`point_force` computes them without
+a table, bit-identical to the kernel.
 
 The adjoint (:class:`BilinearAdjoint`) relocates a whole chunk of stored states at once,
 does only ``xbar -= Hc (w1, w0)`` per step, and scatters the grid gradient once per
 chunk (``np.bincount`` or ``np.add.at``) into the coefficient table's gradient, mapped to
 the grid values once at the end (:func:`table_grad_to_values`).
+
+The point functions (``point_*``) and the kernels are this rule's entry in
+:data:`pes_ref.core.interpolations.INTERPOLATIONS`.
 """
 from __future__ import annotations
 
@@ -25,9 +37,11 @@ import math
 
 import numpy as np
 
-from pes_ref.core.surface import Located, Locator, locate
+from pes_ref.core.grid import Cells, Located, Locator, locate
 
-__all__ = ["coefficient_table", "cross_table", "table_grad_to_values", "point_force",
+__all__ = ["grid_energy", "grid_slope", "grid_slope_vjp_q", "grid_slope_vjp_values",
+           "point_energy", "point_slope", "point_force", "point_force_vjp",
+           "coefficient_table", "cross_table", "table_grad_to_values",
            "BilinearForce", "BilinearForce1", "BilinearAdjoint", "forward_kernel", "CHUNK_ELEMENTS"]
 
 #: Particle-states per chunk of the adjoint's scatter of the grid gradient: large, since
@@ -38,6 +52,81 @@ CHUNK_ELEMENTS = 1 << 16
 #: core's L2 cache (one lookup of 65536 points is ~1.5x slower per point than 16 of 4096).
 LOOKUP_ELEMENTS = 1 << 12
 
+
+# =========================================================================== on located cells
+
+def grid_energy(values: np.ndarray, c: Cells) -> np.ndarray:
+    """Bilinear energy at the located points, shape (N,).
+
+    E = (1-f0)(1-f1) G[i0,j0] + f0(1-f1) G[i1,j0] + (1-f0) f1 G[i0,j1] + f0 f1 G[i1,j1]
+    (SPEC section 1; the paper's bilinear interpolation).
+    """
+    g00 = values[c.i0, c.j0]
+    g10 = values[c.i1, c.j0]
+    g01 = values[c.i0, c.j1]
+    g11 = values[c.i1, c.j1]
+    return (1 - c.f0) * (1 - c.f1) * g00 + c.f0 * (1 - c.f1) * g10 + (1 - c.f0) * c.f1 * g01 + c.f0 * c.f1 * g11
+
+
+def grid_slope(values: np.ndarray, h: np.ndarray, c: Cells, out: np.ndarray | None = None) -> np.ndarray:
+    """Slope dE/dq of the bilinear surface, shape (N, 2).
+
+    dE/dq0 = s0/h0 [(1-f1)(G[i1,j0]-G[i0,j0]) + f1 (G[i1,j1]-G[i0,j1])]
+    dE/dq1 = s1/h1 [(1-f0)(G[i0,j1]-G[i0,j0]) + f0 (G[i1,j1]-G[i1,j0])]
+    (SPEC section 1; ``docs/adjoint.md`` eq. (A1)).
+    """
+    g00 = values[c.i0, c.j0]
+    g10 = values[c.i1, c.j0]
+    g01 = values[c.i0, c.j1]
+    g11 = values[c.i1, c.j1]
+    if out is None:
+        out = np.empty((c.f0.shape[0], 2))
+    out[:, 0] = (c.s0 / h[0]) * ((1 - c.f1) * (g10 - g00) + c.f1 * (g11 - g01))
+    out[:, 1] = (c.s1 / h[1]) * ((1 - c.f0) * (g01 - g00) + c.f0 * (g11 - g10))
+    return out
+
+
+def grid_slope_vjp_q(values: np.ndarray, h: np.ndarray, c: Cells, w: np.ndarray) -> np.ndarray:
+    """Hessian-vector product ``H(q) w`` of the bilinear surface, shape (N, 2).
+
+    Inside a cell the bilinear energy has zero second derivative along each axis and
+    the constant cross term ``Hc = s0 s1 /(h0 h1) (G11 - G10 - G01 + G00)``, so
+    ``H w = (Hc w1, Hc w0)`` (``docs/adjoint.md`` eq. (A2)). This is the transpose
+    of the slope's Jacobian with respect to q, applied to ``w``.
+    """
+    g00 = values[c.i0, c.j0]
+    g10 = values[c.i1, c.j0]
+    g01 = values[c.i0, c.j1]
+    g11 = values[c.i1, c.j1]
+    hc = (c.s0 * c.s1 / (h[0] * h[1])) * (g11 - g10 - g01 + g00)
+    out = np.empty_like(w)
+    out[:, 0] = hc * w[:, 1]
+    out[:, 1] = hc * w[:, 0]
+    return out
+
+
+def grid_slope_vjp_values(h: np.ndarray, c: Cells, w: np.ndarray, n1: int, size: int) -> np.ndarray:
+    """Transpose of the slope's Jacobian with respect to the grid values, applied to ``w``.
+
+    Returns the flat (n0*n1,) array ``sum_points sum_d w_d d(slope_d)/dG``
+    (``docs/adjoint.md`` eq. (A3)): with ``a = s0 w0 / h0`` and ``b = s1 w1 / h1``,
+
+        G[i0,j0]: -(1-f1) a - (1-f0) b        G[i1,j0]: +(1-f1) a - f0 b
+        G[i0,j1]: -f1 a + (1-f0) b            G[i1,j1]: +f1 a + f0 b
+    """
+    a = c.s0 * w[:, 0] / h[0]
+    b = c.s1 * w[:, 1] / h[1]
+    idx = np.concatenate((c.i0 * n1 + c.j0, c.i1 * n1 + c.j0, c.i0 * n1 + c.j1, c.i1 * n1 + c.j1))
+    wts = np.concatenate((
+        -(1 - c.f1) * a - (1 - c.f0) * b,
+        (1 - c.f1) * a - c.f0 * b,
+        -c.f1 * a + (1 - c.f0) * b,
+        c.f1 * a + c.f0 * b,
+    ))
+    return np.bincount(idx, weights=wts, minlength=size)
+
+
+# =========================================================================== per-cell tables
 
 def _coefficients(g00, g10, g01, g11, h: np.ndarray, out: np.ndarray) -> np.ndarray:
     """``out[..., :] = [A0, A1, D0, D1]`` from the corner values of single cells (see the
@@ -119,6 +208,18 @@ def table_grad_to_values(gtab: np.ndarray, h: np.ndarray, shape: tuple) -> np.nd
     return out.reshape(-1)
 
 
+# =========================================================================== one-off calls
+
+def point_energy(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, x: np.ndarray) -> np.ndarray:
+    """The bilinear grid energy at points x (N, 2), shape (N,) (:func:`grid_energy`)."""
+    return grid_energy(values, locate(x, lower, h, values.shape, periodic))
+
+
+def point_slope(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, x: np.ndarray) -> np.ndarray:
+    """The bilinear slope dE/dx at points x (N, 2), shape (N, 2) (:func:`grid_slope`)."""
+    return grid_slope(values, h, locate(x, lower, h, values.shape, periodic))
+
+
 def point_force(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, x: np.ndarray,
                 out: np.ndarray) -> np.ndarray:
     """Grid force ``-dE/dx`` at points x (N, 2) into ``out``, without a table (for one-off
@@ -134,14 +235,28 @@ def point_force(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, 
     return out
 
 
-class BilinearForce:
-    """The grid force for N particles at a time, with its table and buffers (the forward hot loop).
+def point_force_vjp(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, x: np.ndarray,
+                    w: np.ndarray, xbar: np.ndarray, gvalues) -> None:
+    """Adjoint of :func:`point_force` at x for the cotangent ``w``: ``xbar -= H w`` and, if
+    ``gvalues`` (flat n0*n1) is given, ``gvalues -= (d slope/dG)^T w`` (eqs. (A2)-(A3))."""
+    cells = locate(x, lower, h, values.shape, periodic)
+    xbar -= grid_slope_vjp_q(values, h, cells, w)
+    if gvalues is not None:
+        gvalues -= grid_slope_vjp_values(h, cells, w, values.shape[1], values.size)
 
-    Per call: the :class:`~pes_ref.core.surface.Locator` operations, one ``take`` of the
-    (N, 4) coefficient rows, ``F0 = A0 + f1 D0`` and ``F1 = A1 + f0 D1`` on columns and
-    ``out = F s`` (a copy on a torus): 16 NumPy calls on a plane. Nothing is allocated. (Columns, not
-    (N, 2) arrays with a swapped view: NumPy runs an operation on reversed or
-    non-contiguous (N, 2) views with an inner loop of length 2, several times slower.)
+
+# =========================================================================== the hot loop
+
+class BilinearForce:
+    """The grid force for N particles at a time, with its table and buffers (the forward
+    hot loop; a :class:`~pes_ref.core.kernels.GridForce`).
+
+    ``call(x, out)``, bound once here: the :class:`~pes_ref.core.grid.Locator` operations,
+    one ``take`` of the (N, 4) coefficient rows, ``F0 = A0 + f1 D0`` and ``F1 = A1 + f0 D1``
+    on columns and ``out = F s`` (a copy on a torus): 16 NumPy calls on a plane. Nothing is
+    allocated. (Columns, not (N, 2) arrays with a swapped view: NumPy runs an operation on
+    reversed or non-contiguous (N, 2) views with an inner loop of length 2, several times
+    slower.)
     """
 
     def __init__(self, field, n_particles: int):
@@ -149,9 +264,6 @@ class BilinearForce:
         self.table = coefficient_table(field.values, field.h)
         self.buf = self.locator.buffers((n_particles,))
         self.coef = np.empty((n_particles, 4))
-        self.A0, self.A1, self.D0, self.D1 = (self.coef[:, i] for i in range(4))
-        f = self.buf["f"]
-        self.f0, self.f1 = f[:, 0], f[:, 1]
         self.call = self._bind()
 
     def _bind(self):
@@ -160,7 +272,8 @@ class BilinearForce:
         written to ``out`` by the switches' multiplication (a copy on a torus)."""
         locate_into = self.locator.bind(self.buf)
         take, cell, coef = self.table.take, self.buf["cell"], self.coef
-        A0, A1, D0, D1, f0, f1 = self.A0, self.A1, self.D0, self.D1, self.f0, self.f1
+        A0, A1, D0, D1 = (coef[:, i] for i in range(4))
+        f0, f1 = self.buf["f"][:, 0], self.buf["f"][:, 1]
         mul, add, copyto = np.multiply, np.add, np.copyto
         inside = self.buf["inside"] if self.locator.clips else None
         F = np.empty(coef.shape[:1] + (2,))
@@ -180,60 +293,44 @@ class BilinearForce:
             return out
         return call
 
-    def __call__(self, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-        return self.call(x, out)
-
 
 class BilinearForce1:
     """:class:`BilinearForce` for one particle, in Python floats.
 
     At N = 1 each NumPy call costs about a microsecond whatever it computes, and the
-    vectorized lookup takes ~16 of them; the same operations on Python floats (IEEE
-    double, correctly rounded like NumPy's, in the same order) take a few microseconds
-    and give bit-identical forces. A non-finite position gives a NaN force.
+    vectorized lookup takes ~16 of them; the same operations on Python floats
+    (:meth:`~pes_ref.core.grid.Locator.bind_scalar`, then the table row) take a few
+    microseconds and give bit-identical forces. A non-finite position gives a NaN force.
     """
 
     def __init__(self, field, n_particles: int = 1):
-        loc = Locator(field.lower, field.h, field.values.shape, field.periodic)
-        c = loc.consts
-        self.axes = [tuple(float(c[name][d]) for name in ("lower", "h", "clip_lo", "clip_hi", "kmax", "n"))
-                     for d in range(2)]
-        self.clips, self.wraps, self.n1 = loc.clips, loc.wraps, float(loc.n1)
+        self.locator = Locator(field.lower, field.h, field.values.shape, field.periodic)
         self.table = coefficient_table(field.values, field.h)
-        self.call = self.__call__
+        self.call = self._bind()
 
-    def __call__(self, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-        ks, fs, ins = [0.0, 0.0], [0.0, 0.0], [1.0, 1.0]
-        for d, (lower, h, lo, hi, kmax, n) in enumerate(self.axes):
-            u = (x.item(d) - lower) / h
-            if not math.isfinite(u):
-                out.fill(math.nan)
+    def _bind(self):
+        locate1, rows, nan = self.locator.bind_scalar(), self.table, math.nan
+
+        def call(x, out):
+            loc = locate1(x)
+            if loc is None:
+                out.fill(nan)
                 return out
-            uc = u
-            if self.clips:
-                uc = lo if u < lo else (hi if u > hi else u)
-                ins[d] = 1.0 if u == uc else 0.0
-            k = float(math.floor(uc))
-            if self.clips and k > kmax:
-                k = kmax
-            fs[d] = uc - k
-            if self.wraps:
-                k = k - float(math.floor(k / n)) * n
-            ks[d] = k
-        a0, a1, d0, d1 = self.table[int(ks[0] * self.n1 + ks[1])].tolist()
-        f0 = (d0 * fs[1] + a0)
-        f1 = (d1 * fs[0] + a1)
-        if self.clips:
-            f0, f1 = f0 * ins[0], f1 * ins[1]
-        out[0, 0] = f0
-        out[0, 1] = f1
-        return out
+            cell, fr0, fr1, s0, s1 = loc
+            a0, a1, d0, d1 = rows[cell].tolist()
+            out[0, 0] = (d0 * fr1 + a0) * s0
+            out[0, 1] = (d1 * fr0 + a1) * s1
+            return out
+        return call
 
 
 class BilinearAdjoint:
-    """The adjoint of :class:`BilinearForce` over a stored trajectory (eqs. (A2)-(A3)).
+    """The adjoint of :class:`BilinearForce` over a stored trajectory (eqs. (A2)-(A3); a
+    :class:`~pes_ref.core.kernels.GridAdjoint`).
 
-    Call :meth:`vjp` for states in descending order (as a backward pass does). States
+    Call ``vjp(n, w, xbar)`` (bound once here) for states in descending order (as a
+    backward pass does): ``xbar += (dF/dx)^T w = -H(x_n) w``, and ``w`` is recorded for the
+    grid gradient, returned by :meth:`values_grad`. States
     are located a chunk at a time (``CHUNK_ELEMENTS // N`` states at once), with the
     cross term ``Hc s0 s1`` gathered for the whole chunk; per state only
     ``xbar -= Hc s0 s1 (w1, w0)`` remains, plus a copy of ``w`` when the grid gradient
@@ -255,6 +352,7 @@ class BilinearAdjoint:
         self.f = np.empty((B, n, 2))
         self.inside = np.empty((B, n, 2)) if loc.clips else None
         self.hcs_buf = np.empty((B, n))
+        self.gtab = self.w = self.wts = self.idx = None
         if want_values:
             self.gtab = np.zeros((loc.size, 4))
             self.w = np.empty((B, n, 2))
@@ -264,7 +362,7 @@ class BilinearAdjoint:
         self.lo = n_states            # states [lo, hi) are located
         self.hi = n_states
         self.located = None
-        self.call = self._bind()
+        self.vjp = self._bind()
 
     def _load(self, n: int) -> None:
         """Locate the chunk of states ending at ``n``, ``sub`` states per lookup (the
@@ -320,16 +418,12 @@ class BilinearAdjoint:
                 np.add.at(flat[col:], idx, self.wts[col, :n_el])
         self.located = None
 
-    def vjp(self, n: int, w: np.ndarray, xbar: np.ndarray) -> None:
-        """``xbar += (dF/dx)^T w = -H(x_n) w`` for state ``n``; records ``w`` for the grid gradient."""
-        self.call(n, w, xbar)
-
     def _bind(self):
-        """:meth:`vjp` as a closure (bound once; no attribute lookups per step but the
+        """``vjp`` as a closure (bound once; no attribute lookups per step but the
         chunk's start). The column views of ``w`` and ``xbar`` are kept while the caller
         passes the same buffers, as a backward pass does."""
         mul, sub, copyto = np.multiply, np.subtract, np.copyto
-        tmp, wbuf, want_values, load = self.tmp, getattr(self, "w", None), self.want_values, self._load
+        tmp, wbuf, want_values, load = self.tmp, self.w, self.want_values, self._load
         views = [None, None, None, None, None, None]     # w, w0, w1, xbar, x0, x1
 
         def vjp(n, w, xbar):
@@ -350,13 +444,15 @@ class BilinearAdjoint:
             sub(x1, tmp, x1)
         return vjp
 
-    def values_grad(self) -> np.ndarray:
-        """The accumulated ``sum_n (dF(x_n)/dG)^T w_n``, flat (n0*n1,)."""
+    def values_grad(self) -> np.ndarray | None:
+        """The accumulated ``sum_n (dF(x_n)/dG)^T w_n``, flat (n0*n1,), or None if not wanted."""
+        if not self.want_values:
+            return None
         self._flush()
         return table_grad_to_values(self.gtab, self.field.h, self.field.values.shape)
 
 
 def forward_kernel(field, n_particles: int):
-    """The forward grid force for ``n_particles``: :class:`BilinearForce1` for one
-    particle, else :class:`BilinearForce` (bit-identical)."""
+    """The forward grid force for ``n_particles`` (a :class:`~pes_ref.core.kernels.GridForce`):
+    :class:`BilinearForce1` for one particle, else :class:`BilinearForce` (bit-identical)."""
     return (BilinearForce1 if n_particles == 1 else BilinearForce)(field, n_particles)

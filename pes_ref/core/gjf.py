@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from pes_ref.core.forces import Field, ForceAdjoint
-from pes_ref.core.integrator import Trajectory, _check_finite, _reports_nonfinite, finish_dynamic_adjoint, start_dynamic
+from pes_ref.core.integrator import Trajectory, check_finite, finish_dynamic_adjoint, reports_nonfinite, start_dynamic
 
 __all__ = ["simulate_gjf", "adjoint_gjf"]
 
@@ -46,7 +46,7 @@ def _coefficients(dt: float, mass: np.ndarray, damping, n: int):
     return a, c, d, (1.0 - c) * d
 
 
-@_reports_nonfinite
+@reports_nonfinite
 def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
                  mass: np.ndarray, damping) -> Trajectory:
     """The Gronbech-Jensen-Farago step, deterministic part (``docs/adjoint.md`` (G1)-(G4)).
@@ -66,6 +66,7 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
     damped = d is not None
     dt_d = dt * d if damped else None
     p = np.empty((N, 2))
+    fcall = force.call
     for n, (xn, xn1, vn, vn1, fn, fn1) in enumerate(zip(x[:-1], x[1:], v[:-1], v[1:], f[:-1], f[1:])):
         # (G1) half_kick: P = V_n + a F_n
         np.multiply(a, fn, out=p)
@@ -74,7 +75,7 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
         np.multiply(p, dt_d if damped else dt, out=xn1)
         np.add(xn1, xn, out=xn1)
         # (G3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
-        force(xn1, fn1)
+        fcall(xn1, fn1)
         if fext is not None:
             np.add(fn1, fext[n + 1], out=fn1)
         # (G4) kick: V_{n+1} = e P + a F_{n+1}   (e = 1 undamped)
@@ -83,7 +84,7 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
             np.multiply(p, e, out=p)
         np.add(vn1, p, out=vn1)
     traj = Trajectory(x, v, f)
-    _check_finite(traj, f"integrator='gjf', dt={dt!r}")
+    check_finite(traj, f"integrator='gjf', dt={dt!r}")
     return traj
 
 
@@ -113,6 +114,7 @@ def adjoint_gjf(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, dam
     fbar = np.zeros((N, 2))
     pbar = np.empty((N, 2))
     p = np.empty((N, 2))
+    vjp = adj.vjp
     for n in range(T - 1, -1, -1):
         if sbar is not None:          # P = V_n + a F_n, recomputed (G1)
             np.multiply(a, f[n], out=p)
@@ -130,7 +132,7 @@ def adjoint_gjf(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, dam
         # (GB3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}; G^, k^, c^
         if gforce is not None:
             gforce[n + 1] = fbar
-        adj.vjp(n + 1, fbar, xbar)
+        vjp(n + 1, fbar, xbar)
         # (GB2) drift^T: P^ += dt d X^_{n+1}; d^ += dt P X^_{n+1}; X^_n = X^_{n+1} (kept in xbar)
         pbar += (dt * d if damped else dt) * xbar
         if sbar is not None:

@@ -34,10 +34,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pes_ref.core.forces import Field, ForceAdjoint, ForceKernel, force
+from pes_ref.core.forces import Field, ForceAdjoint, ForceKernel
 
 __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
-           "adjoint_quasistatic", "NonFiniteError"]
+           "adjoint_quasistatic", "NonFiniteError", "check_finite", "reports_nonfinite", "start_dynamic",
+           "finish_dynamic_adjoint"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -57,7 +58,7 @@ class Trajectory(NamedTuple):
     f: np.ndarray
 
 
-def _check_finite(traj: Trajectory, step_name: str) -> None:
+def check_finite(traj: Trajectory, step_name: str) -> None:
     """Refuse to return a trajectory that left the finite numbers.
 
     Checked once after the loop, not per step (docs/performance.md): a non-finite value
@@ -72,27 +73,10 @@ def _check_finite(traj: Trajectory, step_name: str) -> None:
             "the explicit stability limit of the stiffest term: reduce it")
 
 
-def _total_force(field: Field, x: np.ndarray, fext_n, out: np.ndarray) -> None:
-    """(S3)/(Q1) as one call: ``out = -dU/dx(x) + F_ext[n]`` (for step loops built on
-    :func:`pes_ref.core.forces.force`; the loops here use a :class:`~pes_ref.core.forces.ForceKernel`)."""
-    force(field, x, out)
-    if fext_n is not None:
-        out += fext_n
-
-
-def _check_step(x_next: np.ndarray, n_next: int, step_name: str) -> None:
-    """Refuse a non-finite position before it is looked up on the grid (for step loops
-    that check every step; the loops here check once, see :func:`_check_finite`)."""
-    if not np.isfinite(x_next).all():
-        raise NonFiniteError(
-            f"the trajectory became non-finite at step {n_next} ({step_name}); the step is probably past "
-            "the explicit stability limit of the stiffest term: reduce it")
-
-
-def _reports_nonfinite(simulate_fn):
+def reports_nonfinite(simulate_fn):
     """Run a forward loop with overflow and invalid-operation warnings silenced, so that a
     run past the stability limit always ends in :class:`NonFiniteError` (raised by
-    :func:`_check_finite`) and never in a bare NumPy ``FloatingPointError`` or warning,
+    :func:`check_finite`) and never in a bare NumPy ``FloatingPointError`` or warning,
     whatever the caller's ``np.errstate`` (docs/decisions.md, 'Non-finite runs')."""
     @functools.wraps(simulate_fn)
     def wrapper(*args, **kwargs):
@@ -114,13 +98,13 @@ def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: i
     force = ForceKernel(field, N)
     x[0] = x0
     v[0] = v0
-    force(x[0], f[0])
+    force.call(x[0], f[0])
     if fext is not None:
         f[0] += fext[0]
     return x, v, f, force
 
 
-@_reports_nonfinite
+@reports_nonfinite
 def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
                      mass: np.ndarray, damping) -> Trajectory:
     """Damped velocity Verlet of the paper's eqs. (2)-(3) (SPEC section 3).
@@ -179,7 +163,7 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
             sub(vn1, cv, vn1)
             mul(vn1, inv_1pc, vn1)
     traj = Trajectory(x, v, f)
-    _check_finite(traj, f"dt={dt!r}")
+    check_finite(traj, f"dt={dt!r}")
     return traj
 
 
@@ -228,7 +212,7 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     # undamped, P^ = V^_{n+1} and V^_n = P^: one buffer serves both
     pbar = np.empty((N, 2)) if damped else vbar
     vbar_prev = np.empty((N, 2)) if damped else None
-    mul, add, vjp = np.multiply, np.add, adj.call            # bound once (see simulate_dynamic)
+    mul, add, vjp = np.multiply, np.add, adj.vjp             # bound once (see simulate_dynamic)
     for n in range(T - 1, -1, -1):
         # (B4) kick^T: P^ = d V^_{n+1} with d = 1/(1+c) (d = 1 undamped);
         #      F^_{n+1} += a P^; a^ += F_{n+1} P^; c^ -= (V_n + V_{n+1}) P^; V^_n = -c P^
@@ -292,7 +276,7 @@ def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass
 
 # =========================================================================== quasistatic
 
-@_reports_nonfinite
+@reports_nonfinite
 def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarray, n_steps: int) -> Trajectory:
     """Quasistatic (overdamped) stepping ``X_{n+1} = X_n + mu F_n`` (SPEC section 3).
 
@@ -316,11 +300,11 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
         # (Q2) drift: X_{n+1} = X_n + mu F_n
         mul(mu, fn, xn1)
         add(xn1, xn, xn1)
-    force(x[T], f[T])
+    fcall(x[T], f[T])
     if fext is not None:
         f[T] += fext[T]
     traj = Trajectory(x, np.zeros_like(x), f)
-    _check_finite(traj, f"mobility={mobility.tolist()!r}")
+    check_finite(traj, f"mobility={mobility.tolist()!r}")
     return traj
 
 
@@ -339,7 +323,7 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     fbar = np.empty((N, 2))
     mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))
-    mul, add, vjp = np.multiply, np.add, adj.call            # bound once (see simulate_dynamic)
+    mul, add, vjp = np.multiply, np.add, adj.vjp             # bound once (see simulate_dynamic)
     for n in range(T - 1, -1, -1):
         # (QB2) drift^T: F^_n = mu X^_{n+1}; mu^ += sum_i F_n X^_{n+1}; X^_n = X^_{n+1} (kept)
         mul(mu, xbar, fbar)

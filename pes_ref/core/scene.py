@@ -2,8 +2,9 @@
 
 A :class:`Scene` names a surface and exactly the effects it has (springs, walls,
 damping, external force effects, per-particle mass); :func:`simulate` and
-:func:`value_and_grad` validate the initial state once, then run the pure core of
-:mod:`pes_ref.core.integrator`, which evaluates nothing that the scene does not name.
+:func:`value_and_grad` validate the initial state once, then run the pure core through
+the stepper registry (:mod:`pes_ref.core.steppers`), which evaluates nothing that the
+scene does not name.
 
 Example
 -------
@@ -25,22 +26,34 @@ from pes_ref.core import checks
 from pes_ref.core import stability
 from pes_ref.core.effects import build_schedule, step_times
 from pes_ref.core.forces import Field, potential_energy
-from pes_ref.core.integrator import (NonFiniteError, Trajectory, adjoint_dynamic, adjoint_quasistatic, simulate_dynamic,
-                         simulate_quasistatic)
-from pes_ref.core.gjf import adjoint_gjf, simulate_gjf
+from pes_ref.core.integrator import NonFiniteError, Trajectory
 from pes_ref.core.objectives import regularization
+from pes_ref.core.steppers import INTEGRATORS, MODES, STEPPERS, StepParams, mode_gradients, modes_of, stepper
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls, wall_bounds
 
-__all__ = ["Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES"]
-
-MODES = ("dynamic", "quasistatic")
-#: Dynamic-mode steppers: the paper's damped Verlet (SPEC section 3) and the
-#: Gronbech-Jensen-Farago option (pes_ref/gjf.py, docs/variants.md).
-INTEGRATORS = ("verlet", "gjf")
+__all__ = ["Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES", "gradient_names"]
 
 #: Every differentiable input of SPEC section 5, in a fixed order.
 GRADIENT_NAMES = ("values", "x0", "v0", "force", "mass", "damping", "spring_k", "spring_center", "mobility")
+
+#: The gradients every scene has, and those a spring adds (a mode's own: its steppers'
+#: :attr:`~pes_ref.core.steppers.Stepper.gradients`).
+_ALWAYS_GRADIENTS = ("values", "x0", "force")
+_SPRING_GRADIENTS = ("spring_k", "spring_center")
+
+
+def gradient_names(mode: str, has_spring: bool) -> tuple:
+    """The gradients of SPEC section 5 that a scene of ``mode`` has, in
+    :data:`GRADIENT_NAMES` order: ``values``, ``x0`` and ``force`` always; ``v0``,
+    ``mass``, ``damping`` in dynamic mode; ``mobility`` in quasistatic mode; ``spring_k``,
+    ``spring_center`` with a spring.
+
+    >>> gradient_names("quasistatic", has_spring=True)
+    ('values', 'x0', 'force', 'spring_k', 'spring_center', 'mobility')
+    """
+    used = set(_ALWAYS_GRADIENTS) | set(mode_gradients(mode)) | (set(_SPRING_GRADIENTS) if has_spring else set())
+    return tuple(name for name in GRADIENT_NAMES if name in used)
 
 
 @dataclass(frozen=True)
@@ -70,7 +83,8 @@ class Scene:
         Time of state 0.
     integrator : {"verlet", "gjf"}
         Dynamic mode's step: "verlet" (default) is the paper's eqs. (2)-(3); "gjf" is the
-        second-order damped Gronbech-Jensen-Farago step (``docs/variants.md``).
+        second-order damped Gronbech-Jensen-Farago step (``docs/variants.md``). The pairs
+        ``(mode, integrator)`` are those of :data:`pes_ref.core.steppers.STEPPERS`.
     """
 
     surface: Surface
@@ -96,8 +110,9 @@ class Scene:
         set_("t0", checks.as_finite_float("t0", self.t0))
         set_("mode", checks.as_choice("mode", self.mode, set(MODES)))
         set_("integrator", checks.as_choice("integrator", self.integrator, set(INTEGRATORS)))
-        if self.mode != "dynamic" and self.integrator != "verlet":
-            raise checks.InputError("integrator", f"integrator={self.integrator!r} is for mode='dynamic' only; "
+        if (self.mode, self.integrator) not in STEPPERS:
+            only = " or ".join(f"mode={m!r}" for m in modes_of(self.integrator))
+            raise checks.InputError("integrator", f"integrator={self.integrator!r} is for {only} only; "
                                                   f"this scene is {self.mode}")
         set_("mass", _per_particle("mass", self.mass, positive=True))
         if self.damping is not None:
@@ -237,14 +252,15 @@ def _explains_nonfinite(forward):
     return wrapper
 
 
+def _step_params(scene: Scene) -> StepParams:
+    """The scene's step parameters for its stepper; ``damping`` is None unless some gamma
+    is nonzero (then the core does no damping arithmetic at all)."""
+    return StepParams(scene.dt, scene.n_steps, scene.mass, scene.damping if scene.damped else None, scene.mobility)
+
+
 @_explains_nonfinite
 def _forward(scene: Scene, x0, v0, fext) -> Trajectory:
-    fld = scene.field()
-    if scene.mode == "dynamic":
-        damping = scene.damping if scene.damped else None
-        simulate_fn = simulate_gjf if scene.integrator == "gjf" else simulate_dynamic
-        return simulate_fn(fld, x0, v0, fext, scene.dt, scene.n_steps, scene.mass, damping)
-    return simulate_quasistatic(fld, x0, fext, scene.mobility, scene.n_steps)
+    return stepper(scene.mode, scene.integrator).simulate(scene.field(), x0, v0, fext, _step_params(scene))
 
 
 def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
@@ -301,13 +317,7 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
     traj = _forward(scene, x0, v0, fext)
     loss, gx, gv = objective.value_and_grad(traj.x, traj.v, scene.times())
     reg, greg = regularization(scene.surface.values, R)
-    fld = scene.field()
-    if scene.mode == "dynamic":
-        damping = scene.damping if scene.damped else None
-        adjoint_fn = adjoint_gjf if scene.integrator == "gjf" else adjoint_dynamic
-        raw = adjoint_fn(fld, traj, scene.dt, scene.mass, damping, gx, gv, want)
-    else:
-        raw = adjoint_quasistatic(fld, traj, scene.mobility, gx, want)
+    raw = stepper(scene.mode, scene.integrator).adjoint(scene.field(), traj, _step_params(scene), gx, gv, want)
     grads = {}
     for name in GRADIENT_NAMES:
         if name not in want:
@@ -328,13 +338,7 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
 
 
 def _wanted(scene: Scene, wrt) -> frozenset:
-    usable = {"values", "x0", "force"}
-    if scene.mode == "dynamic":
-        usable |= {"v0", "mass", "damping"}
-    else:
-        usable |= {"mobility"}   # v0, mass and damping play no part (SPEC section 5)
-    if scene.spring is not None:
-        usable |= {"spring_k", "spring_center"}
+    usable = set(gradient_names(scene.mode, scene.spring is not None))
     if wrt is None:
         return frozenset(usable)
     if isinstance(wrt, str):

@@ -42,7 +42,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["StabilityLimit", "grid_cross_curvature", "grid_second_difference",
+__all__ = ["StabilityLimit", "grid_cross_curvature", "grid_second_difference", "grid_stiffness",
            "axis_stiffness", "stability_limit", "advice", "SAFETY"]
 
 #: The stable step :func:`advice` suggests, as a fraction of the limit: at
@@ -115,6 +115,12 @@ def grid_second_difference(surface) -> np.ndarray:
             continue
         out[d] = float(np.max(np.abs(dd))) / surface.spacing[d] ** 2
     return out
+
+
+def grid_stiffness(surface) -> float:
+    """``max_d S_d`` (:func:`grid_second_difference`): the stiffest cell edge of the grid
+    along either axis, one number (e.g. to pick a stable quasistatic mobility)."""
+    return float(np.max(grid_second_difference(surface)))
 
 
 def axis_stiffness(scene) -> tuple:

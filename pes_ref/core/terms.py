@@ -3,8 +3,12 @@
 Each term is a small set of pure functions over plain arrays (energy, force added into
 a buffer, and the adjoint of that force), plus a frozen, validated config
 (:class:`Spring`, :class:`Walls`) that a :class:`~pes_ref.core.scene.Scene` names only when it
-has the effect. The force is ``-dU/dq``; the adjoint functions implement
-``docs/adjoint.md`` eqs. (A4)-(A5).
+has the effect, plus the hot loop's kernels of the same arithmetic with buffers: a forward
+one (:class:`SpringKernel`, :class:`WallKernel`, each a
+:class:`~pes_ref.core.kernels.TermForce`) and an adjoint one over the stored states
+(:class:`SpringAdjoint`, :class:`WallAdjoint`, each a
+:class:`~pes_ref.core.kernels.TermAdjoint`). The force is ``-dU/dq``; the adjoints
+implement ``docs/adjoint.md`` eqs. (A4)-(A5).
 """
 from __future__ import annotations
 
@@ -13,11 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.core.surface import _clip
+from pes_ref.core.grid import clip
 
 __all__ = ["Spring", "Walls", "spring_delta", "spring_energy", "spring_add_force",
            "spring_force_vjp", "wall_bounds", "wall_energy", "wall_add_force", "wall_force_vjp",
-           "SpringKernel", "WallKernel"]
+           "SpringKernel", "SpringAdjoint", "WallKernel", "WallAdjoint"]
 
 
 # --------------------------------------------------------------------------- springs
@@ -112,12 +116,13 @@ def wall_force_vjp(q, k: float, lo, hi, w, xbar) -> None:
 
 
 class WallKernel:
-    """The wall force and its adjoint for N particles, with buffers (the integrator's hot loop).
+    """The wall force for N particles, with a buffer (the integrator's hot loop; a
+    :class:`~pes_ref.core.kernels.TermForce`).
 
-    ``k (a - q)^+ - k (q - b)^+ = k (clip(q, a, b) - q)`` since ``a < b`` (bit-identical
-    to :func:`wall_add_force`: one of the two terms is exactly 0), and the wall is active
-    where ``clip(q, a, b) != q``: four whole-array operations per call instead of eight
-    with temporaries.
+    ``add_force(q, out)``, bound once here: ``out += k (clip(q, a, b) - q)``, which is
+    ``k (a - q)^+ - k (q - b)^+`` since ``a < b`` (bit-identical to :func:`wall_add_force`:
+    one of the two terms is exactly 0): four whole-array operations per call instead of
+    eight with temporaries.
     """
 
     def __init__(self, k: float, lo, hi, n_particles: int):
@@ -125,40 +130,47 @@ class WallKernel:
         self.lo = np.ascontiguousarray(np.broadcast_to(lo, (n_particles, 2)))
         self.hi = np.ascontiguousarray(np.broadcast_to(hi, (n_particles, 2)))
         self.buf = np.empty((n_particles, 2))
-        self.mask = np.empty((n_particles, 2))      # 0.0 / 1.0: a float mask multiplies faster
+        self.add_force = self._bind()
 
-    def add_force(self, q, out) -> None:
-        """out += k (clip(q, a, b) - q)."""
-        buf = self.buf
-        _clip(q, self.lo, self.hi, out=buf)
-        np.subtract(buf, q, out=buf)
-        np.multiply(buf, self.k, out=buf)
-        np.add(out, buf, out=out)
-
-    def bind_add_force(self):
-        """:meth:`add_force` as a closure over the buffers (for the hot loop)."""
-        clip, sub, mul, add = _clip, np.subtract, np.multiply, np.add
+    def _bind(self):
+        clip_, sub, mul, add = clip, np.subtract, np.multiply, np.add
         lo, hi, k, buf = self.lo, self.hi, self.k, self.buf
 
         def add_force(q, out):
-            clip(q, lo, hi, buf)
+            clip_(q, lo, hi, buf)
             sub(buf, q, buf)
             mul(buf, k, buf)
             add(out, buf, out)
         return add_force
 
-    #: States whose ``k (clip(q, a, b) != q)`` factors :meth:`bind_force_vjp` computes at once
-    #: (in particle-states): three whole-chunk operations instead of three per state.
+
+class WallAdjoint:
+    """The adjoint of :class:`WallKernel` over stored states ``xs`` (T+1, N, 2) (eq. (A5);
+    a :class:`~pes_ref.core.kernels.TermAdjoint`; the walls have no parameter gradients).
+
+    ``force_vjp(n, w, xbar)``, bound once here and called for states in descending order
+    (a backward pass): ``xbar -= k w`` where a wall is active (``clip(q, a, b) != q``). The
+    factors ``k s`` with ``s = (clip(q, a, b) != q)`` are computed a chunk of states at a
+    time, so that a state costs ``xbar -= (k s) w``, two operations (bit-identical to
+    :func:`wall_force_vjp`: s is 0 or 1 and k > 0).
+    """
+
+    #: Particle-states whose ``k s`` factors are computed at once: three whole-chunk
+    #: operations instead of three per state.
     CHUNK_ELEMENTS = 1 << 14
 
-    def bind_force_vjp(self, xs: np.ndarray):
-        """``force_vjp(n, w, xbar)`` for the stored states ``xs`` (T+1, N, 2), called for
-        states in descending order (a backward pass): the factors ``k s`` with ``s = (clip(q,
-        a, b) != q)`` are computed a chunk of states at a time, so that a state costs
-        ``xbar -= (k s) w``, two operations (bit-identical to :meth:`force_vjp` up to the
-        sign of a zero: s is 0 or 1)."""
-        clip, ne, mul, sub = _clip, np.not_equal, np.multiply, np.subtract
-        lo, hi, k, buf = self.lo, self.hi, self.k, self.buf
+    def __init__(self, k: float, lo, hi, xs: np.ndarray):
+        n = xs.shape[1]
+        self.k = np.array(float(k))
+        self.lo = np.ascontiguousarray(np.broadcast_to(lo, (n, 2)))
+        self.hi = np.ascontiguousarray(np.broadcast_to(hi, (n, 2)))
+        self.xs = xs
+        self.buf = np.empty((n, 2))
+        self.force_vjp = self._bind()
+
+    def _bind(self):
+        clip_, ne, mul, sub = clip, np.not_equal, np.multiply, np.subtract
+        lo, hi, k, buf, xs = self.lo, self.hi, self.k, self.buf, self.xs
         n_states, n = xs.shape[0], xs.shape[1]
         chunk = max(1, min(n_states, self.CHUNK_ELEMENTS // max(n, 1)))
         ks = np.empty((chunk,) + xs.shape[1:])
@@ -169,7 +181,7 @@ class WallKernel:
                 start = max(0, n + 1 - chunk)
                 m = n + 1 - start
                 km, q = ks[:m], xs[start:n + 1]
-                clip(q, lo, hi, km)
+                clip_(q, lo, hi, km)
                 ne(km, q, km)
                 mul(km, k, km)
                 state[0] = start
@@ -177,51 +189,97 @@ class WallKernel:
             sub(xbar, buf, xbar)
         return force_vjp
 
-    def force_vjp(self, q, w, xbar) -> None:
-        """xbar -= k w where a wall is active (eq. (A5))."""
-        buf = self.buf
-        _clip(q, self.lo, self.hi, out=buf)
-        np.not_equal(buf, q, out=self.mask)
-        np.multiply(w, self.mask, out=buf)
-        np.multiply(buf, self.k, out=buf)
-        np.subtract(xbar, buf, out=xbar)
+    def gradients(self) -> dict:
+        """None wanted: the walls' stiffness and positions are not differentiable inputs."""
+        return {}
+
+
+def _delta_into(q, center, wrap, out) -> np.ndarray:
+    """:func:`spring_delta` into ``out``: ``q - c``, the minimum image on the axes of ``wrap``
+    (``(d, L_d / 2, L_d)`` per periodic axis), the same operations."""
+    np.subtract(q, center, out=out)
+    for d, half, L in wrap:
+        col = out[:, d]
+        np.add(col, half, out=col)
+        np.mod(col, L, out=col)
+        np.subtract(col, half, out=col)
+    return out
+
+
+def _spring_arrays(k, center, length, periodic, n_particles: int):
+    """``k`` and ``center`` as contiguous (N, 2) arrays and the periodic axes' ``(d, L/2, L)``."""
+    k = np.ascontiguousarray(np.broadcast_to(k, (n_particles, 2)))
+    center = np.ascontiguousarray(np.broadcast_to(center, (n_particles, 2)))
+    wrap = [(d, 0.5 * float(length[d]), float(length[d])) for d in range(2) if periodic[d]]
+    return k, center, wrap
 
 
 class SpringKernel:
-    """The spring force and its adjoint for N particles, with buffers (the hot loop).
+    """The spring force for N particles, with buffers (the hot loop; a
+    :class:`~pes_ref.core.kernels.TermForce`).
 
-    Same arithmetic as :func:`spring_add_force` / :func:`spring_force_vjp`, into
-    preallocated buffers; the minimum image only on periodic axes."""
+    ``add_force(q, out)``, bound once here: ``out -= k delta``, the arithmetic of
+    :func:`spring_add_force` into preallocated buffers; the minimum image only on periodic
+    axes."""
 
     def __init__(self, k, center, length, periodic, n_particles: int):
-        self.k = np.ascontiguousarray(np.broadcast_to(k, (n_particles, 2)))
-        self.center = np.ascontiguousarray(np.broadcast_to(center, (n_particles, 2)))
-        self.wrap = [(d, 0.5 * float(length[d]), float(length[d])) for d in range(2) if periodic[d]]
+        self.k, self.center, self.wrap = _spring_arrays(k, center, length, periodic, n_particles)
         self.delta = np.empty((n_particles, 2))
         self.buf = np.empty((n_particles, 2))
+        self.add_force = self._bind()
 
-    def _delta(self, q) -> np.ndarray:
-        delta = self.delta
-        np.subtract(q, self.center, out=delta)
-        for d, half, L in self.wrap:
-            col = delta[:, d]
-            np.add(col, half, out=col)
-            np.mod(col, L, out=col)
-            np.subtract(col, half, out=col)
-        return delta
+    def _bind(self):
+        mul, sub = np.multiply, np.subtract
+        k, center, wrap, delta, buf = self.k, self.center, self.wrap, self.delta, self.buf
 
-    def add_force(self, q, out) -> None:
-        """out -= k delta."""
-        np.multiply(self.k, self._delta(q), out=self.buf)
-        np.subtract(out, self.buf, out=out)
+        def add_force(q, out):
+            mul(k, _delta_into(q, center, wrap, delta), buf)
+            sub(out, buf, out)
+        return add_force
 
-    def force_vjp(self, q, w, xbar, want_k: bool, want_center: bool):
-        """xbar -= k w; returns (kbar, cbar) = (-delta w, k w) where wanted (eq. (A4))."""
-        np.multiply(self.k, w, out=self.buf)
-        np.subtract(xbar, self.buf, out=xbar)
-        kbar = -self._delta(q) * w if want_k else None
-        cbar = self.buf.copy() if want_center else None
-        return kbar, cbar
+
+class SpringAdjoint:
+    """The adjoint of :class:`SpringKernel` over stored states ``xs`` (T+1, N, 2) (eq. (A4);
+    a :class:`~pes_ref.core.kernels.TermAdjoint`).
+
+    ``force_vjp(n, w, xbar)``, bound once here: ``xbar -= k w``, and as wanted
+    ``spring_k += -delta w`` and ``spring_center += k w`` (N, 2), returned by
+    :meth:`gradients` (the arithmetic of :func:`spring_force_vjp` summed over the states).
+    """
+
+    def __init__(self, k, center, length, periodic, xs: np.ndarray, want_k: bool, want_center: bool):
+        n = xs.shape[1]
+        self.k, self.center, self.wrap = _spring_arrays(k, center, length, periodic, n)
+        self.xs = xs
+        self.grad_k = np.zeros((n, 2)) if want_k else None
+        self.grad_center = np.zeros((n, 2)) if want_center else None
+        self.delta = np.empty((n, 2))
+        self.buf = np.empty((n, 2))
+        self.force_vjp = self._bind()
+
+    def _bind(self):
+        mul, sub, add = np.multiply, np.subtract, np.add
+        k, center, wrap, delta, buf, xs = self.k, self.center, self.wrap, self.delta, self.buf, self.xs
+        gk, gc = self.grad_k, self.grad_center
+
+        def force_vjp(n, w, xbar):
+            mul(k, w, buf)
+            sub(xbar, buf, xbar)
+            if gk is not None:           # += (-delta) w, as -(delta w) exactly
+                mul(_delta_into(xs[n], center, wrap, delta), w, delta)
+                sub(gk, delta, gk)
+            if gc is not None:
+                add(gc, buf, gc)
+        return force_vjp
+
+    def gradients(self) -> dict:
+        """``spring_k`` and ``spring_center`` (N, 2), those that were wanted."""
+        out = {}
+        if self.grad_k is not None:
+            out["spring_k"] = self.grad_k
+        if self.grad_center is not None:
+            out["spring_center"] = self.grad_center
+        return out
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,8 @@ from pes_ref.core import checks
 from pes_ref.devices.cspace import CSpaceGrid, GridSpring
 from pes_ref.core.effects import PerParticle, Window
 from pes_ref.devices.geometry import Part, Polygon, Translation, rectangle
-from pes_ref.devices.probes import grid_stiffness, threshold_search
+from pes_ref.core.stability import grid_stiffness
+from pes_ref.devices.probes import threshold_search
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.scene import Scene, simulate
 from pes_ref.core.surface import Surface

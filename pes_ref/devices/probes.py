@@ -1,21 +1,17 @@
-"""Probes the device analyses share: how hard a device must be pushed, and how stiff its surface is.
+"""The probe the device analyses share: how hard a device must be pushed.
 
 :func:`threshold_search` finds the smallest push for which a monotone test passes (the
 ratchet's smallest advancing torque, the dart gun's smallest reload force), running each
-round's candidates as one batch of particles. :func:`grid_stiffness` is the stiffest
-barrier on a device's grid, the largest second-difference stiffness ``S_d`` of the
-explicit stability bound (:func:`pes_ref.core.stability.grid_second_difference`, its one
-home), which sets the device's stable step.
+round's candidates as one batch of particles. (The stiffest barrier on a device's grid,
+which sets its stable step, is :func:`pes_ref.core.stability.grid_stiffness`.)
 """
 from __future__ import annotations
 
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.core.stability import grid_second_difference
-from pes_ref.core.surface import Surface
 
-__all__ = ["threshold_search", "grid_stiffness"]
+__all__ = ["threshold_search"]
 
 
 def threshold_search(passes, lo: float, hi: float, tol: float, batch: int = 7) -> float:
@@ -39,9 +35,3 @@ def threshold_search(passes, lo: float, hi: float, tol: float, batch: int = 7) -
         else:
             lo = vals[-1]
     return hi
-
-
-def grid_stiffness(surface: Surface) -> float:
-    """Largest second difference of the grid values along either axis, per unit length^2:
-    ``max_d S_d`` of :func:`pes_ref.core.stability.grid_second_difference`."""
-    return float(np.max(grid_second_difference(surface)))

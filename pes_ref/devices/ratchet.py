@@ -26,7 +26,8 @@ from pes_ref.core import checks
 from pes_ref.devices.cspace import CSpaceGrid, GridSpring
 from pes_ref.core.effects import PerParticle
 from pes_ref.devices.geometry import Part, Polygon, Rotation
-from pes_ref.devices.probes import grid_stiffness, threshold_search
+from pes_ref.core.stability import grid_stiffness
+from pes_ref.devices.probes import threshold_search
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.scene import Scene, simulate
 from pes_ref.core.surface import Surface
@@ -179,7 +180,7 @@ class RatchetReport:
     blocked_fraction: float
     grid: tuple
     dt: float
-    stiffness_max: float           # largest barrier curvature on the grid (probes.grid_stiffness)
+    stiffness_max: float           # largest barrier curvature on the grid (core.stability.grid_stiffness)
     dt_limit: float                # 2 sqrt(m_min / stiffness_max)
     times: dict = dc_field(default_factory=dict)
 

@@ -37,7 +37,7 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
-from pes_ref.core.scene import GRADIENT_NAMES, MODES, Scene, energy, value_and_grad
+from pes_ref.core.scene import MODES, Scene, energy, gradient_names, value_and_grad
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
 from pes_ref.oracle.errors import CaseError, CaseTypeError, ResultExistsError
@@ -350,11 +350,7 @@ def grad_names_for(mode: str, has_spring: bool) -> tuple:
     ``values``, ``x0`` and ``force`` always; ``v0``, ``mass``, ``damping`` in dynamic
     mode; ``mobility`` in quasistatic mode; ``spring_k``, ``spring_center`` with a spring.
     """
-    used = {"values", "x0", "force"}
-    used |= {"v0", "mass", "damping"} if mode == "dynamic" else {"mobility"}
-    if has_spring:
-        used |= {"spring_k", "spring_center"}
-    return tuple(name for name in GRADIENT_NAMES if name in used)
+    return gradient_names(mode, has_spring)
 
 
 def result_keys(grad_names) -> tuple:
