@@ -42,6 +42,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pes_ref.core.grid import Cells
+
 __all__ = ["Terms", "Cell", "Run", "terms_of", "lookup", "potential_energy", "force", "force_T",
            "forward", "backward", "reduce_to_shape", "simulate", "energy", "value_and_grad"]
 
@@ -83,18 +85,9 @@ def terms_of(scene) -> Terms:
 
 # =========================================================================== 1. the grid lookup
 
-class Cell(NamedTuple):
-    """Where points q (..., 2) fall: corner indices ``i0, i1`` (axis 0) and ``j0, j1``
-    (axis 1), fractions ``f0, f1`` and in-range switches ``s0, s1`` (1.0 or 0.0), each (...)."""
-
-    i0: np.ndarray
-    i1: np.ndarray
-    j0: np.ndarray
-    j1: np.ndarray
-    f0: np.ndarray
-    f1: np.ndarray
-    s0: np.ndarray
-    s1: np.ndarray
+#: Where points fall: the core's one record of a lookup (:class:`pes_ref.core.grid.Cells`):
+#: corner indices ``i0, i1`` (axis 0), ``j0, j1`` (axis 1), fractions ``f0, f1``, switches ``s0, s1``.
+Cell = Cells
 
 
 def lookup(terms: Terms, q: np.ndarray) -> Cell:
@@ -485,16 +478,24 @@ def mass_damping_T(abar, cbar, a, c, mass):
     return (-abar * a - cbar * c) / np.broadcast_to(mass, a.shape), cbar * a
 
 
+def _backward_start(terms, run, gx, gv, dt, mass, damping):
+    """What both dynamic backward loops start from: the run, its sizes, the step's
+    coefficients, the parameter accumulators, zero cotangents of the force and of the
+    coefficients, and ``Xbar = gx[T]``, ``Vbar = gv[T]``, ``Fbar = 0``."""
+    x, v, f = run
+    T, N = x.shape[0] - 1, x.shape[1]
+    coef = coefficients(dt, mass, damping, N)
+    zeros = np.zeros((N, 2))
+    return (x, v, f, T, N, coef, _accumulators(terms, N), np.zeros(f.shape), zeros.copy(), zeros.copy(),
+            gx[T].copy(), gv[T].copy(), zeros.copy())
+
+
 def backward_verlet(terms, run, gx, gv, dt, mass, damping, mobility) -> dict:
     """Section 5 of ``docs/adjoint.md``: from ``Xbar = dl_T/dX_T``, ``Vbar = dl_T/dV_T``,
     ``Fbar = 0``, for n = T-1 .. 0 the transposes (B4), (B3), (B2), (B1) and the objective's
     direct terms; then (B0) and (P1)."""
-    x, v, f = run
-    T, N = x.shape[0] - 1, x.shape[1]
-    a, c, d, _ = coefficients(dt, mass, damping, N)
-    acc = _accumulators(terms, N)
-    gforce, abar, cbar = np.zeros(f.shape), np.zeros((N, 2)), np.zeros((N, 2))
-    xbar, vbar, fbar = gx[T].copy(), gv[T].copy(), np.zeros((N, 2))
+    x, v, f, T, N, (a, c, d, _), acc, gforce, abar, cbar, xbar, vbar, fbar = _backward_start(
+        terms, run, gx, gv, dt, mass, damping)
     for n in range(T - 1, -1, -1):
         pbar, vbar, fbar_k, abar_k, cbar_k = kick_T(vbar, v[n], v[n + 1], f[n + 1], a, c, d)   # (B4)
         fbar = fbar + fbar_k
@@ -517,12 +518,8 @@ def backward_gjf(terms, run, gx, gv, dt, mass, damping, mobility) -> dict:
     """Section 10 of ``docs/adjoint.md``: for n = T-1 .. 0, (GB4), (GB3), (GB2), (GB1) (P
     recomputed by (G1)); ``sbar = dbar + 2 ebar`` is summed as it comes; then (GP1)
     ``cbar = -d^2 sbar``, (B0) and (P1)."""
-    x, v, f = run
-    T, N = x.shape[0] - 1, x.shape[1]
-    a, c, d, e = coefficients(dt, mass, damping, N)
-    acc = _accumulators(terms, N)
-    gforce, abar, sbar = np.zeros(f.shape), np.zeros((N, 2)), np.zeros((N, 2))
-    xbar, vbar, fbar = gx[T].copy(), gv[T].copy(), np.zeros((N, 2))
+    x, v, f, T, N, (a, c, d, e), acc, gforce, abar, sbar, xbar, vbar, fbar = _backward_start(
+        terms, run, gx, gv, dt, mass, damping)
     for n in range(T - 1, -1, -1):
         p = half_kick(v[n], f[n], a)                                                           # (G1)
         pbar, fbar_k, abar_k, ebar_k = gjf_kick_T(vbar, p, f[n + 1], a, e)                     # (GB4)

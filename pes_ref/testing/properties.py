@@ -540,54 +540,43 @@ def gradient_names(scene: Scene) -> tuple:
     return grad_names_for(scene.mode, scene.spring is not None)
 
 
+#: Each differentiable input: how to read it from ``(scene, x0, v0, fext)`` and how to
+#: replace it (``damping`` of an undamped scene reads as the scalar 0).
+_PARAMETERS = {
+    "values": (lambda s, x0, v0, f: s.surface.values, lambda s, x0, v0, f, u: (s.with_values(u), x0, v0, f)),
+    "x0": (lambda s, x0, v0, f: x0, lambda s, x0, v0, f, u: (s, u, v0, f)),
+    "v0": (lambda s, x0, v0, f: v0, lambda s, x0, v0, f, u: (s, x0, u, f)),
+    "force": (lambda s, x0, v0, f: f, lambda s, x0, v0, f, u: (s, x0, v0, u)),
+    "mass": (lambda s, x0, v0, f: s.mass, lambda s, x0, v0, f, u: (replace(s, mass=u), x0, v0, f)),
+    "damping": (lambda s, x0, v0, f: 0.0 if s.damping is None else s.damping,
+                lambda s, x0, v0, f, u: (replace(s, damping=u), x0, v0, f)),
+    "mobility": (lambda s, x0, v0, f: s.mobility, lambda s, x0, v0, f, u: (replace(s, mobility=u), x0, v0, f)),
+    "spring_k": (lambda s, x0, v0, f: s.spring.k,
+                 lambda s, x0, v0, f, u: (replace(s, spring=Spring(u, s.spring.center)), x0, v0, f)),
+    "spring_center": (lambda s, x0, v0, f: s.spring.center,
+                      lambda s, x0, v0, f, u: (replace(s, spring=Spring(s.spring.k, u)), x0, v0, f)),
+}
+
+
 def get_parameter(scene: Scene, x0, v0, fext, name: str) -> np.ndarray:
     """The current value of the differentiable input ``name`` (a float64 copy).
 
     ``fext`` is the realized external force (T+1, N, 2); ``damping`` of an undamped
     scene is the scalar 0.
     """
-    if name == "values":
-        out = scene.surface.values
-    elif name == "x0":
-        out = x0
-    elif name == "v0":
-        out = v0
-    elif name == "force":
-        out = fext
-    elif name == "mass":
-        out = scene.mass
-    elif name == "damping":
-        out = 0.0 if scene.damping is None else scene.damping
-    elif name == "spring_k":
-        out = scene.spring.k
-    elif name == "spring_center":
-        out = scene.spring.center
-    elif name == "mobility":
-        out = scene.mobility
-    else:
+    getter = _PARAMETERS.get(name)
+    if getter is None:
         raise ValueError(f"unknown gradient name {name!r}")
+    out = getter[0](scene, x0, v0, fext)
     return np.array(out, dtype=np.float64, copy=True)
 
 
 def with_parameter(scene: Scene, x0, v0, fext, name: str, value):
     """``(scene, x0, v0, fext)`` with the input ``name`` replaced by ``value``."""
-    if name == "values":
-        scene = scene.with_values(value)
-    elif name == "x0":
-        x0 = value
-    elif name == "v0":
-        v0 = value
-    elif name == "force":
-        fext = value
-    elif name in ("mass", "damping", "mobility"):
-        scene = replace(scene, **{name: value})
-    elif name == "spring_k":
-        scene = replace(scene, spring=Spring(value, scene.spring.center))
-    elif name == "spring_center":
-        scene = replace(scene, spring=Spring(scene.spring.k, value))
-    else:
+    setter = _PARAMETERS.get(name)
+    if setter is None:
         raise ValueError(f"unknown gradient name {name!r}")
-    return scene, x0, v0, fext
+    return setter[1](scene, x0, v0, fext, value)
 
 
 @dataclass
