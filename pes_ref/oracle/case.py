@@ -451,19 +451,24 @@ def run_case(case) -> dict:
     return {k: np.array(v, dtype=np.float64) for k, v in result.items()}
 
 
-def write_result(result: Mapping, path, overwrite: bool = False) -> None:
+def write_result(result: Mapping, path, overwrite: bool = False, compress: bool = False) -> None:
     """Write a result dict to ``path`` (temporary file, then an atomic move).
+
+    Members are stored uncompressed unless ``compress``: deflating float64 trajectories
+    and gradients saves little space (their low bits look random) and costs more time
+    than the paper-sized funnel's whole computation. ``np.load`` reads both.
 
     Raises
     ------
     ResultExistsError
         ``path`` exists and ``overwrite`` is False; nothing is written.
     """
-    write_npz(path, result, overwrite=overwrite)
+    write_npz(path, result, overwrite=overwrite, compress=compress)
 
 
-def run_case_file(case_path, result_path, overwrite: bool = False) -> dict:
-    """Run the case file ``case_path`` and write its result to ``result_path``.
+def run_case_file(case_path, result_path, overwrite: bool = False, compress: bool = False) -> dict:
+    """Run the case file ``case_path`` and write its result to ``result_path``
+    (deflated if ``compress``; see :func:`write_result`).
 
     Nothing is written when the case is refused, when its run fails, or when
     ``result_path`` exists and ``overwrite`` is False.
@@ -480,5 +485,5 @@ def run_case_file(case_path, result_path, overwrite: bool = False) -> dict:
         if not overwrite:
             raise ResultExistsError(result_path)
     result = run_case(load_case(case_path))
-    write_result(result, result_path, overwrite=overwrite)
+    write_result(result, result_path, overwrite=overwrite, compress=compress)
     return result
