@@ -12,8 +12,8 @@ def add_parser(sub) -> None:
         description="The conformance vectors are oracle cases with their reference results and invalid "
                     "cases, listed in manifest.json (pes_ref/conformance/<version>/). --write regenerates "
                     "them; --check regenerates them into a temporary folder and compares them with the "
-                    "shipped ones (cases identical, results within the SPEC's tolerances), printing one "
-                    "line per vector; it exits 1 if any differs.",
+                    "shipped ones (cases identical, results within the tolerances of docs/spec.md section "
+                    "11), printing one line per vector; it exits 1 if any differs.",
         examples=['conformance --check', 'conformance --write /tmp/vectors'])
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("--write", nargs="?", const="", default=None, metavar="DIR",

@@ -60,7 +60,7 @@ class Vector:
     kind : {"valid", "invalid"}
     flags : list of str
         ``kink``: a state sits exactly on a kink (node, seam, clip edge), where the
-        SPEC accepts any one-sided gradient; conformance checkers compare only the
+        contract (docs/spec.md 2.5, 7.3) accepts any one-sided gradient; conformance checkers compare only the
         trajectory and the loss there. Other flags are informational.
     key, error : str
         Invalid vectors: the key at fault and the error type ("ValueError" or "TypeError").
