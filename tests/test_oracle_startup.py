@@ -92,6 +92,18 @@ def test_main_builds_only_the_command_it_runs(monkeypatch):
     assert len(built) == len(cli.COMMANDS)
 
 
+def test_a_program_run_freezes_its_start_up_and_a_call_does_not(monkeypatch, tmp_path, capsys):
+    frozen = []
+    monkeypatch.setattr(cli.gc, "freeze", lambda: frozen.append(True))
+    missing = [str(tmp_path / "missing.npz"), str(tmp_path / "r.npz")]
+    assert cli.main(["oracle", *missing]) == 2
+    assert frozen == []
+    monkeypatch.setattr(sys, "argv", ["pes_ref", "oracle", *missing])
+    assert cli.main() == 2
+    assert frozen == [True]
+    capsys.readouterr()
+
+
 def test_each_command_is_named_after_its_module():
     sub = next(a for a in cli.build_parser()._actions if a.dest == "command")
     assert list(sub.choices) == [cli.command_name(m) for m in cli.COMMANDS]

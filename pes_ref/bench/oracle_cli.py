@@ -3,12 +3,15 @@
 The funnel of :func:`pes_ref.bench.cases.funnel_case` (200 x 200 grid, 64 particles,
 400 steps, every gradient) is written as a case file; then the whole process
 ``python -m pes_ref oracle CASE RESULT`` is timed against its floor: a bare
-``python -c "import numpy"`` plus the in-process computation (:func:`run_case` on the
-loaded case, after a warm-up call). The processes are run in turns (one of each per
+``python -c "import numpy"`` plus the computation (:func:`run_case` on the loaded case),
+timed both as the oracle process does it (the first call in a fresh process) and warm
+(in this process, which has made many calls). The processes are run in turns (one of each per
 round, so a busy machine slows all of them alike) with their bytecode cached, as an
 installed package has it; medians of wall and CPU (user + system) time are reported,
-with the parts in between: importing what the oracle path needs, and writing the
-result stored (the default) or deflated (``--compress``).
+with the parts in between: the oracle's start-up (its imports, its parser, the
+freezing of what they made: :func:`pes_ref.cli.main`), the computation, and writing the
+result stored (the default) or deflated (``--compress``). docs/performance.md has the
+numbers.
 
 Run: ``python -m pes_ref.bench.oracle_cli [--repeats N]``; it prints a table and the
 ratio (whole process) / (bare numpy + computation), whose target is at most 1.3.
@@ -91,7 +94,7 @@ print(time.perf_counter() - t, time.process_time() - c)
 """
 
 #: The rows of the table, in order.
-ROWS = ("bare numpy", "imports of the oracle path", "whole oracle process", "computation, first call",
+ROWS = ("bare numpy", "start-up of the oracle", "whole oracle process", "computation, first call",
         "computation, warm", "write result, stored", "write result, deflated")
 
 
@@ -112,8 +115,8 @@ def measure(folder, repeats: int = 15, python: str = sys.executable) -> dict:
     env = _child_env(folder / "pycache")
     processes = {
         "bare numpy": [python, "-c", "import numpy"],
-        "imports of the oracle path": [python, "-c", "import pes_ref.cli, pes_ref.oracle.case; "
-                                                     "pes_ref.cli.build_parser('oracle')"],
+        "start-up of the oracle": [python, "-c", "import gc, pes_ref.cli, pes_ref.oracle.case; "
+                                                 "pes_ref.cli.build_parser('oracle'); gc.freeze()"],
         "whole oracle process": [python, "-m", "pes_ref", "oracle", str(case_path), str(result_path), "--force"],
     }
     calls = {

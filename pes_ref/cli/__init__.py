@@ -7,6 +7,7 @@ shows them. Exit codes and the one-line error are in :mod:`pes_ref.cli.common`.
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import signal
 import sys
@@ -57,6 +58,15 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt
 
 
+def _freeze_start_up() -> None:
+    """Move every object that start-up made (NumPy, the parser, ...) to the cyclic
+    collector's permanent generation (:func:`gc.freeze`): they live until the process
+    ends, so the collector need not walk them again, during the run or at exit. A
+    program's run only (``main()`` without ``argv``): ~15 ms, over a tenth, of ``python -m
+    pes_ref oracle`` on the paper-sized funnel (:mod:`pes_ref.bench.oracle_cli`)."""
+    gc.freeze()
+
+
 def main(argv=None) -> int:
     """Run the command line; return the exit status (0 ok, 1 check failed, 2 error, 130 interrupted).
 
@@ -71,6 +81,8 @@ def main(argv=None) -> int:
     except SystemExit as exc:   # --help, --version, usage errors
         return exc.code if isinstance(exc.code, int) else EXIT_OK
     previous = signal.signal(signal.SIGTERM, _terminate) if argv is None else None
+    if argv is None:
+        _freeze_start_up()
     try:
         status = args.func(args)
         sys.stdout.flush()
