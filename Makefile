@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all test test-random test-thorough figures validate oscillator-plans bench conformance venv clean
+.PHONY: all test test-random test-thorough figures validate oscillator-plans bench conformance check-example venv clean
 
 all: test
 
@@ -57,5 +57,20 @@ bench: $(BENCH_STAMP)
 conformance: $(STAMP)
 	$(PY) -m pes_ref conformance --write
 
+# The independent JAX implementation of examples/jax_pes/, checked for real: its framework
+# goes into a venv of its own (never a dependency of pes_ref), then `pes_ref check` runs it
+# on the shipped vectors plus 100 fresh random cases (all valid cases in one process).
+EXAMPLE_VENV  := .venv-jax
+EXAMPLE_PY    := $(EXAMPLE_VENV)/bin/python
+EXAMPLE_STAMP := $(EXAMPLE_VENV)/.installed
+$(EXAMPLE_STAMP): examples/jax_pes/requirements.txt
+	$(PYTHON) -m venv $(EXAMPLE_VENV)
+	$(EXAMPLE_PY) -m pip install --quiet --upgrade pip
+	$(EXAMPLE_PY) -m pip install --quiet -r examples/jax_pes/requirements.txt
+	touch $(EXAMPLE_STAMP)
+
+check-example: $(STAMP) $(EXAMPLE_STAMP)
+	$(PY) -m pes_ref check --cmd "$(EXAMPLE_PY) examples/jax_pes/pes_jax.py {pairs}" --random 100 --seed 1
+
 clean:
-	rm -rf $(VENV) .pytest_cache .hypothesis build *.egg-info
+	rm -rf $(VENV) $(EXAMPLE_VENV) .pytest_cache .hypothesis build *.egg-info

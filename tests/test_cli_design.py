@@ -1,16 +1,22 @@
 """``python -m pes_ref design`` and ``evaluate`` at tiny sizes (``--smoke``)."""
+import dataclasses
+
 import numpy as np
 import pytest
 
 from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main
-from pes_ref.cli.design import OSCILLATOR_OBJECTIVE_NAMES
-from pes_ref.synthesis import OSCILLATOR_OBJECTIVES, load_design
+from pes_ref.cli.design import OSCILLATOR_OBJECTIVE_NAMES, SET_NAMES
+from pes_ref.synthesis import OSCILLATOR_OBJECTIVES, PROBLEMS, load_design
 
 
 def run(capsys, *argv):
     code = main(list(map(str, argv)))
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def test_set_names_are_the_problem_fields():
+    assert SET_NAMES == {kind: tuple(f.name for f in dataclasses.fields(cls)) for kind, cls in PROBLEMS.items()}
 
 
 @pytest.fixture

@@ -2,6 +2,7 @@
 
 - :mod:`pes_ref.bench.benchmark`      the benchmark itself and its report
 - :mod:`pes_ref.bench.cases`          the benchmark's scenes
+- :mod:`pes_ref.bench.oracle_cli`     what ``python -m pes_ref oracle`` costs around its computation (funnel)
 - :mod:`pes_ref.bench.spec`           the step written for autodiff frameworks
 - :mod:`pes_ref.bench.with_autograd` / :mod:`pes_ref.bench.with_jax`  the optional comparisons
 """

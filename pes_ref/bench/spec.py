@@ -1,7 +1,7 @@
-"""The SPEC's dynamic run and loss written once over a NumPy-like module, for the benchmark.
+"""The contract's dynamic run and loss written once over a NumPy-like module, for the benchmark.
 
 The benchmark compares pes_ref's hand-derived adjoint with automatic differentiation of
-the same computation, written as directly as the SPEC states it (sections 1-4): a
+the same computation, written as directly as docs/spec.md states it (sections 2-6): a
 bilinear lookup per step, the damped Verlet step of eqs. (2)-(3), springs, walls, the
 realized external force and the objectives of eqs. (5)-(6). :func:`step_fn` and
 :func:`state_loss_fn` take the array module ``xp`` (``autograd.numpy`` or
@@ -32,7 +32,7 @@ def constants(case: DesignCase) -> dict:
 
 
 def _grid_force(xp, values, x, k, plain):
-    """-dE/dx of the bilinear surface (SPEC section 1) at x (N, 2); ``plain`` strips
+    """-dE/dx of the bilinear surface (docs/spec.md section 2) at x (N, 2); ``plain`` strips
     autodiff wrappers for the integer cell indices."""
     idx, frac, inside = [], [], []
     for d in range(2):
@@ -63,7 +63,7 @@ def _grid_force(xp, values, x, k, plain):
 
 
 def _force(xp, values, x, k, plain):
-    """F = -dU/dx: grid, spring (minimum image on a periodic axis) and walls (SPEC section 2)."""
+    """F = -dU/dx: grid, spring (minimum image on a periodic axis) and walls (docs/spec.md section 3)."""
     F = _grid_force(xp, values, x, k, plain)
     if k["spring_k"] is not None:
         cols = []
@@ -81,7 +81,7 @@ def _force(xp, values, x, k, plain):
 def step_fn(xp, case: DesignCase, plain=lambda a: a):
     """``(force, step)``: ``force(values, x) -> F(x)`` and
     ``step(values, x, v, f, fext_next) -> (x1, v1, f1)``, the damped Verlet step of
-    SPEC section 3 (``X1 = X + dt (V + a F)``, ``V1 = (V + a F - c V + a F1) / (1 + c)``)."""
+    docs/spec.md section 5 (``X1 = X + dt (V + a F)``, ``V1 = (V + a F - c V + a F1) / (1 + c)``)."""
     k = constants(case)
     a, c, dt = k["a"], k["c"], k["dt"]
 
@@ -99,7 +99,7 @@ def step_fn(xp, case: DesignCase, plain=lambda a: a):
 
 
 def state_loss_fn(xp, case: DesignCase):
-    """``l(x, v, t)``: one state's term of the objective (SPEC section 4)."""
+    """``l(x, v, t)``: one state's term of the objective (docs/spec.md section 6)."""
     kind = case.objective[0]
     n_particles = case.x0.shape[0]
     if kind == "funnel":

@@ -2,7 +2,7 @@
 
 Optional: JAX is imported only here, and only when :func:`available` says it is
 installed (the ``bench`` extra). Importing this module's :func:`gradient_fn` switches JAX
-to float64 (``jax_enable_x64``), as the SPEC requires. The first call compiles; the
+to float64 (``jax_enable_x64``), as docs/spec.md requires. The first call compiles; the
 benchmark reports that compile time apart from the steady-state time of later calls.
 """
 from __future__ import annotations

@@ -3,19 +3,17 @@ conformance vectors, or regenerates them into a scratch folder and compares them
 shipped ones."""
 from __future__ import annotations
 
-import tempfile
-
 from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, add_command, error
 
 
 def add_parser(sub) -> None:
-    from pes_ref.oracle.conformance.generate import VERSION
+    from pes_ref.oracle.conformance import LATEST as VERSION   # not .generate: json, hashlib at every start-up
     p = add_command(sub, "conformance", help="write or check the shipped conformance vectors",
         description="The conformance vectors are oracle cases with their reference results and invalid "
                     "cases, listed in manifest.json (pes_ref/conformance/<version>/). --write regenerates "
                     "them; --check regenerates them into a temporary folder and compares them with the "
-                    "shipped ones (cases identical, results within the SPEC's tolerances), printing one "
-                    "line per vector; it exits 1 if any differs.",
+                    "shipped ones (cases identical, results within the tolerances of docs/spec.md section "
+                    "11), printing one line per vector; it exits 1 if any differs.",
         examples=['conformance --check', 'conformance --write /tmp/vectors'])
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("--write", nargs="?", const="", default=None, metavar="DIR",
@@ -29,6 +27,8 @@ def add_parser(sub) -> None:
 
 
 def _run_conformance(args) -> int:
+    import tempfile
+
     from pes_ref.oracle.conformance import generate, vectors_dir
     if args.write is not None:
         target = args.write or vectors_dir(args.vectors)

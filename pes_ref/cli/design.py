@@ -23,6 +23,17 @@ SMOKE = {
     "oscillator": ({"grid0": 8, "grid1": 8, "n_steps": 60, "eval_periods": 4}, (6, 4, ((0, 0),))),
 }
 METRIC_NAMES = {"funnel": "in_band", "oscillator": "amp_err"}
+#: The names ``--set`` takes, per kind: the fields of each problem of
+#: :data:`pes_ref.synthesis.PROBLEMS` (tested equal), written out so that building the
+#: parser does not import pes_ref.synthesis (every command, ``oracle`` too, builds it).
+SET_NAMES = {
+    "funnel": ("grid", "width", "height", "start_zone", "exit_zone", "start_depth", "force", "noise", "damping",
+               "dt", "n_steps", "target", "wall_k", "wall_margin", "init_scale", "when", "regularization"),
+    "oscillator": ("grid0", "grid1", "q0_extent", "amplitude", "omega", "spring_k", "mass", "damping0", "damping1",
+                   "torque_min", "torque_max", "kick", "start_noise", "dt", "n_steps", "eval_periods", "wall_k",
+                   "wall_margin", "init_scale", "regularization", "cost", "settle_periods", "target_scale",
+                   "spread_share", "stratified"),
+}
 #: ``--objective`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_OBJECTIVES` (tested equal).
 OSCILLATOR_OBJECTIVE_NAMES = ("overshoot", "eq6")
 
@@ -43,7 +54,7 @@ def add_parser(sub) -> None:
     p.add_argument("--force", action="store_true", help="overwrite an existing --out")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override one scene parameter (e.g. --set n_steps=200); repeatable; the names: "
-                        + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in _set_names().items()))
+                        + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in SET_NAMES.items()))
     p.add_argument("--lr", type=float, default=None, help="initial learning rate (default: the plan's)")
     p.add_argument("--lr-final", type=float, default=None, help="learning rate reached at the last iteration (default: the plan's)")
     p.add_argument("--objective", choices=OSCILLATOR_OBJECTIVE_NAMES, default=None,
@@ -62,12 +73,6 @@ def add_parser(sub) -> None:
     p.add_argument("--progress", type=float, default=2.0, metavar="SECONDS", help="progress line period")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_run_design)
-
-
-def _set_names() -> dict:
-    """The names ``--set`` takes, per kind: the fields of each design problem."""
-    from pes_ref.synthesis import designs
-    return {kind: [f.name for f in dataclasses.fields(cls)] for kind, cls in designs.PROBLEMS.items()}
 
 
 def _parse_sets(items, problem_cls) -> dict:

@@ -25,6 +25,9 @@ def add_parser(sub) -> None:
     p.add_argument("--out-dir", default=None, metavar="DIR",
                    help="write DIR/<case name>.result.npz for each case file given")
     p.add_argument("--force", action="store_true", help="overwrite results that exist (default: refuse)")
+    p.add_argument("--compress", action="store_true",
+                   help="deflate the result's arrays (default: stored; float64 data barely compresses and "
+                        "deflating costs more than the computation of a paper-sized case)")
     p.set_defaults(func=_run_oracle)
 
 
@@ -68,7 +71,7 @@ def _run_oracle(args) -> int:
     for case_path, result_path in pairs:
         try:
             _check_destination(oracle, result_path, args.force)
-            result = oracle.run_case_file(case_path, result_path, overwrite=args.force)
+            result = oracle.run_case_file(case_path, result_path, overwrite=args.force, compress=args.compress)
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
             status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)
             continue

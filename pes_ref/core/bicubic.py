@@ -24,7 +24,7 @@ reproduces every polynomial of degree <= 2 per axis exactly, up to the edges
 (``docs/variants.md``).
 
 Cells, fractions and the in-range switches are those of the bilinear rule
-(:mod:`pes_ref.core.grid`, SPEC section 1): outside a non-periodic axis the surface
+(:mod:`pes_ref.core.grid`, docs/spec.md section 2): outside a non-periodic axis the surface
 is constant along it and its slope along it is 0. The surface is C1 (value and slope
 continuous across cell edges), so the force no longer jumps at cell edges; its Hessian
 still does. Equation numbers refer to section 11 of ``docs/adjoint.md``.

@@ -1,4 +1,4 @@
-"""The bilinear rule of SPEC section 1 (the paper's): energy, slope, force and their adjoints,
+"""The bilinear rule of docs/spec.md section 2 (the paper's): energy, slope, force and their adjoints,
 pointwise and as the hot loop computes them.
 
 On the cell whose lower corner is node (i, j) (located by :mod:`pes_ref.core.grid`), with
@@ -59,7 +59,7 @@ def grid_energy(values: np.ndarray, c: Cells) -> np.ndarray:
     """Bilinear energy at the located points, shape (N,).
 
     E = (1-f0)(1-f1) G[i0,j0] + f0(1-f1) G[i1,j0] + (1-f0) f1 G[i0,j1] + f0 f1 G[i1,j1]
-    (SPEC section 1; the paper's bilinear interpolation).
+    (docs/spec.md section 2.4; the paper's bilinear interpolation).
     """
     g00 = values[c.i0, c.j0]
     g10 = values[c.i1, c.j0]
@@ -73,7 +73,7 @@ def grid_slope(values: np.ndarray, h: np.ndarray, c: Cells, out: np.ndarray | No
 
     dE/dq0 = s0/h0 [(1-f1)(G[i1,j0]-G[i0,j0]) + f1 (G[i1,j1]-G[i0,j1])]
     dE/dq1 = s1/h1 [(1-f0)(G[i0,j1]-G[i0,j0]) + f0 (G[i1,j1]-G[i1,j0])]
-    (SPEC section 1; ``docs/adjoint.md`` eq. (A1)).
+    (docs/spec.md section 2.4; ``docs/adjoint.md`` eq. (A1)).
     """
     g00 = values[c.i0, c.j0]
     g10 = values[c.i1, c.j0]

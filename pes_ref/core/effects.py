@@ -1,4 +1,4 @@
-"""External force effects and the schedule they build (SPEC section 2).
+"""External force effects and the schedule they build (docs/spec.md section 4).
 
 A scene lists the effects that push its particles; :func:`build_schedule` turns that
 list into the realized external force ``F_ext`` of shape (T+1, N, 2), entry ``n``
@@ -123,7 +123,7 @@ def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float
     Returns
     -------
     ndarray, shape (T+1, N, 2), or None when ``effects`` is empty
-        ``F_ext[n]`` acts at ``t_n = t0 + n dt`` (SPEC section 2).
+        ``F_ext[n]`` acts at ``t_n = t0 + n dt`` (docs/spec.md section 4).
     """
     if not effects:
         return None

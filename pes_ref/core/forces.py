@@ -1,6 +1,6 @@
 """The conservative force of a scene's energy terms, and its adjoint.
 
-``F(q) = -dU/dq`` with ``U = U_grid + U_spring + U_wall`` (SPEC section 2). A
+``F(q) = -dU/dq`` with ``U = U_grid + U_spring + U_wall`` (docs/spec.md section 3). A
 :class:`Field` holds plain arrays for exactly the terms a scene has: ``spring`` and
 ``walls`` are ``None`` when the scene lacks them, and then nothing of theirs is ever
 evaluated or built, in :func:`force`, :func:`force_vjp` or the hot loop's kernels.
@@ -33,7 +33,7 @@ class Field(NamedTuple):
     ``spring`` is ``(k, center)`` or None; ``walls`` is ``(k_w, lo, hi)`` or None
     (see :func:`pes_ref.core.terms.wall_bounds`); ``interpolation`` names the grid
     interpolation (a key of :data:`pes_ref.core.interpolations.INTERPOLATIONS`;
-    ``"bilinear"`` is SPEC section 1).
+    ``"bilinear"`` is docs/spec.md section 2).
     """
 
     values: np.ndarray
@@ -73,7 +73,7 @@ def potential_energy(field: Field, x: np.ndarray) -> np.ndarray:
 
 
 def force(field: Field, x: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """Write ``F(x) = -dU/dx`` into ``out`` (N, 2) and return it (eq. (A1), SPEC section 2)."""
+    """Write ``F(x) = -dU/dx`` into ``out`` (N, 2) and return it (eq. (A1), docs/spec.md section 3)."""
     interpolation(field.interpolation).point_force(field.values, field.lower, field.h, field.periodic, x, out)
     _terms_add_force(field, x, out)
     return out

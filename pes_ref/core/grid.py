@@ -1,6 +1,6 @@
 """The grid lookup: which cell a point is in, where inside it, and whether it is in range.
 
-SPEC section 1, 'Cell and fraction'. A grid of shape (n0, n1) spans ``lower`` to
+docs/spec.md section 2.3, 'Lookup: cell, fraction, switch'. A grid of shape (n0, n1) spans ``lower`` to
 ``upper`` on a plane, a cylinder (one axis periodic) or a torus (both periodic); axis 0
 is coordinate q0, axis 1 is q1. The node spacing ``h_d`` is ``L_d / n_d`` on a periodic
 axis (node ``n_d`` is node 0 again) and ``L_d / (n_d - 1)`` on a non-periodic one (the last
@@ -39,7 +39,7 @@ _MINUS_INF = np.array(-np.inf)
 
 
 class Cells(NamedTuple):
-    """Where N points fall on the grid, per axis (SPEC section 1).
+    """Where N points fall on the grid, per axis (docs/spec.md section 2.3).
 
     ``i0, i1`` are the node indices along axis 0 (``j0, j1`` along axis 1), ``f0, f1``
     the fractions inside the cell, ``s0, s1`` the in-range switches (1.0 inside a
@@ -90,7 +90,7 @@ def _per_axis(c: np.ndarray, lead: tuple):
 
 
 class Locator:
-    """The lookup of SPEC section 1 for both axes at once, into flat cell indices, with
+    """The lookup of docs/spec.md section 2.3 for both axes at once, into flat cell indices, with
     reusable buffers.
 
     Written as a few whole-array operations on (..., 2) arrays: ``u = (q - lower) / h``;

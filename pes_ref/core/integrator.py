@@ -1,4 +1,4 @@
-"""Time stepping (SPEC section 3) and its hand-derived adjoint, side by side.
+"""Time stepping (docs/spec.md section 5) and its hand-derived adjoint, side by side.
 
 Each forward step is a list of named sub-steps; its adjoint, directly below it, is
 the same list reversed with mirrored names. Equation numbers refer to
@@ -107,7 +107,7 @@ def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: i
 @reports_nonfinite
 def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
                      mass: np.ndarray, damping) -> Trajectory:
-    """Damped velocity Verlet of the paper's eqs. (2)-(3) (SPEC section 3).
+    """Damped velocity Verlet of the paper's eqs. (2)-(3) (docs/spec.md section 5.1).
 
     Parameters
     ----------
@@ -278,7 +278,7 @@ def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass
 
 @reports_nonfinite
 def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarray, n_steps: int) -> Trajectory:
-    """Quasistatic (overdamped) stepping ``X_{n+1} = X_n + mu F_n`` (SPEC section 3).
+    """Quasistatic (overdamped) stepping ``X_{n+1} = X_n + mu F_n`` (docs/spec.md section 5.3).
 
     ``mobility`` has shape (2,). V is all zeros. ``f[T]`` is the force at the final
     state (it moves nothing; it is kept so the trajectory has T+1 forces in both modes).

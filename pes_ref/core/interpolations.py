@@ -1,7 +1,7 @@
 """The registry of grid interpolations: the one place that maps a surface's
 ``interpolation`` name to the code that evaluates it.
 
-``"bilinear"`` is SPEC section 1, the paper's rule (:mod:`pes_ref.core.bilinear`);
+``"bilinear"`` is docs/spec.md section 2, the paper's rule (:mod:`pes_ref.core.bilinear`);
 ``"bicubic"`` the C1 Catmull-Rom option (:mod:`pes_ref.core.bicubic`,
 ``docs/variants.md``). :class:`~pes_ref.core.surface.Surface` validates its
 ``interpolation`` against :data:`INTERPOLATIONS`, and

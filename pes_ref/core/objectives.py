@@ -1,4 +1,4 @@
-"""Trajectory objectives (SPEC section 4) with their derivatives with respect to each state.
+"""Trajectory objectives (docs/spec.md section 6) with their derivatives with respect to each state.
 
 ``L = sum_{n=0}^{T} l_n(X_n, V_n) + R sum_ij G_ij^2``. Every objective is a small
 frozen object with one method::
@@ -124,7 +124,7 @@ class OscillatorCycle:
 
 @dataclass(frozen=True)
 class Quadratic:
-    """A quadratic tracking cost for conformance tests (SPEC section 4).
+    """A quadratic tracking cost for conformance tests (docs/spec.md section 6.3).
 
     ``l_n = 1/2 sum_{i,d} [wx (X - xref)^2 + wv (V - vref)^2]``; ``wx, wv, xref, vref``
     broadcastable to (T+1, N, 2). Derivatives ``wx (X - xref)``, ``wv (V - vref)`` (eq. (O3)).

@@ -1,4 +1,4 @@
-"""The whole method once, readably: the time stepping of SPEC sections 1-3 and its
+"""The whole method once, readably: the time stepping of docs/spec.md sections 2-5 and its
 hand-derived adjoint, as plain NumPy functions of arrays (issue 12).
 
 The fast path (:mod:`pes_ref.core.integrator`, :mod:`~pes_ref.core.gjf`,
@@ -11,7 +11,7 @@ product) directly beside it, in the manner of jax-md's ``momentum_step`` /
 numbers refer to ``docs/adjoint.md``; a transpose ``foo_T`` takes the cotangent of
 ``foo``'s output and returns the cotangents of its inputs (``xbar`` = dL/dx).
 
-Reading order: the grid lookup (SPEC section 1), the bilinear surface (A1)-(A3), the
+Reading order: the grid lookup (docs/spec.md section 2), the bilinear surface (A1)-(A3), the
 bicubic option (C1)-(C4), (CB2)-(CB3), springs (A4) and walls (A5), the total force
 (A6), the damped velocity Verlet step (S1)-(S4) / (B1)-(B4), the Gronbech-Jensen-Farago
 option (G1)-(G4) / (GB1)-(GB4), the quasistatic step (Q1)-(Q2) / (QB1)-(QB2), the
@@ -49,7 +49,7 @@ __all__ = ["Terms", "Cell", "Run", "terms_of", "lookup", "potential_energy", "fo
 
 
 class Terms(NamedTuple):
-    """The energy terms of a scene as plain arrays (SPEC sections 1-2).
+    """The energy terms of a scene as plain arrays (docs/spec.md sections 2-3).
 
     ``values`` (n0, n1); ``lower``, ``h``, ``length`` (2,); ``periodic`` (2,) bool;
     ``interpolation`` "bilinear" or "bicubic"; ``spring`` ``(k, center)`` or None;
@@ -69,7 +69,7 @@ class Terms(NamedTuple):
 
 def terms_of(scene) -> Terms:
     """Read a Scene's energy terms: spacing ``h_d = L_d / n_d`` on a periodic axis, else
-    ``L_d / (n_d - 1)``; walls a margin inside their enabled edges (SPEC sections 1-2)."""
+    ``L_d / (n_d - 1)``; walls a margin inside their enabled edges (docs/spec.md sections 2-3)."""
     s = scene.surface
     periodic = np.array(s.periodic)
     n = np.array(s.values.shape, dtype=np.float64)
@@ -91,7 +91,7 @@ Cell = Cells
 
 
 def lookup(terms: Terms, q: np.ndarray) -> Cell:
-    """Cell, fraction, wrap and clip of points q (..., 2) (SPEC section 1).
+    """Cell, fraction, wrap and clip of points q (..., 2) (docs/spec.md section 2.3).
 
     ``u = (q_d - lower_d) / h_d``. Periodic axis: ``k = floor(u)``, ``f = u - k``, corners
     ``k mod n`` and ``(k + 1) mod n``, ``s = 1``. Non-periodic axis: ``uc = clip(u, 0,
@@ -124,7 +124,7 @@ def _corners(G: np.ndarray, c: Cell):
 
 
 def bilinear_energy(terms: Terms, c: Cell) -> np.ndarray:
-    """E = (1-f0)(1-f1) G00 + f0(1-f1) G10 + (1-f0) f1 G01 + f0 f1 G11, shape (...) (SPEC 1)."""
+    """E = (1-f0)(1-f1) G00 + f0(1-f1) G10 + (1-f0) f1 G01 + f0 f1 G11, shape (...) (docs/spec.md 2.4)."""
     g00, g10, g01, g11 = _corners(terms.values, c)
     f0, f1 = c.f0, c.f1
     return (1 - f0) * (1 - f1) * g00 + f0 * (1 - f1) * g10 + (1 - f0) * f1 * g01 + f0 * f1 * g11
@@ -306,7 +306,7 @@ def wall_force_T(terms: Terms, q, w, xbar) -> None:
 # =========================================================================== 5. the total force
 
 def potential_energy(terms: Terms, q: np.ndarray) -> np.ndarray:
-    """``U = U_grid + U_spring + U_wall`` at points q (..., 2), shape (...) (SPEC section 2)."""
+    """``U = U_grid + U_spring + U_wall`` at points q (..., 2), shape (...) (docs/spec.md section 3)."""
     c = lookup(terms, q)
     u = GRID[terms.interpolation][0](terms, c)
     if terms.spring is not None:
@@ -430,7 +430,7 @@ def coefficients(dt, mass, damping, n):
 
 
 def forward_verlet(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
-    """SPEC section 3, dynamic: (S1)-(S4) for n = 0 .. T-1 after ``F_0 = F(X_0) + F_ext[0]``."""
+    """docs/spec.md section 5.2, dynamic: (S1)-(S4) for n = 0 .. T-1 after ``F_0 = F(X_0) + F_ext[0]``."""
     a, c, d, _ = coefficients(dt, mass, damping, x0.shape[0])
     x, v, f = [x0], [v0], [force(terms, x0, fext[0])]
     for n in range(fext.shape[0] - 1):
@@ -454,7 +454,7 @@ def forward_gjf(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
 
 
 def forward_quasistatic(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
-    """SPEC section 3, quasistatic: (Q1)-(Q2) for n = 0 .. T-1, then ``F_T`` (it moves nothing)."""
+    """docs/spec.md section 5.3, quasistatic: (Q1)-(Q2) for n = 0 .. T-1, then ``F_T`` (it moves nothing)."""
     x, f = [x0], []
     for n in range(fext.shape[0] - 1):
         f.append(force(terms, x[n], fext[n]))             # (Q1)

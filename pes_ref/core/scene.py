@@ -34,7 +34,7 @@ from pes_ref.core.terms import Spring, Walls, wall_bounds
 
 __all__ = ["Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES", "gradient_names"]
 
-#: Every differentiable input of SPEC section 5, in a fixed order.
+#: Every differentiable input of docs/spec.md section 7, in a fixed order.
 GRADIENT_NAMES = ("values", "x0", "v0", "force", "mass", "damping", "spring_k", "spring_center", "mobility")
 
 #: The gradients every scene has, and those a spring adds (a mode's own: its steppers'
@@ -44,7 +44,7 @@ _SPRING_GRADIENTS = ("spring_k", "spring_center")
 
 
 def gradient_names(mode: str, has_spring: bool) -> tuple:
-    """The gradients of SPEC section 5 that a scene of ``mode`` has, in
+    """The gradients of docs/spec.md section 7 that a scene of ``mode`` has, in
     :data:`GRADIENT_NAMES` order: ``values``, ``x0`` and ``force`` always; ``v0``,
     ``mass``, ``damping`` in dynamic mode; ``mobility`` in quasistatic mode; ``spring_k``,
     ``spring_center`` with a spring.
@@ -58,7 +58,7 @@ def gradient_names(mode: str, has_spring: bool) -> tuple:
 
 @dataclass(frozen=True)
 class Scene:
-    """A surface plus the effects that act on its particles (SPEC sections 2-3).
+    """A surface plus the effects that act on its particles (docs/spec.md sections 3-5).
 
     Parameters
     ----------
@@ -210,7 +210,7 @@ def _check_state(scene: Scene, x0, v0):
 
 
 def simulate(scene: Scene, x0, v0=None, *, fext="scene") -> Trajectory:
-    """Run a scene forward (SPEC section 3).
+    """Run a scene forward (docs/spec.md section 5).
 
     Parameters
     ----------
@@ -264,7 +264,7 @@ def _forward(scene: Scene, x0, v0, fext) -> Trajectory:
 
 
 def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
-    """Total energy per state and particle, shape (T+1, N) (SPEC section 6).
+    """Total energy per state and particle, shape (T+1, N) (docs/spec.md section 3.4).
 
     Kinetic ``sum_d m_d v_d^2 / 2`` plus ``U = U_grid + U_spring + U_wall``.
     """
@@ -282,7 +282,7 @@ def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
 
 def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: float = 0.0,
                    wrt=None, fext="scene"):
-    """The loss of a run and its exact gradients by the hand-derived adjoint (SPEC sections 4-5).
+    """The loss of a run and its exact gradients by the hand-derived adjoint (docs/spec.md sections 6-7).
 
     Parameters
     ----------

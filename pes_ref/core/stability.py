@@ -1,6 +1,6 @@
 """The explicit stability limit of a scene: how large a step its stiffest term allows.
 
-Both steps of SPEC section 3 are explicit, so each has a largest stable step set by the
+Both steps of docs/spec.md section 5 are explicit, so each has a largest stable step set by the
 stiffest force in the scene. Linearized about a state, every term acts like a spring of
 stiffness ``K`` (a force change per unit displacement):
 

@@ -2,7 +2,7 @@
 to the forward loop and its adjoint.
 
 - ``("dynamic", "verlet")``: the paper's damped velocity Verlet, eqs. (2)-(3)
-  (:func:`pes_ref.core.integrator.simulate_dynamic`, SPEC section 3);
+  (:func:`pes_ref.core.integrator.simulate_dynamic`, docs/spec.md section 5);
 - ``("dynamic", "gjf")``: the second-order damped Gronbech-Jensen-Farago step
   (:mod:`pes_ref.core.gjf`, ``docs/variants.md``);
 - ``("quasistatic", "verlet")``: the overdamped step ``X_{n+1} = X_n + mu F_n``
@@ -54,7 +54,7 @@ class Stepper(NamedTuple):
         the wanted gradient names; returns the raw gradients (see
         :func:`pes_ref.core.integrator.adjoint_dynamic`).
     gradients : tuple of str
-        The differentiable inputs of SPEC section 5 that the step itself adds to those
+        The differentiable inputs of docs/spec.md section 7 that the step itself adds to those
         of every scene (``values``, ``x0``, ``force``, and a spring's): ``v0``, ``mass``,
         ``damping`` in dynamic mode, ``mobility`` in quasistatic mode (where v0, mass and
         damping play no part).
@@ -98,7 +98,7 @@ STEPPERS = {
     ("quasistatic", "verlet"): Stepper(_simulate_quasistatic, _adjoint_quasistatic, ("mobility",)),
 }
 
-#: The modes of SPEC section 3, in registry order.
+#: The modes of docs/spec.md section 5, in registry order.
 MODES = tuple(dict.fromkeys(mode for mode, _ in STEPPERS))
 #: The integrator names, in registry order ("verlet" is the default and the paper's).
 INTEGRATORS = tuple(dict.fromkeys(integrator for _, integrator in STEPPERS))

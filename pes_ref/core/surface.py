@@ -1,11 +1,11 @@
 """The grid potential energy surface: the validated, frozen wrapper the public API hands around.
 
-SPEC section 1; paper section "Simulating potential energy surfaces". A surface is a
+docs/spec.md section 2; paper section "Simulating potential energy surfaces". A surface is a
 grid of energy values ``G`` of shape (n0, n1) on a plane, a cylinder (one axis
 periodic) or a torus (both periodic). Axis 0 of ``G`` is coordinate q0, axis 1 is q1.
 The lookup (spacing, cells and fractions, wrapping) is :mod:`pes_ref.core.grid`; the
 energy and slope between the nodes are the surface's interpolation, dispatched through
-:mod:`pes_ref.core.interpolations` (the bilinear rule of SPEC section 1 by default).
+:mod:`pes_ref.core.interpolations` (the bilinear rule of docs/spec.md section 2 by default).
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ __all__ = ["Surface"]
 
 @dataclass(frozen=True)
 class Surface:
-    """A validated grid potential energy surface (SPEC section 1).
+    """A validated grid potential energy surface (docs/spec.md section 2).
 
     Parameters
     ----------
@@ -34,7 +34,7 @@ class Surface:
         (False, False) plane, one True a cylinder, (True, True) a torus.
     interpolation : {"bilinear", "bicubic"}
         A name in :data:`pes_ref.core.interpolations.INTERPOLATIONS`: "bilinear"
-        (default) is SPEC section 1, the paper's rule; "bicubic" the C1 Catmull-Rom
+        (default) is docs/spec.md section 2, the paper's rule; "bicubic" the C1 Catmull-Rom
         option of :mod:`pes_ref.core.bicubic` (``docs/variants.md``).
     """
 

@@ -1,4 +1,4 @@
-"""Energy terms beside the grid: springs and walls (SPEC section 2).
+"""Energy terms beside the grid: springs and walls (docs/spec.md section 3).
 
 Each term is a small set of pure functions over plain arrays (energy, force added into
 a buffer, and the adjoint of that force), plus a frozen, validated config
@@ -30,7 +30,7 @@ def spring_delta(q: np.ndarray, center: np.ndarray, length: np.ndarray, periodic
     """Spring extension delta, shape (N, 2).
 
     ``delta_d = q_d - c_d`` on a non-periodic axis, the minimum image
-    ``((q_d - c_d + L_d/2) mod L_d) - L_d/2`` on a periodic one (SPEC section 2).
+    ``((q_d - c_d + L_d/2) mod L_d) - L_d/2`` on a periodic one (docs/spec.md section 3.1).
     """
     delta = q - center
     for d in range(2):
@@ -47,7 +47,7 @@ def spring_energy(q, k, center, length, periodic) -> np.ndarray:
 
 
 def spring_add_force(q, k, center, length, periodic, out) -> None:
-    """out += -k * delta (the spring's force, SPEC section 2)."""
+    """out += -k * delta (the spring's force, docs/spec.md section 3.1)."""
     out -= k * spring_delta(q, center, length, periodic)
 
 
@@ -65,7 +65,7 @@ def spring_force_vjp(q, k, center, length, periodic, w, xbar, want_k: bool, want
 
 @dataclass(frozen=True)
 class Spring:
-    """A linear spring per axis: U = sum_d k_d/2 delta_d^2 (SPEC section 2).
+    """A linear spring per axis: U = sum_d k_d/2 delta_d^2 (docs/spec.md section 3.1).
 
     Parameters
     ----------
@@ -284,7 +284,7 @@ class SpringAdjoint:
 
 @dataclass(frozen=True)
 class Walls:
-    """Harmonic walls a margin inside the enabled edges of non-periodic axes (SPEC section 2).
+    """Harmonic walls a margin inside the enabled edges of non-periodic axes (docs/spec.md section 3.2).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""The oracle: the case/result ``.npz`` interchange format of SPEC section 6.
+"""The oracle: the case/result ``.npz`` interchange format of docs/spec.md sections 8-9.
 
 A *case* is one ``.npz`` file naming a scene, its initial state, an objective and a
 regularization weight; the oracle runs it with the reference engine and writes a
@@ -7,7 +7,7 @@ per differentiable input the case uses. Any implementation, in any language, can
 and write both, so a case is the unit of cross-implementation testing (the shipped
 conformance vectors of :mod:`pes_ref.oracle.conformance` are cases plus their results).
 
-The format decisions that the SPEC leaves open are written down in ``docs/oracle.md``.
+The format is ``docs/spec.md`` sections 8-9 (``docs/oracle.md`` keeps the history of its decisions).
 This module holds the format (which keys, which kinds of data), the validation of a
 case and running it; the ``.npz`` files are read and written by
 :mod:`pes_ref.oracle.npz`, and its errors are those of :mod:`pes_ref.oracle.errors`.
@@ -50,7 +50,7 @@ __all__ = [
     "read_npz", "write_npz", "result_keys", "grad_names_for",
 ]
 
-#: Keys every case must hold (SPEC section 6: the keys without brackets). ``v0``, ``mass``
+#: Keys every case must hold (docs/spec.md section 8.2: those marked required). ``v0``, ``mass``
 #: and ``damping`` are required in quasistatic mode too, although they play no part there.
 REQUIRED_KEYS = ("values", "lower", "upper", "periodic", "dt", "n_steps", "mode",
                  "mass", "damping", "x0", "v0", "objective")
@@ -70,7 +70,7 @@ OBJECTIVE_PARAMS = {
 #: Keys that come all together or not at all.
 KEY_GROUPS = (("spring_k", "spring_center"), ("wall_k", "wall_margin", "walls"))
 
-#: Every key a case may hold, in the SPEC's order.
+#: Every key a case may hold (docs/spec.md section 8.2): required, optional, objective parameters.
 CASE_KEYS = REQUIRED_KEYS + OPTIONAL_KEYS + tuple(p for ps in OBJECTIVE_PARAMS.values() for p in ps)
 
 #: The names the core's errors carry (:attr:`pes_ref.core.checks.InputError.key`) that
@@ -359,7 +359,7 @@ def result_keys(grad_names) -> tuple:
 
 
 def validate_case(raw: Mapping) -> ValidCase:
-    """Check a case against SPEC section 6 and build what the engine runs.
+    """Check a case against docs/spec.md section 8 and build what the engine runs.
 
     The oracle checks what is particular to the file format: which keys a case holds,
     the kind of data in each (numbers of integer or float dtype, 0-d scalars, integer
@@ -426,7 +426,7 @@ def run_case(case) -> dict:
     Raises
     ------
     CaseError
-        The case breaks the SPEC, or its run leaves the finite numbers (blamed on
+        The case breaks docs/spec.md section 8, or its run leaves the finite numbers (blamed on
         ``dt`` in dynamic mode, ``mobility`` in quasistatic mode).
     """
     if isinstance(case, (str, os.PathLike)):
@@ -451,19 +451,24 @@ def run_case(case) -> dict:
     return {k: np.array(v, dtype=np.float64) for k, v in result.items()}
 
 
-def write_result(result: Mapping, path, overwrite: bool = False) -> None:
+def write_result(result: Mapping, path, overwrite: bool = False, compress: bool = False) -> None:
     """Write a result dict to ``path`` (temporary file, then an atomic move).
+
+    Members are stored uncompressed unless ``compress``: deflating float64 trajectories
+    and gradients saves little space (their low bits look random) and costs more time
+    than the paper-sized funnel's whole computation. ``np.load`` reads both.
 
     Raises
     ------
     ResultExistsError
         ``path`` exists and ``overwrite`` is False; nothing is written.
     """
-    write_npz(path, result, overwrite=overwrite)
+    write_npz(path, result, overwrite=overwrite, compress=compress)
 
 
-def run_case_file(case_path, result_path, overwrite: bool = False) -> dict:
-    """Run the case file ``case_path`` and write its result to ``result_path``.
+def run_case_file(case_path, result_path, overwrite: bool = False, compress: bool = False) -> dict:
+    """Run the case file ``case_path`` and write its result to ``result_path``
+    (deflated if ``compress``; see :func:`write_result`).
 
     Nothing is written when the case is refused, when its run fails, or when
     ``result_path`` exists and ``overwrite`` is False.
@@ -480,5 +485,5 @@ def run_case_file(case_path, result_path, overwrite: bool = False) -> dict:
         if not overwrite:
             raise ResultExistsError(result_path)
     result = run_case(load_case(case_path))
-    write_result(result, result_path, overwrite=overwrite)
+    write_result(result, result_path, overwrite=overwrite, compress=compress)
     return result

@@ -14,7 +14,7 @@ __all__ = ["CaseError", "CaseTypeError", "ResultExistsError"]
 
 
 class CaseError(InputError):
-    """A case that breaks SPEC section 6.
+    """A case that breaks docs/spec.md section 8.
 
     Parameters
     ----------

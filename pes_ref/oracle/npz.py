@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import errno
 import os
-import secrets
 import zipfile
 from collections.abc import Mapping
 from contextlib import contextmanager
@@ -164,7 +163,7 @@ def atomic_file(path, *, overwrite: bool = False, what: str = "result"):
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise FileNotFoundError(errno.ENOENT, "the folder to write into does not exist", folder)
-    tmp = os.path.join(folder, f".{os.path.basename(path)}.{secrets.token_hex(6)}.tmp")
+    tmp = os.path.join(folder, f".{os.path.basename(path)}.{os.urandom(6).hex()}.tmp")   # not secrets: ~4 ms to import
     try:
         with open(tmp, "xb") as fh:
             yield fh

@@ -1,14 +1,14 @@
-"""Tolerances of the numerical contract (SPEC preamble and section 5), as named constants.
+"""Tolerances of the numerical contract (docs/spec.md section 11), as named constants.
 
 Other implementations compare against the reference with these; the project's own
 tests use them too, so that a tolerance is never loosened in one place only.
 """
 
-#: Trajectories (x, v, energy, loss) of a conforming implementation, relative (SPEC preamble).
+#: Trajectories (x, v, energy, loss) of a conforming implementation, relative (docs/spec.md section 11).
 TRAJ_RTOL = 1e-12
 #: ... and the absolute floor under which entries count as zero.
 TRAJ_ATOL = 1e-12
-#: Gradients of a conforming implementation, relative (SPEC preamble).
+#: Gradients of a conforming implementation, relative (docs/spec.md section 11).
 GRAD_RTOL = 1e-9
 #: ... and the absolute floor, scaled by the largest entry of the gradient compared.
 GRAD_ATOL = 1e-9

@@ -1,7 +1,7 @@
 """Check another implementation against the shipped conformance vectors.
 
 The vectors (:mod:`pes_ref.oracle.conformance`) are oracle cases with their reference results
-(SPEC section 6). An implementation plugs in one function per check:
+(docs/spec.md sections 8-9). An implementation plugs in one function per check:
 
 - :func:`check_simulate`: ``simulate_fn(case) -> {"x", "v", "energy"}``
 - :func:`check_gradients`: ``grad_fn(case) -> {"loss", "grad_<name>", ...}``
@@ -26,7 +26,7 @@ The comparison is :mod:`pes_ref.oracle.compare` (re-exported here: :func:`compar
 ``GRAD_ATOL * max|want|`` (the largest entry of that gradient, or 1 for an all-zero one).
 The single number reported per array is ``max |got - want| / (atol/rtol + |want|)``, a
 relative error with a floor; the array passes when it is ``<= rtol``. On vectors
-flagged ``kink`` (a state exactly on a node, seam or clip edge, where the SPEC accepts
+flagged ``kink`` (a state exactly on a node, seam or clip edge, where docs/spec.md 2.5 accepts
 any one-sided gradient) only the trajectory and the loss are binding.
 """
 from __future__ import annotations
@@ -44,7 +44,7 @@ __all__ = ["VectorReport", "load_manifest", "iter_vectors", "compare_results", "
            "passes", "check_simulate", "check_gradients", "check_invalid", "TRAJECTORY_KEYS"]
 
 _SIMULATE_KEYS = ("x", "v", "energy")
-#: Gradients that a quasistatic implementation may omit (SPEC section 5); if given, they must be zero.
+#: Gradients that a quasistatic implementation may omit (docs/spec.md section 7); if given, they must be zero.
 _QUASISTATIC_ZERO = ("grad_v0", "grad_mass", "grad_damping")
 
 
@@ -216,7 +216,7 @@ def check_gradients(grad_fn, version: str = LATEST, *, directory=None, strict_ki
         keys are ignored.
     strict_kinks : bool
         Also compare gradients on vectors flagged ``kink`` (the reference's one-sided
-        choice); off by default, since the SPEC accepts any one-sided value there.
+        choice); off by default, since docs/spec.md (7.3) accepts any one-sided value there.
 
     Returns
     -------
@@ -264,7 +264,7 @@ def check_invalid(load_fn, version: str = LATEST, *, directory=None, require_key
         ``lambda p: my_load(dict(np.load(p)))``). It must raise ``ValueError`` or
         ``TypeError`` on an invalid case.
     require_key : bool
-        The one-line message must name the key at fault (SPEC section 6).
+        The one-line message must name the key at fault (docs/spec.md section 8.7).
     strict_types : bool
         Also require the manifest's error type (``TypeError`` for data of the wrong
         kind, ``ValueError`` otherwise).

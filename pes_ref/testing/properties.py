@@ -195,7 +195,7 @@ def grid_slope_bound(surface) -> np.ndarray:
 def energy_error_budget(scene: Scene, traj, *, smooth_c: float = 0.3) -> float:
     """A leading-order bound of ``max_n |E_n - E_0|`` for a run without external force.
 
-    Velocity Verlet's energy error has two parts (SPEC section 3):
+    Velocity Verlet's energy error has two parts (docs/spec.md section 5):
 
     - where the force jumps (a cell edge or clip edge of the grid, the seam of a
       periodic spring), the step that crosses adds
@@ -479,7 +479,7 @@ def check_periodic_shift(simulate_fn, scene: Scene, x0, v0, *, particle: int = 0
 
     The lookup wraps, so the shifted particle feels the same force and the run has the
     same velocities and energies; its unwrapped positions differ by exactly
-    ``periods * L`` (the state is never wrapped, SPEC section 1).
+    ``periods * L`` (the state is never wrapped, docs/spec.md section 2.1).
 
     Returns
     -------
@@ -535,7 +535,7 @@ def check_grid_roll(simulate_fn, scene: Scene, x0, v0, *, axis: int = 0, k: int 
 # =========================================================================== gradients
 
 def gradient_names(scene: Scene) -> tuple:
-    """The gradients of SPEC section 5 that a scene has, in :data:`pes_ref.GRADIENT_NAMES` order
+    """The gradients of docs/spec.md section 7 that a scene has, in :data:`pes_ref.GRADIENT_NAMES` order
     (:func:`pes_ref.oracle.case.grad_names_for` of its mode and spring)."""
     return grad_names_for(scene.mode, scene.spring is not None)
 
@@ -640,7 +640,7 @@ class GradientCheck:
 _EPS_MACH = float(np.finfo(np.float64).eps)
 
 #: Lower bounds of the parameters that have one: a central difference there would
-#: step outside; one-sided differences are used instead (SPEC: m > 0, gamma >= 0, k >= 0, mu > 0).
+#: step outside; one-sided differences are used instead (docs/spec.md section 8: m > 0, gamma >= 0, k >= 0, mu > 0).
 _LOWER_BOUND = {"mass": 0.0, "damping": 0.0, "spring_k": 0.0, "mobility": 0.0}
 
 #: Inputs with a natural positive scale: their difference step is ``eps * max |p|``.
@@ -699,7 +699,7 @@ def _beyond(diff, noise, scale):
 def check_gradient_fd(value_and_grad_fn, scene: Scene, x0, v0, objective, names=None, *,
                       regularization_weight: float = 0.0, kink_margin: float = 0.0, full: bool = False,
                       seed: int = 0, eps: float = FD_EPS, simulate_fn=None) -> GradientCheck:
-    """Check gradients of SPEC section 5 against central finite differences of the loss.
+    """Check gradients of docs/spec.md section 7 against central finite differences of the loss.
 
     Parameters
     ----------

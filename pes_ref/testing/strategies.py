@@ -127,7 +127,7 @@ def states(draw, surface, n_particles: int, *, margin: float = 0.1, max_speed: f
         Velocities uniform in ``[-max_speed, max_speed]``.
     max_periods : int
         On a periodic axis each particle is moved by a whole number of periods in
-        ``[-max_periods, max_periods]``: states hold unwrapped coordinates (SPEC 1).
+        ``[-max_periods, max_periods]``: states hold unwrapped coordinates (docs/spec.md 2.1).
 
     Returns
     -------
@@ -380,7 +380,7 @@ def scene_cases(draw, *, min_particles: int = 1, max_particles: int = 3, max_spe
 def objectives(draw, scene: Scene, n_particles: int, *, kinds=("funnel_final", "funnel_every_step",
                                                                 "oscillator", "quadratic"),
                regularization=None):
-    """An objective of SPEC section 4 and a regularization weight: ``(objective, R)``.
+    """An objective of docs/spec.md section 6 and a regularization weight: ``(objective, R)``.
 
     Parameters
     ----------

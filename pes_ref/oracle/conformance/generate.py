@@ -60,7 +60,7 @@ class Vector:
     kind : {"valid", "invalid"}
     flags : list of str
         ``kink``: a state sits exactly on a kink (node, seam, clip edge), where the
-        SPEC accepts any one-sided gradient; conformance checkers compare only the
+        contract (docs/spec.md 2.5, 7.3) accepts any one-sided gradient; conformance checkers compare only the
         trajectory and the loss there. Other flags are informational.
     key, error : str
         Invalid vectors: the key at fault and the error type ("ValueError" or "TypeError").
@@ -549,10 +549,10 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
         entry = _entry(tc_id, vec)
         if vec.kind == "invalid":
             _expected_refusal(vec)
-        oracle.save_case(directory / entry["case"], **vec.case)
+        oracle.save_case(directory / entry["case"], compress=True, **vec.case)   # shipped deflated, as in v1
         if vec.kind == "valid":
             result = oracle.run_case(oracle.load_case(directory / entry["case"]))
-            oracle.write_result(result, directory / entry["result"], overwrite=True)
+            oracle.write_result(result, directory / entry["result"], overwrite=True, compress=True)
         entries.append(entry)
         if not quiet:
             print(f"wrote {vec.kind:7s} {vec.id}")
