@@ -9,13 +9,13 @@ from __future__ import annotations
 import argparse
 
 from pes_ref import __version__
-from pes_ref.cli import analyze, bench, conformance, design, evaluate, oracle
+from pes_ref.cli import analyze, bench, conformance, design, evaluate, oracle, sweep
 from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_OK
 
 __all__ = ["main", "build_parser", "COMMANDS", "EXIT_OK", "EXIT_FAIL", "EXIT_ERROR"]
 
 #: The commands, in the order of ``--help``.
-COMMANDS = (oracle, conformance, analyze, design, evaluate, bench)
+COMMANDS = (oracle, conformance, analyze, design, evaluate, sweep, bench)
 
 
 def build_parser() -> argparse.ArgumentParser:
