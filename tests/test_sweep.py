@@ -231,6 +231,7 @@ def test_without_dask_the_command_says_how_to_install_it(tmp_path, capsys, monke
 
 @pytest.mark.parametrize("argv, message", [
     (["{spec}", "--workers", "0"], "--workers must be >= 1"),
+    (["{spec}", "--progress", "0"], "--progress must be > 0"),
     (["{spec}", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "has its own workers"),
     (["{tmp}/nothing.toml"], "nothing.toml: cannot read"),
 ])

@@ -49,6 +49,8 @@ def _run_sweep(args) -> int:
     try:
         sweep = load_sweep(args.file)
         require_dask()
+        if not args.progress > 0:
+            raise ValueError(f"--progress must be > 0 seconds, got {args.progress}")
         if args.workers is not None and args.workers < 1:
             raise ValueError(f"--workers must be >= 1, got {args.workers}")
         if args.workers is not None and args.scheduler is not None:

@@ -114,7 +114,8 @@ class _Sweeper:
         self._write()
         interrupted = False
         try:
-            self.queue.extend((run, None) for run in self.sweep.runs if run.id not in self.skipped)
+            skipped = set(self.skipped)
+            self.queue.extend((run, None) for run in self.sweep.runs if run.id not in skipped)
             self._fill()
             self._collect()
         except KeyboardInterrupt:
