@@ -40,9 +40,13 @@ figures: $(STAMP)
 validate: $(STAMP)
 	$(PY) validation/run_all.py
 
-# The oscillator training plans of docs/synthesis.md (about an hour): runs every plan whose
-# record is missing from validation/out/oscillator_plans/, then prints the summary table.
+# The oscillator training plans of docs/synthesis.md (more than an hour on 2 cores): the plans
+# that are design options and the seeds study as sweeps (validation/experiments/*.toml; a second
+# run skips finished runs and resumes the others), then the plans that need their own code
+# (oscillator_plans.py --all: every plan whose record is missing from validation/out/oscillator_plans/).
 oscillator-plans: $(STAMP)
+	$(PY) -m pes_ref sweep validation/experiments/oscillator_plans.toml --out validation/out/sweeps/oscillator_plans
+	$(PY) -m pes_ref sweep validation/experiments/oscillator_seeds.toml --out validation/out/sweeps/oscillator_seeds
 	$(PY) validation/experiments/oscillator_plans.py --all
 
 # The benchmark installs its optional extra (autograd, JAX) into the same venv first.

@@ -13,13 +13,13 @@ import signal
 import sys
 
 from pes_ref import __version__
-from pes_ref.cli import analyze, bench, check, conformance, design, evaluate, oracle
+from pes_ref.cli import analyze, bench, check, conformance, design, evaluate, oracle, sweep
 from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, error
 
 __all__ = ["main", "build_parser", "command_name", "COMMANDS", "EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED"]
 
 #: The commands, in the order of ``--help``.
-COMMANDS = (oracle, check, conformance, analyze, design, evaluate, bench)
+COMMANDS = (oracle, check, conformance, analyze, design, evaluate, sweep, bench)
 
 
 def command_name(module) -> str:

@@ -17,11 +17,6 @@ import sys
 
 from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error
 
-#: The ``--smoke`` preset: problem overrides per kind, and the plan's (iterations, particles, stages).
-SMOKE = {
-    "funnel": ({"grid": 12, "n_steps": 60, "dt": 0.05}, (6, 8, ((0, 0),))),
-    "oscillator": ({"grid0": 8, "grid1": 8, "n_steps": 60, "eval_periods": 4}, (6, 4, ((0, 0),))),
-}
 METRIC_NAMES = {"funnel": "in_band", "oscillator": "amp_err"}
 #: The names ``--set`` takes, per kind: the fields of each problem of
 #: :data:`pes_ref.synthesis.PROBLEMS` (tested equal), written out so that building the
@@ -75,41 +70,6 @@ def add_parser(sub) -> None:
     p.set_defaults(func=_run_design)
 
 
-def _parse_sets(items, problem_cls) -> dict:
-    fields = {f.name: f for f in dataclasses.fields(problem_cls)}
-    out = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        if not sep or name not in fields:
-            raise ValueError(f"--set {item!r}: expected NAME=VALUE with NAME one of {sorted(fields)}")
-        default = fields[name].default
-        try:
-            out[name] = type(default)(text) if not isinstance(default, bool) else text.lower() in ("1", "true")
-        except ValueError:
-            raise ValueError(f"--set {item!r}: {text!r} is not a {type(default).__name__}") from None
-    return out
-
-
-def _parse_stages(text: str) -> tuple:
-    try:
-        return tuple(tuple(int(x) for x in part.split(":")) for part in text.split(","))
-    except ValueError:
-        raise ValueError(f"--stages {text!r}: expected IT:GRID pairs separated by commas, e.g. 0:25,100:0") from None
-
-
-def _plan_overrides(args) -> dict:
-    out = {}
-    for name, key in (("iterations", "iterations"), ("lr", "lr"), ("lr_final", "lr_final"),
-                      ("optimizer", "optimizer"), ("clip", "clip"), ("particles", "n_particles")):
-        if getattr(args, name) is not None:
-            out[key] = getattr(args, name)
-    if args.stages is not None:
-        out["stages"] = _parse_stages(args.stages)
-    if args.no_stages:
-        out["stages"] = ((0, 0),)
-    return out
-
-
 def _format_time(seconds: float) -> str:
     if not seconds < float("inf"):
         return "?"
@@ -121,18 +81,9 @@ def _run_design(args) -> int:
     from pes_ref import synthesis
     from pes_ref.synthesis import check_same_scene, load_design, save_design
     try:
-        sets = _parse_sets(args.set, synthesis.PROBLEMS[args.kind])
-        plan_over = _plan_overrides(args)
-        base_plan = synthesis.DEFAULT_PLANS[args.kind]
-        if args.objective is not None:
-            if args.kind != "oscillator":
-                raise ValueError(f"--objective {args.objective}: only the oscillator has a choice of objective")
-            obj_sets, base_plan = synthesis.OSCILLATOR_OBJECTIVES[args.objective]
-            sets = {**obj_sets, **sets}
-        if args.smoke:
-            smoke_sets, (its, parts, stages) = SMOKE[args.kind]
-            sets = {**smoke_sets, **sets}
-            plan_over = {"iterations": its, "n_particles": parts, "stages": stages, **plan_over}
+        from pes_ref.sweep.options import design_inputs, parse_sets   # shared with sweeps
+        sets, plan_over, base_plan = design_inputs(args.kind, vars(args),
+                                                   parse_sets(args.set, synthesis.PROBLEMS[args.kind]))
         if args.resume is not None:
             state = load_design(args.resume)
             check_same_scene(state, args.kind, sets)

@@ -36,7 +36,10 @@ Run: ``python validation/experiments/oscillator_plans.py PLAN [--seed S] [--iter
 [--out DIR] [--force] [--smoke]``; ``--list`` prints the plans. Each writes
 ``DIR/PLAN_sS.json`` (settings, checkpoints, losses) and ``DIR/PLAN_sS.npz`` (the grid
 at every checkpoint); an existing file is refused unless ``--force``. A full plan takes
-2-7 minutes (measured two at a time on 2 cores); ``make oscillator-plans`` runs them all (about an hour).
+2-7 minutes (measured two at a time on 2 cores). The plans that are design options are also
+the variants of the sweep file ``oscillator_plans.toml`` beside this script (:data:`SWEPT`);
+``make oscillator-plans`` runs that file through ``python -m pes_ref sweep``, then ``--all``
+here, which runs the other plans (about an hour in all).
 """
 from __future__ import annotations
 
@@ -46,6 +49,7 @@ import json
 import math
 import sys
 import time
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -61,6 +65,9 @@ from pes_ref.core.objectives import Oscillator, OscillatorCycle  # noqa: E402
 from pes_ref.core.scene import simulate, value_and_grad  # noqa: E402
 
 DEFAULT_OUT = ROOT / "validation" / "out" / "oscillator_plans"
+#: The plans that are design options: the variants of this sweep file, run by ``python -m pes_ref sweep``.
+SWEEP_FILE = Path(__file__).resolve().with_name("oscillator_plans.toml")
+SWEPT = tuple(v["name"] for v in tomllib.loads(SWEEP_FILE.read_text())["variants"])
 #: Seeds of the two evaluation sets: the held-out one of ``evaluate`` and a validation set.
 HELD_OUT_SEED, VALIDATION_SEED = 12345, 777
 
@@ -397,7 +404,7 @@ def main(argv=None) -> int:
     ap.add_argument("plan", nargs="?", help="a plan name (see --list)")
     ap.add_argument("--list", action="store_true", help="print the plans and exit")
     ap.add_argument("--all", action="store_true",
-                    help="run every plan (seed 0, and the default with seed 1) whose record is missing, then --summary")
+                    help="run every plan not in oscillator_plans.toml (seed 0) whose record is missing, then --summary")
     ap.add_argument("--summary", action="store_true", help="print a markdown table of the records in --out and exit")
     ap.add_argument("--rank", nargs="*", metavar="FILE.npz:KEY",
                     help="print how the training costs rank the flat surface, the escapement and these saved grids")
@@ -447,7 +454,7 @@ def main(argv=None) -> int:
                   f"| {r['rms']:.3g} |", flush=True)
         return 0
     if args.all:
-        for name, seed in [(n, 0) for n in PLANS] + [("default", 1)]:
+        for name, seed in [(n, 0) for n in PLANS if n not in SWEPT]:
             if not (args.out / f"{name}_s{seed}.json").exists():
                 code = main([name, "--seed", str(seed), "--out", str(args.out)] + (["--smoke"] if args.smoke else []))
                 if code:

@@ -1,0 +1,151 @@
+"""Design options: from what a user names to a problem and a plan.
+
+One design run is named by *design options*, the flags of ``python -m pes_ref design``
+(:data:`DESIGN_OPTIONS`: ``iterations``, ``lr``, ``objective``, ``smoke``, ...), and by
+*scene parameters*, the fields of the kind's problem (``--set NAME=VALUE``).
+:func:`design_inputs` turns them into the problem overrides and the plan; the ``design``
+command and every run of a sweep go through it, so a sweep file's options mean exactly
+what the same flags mean on the command line.
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Mapping, NamedTuple
+
+from pes_ref.sweep._synthesis import DEFAULT_PLANS, OSCILLATOR_OBJECTIVES, PROBLEMS, Plan
+
+__all__ = ["SMOKE", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets", "parse_stages",
+           "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
+
+#: The ``--smoke`` preset: problem overrides per kind, and the plan's (iterations, particles, stages).
+SMOKE = {
+    "funnel": ({"grid": 12, "n_steps": 60, "dt": 0.05}, (6, 8, ((0, 0),))),
+    "oscillator": ({"grid0": 8, "grid1": 8, "n_steps": 60, "eval_periods": 4}, (6, 4, ((0, 0),))),
+}
+
+#: The design options and the value types they take (a float option takes an int too);
+#: ``stages`` is ``"IT:GRID[:STEPS],..."`` text or a list of ``[it, grid(, n_steps)]``.
+DESIGN_OPTIONS = {
+    "iterations": int, "lr": float, "lr_final": float, "optimizer": str, "clip": float, "particles": int,
+    "stages": (str, list), "no_stages": bool, "objective": str, "smoke": bool,
+}
+#: The plan field each plain plan option sets.
+_PLAN_FIELDS = {"iterations": "iterations", "lr": "lr", "lr_final": "lr_final", "optimizer": "optimizer",
+                "clip": "clip", "particles": "n_particles"}
+
+
+class DesignInputs(NamedTuple):
+    """What a run's options resolve to: problem overrides, plan overrides and the plan they apply to."""
+
+    sets: dict
+    plan_overrides: dict
+    base_plan: Plan
+
+    def plan(self) -> Plan:
+        """The run's plan: :attr:`base_plan` with :attr:`plan_overrides`."""
+        return dataclasses.replace(self.base_plan, **self.plan_overrides)
+
+
+def scene_parameters(kind: str) -> dict:
+    """The scene parameters of ``kind``: field name -> :class:`dataclasses.Field` of its problem."""
+    return {f.name: f for f in dataclasses.fields(PROBLEMS[kind])}
+
+
+def parse_sets(items, problem_cls) -> dict:
+    """``--set NAME=VALUE`` texts to problem overrides, each converted to its field's type."""
+    fields = {f.name: f for f in dataclasses.fields(problem_cls)}
+    out = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or name not in fields:
+            raise ValueError(f"--set {item!r}: expected NAME=VALUE with NAME one of {sorted(fields)}")
+        default = fields[name].default
+        try:
+            out[name] = type(default)(text) if not isinstance(default, bool) else text.lower() in ("1", "true")
+        except ValueError:
+            raise ValueError(f"--set {item!r}: {text!r} is not a {type(default).__name__}") from None
+    return out
+
+
+def typed_sets(values: Mapping, kind: str) -> dict:
+    """Scene parameters given as typed values (a sweep file's) to problem overrides.
+
+    Each value must have its field's type (an int is taken for a float field, as a float).
+
+    Raises
+    ------
+    ValueError
+        Naming the first parameter that ``kind`` lacks or whose value has another type.
+    """
+    fields = scene_parameters(kind)
+    out = {}
+    for name, value in values.items():
+        if name not in fields:
+            raise ValueError(f"{kind} scenes have no parameter {name!r}; expected one of {sorted(fields)}")
+        want = type(fields[name].default)
+        if not has_type(value, want):
+            raise ValueError(f"{name} must be {type_name(want)}, got {value!r}")
+        out[name] = float(value) if want is float else value
+    return out
+
+
+def type_name(want) -> str:
+    """``"an int"``, ``"a float"``, ``"a str or a list"``: a type, or types, for a message."""
+    wants = want if isinstance(want, tuple) else (want,)
+    return " or ".join(("an " if w.__name__[0] in "aeiou" else "a ") + w.__name__ for w in wants)
+
+
+def has_type(value, want) -> bool:
+    """``value`` is a ``want`` (a bool is not a number here; an int is a float)."""
+    if want is bool or isinstance(value, bool):
+        return want is bool and isinstance(value, bool)
+    return isinstance(value, (int, float)) if want is float else isinstance(value, want)
+
+
+def parse_stages(text: str) -> tuple:
+    """``--stages`` text ``IT:GRID[:STEPS],...`` to the plan's stage tuples."""
+    try:
+        return tuple(tuple(int(x) for x in part.split(":")) for part in text.split(","))
+    except ValueError:
+        raise ValueError(f"--stages {text!r}: expected IT:GRID pairs separated by commas, e.g. 0:25,100:0") from None
+
+
+def plan_overrides(options: Mapping) -> dict:
+    """The plan fields the design options in ``options`` set (``None`` means not given)."""
+    out = {field: options[name] for name, field in _PLAN_FIELDS.items() if options.get(name) is not None}
+    stages = options.get("stages")
+    if stages is not None:
+        out["stages"] = parse_stages(stages) if isinstance(stages, str) else tuple(tuple(st) for st in stages)
+    if options.get("no_stages"):
+        out["stages"] = ((0, 0),)
+    return out
+
+
+def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None) -> DesignInputs:
+    """Resolve design ``options`` and problem overrides ``sets`` for a ``kind`` run.
+
+    The order is the design command's: the kind's default plan, or the named oscillator
+    ``objective``'s setting and plan; then the ``smoke`` preset; then the explicit options
+    and ``sets``, which win over both.
+
+    Raises
+    ------
+    ValueError
+        For an ``objective`` the kind does not have.
+    """
+    sets = dict(sets or {})
+    plan_over = plan_overrides(options)
+    base_plan = DEFAULT_PLANS[kind]
+    objective = options.get("objective")
+    if objective is not None:
+        if kind != "oscillator":
+            raise ValueError(f"objective {objective!r}: only the oscillator has a choice of objective")
+        if objective not in OSCILLATOR_OBJECTIVES:
+            raise ValueError(f"objective {objective!r}: expected one of {sorted(OSCILLATOR_OBJECTIVES)}")
+        obj_sets, base_plan = OSCILLATOR_OBJECTIVES[objective]
+        sets = {**obj_sets, **sets}
+    if options.get("smoke"):
+        smoke_sets, (its, parts, stages) = SMOKE[kind]
+        sets = {**smoke_sets, **sets}
+        plan_over = {"iterations": its, "n_particles": parts, "stages": stages, **plan_over}
+    return DesignInputs(sets, plan_over, base_plan)

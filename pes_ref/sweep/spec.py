@@ -1,0 +1,255 @@
+"""Sweep files: a TOML file read into the list of runs it names.
+
+A sweep file (read with :mod:`tomllib`)::
+
+    description = "funnel: learning rate x seed"    # optional
+    kind = "funnel"                                  # "funnel" or "oscillator"
+    seeds = [0, 1]                                   # run seeds, one more axis (default [0])
+    eval_seeds = [12345, 12346]                      # held-out seeds every run is evaluated on
+    eval_particles = 100                             # optional: held-out particles (evaluate's default)
+
+    [base]                 # options every run shares
+    iterations = 60
+    stages = [[0, 25]]
+
+    [grid]                 # every combination of these values
+    lr = [0.001, 0.002]
+
+    [[variants]]           # and/or a list of named option sets
+    name = "big_batch"
+    particles = 128
+
+An *option* is a design option (:data:`pes_ref.sweep.options.DESIGN_OPTIONS`, the flags
+of ``python -m pes_ref design`` without the dashes, ``-`` as ``_``) or a scene parameter
+of the kind (what ``--set NAME=VALUE`` sets). The runs are every variant (or one run of
+``[base]`` alone) times every grid point times every seed; a run's options are
+``[base]``, then its variant's, then its grid point's. Every run is checked here, once:
+a bad file raises one :class:`SweepFileError` whose message names the file and the key.
+"""
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import os
+import re
+import tomllib
+from dataclasses import dataclass
+
+from pes_ref.sweep._synthesis import PROBLEMS
+from pes_ref.sweep.options import (DESIGN_OPTIONS, design_inputs, has_type, scene_parameters, type_name,
+                                   typed_sets)
+
+__all__ = ["Sweep", "Run", "SweepFileError", "load_sweep", "parse_sweep", "TOP_LEVEL_KEYS"]
+
+#: The keys a sweep file may have at its top level.
+TOP_LEVEL_KEYS = ("description", "kind", "seeds", "eval_seeds", "eval_particles", "base", "grid", "variants")
+
+
+class SweepFileError(ValueError):
+    """A sweep file that cannot be run; the message names the file and the key."""
+
+
+@dataclass(frozen=True)
+class Run:
+    """One design run of a sweep: design, then evaluate on every held-out seed.
+
+    ``id`` depends only on what the design depends on (kind, options, seed), so the
+    same run keeps its id, and its design file, when the sweep file around it changes.
+    """
+
+    id: str
+    kind: str
+    variant: str
+    options: dict
+    seed: int
+
+    def payload(self, sweep: "Sweep", design_file: str) -> dict:
+        """The plain data a worker needs to do this run (see :func:`pes_ref.sweep.task.run_task`)."""
+        return {"id": self.id, "kind": self.kind, "options": self.options, "seed": self.seed,
+                "eval_seeds": list(sweep.eval_seeds), "eval_particles": sweep.eval_particles,
+                "design_file": design_file}
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A sweep file read and checked: its runs and what varies across them."""
+
+    path: str
+    description: str
+    kind: str
+    runs: tuple
+    swept: tuple            #: option names whose value differs between runs ("variant" first if several)
+    axes: tuple             #: what the file sweeps: "variant" (if several) and the grid's options of several values
+    seeds: tuple
+    eval_seeds: tuple
+    eval_particles: int | None
+
+    @property
+    def name(self) -> str:
+        """The file's stem (the default output folder's name)."""
+        return os.path.splitext(os.path.basename(self.path))[0]
+
+
+def load_sweep(path) -> Sweep:
+    """Read and check the sweep file at ``path``.
+
+    Raises
+    ------
+    SweepFileError
+        For a missing or unreadable file, bad TOML, an unknown key, a value of the wrong
+        type, or a run whose options the design refuses; one line naming the key.
+    """
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as fh:
+            text = fh.read().decode("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SweepFileError(f"{path}: cannot read the sweep file ({exc})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepFileError(f"{path}: not valid TOML: {exc}") from None
+    return parse_sweep(data, path)
+
+
+def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
+    """Check the parsed TOML ``data`` of a sweep file and expand it into its runs."""
+    def fail(key, message):
+        raise SweepFileError(f"{path}: {key}: {message}")
+
+    for key in data:
+        if key not in TOP_LEVEL_KEYS:
+            fail(key, f"unknown key; a sweep file has {', '.join(TOP_LEVEL_KEYS)}")
+    kind = data.get("kind")
+    if kind not in PROBLEMS:
+        fail("kind", f"expected one of {sorted(PROBLEMS)}, got {kind!r}" if "kind" in data else "missing")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        fail("description", f"expected a string, got {description!r}")
+    seeds = _seed_list(data.get("seeds", [0]), "seeds", fail)
+    if "eval_seeds" not in data:
+        fail("eval_seeds", "missing (the held-out seeds every run is evaluated on, e.g. eval_seeds = [12345])")
+    eval_seeds = _seed_list(data["eval_seeds"], "eval_seeds", fail)
+    eval_particles = data.get("eval_particles")
+    if eval_particles is not None and not (_is_int(eval_particles) and eval_particles > 0):
+        fail("eval_particles", f"expected an integer > 0, got {eval_particles!r}")
+
+    base = _options(_table(data.get("base", {}), "base", fail), "base", kind, fail)
+    grid = _table(data.get("grid", {}), "grid", fail)
+    for name, values in grid.items():
+        if not isinstance(values, list) or not values:
+            fail(f"grid.{name}", f"expected a non-empty list of values, got {values!r}")
+        for i, value in enumerate(values):
+            _options({name: value}, f"grid.{name}[{i}]", kind, fail)
+    variants = _variants(data.get("variants", []), kind, fail)
+    for vname, options in variants:
+        for name in options:
+            if name in grid:
+                fail(f"variants ({vname}).{name}", "also in [grid]; give each option in one of them")
+
+    points = [dict(zip(grid, combo)) for combo in itertools.product(*grid.values())]
+    runs, seen = [], {}
+    for vname, voptions in variants or [("", {})]:
+        for point in points:
+            options = {**base, **voptions, **point}
+            where = _where(vname, point)
+            try:
+                sets = {k: v for k, v in options.items() if k not in DESIGN_OPTIONS}
+                inputs = design_inputs(kind, options, typed_sets(sets, kind))
+                PROBLEMS[kind](**inputs.sets)
+                inputs.plan()
+            except (ValueError, TypeError) as exc:
+                fail(where, " ".join(str(exc).split()))
+            for seed in seeds:
+                run = Run(_run_id(kind, options, seed), kind, vname, options, seed)
+                if run.id in seen:
+                    fail(where, f"the same run as {seen[run.id]} (same options and seed {seed})")
+                seen[run.id] = where
+                runs.append(run)
+    several = len(variants) > 1
+    axes = (("variant",) if several else ()) + tuple(name for name, values in grid.items() if len(values) > 1)
+    return Sweep(path, description, kind, tuple(runs), _swept(runs, several), axes, seeds, eval_seeds,
+                 eval_particles)
+
+
+# --------------------------------------------------------------------------- pieces
+
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _seed_list(values, key, fail) -> tuple:
+    if not isinstance(values, list) or not values:
+        fail(key, f"expected a non-empty list of integers >= 0, got {values!r}")
+    for i, seed in enumerate(values):
+        if not (_is_int(seed) and seed >= 0):
+            fail(f"{key}[{i}]", f"expected an integer >= 0, got {seed!r}")
+    if len(set(values)) != len(values):
+        fail(key, f"repeated seeds in {values!r}")
+    return tuple(values)
+
+
+def _table(value, key, fail) -> dict:
+    if not isinstance(value, dict):
+        fail(key, f"expected a table ([{key}]), got {value!r}")
+    return value
+
+
+def _options(table: dict, key: str, kind: str, fail) -> dict:
+    """Check that every entry of ``table`` is a known option with a value of its type."""
+    scene = scene_parameters(kind)
+    for name, value in table.items():
+        where = key if key.endswith("]") else f"{key}.{name}"
+        if name == "seed":
+            fail(where, "give the run seeds as the top-level list seeds = [...]")
+        if name in DESIGN_OPTIONS:
+            want = DESIGN_OPTIONS[name]
+            wants = want if isinstance(want, tuple) else (want,)
+            if not any(has_type(value, w) for w in wants):
+                fail(where, f"expected {type_name(want)}, got {value!r}")
+        elif name in scene:
+            try:
+                typed_sets({name: value}, kind)
+            except ValueError as exc:
+                fail(where, str(exc))
+        else:
+            fail(where, f"unknown option; expected a design option ({', '.join(DESIGN_OPTIONS)}) "
+                        f"or a {kind} scene parameter ({', '.join(scene)})")
+    return dict(table)
+
+
+def _variants(value, kind, fail) -> list:
+    if not isinstance(value, list):
+        fail("variants", f"expected a list of tables ([[variants]]), got {value!r}")
+    out, names = [], set()
+    for i, entry in enumerate(value):
+        if not isinstance(entry, dict):
+            fail(f"variants[{i}]", f"expected a table, got {entry!r}")
+        entry = dict(entry)
+        name = entry.pop("name", f"v{i}")
+        if not isinstance(name, str) or not name or name in names:
+            fail(f"variants[{i}].name", f"expected a non-empty name of its own, got {name!r}")
+        names.add(name)
+        out.append((name, _options(entry, f"variants ({name})", kind, fail)))
+    return out
+
+
+def _where(variant: str, point: dict) -> str:
+    parts = ([f"variant {variant}"] if variant else []) + [f"{k} = {v!r}" for k, v in point.items()]
+    return "run " + (", ".join(parts) if parts else "[base]")
+
+
+def _run_id(kind: str, options: dict, seed: int) -> str:
+    """A stable id: a readable stem and a hash of everything the design depends on."""
+    text = json.dumps({"kind": kind, "options": options, "seed": seed}, sort_keys=True)
+    digest = hashlib.sha1(text.encode()).hexdigest()[:10]
+    return f"{kind}-s{seed}-{digest}"
+
+
+def _swept(runs, several_variants: bool) -> tuple:
+    """Option names whose value differs between runs (``variant`` first when there are several)."""
+    names = sorted({k for r in runs for k in r.options})
+    varying = [k for k in names
+               if len({json.dumps(r.options.get(k), sort_keys=True) for r in runs}) > 1]
+    return (("variant",) if several_variants else ()) + tuple(varying)

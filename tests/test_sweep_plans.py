@@ -1,0 +1,42 @@
+"""validation/experiments/oscillator_plans.toml: each variant trains the grid of the plan of the same name
+in oscillator_plans.py, bit for bit (at a few iterations on a tiny grid, the learning-rate schedule kept)."""
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
+from pes_ref.sweep.spec import load_sweep
+from pes_ref.synthesis.designs import new_design, run_design
+
+EXPERIMENTS = Path(__file__).resolve().parents[1] / "validation" / "experiments"
+sys.path.insert(0, str(EXPERIMENTS))
+plans = importlib.import_module("oscillator_plans")
+
+SWEEP = load_sweep(EXPERIMENTS / "oscillator_plans.toml")
+#: A few iterations on an 8 x 8 grid with short runs, a stage change included.
+TINY_STAGES = ((0, 8, 40), (2, 8, 60))
+STOP = 4
+
+
+def test_the_sweep_file_holds_the_plans_the_script_leaves_to_it():
+    assert {run.variant for run in SWEEP.runs} == set(plans.SWEPT) and set(plans.SWEPT) <= set(plans.PLANS)
+
+
+@pytest.mark.parametrize("run", SWEEP.runs, ids=lambda r: r.variant)
+def test_variant_trains_the_scripts_plan(run):
+    options = {**run.options, "iterations": STOP, "stages": [list(s) for s in TINY_STAGES]}
+    sets = typed_sets({k: v for k, v in options.items() if k not in DESIGN_OPTIONS}, "oscillator")
+    inputs = design_inputs("oscillator", options, sets)
+    state = run_design(new_design("oscillator", seed=run.seed, plan=inputs.plan(), **inputs.sets))
+    # the script's plan, on the same tiny stages, stopped at STOP with its lr schedule (decay over 3000) kept
+    setting = dataclasses.replace(plans.PLANS[run.variant], stages=TINY_STAGES)
+    assert setting.iterations == inputs.plan().decay_iterations == 3000
+    record = plans.run(setting, run.seed, progress=lambda line: None, eval_periods=1, n_eval=2, stop=STOP)
+    np.testing.assert_array_equal(state.values, record["grids"][f"it{STOP}"])
+    assert state.history["loss"] == record["loss"]
