@@ -68,9 +68,7 @@ def check_finite(traj: Trajectory, step_name: str) -> None:
     if not (np.isfinite(traj.x[-1]).all() and np.isfinite(traj.v[-1]).all() and np.isfinite(traj.f[-1]).all()):
         finite = [np.isfinite(a).all(axis=(1, 2)) for a in traj]
         bad = int(np.argmax(~(finite[0] & finite[1] & finite[2])))
-        raise NonFiniteError(
-            f"the trajectory became non-finite at step {bad} ({step_name}); the step is probably past "
-            "the explicit stability limit of the stiffest term: reduce it")
+        raise NonFiniteError(f"the trajectory became non-finite at step {bad} ({step_name})")
 
 
 def reports_nonfinite(simulate_fn):

@@ -209,7 +209,7 @@ def _check_state(scene: Scene, x0, v0):
     return x0, v0
 
 
-def simulate(scene: Scene, x0, v0=None, *, fext="scene") -> Trajectory:
+def simulate(scene: Scene, x0, v0=None, *, fext="scene", allow_unstable: bool = False) -> Trajectory:
     """Run a scene forward (SPEC section 3).
 
     Parameters
@@ -221,15 +221,37 @@ def simulate(scene: Scene, x0, v0=None, *, fext="scene") -> Trajectory:
         Initial velocities (zeros if omitted; ignored in quasistatic mode).
     fext : "scene", None or ndarray (T+1, N, 2)
         The external force; by default the schedule the scene's effects realize.
+    allow_unstable : bool
+        Run a scene past the stability limit of its stiffest term anyway (for studying
+        the unstable scheme on purpose); by default it is refused before the run.
 
     Returns
     -------
     Trajectory
         ``x``, ``v``, ``f`` of shape (T+1, N, 2).
+
+    Raises
+    ------
+    pes_ref.core.stability.UnstableStepError
+        The step is past the stability limit of the scene's stiffest term
+        (:func:`pes_ref.core.stability.check_stable`, docs/spec.md section 10), unless
+        ``allow_unstable``; a ``ValueError`` naming ``dt`` or ``mobility``.
+    NonFiniteError
+        The run left the finite numbers.
     """
     x0, v0 = _check_state(scene, x0, v0)
+    _check_run(scene, allow_unstable)
     fext = _resolve_fext(scene, fext, x0.shape[0])
     return _forward(scene, x0, v0, fext)
+
+
+def _check_run(scene: Scene, allow_unstable) -> None:
+    """What the public boundary checks of a run before anything is allocated: the
+    stability rule (:func:`pes_ref.core.stability.check_stable`), unless ``allow_unstable``."""
+    if not isinstance(allow_unstable, (bool, np.bool_)):
+        raise checks.InputTypeError("allow_unstable", f"allow_unstable must be True or False, got {allow_unstable!r}")
+    if not allow_unstable:
+        stability.check_stable(scene)
 
 
 def _resolve_fext(scene, fext, n):
@@ -242,13 +264,13 @@ def _resolve_fext(scene, fext, n):
 
 def _explains_nonfinite(forward):
     """Re-raise the core's :class:`NonFiniteError` with the scene's stability limit and a
-    stable step (:func:`pes_ref.core.stability.advice`), instead of a bare "reduce it"."""
+    stable step (:func:`pes_ref.core.stability.advice`), in one line."""
     @functools.wraps(forward)
     def wrapper(scene, *args, **kwargs):
         try:
             return forward(scene, *args, **kwargs)
         except NonFiniteError as err:
-            raise NonFiniteError(f"{err}. {stability.advice(scene)}") from err
+            raise NonFiniteError(f"{err}; {stability.advice(scene)}") from err
     return wrapper
 
 
@@ -281,7 +303,7 @@ def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
 
 
 def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: float = 0.0,
-                   wrt=None, fext="scene"):
+                   wrt=None, fext="scene", allow_unstable: bool = False):
     """The loss of a run and its exact gradients by the hand-derived adjoint (SPEC sections 4-5).
 
     Parameters
@@ -297,6 +319,9 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
         :data:`GRADIENT_NAMES`). Only those are accumulated.
     fext : "scene", None or ndarray (T+1, N, 2)
         As in :func:`simulate`.
+    allow_unstable : bool
+        As in :func:`simulate`: by default a step past the stability limit of the
+        scene's stiffest term is refused before the run.
 
     Returns
     -------
@@ -312,6 +337,7 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
         raise TypeError(f"objective must have a value_and_grad(x, v, t) method, got {objective!r}")
     R = checks.as_nonneg_float("regularization_weight", regularization_weight)
     want = _wanted(scene, wrt)
+    _check_run(scene, allow_unstable)
     n = x0.shape[0]
     fext = _resolve_fext(scene, fext, n)
     traj = _forward(scene, x0, v0, fext)
