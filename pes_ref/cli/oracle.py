@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
+import time
 
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error
 
@@ -29,6 +31,59 @@ def add_parser(sub) -> None:
                    help="run a case past the stability limit of its stiffest term anyway (docs/spec.md section 10; "
                         "not part of the contract, which refuses it)")
     p.set_defaults(func=_run_oracle)
+
+
+#: Runs estimated to take longer than this (seconds) print an estimate and progress lines on stderr.
+LONG_RUN = 3.0
+#: Seconds between two progress lines.
+PERIOD = 2.0
+
+
+def _clock_time(seconds: float) -> str:
+    """``m:ss`` (``?`` when unknown)."""
+    if not seconds < float("inf"):
+        return "?"
+    seconds = max(int(round(seconds)), 0)
+    return f"{seconds // 60}:{seconds % 60:02d}"
+
+
+class ProgressLines:
+    """The progress of one long oracle run on stderr: its estimate first, then at most one
+    line every ``period`` seconds, e.g. ``case.npz: forward 40% (1200/3000 steps), left 0:12``.
+
+    A progress callback of :mod:`pes_ref.core.progress` (called every few hundred steps);
+    the time left is the model's share of the phases still to run (forward, then the
+    adjoint, :func:`pes_ref.core.budget.step_cost`), scaled by the rate measured so far.
+    """
+
+    def __init__(self, label: str, estimate, period: float = PERIOD, clock=time.monotonic):
+        from pes_ref.core import budget
+        self.label, self.period, self.clock = label, period, clock
+        self.start = self.last = clock()
+        T, N = estimate.n_steps, estimate.n_particles
+        forward = budget.estimate_seconds(T, N, "simulate")
+        total = budget.estimate_seconds(T, N, "case")
+        self.forward_share = forward / total if total > 0 else 0.5
+        self.estimate = estimate.seconds
+        print(f"{label}: T = {T}, N = {N}: about {_clock_time(estimate.seconds)} "
+              f"({estimate.gib:.2g} GiB); forward, then the adjoint", file=sys.stderr, flush=True)
+
+    def __call__(self, phase: str, done: int, total: int) -> None:
+        now = self.clock()
+        if now - self.last < self.period:
+            return
+        self.last = now
+        part = done / total if total else 1.0
+        work = part * self.forward_share if phase == "forward" else self.forward_share + part * (1 - self.forward_share)
+        elapsed = now - self.start
+        left = elapsed * (1.0 - work) / work if work > 0 else self.estimate - elapsed
+        print(f"{self.label}: {phase} {100 * part:.0f}% ({done}/{total} steps), left {_clock_time(left)}",
+              file=sys.stderr, flush=True)
+
+
+def _monitor(label: str):
+    """The oracle's ``monitor``: progress lines for a run estimated longer than :data:`LONG_RUN`."""
+    return lambda estimate: ProgressLines(label, estimate) if estimate.seconds > LONG_RUN else None
 
 
 def _result_name(case_path: str, out_dir: str) -> str:
@@ -72,7 +127,7 @@ def _run_oracle(args) -> int:
         try:
             _check_destination(oracle, result_path, args.force)
             result = oracle.run_case_file(case_path, result_path, overwrite=args.force,
-                                          allow_unstable=args.allow_unstable)
+                                          allow_unstable=args.allow_unstable, monitor=_monitor(case_path))
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
             status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)
             continue

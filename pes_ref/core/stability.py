@@ -144,19 +144,22 @@ def grid_stiffness(surface) -> float:
 
 def axis_stiffness(scene) -> tuple:
     """``(K, terms)``: the per-axis stiffness bound ``K_d`` (2,) and its parts."""
-    s = scene.surface
-    terms = {
-        "grid_edges": grid_second_difference(s),
-        "grid_cross": np.full(2, grid_cross_curvature(s)),
-        "spring": np.zeros(2),
-        "walls": np.zeros(2),
-    }
+    terms = {"grid_edges": grid_second_difference(scene.surface), **_rule_parts(scene)}
+    return sum(terms.values()), terms
+
+
+def _rule_parts(scene) -> dict:
+    """The parts of :func:`axis_stiffness` that the refusal rule takes, each (2,):
+    ``grid_cross``, ``spring``, ``walls`` (the second differences, the costliest, are
+    left out; the rule runs on every call of :func:`pes_ref.simulate`)."""
+    parts = {"grid_cross": np.full(2, grid_cross_curvature(scene.surface)), "spring": np.zeros(2),
+             "walls": np.zeros(2)}
     if scene.spring is not None:
         k = np.broadcast_to(scene.spring.k, np.broadcast_shapes(np.shape(scene.spring.k), (1, 2)))
-        terms["spring"] = np.max(k.reshape(-1, 2), axis=0)
+        parts["spring"] = np.max(k.reshape(-1, 2), axis=0)
     if scene.walls is not None:
-        terms["walls"] = np.where(scene.walls.edges.any(axis=1), scene.walls.k, 0.0)
-    return sum(terms.values()), terms
+        parts["walls"] = np.where(scene.walls.edges.any(axis=1), scene.walls.k, 0.0)
+    return parts
 
 
 def stability_limit(scene) -> StabilityLimit:
@@ -292,7 +295,7 @@ def term_limit(scene) -> TermLimit:
     -------
     TermLimit
     """
-    _, parts = axis_stiffness(scene)
+    parts = _rule_parts(scene)
     names = list(RULE_TERMS)
     K = np.array([parts[name] for name in names])                     # (terms, 2)
     reach = _REACH[scene.mode](scene, K)

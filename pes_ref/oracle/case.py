@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pes_ref.core import checks, stability
+from pes_ref.core import budget, checks, stability
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene, energy, gradient_names, value_and_grad
@@ -393,7 +393,9 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
         rules (objective parameters, mobility, groups), the initial state, the scene's
         keys, the force, the objective's parameters, the regularization; last the
         stability rule (:func:`pes_ref.core.stability.check_stable`), naming ``dt`` or
-        ``mobility``.
+        ``mobility``. Right after the scene's keys, before any array of the run's size
+        is built, a run that cannot fit in the available memory is refused naming
+        ``n_steps`` (:func:`pes_ref.core.budget.check_memory`; not part of the contract).
     """
     if not isinstance(raw, Mapping):
         raise CaseTypeError(None, f"a case is a mapping of key -> array, got {type(raw).__name__}")
@@ -406,6 +408,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
     n = x0.shape[0]
     with _core_checks():
         scene = _scene(raw, mode, n)
+        budget.check_memory(scene.n_steps, n, "case")
         shape = (scene.n_steps + 1, n, 2)
         force = _force(raw, shape)
         objective = _OBJECTIVES[objective_name](raw, shape)
@@ -417,7 +420,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
 
 # =========================================================================== running
 
-def run_case(case, *, allow_unstable: bool = False) -> dict:
+def run_case(case, *, allow_unstable: bool = False, monitor=None) -> dict:
     """Run a case with the reference engine: the oracle.
 
     Parameters
@@ -426,6 +429,11 @@ def run_case(case, *, allow_unstable: bool = False) -> dict:
         A case dict, or the path of a case file.
     allow_unstable : bool
         Run a case past the stability rule anyway (see :func:`validate_case`).
+    monitor : callable, optional
+        Called once, after the case is validated and before it runs, with the run's
+        :class:`pes_ref.core.budget.RunEstimate` (steps, particles, memory, seconds); it
+        returns a progress callback ``(phase, done, total)`` for the run's forward loop
+        and adjoint (:mod:`pes_ref.core.progress`), or None for no reports.
 
     Returns
     -------
@@ -444,12 +452,14 @@ def run_case(case, *, allow_unstable: bool = False) -> dict:
         case = load_case(case)
     vc = validate_case(case, allow_unstable=allow_unstable)
     scene = vc.scene
+    progress = None if monitor is None else monitor(budget.estimate(scene.n_steps, vc.x0.shape[0], "case"))
     blame = "dt" if scene.mode == "dynamic" else "mobility"
     try:
         with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
             loss, grads, traj = value_and_grad(scene, vc.x0, vc.v0, vc.objective,
                                                regularization_weight=vc.regularization,
-                                               wrt=vc.grad_names, fext=vc.force, allow_unstable=True)
+                                               wrt=vc.grad_names, fext=vc.force, allow_unstable=True,
+                                               progress=progress)
             e = energy(scene, traj)
     except NonFiniteError as exc:             # its message names the step and a stable value
         raise CaseError(blame, str(exc)) from None
@@ -474,12 +484,13 @@ def write_result(result: Mapping, path, overwrite: bool = False) -> None:
     write_npz(path, result, overwrite=overwrite)
 
 
-def run_case_file(case_path, result_path, overwrite: bool = False, *, allow_unstable: bool = False) -> dict:
+def run_case_file(case_path, result_path, overwrite: bool = False, *, allow_unstable: bool = False,
+                  monitor=None) -> dict:
     """Run the case file ``case_path`` and write its result to ``result_path``.
 
     Nothing is written when the case is refused, when its run fails, or when
-    ``result_path`` exists and ``overwrite`` is False. ``allow_unstable`` as in
-    :func:`run_case`.
+    ``result_path`` exists and ``overwrite`` is False. ``allow_unstable`` and
+    ``monitor`` as in :func:`run_case`.
 
     Returns
     -------
@@ -492,6 +503,6 @@ def run_case_file(case_path, result_path, overwrite: bool = False, *, allow_unst
             raise ValueError(f"the result path {result_path!r} is the case file itself")
         if not overwrite:
             raise ResultExistsError(result_path)
-    result = run_case(load_case(case_path), allow_unstable=allow_unstable)
+    result = run_case(load_case(case_path), allow_unstable=allow_unstable, monitor=monitor)
     write_result(result, result_path, overwrite=overwrite)
     return result
