@@ -148,6 +148,16 @@ def test_progress_is_reported_every_few_hundred_steps(mode, integrator):
 def test_the_time_estimate_grows_with_the_run():
     a = budget.estimate_seconds(1000, 10)
     assert 0 < a < budget.estimate_seconds(2000, 10) and a < budget.estimate_seconds(1000, 1000)
+    assert budget.estimate_seconds(1000, 10, "simulate") < a
+
+
+def test_a_short_run_is_estimated_without_measuring():
+    """The ~50 ms calibration runs only for a run that the typical cost puts over a second."""
+    budget.step_cost.cache_clear()
+    budget.estimate(200, 4, "case")
+    assert budget.step_cost.cache_info().misses == 0
+    budget.estimate(10 ** 6, 64, "case")
+    assert budget.step_cost.cache_info().misses == 1
 
 
 def test_progress_lines_from_a_fake_clock(capsys):
@@ -167,13 +177,27 @@ def test_progress_lines_from_a_fake_clock(capsys):
     assert 4 <= len(err) <= 7, err
 
 
+def test_a_run_estimated_short_that_runs_long_starts_reporting(capsys):
+    from pes_ref.cli.oracle import ProgressLines
+    now = [0.0]
+    lines = ProgressLines("c.npz", budget.RunEstimate(1000, 8, 1.0, 1.0), period=2.0, clock=lambda: now[0])
+    lines("forward", 0, 1000)
+    now[0] = 2.0
+    lines("forward", 256, 1000)
+    assert capsys.readouterr().err == ""            # estimated 1 s, 2 s so far: quiet
+    now[0] = 4.0
+    lines("forward", 512, 1000)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and err[0].startswith("c.npz: T = 1000, N = 8: about") and "forward 51%" in err[1], err
+
+
 @pytest.mark.slow
 def test_cli_oracle_prints_progress_on_a_long_run(tmp_path):
     """A case sized to take about 4 s: the oracle prints its estimate and progress lines on
     stderr, and the result on stdout."""
     n = 64
     per_step = budget.estimate_seconds(1000, n) / 1000
-    T = int(4.0 / per_step)
+    T = int(5.0 / per_step)
     path, out = tmp_path / "c.npz", tmp_path / "r.npz"
     oracle.save_case(path, **dict(small_case(n_steps=T, n=n), values=np.zeros((5, 7))))   # flat: no chaos
     proc = run_cli("oracle", path, out, timeout=300)
