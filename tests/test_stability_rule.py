@@ -189,3 +189,11 @@ def test_a_non_finite_run_says_so_in_one_short_line():
     assert "\n" not in msg and len(msg) <= 200, (len(msg), msg)
     assert msg.count("stability limit") == 1, msg
     assert "non-finite at step" in msg and "a stable dt is" in msg, msg
+
+
+@pytest.mark.parametrize("kw, name", [(dict(allow_unstable="yes"), "allow_unstable"), (dict(progress=3), "progress")])
+def test_the_new_keywords_are_checked(kw, name):
+    scene = _scene("spring", "dynamic", 0.5)
+    for run in (lambda: pr.simulate(scene, X0, V0, **kw), lambda: pr.value_and_grad(scene, X0, V0, pr.Funnel(0.5), **kw)):
+        with pytest.raises(TypeError, match=name):
+            run()

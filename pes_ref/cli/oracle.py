@@ -97,7 +97,7 @@ class ProgressLines:
 
 def _monitor(label: str):
     """The oracle's ``monitor``: the :class:`ProgressLines` of each run."""
-    return lambda estimate: ProgressLines(label, estimate)
+    return lambda estimate: ProgressLines(label, estimate, period=PERIOD, after=LONG_RUN)
 
 
 def _result_name(case_path: str, out_dir: str) -> str:
