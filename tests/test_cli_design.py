@@ -115,11 +115,13 @@ def test_objective_selects_the_oscillator_setting_and_plan(tmp_path, capsys, obj
     assert code == EXIT_ERROR and "another scene" in err
 
 
-def test_non_finite_run_exits_1_with_its_last_finite_state(tmp_path, capsys):
+def test_a_run_that_stops_exits_1_with_its_last_good_state(tmp_path, capsys):
+    # three good iterations, then lr = 1e4: iteration 4's grid is past the stability rule,
+    # so the run rolls back to iteration 3, saves it and exits 1
     path = tmp_path / "nf.npz"
-    code, out, err = run(capsys, "design", "funnel", "--smoke", "--out", path, "--lr", 10, "--lr-final", 10,
-                         "--set", "noise=0", "--set", "wall_k=1e6", "--set", "dt=0.01", "--set", "n_steps=200",
-                         "--set", "grid=8", "--optimizer", "rmsprop", "--quiet")
-    assert code == EXIT_FAIL and "non-finite" in err
+    assert run(capsys, "design", "funnel", "--smoke", "--iterations", 3, "--out", path, "--quiet")[0] == EXIT_OK
+    code, out, err = run(capsys, "design", "funnel", "--smoke", "--resume", path, "--lr", "1e4", "--lr-final", "1e4",
+                         "--quiet")
+    assert code == EXIT_FAIL and "unstable: iteration 4" in err and len(err.strip().splitlines()) == 1
     st = load_design(path)
-    assert st.status.startswith("non-finite") and st.iteration == 0 and np.isfinite(st.values).all()
+    assert st.status.startswith("unstable") and st.iteration == 3 and np.isfinite(st.values).all()

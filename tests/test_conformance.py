@@ -11,12 +11,12 @@ import pytest
 import pes_ref
 from pes_ref import cli
 from pes_ref.oracle import case as oracle
-from pes_ref.oracle.conformance import generate, vectors_dir
+from pes_ref.oracle.conformance import LATEST, generate, vectors_dir
 from pes_ref.testing import conformance as conf
 from pes_ref.oracle.tolerances import GRAD_RTOL, TRAJ_RTOL
 
-VECTORS = vectors_dir("v1")
-MANIFEST = conf.load_manifest("v1")
+VECTORS = vectors_dir(LATEST)
+MANIFEST = conf.load_manifest(LATEST)
 ENTRIES = MANIFEST["vectors"]
 VALID = [e for e in ENTRIES if e["kind"] == "valid"]
 INVALID = [e for e in ENTRIES if e["kind"] == "invalid"]
@@ -40,7 +40,7 @@ def run_cached(case) -> dict:
 def regenerated(tmp_path_factory):
     """The vectors generated afresh by ``pes_ref conformance --write DIR`` (once per module),
     into a folder that also holds a stale vector file and a file that is not a vector."""
-    folder = tmp_path_factory.mktemp("v1")
+    folder = tmp_path_factory.mktemp(LATEST)
     (folder / "stale.case.npz").write_bytes(b"old")
     (folder / "keep.txt").write_text("not a vector")
     assert cli.main(["conformance", "--write", str(folder), "--quiet"]) == 0
@@ -88,7 +88,7 @@ def test_manifest_lists_exactly_the_files():
     for e in INVALID:
         assert e["key"] in oracle.CASE_KEYS or e["key"] == "gravity"
         assert e["error"] in ("ValueError", "TypeError") and "result" not in e
-    assert MANIFEST["version"] == "v1"
+    assert MANIFEST["version"] == LATEST == generate.VERSION == "v2"
     assert MANIFEST["tolerances"]["TRAJ_RTOL"] == TRAJ_RTOL and MANIFEST["tolerances"]["GRAD_RTOL"] == GRAD_RTOL
 
 
@@ -132,7 +132,7 @@ def _features(case: dict) -> set:
 
 def test_coverage_of_the_valid_set():
     seen = set()
-    for _, case, _ in conf.iter_vectors("v1"):
+    for _, case, _ in conf.iter_vectors(LATEST):
         seen |= _features(case)
     need = {f"{t}-{m}" for t in ("plane", "cylinder-q0", "cylinder-q1", "torus") for m in ("dynamic", "quasistatic")}
     need |= {"funnel-final", "funnel-every_step", "oscillator", "quadratic", "spring", "force", "regularization",
@@ -172,7 +172,7 @@ def _fingerprint(case) -> bytes:
 
 def test_kinks_are_not_binding_by_default():
     kinked = {e["id"] for e in VALID if "kink" in e["flags"]}
-    prints = {_fingerprint(case) for e, case, _ in conf.iter_vectors("v1") if e["id"] in kinked}
+    prints = {_fingerprint(case) for e, case, _ in conf.iter_vectors(LATEST) if e["id"] in kinked}
 
     def wrong_at_kinks(case):
         result = run_cached(case)
@@ -334,7 +334,7 @@ def test_cli_conformance_check_passes(capsys):
 
 
 def test_cli_conformance_check_fails_on_a_changed_vector(tmp_path, capsys, monkeypatch):
-    shipped = tmp_path / "v1"
+    shipped = tmp_path / LATEST
     shutil.copytree(VECTORS, shipped)
     result = oracle.read_npz(shipped / "plane-dynamic.result.npz")
     result["grad_values"] = result["grad_values"] * (1 + 1e-6)
@@ -348,3 +348,45 @@ def test_cli_conformance_check_fails_on_a_changed_vector(tmp_path, capsys, monke
     assert "FAILED: 2 of" in out
     assert cli.main(["conformance", "--check", str(tmp_path / "nowhere")]) == 2
     assert capsys.readouterr().err.startswith("error: ")
+
+
+# =========================================================================== v1, frozen
+
+def test_v1_stays_shipped_and_readable_as_it_was():
+    """v1 is frozen: still shipped, readable, its manifest unchanged (its old generator
+    name and spec pointer), its 114 vectors; every valid one still matches the engine,
+    except that spec v2 refuses the one past the stability rule, which runs with the
+    opt-out and matches too."""
+    v1 = conf.load_manifest("v1")
+    assert v1["version"] == "v1" and v1["generator"] == "pes_ref.conformance.generate"
+    assert v1["spec"].startswith("SPEC.md") and len(v1["vectors"]) == 114
+    past = []
+    for entry, case, want in conf.iter_vectors("v1"):
+        try:
+            got = oracle.run_case(case)
+        except oracle.CaseError as exc:
+            assert exc.key == "mobility", exc
+            past.append(entry["id"])
+            got = oracle.run_case(case, allow_unstable=True)
+        errors = conf.compare_results(got, want)
+        assert all(conf.passes(k, e) for k, e in errors.items()), (entry["id"], errors)
+    assert past == ["far-outside-spring-quasistatic"]
+
+
+def test_v2_pins_the_stability_rule():
+    """v2 refuses a case past the rule for each term (key dt) and in quasistatic mode (key
+    mobility), accepts cases at 0.9 of the limit, and a case of no step past it."""
+    by_id = {e["id"]: e for e in ENTRIES}
+    for vid, key in (("unstable-spring", "dt"), ("unstable-wall", "dt"), ("unstable-grid", "dt"),
+                     ("unstable-quasistatic", "mobility")):
+        assert by_id[vid]["kind"] == "invalid" and by_id[vid]["key"] == key
+        case = oracle.load_case(VECTORS / by_id[vid]["case"])
+        with pytest.raises(oracle.CaseError) as info:
+            oracle.validate_case(case)
+        assert info.value.key == key and "stability limit" in str(info.value)
+        oracle.validate_case(case, allow_unstable=True)
+    for vid in ("near-limit-spring-dynamic", "near-limit-grid-quasistatic", "steps-0-past-limit",
+                "far-outside-spring-quasistatic"):
+        assert by_id[vid]["kind"] == "valid"
+    assert MANIFEST["spec"].startswith("docs/spec.md")
+    assert MANIFEST["generator"] == "pes_ref.oracle.conformance.generate"

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pes_ref import synthesis
+from pes_ref.core.integrator import NonFiniteError as pr_nonfinite
 from pes_ref.synthesis import Plan
 from pes_ref.testing.finite_differences import directional_derivative, relative_error
 from pes_ref.oracle.tolerances import FD_RTOL
@@ -108,11 +109,19 @@ def test_ctrl_c_stops_after_the_iteration_with_its_state():
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_non_finite_run_stops_at_the_last_finite_state():
-    # stiff walls past the stability limit: harmless while the surface is flat (no particle
-    # reaches a wall), fatal once a large first step slings particles into them
+def test_non_finite_run_stops_at_the_last_finite_state(monkeypatch):
+    # iteration 1's run leaves the finite numbers (within the stability rule a design's run
+    # does not, so the step is made to fail here): the run rolls back to iteration 0
+    from pes_ref.synthesis import training
+    real_step = training.design_step
+
+    def failing_step(problem, values, seed, iteration, *args):
+        if iteration == 1:
+            raise pr_nonfinite("the trajectory became non-finite at step 7 (dt=0.01)")
+        return real_step(problem, values, seed, iteration, *args)
+    monkeypatch.setattr(training, "design_step", failing_step)
     plan = Plan(iterations=5, lr=10.0, lr_final=10.0, n_particles=4)
-    st = synthesis.new_design("funnel", seed=0, plan=plan, grid=8, n_steps=200, dt=0.01, noise=0.0, wall_k=1e6)
+    st = synthesis.new_design("funnel", seed=0, plan=plan, grid=8, n_steps=200, dt=0.01, noise=0.0)
     start = st.values.copy()
     st = synthesis.run_design(st)
     assert st.status.startswith("non-finite: iteration 1")

@@ -11,12 +11,12 @@ import pes_ref
 from pes_ref import cli
 from pes_ref.core import checks
 from pes_ref.oracle import case as oracle
-from pes_ref.oracle.conformance import vectors_dir
+from pes_ref.oracle.conformance import LATEST, vectors_dir
 from pes_ref.testing.conformance import load_manifest
 
 ROOT = Path(pes_ref.__file__).resolve().parent.parent
-VECTORS = vectors_dir("v1")
-MANIFEST = load_manifest("v1")["vectors"]
+VECTORS = vectors_dir(LATEST)
+MANIFEST = load_manifest(LATEST)["vectors"]
 VALID = [e for e in MANIFEST if e["kind"] == "valid"]
 INVALID = [e for e in MANIFEST if e["kind"] == "invalid"]
 STRING_KEYS = ("mode", "objective", "when")

@@ -26,6 +26,7 @@ import argparse
 import ast
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -41,10 +42,15 @@ NAMES = ("TRAJ_RTOL", "TRAJ_ATOL", "GRAD_RTOL", "GRAD_ATOL")
 
 
 def find_vectors() -> str:
-    for rel in ("pes_ref/oracle/conformance/v1", "pes_ref/conformance/v1"):
-        d = os.path.join(REPO, rel)
-        if os.path.isfile(os.path.join(d, "manifest.json")):
-            return d
+    """The latest shipped vector set: the highest-numbered folder ``v<k>`` with a manifest."""
+    for rel in ("pes_ref/oracle/conformance", "pes_ref/conformance"):
+        root = os.path.join(REPO, rel)
+        if not os.path.isdir(root):
+            continue
+        sets = [(int(name[1:]), os.path.join(root, name)) for name in os.listdir(root)
+                if re.fullmatch(r"v[0-9]+", name) and os.path.isfile(os.path.join(root, name, "manifest.json"))]
+        if sets:
+            return max(sets)[1]
     sys.exit("compare.py: cannot find the conformance vectors; pass --vectors DIR")
 
 
@@ -111,7 +117,7 @@ def run_program(py: str, pairs: list) -> tuple:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--vectors", default=None, help="folder with manifest.json (default: the shipped v1)")
+    ap.add_argument("--vectors", default=None, help="folder with manifest.json (default: the latest shipped set)")
     ap.add_argument("--python", default=sys.executable, help="the Python that has jax (default: this one)")
     ap.add_argument("--separate", action="store_true", help="one process per vector")
     ap.add_argument("--keep", default=None, help="write the results here instead of a temporary folder")

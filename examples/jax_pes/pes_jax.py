@@ -22,8 +22,8 @@ Environment:
     PES_JAX_PAD=0       do not pad shapes to buckets (one compilation per exact shape)
     PES_JAX_SLOPE=spec  evaluate the grid force by the SPEC section 1 slope formula
                         literally instead of the regrouped affine form (see README)
-    PES_JAX_STABILITY=0 do not refuse springs and walls past the explicit stability
-                        limit before the run (see _check_stability and README)
+    PES_JAX_STABILITY=0 do not refuse a step past the stability limit of its
+                        stiffest term (docs/spec.md section 10) before the run
 """
 from __future__ import annotations
 
@@ -359,49 +359,59 @@ def validate(raw: dict) -> dict:
     return c
 
 
-def _check_stability(c: dict) -> None:
-    """SPEC section 6: refuse a step past the explicit stability limit of its stiffest term.
+def _grid_curvature(c: dict) -> float:
+    """docs/spec.md 10.1: c = max over cells |G11 - G10 - G01 + G00| / (h0 h1), over the
+    grid closed by wrap-around on periodic axes, h_d = L_d / n_d (periodic) or
+    L_d / (n_d - 1)."""
+    G = c["values"]
+    n = np.array(G.shape)
+    h = (c["upper"] - c["lower"]) / np.where(c["periodic"], n, n - 1)
+    for d in range(2):
+        if c["periodic"][d]:
+            G = np.concatenate((G, np.take(G, [0], axis=d)), axis=d)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return float(np.max(np.abs(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1])) / (h[0] * h[1]))
 
-    Bound used (see README): each spring and wall is checked on its own, per particle and
-    axis, exactly as the SPEC states it: dynamic ``dt sqrt(k/m) > 2`` (k = spring_k[i, d]
-    or wall_k on an axis with a wall, m = mass[i, d]); quasistatic ``mu_d k > 2``. The
-    grid's curvature is not checked before the run (a bilinear grid's slope jumps at
-    every cell edge, and the shipped valid vector far-outside-spring-quasistatic is past
-    every curvature bound of its grid); a run that leaves the finite numbers is refused
-    afterwards, blamed on dt or mobility. PES_JAX_STABILITY=0 turns this check off (the
-    reference pes_ref does not apply it: it refuses only runs that leave the finite
-    numbers; docs/spec.md section 10 leaves the rule's final form open)."""
-    n = c["n"]
-    stiff = []   # (name, k (N, 2))
-    if c["has_spring"]:
-        stiff.append(("spring_k", np.broadcast_to(c["spring_k"], (n, 2))))
-    if c["has_walls"]:
-        on = c["wall_edges"].any(axis=1)
-        stiff.append(("wall_k", np.broadcast_to(np.where(on, c["wall_k"], 0.0), (n, 2))))
-    if not stiff:
+
+def _check_stability(c: dict) -> None:
+    """docs/spec.md section 10: refuse a step past the explicit stability limit of its
+    stiffest term, even when the numbers would stay finite.
+
+    The terms, per axis d, one at a time (not summed): the spring k_d = max_i
+    spring_k[i, d], the wall k_w on an axis with an enabled wall, and the grid's cross
+    curvature c (the same on both axes). Dynamic: refused iff max dt sqrt(K / m_d) > 2,
+    m_d = min_i mass[i, d]; quasistatic: iff max mobility_d K > 2. A case of n_steps = 0
+    is never refused. The stable value named is half the limit of the stiffest term.
+    PES_JAX_STABILITY=0 turns the check off (the reference's --allow-unstable)."""
+    if c["n_steps"] == 0:
         return
+    n = c["n"]
+    terms = [("grid curvature", np.full(2, _grid_curvature(c)))]      # (name, K per axis (2,))
+    if c["has_spring"]:
+        terms.append(("spring", np.max(np.broadcast_to(c["spring_k"], (n, 2)), axis=0)))
+    if c["has_walls"]:
+        terms.append(("wall", np.where(c["wall_edges"].any(axis=1), c["wall_k"], 0.0)))
+    K = np.array([k for _, k in terms])                                # (terms, 2)
     if c["mode"] == "dynamic":
-        m = np.broadcast_to(c["mass"], (n, 2))
-        dt = c["dt"]
-        for name, k in stiff:
-            omega = np.sqrt(k / m)
-            worst = float(np.max(omega))
-            if dt * worst > 2.0:
-                i, d = np.unravel_index(int(np.argmax(omega)), omega.shape)
-                raise CaseError("dt", f"dt={dt:g} is past the explicit stability limit of the {name.split('_')[0]} "
-                                      f"(dt sqrt(k/m) = {dt * worst:.6g} > 2 at particle {i}, axis {d}; "
-                                      f"the limit is dt < {2.0 / worst:.6g}); a stable dt is {1.0 / worst:.6g}")
+        m = np.min(np.broadcast_to(c["mass"], (n, 2)), axis=0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            reach = c["dt"] * np.sqrt(K / m)
+        t, d = np.unravel_index(int(np.argmax(reach)), reach.shape)
+        if reach[t, d] > 2.0:
+            limit = 2.0 / np.sqrt(K[t, d] / m[d])
+            raise CaseError("dt", f"dt={c['dt']:g} is past the stability limit of its stiffest term, the "
+                                  f"{terms[t][0]} (dt sqrt(K/m) = {reach[t, d]:.6g} > 2 on axis {d}; the limit is "
+                                  f"dt < {limit:.6g}); a stable dt is {0.5 * limit:.6g}")
     else:
         mu = c["mobility"]
-        for name, k in stiff:
-            kmax = np.max(k, axis=0)
-            r = mu * kmax
-            if np.any(r > 2.0):
-                d = int(np.argmax(r))
-                good = np.where(r > 2.0, 1.0 / np.where(kmax > 0, kmax, 1.0), mu)
-                raise CaseError("mobility", f"mobility={mu.tolist()} is past the explicit stability limit of the "
-                                            f"{name.split('_')[0]} (mu k = {r[d]:.6g} > 2 on axis {d}; the limit is "
-                                            f"mu_d < 2/k_d); a stable mobility is {good.tolist()}")
+        reach = mu * K
+        t, d = np.unravel_index(int(np.argmax(reach)), reach.shape)
+        if reach[t, d] > 2.0:
+            kmax = np.max(K, axis=0)
+            good = np.where(mu * kmax > 2.0, 1.0 / np.where(kmax > 0, kmax, 1.0), mu)
+            raise CaseError("mobility", f"mobility={mu.tolist()} is past the stability limit of its stiffest term, "
+                                        f"the {terms[t][0]} (mu K = {reach[t, d]:.6g} > 2 on axis {d}; the limit "
+                                        f"is mu_d < 2/K_d); a stable mobility is {good.tolist()}")
 
 
 def grad_names(c: dict) -> tuple:

@@ -5,7 +5,10 @@
   [--particles N] [--objective overshoot|eq6] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
   run (or continue) a design and write its file (:mod:`pes_ref.synthesis.design_file`). A progress line goes to stderr
   every ``--progress`` seconds; Ctrl-C finishes the iteration, saves and exits 0; a run that
-  goes non-finite saves its last finite state and exits 1.
+  goes non-finite, or whose grid steepens past the stability rule, saves its last good state
+  and exits 1 (a fresh run that stops before finishing an iteration writes no file). A scene
+  past the stability rule from the start (``--set dt=...``) is refused before anything is
+  written (docs/spec.md section 10).
 
 ``--smoke`` is a tiny preset for tests and a quick look (see ``docs/synthesis.md``).
 """
@@ -77,6 +80,14 @@ def _format_time(seconds: float) -> str:
     return f"{seconds // 60}:{seconds % 60:02d}"
 
 
+def error_stopped(state) -> int:
+    """The one line of a fresh run that stopped before finishing an iteration (no file is
+    left: it would hold no iteration, and a scene that fails at once); EXIT_FAIL."""
+    print(f"error: the run stopped at its first iteration, so no design file was written: {state.status}",
+          file=sys.stderr)
+    return EXIT_FAIL
+
+
 def _run_design(args) -> int:
     from pes_ref import synthesis
     from pes_ref.synthesis import check_same_scene, load_design, save_design
@@ -93,6 +104,7 @@ def _run_design(args) -> int:
                 raise ValueError(f"--optimizer {plan_over['optimizer']} differs from the resumed run's "
                                  f"{state.plan.optimizer}")
             state.plan = dataclasses.replace(state.plan, **plan_over)
+            synthesis.check_stable_design(state)
             out = args.out if args.out is not None else args.resume
             may_overwrite = args.force or os.path.abspath(out) == os.path.abspath(args.resume)
         else:
@@ -117,10 +129,19 @@ def _run_design(args) -> int:
         save_design(out, s, overwrite=True)
 
     start = state.iteration
+    fresh = args.resume is None
+    created = not os.path.exists(out)
     try:
-        save_design(out, state, overwrite=may_overwrite)       # claims the file before the long run
+        if created or not fresh:
+            save_design(out, state, overwrite=may_overwrite)   # claims the file before the long run
+        elif not os.access(out, os.W_OK):                      # --force over a file kept until there is a result
+            raise PermissionError(f"cannot write {out}: the file is not writable")
         state = synthesis.run_design(state, state.plan.iterations, callback=progress, progress_every=args.progress,
                                      checkpoint=checkpoint)
+        if fresh and state.iteration == 0 and state.status.startswith(synthesis.STOPPED):
+            if created:
+                os.remove(out)                                 # never leave a file that holds no iteration
+            return error_stopped(state)
         save_design(out, state, overwrite=True)
     except (OSError, ValueError) as exc:
         return error(exc)
@@ -130,9 +151,9 @@ def _run_design(args) -> int:
     metric = state.history["metric"][-1] if state.history["metric"] else float("nan")
     print(f"wrote {out}: {args.kind}, iteration {state.iteration}/{state.plan.iterations} ({state.status.split(':')[0]}), "
           f"loss {loss:.6g}, {metric_name} {metric:.3f}, {done} iterations this run at {rate:.2f} it/s")
-    if state.status.startswith("non-finite"):
-        print(f"error: the run went non-finite and stopped; the last finite state (iteration {state.iteration}) "
-              f"is saved: {state.status}", file=sys.stderr)
+    if state.status.startswith(synthesis.STOPPED):
+        print(f"error: the run stopped; its last good state (iteration {state.iteration}) is saved: {state.status}",
+              file=sys.stderr)
         return EXIT_FAIL
     if state.status == "interrupted":
         print(f"interrupted; saved; continue with: python -m pes_ref design {args.kind} --resume {out}",

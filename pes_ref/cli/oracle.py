@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
+import time
 
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error
 
@@ -28,7 +30,77 @@ def add_parser(sub) -> None:
     p.add_argument("--compress", action="store_true",
                    help="deflate the result's arrays (default: stored; float64 data barely compresses and "
                         "deflating costs more than the computation of a paper-sized case)")
+    p.add_argument("--allow-unstable", action="store_true",
+                   help="run a case past the stability limit of its stiffest term anyway (docs/spec.md section 10; "
+                        "not part of the contract, which refuses it)")
     p.set_defaults(func=_run_oracle)
+
+
+#: Runs longer than this (seconds; estimated, or found so while running) print an estimate
+#: and progress lines on stderr.
+LONG_RUN = 3.0
+#: Seconds between two progress lines.
+PERIOD = 2.0
+
+
+def _clock_time(seconds: float) -> str:
+    """``m:ss`` (``?`` when unknown)."""
+    if not seconds < float("inf"):
+        return "?"
+    seconds = max(int(round(seconds)), 0)
+    return f"{seconds // 60}:{seconds % 60:02d}"
+
+
+class ProgressLines:
+    """The progress of one oracle run on stderr, once it is long: the estimate first, then
+    at most one line every ``period`` seconds, e.g.
+    ``case.npz: forward 40% (1200/3000 steps), left 0:12``.
+
+    A progress callback of :mod:`pes_ref.core.progress` (called every few hundred steps).
+    A run estimated longer than ``after`` seconds (:func:`pes_ref.core.budget.estimate`)
+    prints its estimate at once; one estimated shorter starts printing if it runs past
+    ``after`` seconds all the same. The time left is the model's share of the phases still
+    to run (forward, then the adjoint, :func:`pes_ref.core.budget.step_cost`), scaled by
+    the rate measured so far.
+    """
+
+    def __init__(self, label: str, estimate, period: float = PERIOD, clock=time.monotonic, after: float = LONG_RUN):
+        from pes_ref.core import budget
+        self.label, self.period, self.clock, self.after = label, period, clock, after
+        self.start = self.last = clock()
+        self.run = estimate
+        forward = budget.estimate_seconds(estimate.n_steps, estimate.n_particles, "simulate")
+        total = budget.estimate_seconds(estimate.n_steps, estimate.n_particles, "case")
+        self.forward_share = forward / total if total > 0 else 0.5
+        self.started = estimate.seconds > after
+        if self.started:
+            self._header(estimate.seconds)
+
+    def _header(self, seconds: float) -> None:
+        print(f"{self.label}: T = {self.run.n_steps}, N = {self.run.n_particles}: about {_clock_time(seconds)} "
+              f"({self.run.gib:.2g} GiB); forward, then the adjoint", file=sys.stderr, flush=True)
+
+    def __call__(self, phase: str, done: int, total: int) -> None:
+        now = self.clock()
+        elapsed = now - self.start
+        part = done / total if total else 1.0
+        work = part * self.forward_share if phase == "forward" else self.forward_share + part * (1 - self.forward_share)
+        if not self.started:
+            if elapsed < self.after:
+                return
+            self.started = True
+            self._header(elapsed / work if work > 0 else self.run.seconds)
+        if now - self.last < self.period:
+            return
+        self.last = now
+        left = elapsed * (1.0 - work) / work if work > 0 else self.run.seconds - elapsed
+        print(f"{self.label}: {phase} {100 * part:.0f}% ({done}/{total} steps), left {_clock_time(left)}",
+              file=sys.stderr, flush=True)
+
+
+def _monitor(label: str):
+    """The oracle's ``monitor``: the :class:`ProgressLines` of each run."""
+    return lambda estimate: ProgressLines(label, estimate, period=PERIOD, after=LONG_RUN)
 
 
 def _result_name(case_path: str, out_dir: str) -> str:
@@ -71,7 +143,8 @@ def _run_oracle(args) -> int:
     for case_path, result_path in pairs:
         try:
             _check_destination(oracle, result_path, args.force)
-            result = oracle.run_case_file(case_path, result_path, overwrite=args.force, compress=args.compress)
+            result = oracle.run_case_file(case_path, result_path, overwrite=args.force, compress=args.compress,
+                                          allow_unstable=args.allow_unstable, monitor=_monitor(case_path))
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
             status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)
             continue

@@ -31,6 +31,7 @@ import numpy as np
 
 from pes_ref.core.forces import Field, ForceAdjoint
 from pes_ref.core.integrator import Trajectory, check_finite, finish_dynamic_adjoint, reports_nonfinite, start_dynamic
+from pes_ref.core.progress import reporting
 
 __all__ = ["simulate_gjf", "adjoint_gjf"]
 
@@ -48,7 +49,7 @@ def _coefficients(dt: float, mass: np.ndarray, damping, n: int):
 
 @reports_nonfinite
 def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
-                 mass: np.ndarray, damping) -> Trajectory:
+                 mass: np.ndarray, damping, progress=None) -> Trajectory:
     """The Gronbech-Jensen-Farago step, deterministic part (``docs/adjoint.md`` (G1)-(G4)).
 
     Parameters and return value as :func:`pes_ref.core.integrator.simulate_dynamic`: ``x0, v0``
@@ -67,7 +68,8 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
     dt_d = dt * d if damped else None
     p = np.empty((N, 2))
     fcall = force.call
-    for n, (xn, xn1, vn, vn1, fn, fn1) in enumerate(zip(x[:-1], x[1:], v[:-1], v[1:], f[:-1], f[1:])):
+    steps = enumerate(zip(x[:-1], x[1:], v[:-1], v[1:], f[:-1], f[1:]))
+    for n, (xn, xn1, vn, vn1, fn, fn1) in reporting(steps, progress, "forward", n_steps):
         # (G1) half_kick: P = V_n + a F_n
         np.multiply(a, fn, out=p)
         np.add(p, vn, out=p)
@@ -89,7 +91,7 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
 
 
 def adjoint_gjf(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, damping,
-                gx, gv, want: frozenset) -> dict:
+                gx, gv, want: frozenset, progress=None) -> dict:
     """Backward pass of :func:`simulate_gjf`: (G1)-(G4) reversed (``docs/adjoint.md`` (GB1)-(GB4), (GP1)).
 
     Parameters and return value as :func:`pes_ref.core.integrator.adjoint_dynamic`: ``gx, gv``
@@ -115,7 +117,7 @@ def adjoint_gjf(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, dam
     pbar = np.empty((N, 2))
     p = np.empty((N, 2))
     vjp = adj.vjp
-    for n in range(T - 1, -1, -1):
+    for n in reporting(range(T - 1, -1, -1), progress, "adjoint", T):
         if sbar is not None:          # P = V_n + a F_n, recomputed (G1)
             np.multiply(a, f[n], out=p)
             p += v[n]

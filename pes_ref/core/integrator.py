@@ -35,6 +35,7 @@ from typing import NamedTuple
 import numpy as np
 
 from pes_ref.core.forces import Field, ForceAdjoint, ForceKernel
+from pes_ref.core.progress import reporting
 
 __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
            "adjoint_quasistatic", "NonFiniteError", "check_finite", "reports_nonfinite", "start_dynamic",
@@ -68,9 +69,7 @@ def check_finite(traj: Trajectory, step_name: str) -> None:
     if not (np.isfinite(traj.x[-1]).all() and np.isfinite(traj.v[-1]).all() and np.isfinite(traj.f[-1]).all()):
         finite = [np.isfinite(a).all(axis=(1, 2)) for a in traj]
         bad = int(np.argmax(~(finite[0] & finite[1] & finite[2])))
-        raise NonFiniteError(
-            f"the trajectory became non-finite at step {bad} ({step_name}); the step is probably past "
-            "the explicit stability limit of the stiffest term: reduce it")
+        raise NonFiniteError(f"the trajectory became non-finite at step {bad} ({step_name})")
 
 
 def reports_nonfinite(simulate_fn):
@@ -106,7 +105,7 @@ def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: i
 
 @reports_nonfinite
 def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
-                     mass: np.ndarray, damping) -> Trajectory:
+                     mass: np.ndarray, damping, progress=None) -> Trajectory:
     """Damped velocity Verlet of the paper's eqs. (2)-(3) (docs/spec.md section 5.1).
 
     Parameters
@@ -121,6 +120,9 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
         T; the trajectory holds T+1 states.
     mass : ndarray, broadcastable to (N, 2)
     damping : ndarray broadcastable to (N, 2), or None for an undamped scene.
+    progress : callable or None
+        ``progress("forward", done, n_steps)`` every few hundred steps
+        (:func:`pes_ref.core.progress.reporting`).
 
     Returns
     -------
@@ -145,7 +147,8 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
     # a F_n is computed once: by the kick of step n-1 (S4), reused by the half-kick (S1)
     af = np.multiply(a, f[0])
     # the loop runs over views (x_n, x_{n+1}, ...); nothing is allocated per step
-    for xn, xn1, vn, vn1, fn1, fe in zip(x[:-1], x[1:], v[:-1], v[1:], f[1:], ext):
+    steps = zip(x[:-1], x[1:], v[:-1], v[1:], f[1:], ext)
+    for xn, xn1, vn, vn1, fn1, fe in reporting(steps, progress, "forward", n_steps):
         # (S1) half_kick: P = V_n + a F_n
         add(af, vn, p)
         # (S2) drift: X_{n+1} = X_n + dt P
@@ -168,7 +171,7 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
 
 
 def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, damping,
-                    gx, gv, want: frozenset) -> dict:
+                    gx, gv, want: frozenset, progress=None) -> dict:
     """Backward pass of :func:`simulate_dynamic`: the same sub-steps reversed (eqs. (B1)-(B4)).
 
     Parameters
@@ -182,6 +185,8 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     want : frozenset of str
         Which gradients to compute, among ``values, x0, v0, force, mass, damping,
         spring_k, spring_center``. Nothing else is accumulated.
+    progress : callable or None
+        ``progress("adjoint", done, T)`` every few hundred steps.
 
     Returns
     -------
@@ -213,7 +218,7 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     pbar = np.empty((N, 2)) if damped else vbar
     vbar_prev = np.empty((N, 2)) if damped else None
     mul, add, vjp = np.multiply, np.add, adj.vjp             # bound once (see simulate_dynamic)
-    for n in range(T - 1, -1, -1):
+    for n in reporting(range(T - 1, -1, -1), progress, "adjoint", T):
         # (B4) kick^T: P^ = d V^_{n+1} with d = 1/(1+c) (d = 1 undamped);
         #      F^_{n+1} += a P^; a^ += F_{n+1} P^; c^ -= (V_n + V_{n+1}) P^; V^_n = -c P^
         if damped:
@@ -277,11 +282,13 @@ def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass
 # =========================================================================== quasistatic
 
 @reports_nonfinite
-def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarray, n_steps: int) -> Trajectory:
+def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarray, n_steps: int,
+                         progress=None) -> Trajectory:
     """Quasistatic (overdamped) stepping ``X_{n+1} = X_n + mu F_n`` (docs/spec.md section 5.3).
 
     ``mobility`` has shape (2,). V is all zeros. ``f[T]`` is the force at the final
     state (it moves nothing; it is kept so the trajectory has T+1 forces in both modes).
+    ``progress`` as in :func:`simulate_dynamic`.
     """
     T, N = n_steps, x0.shape[0]
     x = np.empty((T + 1, N, 2))
@@ -292,7 +299,7 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
     mul, add, fcall = np.multiply, np.add, force.call      # bound once (see simulate_dynamic)
     ext = fext[:-1] if fext is not None else [None] * n_steps
     has_fext = fext is not None
-    for xn, xn1, fn, fe in zip(x[:-1], x[1:], f[:-1], ext):
+    for xn, xn1, fn, fe in reporting(zip(x[:-1], x[1:], f[:-1], ext), progress, "forward", n_steps):
         # (Q1) force: F_n = F(X_n) + F_ext[n]
         fcall(xn, fn)
         if has_fext:
@@ -308,12 +315,13 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
     return traj
 
 
-def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx, want: frozenset) -> dict:
+def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx, want: frozenset,
+                        progress=None) -> dict:
     """Backward pass of :func:`simulate_quasistatic` (eqs. (QB1)-(QB2)).
 
     Returns ``x0`` (N, 2), and as wanted ``values`` (flat), ``force`` (T+1, N, 2; the
     last entry is 0 since F_ext[T] moves nothing), ``mobility`` (2,), ``spring_k``,
-    ``spring_center`` (N, 2).
+    ``spring_center`` (N, 2). ``progress`` as in :func:`adjoint_dynamic`.
     """
     x, _, f = traj
     T, N = x.shape[0] - 1, x.shape[1]
@@ -324,7 +332,7 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
     fbar = np.empty((N, 2))
     mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))
     mul, add, vjp = np.multiply, np.add, adj.vjp             # bound once (see simulate_dynamic)
-    for n in range(T - 1, -1, -1):
+    for n in reporting(range(T - 1, -1, -1), progress, "adjoint", T):
         # (QB2) drift^T: F^_n = mu X^_{n+1}; mu^ += sum_i F_n X^_{n+1}; X^_n = X^_{n+1} (kept)
         mul(mu, xbar, fbar)
         if mubar is not None:

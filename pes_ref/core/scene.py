@@ -22,7 +22,7 @@ from dataclasses import dataclass, field as dc_field
 
 import numpy as np
 
-from pes_ref.core import checks
+from pes_ref.core import budget, checks
 from pes_ref.core import stability
 from pes_ref.core.effects import build_schedule, step_times
 from pes_ref.core.forces import Field, potential_energy
@@ -209,7 +209,8 @@ def _check_state(scene: Scene, x0, v0):
     return x0, v0
 
 
-def simulate(scene: Scene, x0, v0=None, *, fext="scene") -> Trajectory:
+def simulate(scene: Scene, x0, v0=None, *, fext="scene", allow_unstable: bool = False,
+             progress=None) -> Trajectory:
     """Run a scene forward (docs/spec.md section 5).
 
     Parameters
@@ -221,15 +222,49 @@ def simulate(scene: Scene, x0, v0=None, *, fext="scene") -> Trajectory:
         Initial velocities (zeros if omitted; ignored in quasistatic mode).
     fext : "scene", None or ndarray (T+1, N, 2)
         The external force; by default the schedule the scene's effects realize.
+    allow_unstable : bool
+        Run a scene past the stability limit of its stiffest term anyway (for studying
+        the unstable scheme on purpose); by default it is refused before the run.
+    progress : callable, optional
+        ``progress(phase, done, total)``, called before the first step, every few
+        hundred steps and after the last (``phase`` is ``"forward"``;
+        :mod:`pes_ref.core.progress`).
 
     Returns
     -------
     Trajectory
         ``x``, ``v``, ``f`` of shape (T+1, N, 2).
+
+    Raises
+    ------
+    pes_ref.core.stability.UnstableStepError
+        The step is past the stability limit of the scene's stiffest term
+        (:func:`pes_ref.core.stability.check_stable`, docs/spec.md section 10), unless
+        ``allow_unstable``; a ``ValueError`` naming ``dt`` or ``mobility``.
+    pes_ref.core.budget.RunTooLargeError
+        The run's arrays cannot fit in the available memory
+        (:func:`pes_ref.core.budget.check_memory`); a ``ValueError`` naming ``n_steps``.
+    NonFiniteError
+        The run left the finite numbers.
     """
     x0, v0 = _check_state(scene, x0, v0)
+    _check_run(scene, x0.shape[0], "simulate", allow_unstable, progress)
     fext = _resolve_fext(scene, fext, x0.shape[0])
-    return _forward(scene, x0, v0, fext)
+    return _forward(scene, x0, v0, fext, progress)
+
+
+def _check_run(scene: Scene, n_particles: int, kind: str, allow_unstable, progress) -> None:
+    """What the public boundary checks of a run before anything of its size is allocated:
+    the stability rule (:func:`pes_ref.core.stability.check_stable`), unless
+    ``allow_unstable``, and its memory (:func:`pes_ref.core.budget.check_memory`)."""
+    if not isinstance(allow_unstable, (bool, np.bool_)):
+        raise checks.InputTypeError("allow_unstable", f"allow_unstable must be True or False, got {allow_unstable!r}")
+    if progress is not None and not callable(progress):
+        raise checks.InputTypeError("progress", f"progress must be a callable (phase, done, total) or None, "
+                                                f"got {progress!r}")
+    if not allow_unstable:
+        stability.check_stable(scene)
+    budget.check_memory(scene.n_steps, n_particles, kind)
 
 
 def _resolve_fext(scene, fext, n):
@@ -242,25 +277,27 @@ def _resolve_fext(scene, fext, n):
 
 def _explains_nonfinite(forward):
     """Re-raise the core's :class:`NonFiniteError` with the scene's stability limit and a
-    stable step (:func:`pes_ref.core.stability.advice`), instead of a bare "reduce it"."""
+    stable step (:func:`pes_ref.core.stability.advice`), in one line."""
     @functools.wraps(forward)
     def wrapper(scene, *args, **kwargs):
         try:
             return forward(scene, *args, **kwargs)
         except NonFiniteError as err:
-            raise NonFiniteError(f"{err}. {stability.advice(scene)}") from err
+            raise NonFiniteError(f"{err}; {stability.advice(scene)}") from err
     return wrapper
 
 
-def _step_params(scene: Scene) -> StepParams:
+def _step_params(scene: Scene, progress=None) -> StepParams:
     """The scene's step parameters for its stepper; ``damping`` is None unless some gamma
     is nonzero (then the core does no damping arithmetic at all)."""
-    return StepParams(scene.dt, scene.n_steps, scene.mass, scene.damping if scene.damped else None, scene.mobility)
+    return StepParams(scene.dt, scene.n_steps, scene.mass, scene.damping if scene.damped else None, scene.mobility,
+                      progress)
 
 
 @_explains_nonfinite
-def _forward(scene: Scene, x0, v0, fext) -> Trajectory:
-    return stepper(scene.mode, scene.integrator).simulate(scene.field(), x0, v0, fext, _step_params(scene))
+def _forward(scene: Scene, x0, v0, fext, progress=None) -> Trajectory:
+    return stepper(scene.mode, scene.integrator).simulate(scene.field(), x0, v0, fext,
+                                                          _step_params(scene, progress))
 
 
 def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
@@ -281,7 +318,7 @@ def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
 
 
 def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: float = 0.0,
-                   wrt=None, fext="scene"):
+                   wrt=None, fext="scene", allow_unstable: bool = False, progress=None):
     """The loss of a run and its exact gradients by the hand-derived adjoint (docs/spec.md sections 6-7).
 
     Parameters
@@ -297,6 +334,12 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
         :data:`GRADIENT_NAMES`). Only those are accumulated.
     fext : "scene", None or ndarray (T+1, N, 2)
         As in :func:`simulate`.
+    allow_unstable : bool
+        As in :func:`simulate`: by default a step past the stability limit of the
+        scene's stiffest term is refused before the run.
+    progress : callable, optional
+        As in :func:`simulate`, for the forward run (phase ``"forward"``) and then the
+        adjoint (``"adjoint"``). A run that cannot fit in memory is refused as there.
 
     Returns
     -------
@@ -313,11 +356,13 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
     R = checks.as_nonneg_float("regularization_weight", regularization_weight)
     want = _wanted(scene, wrt)
     n = x0.shape[0]
+    _check_run(scene, n, "value_and_grad", allow_unstable, progress)
     fext = _resolve_fext(scene, fext, n)
-    traj = _forward(scene, x0, v0, fext)
+    traj = _forward(scene, x0, v0, fext, progress)
     loss, gx, gv = objective.value_and_grad(traj.x, traj.v, scene.times())
     reg, greg = regularization(scene.surface.values, R)
-    raw = stepper(scene.mode, scene.integrator).adjoint(scene.field(), traj, _step_params(scene), gx, gv, want)
+    raw = stepper(scene.mode, scene.integrator).adjoint(scene.field(), traj, _step_params(scene, progress), gx, gv,
+                                                        want)
     grads = {}
     for name in GRADIENT_NAMES:
         if name not in want:

@@ -35,6 +35,22 @@ run stably somewhat past it (a particle that never reaches the stiffest cell). P
 the true limit errors grow geometrically until the run leaves the finite numbers;
 :func:`pes_ref.simulate` then raises :class:`pes_ref.NonFiniteError` with
 :func:`advice`, which names this limit and a stable step.
+
+The refusal rule (docs/spec.md section 10) takes the terms one at a time instead, as
+the contract states it: per axis d the terms are a spring ``k_d`` (the largest over
+particles), a wall ``k_w`` (on an axis with a wall) and the grid's cross curvature ``c``
+(the same on both axes; the bicubic surface is held to the same ``c``). The second
+differences ``S_d`` are not a term: they are kinks of the bilinear force, whose force
+stays bounded by the grid's largest slope. A scene is refused iff, over terms and axes,
+
+- dynamic: ``max dt sqrt(K / min_i m_{i,d}) > 2``;
+- quasistatic: ``max mobility_d K > 2``;
+
+and it takes at least one step (``n_steps > 0``). :func:`term_limit` computes the
+stiffest term and :func:`check_stable` applies the rule, raising
+:class:`UnstableStepError` that names ``dt`` or ``mobility``, the factor past the limit,
+the term and a stable value: the :attr:`StabilityLimit.suggestion` of the summed bound
+above, which is within the per-term rule too (each term is at most the sum).
 """
 from __future__ import annotations
 
@@ -42,8 +58,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pes_ref.core import checks
+
 __all__ = ["StabilityLimit", "grid_cross_curvature", "grid_second_difference", "grid_stiffness",
-           "axis_stiffness", "stability_limit", "advice", "SAFETY"]
+           "axis_stiffness", "stability_limit", "advice", "SAFETY",
+           "RULE_TERMS", "RULE_DOC", "TermLimit", "UnstableStepError", "term_limit", "check_stable"]
 
 #: The stable step :func:`advice` suggests, as a fraction of the limit: at
 #: ``omega dt = 1`` velocity Verlet's energy error is ``(omega dt)^2 / 4`` of the
@@ -125,19 +144,22 @@ def grid_stiffness(surface) -> float:
 
 def axis_stiffness(scene) -> tuple:
     """``(K, terms)``: the per-axis stiffness bound ``K_d`` (2,) and its parts."""
-    s = scene.surface
-    terms = {
-        "grid_edges": grid_second_difference(s),
-        "grid_cross": np.full(2, grid_cross_curvature(s)),
-        "spring": np.zeros(2),
-        "walls": np.zeros(2),
-    }
+    terms = {"grid_edges": grid_second_difference(scene.surface), **_rule_parts(scene)}
+    return sum(terms.values()), terms
+
+
+def _rule_parts(scene) -> dict:
+    """The parts of :func:`axis_stiffness` that the refusal rule takes, each (2,):
+    ``grid_cross``, ``spring``, ``walls`` (the second differences, the costliest, are
+    left out; the rule runs on every call of :func:`pes_ref.simulate`)."""
+    parts = {"grid_cross": np.full(2, grid_cross_curvature(scene.surface)), "spring": np.zeros(2),
+             "walls": np.zeros(2)}
     if scene.spring is not None:
         k = np.broadcast_to(scene.spring.k, np.broadcast_shapes(np.shape(scene.spring.k), (1, 2)))
-        terms["spring"] = np.max(k.reshape(-1, 2), axis=0)
+        parts["spring"] = np.max(k.reshape(-1, 2), axis=0)
     if scene.walls is not None:
-        terms["walls"] = np.where(scene.walls.edges.any(axis=1), scene.walls.k, 0.0)
-    return sum(terms.values()), terms
+        parts["walls"] = np.where(scene.walls.edges.any(axis=1), scene.walls.k, 0.0)
+    return parts
 
 
 def stability_limit(scene) -> StabilityLimit:
@@ -168,28 +190,157 @@ def stability_limit(scene) -> StabilityLimit:
     return StabilityLimit("quasistatic", K, terms, np.nan, mu_max, ratio, suggestion)
 
 
-def _fmt_terms(lim: StabilityLimit) -> str:
-    parts = [f"{name} {np.array2string(val, precision=3)}" for name, val in lim.terms.items() if np.any(val)]
-    return ", ".join(parts) if parts else "none"
+def _fmt(values) -> str:
+    """``[a, b]`` with 3 significant digits each (or one number for a scalar)."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim == 0:
+        return f"{float(values):.3g}"
+    return "[" + ", ".join(f"{float(v):.3g}" for v in values.ravel()) + "]"
 
 
 def advice(scene) -> str:
-    """One sentence on the scene's stability limit and a stable step, for error messages.
-
-    Dynamic: ``"explicit stability limit dt < 2/omega_max = ...; dt = ... is 1.5x that;
-    a stable dt is ..."``. Quasistatic: the same for ``mu_d K_d < 2`` and the mobility.
+    """One clause on the scene's (summed, conservative) stability limit and a stable step,
+    for the message of a run that left the finite numbers, e.g. ``"the stability limit
+    is dt < 0.2 (dt = 1 is 5x it); a stable dt is 0.1 (docs/spec.md section 10)"``.
+    Quasistatic: the same per axis for the mobility.
     """
     lim = stability_limit(scene)
-    K = np.array2string(lim.stiffness, precision=4)
+    key = "dt" if lim.mode == "dynamic" else "mobility"
+    value = scene.dt if lim.mode == "dynamic" else scene.mobility
+    return (f"the stability limit is {key} < {_fmt(lim.limit)} ({key} = {_fmt(value)} is {lim.ratio:.3g}x it); "
+            f"a stable {key} is {_fmt(lim.suggestion)} ({RULE_DOC})")
+
+
+# =========================================================================== the refusal rule
+
+#: The terms of the refusal rule, by their name among :func:`axis_stiffness`'s parts,
+#: with the name a message gives them (the second differences ``grid_edges`` are none).
+RULE_TERMS = {"grid_cross": "grid curvature", "spring": "spring", "walls": "wall"}
+
+#: Where the rule is stated; every refusal names it.
+RULE_DOC = "docs/spec.md section 10"
+
+#: The key a refusal names, per mode.
+_KEYS = {"dynamic": "dt", "quasistatic": "mobility"}
+
+
+class UnstableStepError(checks.InputError):
+    """A scene whose step is past the stability limit of its stiffest term (the rule of
+    docs/spec.md section 10). ``key`` is ``"dt"`` (dynamic) or ``"mobility"`` (quasistatic);
+    the message is one line naming the value, the factor past the limit, the term and a
+    stable value. A :class:`~pes_ref.core.checks.InputError`, so a ``ValueError``."""
+
+
+class TermLimit(NamedTuple):
+    """The stiffest single term of a scene and its limit (the refusal rule).
+
+    Attributes
+    ----------
+    mode : str
+    key : str
+        ``"dt"`` or ``"mobility"``.
+    term : str
+        The stiffest term's name (:data:`RULE_TERMS`); ``""`` when no term has stiffness.
+    axis : int
+        The axis where it is stiffest (relative to the mass there, in dynamic mode).
+    stiffness : float
+        Its ``K``.
+    limit : float
+        Dynamic: the largest stable dt for that term, ``2 / sqrt(K / min_i m_{i,axis})``;
+        quasistatic: the largest stable mobility on ``axis``, ``2 / K``. Infinite without
+        any stiffness.
+    ratio : float
+        ``dt / limit`` or ``mobility[axis] / limit``, i.e. the largest ``dt sqrt(K/m)/2``
+        or ``mobility_d K / 2`` over terms and axes; the rule refuses above 1.
+    """
+
+    mode: str
+    key: str
+    term: str
+    axis: int
+    stiffness: float
+    limit: float
+    ratio: float
+
+
+def _min_mass(scene) -> np.ndarray:
+    """``min_i m_{i,d}`` per axis, shape (2,)."""
+    m = np.broadcast_to(scene.mass, np.broadcast_shapes(np.shape(scene.mass), (1, 2)))
+    return np.min(m.reshape(-1, 2), axis=0)
+
+
+def _dynamic_reach(scene, K: np.ndarray) -> np.ndarray:
+    """``dt sqrt(K / min m_d)`` per term and axis."""
+    return scene.dt * np.sqrt(K / _min_mass(scene))
+
+
+def _quasistatic_reach(scene, K: np.ndarray) -> np.ndarray:
+    """``mobility_d K`` per term and axis."""
+    return scene.mobility * K
+
+
+#: How far each mode's step reaches into the limit 2 of a term: per term and axis.
+_REACH = {"dynamic": _dynamic_reach, "quasistatic": _quasistatic_reach}
+
+
+def term_limit(scene) -> TermLimit:
+    """The stiffest single term of ``scene`` and its stability limit (the refusal rule,
+    docs/spec.md section 10; see the module docstring).
+
+    Parameters
+    ----------
+    scene : pes_ref.Scene
+
+    Returns
+    -------
+    TermLimit
+    """
+    parts = _rule_parts(scene)
+    names = list(RULE_TERMS)
+    K = np.array([parts[name] for name in names])                     # (terms, 2)
+    reach = _REACH[scene.mode](scene, K)
+    t, d = np.unravel_index(int(np.argmax(reach)), reach.shape)
+    key = _KEYS[scene.mode]
+    if not reach[t, d] > 0.0:
+        return TermLimit(scene.mode, key, "", 0, 0.0, np.inf, 0.0)
+    value = scene.dt if scene.mode == "dynamic" else float(scene.mobility[d])
+    ratio = float(reach[t, d]) / 2.0
+    return TermLimit(scene.mode, key, RULE_TERMS[names[t]], int(d), float(K[t, d]), value / ratio, ratio)
+
+
+def _refusal(scene, lim: TermLimit) -> str:
+    """The one-line message of a refused scene."""
+    suggestion = _fmt(stability_limit(scene).suggestion)
     if lim.mode == "dynamic":
-        where = "past" if lim.ratio >= 1.0 else "within"
-        return (f"explicit stability limit of velocity Verlet: dt < 2/omega_max = {lim.limit:.6g} "
-                f"(omega_max = {lim.omega_max:.6g}, stiffness per axis K = {K} from {_fmt_terms(lim)}); "
-                f"dt = {scene.dt:.6g} is {lim.ratio:.3g}x the limit ({where} it); "
-                f"a stable dt is {lim.suggestion:.6g}")
-    mu = np.array2string(np.asarray(scene.mobility), precision=6)
-    where = "past" if lim.ratio >= 1.0 else "within"
-    return (f"explicit stability limit of the quasistatic step: mobility_d * K_d < 2 "
-            f"(stiffness per axis K = {K} from {_fmt_terms(lim)}); mobility = {mu} reaches "
-            f"{lim.ratio:.3g}x the limit ({where} it); a stable mobility is "
-            f"{np.array2string(lim.suggestion, precision=6)}")
+        where = "" if lim.term == RULE_TERMS["grid_cross"] else f" on axis {lim.axis}"
+        return (f"dt = {scene.dt:.3g} is {lim.ratio:.3g}x the stability limit {lim.limit:.3g} of its stiffest "
+                f"term ({lim.term} {lim.stiffness:.3g}{where}); a stable dt is {suggestion} ({RULE_DOC})")
+    return (f"mobility = {_fmt(scene.mobility)} is {lim.ratio:.3g}x the stability limit {lim.limit:.3g} on axis "
+            f"{lim.axis} of its stiffest term ({lim.term} {lim.stiffness:.3g}); a stable mobility is {suggestion} "
+            f"({RULE_DOC})")
+
+
+def check_stable(scene) -> TermLimit:
+    """Apply the refusal rule (docs/spec.md section 10): refuse a scene that takes at
+    least one step past the stability limit of its stiffest term.
+
+    Parameters
+    ----------
+    scene : pes_ref.Scene
+
+    Returns
+    -------
+    TermLimit
+        The scene's stiffest term (when it is accepted).
+
+    Raises
+    ------
+    UnstableStepError
+        ``n_steps > 0`` and :attr:`TermLimit.ratio` ``> 1``; it names ``dt`` or
+        ``mobility``, the factor, the term and a stable value, in one line.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):      # a grid of huge values: infinite stiffness
+        lim = term_limit(scene)
+        if scene.n_steps > 0 and lim.ratio > 1.0:
+            raise UnstableStepError(lim.key, _refusal(scene, lim))
+    return lim

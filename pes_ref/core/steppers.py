@@ -31,7 +31,9 @@ class StepParams(NamedTuple):
 
     ``dt`` float and ``n_steps`` int (T); ``mass`` broadcastable to (N, 2); ``damping``
     broadcastable to (N, 2), or None for an undamped scene (no damping arithmetic at
-    all); ``mobility`` (2,) in quasistatic mode, else None.
+    all); ``mobility`` (2,) in quasistatic mode, else None; ``progress`` a callback
+    ``(phase, done, total)`` called every few hundred steps of the forward loop and of
+    the adjoint (:mod:`pes_ref.core.progress`), or None.
     """
 
     dt: float
@@ -39,6 +41,7 @@ class StepParams(NamedTuple):
     mass: np.ndarray
     damping: np.ndarray | None
     mobility: np.ndarray | None
+    progress: Callable | None = None
 
 
 class Stepper(NamedTuple):
@@ -66,27 +69,27 @@ class Stepper(NamedTuple):
 
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):
-    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping)
+    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress)
 
 
 def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
-    return adjoint_dynamic(field, traj, p.dt, p.mass, p.damping, gx, gv, want)
+    return adjoint_dynamic(field, traj, p.dt, p.mass, p.damping, gx, gv, want, p.progress)
 
 
 def _simulate_gjf(field, x0, v0, fext, p: StepParams):
-    return simulate_gjf(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping)
+    return simulate_gjf(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress)
 
 
 def _adjoint_gjf(field, traj, p: StepParams, gx, gv, want):
-    return adjoint_gjf(field, traj, p.dt, p.mass, p.damping, gx, gv, want)
+    return adjoint_gjf(field, traj, p.dt, p.mass, p.damping, gx, gv, want, p.progress)
 
 
 def _simulate_quasistatic(field, x0, v0, fext, p: StepParams):
-    return simulate_quasistatic(field, x0, fext, p.mobility, p.n_steps)
+    return simulate_quasistatic(field, x0, fext, p.mobility, p.n_steps, p.progress)
 
 
 def _adjoint_quasistatic(field, traj, p: StepParams, gx, gv, want):
-    return adjoint_quasistatic(field, traj, p.mobility, gx, want)
+    return adjoint_quasistatic(field, traj, p.mobility, gx, want, p.progress)
 
 
 _DYNAMIC_GRADIENTS = ("v0", "mass", "damping")

@@ -35,7 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pes_ref.core import checks
+from pes_ref.core import budget, checks, stability
+from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene, energy, gradient_names, value_and_grad
 from pes_ref.core.surface import Surface
@@ -358,7 +359,7 @@ def result_keys(grad_names) -> tuple:
     return ("x", "v", "energy", "loss") + tuple("grad_" + g for g in grad_names)
 
 
-def validate_case(raw: Mapping) -> ValidCase:
+def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
     """Check a case against docs/spec.md section 8 and build what the engine runs.
 
     The oracle checks what is particular to the file format: which keys a case holds,
@@ -374,6 +375,10 @@ def validate_case(raw: Mapping) -> ValidCase:
     raw : mapping of str -> array_like
         As read by :func:`load_case` (or built in memory; a Python ``str`` is accepted
         wherever a 0-d unicode array is).
+    allow_unstable : bool
+        Accept a case past the stability rule (docs/spec.md section 10). Not part of the
+        contract: a conforming program refuses such a case; this is for studying the
+        unstable scheme on purpose.
 
     Returns
     -------
@@ -386,7 +391,11 @@ def validate_case(raw: Mapping) -> ValidCase:
         a ``TypeError``, when the key holds the wrong kind of data). Keys are checked
         in a fixed order: names (unknown, then missing), mode and objective, the key
         rules (objective parameters, mobility, groups), the initial state, the scene's
-        keys, the force, the objective's parameters, the regularization.
+        keys, the force, the objective's parameters, the regularization; last the
+        stability rule (:func:`pes_ref.core.stability.check_stable`), naming ``dt`` or
+        ``mobility``. Right after the scene's keys, before any array of the run's size
+        is built, a run that cannot fit in the available memory is refused naming
+        ``n_steps`` (:func:`pes_ref.core.budget.check_memory`; not part of the contract).
     """
     if not isinstance(raw, Mapping):
         raise CaseTypeError(None, f"a case is a mapping of key -> array, got {type(raw).__name__}")
@@ -399,22 +408,32 @@ def validate_case(raw: Mapping) -> ValidCase:
     n = x0.shape[0]
     with _core_checks():
         scene = _scene(raw, mode, n)
+        budget.check_memory(scene.n_steps, n, "case")
         shape = (scene.n_steps + 1, n, 2)
         force = _force(raw, shape)
         objective = _OBJECTIVES[objective_name](raw, shape)
         reg = checks.as_nonneg_float("regularization", _scalar("regularization", raw.get("regularization", 0.0)))
+        if not allow_unstable:
+            stability.check_stable(scene)
     return ValidCase(scene, x0, v0, force, objective, reg, grad_names_for(mode, scene.spring is not None))
 
 
 # =========================================================================== running
 
-def run_case(case) -> dict:
+def run_case(case, *, allow_unstable: bool = False, monitor=None) -> dict:
     """Run a case with the reference engine: the oracle.
 
     Parameters
     ----------
     case : mapping, str or os.PathLike
         A case dict, or the path of a case file.
+    allow_unstable : bool
+        Run a case past the stability rule anyway (see :func:`validate_case`).
+    monitor : callable, optional
+        Called once, after the case is validated and before it runs, with the run's
+        :class:`pes_ref.core.budget.RunEstimate` (steps, particles, memory, seconds); it
+        returns a progress callback ``(phase, done, total)`` for the run's forward loop
+        and adjoint (:mod:`pes_ref.core.progress`), or None for no reports.
 
     Returns
     -------
@@ -426,23 +445,26 @@ def run_case(case) -> dict:
     Raises
     ------
     CaseError
-        The case breaks docs/spec.md section 8, or its run leaves the finite numbers (blamed on
-        ``dt`` in dynamic mode, ``mobility`` in quasistatic mode).
+        The case breaks docs/spec.md section 8, is past the stability rule (section 10), or its run
+        leaves the finite numbers (blamed on ``dt`` in dynamic mode, ``mobility`` in quasistatic mode).
     """
     if isinstance(case, (str, os.PathLike)):
         case = load_case(case)
-    vc = validate_case(case)
+    vc = validate_case(case, allow_unstable=allow_unstable)
     scene = vc.scene
+    progress = None if monitor is None else monitor(budget.estimate(scene.n_steps, vc.x0.shape[0], "case"))
     blame = "dt" if scene.mode == "dynamic" else "mobility"
     try:
         with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
             loss, grads, traj = value_and_grad(scene, vc.x0, vc.v0, vc.objective,
                                                regularization_weight=vc.regularization,
-                                               wrt=vc.grad_names, fext=vc.force)
+                                               wrt=vc.grad_names, fext=vc.force, allow_unstable=True,
+                                               progress=progress)
             e = energy(scene, traj)
+    except NonFiniteError as exc:             # its message names the step and a stable value
+        raise CaseError(blame, str(exc)) from None
     except FloatingPointError as exc:
-        raise CaseError(blame, f"the run left the finite numbers ({exc}); the step is probably past "
-                               "the stability limit of the stiffest term") from None
+        raise CaseError(blame, f"the run left the finite numbers ({exc}); {stability.advice(scene)}") from None
     except MemoryError:
         raise CaseError("n_steps", f"a run of n_steps={scene.n_steps} does not fit in memory") from None
     result = {"x": traj.x, "v": traj.v, "energy": e, "loss": np.float64(loss)}
@@ -466,12 +488,14 @@ def write_result(result: Mapping, path, overwrite: bool = False, compress: bool 
     write_npz(path, result, overwrite=overwrite, compress=compress)
 
 
-def run_case_file(case_path, result_path, overwrite: bool = False, compress: bool = False) -> dict:
+def run_case_file(case_path, result_path, overwrite: bool = False, compress: bool = False, *,
+                  allow_unstable: bool = False, monitor=None) -> dict:
     """Run the case file ``case_path`` and write its result to ``result_path``
     (deflated if ``compress``; see :func:`write_result`).
 
     Nothing is written when the case is refused, when its run fails, or when
-    ``result_path`` exists and ``overwrite`` is False.
+    ``result_path`` exists and ``overwrite`` is False. ``allow_unstable`` and
+    ``monitor`` as in :func:`run_case`.
 
     Returns
     -------
@@ -484,6 +508,6 @@ def run_case_file(case_path, result_path, overwrite: bool = False, compress: boo
             raise ValueError(f"the result path {result_path!r} is the case file itself")
         if not overwrite:
             raise ResultExistsError(result_path)
-    result = run_case(load_case(case_path))
+    result = run_case(load_case(case_path), allow_unstable=allow_unstable, monitor=monitor)
     write_result(result, result_path, overwrite=overwrite, compress=compress)
     return result

@@ -18,8 +18,8 @@ from pes_ref.synthesis.problems import (IN_BAND_SHARE, OSCILLATOR_COSTS, PROBLEM
                                         OscillatorProblem, PhaseThenCycle, exit_positions)
 from pes_ref.synthesis.plans import DEFAULT_OSCILLATOR_OBJECTIVE, DEFAULT_PLANS, OSCILLATOR_OBJECTIVES, Plan
 from pes_ref.synthesis.resampling import resample
-from pes_ref.synthesis.training import (DesignState, GradientStep, Progress, design_gradient, new_design,
-                                        run_design)
+from pes_ref.synthesis.training import (STOPPED, DesignState, GradientStep, Progress, check_stable_design,
+                                        design_gradient, new_design, run_design)
 from pes_ref.synthesis.analysis import (ANALYSIS_PERIODS, CYCLE_DRIFT, CYCLE_TOLERANCE, Paths, TorqueSweep,
                                         cycle_figures, evaluate, funnel_paths, oscillator_grid_starts,
                                         oscillator_torque_sweep, phase_space)
@@ -34,6 +34,7 @@ __all__ = [
     "Plan", "DEFAULT_PLANS", "OSCILLATOR_OBJECTIVES", "DEFAULT_OSCILLATOR_OBJECTIVE",
     "resample",
     "DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",
+    "check_stable_design", "STOPPED",
     "Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
     "phase_space", "cycle_figures", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS",
     "escapement_values",

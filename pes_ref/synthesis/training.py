@@ -23,11 +23,17 @@ import numpy as np
 from pes_ref.core import checks
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.scene import value_and_grad
+from pes_ref.core.stability import UnstableStepError, check_stable
 from pes_ref.synthesis.plans import DEFAULT_PLANS, Plan
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.resampling import resample
 
-__all__ = ["DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient"]
+__all__ = ["DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",
+           "check_stable_design", "STOPPED"]
+
+#: The statuses of a run that stopped on a failed iteration (rolled back to the last good state):
+#: its run left the finite numbers, or its grid steepened past the stability rule.
+STOPPED = ("non-finite", "unstable")
 
 
 @dataclass
@@ -37,7 +43,8 @@ class DesignState:
     Mutable on purpose (it is what the design loop advances); every field is plain data
     that :mod:`pes_ref.synthesis.design_file` writes and reads back bit-exactly. ``history`` maps
     ``"loss"`` and ``"metric"`` to lists with one float per finished iteration;
-    ``status`` is ``"running"``, ``"done"``, ``"interrupted"`` or ``"non-finite: ..."``.
+    ``status`` is ``"running"``, ``"done"``, ``"interrupted"``, or one of :data:`STOPPED`
+    followed by ``": iteration k: <reason>"``.
     """
 
     problem: object
@@ -63,7 +70,17 @@ def new_design(kind: str, seed: int = 0, plan: Plan | None = None, **params) -> 
     plan = DEFAULT_PLANS[kind] if plan is None else plan
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))
-    return DesignState(problem, plan, seed, values, plan.make_optimizer())
+    state = DesignState(problem, plan, seed, values, plan.make_optimizer())
+    check_stable_design(state)
+    return state
+
+
+def check_stable_design(state: DesignState) -> None:
+    """Refuse a run whose scene is past the stability rule (docs/spec.md section 10) on its
+    current grid, before it runs: :class:`~pes_ref.core.stability.UnstableStepError` naming
+    ``dt`` (e.g. a ``dt`` or ``wall_k`` override too large for the problem's springs and
+    walls). Every iteration checks its own scene again as the grid changes."""
+    check_stable(state.problem.scene(state.values))
 
 
 class Progress(NamedTuple):
@@ -153,9 +170,10 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     ``progress_every`` seconds and once at the end; ``checkpoint(state)`` every
     ``checkpoint_every`` seconds. Ctrl-C (SIGINT) finishes the current iteration and
     stops with ``status = "interrupted"``. A non-finite loss, gradient or trajectory
-    stops the run and rolls it back one iteration, to the last grid whose loss was finite
-    (``status = "non-finite: ..."``); resuming it repeats that iteration, so change the
-    plan (a smaller ``lr``, ``clip``) first.
+    (``status = "non-finite: ..."``), or an iteration whose grid has steepened past the
+    stability rule (``"unstable: ..."``, docs/spec.md section 10), stops the run and rolls
+    it back one iteration, to the last grid whose run was finite and stable; resuming it
+    repeats that iteration, so change the plan (a smaller ``lr``, ``clip``) first.
     """
     total = state.plan.iterations if iterations is None else checks.as_nonneg_int("iterations", iterations)
     problem, plan = state.problem, state.plan
@@ -172,9 +190,9 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
 
     snapshot = None      # (values, optimizer state) before the last committed step
 
-    def roll_back(reason):
-        # the iterate just reached has a non-finite run: return to the last one whose loss was finite
-        state.status = f"non-finite: {reason}"
+    def roll_back(reason, stop="non-finite"):
+        # the iterate just reached has a non-finite or unstable run: return to the last good one
+        state.status = f"{stop}: {reason}"
         if snapshot is not None:
             state.values, opt_state = snapshot
             state.optimizer.load_state_dict(opt_state)
@@ -195,6 +213,9 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
                                                         plan.steps_at(k))
             except FloatingPointError as exc:          # NonFiniteError is one
                 roll_back(f"iteration {k}: {exc}")
+                break
+            except UnstableStepError as exc:           # the grid steepened past the stability rule
+                roll_back(f"iteration {k}: {exc}", "unstable")
                 break
             if not (np.isfinite(loss_k) and np.isfinite(grad).all()):
                 roll_back(f"iteration {k}: the loss or its gradient is not finite")

@@ -29,11 +29,15 @@ from pes_ref.oracle.npz import atomic_file
 
 __all__ = ["VERSION", "Vector", "build_vectors", "write_vectors", "compare_dirs", "main"]
 
-#: The generator named in the v1 manifest: the module path of the vectors' release (it now
-#: lives at pes_ref.oracle.conformance.generate; the old path still imports). Frozen with v1.
-GENERATOR = "pes_ref.conformance.generate"
+#: The generator named in the manifest: this module. (The frozen v1 manifest names its
+#: old path, ``pes_ref.conformance.generate``, which still imports.)
+GENERATOR = "pes_ref.oracle.conformance.generate"
 
-VERSION = "v1"
+#: The vector set this module writes. v2 (spec v2) adds the stability rule of
+#: docs/spec.md section 10: v1's ``far-outside-spring-quasistatic`` was past it and has a
+#: stable mobility here, and the ``unstable-*`` invalid vectors and the ``near-limit-*``
+#: valid ones pin the rule down.
+VERSION = "v2"
 _SEED = 20210921
 
 # name -> (shape, lower, upper, periodic); every spacing is 0.25
@@ -335,9 +339,10 @@ def _edge_vectors():
                  far_outside)
 
     def far_outside_spring(r):
-        case = _case(r, "cylinder-q0", n=2, mode="quasistatic", objective="funnel-every", n_steps=30,
+        # mobility within the stability rule (v1 had [0.05, 0.1], 1.74x the limit of the grid's curvature)
+        case = _case(r, "cylinder-q0", n=2, mode="quasistatic", objective="funnel-every", n_steps=40,
                      spring_k=np.array([0.0, 2.0]), spring_center=np.array([0.0, 0.0]),
-                     mobility=np.array([0.05, 0.1]))
+                     mobility=np.array([0.025, 0.04]))
         case["x0"] = np.array([[0.3, 4.0], [1.1, -3.0]])
         return case
     yield _valid("far-outside-spring-quasistatic", "cylinder q0, quasistatic, a spring pulls particles back "
@@ -353,11 +358,48 @@ def _edge_vectors():
                                  spring_k=np.float64(1.0), spring_center=np.array([0.5, 0.5])))
 
 
+def _limit_vectors():
+    """Valid cases near the stability rule of docs/spec.md section 10 (and one past it that
+    takes no step)."""
+    def near_spring(r):
+        # dt sqrt(k / m) = 1.8: 0.9 of the limit of the spring, the stiffest term
+        case = _case(r, "plane", n=2, n_steps=30, objective="quadratic", mass=np.array([1.0, 4.0]))
+        case.update(spring_k=np.array([(1.8 / 0.05) ** 2, 1.0]), spring_center=np.array([0.5, 0.75]))
+        return case
+    yield _valid("near-limit-spring-dynamic", "dynamic, a spring at 0.9 of its stability limit "
+                 "(dt sqrt(k/m) = 1.8); the grid's curvature is far below", near_spring)
+
+    def near_grid(r):
+        # mobility_1 c = 1.8: 0.9 of the limit of the grid's cross curvature c
+        case = _case(r, "cylinder-q1", n=3, mode="quasistatic", n_steps=30, objective="funnel-every")
+        case["mobility"] = np.array([0.01, 1.8 / _cross_curvature(case)])
+        return case
+    yield _valid("near-limit-grid-quasistatic", "quasistatic, the mobility on q1 at 0.9 of the stability "
+                 "limit of the grid's curvature (mobility_1 c = 1.8)", near_grid)
+
+    yield _valid("steps-0-past-limit", "T = 0 with dt far past the limit of its spring: a run of no step is "
+                 "never refused", lambda r: _case(r, "plane", n=2, n_steps=0, dt=10.0, objective="quadratic",
+                                                  spring_k=np.float64(100.0), spring_center=np.array([0.5, 0.5])))
+
+
+def _cross_curvature(case: dict) -> float:
+    """The grid curvature c of a case, ``max over cells |G11 - G10 - G01 + G00| / (h0 h1)``
+    (docs/spec.md section 10; cells closed by wrap-around on a periodic axis)."""
+    G = np.asarray(case["values"], dtype=np.float64)
+    periodic = np.asarray(case["periodic"], dtype=bool)
+    n = np.array(G.shape)
+    h = (np.asarray(case["upper"]) - np.asarray(case["lower"])) / np.where(periodic, n, n - 1)
+    for d in range(2):
+        if periodic[d]:
+            G = np.concatenate((G, np.take(G, [0], axis=d)), axis=d)
+    return float(np.max(np.abs(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1])) / (h[0] * h[1]))
+
+
 def valid_vectors() -> list:
     """All valid vectors, in manifest order."""
     out = []
     for group in (_topology_vectors, _spring_wall_vectors, _force_vectors, _mass_damping_vectors,
-                  _objective_vectors, _grid_vectors, _edge_vectors):
+                  _objective_vectors, _grid_vectors, _edge_vectors, _limit_vectors):
         out.extend(group())
     return out
 
@@ -470,6 +512,29 @@ def invalid_vectors() -> list:
         _invalid("mass-bool", "mass holds a bool", "mass", T, mass=np.bool_(True)),
         _invalid("periodic-float", "periodic holds floats", "periodic", T, periodic=np.array([0.0, 1.0])),
         _invalid("dt-string", "dt holds a string", "dt", T, dt="0.05"),
+        # the stability rule (docs/spec.md section 10): finite numbers, but past the limit of the stiffest term
+        *_unstable_vectors(),
+    ]
+
+
+def _unstable_vectors() -> list:
+    """Invalid vectors past the stability rule by 1.5x, one per term (dynamic, key ``dt``)
+    and one quasistatic (key ``mobility``); the base cases stay far inside it otherwise."""
+    dt = float(_base_dynamic()["dt"])
+    k = (3.0 / dt) ** 2                                     # dt sqrt(k / m) = 3 with m = 1
+    qs = _base_quasistatic()
+    return [
+        _invalid("unstable-spring", "dynamic, dt sqrt(k/m) = 3 for the spring: 1.5x its stability limit", "dt",
+                 "ValueError", spring_k=np.array([1.0, k]), spring_center=np.zeros(2)),
+        _invalid("unstable-wall", "dynamic, dt sqrt(k_w/m) = 3 for the walls of q0: 1.5x their stability limit",
+                 "dt", "ValueError", wall_k=np.float64(k), wall_margin=np.float64(0.1),
+                 walls=np.array([[True, True], [False, False]])),
+        _invalid("unstable-grid", "dynamic, dt sqrt(c/m) = 3 for the grid's cross curvature c: 1.5x its "
+                 "stability limit", "dt", "ValueError",
+                 dt=np.float64(3.0 / np.sqrt(_cross_curvature(_base_dynamic())))),
+        _invalid("unstable-quasistatic", "quasistatic, mobility_1 c = 3 for the grid's cross curvature c: 1.5x "
+                 "its stability limit", "mobility", "ValueError", base=_base_quasistatic,
+                 mobility=np.array([float(qs["mobility"][0]), 3.0 / _cross_curvature(qs)])),
     ]
 
 
@@ -512,9 +577,9 @@ def _entry(tc_id: int, vec: Vector) -> dict:
 def manifest_header() -> dict:
     """The manifest's fixed part: format, version, tolerances."""
     return {
-        "format": "pes_ref conformance vectors (SPEC.md section 6 case/result .npz files)",
+        "format": "pes_ref conformance vectors (docs/spec.md sections 8-9 case/result .npz files)",
         "version": VERSION,
-        "spec": "SPEC.md sections 1-6; the format: docs/oracle.md",
+        "spec": "docs/spec.md (spec v2)",
         "generator": GENERATOR,
         "tolerances": {
             "TRAJ_RTOL": tolerances.TRAJ_RTOL, "TRAJ_ATOL": tolerances.TRAJ_ATOL,
@@ -533,7 +598,7 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
     Parameters
     ----------
     directory : path, optional
-        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v1``.
+        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v2``.
         Created if missing; vector files of this naming scheme that are no longer
         part of the set are removed.
 

@@ -1,0 +1,238 @@
+"""What a run costs before it runs (pes_ref.core.budget): a run that cannot fit in the
+available memory is refused in one line naming n_steps, N and the size, before any large
+allocation; oracle runs longer than a few seconds print an estimate and progress lines;
+the hot loops report progress only every few hundred steps, through an optional callback."""
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pes_ref
+import pes_ref as pr
+from pes_ref.cli import EXIT_ERROR, EXIT_OK
+from pes_ref.core import budget, progress
+from pes_ref.oracle import case as oracle
+
+ROOT = Path(pes_ref.__file__).resolve().parent.parent
+GIB = 2 ** 30
+
+
+def run_cli(*args, timeout=120):
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run([sys.executable, "-m", "pes_ref", *map(str, args)], capture_output=True, text=True,
+                          env=env, timeout=timeout)
+
+
+def small_case(n_steps=6, n=2) -> dict:
+    rng = np.random.default_rng(5)
+    return dict(values=rng.normal(size=(5, 7)), lower=np.zeros(2), upper=np.array([1.0, 1.5]),
+                periodic=np.array([False, False]), dt=np.float64(0.01), n_steps=np.int64(n_steps), mode="dynamic",
+                mass=np.float64(1.0), damping=np.float64(0.1), x0=rng.uniform(0.2, 0.8, (n, 2)),
+                v0=np.zeros((n, 2)), objective="funnel", target=np.float64(0.5), when="final")
+
+
+def _scene(n_steps):
+    surf = pr.Surface(np.zeros((4, 4)), (0, 0), (1, 1), (False, False))
+    return pr.Scene(surf, dt=0.01, n_steps=n_steps)
+
+
+# =========================================================================== memory
+
+def test_the_memory_formula():
+    """bytes = arrays * (T+1) * N * 2 * 8, with the arrays each kind of run holds."""
+    assert budget.run_bytes(99, 5, "simulate") == budget.ARRAYS["simulate"] * 100 * 5 * 2 * 8
+    assert budget.ARRAYS["simulate"] < budget.ARRAYS["value_and_grad"] < budget.ARRAYS["case"]
+
+
+def test_available_memory_is_read():
+    avail = budget.available_memory()
+    assert avail is None or avail > 0
+
+
+@pytest.mark.parametrize("kind", ["simulate", "value_and_grad", "case"])
+def test_the_estimate_bounds_the_measured_peak(kind):
+    """The formula is an upper bound of what tracemalloc sees a run allocate (a scene with
+    every term, a force schedule and the oscillator objective: the largest measured)."""
+    import tracemalloc
+    T, N = 2000, 30
+    surf = pr.Surface(np.random.default_rng(0).uniform(0, 0.1, (12, 12)), (0, 0), (1, 1), (False, False))
+    scene = pr.Scene(surf, dt=0.001, n_steps=T, damping=0.1, spring=pr.Spring(1.0, (0.5, 0.5)),
+                     walls=pr.Walls(10.0, 0.1, np.ones((2, 2), bool)), effects=(pr.Constant((0.1, 0.0)),))
+    x0 = np.random.default_rng(1).uniform(0.2, 0.8, (N, 2))
+    case = dict(small_case(n_steps=T, n=N), x0=x0, values=surf.values, lower=np.zeros(2), upper=np.ones(2),
+                dt=np.float64(0.001), spring_k=np.float64(1.0), spring_center=np.array([0.5, 0.5]),
+                wall_k=np.float64(10.0), wall_margin=np.float64(0.1), walls=np.ones((2, 2), bool))
+    run = {"simulate": lambda: pr.simulate(scene, x0),
+           "value_and_grad": lambda: pr.value_and_grad(scene, x0, None, pr.Oscillator(0.3, 2.0)),
+           "case": lambda: oracle.run_case(case)}[kind]
+    tracemalloc.start()
+    try:
+        run()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak <= budget.run_bytes(T, N, kind), (peak, budget.run_bytes(T, N, kind))
+
+
+def test_a_run_that_cannot_fit_is_refused_at_the_boundary(monkeypatch):
+    """simulate and value_and_grad refuse before allocating anything of the run's size:
+    n_steps = 10**9 is refused at once, naming n_steps, N and the size in GiB."""
+    for run in (lambda s: pr.simulate(s, [[0.5, 0.5], [0.2, 0.3]]),
+                lambda s: pr.value_and_grad(s, [[0.5, 0.5], [0.2, 0.3]], None, pr.Funnel(0.5))):
+        t = time.perf_counter()
+        with pytest.raises(budget.RunTooLargeError) as info:
+            run(_scene(10 ** 9))
+        assert time.perf_counter() - t < 1.0
+        msg = str(info.value)
+        assert info.value.key == "n_steps" and "\n" not in msg
+        assert "n_steps = 1000000000" in msg and "N = 2" in msg and "GiB" in msg, msg
+
+
+def test_the_refusal_boundary_is_the_available_memory(monkeypatch):
+    need = budget.run_bytes(100, 2, "simulate")
+    monkeypatch.setattr(budget, "available_memory", lambda: need)
+    pr.simulate(_scene(100), [[0.5, 0.5], [0.2, 0.3]])
+    monkeypatch.setattr(budget, "available_memory", lambda: need - 1)
+    with pytest.raises(budget.RunTooLargeError):
+        pr.simulate(_scene(100), [[0.5, 0.5], [0.2, 0.3]])
+    monkeypatch.setattr(budget, "available_memory", lambda: None)     # unknown: no refusal
+    pr.simulate(_scene(100), [[0.5, 0.5], [0.2, 0.3]])
+
+
+def test_validate_case_refuses_before_allocating_the_force(monkeypatch):
+    """The oracle refuses n_steps = 10**9 naming the key; the (T+1, N, 2) force array is never built."""
+    def no_force(*a, **k):
+        raise AssertionError("the force array was allocated")
+    monkeypatch.setattr(oracle, "_force", no_force)
+    with pytest.raises(oracle.CaseError) as info:
+        oracle.validate_case(small_case(n_steps=10 ** 9))
+    assert info.value.key == "n_steps" and "GiB" in str(info.value)
+
+
+def test_cli_oracle_refuses_a_run_too_large_in_one_line(tmp_path):
+    path, out = tmp_path / "c.npz", tmp_path / "r.npz"
+    oracle.save_case(path, **small_case(n_steps=10 ** 9))
+    t = time.perf_counter()
+    proc = run_cli("oracle", path, out)
+    assert time.perf_counter() - t < 30
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == EXIT_ERROR and len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert lines[0].startswith("error: case key 'n_steps': ") and "n_steps = 1000000000" in lines[0]
+    assert "N = 2" in lines[0] and "GiB" in lines[0]
+    assert not out.exists()
+
+
+# =========================================================================== progress in the hot loops
+
+@pytest.mark.parametrize("mode, integrator", [("dynamic", "verlet"), ("dynamic", "gjf"), ("quasistatic", "verlet")])
+def test_progress_is_reported_every_few_hundred_steps(mode, integrator):
+    T = 3 * progress.EVERY + 17
+    extra = dict(mobility=(0.01, 0.01)) if mode == "quasistatic" else dict(damping=0.2, integrator=integrator)
+    scene = pr.Scene(pr.Surface(np.zeros((4, 4)), (0, 0), (1, 1), (False, False)), dt=0.01, n_steps=T,
+                     mode=mode, **extra)
+    calls = []
+    traj = pr.simulate(scene, [[0.5, 0.5]], progress=lambda *a: calls.append(a))
+    assert calls == [("forward", k, T) for k in (0, 256, 512, 768, T)]
+    calls.clear()
+    _, _, traj2 = pr.value_and_grad(scene, [[0.5, 0.5]], None, pr.Funnel(0.5), progress=lambda *a: calls.append(a))
+    assert calls == [("forward", k, T) for k in (0, 256, 512, 768, T)] + [("adjoint", k, T)
+                                                                          for k in (0, 256, 512, 768, T)]
+    np.testing.assert_array_equal(traj.x, traj2.x)
+    np.testing.assert_array_equal(traj.x, pr.simulate(scene, [[0.5, 0.5]]).x)   # reporting changes nothing
+
+
+def test_the_time_estimate_grows_with_the_run():
+    a = budget.estimate_seconds(1000, 10)
+    assert 0 < a < budget.estimate_seconds(2000, 10) and a < budget.estimate_seconds(1000, 1000)
+    assert budget.estimate_seconds(1000, 10, "simulate") < a
+
+
+def test_a_short_run_is_estimated_without_measuring():
+    """The ~50 ms calibration runs only for a run that the typical cost puts over a second."""
+    budget.step_cost.cache_clear()
+    budget.estimate(200, 4, "case")
+    assert budget.step_cost.cache_info().misses == 0
+    budget.estimate(10 ** 6, 64, "case")
+    assert budget.step_cost.cache_info().misses == 1
+
+
+def test_progress_lines_from_a_fake_clock(capsys):
+    """The oracle command's lines: an estimate first, then at most one line per period."""
+    from pes_ref.cli.oracle import ProgressLines
+    now = [0.0]
+    est = budget.RunEstimate(1000, 8, 1.0, 10.0)
+    lines = ProgressLines("c.npz", est, period=2.0, clock=lambda: now[0])
+    for phase in ("forward", "adjoint"):
+        for done in range(0, 1001, 100):
+            now[0] += 0.5
+            lines(phase, done, 1000)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("c.npz: T = 1000, N = 8: about 0:10")
+    assert any(" forward " in e and "% " in e and "left" in e for e in err[1:])
+    assert any(" adjoint " in e for e in err[1:])
+    assert 4 <= len(err) <= 7, err
+
+
+def test_a_run_estimated_short_that_runs_long_starts_reporting(capsys):
+    from pes_ref.cli.oracle import ProgressLines
+    now = [0.0]
+    lines = ProgressLines("c.npz", budget.RunEstimate(1000, 8, 1.0, 1.0), period=2.0, clock=lambda: now[0])
+    lines("forward", 0, 1000)
+    now[0] = 2.0
+    lines("forward", 256, 1000)
+    assert capsys.readouterr().err == ""            # estimated 1 s, 2 s so far: quiet
+    now[0] = 4.0
+    lines("forward", 512, 1000)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and err[0].startswith("c.npz: T = 1000, N = 8: about") and "forward 51%" in err[1], err
+
+
+def test_cli_oracle_prints_progress_lines(tmp_path, capsys, monkeypatch):
+    """The oracle command's path, kept short: with the long-run threshold and the period
+    lowered, a run of a few tenths of a second prints its estimate and progress lines on
+    stderr, and the result on stdout."""
+    from pes_ref.cli import main
+    from pes_ref.cli import oracle as cli_oracle
+    monkeypatch.setattr(cli_oracle, "LONG_RUN", 0.05)
+    monkeypatch.setattr(cli_oracle, "PERIOD", 0.02)
+    T, n = 20000, 2
+    path, out = tmp_path / "c.npz", tmp_path / "r.npz"
+    oracle.save_case(path, **dict(small_case(n_steps=T, n=n), values=np.zeros((5, 7))))   # flat: no chaos
+    assert main(["oracle", str(path), str(out)]) == EXIT_OK
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert err and err[0].startswith(f"{path}: T = {T}, N = {n}: about"), err
+    assert any(" forward " in e and "left" in e for e in err[1:]) and any(" adjoint " in e for e in err[1:]), err
+    assert captured.out.startswith(f"wrote {out}")
+
+
+@pytest.mark.slow
+def test_cli_oracle_prints_progress_on_a_long_run(tmp_path):
+    """A case sized to take about 6 s (by this process's cost model): the oracle prints its
+    estimate and progress lines on stderr, and the result on stdout. (Skipped if the
+    machine ran it in under 4 s after all: then it was not a long run.)"""
+    n = 2
+    T = int(6.0 / (budget.estimate_seconds(10 ** 5, n) / 10 ** 5))
+    path, out = tmp_path / "c.npz", tmp_path / "r.npz"
+    oracle.save_case(path, **dict(small_case(n_steps=T, n=n), values=np.zeros((5, 7))))   # flat: no chaos
+    t = time.perf_counter()
+    proc = run_cli("oracle", path, out, timeout=300)
+    seconds = time.perf_counter() - t
+    assert proc.returncode == EXIT_OK, proc.stderr
+    assert proc.stdout.startswith(f"wrote {out}")
+    err = proc.stderr.strip().splitlines()
+    if not err and seconds < 4.0:
+        pytest.skip(f"the run took {seconds:.1f} s: not long on this machine")
+    assert err and f"T = {T}, N = {n}: about" in err[0], proc.stderr
+    assert any("forward" in e and "left" in e for e in err[1:]) or any("adjoint" in e for e in err[1:]), err
+
+
+def test_a_short_oracle_run_prints_nothing_on_stderr(tmp_path):
+    path, out = tmp_path / "c.npz", tmp_path / "r.npz"
+    oracle.save_case(path, **small_case())
+    proc = run_cli("oracle", path, out)
+    assert proc.returncode == EXIT_OK and proc.stderr == ""
