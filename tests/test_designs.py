@@ -92,20 +92,32 @@ def test_short_oscillator_design_lowers_its_objective(cost):
     assert np.mean(st.history["loss"][-5:]) < np.mean(st.history["loss"][:5])
 
 
-def test_ctrl_c_stops_after_the_iteration_with_its_state():
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_ctrl_c_or_sigterm_stops_after_the_iteration_with_its_state(signum):
     sent = []
+    # a harmless handler of our own: were the loop to leave SIGTERM alone, the test fails
+    # instead of the signal ending the test session
+    own = signal.signal(signal.SIGTERM, lambda *_: None)
+    try:
+        _interrupted_run(signum, sent)
+    finally:
+        signal.signal(signal.SIGTERM, own)
+
+
+def _interrupted_run(signum, sent):
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
 
     def interrupt(progress):
         if progress.iteration == 2 and not sent:
             sent.append(True)
-            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), signum)
 
     st = synthesis.run_design(tiny_state(plan=Plan(iterations=10, n_particles=4)), callback=interrupt,
                               progress_every=0.0)
     assert st.status == "interrupted"
     assert st.iteration == 2                    # the flag is seen before iteration 2 starts
     assert len(st.history["loss"]) == 2
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert {s: signal.getsignal(s) for s in before} == before     # the handlers are given back
 
 
 def test_non_finite_run_stops_at_the_last_finite_state():

@@ -4,8 +4,8 @@
   [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C]
   [--particles N] [--objective overshoot|eq6] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
   run (or continue) a design and write its file (:mod:`pes_ref.synthesis.design_file`). A progress line goes to stderr
-  every ``--progress`` seconds; Ctrl-C finishes the iteration, saves and exits 0; a run that
-  goes non-finite saves its last finite state and exits 1.
+  every ``--progress`` seconds; Ctrl-C or SIGTERM finishes the iteration, saves and exits 130;
+  a run that goes non-finite saves its last finite state and exits 1.
 
 ``--smoke`` is a tiny preset for tests and a quick look (see ``docs/synthesis.md``).
 """
@@ -32,7 +32,7 @@ def add_parser(sub) -> None:
         description="Optimize the grid values of a potential energy surface for the paper's funnel or "
                     "oscillator objective and write the design (grid, scene parameters, seed, loss history, "
                     "optimizer state) to FILE.npz. --iterations is the total count to reach, also on --resume. "
-                    "Ctrl-C stops after the current iteration and saves. An existing --out is refused unless "
+                    "Ctrl-C (or SIGTERM) stops after the current iteration, saves and exits 130. An existing --out is refused unless "
                     "--force; with --resume and no --out the resumed file itself is updated.",
         examples=['design funnel --out funnel.npz', 'design oscillator --seed 1 --out osc.npz && python -m pes_ref evaluate osc.npz'])
     p.add_argument("kind", choices=["funnel", "oscillator"], help="the device to design")

@@ -78,25 +78,28 @@ class Progress(NamedTuple):
 
 
 class _StopFlag:
-    """Turns SIGINT into a flag checked between iterations (main thread only)."""
+    """Turns SIGINT (Ctrl-C) and SIGTERM (a batch scheduler preempting the run) into a flag
+    checked between iterations (main thread only); a second signal stops at once."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self):
         self.stop = False
-        self._old = None
+        self._old = {}
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
-            self._old = signal.signal(signal.SIGINT, self._handle)
+            self._old = {signum: signal.signal(signum, self._handle) for signum in self.SIGNALS}
         return self
 
     def _handle(self, signum, frame):
-        if self.stop:                       # a second Ctrl-C: the user insists
+        if self.stop:                       # a second signal: the user insists
             raise KeyboardInterrupt
         self.stop = True
 
     def __exit__(self, *exc):
-        if self._old is not None:
-            signal.signal(signal.SIGINT, self._old)
+        for signum, old in self._old.items():
+            signal.signal(signum, old)
         return False
 
 
@@ -151,8 +154,8 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     with respect to the grid values by the adjoint, masks it, and takes one optimizer
     step at the plan's learning rate. ``callback(Progress)`` is called every
     ``progress_every`` seconds and once at the end; ``checkpoint(state)`` every
-    ``checkpoint_every`` seconds. Ctrl-C (SIGINT) finishes the current iteration and
-    stops with ``status = "interrupted"``. A non-finite loss, gradient or trajectory
+    ``checkpoint_every`` seconds. Ctrl-C (SIGINT) or SIGTERM finishes the current
+    iteration and stops with ``status = "interrupted"``. A non-finite loss, gradient or trajectory
     stops the run and rolls it back one iteration, to the last grid whose loss was finite
     (``status = "non-finite: ..."``); resuming it repeats that iteration, so change the
     plan (a smaller ``lr``, ``clip``) first.
