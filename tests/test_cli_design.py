@@ -1,4 +1,6 @@
 """``python -m pes_ref design`` and ``evaluate`` at tiny sizes (``--smoke``)."""
+import os
+
 import numpy as np
 import pytest
 
@@ -57,13 +59,13 @@ def test_resume_continues_like_an_uninterrupted_run(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["design", "oscillator", "--smoke", "--resume", "{f}", "--out", "{tmp}/o.npz"], "funnel design, not a oscillator"),
+    (["design", "oscillator", "--smoke", "--resume", "{f}", "--out", "{tmp}/o.npz"], "is a funnel design, not an oscillator design"),
     (["design", "funnel", "--resume", "{f}", "--set", "n_steps=80"], "another scene: n_steps"),
     (["design", "funnel", "--set", "colour=red", "--out", "{tmp}/x.npz"], "--set 'colour=red'"),
     (["design", "funnel", "--stages", "0-25", "--out", "{tmp}/x.npz"], "--stages '0-25'"),
     (["design", "funnel", "--objective", "eq6", "--out", "{tmp}/x.npz"], "only the oscillator"),
     (["evaluate", "{tmp}/nothing.npz"], "does not exist"),
-    (["evaluate", "{tmp}/text.npz"], "is not a design file"),
+    (["evaluate", "{tmp}/text.npz"], "is not an .npz archive"),
 ])
 def test_bad_input_gets_one_error_line(funnel_file, tmp_path, capsys, argv, message):
     (tmp_path / "text.npz").write_text("not a design")
@@ -117,3 +119,27 @@ def test_non_finite_run_exits_1_with_its_last_finite_state(tmp_path, capsys):
     assert code == EXIT_FAIL and "non-finite" in err
     st = load_design(path)
     assert st.status.startswith("non-finite") and st.iteration == 0 and np.isfinite(st.values).all()
+
+
+def test_a_run_that_fails_before_its_first_iteration_leaves_no_file(tmp_path, capsys, monkeypatch):
+    """The file claimed before the run is removed when nothing was done in it."""
+    from pes_ref import synthesis
+
+    def fail(*args, **kwargs):
+        raise ValueError("n_steps must fit in memory")
+    monkeypatch.setattr(synthesis, "run_design", fail)
+    code, out, err = run(capsys, "design", "funnel", "--smoke", "--out", tmp_path / "d.npz", "--quiet")
+    assert code == EXIT_ERROR and err == "error: n_steps must fit in memory\n"
+    assert not os.listdir(tmp_path)
+
+
+def test_a_failed_resume_keeps_the_file(funnel_file, capsys, monkeypatch):
+    from pes_ref import synthesis
+    before = funnel_file.read_bytes()
+
+    def fail(*args, **kwargs):
+        raise ValueError("boom")
+    monkeypatch.setattr(synthesis, "run_design", fail)
+    code, *_ = run(capsys, "design", "funnel", "--smoke", "--resume", funnel_file, "--iterations", 9, "--quiet")
+    assert code == EXIT_ERROR and funnel_file.exists()
+    assert load_design(funnel_file).iteration == 6

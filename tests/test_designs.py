@@ -251,3 +251,25 @@ def test_the_old_designs_module_path_gives_the_synthesis_api_with_a_warning(old,
     with pytest.warns(DeprecationWarning, match=f"{old} moved to pes_ref.synthesis"):
         module = importlib.import_module(old)
     assert module.new_design is synthesis.new_design and module.evaluate is synthesis.evaluate
+
+
+@pytest.mark.parametrize("kind, params, key", [
+    ("funnel", {"dt": 0.0}, "dt"),
+    ("funnel", {"grid": 1}, "grid"),
+    ("oscillator", {"grid1": 1}, "grid1"),
+    ("funnel", {"wall_margin": 5.0}, "wall_margin"),
+])
+def test_a_scene_that_cannot_run_is_refused_by_new_design(kind, params, key):
+    """Before any run (and before a command line claims its file), keyed by the parameter."""
+    from pes_ref.core.checks import InputError
+    with pytest.raises(InputError) as info:
+        synthesis.new_design(kind, plan=Plan(iterations=2, n_particles=2), **params)
+    assert info.value.key == key and key in str(info.value)
+
+
+@pytest.mark.parametrize("stages", [((0, 1),), ((0, 8), (5, 1)), ((3, 8),), ((0, -2),)])
+def test_bad_stages_are_keyed(stages):
+    from pes_ref.core.checks import InputError
+    with pytest.raises(InputError) as info:
+        Plan(stages=stages)
+    assert info.value.key == "stages"

@@ -112,3 +112,21 @@ def test_other_link_errors_are_not_hidden(tmp_path, monkeypatch):
 def test_missing_folder(tmp_path):
     with pytest.raises(FileNotFoundError, match="does not exist"):
         npz.write_npz(tmp_path / "no" / "r.npz", ARRAYS)
+
+
+def test_a_folder_that_cannot_be_written_is_named_not_the_temporary_file(tmp_path, monkeypatch):
+    """(Provoked by a stand-in for open: root, who runs some test machines, writes anywhere.)"""
+    def refused(name, mode="r", *args, **kwargs):
+        raise PermissionError(errno.EACCES, "Permission denied", name)
+    monkeypatch.setattr(npz, "open", refused, raising=False)
+    with pytest.raises(PermissionError) as info:
+        npz.write_npz(tmp_path / "r.npz", ARRAYS)
+    assert info.value.filename == str(tmp_path) and ".tmp" not in str(info.value)
+    assert not os.listdir(tmp_path)
+
+
+def test_a_file_in_place_of_the_folder_is_said_to_be_a_file(tmp_path):
+    (tmp_path / "f").write_text("a file")
+    with pytest.raises(NotADirectoryError, match="a file, not a folder"):
+        npz.write_npz(tmp_path / "f" / "r.npz", ARRAYS)
+    assert os.listdir(tmp_path) == ["f"]

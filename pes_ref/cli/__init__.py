@@ -13,7 +13,7 @@ import sys
 
 from pes_ref import __version__
 from pes_ref.cli import analyze, bench, check, conformance, design, evaluate, oracle
-from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, error
+from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Parser, error
 
 __all__ = ["main", "build_parser", "COMMANDS", "EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED"]
 
@@ -23,7 +23,7 @@ COMMANDS = (oracle, check, conformance, analyze, design, evaluate, bench)
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every command of :data:`COMMANDS`."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="pes_ref",
         description="Reference implementation of potential energy surfaces (Manion & Fuge, DETC2021): "
                     "the oracle of docs/spec.md and its tools.")

@@ -24,6 +24,8 @@ DARTGUN_DEFAULTS = {"reload_force": "30.0", "reload_time": "1.0", "trigger_force
 DARTGUN_SMOKE = {"shape": (121, 81), "dt": 5e-4, "trigger_forces": "10,30", "search_tol": "2.0"}
 #: The entries of a smoke preset that change the design (the rest are option texts).
 DESIGN_KEYS = ("shape", "dt")
+#: The analyses' names of what the options set, and the options (errors name the option).
+FLAGS = {"hi": "--search-hi", "tol": "--search-tol"}
 
 
 def _float(option: str, text: str, check=checks.as_positive_float) -> float:
@@ -108,7 +110,7 @@ def _run(args, defaults: dict, smoke: dict, design, analyze, parse) -> int:
             design = dataclasses.replace(design, **{k: smoke[k] for k in DESIGN_KEYS})
         report = analyze(design, *values)
     except (ValueError, TypeError) as exc:
-        return error(exc)
+        return error(exc, FLAGS)
     for line in report.as_lines():
         print(line)
     return EXIT_OK

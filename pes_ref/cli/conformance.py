@@ -3,9 +3,10 @@ conformance vectors, or regenerates them into a scratch folder and compares them
 shipped ones."""
 from __future__ import annotations
 
+import os
 import tempfile
 
-from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, add_command, error
+from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, add_command, error, input_folder, output_folder
 
 
 def add_parser(sub) -> None:
@@ -28,11 +29,29 @@ def add_parser(sub) -> None:
     p.set_defaults(func=_run_conformance)
 
 
+def _write_target(path: str) -> str:
+    """Refuse a --write folder that cannot be made, or one holding files but no vector set
+    (regenerating removes stale vector files there: never a user's own)."""
+    output_folder(path)
+    if os.path.isdir(path) and os.listdir(path) and not os.path.exists(os.path.join(path, "manifest.json")):
+        raise FileExistsError(f"--write {path}: the folder holds files but no vector set (manifest.json); "
+                              "write into a new or empty folder")
+    return path
+
+
+def _check_source(path: str) -> str:
+    """Refuse a --check folder that holds no vector set, before generating anything."""
+    input_folder(path, "--check folder")
+    if not os.path.isfile(os.path.join(path, "manifest.json")):
+        raise FileNotFoundError(f"--check folder {path} holds no vector set (no manifest.json)")
+    return path
+
+
 def _run_conformance(args) -> int:
     from pes_ref.oracle.conformance import generate, vectors_dir
     if args.write is not None:
-        target = args.write or vectors_dir(args.vectors)
         try:
+            target = _write_target(args.write) if args.write else vectors_dir(args.vectors)
             manifest = generate.write_vectors(target, quiet=args.quiet)
         except OSError as exc:
             return error(exc)
@@ -40,7 +59,10 @@ def _run_conformance(args) -> int:
         n_valid = sum(e["kind"] == "valid" for e in entries)
         print(f"wrote {len(entries)} vectors ({n_valid} valid, {len(entries) - n_valid} invalid) to {target}")
         return EXIT_OK
-    shipped = args.check or vectors_dir(args.vectors)
+    try:
+        shipped = _check_source(args.check) if args.check else vectors_dir(args.vectors)
+    except OSError as exc:
+        return error(exc)
     with tempfile.TemporaryDirectory(prefix="pes_ref-conformance-") as fresh:
         generate.write_vectors(fresh)
         try:

@@ -15,7 +15,7 @@ import dataclasses
 import os
 import sys
 
-from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error
+from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error, input_file, output_file
 
 #: The ``--smoke`` preset: problem overrides per kind, and the plan's (iterations, particles, stages).
 SMOKE = {
@@ -23,6 +23,10 @@ SMOKE = {
     "oscillator": ({"grid0": 8, "grid1": 8, "n_steps": 60, "eval_periods": 4}, (6, 4, ((0, 0),))),
 }
 METRIC_NAMES = {"funnel": "in_band", "oscillator": "amp_err"}
+#: The library's names of what the options set, and the options (errors name the option):
+#: the plan's parameters here, each problem parameter ``NAME`` as ``--set NAME`` (:func:`_flags`).
+PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-final", "clip": "--clip",
+              "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed"}
 #: ``--objective`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_OBJECTIVES` (tested equal).
 OSCILLATOR_OBJECTIVE_NAMES = ("overshoot", "eq6")
 
@@ -66,8 +70,17 @@ def add_parser(sub) -> None:
 
 def _set_names() -> dict:
     """The names ``--set`` takes, per kind: the fields of each design problem."""
-    from pes_ref.synthesis import designs
-    return {kind: [f.name for f in dataclasses.fields(cls)] for kind, cls in designs.PROBLEMS.items()}
+    from pes_ref.synthesis import PROBLEMS
+    return {kind: [f.name for f in dataclasses.fields(cls)] for kind, cls in PROBLEMS.items()}
+
+
+#: How ``--set`` names the kind of value a parameter takes.
+_KIND_OF_VALUE = {int: "an integer", float: "a number", str: "a word", bool: "true or false"}
+
+
+def _flags(kind: str) -> dict:
+    """Every name an error of a ``kind`` design may carry, and the option that sets it."""
+    return {**{name: f"--set {name}" for name in _set_names()[kind]}, **PLAN_FLAGS}
 
 
 def _parse_sets(items, problem_cls) -> dict:
@@ -81,7 +94,7 @@ def _parse_sets(items, problem_cls) -> dict:
         try:
             out[name] = type(default)(text) if not isinstance(default, bool) else text.lower() in ("1", "true")
         except ValueError:
-            raise ValueError(f"--set {item!r}: {text!r} is not a {type(default).__name__}") from None
+            raise ValueError(f"--set {item!r}: {text!r} is not {_KIND_OF_VALUE[type(default)]}") from None
     return out
 
 
@@ -115,7 +128,10 @@ def _format_time(seconds: float) -> str:
 def _run_design(args) -> int:
     from pes_ref import synthesis
     from pes_ref.synthesis import check_same_scene, load_design, save_design
+    flags = _flags(args.kind)
     try:
+        if not args.progress >= 0:
+            raise ValueError(f"--progress must be a number of seconds >= 0, got {args.progress}")
         sets = _parse_sets(args.set, synthesis.PROBLEMS[args.kind])
         plan_over = _plan_overrides(args)
         base_plan = synthesis.DEFAULT_PLANS[args.kind]
@@ -129,7 +145,7 @@ def _run_design(args) -> int:
             sets = {**smoke_sets, **sets}
             plan_over = {"iterations": its, "n_particles": parts, "stages": stages, **plan_over}
         if args.resume is not None:
-            state = load_design(args.resume)
+            state = load_design(input_file(args.resume, "design file"))
             check_same_scene(state, args.kind, sets)
             if args.seed is not None and args.seed != state.seed:
                 raise ValueError(f"--seed {args.seed} differs from the resumed run's seed {state.seed}")
@@ -144,10 +160,9 @@ def _run_design(args) -> int:
             state = synthesis.new_design(args.kind, seed=0 if args.seed is None else args.seed, plan=plan, **sets)
             out = args.out if args.out is not None else f"{args.kind}.npz"
             may_overwrite = args.force
-        if os.path.exists(out) and not may_overwrite:
-            raise FileExistsError(f"{out} exists; refusing to overwrite it (use --force or another --out)")
+        output_file(out, "design", force=may_overwrite)
     except (OSError, ValueError, TypeError) as exc:
-        return error(exc)
+        return error(exc, flags)
 
     metric_name = METRIC_NAMES[args.kind]
 
@@ -161,13 +176,20 @@ def _run_design(args) -> int:
         save_design(out, s, overwrite=True)
 
     start = state.iteration
+    claimed = False                     # whether the file at ``out`` is this run's own, new one
     try:
+        existed = os.path.lexists(out)
         save_design(out, state, overwrite=may_overwrite)       # claims the file before the long run
+        claimed = not existed
         state = synthesis.run_design(state, state.plan.iterations, callback=progress, progress_every=args.progress,
                                      checkpoint=checkpoint)
         save_design(out, state, overwrite=True)
-    except (OSError, ValueError) as exc:
-        return error(exc)
+    except Exception as exc:
+        if claimed and state.iteration == start and os.path.lexists(out):
+            os.unlink(out)              # our own claim, and nothing done: leave no file that means nothing
+        if not isinstance(exc, (OSError, ValueError)):
+            raise
+        return error(exc, flags)
     done = state.iteration - start
     rate = done / state.elapsed if state.elapsed > 0 else 0.0
     loss = state.history["loss"][-1] if state.history["loss"] else float("nan")

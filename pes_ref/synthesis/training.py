@@ -63,6 +63,7 @@ def new_design(kind: str, seed: int = 0, plan: Plan | None = None, **params) -> 
     plan = DEFAULT_PLANS[kind] if plan is None else plan
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))
+    problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
     return DesignState(problem, plan, seed, values, plan.make_optimizer())
 
 
