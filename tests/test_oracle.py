@@ -391,3 +391,12 @@ def test_cli_usage_errors_exit_2(capsys):
 def test_python_dash_m_help():
     proc = run_cli("--help")
     assert proc.returncode == 0 and "oracle" in proc.stdout and "conformance" in proc.stdout
+
+
+def test_save_case_refuses_to_overwrite_like_write_result(tmp_path):
+    (tmp_path / "c.npz").write_bytes(b"precious")
+    with pytest.raises(oracle.ResultExistsError, match="case file"):
+        oracle.save_case(tmp_path / "c.npz", **base_case())
+    assert (tmp_path / "c.npz").read_bytes() == b"precious"
+    oracle.save_case(tmp_path / "c.npz", overwrite=True, **base_case())
+    assert sorted(oracle.load_case(tmp_path / "c.npz")) == sorted(base_case())
