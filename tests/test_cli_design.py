@@ -33,7 +33,7 @@ def test_progress_line_and_summary(tmp_path, capsys):
     code, out, err = run(capsys, "design", "oscillator", "--smoke", "--out", tmp_path / "o.npz", "--progress", 0)
     assert code == EXIT_OK
     line = err.strip().splitlines()[-1]
-    for part in ("design oscillator: it 6/6", "loss", "amp_err", "it/s", "left"):
+    for part in ("design oscillator: stage 1/1 (grid 8x8, 60 steps) | it 6/6", "loss", "amp_err", "it/s", "left"):
         assert part in line
     assert out.startswith(f"wrote {tmp_path / 'o.npz'}: oscillator, iteration 6/6 (done)")
 
@@ -143,3 +143,18 @@ def test_a_failed_resume_keeps_the_file(funnel_file, capsys, monkeypatch):
     code, *_ = run(capsys, "design", "funnel", "--smoke", "--resume", funnel_file, "--iterations", 9, "--quiet")
     assert code == EXIT_ERROR and funnel_file.exists()
     assert load_design(funnel_file).iteration == 6
+
+
+def test_the_progress_line_shows_the_stage_and_a_change_of_stage_says_so(tmp_path, capsys):
+    """The curriculum is visible: a loss that rises with a longer horizon is not a divergence."""
+    code, out, err = run(capsys, "design", "oscillator", "--smoke", "--stages", "0:6:30,3:0:60",
+                         "--out", tmp_path / "o.npz", "--progress", 0)
+    assert code == EXIT_OK, err
+    lines = err.strip().splitlines()
+    assert any(line.startswith("design oscillator: stage 1/2 (grid 6x6, 30 steps) | it 1/6 | loss ")
+               for line in lines), err
+    assert any(line.startswith("design oscillator: stage 2/2 (grid 8x8, 60 steps) | it 6/6 | loss ")
+               for line in lines), err
+    changes = [line for line in lines if "now stage" in line]
+    assert changes == ["design oscillator: now stage 2/2: grid 8x8, 60 steps per run "
+                       "(its loss is not comparable with stage 1/2's)"], err

@@ -24,11 +24,14 @@ COMMANDS = (oracle, check, conformance, analyze, design, evaluate, bench)
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every command of :data:`COMMANDS`."""
     parser = Parser(
-        prog="pes_ref",
+        prog="pes_ref", formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Reference implementation of potential energy surfaces (Manion & Fuge, DETC2021): "
-                    "the oracle of docs/spec.md and its tools.")
+                    "the oracle of docs/spec.md and its tools.",
+        epilog="examples:\n  python -m pes_ref conformance --check\n  python -m pes_ref design funnel --smoke "
+               "--out funnel.npz\n\n'python -m pes_ref COMMAND --help' shows a command's options and examples.")
     parser.add_argument("--version", action="version", version=f"pes_ref {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands",
+                                help="the command to run (see below)")
     sub.required = True
     for module in COMMANDS:
         module.add_parser(sub)

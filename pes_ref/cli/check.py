@@ -17,7 +17,8 @@ def add_parser(sub) -> None:
                     "nothing) and on N fresh random cases drawn from pes_ref's own strategies (well-conditioned "
                     "ones only), computed by pes_ref too. Prints one line per case and 'N passed, M failed'; "
                     "exits 0 only when every case passes.",
-        examples=['check --cmd "./my_impl {case} {result}" --random 100 --seed 1', 'check --cmd "python examples/jax_pes/pes_jax.py {pairs}" --report check.json'])
+        examples=['check --cmd "python -m pes_ref oracle {case} {result}" --only plane-dynamic --only mass-zero',
+                  'check --cmd "python -m pes_ref oracle {pairs}" --no-vectors --random 5 --seed 1 --report check.json'])
     p.add_argument("--cmd", required=True, metavar="TEMPLATE",
                    help="the program: {case} and {result} are replaced by one case's paths (one process per "
                         "case), or {pairs} by CASE1 RESULT1 CASE2 RESULT2 ... (one process for all valid cases)")

@@ -13,11 +13,12 @@ def add_parser(sub) -> None:
     from pes_ref.oracle.conformance.generate import VERSION
     p = add_command(sub, "conformance", help="write or check the shipped conformance vectors",
         description="The conformance vectors are oracle cases with their reference results and invalid "
-                    "cases, listed in manifest.json (pes_ref/conformance/<version>/). --write regenerates "
+                    "cases, listed in manifest.json (pes_ref/oracle/conformance/<version>/). --write regenerates "
                     "them; --check regenerates them into a temporary folder and compares them with the "
                     "shipped ones (cases identical, results within the SPEC's tolerances), printing one "
                     "line per vector; it exits 1 if any differs.",
-        examples=['conformance --check', 'conformance --write /tmp/vectors'])
+        examples=['conformance --check', 'conformance --write /tmp/pes_ref-vectors && '
+                  'python -m pes_ref conformance --check /tmp/pes_ref-vectors --quiet'])
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("--write", nargs="?", const="", default=None, metavar="DIR",
                       help="regenerate the vectors into DIR (default: the package's own folder)")

@@ -38,32 +38,36 @@ def add_parser(sub) -> None:
                     "optimizer state) to FILE.npz. --iterations is the total count to reach, also on --resume. "
                     "Ctrl-C (or SIGTERM) stops after the current iteration, saves and exits 130. An existing --out is refused unless "
                     "--force; with --resume and no --out the resumed file itself is updated.",
-        examples=['design funnel --out funnel.npz', 'design oscillator --seed 1 --out osc.npz && python -m pes_ref evaluate osc.npz'])
+        examples=['design funnel --out funnel.npz',
+                  'design oscillator --smoke --out osc.npz && python -m pes_ref evaluate osc.npz'])
     p.add_argument("kind", choices=["funnel", "oscillator"], help="the device to design")
-    p.add_argument("--iterations", type=int, default=None, help="total iterations (default: the plan's)")
-    p.add_argument("--seed", type=int, default=None, help="run seed (default 0; a resumed run keeps its own)")
+    p.add_argument("--iterations", type=int, default=None, metavar="N", help="total iterations (default: the plan's)")
+    p.add_argument("--seed", type=int, default=None, metavar="S",
+                   help="run seed (default 0; a resumed run keeps its own)")
     p.add_argument("--out", default=None, metavar="FILE.npz", help="design file to write (default KIND.npz)")
     p.add_argument("--resume", default=None, metavar="FILE.npz", help="continue the run saved in this file")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override one scene parameter (e.g. --set n_steps=200); repeatable; the names: "
                         + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in _set_names().items()))
-    p.add_argument("--lr", type=float, default=None, help="initial learning rate (default: the plan's)")
-    p.add_argument("--lr-final", type=float, default=None, help="learning rate reached at the last iteration (default: the plan's)")
+    p.add_argument("--lr", type=float, default=None, metavar="LR", help="initial learning rate (default: the plan's)")
+    p.add_argument("--lr-final", type=float, default=None, metavar="LR", help="learning rate reached at the last iteration (default: the plan's)")
     p.add_argument("--objective", choices=OSCILLATOR_OBJECTIVE_NAMES, default=None,
                    help="oscillator only: named training setting, 'overshoot' (default: eq. (6) + eq. (7) aimed "
                         "at 1.4 times the target amplitude) or 'eq6' (the paper's setting, aimed at the target "
                         "amplitude); evaluation is the same for both")
     p.add_argument("--optimizer", choices=["rmsprop", "adam"], default=None,
                    help="the optimizer (default: the plan's; a resumed run keeps its own)")
-    p.add_argument("--clip", type=float, default=None, help="clip the gradient to this norm (default: the plan's)")
-    p.add_argument("--particles", type=int, default=None, help="particles per iteration (default: the plan's)")
+    p.add_argument("--clip", type=float, default=None, metavar="NORM", help="clip the gradient to this norm (default: the plan's)")
+    p.add_argument("--particles", type=int, default=None, metavar="N", help="particles per iteration (default: the plan's)")
     grp = p.add_mutually_exclusive_group()
-    grp.add_argument("--stages", default=None, metavar="IT:GRID,...",
-                     help="coarse-to-fine grid stages, e.g. 0:25,100:50,200:0 (0 = the scene's grid)")
+    grp.add_argument("--stages", default=None, metavar="IT:GRID[:STEPS],...",
+                     help="coarse-to-fine stages: from iteration IT on, GRID nodes per axis and STEPS steps per "
+                          "training run, e.g. 0:25,100:50,200:0 (0 = the scene's own grid or steps)")
     grp.add_argument("--no-stages", action="store_true", help="plain run on the scene's grid from the start")
     p.add_argument("--smoke", action="store_true", help="tiny preset (a few iterations on a tiny grid)")
-    p.add_argument("--progress", type=float, default=2.0, metavar="SECONDS", help="progress line period")
+    p.add_argument("--progress", type=float, default=2.0, metavar="SECONDS",
+                   help="seconds between progress lines (0: after every iteration)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_run_design)
 
@@ -118,6 +122,18 @@ def _plan_overrides(args) -> dict:
     return out
 
 
+def progress_line(kind: str, metric_name: str, p) -> str:
+    """One progress line: the stage (grid, steps per run), the iteration, the loss, the
+    metric, the stage's rate and the time left summed over the stages still to run."""
+    return (f"design {kind}: stage {p.stage} (grid {_format_grid(p.grid)}, {p.steps} steps) | it {p.iteration}/"
+            f"{p.total} | loss {p.loss:.4g} | {metric_name} {p.metric:.3f} | {p.it_per_s:.1f} it/s | "
+            f"left {_format_time(p.seconds_left)}")
+
+
+def _format_grid(shape) -> str:
+    return "x".join(str(n) for n in shape)
+
+
 def _format_time(seconds: float) -> str:
     if not seconds < float("inf"):
         return "?"
@@ -166,11 +182,16 @@ def _run_design(args) -> int:
 
     metric_name = METRIC_NAMES[args.kind]
 
+    shown = []                          # the stages shown so far
+
     def progress(p):
-        if not args.quiet:
-            print(f"design {args.kind}: it {p.iteration}/{p.total} | loss {p.loss:.4g} | {metric_name} "
-                  f"{p.metric:.3f} | {p.it_per_s:.1f} it/s | left {_format_time(p.seconds_left)}",
-                  file=sys.stderr, flush=True)
+        if args.quiet:
+            return
+        if shown and p.stage != shown[-1]:
+            print(f"design {args.kind}: now stage {p.stage}: grid {_format_grid(p.grid)}, {p.steps} steps per run "
+                  f"(its loss is not comparable with stage {shown[-1]}'s)", file=sys.stderr)
+        shown.append(p.stage)
+        print(progress_line(args.kind, metric_name, p), file=sys.stderr, flush=True)
 
     def checkpoint(s):
         save_design(out, s, overwrite=True)

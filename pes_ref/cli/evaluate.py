@@ -14,9 +14,9 @@ def add_parser(sub) -> None:
                     "torque), amplitude_error and period_error (relative, worst over the captured particles), "
                     "and flat_captured_fraction.",
         examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191'])
-    p.add_argument("file", metavar="FILE.npz")
+    p.add_argument("file", metavar="FILE.npz", help="a design file written by 'design'")
     p.add_argument("--seed", type=int, default=12345, help="held-out seed (default 12345; training uses others)")
-    p.add_argument("--particles", type=int, default=None,
+    p.add_argument("--particles", type=int, default=None, metavar="N",
                    help="held-out particles (funnel default 200; oscillator torque sweep default 50)")
     p.set_defaults(func=_run_evaluate)
 

@@ -9,7 +9,12 @@ from __future__ import annotations
 import os
 import zipfile
 
+from pes_ref.oracle.conformance import LATEST
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, input_file, output_file
+
+
+#: The shipped vectors of the newest set, as a path from the repository's root (for the examples).
+_VECTORS = f"pes_ref/oracle/conformance/{LATEST}"
 
 
 def add_parser(sub) -> None:
@@ -19,7 +24,9 @@ def add_parser(sub) -> None:
                     "A case that breaks the spec is refused with one line 'error: case key ...' on stderr and "
                     "nothing is written for it; the exit status is then 2. Each result is written to a "
                     "temporary file and moved into place.",
-        examples=['oracle pes_ref/oracle/conformance/v1/plane-dynamic.case.npz result.npz', 'oracle a.case.npz b.case.npz --out-dir results/'])
+        examples=[f"oracle {_VECTORS}/plane-dynamic.case.npz result.npz",
+                  f"oracle {_VECTORS}/plane-dynamic.case.npz {_VECTORS}/spring-per-particle-torus.case.npz "
+                  "--out-dir ."])
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="CASE.npz RESULT.npz pairs, or (with --out-dir) case files")
     p.add_argument("--out-dir", default=None, metavar="DIR",

@@ -27,7 +27,8 @@ from pes_ref.synthesis.plans import DEFAULT_PLANS, Plan
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.resampling import resample
 
-__all__ = ["DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient"]
+__all__ = ["DesignState", "Progress", "Stage", "StageClock", "plan_stages", "GradientStep", "new_design", "run_design",
+           "design_gradient"]
 
 
 @dataclass
@@ -68,7 +69,15 @@ def new_design(kind: str, seed: int = 0, plan: Plan | None = None, **params) -> 
 
 
 class Progress(NamedTuple):
-    """What a progress callback receives."""
+    """What a progress callback receives.
+
+    ``stage`` names the stage of the last finished iteration (``"2/4"``: the second of
+    the four stages the run goes through), ``grid`` and ``steps`` are that stage's grid
+    shape and steps per training run, ``it_per_s`` its rate; ``seconds_left`` sums the
+    time of every stage still to run (:class:`StageClock`). A plan with one stage is
+    ``"1/1"``. The loss of one stage is not comparable with another's: a longer horizon
+    sums more steps.
+    """
 
     iteration: int
     total: int
@@ -76,6 +85,77 @@ class Progress(NamedTuple):
     metric: float
     it_per_s: float
     seconds_left: float
+    stage: str = "1/1"
+    grid: tuple = ()
+    steps: int = 0
+
+
+class Stage(NamedTuple):
+    """One stage of a staged run: its name, iterations ``[start, end)``, grid shape and steps per run."""
+
+    name: str
+    start: int
+    end: int
+    grid: tuple
+    steps: int
+
+
+def plan_stages(plan: Plan, problem, total: int) -> list:
+    """The :class:`Stage` list a run of ``plan`` to ``total`` iterations goes through."""
+    starts = [st for st in plan.stages if st[0] < total] or [plan.stages[0]]
+    ends = [st[0] for st in starts[1:]] + [total]
+    return [Stage(f"{i + 1}/{len(starts)}", st[0], end, plan.grid_at(st[0], problem),
+                  plan.steps_at(st[0]) or problem.n_steps)
+            for i, (st, end) in enumerate(zip(starts, ends))]
+
+
+class StageClock:
+    """The rate of each stage of a run and the time left, summed over the stages still to run.
+
+    An iteration's cost is taken as proportional to its stage's steps per run (the
+    particles and the work per step are the same in every stage; the grid's size barely
+    counts). A stage that has run is timed by its own iterations; one yet to run by the
+    seconds per step of the latest stage timed. Any staged plan fits: it only has to
+    give its :class:`Stage` list.
+    """
+
+    def __init__(self, stages: list):
+        self.stages = stages
+        self._seconds = [0.0] * len(stages)
+        self._count = [0] * len(stages)
+        self._per_step = None           # seconds per step of the latest stage timed
+
+    def index(self, iteration: int) -> int:
+        """The stage index of ``iteration``."""
+        return max(i for i, st in enumerate(self.stages) if st.start <= iteration or i == 0)
+
+    def tick(self, iteration: int, seconds: float) -> None:
+        """Iteration ``iteration`` took ``seconds``."""
+        i = self.index(iteration)
+        self._seconds[i] += seconds
+        self._count[i] += 1
+        if self._seconds[i] > 0:
+            self._per_step = self._seconds[i] / (self._count[i] * self.stages[i].steps)
+
+    def rate(self, i: int) -> float:
+        """Iterations per second of stage ``i`` (0 while it has not been timed)."""
+        return self._count[i] / self._seconds[i] if self._seconds[i] > 0 else 0.0
+
+    def seconds_left(self, iteration: int, total: int) -> float:
+        """Seconds to run iterations ``iteration .. total - 1`` (inf before anything was timed)."""
+        left = 0.0
+        for i, st in enumerate(self.stages):
+            n = max(0, min(st.end, total) - max(st.start, iteration))
+            if n == 0:
+                continue
+            rate = self.rate(i)
+            if rate > 0:
+                left += n / rate
+            elif self._per_step is not None:
+                left += n * st.steps * self._per_step
+            else:
+                return float("inf")
+        return left
 
 
 class _StopFlag:
@@ -167,12 +247,13 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     last_report = last_ckpt = t_start
     loss = metric = float("nan")
     state.status = "running"
+    clock = StageClock(plan_stages(plan, problem, total))
 
     def report(now):
-        done = state.iteration - start_it
-        rate = done / (now - t_start) if now > t_start and done else 0.0
-        left = (total - state.iteration) / rate if rate > 0 else float("inf")
-        callback(Progress(state.iteration, total, loss, metric, rate, left))
+        i = clock.index(max(state.iteration - 1, 0))
+        st = clock.stages[i]
+        callback(Progress(state.iteration, total, loss, metric, clock.rate(i),
+                          clock.seconds_left(state.iteration, total), st.name, st.grid, st.steps))
 
     snapshot = None      # (values, optimizer state) before the last committed step
 
@@ -192,6 +273,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
                 state.status = "interrupted"
                 break
             k = state.iteration
+            t_k = time.perf_counter()
             values = _values_on_stage_grid(state, plan.grid_at(k, problem))
             try:
                 with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -217,6 +299,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             state.history["metric"].append(metric)
             state.iteration = k + 1
             now = time.perf_counter()
+            clock.tick(k, now - t_k)
             if callback is not None and now - last_report >= progress_every:
                 report(now)
                 last_report = now
