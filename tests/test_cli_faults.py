@@ -357,3 +357,16 @@ def test_a_read_only_folder_is_refused_before_computing(long_case, tmp_path, cap
 def test_the_long_case_is_long(long_case):
     """What makes the two tests above mean something: the case takes seconds to run."""
     assert int(load_case(long_case)["n_steps"]) * load_case(long_case)["x0"].shape[0] >= 6_000_000
+
+
+#: The rows where a file or folder to read is missing: every command says it in the same words.
+MISSING = ["oracle-missing-case", "evaluate-missing", "design-resume-missing", "check-missing-program",
+           "conformance-check-missing"]
+
+
+def test_a_missing_input_is_said_the_same_way_by_every_command(outcomes):
+    import re
+    for fid in MISSING:
+        line = outcomes[fid].err.strip()
+        assert re.fullmatch(r"error: (case file|design file|--cmd: program|--check folder) "
+                            r"(nothing\.npz|\./nothing\.sh|nodir) does not exist", line), (fid, line)
