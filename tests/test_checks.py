@@ -217,6 +217,15 @@ def test_int_scalar_rejections_name_the_argument(fn, value, exc):
     assert_rejects(exc, fn, NAME, value)
 
 
+@pytest.mark.parametrize("fn, least", [(checks.as_positive_int, 1), (checks.as_nonneg_int, 0)])
+def test_every_count_below_the_least_gets_the_same_rule(fn, least):
+    """``-3`` and ``0`` for a positive count: one rule, '>= 1', not '>= 0' for the one."""
+    for value in (least - 1, least - 4):
+        with pytest.raises(checks.InputError) as info:
+            fn(NAME, value)
+        assert str(info.value) == f"{NAME} must be >= {least}, got {value}"
+
+
 @pytest.mark.parametrize("value", ["a", np.array("a")])
 def test_as_choice_accepts_str_and_0d_unicode(value):
     out = checks.as_choice(NAME, value, {"a", "b"})

@@ -1,5 +1,6 @@
 """``python -m pes_ref design`` and ``evaluate`` at tiny sizes (``--smoke``)."""
 import dataclasses
+import os
 
 import numpy as np
 import pytest
@@ -37,7 +38,7 @@ def test_progress_line_and_summary(tmp_path, capsys):
     code, out, err = run(capsys, "design", "oscillator", "--smoke", "--out", tmp_path / "o.npz", "--progress", 0)
     assert code == EXIT_OK
     line = err.strip().splitlines()[-1]
-    for part in ("design oscillator: it 6/6", "loss", "amp_err", "it/s", "left"):
+    for part in ("design oscillator: stage 1/1 (grid 8x8, 60 steps) | it 6/6", "loss", "amp_err", "it/s", "left"):
         assert part in line
     assert out.startswith(f"wrote {tmp_path / 'o.npz'}: oscillator, iteration 6/6 (done)")
 
@@ -63,13 +64,13 @@ def test_resume_continues_like_an_uninterrupted_run(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["design", "oscillator", "--smoke", "--resume", "{f}", "--out", "{tmp}/o.npz"], "funnel design, not a oscillator"),
+    (["design", "oscillator", "--smoke", "--resume", "{f}", "--out", "{tmp}/o.npz"], "is a funnel design, not an oscillator design"),
     (["design", "funnel", "--resume", "{f}", "--set", "n_steps=80"], "another scene: n_steps"),
     (["design", "funnel", "--set", "colour=red", "--out", "{tmp}/x.npz"], "--set 'colour=red'"),
     (["design", "funnel", "--stages", "0-25", "--out", "{tmp}/x.npz"], "--stages '0-25'"),
     (["design", "funnel", "--objective", "eq6", "--out", "{tmp}/x.npz"], "only the oscillator"),
     (["evaluate", "{tmp}/nothing.npz"], "does not exist"),
-    (["evaluate", "{tmp}/text.npz"], "is not a design file"),
+    (["evaluate", "{tmp}/text.npz"], "is not an .npz archive"),
 ])
 def test_bad_input_gets_one_error_line(funnel_file, tmp_path, capsys, argv, message):
     (tmp_path / "text.npz").write_text("not a design")
@@ -125,3 +126,42 @@ def test_a_run_that_stops_exits_1_with_its_last_good_state(tmp_path, capsys):
     assert code == EXIT_FAIL and "unstable: iteration 4" in err and len(err.strip().splitlines()) == 1
     st = load_design(path)
     assert st.status.startswith("unstable") and st.iteration == 3 and np.isfinite(st.values).all()
+
+
+def test_a_run_that_fails_before_its_first_iteration_leaves_no_file(tmp_path, capsys, monkeypatch):
+    """The file claimed before the run is removed when nothing was done in it."""
+    from pes_ref import synthesis
+
+    def fail(*args, **kwargs):
+        raise ValueError("n_steps must fit in memory")
+    monkeypatch.setattr(synthesis, "run_design", fail)
+    code, out, err = run(capsys, "design", "funnel", "--smoke", "--out", tmp_path / "d.npz", "--quiet")
+    assert code == EXIT_ERROR and err == "error: n_steps must fit in memory\n"
+    assert not os.listdir(tmp_path)
+
+
+def test_a_failed_resume_keeps_the_file(funnel_file, capsys, monkeypatch):
+    from pes_ref import synthesis
+    before = funnel_file.read_bytes()
+
+    def fail(*args, **kwargs):
+        raise ValueError("boom")
+    monkeypatch.setattr(synthesis, "run_design", fail)
+    code, *_ = run(capsys, "design", "funnel", "--smoke", "--resume", funnel_file, "--iterations", 9, "--quiet")
+    assert code == EXIT_ERROR and funnel_file.exists()
+    assert load_design(funnel_file).iteration == 6
+
+
+def test_the_progress_line_shows_the_stage_and_a_change_of_stage_says_so(tmp_path, capsys):
+    """The curriculum is visible: a loss that rises with a longer horizon is not a divergence."""
+    code, out, err = run(capsys, "design", "oscillator", "--smoke", "--stages", "0:6:30,3:0:60",
+                         "--out", tmp_path / "o.npz", "--progress", 0)
+    assert code == EXIT_OK, err
+    lines = err.strip().splitlines()
+    assert any(line.startswith("design oscillator: stage 1/2 (grid 6x6, 30 steps) | it 1/6 | loss ")
+               for line in lines), err
+    assert any(line.startswith("design oscillator: stage 2/2 (grid 8x8, 60 steps) | it 6/6 | loss ")
+               for line in lines), err
+    changes = [line for line in lines if "now stage" in line]
+    assert changes == ["design oscillator: now stage 2/2: grid 8x8, 60 steps per run "
+                       "(its loss is not comparable with stage 1/2's)"], err

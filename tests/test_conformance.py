@@ -39,8 +39,11 @@ def run_cached(case) -> dict:
 @pytest.fixture(scope="module")
 def regenerated(tmp_path_factory):
     """The vectors generated afresh by ``pes_ref conformance --write DIR`` (once per module),
-    into a folder that also holds a stale vector file and a file that is not a vector."""
-    folder = tmp_path_factory.mktemp(LATEST)
+    into a folder that holds an older vector set (its manifest and a stale vector file) and
+    a file that is not a vector. (A folder with files but no manifest is refused: the
+    fault suite, tests/test_cli_faults.py.)"""
+    folder = tmp_path_factory.mktemp("v1")
+    (folder / "manifest.json").write_text("{}\n")
     (folder / "stale.case.npz").write_bytes(b"old")
     (folder / "keep.txt").write_text("not a vector")
     assert cli.main(["conformance", "--write", str(folder), "--quiet"]) == 0

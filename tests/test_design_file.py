@@ -100,7 +100,8 @@ def test_a_file_appearing_during_the_save_is_not_replaced(tmp_path, monkeypatch)
 
 
 @pytest.mark.parametrize("make, match", [
-    (lambda p: p.write_text("hello"), "not a design file"),
+    (lambda p: p.write_text("hello"), "is not an .npz archive"),
+    (lambda p: p.write_bytes(b""), "is not an .npz archive"),
     (lambda p: np.savez(p, x=np.zeros(3)), "not a design file"),
     (lambda p: np.savez(p, format=np.array("pes_ref.design"), version=np.array(1)), "missing keys"),
 ])
@@ -109,6 +110,37 @@ def test_files_that_are_not_designs_are_refused(tmp_path, make, match):
     make(path)
     with pytest.raises(DesignFileError, match=match):
         load_design(path)
+
+
+def test_a_plain_text_file_gets_no_pickle_advice(tmp_path):
+    path = tmp_path / "bad.npz"
+    path.write_text("hello")
+    with pytest.raises(DesignFileError) as info:
+        load_design(path)
+    assert "pickle" not in str(info.value)
+
+
+def test_a_case_or_result_file_is_named_for_what_it_is(tmp_path):
+    from pes_ref.oracle import conformance, run_case
+    from pes_ref.testing.conformance import load_manifest
+    vid = next(e for e in load_manifest(conformance.LATEST)["vectors"] if e["kind"] == "valid")
+    case = conformance.vectors_dir(conformance.LATEST) / vid["case"]
+    with pytest.raises(DesignFileError, match=r"is an oracle case file, not a design file.*oracle"):
+        load_design(case)
+    result = tmp_path / "r.npz"
+    from pes_ref.oracle import load_case, write_result
+    write_result(run_case(load_case(case)), result)
+    with pytest.raises(DesignFileError, match="is an oracle result file, not a design file"):
+        load_design(result)
+
+
+def test_is_design_file(tmp_path):
+    from pes_ref.synthesis.design_file import is_design_file
+    save_design(tmp_path / "d.npz", tiny())
+    (tmp_path / "t.npz").write_text("hello")
+    np.savez(tmp_path / "o.npz", x=np.zeros(3))
+    assert is_design_file(tmp_path / "d.npz")
+    assert not any(is_design_file(tmp_path / n) for n in ("t.npz", "o.npz", "missing.npz"))
 
 
 def test_a_newer_version_is_refused(tmp_path):
@@ -128,7 +160,7 @@ def test_missing_file():
 
 def test_resume_from_another_scene_is_refused():
     st = tiny()
-    with pytest.raises(DesignFileError, match="funnel design, not a oscillator"):
+    with pytest.raises(DesignFileError, match="funnel design, not an oscillator design"):
         check_same_scene(st, "oscillator")
     with pytest.raises(DesignFileError, match="n_steps = 50 there, 80 asked"):
         check_same_scene(st, "funnel", {"n_steps": 80})

@@ -93,20 +93,32 @@ def test_short_oscillator_design_lowers_its_objective(cost):
     assert np.mean(st.history["loss"][-5:]) < np.mean(st.history["loss"][:5])
 
 
-def test_ctrl_c_stops_after_the_iteration_with_its_state():
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_ctrl_c_or_sigterm_stops_after_the_iteration_with_its_state(signum):
     sent = []
+    # a harmless handler of our own: were the loop to leave SIGTERM alone, the test fails
+    # instead of the signal ending the test session
+    own = signal.signal(signal.SIGTERM, lambda *_: None)
+    try:
+        _interrupted_run(signum, sent)
+    finally:
+        signal.signal(signal.SIGTERM, own)
+
+
+def _interrupted_run(signum, sent):
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
 
     def interrupt(progress):
         if progress.iteration == 2 and not sent:
             sent.append(True)
-            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), signum)
 
     st = synthesis.run_design(tiny_state(plan=Plan(iterations=10, n_particles=4)), callback=interrupt,
                               progress_every=0.0)
     assert st.status == "interrupted"
     assert st.iteration == 2                    # the flag is seen before iteration 2 starts
     assert len(st.history["loss"]) == 2
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert {s: signal.getsignal(s) for s in before} == before     # the handlers are given back
 
 
 def test_non_finite_run_stops_at_the_last_finite_state(monkeypatch):
@@ -248,3 +260,77 @@ def test_the_old_designs_module_path_gives_the_synthesis_api_with_a_warning(old,
     with pytest.warns(DeprecationWarning, match=f"{old} moved to pes_ref.synthesis"):
         module = importlib.import_module(old)
     assert module.new_design is synthesis.new_design and module.evaluate is synthesis.evaluate
+
+
+@pytest.mark.parametrize("kind, params, key", [
+    ("funnel", {"dt": 0.0}, "dt"),
+    ("funnel", {"grid": 1}, "grid"),
+    ("oscillator", {"grid1": 1}, "grid1"),
+    ("funnel", {"wall_margin": 5.0}, "wall_margin"),
+])
+def test_a_scene_that_cannot_run_is_refused_by_new_design(kind, params, key):
+    """Before any run (and before a command line claims its file), keyed by the parameter."""
+    from pes_ref.core.checks import InputError
+    with pytest.raises(InputError) as info:
+        synthesis.new_design(kind, plan=Plan(iterations=2, n_particles=2), **params)
+    assert info.value.key == key and key in str(info.value)
+
+
+@pytest.mark.parametrize("stages", [((0, 1),), ((0, 8), (5, 1)), ((3, 8),), ((0, -2),)])
+def test_bad_stages_are_keyed(stages):
+    from pes_ref.core.checks import InputError
+    with pytest.raises(InputError) as info:
+        Plan(stages=stages)
+    assert info.value.key == "stages"
+
+
+def _clocked(monkeypatch, seconds_per_step=1e-3):
+    """A clock that advances only inside the design step, by ``seconds_per_step`` per time
+    step of its training runs: the cost of an iteration is its stage's horizon."""
+    from types import SimpleNamespace
+
+    from pes_ref.synthesis import training
+    clock = [0.0]
+    real = training.design_step
+
+    def step(problem, values, seed, iteration, n_particles, n_steps=None):
+        clock[0] += seconds_per_step * (n_steps or problem.n_steps)
+        return real(problem, values, seed, iteration, n_particles, n_steps)
+    monkeypatch.setattr(training, "design_step", step)
+    monkeypatch.setattr(training, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
+
+
+def test_progress_shows_the_stage_and_sums_the_time_left_over_the_stages_to_run(monkeypatch):
+    """A horizon 4x longer in the second stage: the time left counts it 4x (the plain
+    'iterations left / rate' said a third of it, as on the oscillator's curriculum)."""
+    _clocked(monkeypatch)
+    plan = Plan(iterations=8, lr=0.005, lr_final=0.005, n_particles=2, stages=((0, 7, 10), (4, 0, 40)))
+    seen = []
+    synthesis.run_design(tiny_state(plan=plan), callback=seen.append, progress_every=0.0)
+    by_it = {p.iteration: p for p in seen}
+    p2, p5 = by_it[2], by_it[5]
+    assert (p2.stage, p2.grid, p2.steps) == ("1/2", (7, 7), 10)
+    assert p2.it_per_s == pytest.approx(100.0)                        # 10 steps at 1 ms each
+    assert p2.seconds_left == pytest.approx(2 * 0.010 + 4 * 0.040)   # 2 more of stage 1, then 4 of stage 2
+    assert (p5.stage, p5.grid, p5.steps) == ("2/2", (13, 13), 40)
+    assert p5.it_per_s == pytest.approx(25.0)
+    assert p5.seconds_left == pytest.approx(3 * 0.040)
+    assert by_it[8].seconds_left == 0.0
+
+
+def test_a_stage_yet_to_be_measured_is_estimated_from_the_last_one(monkeypatch):
+    _clocked(monkeypatch)
+    plan = Plan(iterations=6, lr=0.005, lr_final=0.005, n_particles=2, stages=((0, 0, 10), (3, 0, 30)))
+    seen = []
+    synthesis.run_design(tiny_state(plan=plan), callback=seen.append, progress_every=0.0)
+    p3 = next(p for p in seen if p.iteration == 3)     # stage 1 done, stage 2 not started
+    assert p3.stage == "1/2" and p3.seconds_left == pytest.approx(3 * 0.030)
+
+
+def test_a_plain_run_is_one_stage(monkeypatch):
+    _clocked(monkeypatch)
+    seen = []
+    synthesis.run_design(tiny_state(plan=Plan(iterations=3, n_particles=2)), callback=seen.append,
+                         progress_every=0.0)
+    assert {p.stage for p in seen} == {"1/1"} and seen[0].steps == TINY_FUNNEL["n_steps"]
+    assert seen[0].seconds_left == pytest.approx(2 * 0.1)

@@ -22,3 +22,30 @@ def test_readme_example_runs():
     exec(compile(code[0], "README.md", "exec"), namespace)
     assert namespace["grads"]["values"].shape == (40, 40)
     assert namespace["traj"].x.shape == (201, 2, 2)
+
+
+def _readme_commands(word: str) -> list:
+    """The README's shell lines that run ``python -m pes_ref WORD``, without their comments."""
+    blocks = re.findall(r"```sh\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
+    return [line.split("#")[0].split() for block in blocks for line in block.splitlines()
+            if f"-m pes_ref {word} " in line]
+
+
+def test_readme_oracle_example_runs_as_written(tmp_path):
+    """Its case is a shipped vector of the newest set, and the command runs from the
+    repository's root (into a scratch folder here, so that nothing is left behind)."""
+    import shutil
+    import subprocess
+    import sys
+
+    from pes_ref.oracle.conformance import LATEST
+    (argv,) = _readme_commands("oracle")
+    assert argv[0] == ".venv/bin/python" and argv[1:4] == ["-m", "pes_ref", "oracle"]
+    case, result = argv[4], argv[5]
+    assert case.startswith(f"pes_ref/oracle/conformance/{LATEST}/") and (ROOT / case).is_file()
+    shutil.copytree(ROOT / "pes_ref" / "oracle" / "conformance" / LATEST, tmp_path / case.rsplit("/", 1)[0])
+    proc = subprocess.run([sys.executable, "-m", "pes_ref", "oracle", case, result], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120,
+                          env={**__import__("os").environ, "PYTHONPATH": str(ROOT)})
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    assert proc.stdout.startswith(f"wrote {result}: ") and (tmp_path / result).is_file()

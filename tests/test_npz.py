@@ -112,3 +112,44 @@ def test_other_link_errors_are_not_hidden(tmp_path, monkeypatch):
 def test_missing_folder(tmp_path):
     with pytest.raises(FileNotFoundError, match="does not exist"):
         npz.write_npz(tmp_path / "no" / "r.npz", ARRAYS)
+
+
+def test_a_folder_that_cannot_be_written_is_named_not_the_temporary_file(tmp_path, monkeypatch):
+    """(Provoked by a stand-in for open: root, who runs some test machines, writes anywhere.)"""
+    def refused(name, mode="r", *args, **kwargs):
+        raise PermissionError(errno.EACCES, "Permission denied", name)
+    monkeypatch.setattr(npz, "open", refused, raising=False)
+    with pytest.raises(PermissionError) as info:
+        npz.write_npz(tmp_path / "r.npz", ARRAYS)
+    assert info.value.filename == str(tmp_path) and ".tmp" not in str(info.value)
+    assert not os.listdir(tmp_path)
+
+
+def test_a_file_in_place_of_the_folder_is_said_to_be_a_file(tmp_path):
+    (tmp_path / "f").write_text("a file")
+    with pytest.raises(NotADirectoryError, match="a file, not a folder"):
+        npz.write_npz(tmp_path / "f" / "r.npz", ARRAYS)
+    assert os.listdir(tmp_path) == ["f"]
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077, 0o002])
+def test_design_files_and_results_get_the_umasks_mode(tmp_path, umask):
+    """Like any file a user creates: 0o666 less the umask (the temporary file's own
+    mode, 0o600 if made by tempfile, must not leak into the published file)."""
+    from pes_ref.oracle import run_case, write_result
+    from pes_ref.synthesis import new_design, save_design, Plan
+    old = os.umask(umask)
+    try:
+        write_result(run_case(_small_case()), tmp_path / "r.npz")
+        save_design(tmp_path / "d.npz", new_design("funnel", plan=Plan(iterations=1, n_particles=2), grid=6))
+        npz.write_npz(tmp_path / "o.npz", ARRAYS, overwrite=True)   # the replacing path too
+    finally:
+        os.umask(old)
+    modes = {p.name: p.stat().st_mode & 0o777 for p in tmp_path.iterdir()}
+    assert modes == dict.fromkeys(["r.npz", "d.npz", "o.npz"], 0o666 & ~umask)
+
+
+def _small_case():
+    return dict(values=np.zeros((3, 3)), lower=[0.0, 0.0], upper=[1.0, 1.0], periodic=[False, False], dt=0.05,
+                n_steps=3, mode="dynamic", mass=1.0, damping=0.0, x0=[[0.3, 0.4]], v0=[[0.1, 0.0]],
+                objective="funnel", target=0.5, when="final")

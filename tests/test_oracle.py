@@ -248,12 +248,24 @@ def test_object_array_in_a_file_is_refused_without_pickle(tmp_path):
     assert info.value.key == "x0" and "pickle" in str(info.value)
 
 
-@pytest.mark.parametrize("content", [b"not a zip file", b""], ids=["garbage", "empty"])
+@pytest.mark.parametrize("content", [b"not a zip file", b"", b"values = [1, 2]\nmode = dynamic\n"],
+                         ids=["garbage", "empty", "plain-text"])
 def test_a_file_that_is_not_npz_is_refused(tmp_path, content):
+    """Said as it is, without numpy's advice to load pickled data (untrue, and unsafe)."""
     (tmp_path / "c.npz").write_bytes(content)
-    with pytest.raises(oracle.CaseError, match="not a readable .npz") as info:
+    with pytest.raises(oracle.CaseError, match="is not an .npz archive") as info:
         oracle.load_case(tmp_path / "c.npz")
     assert info.value.key is None
+    assert "pickle" not in str(info.value)
+
+
+def test_a_damaged_npz_is_said_to_be_damaged(tmp_path):
+    oracle.save_case(tmp_path / "c.npz", **base_case())
+    whole = (tmp_path / "c.npz").read_bytes()
+    (tmp_path / "c.npz").write_bytes(whole[: len(whole) // 2])
+    with pytest.raises(oracle.CaseError, match="damaged .npz archive") as info:
+        oracle.load_case(tmp_path / "c.npz")
+    assert "pickle" not in str(info.value)
 
 
 def test_an_npy_file_is_refused(tmp_path):
@@ -379,3 +391,12 @@ def test_cli_usage_errors_exit_2(capsys):
 def test_python_dash_m_help():
     proc = run_cli("--help")
     assert proc.returncode == 0 and "oracle" in proc.stdout and "conformance" in proc.stdout
+
+
+def test_save_case_refuses_to_overwrite_like_write_result(tmp_path):
+    (tmp_path / "c.npz").write_bytes(b"precious")
+    with pytest.raises(oracle.ResultExistsError, match="case file"):
+        oracle.save_case(tmp_path / "c.npz", **base_case())
+    assert (tmp_path / "c.npz").read_bytes() == b"precious"
+    oracle.save_case(tmp_path / "c.npz", overwrite=True, **base_case())
+    assert sorted(oracle.load_case(tmp_path / "c.npz")) == sorted(base_case())

@@ -21,8 +21,9 @@ def test_threshold_search_brackets_a_monotone_test(threshold):
 
 
 def test_threshold_search_refuses_a_failing_upper_end():
-    with pytest.raises(ValueError, match="hi=1"):
+    with pytest.raises(ValueError, match="hi = 1 is too low") as info:
         threshold_search(lambda v: np.zeros(len(v), bool), 0.0, 1.0, 0.1)
+    assert info.value.key == "hi"       # so that a command line can name its own option
 
 
 def test_grid_stiffness_is_the_curvature_of_a_quadratic():

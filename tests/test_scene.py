@@ -348,3 +348,16 @@ def test_energy_is_kinetic_plus_potential(spring, periodic):
     u_spring = 0.5 * np.sum(np.broadcast_to(k, (N, 2)) * delta ** 2, axis=2)
     kinetic = 0.5 * np.sum(mass * traj.v ** 2, axis=2)
     np.testing.assert_allclose(e, u_grid + u_spring + kinetic, rtol=TRAJ_RTOL, atol=TRAJ_ATOL)
+
+
+def test_a_single_effect_is_taken_for_a_tuple_of_one():
+    alone = _scene(effects=pr.Constant((0.2, -0.1)))
+    tupled = _scene(effects=(pr.Constant((0.2, -0.1)),))
+    assert len(alone.effects) == 1
+    np.testing.assert_array_equal(pr.simulate(alone, X0, V0).x, pr.simulate(tupled, X0, V0).x)
+
+
+@pytest.mark.parametrize("effects", [3.0, "constant", pr.Spring(1.0, (0.0, 0.0))])
+def test_something_else_as_effects_names_effects(effects):
+    with pytest.raises(TypeError, match=r"\beffects\b"):
+        _scene(effects=effects)

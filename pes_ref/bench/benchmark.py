@@ -511,13 +511,20 @@ def _jsonable(o):
     raise TypeError(f"not JSON serializable: {type(o).__name__}")
 
 
+def output_paths(json_path: str) -> tuple:
+    """The files :func:`write_outputs` writes for ``json_path``: it, and beside it the plot
+    ``scaling.png`` (or ``<stem>-scaling.png``)."""
+    folder = os.path.dirname(os.path.abspath(json_path))
+    stem = os.path.splitext(os.path.basename(json_path))[0]
+    return json_path, os.path.join(folder, "scaling.png" if stem == "bench" else f"{stem}-scaling.png")
+
+
 def write_outputs(res: dict, json_path: str, overwrite: bool) -> tuple:
     """Write the JSON and, beside it, ``scaling.png`` (or ``<stem>-scaling.png``).
 
     Refuses (FileExistsError) to replace an existing file unless ``overwrite``."""
     folder = os.path.dirname(os.path.abspath(json_path))
-    stem = os.path.splitext(os.path.basename(json_path))[0]
-    png = os.path.join(folder, "scaling.png" if stem == "bench" else f"{stem}-scaling.png")
+    png = output_paths(json_path)[1]
     for path in (json_path, png):
         if os.path.exists(path) and not overwrite:
             raise FileExistsError(f"{path} exists; pass --force to replace it")

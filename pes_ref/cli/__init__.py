@@ -14,7 +14,7 @@ import sys
 
 from pes_ref import __version__
 from pes_ref.cli import analyze, bench, check, conformance, design, evaluate, oracle, sweep
-from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, error
+from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Parser, error
 
 __all__ = ["main", "build_parser", "command_name", "COMMANDS", "EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED"]
 
@@ -40,12 +40,15 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     ``command`` (one of their names): :func:`main` builds just the command it runs, since
     building all of them (their help, choices and defaults) would cost every run,
     ``oracle`` included, several milliseconds."""
-    parser = argparse.ArgumentParser(
-        prog="pes_ref",
+    parser = Parser(
+        prog="pes_ref", formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Reference implementation of potential energy surfaces (Manion & Fuge, DETC2021): "
-                    "the oracle of docs/spec.md and its tools.")
+                    "the oracle of docs/spec.md and its tools.",
+        epilog="examples:\n  python -m pes_ref conformance --check\n  python -m pes_ref design funnel --smoke "
+               "--out funnel.npz\n\n'python -m pes_ref COMMAND --help' shows a command's options and examples.")
     parser.add_argument("--version", action="version", version=f"pes_ref {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands",
+                                help="the command to run (see below)")
     sub.required = True
     for module in COMMANDS:
         if command is None or command_name(module) == command:

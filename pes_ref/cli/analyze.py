@@ -24,6 +24,8 @@ DARTGUN_DEFAULTS = {"reload_force": "30.0", "reload_time": "1.0", "trigger_force
 DARTGUN_SMOKE = {"shape": (121, 81), "dt": 5e-4, "trigger_forces": "10,30", "search_tol": "2.0"}
 #: The entries of a smoke preset that change the design (the rest are option texts).
 DESIGN_KEYS = ("shape", "dt")
+#: The analyses' names of what the options set, and the options (errors name the option).
+FLAGS = {"hi": "--search-hi", "tol": "--search-tol"}
 
 
 def _float(option: str, text: str, check=checks.as_positive_float) -> float:
@@ -48,15 +50,16 @@ def add_parser(sub) -> None:
                     "'Contribution 2'. Prints one 'name: value unit' line per figure, with run times. "
                     "See docs/geometry.md.",
         examples=['analyze ratchet --smoke', 'analyze dartgun --reload-force 25 --trigger-forces 10,20'])
-    dev = p.add_subparsers(dest="device", metavar="DEVICE", title="devices")
+    dev = p.add_subparsers(dest="device", metavar="DEVICE", title="devices", help="the device to analyze")
     dev.required = True
 
-    r = dev.add_parser(
-        "ratchet", help="ratchet and pawl on a torus: direction selectivity, smallest advancing torque",
+    r = add_command(
+        dev, "ratchet", help="ratchet and pawl on a torus: direction selectivity, smallest advancing torque",
         description="A toothed wheel (angle q0) and a pawl held into its teeth by a torsion spring "
                     "(angle q1) on a torus. Runs +torque and -torque from the engaged rest state and "
                     "prints the net rotation of each, then finds the smallest torque that advances the "
-                    "wheel by one tooth within --duration by bisection.")
+                    "wheel by one tooth within --duration by bisection.",
+        examples=["analyze ratchet --smoke", "analyze ratchet --torque 0.5 --duration 5"])
     r.add_argument("--torque", default=None, metavar="T", help="torque magnitude on the wheel (> 0; default 1.0)")
     r.add_argument("--duration", default=None, metavar="S",
                    help="length of each run in seconds (> 0; default 10)")
@@ -68,13 +71,14 @@ def add_parser(sub) -> None:
                    help=f"quick look: small grid, short runs, coarse search ({_preset(RATCHET_SMOKE)})")
     r.set_defaults(func=_run_ratchet)
 
-    d = dev.add_parser(
-        "dartgun", help="the paper's dart gun (Figs. 2-4) on a plane: reload, fire, exit speed, device size",
+    d = add_command(
+        dev, "dartgun", help="the paper's dart gun (Figs. 2-4) on a plane: reload, fire, exit speed, device size",
         description="A dart (q0, pushed back = +) with a notch and its spring, and a trigger tooth (q1) with "
                     "its spring, on a plane. Reloads with --reload-force for --reload-time and says whether "
                     "the dart latched; finds the smallest force that reloads by bisection; fires from the "
                     "latched equilibrium with each --trigger-forces value for --fire-time and prints the "
-                    "dart's exit speed; prints the bounding boxes of the reload and fire trajectories.")
+                    "dart's exit speed; prints the bounding boxes of the reload and fire trajectories.",
+        examples=["analyze dartgun --smoke", "analyze dartgun --reload-force 25 --trigger-forces 10,20"])
     d.add_argument("--reload-force", default=None, metavar="F", help="reload push on the dart (> 0; default 30)")
     d.add_argument("--reload-time", default=None, metavar="S", help="how long the reload push lasts (> 0; default 1)")
     d.add_argument("--trigger-forces", default=None, metavar="F1,F2,...",
@@ -108,7 +112,7 @@ def _run(args, defaults: dict, smoke: dict, design, analyze, parse) -> int:
             design = dataclasses.replace(design, **{k: smoke[k] for k in DESIGN_KEYS})
         report = analyze(design, *values)
     except (ValueError, TypeError) as exc:
-        return error(exc)
+        return error(exc, FLAGS)
     for line in report.as_lines():
         print(line)
     return EXIT_OK

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 
-from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error  # noqa: F401
+from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, output_file  # noqa: F401
 
 #: Where ``make bench`` leaves its results (git-ignored).
 DEFAULT_OUT = os.path.join("bench", "out", "bench.json")
@@ -37,8 +37,12 @@ def _run_bench(args) -> int:
     from pes_ref.bench import benchmark as bench
     out = args.out or DEFAULT_OUT
     overwrite = args.force or args.out is None
-    if args.out is not None and os.path.exists(out) and not args.force:
-        return error(f"{out} exists; pass --force to replace it")
+    if args.out is not None:            # refused before the (long) run; the default folder is made if missing
+        try:
+            for path, what in zip(bench.output_paths(out), ("results", "plot")):
+                output_file(path, what, force=args.force)
+        except OSError as exc:
+            return error(exc)
     import dataclasses
     cfg = bench.QUICK if args.quick else bench.FULL
     if args.no_autodiff:

@@ -2,10 +2,12 @@
 command line (:mod:`pes_ref.testing.check`, docs/spec.md section 13)."""
 from __future__ import annotations
 
-import argparse
+import os
+import shlex
+import shutil
 import sys
 
-from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, add_command, error
+from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, add_command, error, input_file, output_file, output_folder
 
 
 def add_parser(sub) -> None:
@@ -15,7 +17,8 @@ def add_parser(sub) -> None:
                     "nothing) and on N fresh random cases drawn from pes_ref's own strategies (well-conditioned "
                     "ones only), computed by pes_ref too. Prints one line per case and 'N passed, M failed'; "
                     "exits 0 only when every case passes.",
-        examples=['check --cmd "./my_impl {case} {result}" --random 100 --seed 1', 'check --cmd "python examples/jax_pes/pes_jax.py {pairs}" --report check.json'])
+        examples=['check --cmd "python -m pes_ref oracle {case} {result}" --only plane-dynamic --only mass-zero',
+                  'check --cmd "python -m pes_ref oracle {pairs}" --no-vectors --random 5 --seed 1 --report check.json'])
     p.add_argument("--cmd", required=True, metavar="TEMPLATE",
                    help="the program: {case} and {result} are replaced by one case's paths (one process per "
                         "case), or {pairs} by CASE1 RESULT1 CASE2 RESULT2 ... (one process for all valid cases)")
@@ -26,19 +29,57 @@ def add_parser(sub) -> None:
     p.add_argument("--timeout", type=float, default=60.0, metavar="SECONDS",
                    help="time allowed per case (default 60)")
     p.add_argument("--report", default=None, metavar="FILE.json", help="write a JSON report")
+    p.add_argument("--force", action="store_true", help="replace an existing --report file")
     p.add_argument("--keep", default=None, metavar="DIR", help="keep each failing case in DIR with reproduce.sh")
     p.add_argument("--quiet", action="store_true", help="print only failures and the closing line")
     p.set_defaults(func=_run_check)
 
 
+def _program(template: str) -> None:
+    """Refuse a --cmd whose program cannot start, before any case is run."""
+    try:
+        argv = shlex.split(template)
+    except ValueError as exc:
+        raise ValueError(f"--cmd {template!r}: {exc}") from None
+    if not argv:
+        raise ValueError("--cmd is empty; give the program and its arguments, e.g. './my_impl {case} {result}'")
+    program = argv[0]
+    if os.sep in program:
+        input_file(program, "--cmd: program")
+    elif shutil.which(program) is None:
+        raise FileNotFoundError(f"--cmd: program {program} not found on the PATH")
+
+
+def _only(ids, version: str) -> None:
+    """Refuse an --only id that no shipped vector has."""
+    from pes_ref.testing.conformance import load_manifest
+    known = [e["id"] for e in load_manifest(version)["vectors"]]
+    for vid in ids:
+        if vid not in known:
+            raise ValueError(f"--only {vid!r}: no vector of {version} has this id (e.g. {', '.join(known[:3])}; "
+                             f"all in manifest.json)")
+
+
 def _run_check(args) -> int:
+    from pes_ref.oracle.conformance import LATEST
     from pes_ref.testing import check as chk
-    if args.random < 0:
-        return error(f"--random must be >= 0, got {args.random}")
-    if not args.timeout > 0:
-        return error(f"--timeout must be > 0 seconds, got {args.timeout}")
-    if args.no_vectors and args.random == 0:
-        return error("--no-vectors with --random 0 leaves nothing to check")
+    try:
+        if args.random < 0:
+            raise ValueError(f"--random must be >= 0, got {args.random}")
+        if not args.timeout > 0:
+            raise ValueError(f"--timeout must be > 0 seconds, got {args.timeout}")
+        if args.no_vectors and args.random == 0:
+            raise ValueError("--no-vectors with --random 0 leaves nothing to check")
+        chk.Program(args.cmd, args.timeout)
+        _program(args.cmd)
+        if args.only:
+            _only(args.only, LATEST)
+        if args.report:
+            output_file(args.report, "report", force=args.force)
+        if args.keep:
+            output_folder(args.keep)
+    except (OSError, ValueError) as exc:
+        return error(exc)
 
     def show(outcome):
         if not args.quiet or not outcome.ok:
@@ -51,7 +92,7 @@ def _run_check(args) -> int:
         report = chk.check(args.cmd, vectors=not args.no_vectors, random=args.random, seed=args.seed,
                            timeout=args.timeout, keep=args.keep, only=args.only, progress=show)
         if args.report:
-            chk.write_report(report, args.report)
+            chk.write_report(report, args.report, overwrite=args.force)
     except (ValueError, ImportError, RuntimeError, OSError) as exc:
         return error(exc)
     print(report.summary())

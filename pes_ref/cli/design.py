@@ -4,9 +4,9 @@
   [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C]
   [--particles N] [--objective overshoot|eq6] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
   run (or continue) a design and write its file (:mod:`pes_ref.synthesis.design_file`). A progress line goes to stderr
-  every ``--progress`` seconds; Ctrl-C finishes the iteration, saves and exits 0; a run that
-  goes non-finite, or whose grid steepens past the stability rule, saves its last good state
-  and exits 1 (a fresh run that stops before finishing an iteration writes no file). A scene
+  every ``--progress`` seconds; Ctrl-C or SIGTERM finishes the iteration, saves and exits 130;
+  a run that goes non-finite, or whose grid steepens past the stability rule, saves its last good
+  state and exits 1 (a fresh run that stops before finishing an iteration writes no file). A scene
   past the stability rule from the start (``--set dt=...``) is refused before anything is
   written (docs/spec.md section 10).
 
@@ -18,7 +18,7 @@ import dataclasses
 import os
 import sys
 
-from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error
+from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error, input_file, output_file
 
 METRIC_NAMES = {"funnel": "in_band", "oscillator": "amp_err"}
 #: The names ``--set`` takes, per kind: the fields of each problem of
@@ -32,6 +32,11 @@ SET_NAMES = {
                    "wall_margin", "init_scale", "regularization", "cost", "settle_periods", "target_scale",
                    "spread_share", "stratified"),
 }
+
+#: The library's names of what the options set, and the options (errors name the option):
+#: the plan's parameters here, each problem parameter ``NAME`` as ``--set NAME`` (:func:`_flags`).
+PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-final", "clip": "--clip",
+              "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed"}
 #: ``--objective`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_OBJECTIVES` (tested equal).
 OSCILLATOR_OBJECTIVE_NAMES = ("overshoot", "eq6")
 
@@ -41,36 +46,57 @@ def add_parser(sub) -> None:
         description="Optimize the grid values of a potential energy surface for the paper's funnel or "
                     "oscillator objective and write the design (grid, scene parameters, seed, loss history, "
                     "optimizer state) to FILE.npz. --iterations is the total count to reach, also on --resume. "
-                    "Ctrl-C stops after the current iteration and saves. An existing --out is refused unless "
+                    "Ctrl-C (or SIGTERM) stops after the current iteration, saves and exits 130. An existing --out is refused unless "
                     "--force; with --resume and no --out the resumed file itself is updated.",
-        examples=['design funnel --out funnel.npz', 'design oscillator --seed 1 --out osc.npz && python -m pes_ref evaluate osc.npz'])
+        examples=['design funnel --out funnel.npz',
+                  'design oscillator --smoke --out osc.npz && python -m pes_ref evaluate osc.npz'])
     p.add_argument("kind", choices=["funnel", "oscillator"], help="the device to design")
-    p.add_argument("--iterations", type=int, default=None, help="total iterations (default: the plan's)")
-    p.add_argument("--seed", type=int, default=None, help="run seed (default 0; a resumed run keeps its own)")
+    p.add_argument("--iterations", type=int, default=None, metavar="N", help="total iterations (default: the plan's)")
+    p.add_argument("--seed", type=int, default=None, metavar="S",
+                   help="run seed (default 0; a resumed run keeps its own)")
     p.add_argument("--out", default=None, metavar="FILE.npz", help="design file to write (default KIND.npz)")
     p.add_argument("--resume", default=None, metavar="FILE.npz", help="continue the run saved in this file")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override one scene parameter (e.g. --set n_steps=200); repeatable; the names: "
                         + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in SET_NAMES.items()))
-    p.add_argument("--lr", type=float, default=None, help="initial learning rate (default: the plan's)")
-    p.add_argument("--lr-final", type=float, default=None, help="learning rate reached at the last iteration (default: the plan's)")
+    p.add_argument("--lr", type=float, default=None, metavar="LR", help="initial learning rate (default: the plan's)")
+    p.add_argument("--lr-final", type=float, default=None, metavar="LR", help="learning rate reached at the last iteration (default: the plan's)")
     p.add_argument("--objective", choices=OSCILLATOR_OBJECTIVE_NAMES, default=None,
                    help="oscillator only: named training setting, 'overshoot' (default: eq. (6) + eq. (7) aimed "
                         "at 1.4 times the target amplitude) or 'eq6' (the paper's setting, aimed at the target "
                         "amplitude); evaluation is the same for both")
     p.add_argument("--optimizer", choices=["rmsprop", "adam"], default=None,
                    help="the optimizer (default: the plan's; a resumed run keeps its own)")
-    p.add_argument("--clip", type=float, default=None, help="clip the gradient to this norm (default: the plan's)")
-    p.add_argument("--particles", type=int, default=None, help="particles per iteration (default: the plan's)")
+    p.add_argument("--clip", type=float, default=None, metavar="NORM", help="clip the gradient to this norm (default: the plan's)")
+    p.add_argument("--particles", type=int, default=None, metavar="N", help="particles per iteration (default: the plan's)")
     grp = p.add_mutually_exclusive_group()
-    grp.add_argument("--stages", default=None, metavar="IT:GRID,...",
-                     help="coarse-to-fine grid stages, e.g. 0:25,100:50,200:0 (0 = the scene's grid)")
+    grp.add_argument("--stages", default=None, metavar="IT:GRID[:STEPS],...",
+                     help="coarse-to-fine stages: from iteration IT on, GRID nodes per axis and STEPS steps per "
+                          "training run, e.g. 0:25,100:50,200:0 (0 = the scene's own grid or steps)")
     grp.add_argument("--no-stages", action="store_true", help="plain run on the scene's grid from the start")
     p.add_argument("--smoke", action="store_true", help="tiny preset (a few iterations on a tiny grid)")
-    p.add_argument("--progress", type=float, default=2.0, metavar="SECONDS", help="progress line period")
+    p.add_argument("--progress", type=float, default=2.0, metavar="SECONDS",
+                   help="seconds between progress lines (0: after every iteration)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_run_design)
+
+
+def _flags(kind: str) -> dict:
+    """Every name an error of a ``kind`` design may carry, and the option that sets it."""
+    return {**{name: f"--set {name}" for name in SET_NAMES[kind]}, **PLAN_FLAGS}
+
+
+def progress_line(kind: str, metric_name: str, p) -> str:
+    """One progress line: the stage (grid, steps per run), the iteration, the loss, the
+    metric, the stage's rate and the time left summed over the stages still to run."""
+    return (f"design {kind}: stage {p.stage} (grid {_format_grid(p.grid)}, {p.steps} steps) | it {p.iteration}/"
+            f"{p.total} | loss {p.loss:.4g} | {metric_name} {p.metric:.3f} | {p.it_per_s:.1f} it/s | "
+            f"left {_format_time(p.seconds_left)}")
+
+
+def _format_grid(shape) -> str:
+    return "x".join(str(n) for n in shape)
 
 
 def _format_time(seconds: float) -> str:
@@ -91,12 +117,15 @@ def error_stopped(state) -> int:
 def _run_design(args) -> int:
     from pes_ref import synthesis
     from pes_ref.synthesis import check_same_scene, load_design, save_design
+    flags = _flags(args.kind)
     try:
+        if not args.progress >= 0:
+            raise ValueError(f"--progress must be a number of seconds >= 0, got {args.progress}")
         from pes_ref.sweep.options import design_inputs, parse_sets   # shared with sweeps
         sets, plan_over, base_plan = design_inputs(args.kind, vars(args),
                                                    parse_sets(args.set, synthesis.PROBLEMS[args.kind]))
         if args.resume is not None:
-            state = load_design(args.resume)
+            state = load_design(input_file(args.resume, "design file"))
             check_same_scene(state, args.kind, sets)
             if args.seed is not None and args.seed != state.seed:
                 raise ValueError(f"--seed {args.seed} differs from the resumed run's seed {state.seed}")
@@ -112,18 +141,22 @@ def _run_design(args) -> int:
             state = synthesis.new_design(args.kind, seed=0 if args.seed is None else args.seed, plan=plan, **sets)
             out = args.out if args.out is not None else f"{args.kind}.npz"
             may_overwrite = args.force
-        if os.path.exists(out) and not may_overwrite:
-            raise FileExistsError(f"{out} exists; refusing to overwrite it (use --force or another --out)")
+        output_file(out, "design", force=may_overwrite)
     except (OSError, ValueError, TypeError) as exc:
-        return error(exc)
+        return error(exc, flags)
 
     metric_name = METRIC_NAMES[args.kind]
 
+    shown = []                          # the stages shown so far
+
     def progress(p):
-        if not args.quiet:
-            print(f"design {args.kind}: it {p.iteration}/{p.total} | loss {p.loss:.4g} | {metric_name} "
-                  f"{p.metric:.3f} | {p.it_per_s:.1f} it/s | left {_format_time(p.seconds_left)}",
-                  file=sys.stderr, flush=True)
+        if args.quiet:
+            return
+        if shown and p.stage != shown[-1]:
+            print(f"design {args.kind}: now stage {p.stage}: grid {_format_grid(p.grid)}, {p.steps} steps per run "
+                  f"(its loss is not comparable with stage {shown[-1]}'s)", file=sys.stderr)
+        shown.append(p.stage)
+        print(progress_line(args.kind, metric_name, p), file=sys.stderr, flush=True)
 
     def checkpoint(s):
         save_design(out, s, overwrite=True)
@@ -143,8 +176,12 @@ def _run_design(args) -> int:
                 os.remove(out)                                 # never leave a file that holds no iteration
             return error_stopped(state)
         save_design(out, state, overwrite=True)
-    except (OSError, ValueError) as exc:
-        return error(exc)
+    except Exception as exc:
+        if fresh and created and state.iteration == start and os.path.lexists(out):
+            os.unlink(out)              # our own claim, and nothing done: leave no file that means nothing
+        if not isinstance(exc, (OSError, ValueError)):
+            raise
+        return error(exc, flags)
     done = state.iteration - start
     rate = done / state.elapsed if state.elapsed > 0 else 0.0
     loss = state.history["loss"][-1] if state.history["loss"] else float("nan")

@@ -2,7 +2,7 @@
 [--particles N]`` prints one ``name: value`` line per figure of a saved design."""
 from __future__ import annotations
 
-from pes_ref.cli.common import EXIT_OK, add_command, error
+from pes_ref.cli.common import EXIT_OK, add_command, error, input_file
 
 
 def add_parser(sub) -> None:
@@ -14,21 +14,25 @@ def add_parser(sub) -> None:
                     "torque), amplitude_error and period_error (relative, worst over the captured particles), "
                     "and flat_captured_fraction.",
         examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191'])
-    p.add_argument("file", metavar="FILE.npz")
+    p.add_argument("file", metavar="FILE.npz", help="a design file written by 'design'")
     p.add_argument("--seed", type=int, default=12345, help="held-out seed (default 12345; training uses others)")
-    p.add_argument("--particles", type=int, default=None,
+    p.add_argument("--particles", type=int, default=None, metavar="N",
                    help="held-out particles (funnel default 200; oscillator torque sweep default 50)")
     p.set_defaults(func=_run_evaluate)
+
+
+#: The library's names of what the options set, and the options (errors name the option).
+FLAGS = {"n_particles": "--particles", "seed": "--seed"}
 
 
 def _run_evaluate(args) -> int:
     from pes_ref.synthesis import evaluate, load_design
     from pes_ref.core.integrator import NonFiniteError
     try:
-        state = load_design(args.file)
+        state = load_design(input_file(args.file, "design file"))
         figures = evaluate(state.problem, state.values, seed=args.seed, n_particles=args.particles)
     except (OSError, ValueError, TypeError, NonFiniteError) as exc:
-        return error(exc)
+        return error(exc, FLAGS)
     print(f"kind: {state.kind}")
     print(f"iterations: {state.iteration}")
     print(f"status: {state.status}")

@@ -6,12 +6,17 @@ line ``error: <message>`` and writes nothing; the exit status is 2 if any case w
 refused."""
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import time
+import zipfile
 
-from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error
+from pes_ref.oracle.conformance import LATEST
+from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, input_file, output_file
+
+
+#: The shipped vectors of the newest set, as a path from the repository's root (for the examples).
+_VECTORS = f"pes_ref/oracle/conformance/{LATEST}"
 
 
 def add_parser(sub) -> None:
@@ -21,7 +26,9 @@ def add_parser(sub) -> None:
                     "A case that breaks the spec is refused with one line 'error: case key ...' on stderr and "
                     "nothing is written for it; the exit status is then 2. Each result is written to a "
                     "temporary file and moved into place.",
-        examples=['oracle pes_ref/oracle/conformance/v1/plane-dynamic.case.npz result.npz', 'oracle a.case.npz b.case.npz --out-dir results/'])
+        examples=[f"oracle {_VECTORS}/plane-dynamic.case.npz result.npz",
+                  f"oracle {_VECTORS}/plane-dynamic.case.npz {_VECTORS}/spring-per-particle-torus.case.npz "
+                  "--out-dir ."])
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="CASE.npz RESULT.npz pairs, or (with --out-dir) case files")
     p.add_argument("--out-dir", default=None, metavar="DIR",
@@ -121,16 +128,31 @@ def _pairs(args) -> list:
     return list(zip(args.files[::2], args.files[1::2]))
 
 
-def _check_destination(oracle, path: str, force: bool) -> None:
-    """Refuse before computing: the result's folder must exist and be writable, and an
-    existing result is kept unless ``--force``."""
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise FileNotFoundError(f"cannot write {path}: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise PermissionError(f"cannot write {path}: folder {folder} is not writable")
-    if os.path.exists(path) and not force:
-        raise oracle.ResultExistsError(path)
+def _check_files(case_path: str, result_path: str, force: bool) -> None:
+    """Refuse before computing: the case must be a readable file and not a design file;
+    the result's folder must exist and be writable, and an existing result is kept
+    unless ``--force``."""
+    from pes_ref.synthesis.design_file import is_design_file
+    input_file(case_path, "case file")
+    if is_design_file(case_path):
+        raise ValueError(f"{case_path} is a design file, not a case; evaluate reads it: "
+                         f"python -m pes_ref evaluate {case_path}")
+    if _is_result_file(case_path):
+        raise ValueError(f"{case_path} is an oracle result file, not a case (the oracle wrote it)")
+    output_file(result_path, "result", force=force)
+
+
+#: Members every result file holds and no case does.
+_RESULT_MEMBERS = {"x.npy", "v.npy", "energy.npy", "loss.npy"}
+
+
+def _is_result_file(path: str) -> bool:
+    """Whether ``path`` is a zip holding a result's members (only its directory is read)."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            return _RESULT_MEMBERS <= set(z.namelist())
+    except (zipfile.BadZipFile, OSError):
+        return False
 
 
 def _run_oracle(args) -> int:
@@ -142,7 +164,7 @@ def _run_oracle(args) -> int:
     status = EXIT_OK
     for case_path, result_path in pairs:
         try:
-            _check_destination(oracle, result_path, args.force)
+            _check_files(case_path, result_path, args.force)
             result = oracle.run_case_file(case_path, result_path, overwrite=args.force, compress=args.compress,
                                           allow_unstable=args.allow_unstable, monitor=_monitor(case_path))
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:

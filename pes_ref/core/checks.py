@@ -22,6 +22,7 @@ __all__ = [
     "as_bool_array",
     "as_positive_int",
     "as_nonneg_int",
+    "as_int_at_least",
     "as_positive_float",
     "as_nonneg_float",
     "as_finite_float",
@@ -186,25 +187,28 @@ def as_nonneg_float(name: str, value) -> float:
     return x
 
 
-def as_nonneg_int(name: str, value) -> int:
-    """An integer >= 0 (an integral float such as ``3.0`` is refused: counts are ints)."""
+def as_int_at_least(name: str, value, least: int) -> int:
+    """An integer >= ``least`` (an integral float such as ``3.0`` is refused: counts are
+    ints); every value below ``least`` gets the same message."""
     if isinstance(value, (bool, np.bool_)):
         raise InputTypeError(name, f"{name} must be an integer, got the bool {value!r}")
     arr = np.asarray(value)
     if arr.ndim != 0 or not np.issubdtype(arr.dtype, np.integer):
         raise InputTypeError(name, f"{name} must be an integer, got {_quote(value)}")
     x = int(arr)
-    if x < 0:
-        raise InputError(name, f"{name} must be >= 0, got {x}")
+    if x < least:
+        raise InputError(name, f"{name} must be >= {least}, got {x}")
     return x
+
+
+def as_nonneg_int(name: str, value) -> int:
+    """An integer >= 0 (an integral float such as ``3.0`` is refused: counts are ints)."""
+    return as_int_at_least(name, value, 0)
 
 
 def as_positive_int(name: str, value) -> int:
-    """An integer >= 1."""
-    x = as_nonneg_int(name, value)
-    if x < 1:
-        raise InputError(name, f"{name} must be >= 1, got {x}")
-    return x
+    """An integer >= 1 (``-3`` and ``0`` get the same message)."""
+    return as_int_at_least(name, value, 1)
 
 
 def as_choice(name: str, value, choices) -> str:

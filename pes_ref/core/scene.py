@@ -77,8 +77,9 @@ class Scene:
     spring : Spring or None
     walls : Walls or None
         Only on non-periodic axes.
-    effects : sequence of effects
-        External forces (:mod:`pes_ref.core.effects`); empty means none.
+    effects : effect or sequence of effects
+        External forces (:mod:`pes_ref.core.effects`); empty means none; a single
+        effect is taken for a sequence of one.
     t0 : float
         Time of state 0.
     integrator : {"verlet", "gjf"}
@@ -138,7 +139,14 @@ class Scene:
                     raise checks.InputError("wall_margin",
                                             f"wall_margin={self.walls.margin} leaves no room between the two walls "
                                             f"of axis {d} (length {self.surface.length[d]})")
-        effects = tuple(self.effects)
+        effects = self.effects
+        if hasattr(effects, "add_to"):          # one effect: a tuple of one
+            effects = (effects,)
+        try:
+            effects = tuple(effects)
+        except TypeError:
+            raise checks.InputTypeError("effects", f"effects must be a pes_ref effect or a sequence of them, "
+                                                   f"got {effects!r}") from None
         for e in effects:
             if not hasattr(e, "add_to"):
                 raise checks.InputTypeError("effects",

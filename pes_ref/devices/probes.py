@@ -24,7 +24,8 @@ def threshold_search(passes, lo: float, hi: float, tol: float, batch: int = 7) -
     """
     lo, hi, tol = float(lo), float(hi), checks.as_positive_float("tol", tol)
     if not bool(np.asarray(passes(np.array([hi])))[0]):
-        raise ValueError(f"the test fails at the upper end of the search, hi={hi:g}; raise hi")
+        raise checks.InputError("hi", f"hi = {hi:g} is too low: the test fails at the upper end of the search; "
+                                      f"raise hi")
     while hi - lo > tol:
         vals = np.linspace(lo, hi, batch + 2)[1:-1]
         ok = np.asarray(passes(vals), dtype=bool)

@@ -102,12 +102,13 @@ def load_case(path) -> dict:
     return read_npz(path, what="case")
 
 
-def save_case(path, *, overwrite: bool = True, compress: bool = True, **keys) -> None:
+def save_case(path, *, overwrite: bool = False, compress: bool = True, **keys) -> None:
     """Write a case file from keyword arrays (strings stored as 0-d unicode arrays).
 
     The keys are written as given and not validated, so that invalid cases can be
     written too (the conformance vectors need them); run :func:`validate_case` first to
-    check a case.
+    check a case. Like :func:`write_result`, an existing file is refused
+    (:class:`ResultExistsError`) unless ``overwrite``.
 
     Example
     -------

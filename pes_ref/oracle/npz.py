@@ -30,6 +30,8 @@ from pes_ref.oracle.errors import CaseError, CaseTypeError, ResultExistsError
 
 __all__ = ["read_npz", "write_npz", "atomic_file"]
 
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")   # a zip's first member, or an empty zip
+_NPY_MAGIC = b"\x93NUMPY"
 _FIXED_DATE = (1980, 1, 1, 0, 0, 0)   # the zip epoch: written files do not depend on the clock
 _ZIP64_ABOVE = 1 << 30                # zip64 headers only for members that may need them
 #: The errors of :func:`os.link` on a file system that has no hard links.
@@ -54,17 +56,23 @@ def read_npz(path, *, what: str = "case") -> dict:
     OSError
         The file cannot be opened (missing, a directory, no permission).
     CaseError
-        The file is not an ``.npz`` archive, or a member cannot be read without pickle.
+        The file is not an ``.npz`` archive (judged by its first bytes, not by numpy's
+        guess that anything else is pickled data), is a damaged one, or a member cannot
+        be read without pickle.
     """
     path = os.fspath(path)
+    with open(path, "rb") as fh:        # OSError: missing, a folder, no permission
+        head = fh.read(len(_NPY_MAGIC))
+    if head.startswith(_NPY_MAGIC):
+        raise CaseError(None, f"{what} file {path!r} holds a single .npy array, not an .npz archive of named arrays")
+    if not head.startswith(_ZIP_MAGIC):   # numpy would take it for pickled data and say so
+        raise CaseError(None, f"{what} file {path!r} is not an .npz archive (a zip of .npy arrays)")
     try:
         npz = np.load(path, allow_pickle=False)
     except OSError:
         raise
-    except Exception as exc:  # not a zip, truncated zip, an .npy with object dtype ...
-        raise CaseError(None, f"{what} file {path!r} is not a readable .npz archive ({exc})") from None
-    if not isinstance(npz, np.lib.npyio.NpzFile):
-        raise CaseError(None, f"{what} file {path!r} holds a single .npy array, not an .npz archive of named arrays")
+    except Exception as exc:  # a truncated or otherwise damaged zip
+        raise CaseError(None, f"{what} file {path!r} is a damaged .npz archive ({exc})") from None
     out = {}
     with npz:
         for key in npz.files:
@@ -162,10 +170,16 @@ def atomic_file(path, *, overwrite: bool = False, what: str = "result"):
         raise ResultExistsError(path, what)   # early, to write nothing; publication checks again, atomically
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
+        if os.path.exists(folder):
+            raise NotADirectoryError(errno.ENOTDIR, "this is a file, not a folder to write into", folder)
         raise FileNotFoundError(errno.ENOENT, "the folder to write into does not exist", folder)
     tmp = os.path.join(folder, f".{os.path.basename(path)}.{os.urandom(6).hex()}.tmp")   # not secrets: ~4 ms to import
     try:
-        with open(tmp, "xb") as fh:
+        fh = open(tmp, "xb")
+    except PermissionError:              # named by the folder: the temporary name means nothing to a user
+        raise PermissionError(errno.EACCES, "the folder to write into is not writable", folder) from None
+    try:
+        with fh:
             yield fh
         _publish(tmp, path, overwrite, what)
     finally:

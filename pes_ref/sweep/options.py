@@ -51,6 +51,10 @@ def scene_parameters(kind: str) -> dict:
     return {f.name: f for f in dataclasses.fields(PROBLEMS[kind])}
 
 
+#: How ``--set`` names the kind of value a parameter takes.
+_KIND_OF_VALUE = {int: "an integer", float: "a number", str: "a word", bool: "true or false"}
+
+
 def parse_sets(items, problem_cls) -> dict:
     """``--set NAME=VALUE`` texts to problem overrides, each converted to its field's type."""
     fields = {f.name: f for f in dataclasses.fields(problem_cls)}
@@ -63,7 +67,7 @@ def parse_sets(items, problem_cls) -> dict:
         try:
             out[name] = type(default)(text) if not isinstance(default, bool) else text.lower() in ("1", "true")
         except ValueError:
-            raise ValueError(f"--set {item!r}: {text!r} is not a {type(default).__name__}") from None
+            raise ValueError(f"--set {item!r}: {text!r} is not {_KIND_OF_VALUE[type(default)]}") from None
     return out
 
 

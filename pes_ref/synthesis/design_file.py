@@ -27,18 +27,19 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import zipfile
 
 import numpy as np
 
-from pes_ref.oracle.npz import write_npz
+from pes_ref.oracle.case import REQUIRED_KEYS
+from pes_ref.oracle.errors import CaseError
+from pes_ref.oracle.npz import read_npz, write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
 from pes_ref.synthesis.plans import Plan
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.training import DesignState
 
-__all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "DesignFileError", "FORMAT",
-           "VERSION"]
+__all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "is_design_file", "DesignFileError",
+           "FORMAT", "VERSION"]
 
 FORMAT = "pes_ref.design"
 VERSION = 1
@@ -97,13 +98,11 @@ def load_design(path) -> DesignState:
     if not os.path.exists(path):
         raise FileNotFoundError(f"design file {path} does not exist")
     try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
-        raise DesignFileError(f"{path} is not a design file (not a readable .npz: {exc})") from None
+        data = read_npz(path, what="design")
+    except CaseError as exc:          # not an .npz, a damaged one, pickled members
+        raise DesignFileError(str(exc)) from None
     if str(data.get("format", "")) != FORMAT:
-        raise DesignFileError(f"{path} is not a design file (no format tag {FORMAT!r}; "
-                              f"keys {sorted(data)[:8]})")
+        raise DesignFileError(_what_else(path, data))
     missing = [k for k in _REQUIRED if k not in data]
     if missing:
         raise DesignFileError(f"{path} is a damaged design file: missing keys {missing}")
@@ -131,13 +130,42 @@ def load_design(path) -> DesignState:
                        float(data["elapsed"]))
 
 
+#: Files of the oracle that a user may hand to a design command by mistake: their kind,
+#: the keys that give them away, and the command that reads them.
+_OTHER_FILES = (
+    ("case", set(REQUIRED_KEYS), "the oracle runs it: python -m pes_ref oracle {path} RESULT.npz"),
+    ("result", {"x", "v", "energy", "loss"}, "it holds an oracle run's output"),
+)
+
+
+def _what_else(path: str, data: dict) -> str:
+    """Why the arrays ``data`` of ``path`` are not a design file, saying what they are if known."""
+    for kind, keys, advice in _OTHER_FILES:
+        if keys <= set(data):
+            return f"{path} is an oracle {kind} file, not a design file; {advice.format(path=path)}"
+    return f"{path} is not a design file (no format tag {FORMAT!r}; keys {sorted(data)[:8]})"
+
+
+def is_design_file(path) -> bool:
+    """Whether ``path`` is an ``.npz`` archive tagged as a design file (only the tag is read)."""
+    try:
+        with np.load(os.fspath(path), allow_pickle=False) as z:
+            return "format" in z.files and str(z["format"]) == FORMAT
+    except Exception:       # missing, not an .npz, a single .npy array, damaged: not a design file
+        return False
+
+
+def _a(word: str) -> str:
+    return ("an " if word[:1] in "aeiou" else "a ") + word
+
+
 def check_same_scene(state: DesignState, kind: str, overrides: dict | None = None) -> None:
     """Refuse to resume ``state`` as a ``kind`` run with problem ``overrides`` it does not have.
 
     Raises :class:`DesignFileError` naming the first difference.
     """
     if state.kind != kind:
-        raise DesignFileError(f"the resume file is a {state.kind} design, not a {kind} one (another scene)")
+        raise DesignFileError(f"the resume file is {_a(state.kind)} design, not {_a(kind)} design (another scene)")
     have = _fields(state.problem)
     for name, value in (overrides or {}).items():
         if name not in have:

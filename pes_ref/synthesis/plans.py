@@ -68,9 +68,13 @@ class Plan:
         checks.as_positive_int("n_particles", self.n_particles)
         stages = tuple(tuple(int(x) for x in st) + (0,) * (3 - len(st)) for st in self.stages)
         if any(len(st) != 3 or min(st) < 0 for st in stages):
-            raise ValueError(f"stages must be (start_iteration, grid[, n_steps]) tuples >= 0, got {self.stages!r}")
+            raise checks.InputError("stages", f"stages must be (start_iteration, grid[, n_steps]) tuples >= 0, "
+                                              f"got {self.stages!r}")
+        if any(st[1] == 1 for st in stages):
+            raise checks.InputError("stages", f"stages: a grid has 2 nodes per axis at least (0: the problem's), "
+                                              f"got {self.stages!r}")
         if not stages or stages[0][0] != 0 or any(b[0] <= a[0] for a, b in zip(stages, stages[1:])):
-            raise ValueError(f"stages must start at iteration 0 and increase, got {self.stages!r}")
+            raise checks.InputError("stages", f"stages must start at iteration 0 and increase, got {self.stages!r}")
         object.__setattr__(self, "stages", stages)
 
     def stage_at(self, iteration: int) -> tuple:

@@ -319,13 +319,20 @@ _COST_BUILDERS = {
 OSCILLATOR_COSTS = tuple(_COST_BUILDERS)
 
 
+#: The fields that count grid nodes along an axis (a surface needs 2 at least).
+_GRID_FIELDS = ("grid", "grid0", "grid1")
+
+
 def _check_fields(problem) -> None:
-    """Validate every numeric field: ints > 0, floats finite and >= 0 (``target`` any finite)."""
+    """Validate every numeric field: ints > 0 (grid node counts >= 2), floats finite and
+    >= 0 (``target`` any finite)."""
     for f in dataclasses.fields(problem):
         val = getattr(problem, f.name)
         if isinstance(f.default, bool) or isinstance(f.default, str):
             continue
-        if isinstance(f.default, int):
+        if f.name in _GRID_FIELDS:
+            object.__setattr__(problem, f.name, checks.as_int_at_least(f.name, val, 2))
+        elif isinstance(f.default, int):
             object.__setattr__(problem, f.name, checks.as_positive_int(f.name, val))
         elif f.name == "target":
             object.__setattr__(problem, f.name, checks.as_finite_float(f.name, val))

@@ -28,8 +28,8 @@ from pes_ref.synthesis.plans import DEFAULT_PLANS, Plan
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.resampling import resample
 
-__all__ = ["DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",
-           "check_stable_design", "STOPPED"]
+__all__ = ["DesignState", "Progress", "Stage", "StageClock", "plan_stages", "GradientStep", "new_design", "run_design",
+           "design_gradient", "check_stable_design", "STOPPED"]
 
 #: The statuses of a run that stopped on a failed iteration (rolled back to the last good state):
 #: its run left the finite numbers, or its grid steepened past the stability rule.
@@ -70,6 +70,7 @@ def new_design(kind: str, seed: int = 0, plan: Plan | None = None, **params) -> 
     plan = DEFAULT_PLANS[kind] if plan is None else plan
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))
+    problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
     state = DesignState(problem, plan, seed, values, plan.make_optimizer())
     check_stable_design(state)
     return state
@@ -84,7 +85,15 @@ def check_stable_design(state: DesignState) -> None:
 
 
 class Progress(NamedTuple):
-    """What a progress callback receives."""
+    """What a progress callback receives.
+
+    ``stage`` names the stage of the last finished iteration (``"2/4"``: the second of
+    the four stages the run goes through), ``grid`` and ``steps`` are that stage's grid
+    shape and steps per training run, ``it_per_s`` its rate; ``seconds_left`` sums the
+    time of every stage still to run (:class:`StageClock`). A plan with one stage is
+    ``"1/1"``. The loss of one stage is not comparable with another's: a longer horizon
+    sums more steps.
+    """
 
     iteration: int
     total: int
@@ -92,28 +101,102 @@ class Progress(NamedTuple):
     metric: float
     it_per_s: float
     seconds_left: float
+    stage: str = "1/1"
+    grid: tuple = ()
+    steps: int = 0
+
+
+class Stage(NamedTuple):
+    """One stage of a staged run: its name, iterations ``[start, end)``, grid shape and steps per run."""
+
+    name: str
+    start: int
+    end: int
+    grid: tuple
+    steps: int
+
+
+def plan_stages(plan: Plan, problem, total: int) -> list:
+    """The :class:`Stage` list a run of ``plan`` to ``total`` iterations goes through."""
+    starts = [st for st in plan.stages if st[0] < total] or [plan.stages[0]]
+    ends = [st[0] for st in starts[1:]] + [total]
+    return [Stage(f"{i + 1}/{len(starts)}", st[0], end, plan.grid_at(st[0], problem),
+                  plan.steps_at(st[0]) or problem.n_steps)
+            for i, (st, end) in enumerate(zip(starts, ends))]
+
+
+class StageClock:
+    """The rate of each stage of a run and the time left, summed over the stages still to run.
+
+    An iteration's cost is taken as proportional to its stage's steps per run (the
+    particles and the work per step are the same in every stage; the grid's size barely
+    counts). A stage that has run is timed by its own iterations; one yet to run by the
+    seconds per step of the latest stage timed. Any staged plan fits: it only has to
+    give its :class:`Stage` list.
+    """
+
+    def __init__(self, stages: list):
+        self.stages = stages
+        self._seconds = [0.0] * len(stages)
+        self._count = [0] * len(stages)
+        self._per_step = None           # seconds per step of the latest stage timed
+
+    def index(self, iteration: int) -> int:
+        """The stage index of ``iteration``."""
+        return max(i for i, st in enumerate(self.stages) if st.start <= iteration or i == 0)
+
+    def tick(self, iteration: int, seconds: float) -> None:
+        """Iteration ``iteration`` took ``seconds``."""
+        i = self.index(iteration)
+        self._seconds[i] += seconds
+        self._count[i] += 1
+        if self._seconds[i] > 0:
+            self._per_step = self._seconds[i] / (self._count[i] * self.stages[i].steps)
+
+    def rate(self, i: int) -> float:
+        """Iterations per second of stage ``i`` (0 while it has not been timed)."""
+        return self._count[i] / self._seconds[i] if self._seconds[i] > 0 else 0.0
+
+    def seconds_left(self, iteration: int, total: int) -> float:
+        """Seconds to run iterations ``iteration .. total - 1`` (inf before anything was timed)."""
+        left = 0.0
+        for i, st in enumerate(self.stages):
+            n = max(0, min(st.end, total) - max(st.start, iteration))
+            if n == 0:
+                continue
+            rate = self.rate(i)
+            if rate > 0:
+                left += n / rate
+            elif self._per_step is not None:
+                left += n * st.steps * self._per_step
+            else:
+                return float("inf")
+        return left
 
 
 class _StopFlag:
-    """Turns SIGINT into a flag checked between iterations (main thread only)."""
+    """Turns SIGINT (Ctrl-C) and SIGTERM (a batch scheduler preempting the run) into a flag
+    checked between iterations (main thread only); a second signal stops at once."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self):
         self.stop = False
-        self._old = None
+        self._old = {}
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
-            self._old = signal.signal(signal.SIGINT, self._handle)
+            self._old = {signum: signal.signal(signum, self._handle) for signum in self.SIGNALS}
         return self
 
     def _handle(self, signum, frame):
-        if self.stop:                       # a second Ctrl-C: the user insists
+        if self.stop:                       # a second signal: the user insists
             raise KeyboardInterrupt
         self.stop = True
 
     def __exit__(self, *exc):
-        if self._old is not None:
-            signal.signal(signal.SIGINT, self._old)
+        for signum, old in self._old.items():
+            signal.signal(signum, old)
         return False
 
 
@@ -168,8 +251,8 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     with respect to the grid values by the adjoint, masks it, and takes one optimizer
     step at the plan's learning rate. ``callback(Progress)`` is called every
     ``progress_every`` seconds and once at the end; ``checkpoint(state)`` every
-    ``checkpoint_every`` seconds. Ctrl-C (SIGINT) finishes the current iteration and
-    stops with ``status = "interrupted"``. A non-finite loss, gradient or trajectory
+    ``checkpoint_every`` seconds. Ctrl-C (SIGINT) or SIGTERM finishes the current
+    iteration and stops with ``status = "interrupted"``. A non-finite loss, gradient or trajectory
     (``status = "non-finite: ..."``), or an iteration whose grid has steepened past the
     stability rule (``"unstable: ..."``, docs/spec.md section 10), stops the run and rolls
     it back one iteration, to the last grid whose run was finite and stable; resuming it
@@ -181,12 +264,13 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     last_report = last_ckpt = t_start
     loss = metric = float("nan")
     state.status = "running"
+    clock = StageClock(plan_stages(plan, problem, total))
 
     def report(now):
-        done = state.iteration - start_it
-        rate = done / (now - t_start) if now > t_start and done else 0.0
-        left = (total - state.iteration) / rate if rate > 0 else float("inf")
-        callback(Progress(state.iteration, total, loss, metric, rate, left))
+        i = clock.index(max(state.iteration - 1, 0))
+        st = clock.stages[i]
+        callback(Progress(state.iteration, total, loss, metric, clock.rate(i),
+                          clock.seconds_left(state.iteration, total), st.name, st.grid, st.steps))
 
     snapshot = None      # (values, optimizer state) before the last committed step
 
@@ -206,6 +290,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
                 state.status = "interrupted"
                 break
             k = state.iteration
+            t_k = time.perf_counter()
             values = _values_on_stage_grid(state, plan.grid_at(k, problem))
             try:
                 with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -234,6 +319,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             state.history["metric"].append(metric)
             state.iteration = k + 1
             now = time.perf_counter()
+            clock.tick(k, now - t_k)
             if callback is not None and now - last_report >= progress_every:
                 report(now)
                 last_report = now

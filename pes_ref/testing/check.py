@@ -390,8 +390,9 @@ def _valid_outcome(case_id, case, want, flags, result: Path, status, err, second
     return outcome
 
 
-def write_report(report: CheckReport, path) -> None:
-    """The report as JSON (written whole, then moved into place)."""
-    with atomic_file(path, overwrite=True, what="report") as f:
+def write_report(report: CheckReport, path, *, overwrite: bool = True) -> None:
+    """The report as JSON (written whole, then moved into place); an existing file is
+    replaced only with ``overwrite``."""
+    with atomic_file(path, overwrite=overwrite, what="report") as f:
         f.write(json.dumps(report.to_json(), indent=1, default=float).encode())
 

@@ -614,7 +614,7 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
         entry = _entry(tc_id, vec)
         if vec.kind == "invalid":
             _expected_refusal(vec)
-        oracle.save_case(directory / entry["case"], compress=True, **vec.case)   # shipped deflated, as in v1
+        oracle.save_case(directory / entry["case"], overwrite=True, compress=True, **vec.case)   # shipped deflated, as in v1
         if vec.kind == "valid":
             result = oracle.run_case(oracle.load_case(directory / entry["case"]))
             oracle.write_result(result, directory / entry["result"], overwrite=True, compress=True)

@@ -1,0 +1,372 @@
+"""The fault suite of the command line: every subcommand, every fault a user can cause.
+
+Each row runs ``python -m pes_ref ARGV`` for real (a subprocess, in a folder of its own
+holding a case, an invalid case, a result, a design, a plain-text file named ``.npz``, a
+user's notes and a subfolder) and checks that the command
+
+- exits with the expected status (2: refused) and prints no traceback,
+- prints exactly one line ``error: ...`` on stderr naming the argument or flag and the
+  bad value (every token of the row is in it), and nothing on stdout,
+- leaves the folder as it was: every file there before is there after with the same
+  bytes, and no file (not even a hidden temporary one) is added.
+
+The rows run in parallel on a small thread pool (each is a process of its own); every
+refusal comes before any computing, so the whole table takes seconds.
+"""
+from __future__ import annotations
+
+import os
+import shlex
+import shutil
+import stat
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import pytest
+
+import pes_ref
+from pes_ref import cli
+from pes_ref.oracle import conformance, load_case, run_case, write_result
+from pes_ref.testing.conformance import load_manifest
+
+ROOT = Path(pes_ref.__file__).resolve().parent.parent
+ENV = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), OMP_NUM_THREADS="1")
+VECTORS = conformance.vectors_dir(conformance.LATEST)
+MANIFEST = load_manifest(conformance.LATEST)["vectors"]
+CASE = VECTORS / next(e for e in MANIFEST if e["id"] == "plane-dynamic")["case"]
+BAD_CASE = next(e for e in MANIFEST if e["kind"] == "invalid" and e.get("key") == "mass")
+IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
+
+
+class Fault(NamedTuple):
+    """One row: an id, the command line (``{python}`` is this interpreter), the tokens the
+    error line must hold, and the exit status."""
+
+    id: str
+    argv: str
+    tokens: tuple
+    status: int = cli.EXIT_ERROR
+    needs_permissions: bool = False     # meaningless as root, who ignores file permissions
+
+
+#: Every subcommand's faults. Paths are relative to the row's own folder (see :func:`_workspace`).
+FAULTS = [
+    # ------------------------------------------------------------------ oracle
+    Fault("oracle-missing-case", "oracle nothing.npz out.npz", ("case file nothing.npz does not exist",)),
+    Fault("oracle-case-is-a-folder", "oracle sub out.npz", ("case file sub is a folder",)),
+    Fault("oracle-text-named-npz", "oracle text.npz out.npz", ("text.npz", "is not an .npz archive")),
+    Fault("oracle-design-file", "oracle design.npz out.npz", ("design.npz is a design file", "evaluate")),
+    Fault("oracle-invalid-case", "oracle bad.case.npz out.npz", ("case key 'mass'",)),
+    Fault("oracle-no-folder", "oracle case.npz nodir/out.npz", ("nodir", "does not exist")),
+    Fault("oracle-under-a-file", "oracle case.npz text.npz/out.npz", ("text.npz is a file, not a folder",)),
+    Fault("oracle-result-exists", "oracle case.npz result.npz", ("result.npz", "exists")),
+    Fault("oracle-result-is-the-case", "oracle case.npz case.npz", ("case.npz", "exists")),
+    Fault("oracle-result-is-a-folder", "oracle case.npz sub", ("cannot write sub", "is a folder")),
+    Fault("oracle-odd-files", "oracle case.npz", ("pairs", "got 1 file name")),
+    Fault("oracle-out-dir-missing", "oracle case.npz --out-dir nodir", ("nodir", "does not exist")),
+    Fault("oracle-result-file", "oracle result.npz out.npz", ("result.npz is an oracle result file",)),
+    Fault("oracle-unknown-option", "oracle case.npz out.npz --bogus 3", ("--bogus",)),
+    Fault("oracle-read-only-folder", "oracle case.npz ro/out.npz", ("ro", "not writable"), needs_permissions=True),
+    # ------------------------------------------------------------------ check
+    Fault("check-missing-cmd", "check", ("--cmd",)),
+    Fault("check-cmd-without-paths", "check --cmd true", ("--cmd", "'true'", "{case}")),
+    Fault("check-missing-program", "check --cmd './nothing.sh {case} {result}'", ("./nothing.sh", "does not exist")),
+    Fault("check-unknown-program", "check --cmd 'no-such-program-here {pairs}'", ("no-such-program-here", "not found")),
+    Fault("check-random-negative", "check --cmd '{python} -m pes_ref oracle {pairs}' --random -1", ("--random", "-1")),
+    Fault("check-random-not-a-number", "check --cmd 'x {pairs}' --random many", ("--random", "'many'")),
+    Fault("check-timeout-zero", "check --cmd '{python} -m pes_ref oracle {pairs}' --timeout 0", ("--timeout", "0")),
+    Fault("check-timeout-nan", "check --cmd '{python} -m pes_ref oracle {pairs}' --timeout nan", ("--timeout", "nan")),
+    Fault("check-only-unknown", "check --cmd '{python} -m pes_ref oracle {pairs}' --only nope", ("--only", "'nope'")),
+    Fault("check-nothing-to-check", "check --cmd '{python} -m pes_ref oracle {pairs}' --no-vectors",
+          ("--no-vectors", "--random 0")),
+    Fault("check-report-no-folder", "check --cmd '{python} -m pes_ref oracle {pairs}' --report nodir/r.json",
+          ("nodir", "does not exist")),
+    Fault("check-report-exists", "check --cmd '{python} -m pes_ref oracle {pairs}' --report notes.txt",
+          ("notes.txt", "exists")),
+    Fault("check-keep-is-a-file", "check --cmd '{python} -m pes_ref oracle {pairs}' --keep text.npz",
+          ("text.npz", "not a folder")),
+    Fault("check-unknown-option", "check --cmd 'x {pairs}' --bogus", ("--bogus",)),
+    # ------------------------------------------------------------------ conformance
+    Fault("conformance-no-mode", "conformance", ("--write", "--check")),
+    Fault("conformance-check-missing", "conformance --check nodir", ("nodir", "does not exist")),
+    Fault("conformance-check-a-file", "conformance --check text.npz", ("text.npz", "not a folder")),
+    Fault("conformance-check-no-manifest", "conformance --check sub", ("sub", "manifest.json")),
+    Fault("conformance-write-no-parent", "conformance --write nodir/vectors", ("nodir", "does not exist")),
+    Fault("conformance-write-under-a-file", "conformance --write text.npz/vectors", ("text.npz", "not a folder")),
+    Fault("conformance-write-over-user-files", "conformance --write .", ("--write .", "manifest.json")),
+    Fault("conformance-unknown-version", "conformance --check --vectors v999", ("--vectors", "'v999'")),
+    Fault("conformance-unknown-option", "conformance --check --bogus", ("--bogus",)),
+    # ------------------------------------------------------------------ analyze ratchet
+    Fault("ratchet-torque-negative", "analyze ratchet --smoke --torque -1", ("--torque", "-1")),
+    Fault("ratchet-torque-text", "analyze ratchet --smoke --torque strong", ("--torque", "'strong'")),
+    Fault("ratchet-duration-zero", "analyze ratchet --smoke --duration 0", ("--duration", "0")),
+    Fault("ratchet-duration-nan", "analyze ratchet --smoke --duration nan", ("--duration", "nan")),
+    Fault("ratchet-search-tol-zero", "analyze ratchet --smoke --search-tol 0", ("--search-tol", "0")),
+    Fault("ratchet-search-hi-too-low", "analyze ratchet --smoke --search-hi 0.01", ("--search-hi", "0.01")),
+    Fault("ratchet-unknown-option", "analyze ratchet --smoke --bogus", ("--bogus",)),
+    Fault("analyze-no-device", "analyze", ("DEVICE",)),
+    Fault("analyze-unknown-device", "analyze catapult", ("'catapult'",)),
+    # ------------------------------------------------------------------ analyze dartgun
+    Fault("dartgun-reload-force-zero", "analyze dartgun --smoke --reload-force 0", ("--reload-force", "0")),
+    Fault("dartgun-reload-time-negative", "analyze dartgun --smoke --reload-time -1", ("--reload-time", "-1")),
+    Fault("dartgun-trigger-forces-text", "analyze dartgun --smoke --trigger-forces 10,x", ("--trigger-forces", "'x'")),
+    Fault("dartgun-trigger-forces-empty", "analyze dartgun --smoke --trigger-forces ,", ("--trigger-forces", "','")),
+    Fault("dartgun-trigger-forces-negative", "analyze dartgun --smoke --trigger-forces=-5",
+          ("--trigger-forces", "-5")),
+    Fault("dartgun-fire-time-zero", "analyze dartgun --smoke --fire-time 0", ("--fire-time", "0")),
+    Fault("dartgun-search-hi-too-low", "analyze dartgun --smoke --search-hi 1", ("--search-hi", "1")),
+    Fault("dartgun-unknown-option", "analyze dartgun --bogus", ("--bogus",)),
+    # ------------------------------------------------------------------ design
+    Fault("design-particles-zero", "design funnel --smoke --out new.npz --particles 0", ("--particles", "0")),
+    Fault("design-particles-negative", "design funnel --smoke --out new.npz --particles -2",
+          ("--particles must be >= 1", "-2")),
+    Fault("design-particles-float", "design funnel --smoke --out new.npz --particles 2.5", ("--particles", "'2.5'")),
+    Fault("design-lr-negative", "design funnel --smoke --out new.npz --lr -1", ("--lr must be > 0", "-1")),
+    Fault("design-lr-nan", "design funnel --smoke --out new.npz --lr nan", ("--lr", "nan")),
+    Fault("design-lr-final-zero", "design funnel --smoke --out new.npz --lr-final 0", ("--lr-final must be > 0", "0")),
+    Fault("design-clip-negative", "design funnel --smoke --out new.npz --clip -1", ("--clip must be > 0", "-1")),
+    Fault("design-iterations-negative", "design funnel --smoke --out new.npz --iterations -3",
+          ("--iterations must be >= 1, got -3",)),
+    Fault("design-iterations-zero", "design funnel --smoke --out new.npz --iterations 0",
+          ("--iterations must be >= 1, got 0",)),
+    Fault("design-seed-negative", "design funnel --smoke --out new.npz --seed -1", ("--seed must be >= 0", "-1")),
+    Fault("design-set-dt-zero", "design funnel --smoke --out new.npz --set dt=0", ("--set dt", "0")),
+    Fault("design-set-n-steps-negative", "design funnel --smoke --out new.npz --set n_steps=-4",
+          ("--set n_steps", "-4")),
+    Fault("design-set-grid-one", "design funnel --smoke --out new.npz --set grid=1", ("--set grid", "1")),
+    Fault("design-set-grid-float", "design funnel --smoke --out new.npz --set grid=2.5", ("--set 'grid=2.5'",)),
+    Fault("design-set-unknown", "design funnel --smoke --out new.npz --set colour=red", ("--set 'colour=red'",)),
+    Fault("design-set-no-value", "design funnel --smoke --out new.npz --set dt", ("--set 'dt'", "NAME=VALUE")),
+    Fault("design-stages-bad", "design funnel --smoke --out new.npz --stages 0-25", ("--stages '0-25'",)),
+    Fault("design-stages-late-start", "design funnel --smoke --out new.npz --stages 5:10", ("--stages", "(5, 10")),
+    Fault("design-stages-grid-one", "design funnel --smoke --out new.npz --stages 0:1", ("--stages", "(0, 1")),
+    Fault("design-optimizer-unknown", "design funnel --smoke --out new.npz --optimizer sgd", ("--optimizer", "'sgd'")),
+    Fault("design-objective-funnel", "design funnel --smoke --out new.npz --objective eq6",
+          ("--objective eq6", "oscillator")),
+    Fault("design-progress-nan", "design funnel --smoke --out new.npz --progress nan", ("--progress", "nan")),
+    Fault("design-out-exists", "design funnel --smoke --out design.npz", ("design.npz", "exists")),
+    Fault("design-out-no-folder", "design funnel --smoke --out nodir/new.npz", ("nodir", "does not exist")),
+    Fault("design-out-under-a-file", "design funnel --smoke --out text.npz/new.npz", ("text.npz", "not a folder")),
+    Fault("design-out-is-a-folder", "design funnel --smoke --out sub", ("cannot write sub", "is a folder")),
+    Fault("design-resume-missing", "design funnel --resume nothing.npz", ("design file nothing.npz does not exist",)),
+    Fault("design-resume-text", "design funnel --resume text.npz", ("text.npz", "is not an .npz archive")),
+    Fault("design-resume-case", "design funnel --resume case.npz", ("case.npz is an oracle case file", "oracle")),
+    Fault("design-resume-other-kind", "design oscillator --resume design.npz --out new.npz",
+          ("a funnel design, not an oscillator design",)),
+    Fault("design-resume-other-seed", "design funnel --resume design.npz --seed 5 --out new.npz",
+          ("--seed 5", "seed 0")),
+    Fault("design-unknown-kind", "design catapult", ("'catapult'",)),
+    Fault("design-unknown-option", "design funnel --smoke --out new.npz --bogus", ("--bogus",)),
+    Fault("design-read-only-folder", "design funnel --smoke --out ro/new.npz", ("ro", "not writable"),
+          needs_permissions=True),
+    # ------------------------------------------------------------------ evaluate
+    Fault("evaluate-missing", "evaluate nothing.npz", ("design file nothing.npz does not exist",)),
+    Fault("evaluate-folder", "evaluate sub", ("design file sub is a folder",)),
+    Fault("evaluate-text-named-npz", "evaluate text.npz", ("text.npz", "is not an .npz archive")),
+    Fault("evaluate-case-file", "evaluate case.npz", ("case.npz is an oracle case file", "oracle")),
+    Fault("evaluate-result-file", "evaluate result.npz", ("result.npz is an oracle result file",)),
+    Fault("evaluate-particles-zero", "evaluate design.npz --particles 0", ("--particles must be >= 1", "0")),
+    Fault("evaluate-particles-negative", "evaluate design.npz --particles -3", ("--particles must be >= 1", "-3")),
+    Fault("evaluate-seed-negative", "evaluate design.npz --seed -1", ("--seed must be >= 0", "-1")),
+    Fault("evaluate-particles-float", "evaluate design.npz --particles 2.5", ("--particles", "'2.5'")),
+    Fault("evaluate-unknown-option", "evaluate design.npz --bogus", ("--bogus",)),
+    # ------------------------------------------------------------------ bench
+    Fault("bench-out-no-folder", "bench --quick --out nodir/b.json", ("nodir", "does not exist")),
+    Fault("bench-out-under-a-file", "bench --quick --out text.npz/b.json", ("text.npz", "not a folder")),
+    Fault("bench-out-exists", "bench --quick --out notes.txt", ("notes.txt", "exists")),
+    Fault("bench-plot-exists", "bench --quick --out b.json", ("b-scaling.png", "exists")),
+    Fault("bench-out-is-a-folder", "bench --quick --out sub", ("cannot write sub", "is a folder")),
+    Fault("bench-unknown-option", "bench --quick --bogus", ("--bogus",)),
+    # ------------------------------------------------------------------ the top level
+    Fault("no-command", "", ("COMMAND",)),
+    Fault("unknown-command", "frobnicate", ("'frobnicate'",)),
+]
+
+#: The commands the suite must cover: every one of the command line (tested below).
+COVERED = {f.argv.split()[0] for f in FAULTS if f.argv} | {"analyze ratchet", "analyze dartgun"}
+
+
+@pytest.fixture(scope="module")
+def assets(tmp_path_factory):
+    """The files every row's folder starts with, made once."""
+    folder = tmp_path_factory.mktemp("assets")
+    shutil.copy(CASE, folder / "case.npz")
+    shutil.copy(VECTORS / BAD_CASE["case"], folder / "bad.case.npz")
+    write_result(run_case(load_case(CASE)), folder / "result.npz")
+    assert cli.main(["design", "funnel", "--smoke", "--quiet", "--out", str(folder / "design.npz")]) == 0
+    (folder / "text.npz").write_text("values = [[0, 1], [1, 0]]\nmode = dynamic\n")
+    (folder / "notes.txt").write_text("a user's own notes\n")
+    (folder / "b-scaling.png").write_bytes(b"a plot the user keeps")
+    (folder / "sub").mkdir()
+    (folder / "sub" / "keep.txt").write_text("kept\n")
+    (folder / "ro").mkdir()
+    return folder
+
+
+def _workspace(assets: Path, root: Path, fault: Fault) -> Path:
+    work = root / fault.id
+    shutil.copytree(assets, work)
+    os.chmod(work / "ro", stat.S_IRUSR | stat.S_IXUSR)
+    return work
+
+
+def snapshot(folder: Path) -> dict:
+    """Every file and folder under ``folder`` (hidden ones too): path -> bytes (None for a folder)."""
+    out = {}
+    for path in sorted(folder.rglob("*")):
+        out[str(path.relative_to(folder))] = None if path.is_dir() else path.read_bytes()
+    return out
+
+
+class Outcome(NamedTuple):
+    status: int
+    out: str
+    err: str
+    before: dict
+    after: dict
+
+
+def _run(fault: Fault, work: Path) -> Outcome:
+    argv = shlex.split(fault.argv.replace("{python}", shlex.quote(sys.executable)))
+    before = snapshot(work)
+    proc = subprocess.run([sys.executable, "-m", "pes_ref", *argv], cwd=work, env=ENV, capture_output=True,
+                          text=True, timeout=120, stdin=subprocess.DEVNULL)
+    return Outcome(proc.returncode, proc.stdout, proc.stderr, before, snapshot(work))
+
+
+@pytest.fixture(scope="module")
+def outcomes(assets, tmp_path_factory):
+    """Every row, run in parallel (each in a folder of its own)."""
+    root = tmp_path_factory.mktemp("faults")
+    rows = [f for f in FAULTS if not (f.needs_permissions and IS_ROOT)]
+    works = {f.id: _workspace(assets, root, f) for f in rows}
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        futures = {f.id: pool.submit(_run, f, works[f.id]) for f in rows}
+        results = {fid: fut.result() for fid, fut in futures.items()}
+    for work in works.values():
+        os.chmod(work / "ro", stat.S_IRWXU)
+    return results
+
+
+def test_the_ids_are_unique():
+    assert len({f.id for f in FAULTS}) == len(FAULTS)
+
+
+def test_every_command_is_covered():
+    commands = {m.__name__.rsplit(".", 1)[1] for m in cli.COMMANDS}
+    devices = {f"analyze {a.split()[1]}" for a in (f.argv for f in FAULTS) if a.startswith("analyze ")
+               and len(a.split()) > 1}
+    assert commands <= COVERED
+    assert {"analyze ratchet", "analyze dartgun"} <= devices
+
+
+@pytest.mark.parametrize("fault", FAULTS, ids=[f.id for f in FAULTS])
+def test_fault(fault, outcomes):
+    if fault.needs_permissions and IS_ROOT:
+        pytest.skip("running as root, who may write into a read-only folder: the refusal cannot be provoked")
+    got = outcomes[fault.id]
+    assert "Traceback" not in got.err, got.err
+    assert got.after == got.before, _changes(got.before, got.after)
+    assert got.status == fault.status, got.err
+    assert got.err.startswith("error: ") and got.err.count("\n") == 1, got.err
+    line = got.err.strip()
+    for token in fault.tokens:
+        assert token in line, f"{token!r} is not in {line!r}"
+    assert ".tmp" not in line, line                # no temporary file's name
+    assert got.out == "", got.out                  # nothing meaningless returned
+
+
+def _changes(before: dict, after: dict) -> str:
+    added = sorted(set(after) - set(before))
+    lost = sorted(set(before) - set(after))
+    changed = sorted(k for k in set(before) & set(after) if before[k] != after[k])
+    return f"added {added}, lost {lost}, changed {changed}"
+
+
+def test_the_assets_are_what_the_rows_say(assets):
+    """The rows rely on these: a valid case, a design, a result, an invalid case keyed 'mass'."""
+    from pes_ref.synthesis import load_design
+    assert load_design(assets / "design.npz").kind == "funnel" and load_design(assets / "design.npz").seed == 0
+    assert sorted(load_case(assets / "case.npz")) == sorted(load_case(CASE))
+    assert "x" in np.load(assets / "result.npz")
+
+
+# =========================================================================== late refusals (a long case)
+
+@pytest.fixture(scope="module")
+def long_case(tmp_path_factory):
+    """A case that computes for several seconds (2048 particles, 3000 steps)."""
+    case = load_case(CASE)
+    rng = np.random.default_rng(0)
+    n, lower, upper = 2048, case["lower"], case["upper"]
+    case.update(x0=lower + (upper - lower) * rng.uniform(0.2, 0.8, size=(n, 2)), v0=np.zeros((n, 2)),
+                n_steps=np.int64(3000))
+    path = tmp_path_factory.mktemp("long") / "long.case.npz"
+    from pes_ref.oracle import save_case
+    save_case(path, **case)
+    return path
+
+
+def _refused_at_once(long_case, result, capsys, monkeypatch):
+    """Run ``oracle LONG RESULT`` in this process; return (seconds, stderr), watching that
+    the case is never run."""
+    import time
+
+    from pes_ref.oracle import case as oracle_case
+    runs = []
+    run = oracle_case.run_case
+    monkeypatch.setattr(oracle_case, "run_case", lambda *a, **k: runs.append(1) or run(*a, **k))
+    t = time.perf_counter()
+    code = cli.main(["oracle", str(long_case), str(result)])
+    seconds = time.perf_counter() - t
+    err = capsys.readouterr().err
+    assert code == cli.EXIT_ERROR and not runs, err
+    return seconds, err
+
+
+@pytest.mark.parametrize("where", ["nodir/r.npz", "file.txt/r.npz"], ids=["no-folder", "under-a-file"])
+def test_a_destination_that_cannot_be_written_is_refused_before_computing(where, long_case, tmp_path, capsys,
+                                                                          monkeypatch):
+    (tmp_path / "file.txt").write_text("a file")
+    before = snapshot(tmp_path)
+    seconds, err = _refused_at_once(long_case, tmp_path / where, capsys, monkeypatch)
+    assert seconds < 0.5, f"refused after {seconds:.1f} s"
+    assert err.startswith("error: cannot write ") and err.count("\n") == 1
+    assert ".tmp" not in err and "/." not in err               # no temporary file's name
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.skipif(IS_ROOT, reason="running as root, who may write into a read-only folder: "
+                                    "the refusal cannot be provoked")
+def test_a_read_only_folder_is_refused_before_computing(long_case, tmp_path, capsys, monkeypatch):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    os.chmod(ro, stat.S_IRUSR | stat.S_IXUSR)
+    try:
+        seconds, err = _refused_at_once(long_case, ro / "r.npz", capsys, monkeypatch)
+    finally:
+        os.chmod(ro, stat.S_IRWXU)
+    assert seconds < 0.5 and "not writable" in err and ".tmp" not in err
+    assert not os.listdir(ro)
+
+
+def test_the_long_case_is_long(long_case):
+    """What makes the two tests above mean something: the case takes seconds to run."""
+    assert int(load_case(long_case)["n_steps"]) * load_case(long_case)["x0"].shape[0] >= 6_000_000
+
+
+#: The rows where a file or folder to read is missing: every command says it in the same words.
+MISSING = ["oracle-missing-case", "evaluate-missing", "design-resume-missing", "check-missing-program",
+           "conformance-check-missing"]
+
+
+def test_a_missing_input_is_said_the_same_way_by_every_command(outcomes):
+    import re
+    for fid in MISSING:
+        line = outcomes[fid].err.strip()
+        assert re.fullmatch(r"error: (case file|design file|--cmd: program|--check folder) "
+                            r"(nothing\.npz|\./nothing\.sh|nodir) does not exist", line), (fid, line)
