@@ -181,6 +181,12 @@ FAULTS = [
     Fault("bench-plot-exists", "bench --quick --out b.json", ("b-scaling.png", "exists")),
     Fault("bench-out-is-a-folder", "bench --quick --out sub", ("cannot write sub", "is a folder")),
     Fault("bench-unknown-option", "bench --quick --bogus", ("--bogus",)),
+    # ------------------------------------------------------------------ sweep
+    Fault("sweep-missing-file", "sweep nothing.toml", ("sweep file nothing.toml does not exist",)),
+    Fault("sweep-not-toml", "sweep notes.txt", ("notes.txt", "not valid TOML")),
+    Fault("sweep-workers-zero", "sweep notes.txt --workers 0", ("--workers must be >= 1", "0")),
+    Fault("sweep-progress-negative", "sweep notes.txt --progress -1", ("--progress must be > 0", "-1")),
+    Fault("sweep-unknown-option", "sweep notes.txt --bogus", ("--bogus",)),
     # ------------------------------------------------------------------ the top level
     Fault("no-command", "", ("COMMAND",)),
     Fault("unknown-command", "frobnicate", ("'frobnicate'",)),

@@ -39,7 +39,7 @@ def test_readme_oracle_example_runs_as_written(tmp_path):
     import sys
 
     from pes_ref.oracle.conformance import LATEST
-    (argv,) = _readme_commands("oracle")
+    argv = _readme_commands("oracle")[0]          # the first: one shipped case
     assert argv[0] == ".venv/bin/python" and argv[1:4] == ["-m", "pes_ref", "oracle"]
     case, result = argv[4], argv[5]
     assert case.startswith(f"pes_ref/oracle/conformance/{LATEST}/") and (ROOT / case).is_file()

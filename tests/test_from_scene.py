@@ -25,7 +25,7 @@ SCENES = {
     "one-effect": lambda: pr.Scene(_surface((True, False)), dt=0.02, n_steps=8, mass=(1.5, 0.5),
                                    effects=pr.Constant((0.0, -0.5))),
     "quasistatic": lambda: pr.Scene(_surface((True, True)), dt=0.01, n_steps=10, mode="quasistatic",
-                                    mobility=(0.4, 0.2), effects=(pr.Noise((0.2, 0.2), seed=1),)),
+                                    mobility=(0.04, 0.02), effects=(pr.Noise((0.2, 0.2), seed=1),)),
 }
 OBJECTIVES = {
     "effects": pr.Funnel(target=0.5, when="every_step"),

@@ -96,7 +96,7 @@ def test_cli_design_refuses_an_unstable_dt_before_writing(dt, tmp_path):
     out = tmp_path / "d.npz"
     proc = run_cli("design", "funnel", "--smoke", "--set", f"dt={dt}", "--out", out, "--quiet")
     line = one_error_line(proc.stderr)
-    assert proc.returncode == EXIT_ERROR and "dt = " in line and "a stable dt is" in line, line
+    assert proc.returncode == EXIT_ERROR and "--set dt = " in line and "a stable --set dt is" in line, line   # named by its flag
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
 

@@ -23,7 +23,7 @@ from pes_ref.synthesis.design_file import load_design  # noqa: E402
 from pes_ref.synthesis.designs import new_design, run_design  # noqa: E402
 
 #: The smoke sweep: three tiny funnel runs (the design command's --smoke preset) and one that goes
-#: non-finite (the recipe of test_cli_design's non-finite test), the injected failure.
+#: is past the stability rule (stiff walls, a large dt), the injected failure.
 SMOKE_SWEEP = '''description = "smoke sweep"
 kind = "funnel"
 eval_seeds = [12345, 777]
@@ -99,7 +99,7 @@ def test_smoke_sweep_table_resume_and_injected_failure(client, tmp_path, capsys)
             assert math.isclose(float(row[name]), sum(per_seed) / 2)
         assert os.path.exists(row["design_file"]) and load_design(row["design_file"]).status == "done"
     failed = rows[3]
-    assert failed["attempts"] == "2" and failed["error"].count("non-finite") == 2
+    assert failed["attempts"] == "2" and failed["error"].count("stability limit") == 2   # refused, both attempts
     assert "attempt 1 on tcp://" in failed["error"] and "attempt 2 on tcp://" in failed["error"]
     assert failed["in_band_fraction"] == ""
     assert (out / "summary.png").stat().st_size > 1000
@@ -195,7 +195,7 @@ def test_a_task_never_raises_and_reports_the_error(tmp_path):
     (tmp_path / "x.npz").write_text("not a design")
     out = task_module.run_task({"id": "x", "kind": "funnel", "options": {"smoke": True}, "seed": 0,
                                 "eval_seeds": [1], "eval_particles": 4, "design_file": str(tmp_path / "x.npz")})
-    assert out["status"] == "failed" and "is not a design file" in out["error"] and out["worker"] == "local"
+    assert out["status"] == "failed" and "is not an .npz archive" in out["error"] and out["worker"] == "local"
 
 
 def _square(x):
@@ -233,7 +233,7 @@ def test_without_dask_the_command_says_how_to_install_it(tmp_path, capsys, monke
     (["{spec}", "--workers", "0"], "--workers must be >= 1"),
     (["{spec}", "--progress", "0"], "--progress must be > 0"),
     (["{spec}", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "has its own workers"),
-    (["{tmp}/nothing.toml"], "nothing.toml: cannot read"),
+    (["{tmp}/nothing.toml"], "nothing.toml does not exist"),
 ])
 def test_bad_arguments_get_one_error_line(tmp_path, capsys, argv, message):
     spec = tmp_path / "s.toml"

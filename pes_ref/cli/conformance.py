@@ -4,7 +4,6 @@ shipped ones."""
 from __future__ import annotations
 
 import os
-import tempfile
 
 from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, add_command, error, input_folder, output_folder
 

@@ -36,7 +36,8 @@ SET_NAMES = {
 #: The library's names of what the options set, and the options (errors name the option):
 #: the plan's parameters here, each problem parameter ``NAME`` as ``--set NAME`` (:func:`_flags`).
 PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-final", "clip": "--clip",
-              "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed"}
+              "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed",
+              "objective": "--objective"}
 #: ``--objective`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_OBJECTIVES` (tested equal).
 OSCILLATOR_OBJECTIVE_NAMES = ("overshoot", "eq6")
 

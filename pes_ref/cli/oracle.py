@@ -132,9 +132,8 @@ def _check_files(case_path: str, result_path: str, force: bool) -> None:
     """Refuse before computing: the case must be a readable file and not a design file;
     the result's folder must exist and be writable, and an existing result is kept
     unless ``--force``."""
-    from pes_ref.synthesis.design_file import is_design_file
     input_file(case_path, "case file")
-    if is_design_file(case_path):
+    if _members(case_path) & {"format.npy"} and _is_design_file(case_path):
         raise ValueError(f"{case_path} is a design file, not a case; evaluate reads it: "
                          f"python -m pes_ref evaluate {case_path}")
     if _is_result_file(case_path):
@@ -146,13 +145,25 @@ def _check_files(case_path: str, result_path: str, force: bool) -> None:
 _RESULT_MEMBERS = {"x.npy", "v.npy", "energy.npy", "loss.npy"}
 
 
-def _is_result_file(path: str) -> bool:
-    """Whether ``path`` is a zip holding a result's members (only its directory is read)."""
+def _members(path: str) -> set:
+    """The member names of the zip at ``path`` (only its directory is read; none if it is no zip)."""
     try:
         with zipfile.ZipFile(path) as z:
-            return _RESULT_MEMBERS <= set(z.namelist())
+            return set(z.namelist())
     except (zipfile.BadZipFile, OSError):
-        return False
+        return set()
+
+
+def _is_result_file(path: str) -> bool:
+    """Whether ``path`` holds a result's members."""
+    return _RESULT_MEMBERS <= _members(path)
+
+
+def _is_design_file(path: str) -> bool:
+    """Whether ``path`` is a design file (asked of the design files' own module only for a
+    file with a ``format`` member, which no case has, so the oracle's start-up stays lean)."""
+    from pes_ref.synthesis.design_file import is_design_file
+    return is_design_file(path)
 
 
 def _run_oracle(args) -> int:

@@ -16,28 +16,30 @@ import math
 import os
 import sys
 
-from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, error
+from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, add_command, error, input_file
 
 #: Default output folder: ``sweeps/<the sweep file's stem>``.
 DEFAULT_OUT_ROOT = "sweeps"
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser(
-        "sweep", help="run the design runs of a sweep file on a local or remote Dask cluster",
+    p = add_command(
+        sub, "sweep", help="run the design runs of a sweep file on a local or remote Dask cluster",
         description="Run every design of SWEEP.toml (a device kind, base options, a grid or list of option "
                     "values, run seeds, held-out evaluation seeds; docs/sweeps.md) as one Dask task each: "
                     "design, then evaluate on every held-out seed. Writes DIR/results.csv (one row per run) "
                     "and DIR/summary.png, and the design files in DIR/runs/. Running it again skips finished "
                     "runs and resumes interrupted ones; a failed run is retried once on another worker. "
-                    "Needs the extra: pip install 'pes_ref[sweep]'.")
-    p.add_argument("file", metavar="SWEEP.toml")
+                    "Needs the extra: pip install 'pes_ref[sweep]'.",
+        examples=["sweep validation/experiments/sweep_funnel_lr.toml --workers 2",
+                  "sweep validation/experiments/oscillator_seeds.toml --scheduler tcp://127.0.0.1:8786 --out osc"])
+    p.add_argument("file", metavar="SWEEP.toml", help="the sweep file (TOML; docs/sweeps.md)")
     p.add_argument("--out", default=None, metavar="DIR", help="output folder (default sweeps/<file stem>)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="connect to this running Dask scheduler (e.g. tcp://host:8786) instead of a local cluster")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="worker processes of the local cluster (default: one per core)")
-    p.add_argument("--progress", type=float, default=2.0, metavar="SECONDS", help="progress line period")
+    p.add_argument("--progress", type=float, default=2.0, metavar="SECONDS", help="progress line period in seconds")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_run_sweep)
 
@@ -47,15 +49,15 @@ def _run_sweep(args) -> int:
     from pes_ref.sweep.runner import run_sweep
     from pes_ref.sweep.spec import load_sweep
     try:
-        sweep = load_sweep(args.file)
-        require_dask()
         if not args.progress > 0:
             raise ValueError(f"--progress must be > 0 seconds, got {args.progress}")
         if args.workers is not None and args.workers < 1:
             raise ValueError(f"--workers must be >= 1, got {args.workers}")
         if args.workers is not None and args.scheduler is not None:
             raise ValueError(f"--workers {args.workers}: a cluster given by --scheduler has its own workers")
-    except (ImportError, ValueError) as exc:
+        sweep = load_sweep(input_file(args.file, "sweep file"))
+        require_dask()
+    except (ImportError, OSError, ValueError) as exc:
         return error(exc)
     out = args.out if args.out is not None else os.path.join(DEFAULT_OUT_ROOT, sweep.name)
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Mapping, NamedTuple
 
+from pes_ref.core.checks import InputError
 from pes_ref.sweep._synthesis import DEFAULT_PLANS, OSCILLATOR_OBJECTIVES, PROBLEMS, Plan
 
 __all__ = ["SMOKE", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets", "parse_stages",
@@ -143,7 +144,7 @@ def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None) -> D
     objective = options.get("objective")
     if objective is not None:
         if kind != "oscillator":
-            raise ValueError(f"objective {objective!r}: only the oscillator has a choice of objective")
+            raise InputError("objective", f"objective {objective}: only the oscillator has a choice")
         if objective not in OSCILLATOR_OBJECTIVES:
             raise ValueError(f"objective {objective!r}: expected one of {sorted(OSCILLATOR_OBJECTIVES)}")
         obj_sets, base_plan = OSCILLATOR_OBJECTIVES[objective]
