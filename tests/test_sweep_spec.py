@@ -109,7 +109,7 @@ def test_option_names_do_not_collide_with_result_columns():
     (BASE + '[grid]\nlr = [0.1, "x"]\n', "grid.lr[1]: expected a float"),
     (BASE + '[grid]\nlr = [0.1, 0.1]\n', "the same run as"),
     (BASE + '[grid]\nlr = [0.1, -0.1]\n', "run lr = -0.1: lr must be"),
-    (BASE + '[base]\nobjective = "eq6"\n', "only the oscillator has a choice of objective"),
+    (BASE + '[base]\nobjective = "eq6"\n', "only the oscillator has a choice"),
     ('kind = "oscillator"\neval_seeds = [1]\n[base]\nobjective = "best"\n', "objective 'best': expected one of"),
     (BASE + '[base]\noptimizer = "sgd"\n', "optimizer"),
     (BASE + '[base]\nstages = "0-25"\n', "--stages '0-25'"),
