@@ -57,8 +57,7 @@ def baseline_state(args):
 
 
 def row_label(state, name: str) -> str:
-    polish = f" + {state.evaluations} polish evaluations" if state.stage == "polish" else ""
-    return f"{name} ({state.iteration} iterations{polish})"
+    return f"{name} ({C.design_work(state)})"
 
 
 def main(argv=None) -> int:

@@ -148,7 +148,7 @@ class PolishPlan:
     bound: float = 0.1
     fourier_order: int = 4
     legendre_terms: int = 8
-    n_particles: int = 64
+    n_particles: int = 96
     rest_share: float = 2 / 3
     center_share: float = 1 / 3
     center_std: float = 0.05

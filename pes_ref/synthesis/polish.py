@@ -61,7 +61,7 @@ class PolishParticles(NamedTuple):
     torques: np.ndarray
 
 
-def polish_particles(problem, rng: np.random.Generator, n: int = 64, rest_share: float = 2 / 3,
+def polish_particles(problem, rng: np.random.Generator, n: int = 96, rest_share: float = 2 / 3,
                      center_share: float = 1 / 3, center_std: float = 0.05,
                      rest_max_share: float = 0.5) -> PolishParticles:
     """Training particles shaped like the two held-out sets of ``evaluate``, drawn afresh.
