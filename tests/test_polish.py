@@ -63,6 +63,16 @@ def test_fitness_ranks_the_escapement_above_the_flat_surface():
     assert escapement < 0.3
 
 
+def test_a_stricter_fitness_counts_captures_near_the_tolerances_as_failures():
+    problem = synthesis.OscillatorProblem()
+    particles = polish_particles(problem, np.random.default_rng(5), 8, rest_share=0.0)
+    values = synthesis.escapement_values(problem)
+    plain = capture_fitness(problem, values, particles)
+    strict = capture_fitness(problem, values, particles, strictness=0.5)
+    assert strict - plain == pytest.approx(round((strict - plain) * 8) / 8) and strict > plain   # whole particles
+    assert capture_fitness(problem, values, particles, strictness=1.0) == plain
+
+
 def test_polish_with_an_executor_equals_serial():
     problem = synthesis.OscillatorProblem(**SMALL)
     values = synthesis.escapement_values(problem)
@@ -104,6 +114,7 @@ def test_polish_stops_when_asked_and_differential_evolution_runs():
 @pytest.mark.parametrize("bad, word", [
     (dict(method="nelder-mead"), "method"), (dict(evaluations=0), "evaluations"), (dict(sigma0=0.0), "sigma0"),
     (dict(rest_share=1.5), "rest_share"), (dict(periods=-1.0), "periods"), (dict(popsize=2.5), "popsize"),
+    (dict(strictness=0.0), "strictness"), (dict(rest_max_share=-0.5), "rest_max_share"),
 ])
 def test_bad_polish_plans_are_refused(bad, word):
     with pytest.raises((ValueError, TypeError), match=word):
