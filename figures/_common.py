@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
-__all__ = ["DEFAULT_OUT", "parser", "save", "design_state", "energy_image", "draw_paths",
+__all__ = ["DEFAULT_OUT", "parser", "save", "design_state", "design_work", "energy_image", "draw_paths",
            "cspace_image", "cspace_legend", "draw_parts", "value_colors", "draw_phase", "CSPACE_COLORS", "plt"]
 
 #: Where ``make figures`` writes (gitignored).
@@ -82,6 +82,12 @@ def design_state(args, kind: str):
     if state.kind != kind:
         raise SystemExit(f"--design {path} holds a {state.kind} design; this figure needs a {kind} design")
     return state
+
+
+def design_work(state) -> str:
+    """What a design cost: ``"3000 iterations"``, plus ``" + 3009 polish evaluations"`` if it was polished."""
+    polish = f" + {state.evaluations} polish evaluations" if state.stage == "polish" else ""
+    return f"{state.iteration} iterations{polish}"
 
 
 def _display_grid(surface, values):

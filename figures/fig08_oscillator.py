@@ -39,7 +39,7 @@ def main(argv=None) -> int:
     fig, (ax0, ax1) = C.plt.subplots(1, 2, figsize=(13, 5.2), constrained_layout=True)
     C.energy_image(ax0, surface, "designed energy E (energy units)", cmap="viridis")
     ax0.set_title(f"(a) synthesized surface, {surface.shape[0]}x{surface.shape[1]} grid on a cylinder "
-                  f"(q1 periodic), {state.iteration} iterations")
+                  f"(q1 periodic), {C.design_work(state)}")
     C.energy_image(ax1, surface, "designed energy E (energy units)", cmap="Greys")
     colors = C.value_colors(ax1, sweep.torques, "torque tau on q1 (torque units)")
     C.draw_paths(ax1, surface, sweep.traj.x, colors, lw=0.6, alpha=0.7)

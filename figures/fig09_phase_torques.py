@@ -26,7 +26,7 @@ def main(argv=None) -> int:
     C.draw_phase(ax, p, q0, dq0, colors)
     ax.set_title(f"Fig. 9  Phase space of {n} particles, same start (q0 = {p.amplitude:g}, at rest), varying torque,\n"
                  f"periods {AFTER_PERIODS} to {PERIODS} of the target period "
-                 f"{p.period:.3g} (design: {state.iteration} iterations)")
+                 f"{p.period:.3g} (design: {C.design_work(state)})")
     C.save(fig, args.out, NAME, args.smoke)
     return 0
 

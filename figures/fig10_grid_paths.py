@@ -29,7 +29,7 @@ def main(argv=None) -> int:
     ax.set_ylabel("q1 (rad, periodic)")
     ax.set_title(f"Fig. 10  Paths of {grid.x0.shape[0]} particles from a grid of starts at rest,\n"
                  f"maximum torque {p.torque_max:g}, {p.eval_periods:g} target periods "
-                 f"(design: {state.iteration} iterations)")
+                 f"(design: {C.design_work(state)})")
     C.save(fig, args.out, NAME, args.smoke)
     return 0
 

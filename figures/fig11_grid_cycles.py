@@ -30,7 +30,7 @@ def main(argv=None) -> int:
     C.draw_phase(ax, p, q0, dq0, colors)
     ax.set_title(f"Fig. 11  Phase space of the {q0.shape[1]} grid-started particles (max torque {p.torque_max:g}),\n"
                  f"periods {after} to {after + SHOWN_PERIODS}: {int(np.sum(captured))}/{captured.size} reach the "
-                 f"cycle (design: {state.iteration} iterations)")
+                 f"cycle (design: {C.design_work(state)})")
     C.save(fig, args.out, NAME, args.smoke)
     return 0
 

@@ -2,9 +2,11 @@
 
 Steps, each printed with its elapsed time as it starts, while it runs and when it ends:
 
-1. the two designs, computed by the project's own command with its defaults
-   (``python -m pes_ref design funnel|oscillator --out figures/out/cache/KIND.npz``),
-   whose own progress lines are passed through. A design is reused from the cache only
+1. the designs, computed by the project's own command (:data:`DESIGNS`): the funnel and the
+   oscillator with the command's defaults (``python -m pes_ref design funnel|oscillator --out
+   figures/out/cache/KIND.npz``), and the oscillator of the previous default, gradient
+   descent alone (``--objective overshoot``), which Fig. 12 draws beside the default; their
+   own progress lines are passed through. A design is reused from the cache only
    when its inputs are unchanged: the sidecar ``KIND.json`` holds a key hashing every
    source file of the ``pes_ref`` package, the command line, and the Python and NumPy
    versions, plus the SHA-256 of the design file; a file whose run did not finish
@@ -13,7 +15,8 @@ Steps, each printed with its elapsed time as it starts, while it runs and when i
    each as soon as the design it needs exists.
 
 Up to ``--jobs`` steps run at once (default: the CPU count), longest first, so on two
-cores the oscillator design runs beside the funnel design and then the figures. The time
+cores the oscillator design runs beside the funnel and the previous oscillator designs and
+then the figures. The time
 of each step and the total are printed at the end and saved to ``OUT/timings.json``.
 Exit status 0 when every step succeeded, 1 otherwise.
 """
@@ -36,7 +39,7 @@ if ROOT not in sys.path:          # run as a script: the repository's pes_ref, a
 DEFAULT_OUT = os.path.join(HERE, "out")
 #: Seconds between the design command's progress lines (display only; not part of the cache key).
 PROGRESS_SECONDS = 15
-#: The figure scripts, in the order they are started once ready, with the design each needs.
+#: The figure scripts, in the order they are started once ready, with the design each draws (``--design``).
 FIGURES = (
     ("fig05_funnel_gradient", "funnel"),
     ("fig06_funnel_surface", "funnel"),
@@ -51,15 +54,22 @@ FIGURES = (
     ("fig03_dartgun_cspace", None),
     ("fig04_dartgun_pes", None),
 )
-#: The designs, longest first (the oscillator dominates the run).
-DESIGNS = ("oscillator", "funnel")
+#: The designs by name, longest first (the oscillator dominates the run): the design command's arguments.
+DESIGNS = {
+    "oscillator": ["design", "oscillator"],
+    "oscillator_overshoot": ["design", "oscillator", "--objective", "overshoot"],
+    "funnel": ["design", "funnel"],
+}
+#: Further designs a figure draws: figure -> {option: design name}.
+EXTRA_DESIGNS = {"fig12_torque_capture": {"--baseline": "oscillator_overshoot"}}
 
 
 class Step:
     """One subprocess of the run: a design or a figure script."""
 
     def __init__(self, name, argv, needs=None, design=None):
-        self.name, self.argv, self.needs, self.design = name, argv, needs, design
+        self.name, self.argv, self.design = name, argv, design
+        self.needs = () if needs is None else (needs,) if isinstance(needs, str) else tuple(needs)
         self.status, self.seconds, self.started, self.proc, self.reader = "waiting", 0.0, None, None, None
         self.cpu = None          # CPU seconds (user + system) of the step's process
 
@@ -134,13 +144,13 @@ def design_steps(out: str, smoke: bool, fresh: bool, log: Log) -> list:
     os.makedirs(cache, exist_ok=True)
     sources = source_hash()
     steps = []
-    for kind in DESIGNS:
-        stem = f"{kind}-smoke" if smoke else kind
+    for name, args in DESIGNS.items():
+        stem = f"{name}-smoke" if smoke else name
         npz, sidecar = os.path.join(cache, stem + ".npz"), os.path.join(cache, stem + ".json")
-        command = ["design", kind] + (["--smoke"] if smoke else [])        # the command's own defaults
+        command = args + (["--smoke"] if smoke else [])        # the command's own defaults
         key = cache_key(sources, command)
-        step = Step(f"design {kind}", [sys.executable, "-m", "pes_ref", *command, "--out", npz, "--force",
-                                       "--progress", str(PROGRESS_SECONDS)], design=(kind, npz, sidecar, key, command))
+        step = Step(f"design {name}", [sys.executable, "-m", "pes_ref", *command, "--out", npz, "--force",
+                                       "--progress", str(PROGRESS_SECONDS)], design=(name, npz, sidecar, key, command))
         if not fresh and cache_valid(npz, sidecar, key):
             with open(sidecar) as fh:
                 took = json.load(fh).get("seconds", float("nan"))
@@ -156,9 +166,13 @@ def figure_steps(out: str, smoke: bool, designs: dict, only) -> list:
         if only and not any(name.startswith(o) for o in only):
             continue
         argv = [sys.executable, "-m", f"figures.{name}", "--out", out] + (["--smoke"] if smoke else [])
+        needs = [kind] if kind is not None else []
         if kind is not None:
             argv += ["--design", designs[kind]]
-        steps.append(Step(name, argv, needs=f"design {kind}" if kind else None))
+        for option, design in EXTRA_DESIGNS.get(name, {}).items():
+            argv += [option, designs[design]]
+            needs.append(design)
+        steps.append(Step(name, argv, needs=[f"design {d}" for d in needs]))
     return steps
 
 
@@ -223,17 +237,19 @@ def schedule(steps: list, jobs: int, log: Log) -> None:
     try:
         while True:
             for s in steps:
-                if s.status != "waiting" or s.needs is None:
+                if s.status != "waiting":
                     continue
-                need = by_name.get(s.needs)
-                if need is not None and need.status not in ("waiting", "running") and not succeeded(need):
-                    s.status = f"skipped ({s.needs} {need.status})"
-                    log(s.name, s.status)
+                for name in s.needs:
+                    need = by_name.get(name)
+                    if need is not None and need.status not in ("waiting", "running") and not succeeded(need):
+                        s.status = f"skipped ({name} {need.status})"
+                        log(s.name, s.status)
+                        break
             for s in steps:
                 if len(running) >= jobs:
                     break
-                need = by_name.get(s.needs) if s.needs else None
-                if s.status == "waiting" and (need is None or succeeded(need)):
+                needs = [by_name.get(name) for name in s.needs]
+                if s.status == "waiting" and all(need is None or succeeded(need) for need in needs):
                     start(s, log)
                     running.append(s)
             if not running:
@@ -268,7 +284,7 @@ def main(argv=None) -> int:
     only = args.only.split(",") if args.only else None
     dsteps = design_steps(out, args.smoke, args.fresh, log)
     figs = figure_steps(out, args.smoke, {s.design[0]: s.design[1] for s in dsteps}, only)
-    needed = {f.needs for f in figs}
+    needed = {name for f in figs for name in f.needs}
     steps = [d for d in dsteps if d.name in needed] + figs
     try:
         schedule(steps, args.jobs, log)

@@ -37,10 +37,16 @@ def test_design_writes_a_loadable_file_with_progress(funnel_file, capsys):
 def test_progress_line_and_summary(tmp_path, capsys):
     code, out, err = run(capsys, "design", "oscillator", "--smoke", "--out", tmp_path / "o.npz", "--progress", 0)
     assert code == EXIT_OK
-    line = err.strip().splitlines()[-1]
+    lines = err.strip().splitlines()
+    gradient = [line for line in lines if line.startswith("design oscillator: stage ")]
+    polish = [line for line in lines if line.startswith("design oscillator: polish ")]
+    assert gradient and polish and lines.index(gradient[-1]) < lines.index(polish[0])
     for part in ("design oscillator: stage 1/1 (grid 8x8, 60 steps) | it 6/6", "loss", "amp_err", "it/s", "left"):
-        assert part in line
+        assert part in gradient[-1]
+    for part in ("polish 25/20 evaluations", "fitness", "(start", "ev/s", "left"):
+        assert part in polish[-1]
     assert out.startswith(f"wrote {tmp_path / 'o.npz'}: oscillator, iteration 6/6 (done)")
+    assert ", polish 25 evaluations, fitness " in out
 
 
 def test_existing_out_is_refused_without_force(funnel_file, capsys):
@@ -69,6 +75,10 @@ def test_resume_continues_like_an_uninterrupted_run(tmp_path, capsys):
     (["design", "funnel", "--set", "colour=red", "--out", "{tmp}/x.npz"], "--set 'colour=red'"),
     (["design", "funnel", "--stages", "0-25", "--out", "{tmp}/x.npz"], "--stages '0-25'"),
     (["design", "funnel", "--objective", "eq6", "--out", "{tmp}/x.npz"], "only the oscillator"),
+    (["design", "oscillator", "--objective", "eq6", "--evaluations", "5", "--out", "{tmp}/x.npz"],
+     "--evaluations: this oscillator run has no polish stage"),
+    (["design", "funnel", "--workers", "2", "--out", "{tmp}/x.npz"], "--workers: this funnel run has no polish"),
+    (["design", "oscillator", "--smoke", "--workers", "0", "--out", "{tmp}/x.npz"], "--workers must be >= 1"),
     (["evaluate", "{tmp}/nothing.npz"], "does not exist"),
     (["evaluate", "{tmp}/text.npz"], "is not an .npz archive"),
 ])
@@ -90,14 +100,40 @@ def test_evaluate_prints_one_line_per_figure(funnel_file, capsys):
     assert lines["kind"] == "funnel" and lines["particles"] == "20"
 
 
-def test_evaluate_oscillator_figures(tmp_path, capsys):
+@pytest.mark.parametrize("objective, method, stage", [("gait", "gradient+polish", "polish"),
+                                                       ("eq6", "gradient", "gradient")])
+def test_evaluate_oscillator_figures(tmp_path, capsys, objective, method, stage):
+    """A smoke-size run of each stage through the command line, then evaluate."""
     path = tmp_path / "o.npz"
-    assert run(capsys, "design", "oscillator", "--smoke", "--out", path, "--quiet")[0] == EXIT_OK
+    assert run(capsys, "design", "oscillator", "--smoke", "--objective", objective, "--out", path,
+               "--quiet")[0] == EXIT_OK
     code, out, err = run(capsys, "evaluate", path, "--particles", 3)
     assert code == EXIT_OK
-    names = [line.split(":")[0] for line in out.strip().splitlines()]
-    for name in ("captured_fraction", "amplitude_error", "period_error", "flat_captured_fraction"):
-        assert name in names
+    lines = dict(line.split(": ", 1) for line in out.strip().splitlines())
+    assert lines["method"] == method and lines["stage"] == stage and lines["iterations"] == "6"
+    assert lines["evaluations"] == ("25" if stage == "polish" else "0") and lines["status"] == "done"
+    for name in ("captured_fraction", "amplitude_error", "period_error", "amplitude_error_median",
+                 "period_error_median", "q1_advance_min", "q1_advance_median", "q1_advance_max", "gait_advance",
+                 "flat_captured_fraction"):
+        assert name in lines
+    assert float(lines["gait_advance"]) == pytest.approx(np.pi / 2, rel=1e-5)
+
+
+def test_polish_options_and_resume_through_the_command_line(tmp_path, capsys):
+    a, b = tmp_path / "a.npz", tmp_path / "b.npz"
+    assert run(capsys, "design", "oscillator", "--smoke", "--evaluations", 9, "--polish-particles", 3,
+               "--out", a, "--quiet")[0] == EXIT_OK
+    st = load_design(a)
+    assert st.polish.evaluations == 9 and st.polish.n_particles == 3 and st.evaluations == 9
+    # a bigger budget on resume runs the polish again, like a straight run with that budget
+    assert run(capsys, "design", "oscillator", "--smoke", "--resume", a, "--evaluations", 17,
+               "--polish-particles", 3, "--quiet")[0] == EXIT_OK
+    assert run(capsys, "design", "oscillator", "--smoke", "--evaluations", 17, "--polish-particles", 3,
+               "--workers", 2, "--out", b, "--quiet")[0] == EXIT_OK
+    sa, sb = load_design(a), load_design(b)
+    assert sa.evaluations == 17
+    np.testing.assert_array_equal(sa.values, sb.values)
+    assert sa.polish_history == sb.polish_history
 
 
 @pytest.mark.parametrize("objective", OSCILLATOR_OBJECTIVE_NAMES)
@@ -134,7 +170,7 @@ def test_a_run_that_fails_before_its_first_iteration_leaves_no_file(tmp_path, ca
 
     def fail(*args, **kwargs):
         raise ValueError("n_steps must fit in memory")
-    monkeypatch.setattr(synthesis, "run_design", fail)
+    monkeypatch.setattr(synthesis, "run_stages", fail)
     code, out, err = run(capsys, "design", "funnel", "--smoke", "--out", tmp_path / "d.npz", "--quiet")
     assert code == EXIT_ERROR and err == "error: n_steps must fit in memory\n"
     assert not os.listdir(tmp_path)
@@ -146,7 +182,7 @@ def test_a_failed_resume_keeps_the_file(funnel_file, capsys, monkeypatch):
 
     def fail(*args, **kwargs):
         raise ValueError("boom")
-    monkeypatch.setattr(synthesis, "run_design", fail)
+    monkeypatch.setattr(synthesis, "run_stages", fail)
     code, *_ = run(capsys, "design", "funnel", "--smoke", "--resume", funnel_file, "--iterations", 9, "--quiet")
     assert code == EXIT_ERROR and funnel_file.exists()
     assert load_design(funnel_file).iteration == 6

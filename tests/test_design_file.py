@@ -177,3 +177,59 @@ def test_a_stopped_run_saves_its_last_good_state(tmp_path):
     assert back.status.startswith("unstable: iteration 1") and back.iteration == 0
     assert np.isfinite(back.values).all()
     assert_same_state(st, back)
+
+
+# --------------------------------------------------------------------------- version 2: the polish stage
+
+def polished(tmp_path):
+    from pes_ref.synthesis import PolishPlan
+    from pes_ref.synthesis.stages import run_stages
+    plan = Plan(iterations=2, optimizer="adam", n_particles=3)
+    st = synthesis.new_design("oscillator", seed=5, plan=plan, polish=PolishPlan(n_particles=3, evaluations=9,
+                                                                                popsize=4), grid0=6, grid1=6,
+                              eval_periods=4)
+    return run_stages(st)
+
+
+def test_round_trip_of_a_polished_design_is_exact(tmp_path):
+    st = polished(tmp_path)
+    assert st.stage == "polish" and st.base_values is not None and st.evaluations == 9
+    save_design(tmp_path / "p.npz", st)
+    back = load_design(tmp_path / "p.npz")
+    assert_same_state(st, back)
+    assert back.polish == st.polish and back.stage == "polish" and back.method == "gradient+polish"
+    np.testing.assert_array_equal(back.base_values, st.base_values)
+    assert back.evaluations == 9 and back.polish_history == st.polish_history and back.finished
+    with np.load(tmp_path / "p.npz") as z:
+        assert int(z["version"]) == design_file.VERSION == 2 and str(z["method"]) == "gradient+polish"
+
+
+def test_a_version_1_file_is_read_as_a_gradient_only_run(tmp_path):
+    import json
+    st = synthesis.run_design(tiny())
+    arrays = design_file.design_arrays(st)
+    for key in ("method", "stage", "polish", "base_values", "evaluations", "polish_evals", "polish_fitness"):
+        del arrays[key]
+    plan = json.loads(str(arrays["plan"]))
+    del plan["scale_lr_by_grid"]                       # a field the plan gained in version 2
+    arrays.update(version=np.array(1), plan=np.array(json.dumps(plan)))
+    np.savez(tmp_path / "v1.npz", **arrays)
+    back = load_design(tmp_path / "v1.npz")
+    assert_same_state(st, back)
+    assert back.polish is None and back.stage == "gradient" and back.method == "gradient" and back.finished
+
+
+@pytest.mark.parametrize("change, match", [
+    (lambda d: d.pop("stage"), "missing keys \\['stage'\\]"),
+    (lambda d: d.update(stage=np.array("sanding")), "stage 'sanding'"),
+    (lambda d: d.update(polish=np.array("null")), "stage 'polish', method 'gradient\\+polish' with polish none"),
+    (lambda d: d.update(base_values=np.zeros((2, 2))), "base_values"),
+    (lambda d: d.update(polish=np.array('{"method": "cma", "evaluations": 0}')), "polish plan: evaluations"),
+])
+def test_damaged_polish_fields_are_refused(tmp_path, change, match):
+    save_design(tmp_path / "p.npz", polished(tmp_path))
+    data = dict(np.load(tmp_path / "p.npz"))
+    change(data)
+    np.savez(tmp_path / "p.npz", **data)
+    with pytest.raises(DesignFileError, match=match):
+        load_design(tmp_path / "p.npz")

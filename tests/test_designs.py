@@ -195,7 +195,8 @@ def test_bad_plans_are_refused(bad, match):
 
 
 @pytest.mark.parametrize("bad, match", [
-    (dict(cost="phase"), "cost"), (dict(spread_share=1.5), "spread_share"), (dict(settle_periods=-1.0), "settle"),
+    (dict(cost="phase"), "cost"), (dict(spread_share=1.5, cost="eq6"), "spread_share"),
+    (dict(settle_periods=-1.0), "settle"), (dict(spread_share=0.5), "spread_share"), (dict(stratified=True), "stratified"),
 ])
 def test_bad_oscillator_parameters_are_refused(bad, match):
     with pytest.raises(ValueError, match=match):
@@ -203,7 +204,7 @@ def test_bad_oscillator_parameters_are_refused(bad, match):
 
 
 def test_oscillator_batch_spreads_starts_and_stratifies_torques():
-    prob = synthesis.OscillatorProblem(grid0=8, grid1=8, spread_share=0.5, stratified=True)
+    prob = synthesis.OscillatorProblem(grid0=8, grid1=8, spread_share=0.5, stratified=True, cost="eq6")
     batch = prob.batch(prob.flat_values(), np.random.default_rng(0), 8)
     torques = -batch.scene.effects[0].force[:, 1]
     slot = (torques - prob.torque_min) / (prob.torque_max - prob.torque_min) * 8
@@ -219,8 +220,15 @@ def test_oscillator_defaults_are_the_default_objective_setting():
     problem = synthesis.OscillatorProblem()
     assert {k: getattr(problem, k) for k in sets} == sets
     assert synthesis.DEFAULT_PLANS["oscillator"] == plan
+    assert synthesis.DEFAULT_POLISH["oscillator"] == synthesis.OSCILLATOR_POLISH["gait"] == synthesis.PolishPlan()
+    assert synthesis.DEFAULT_OSCILLATOR_OBJECTIVE == "gait" and problem.cost == "gait"
+    st = synthesis.new_design("oscillator")
+    assert st.plan == plan and st.polish == synthesis.PolishPlan() and st.method == "gradient+polish"
+    assert synthesis.new_design("oscillator", plan=plan).polish is None        # a plan given: no polish unless asked
     assert synthesis.OSCILLATOR_OBJECTIVES["eq6"][0]["cost"] == "eq6"             # the paper's setting stays available
     assert synthesis.OSCILLATOR_OBJECTIVES["eq6"][0]["target_scale"] == 1.0
+    assert synthesis.OSCILLATOR_OBJECTIVES["overshoot"][0]["target_scale"] == 1.4  # and the previous default
+    assert synthesis.OSCILLATOR_POLISH["eq6"] is synthesis.OSCILLATOR_POLISH["overshoot"] is None
 
 
 # --------------------------------------------------------------------------- the hand-drawn escapement

@@ -20,7 +20,7 @@ from pes_ref.sweep.populations import client_map, task_client  # noqa: E402
 from pes_ref.sweep.runner import run_sweep  # noqa: E402
 from pes_ref.sweep.spec import load_sweep  # noqa: E402
 from pes_ref.synthesis.design_file import load_design  # noqa: E402
-from pes_ref.synthesis.designs import new_design, run_design  # noqa: E402
+from pes_ref.synthesis import new_design, run_design  # noqa: E402
 
 #: The smoke sweep: three tiny funnel runs (the design command's --smoke preset) and one that goes
 #: is past the stability rule (stiff walls, a large dt), the injected failure.

@@ -12,7 +12,7 @@ import pytest
 
 from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
 from pes_ref.sweep.spec import load_sweep
-from pes_ref.synthesis.designs import new_design, run_design
+from pes_ref.synthesis import new_design, run_design
 
 EXPERIMENTS = Path(__file__).resolve().parents[1] / "validation" / "experiments"
 sys.path.insert(0, str(EXPERIMENTS))

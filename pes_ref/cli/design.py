@@ -2,9 +2,12 @@
 
 - ``design funnel|oscillator [--iterations N] [--seed S] [--out FILE.npz] [--resume FILE.npz]
   [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C]
-  [--particles N] [--objective overshoot|eq6] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
-  run (or continue) a design and write its file (:mod:`pes_ref.synthesis.design_file`). A progress line goes to stderr
-  every ``--progress`` seconds; Ctrl-C or SIGTERM finishes the iteration, saves and exits 130;
+  [--particles N] [--objective gait|overshoot|eq6] [--evaluations N] [--polish-particles N]
+  [--workers N] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
+  run (or continue) a design, its gradient stage and then its polish if it has one
+  (:func:`pes_ref.synthesis.stages.run_stages`), and write its file
+  (:mod:`pes_ref.synthesis.design_file`). A progress line goes to stderr every ``--progress``
+  seconds; Ctrl-C or SIGTERM finishes the iteration or generation, saves and exits 130;
   a run that goes non-finite, or whose grid steepens past the stability rule, saves its last good
   state and exits 1 (a fresh run that stops before finishing an iteration writes no file). A scene
   past the stability rule from the start (``--set dt=...``) is refused before anything is
@@ -16,7 +19,9 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import signal
 import sys
+import time
 
 from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error, input_file, output_file
 
@@ -25,30 +30,34 @@ METRIC_NAMES = {"funnel": "in_band", "oscillator": "amp_err"}
 #: :data:`pes_ref.synthesis.PROBLEMS` (tested equal), written out so that building the
 #: parser does not import pes_ref.synthesis (every command, ``oracle`` too, builds it).
 SET_NAMES = {
-    "funnel": ("grid", "width", "height", "start_zone", "exit_zone", "start_depth", "force", "noise", "damping",
-               "dt", "n_steps", "target", "wall_k", "wall_margin", "init_scale", "when", "regularization"),
-    "oscillator": ("grid0", "grid1", "q0_extent", "amplitude", "omega", "spring_k", "mass", "damping0", "damping1",
-                   "torque_min", "torque_max", "kick", "start_noise", "dt", "n_steps", "eval_periods", "wall_k",
-                   "wall_margin", "init_scale", "regularization", "cost", "settle_periods", "target_scale",
-                   "spread_share", "stratified"),
+    "funnel": ("grid", "width", "height", "start_zone", "exit_zone", "start_depth", "force", "noise",
+              "damping", "dt", "n_steps", "target", "wall_k", "wall_margin", "init_scale", "when",
+              "regularization"),
+    "oscillator": ("grid0", "grid1", "q0_extent", "amplitude", "omega", "spring_k", "mass", "damping0",
+                  "damping1", "torque_min", "torque_max", "kick", "start_noise", "dt", "n_steps",
+                  "eval_periods", "wall_k", "wall_margin", "init_scale", "regularization", "cost",
+                  "settle_periods", "target_scale", "spread_share", "stratified", "gait_delta", "gait_w0",
+                  "gait_w1", "gait_dead_zone", "shooting_periods"),
 }
 
 #: The library's names of what the options set, and the options (errors name the option):
 #: the plan's parameters here, each problem parameter ``NAME`` as ``--set NAME`` (:func:`_flags`).
 PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-final", "clip": "--clip",
               "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed",
-              "objective": "--objective"}
+              "objective": "--objective", "evaluations": "--evaluations", "polish_particles": "--polish-particles"}
 #: ``--objective`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_OBJECTIVES` (tested equal).
-OSCILLATOR_OBJECTIVE_NAMES = ("overshoot", "eq6")
+OSCILLATOR_OBJECTIVE_NAMES = ("gait", "overshoot", "eq6")
 
 
 def add_parser(sub) -> None:
     p = add_command(sub, "design", help="design a funnel or an oscillator by gradient descent (paper Figs. 6-11)",
         description="Optimize the grid values of a potential energy surface for the paper's funnel or "
                     "oscillator objective and write the design (grid, scene parameters, seed, loss history, "
-                    "optimizer state) to FILE.npz. --iterations is the total count to reach, also on --resume. "
-                    "Ctrl-C (or SIGTERM) stops after the current iteration, saves and exits 130. An existing --out is refused unless "
-                    "--force; with --resume and no --out the resumed file itself is updated.",
+                    "optimizer state) to FILE.npz. The default oscillator runs prescribed-gait shooting by "
+                    "gradient descent, then a gradient-free polish (CMA-ES). --iterations is the total count "
+                    "to reach, also on --resume. Ctrl-C (or SIGTERM) stops after the current iteration or "
+                    "polish generation, saves and exits 130. An existing --out is refused unless --force; with "
+                    "--resume and no --out the resumed file itself is updated.",
         examples=['design funnel --out funnel.npz',
                   'design oscillator --smoke --out osc.npz && python -m pes_ref evaluate osc.npz'])
     p.add_argument("kind", choices=["funnel", "oscillator"], help="the device to design")
@@ -64,9 +73,15 @@ def add_parser(sub) -> None:
     p.add_argument("--lr", type=float, default=None, metavar="LR", help="initial learning rate (default: the plan's)")
     p.add_argument("--lr-final", type=float, default=None, metavar="LR", help="learning rate reached at the last iteration (default: the plan's)")
     p.add_argument("--objective", choices=OSCILLATOR_OBJECTIVE_NAMES, default=None,
-                   help="oscillator only: named training setting, 'overshoot' (default: eq. (6) + eq. (7) aimed "
-                        "at 1.4 times the target amplitude) or 'eq6' (the paper's setting, aimed at the target "
-                        "amplitude); evaluation is the same for both")
+                   help="oscillator only: named training setting, 'gait' (default: prescribed-gait shooting, then "
+                        "the polish), 'overshoot' (eq. (6) + eq. (7) aimed at 1.4 times the target amplitude) or "
+                        "'eq6' (the paper's setting, aimed at the target amplitude); evaluation is the same for all")
+    p.add_argument("--evaluations", type=int, default=None,
+                   help="polish stage only: fitness evaluations (default: the polish plan's)")
+    p.add_argument("--polish-particles", type=int, default=None,
+                   help="polish stage only: training particles of the fitness (default: the polish plan's)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="processes evaluating the polish's candidates (the result does not depend on it)")
     p.add_argument("--optimizer", choices=["rmsprop", "adam"], default=None,
                    help="the optimizer (default: the plan's; a resumed run keeps its own)")
     p.add_argument("--clip", type=float, default=None, metavar="NORM", help="clip the gradient to this norm (default: the plan's)")
@@ -100,6 +115,19 @@ def _format_grid(shape) -> str:
     return "x".join(str(n) for n in shape)
 
 
+def _pool(workers: int, inputs, kind: str):
+    """A process pool for the polish's candidates (None for 1 worker); its workers ignore Ctrl-C,
+    which the main process turns into a clean stop."""
+    if workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {workers}")
+    if workers == 1:
+        return None
+    if inputs.base_polish is None:
+        raise ValueError(f"--workers: this {kind} run has no polish stage")
+    from concurrent.futures import ProcessPoolExecutor
+    return ProcessPoolExecutor(workers, initializer=signal.signal, initargs=(signal.SIGINT, signal.SIG_IGN))
+
+
 def _format_time(seconds: float) -> str:
     if not seconds < float("inf"):
         return "?"
@@ -123,8 +151,9 @@ def _run_design(args) -> int:
         if not args.progress >= 0:
             raise ValueError(f"--progress must be a number of seconds >= 0, got {args.progress}")
         from pes_ref.sweep.options import design_inputs, parse_sets   # shared with sweeps
-        sets, plan_over, base_plan = design_inputs(args.kind, vars(args),
-                                                   parse_sets(args.set, synthesis.PROBLEMS[args.kind]))
+        inputs = design_inputs(args.kind, vars(args), parse_sets(args.set, synthesis.PROBLEMS[args.kind]))
+        sets, plan_over, base_plan = inputs.sets, inputs.plan_overrides, inputs.base_plan
+        executor = _pool(args.workers, inputs, args.kind)
         if args.resume is not None:
             state = load_design(input_file(args.resume, "design file"))
             check_same_scene(state, args.kind, sets)
@@ -135,11 +164,16 @@ def _run_design(args) -> int:
                                  f"{state.plan.optimizer}")
             state.plan = dataclasses.replace(state.plan, **plan_over)
             synthesis.check_stable_design(state)
+            if state.polish is not None:
+                from pes_ref.synthesis.stages import set_polish
+                set_polish(state, dataclasses.replace(state.polish, **inputs.polish_overrides))
             out = args.out if args.out is not None else args.resume
             may_overwrite = args.force or os.path.abspath(out) == os.path.abspath(args.resume)
         else:
             plan = dataclasses.replace(base_plan, **plan_over)
-            state = synthesis.new_design(args.kind, seed=0 if args.seed is None else args.seed, plan=plan, **sets)
+            polish = inputs.polish()
+            state = synthesis.new_design(args.kind, seed=0 if args.seed is None else args.seed, plan=plan,
+                                         polish=polish, **sets)
             out = args.out if args.out is not None else f"{args.kind}.npz"
             may_overwrite = args.force
         output_file(out, "design", force=may_overwrite)
@@ -153,6 +187,9 @@ def _run_design(args) -> int:
     def progress(p):
         if args.quiet:
             return
+        if type(p).__name__ == "PolishProgress":
+            print(_polish_line(args.kind, p), file=sys.stderr, flush=True)
+            return
         if shown and p.stage != shown[-1]:
             print(f"design {args.kind}: now stage {p.stage}: grid {_format_grid(p.grid)}, {p.steps} steps per run "
                   f"(its loss is not comparable with stage {shown[-1]}'s)", file=sys.stderr)
@@ -162,7 +199,7 @@ def _run_design(args) -> int:
     def checkpoint(s):
         save_design(out, s, overwrite=True)
 
-    start = state.iteration
+    start, t0 = state.iteration, time.perf_counter()
     fresh = args.resume is None
     created = not os.path.exists(out)
     try:
@@ -170,8 +207,8 @@ def _run_design(args) -> int:
             save_design(out, state, overwrite=may_overwrite)   # claims the file before the long run
         elif not os.access(out, os.W_OK):                      # --force over a file kept until there is a result
             raise PermissionError(f"cannot write {out}: the file is not writable")
-        state = synthesis.run_design(state, state.plan.iterations, callback=progress, progress_every=args.progress,
-                                     checkpoint=checkpoint)
+        state = synthesis.run_stages(state, state.plan.iterations, executor=executor, callback=progress,
+                                     progress_every=args.progress, checkpoint=checkpoint)
         if fresh and state.iteration == 0 and state.status.startswith(synthesis.STOPPED):
             if created:
                 os.remove(out)                                 # never leave a file that holds no iteration
@@ -183,18 +220,34 @@ def _run_design(args) -> int:
         if not isinstance(exc, (OSError, ValueError)):
             raise
         return error(exc, flags)
-    done = state.iteration - start
-    rate = done / state.elapsed if state.elapsed > 0 else 0.0
-    loss = state.history["loss"][-1] if state.history["loss"] else float("nan")
-    metric = state.history["metric"][-1] if state.history["metric"] else float("nan")
-    print(f"wrote {out}: {args.kind}, iteration {state.iteration}/{state.plan.iterations} ({state.status.split(':')[0]}), "
-          f"loss {loss:.6g}, {metric_name} {metric:.3f}, {done} iterations this run at {rate:.2f} it/s")
+    finally:
+        if executor is not None:
+            executor.shutdown()
+    print(_summary(args.kind, metric_name, out, state, state.iteration - start, time.perf_counter() - t0))
     if state.status.startswith(synthesis.STOPPED):
         print(f"error: the run stopped; its last good state (iteration {state.iteration}) is saved: {state.status}",
               file=sys.stderr)
         return EXIT_FAIL
     if state.status == "interrupted":
-        print(f"interrupted; saved; continue with: python -m pes_ref design {args.kind} --resume {out}",
+        again = " (the polish starts again from its beginning)" if state.stage == "polish" else ""
+        print(f"interrupted; saved; continue with: python -m pes_ref design {args.kind} --resume {out}{again}",
               file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_OK
+
+
+def _polish_line(kind: str, p) -> str:
+    return (f"design {kind}: polish {p.evaluations}/{p.total} evaluations | fitness {p.fitness:.4g} "
+            f"(start {p.fitness_start:.4g}) | {p.evals_per_s:.1f} ev/s | left {_format_time(p.seconds_left)}")
+
+
+def _summary(kind: str, metric_name: str, out: str, state, iterations: int, seconds: float) -> str:
+    loss = state.history["loss"][-1] if state.history["loss"] else float("nan")
+    metric = state.history["metric"][-1] if state.history["metric"] else float("nan")
+    line = (f"wrote {out}: {kind}, iteration {state.iteration}/{state.plan.iterations} "
+            f"({state.status.split(':')[0]}), loss {loss:.6g}, {metric_name} {metric:.3f}")
+    if state.stage == "polish":
+        fit = state.polish_history["fitness"]
+        line += (f", polish {state.evaluations} evaluations"
+                 + (f", fitness {fit[0]:.4g} -> {fit[-1]:.4g}" if fit else ""))
+    return line + f"; {iterations} iterations this run, {seconds:.1f} s"

@@ -11,8 +11,11 @@ def add_parser(sub) -> None:
                     "line per figure. Funnel: in_band_fraction (exit |q0 - target| < 10% of the width), "
                     "exit_spread, exited_fraction, and the same on the flat starting surface (flat_*). "
                     "Oscillator: captured_fraction (torque sweep plus 5 x 5 starts at rest with the maximum "
-                    "torque), amplitude_error and period_error (relative, worst over the captured particles), "
-                    "and flat_captured_fraction.",
+                    "torque), sweep_ and grid_captured_fraction, amplitude_error and period_error (relative, "
+                    "worst over the captured particles) and their medians, the q1 advance per period of the "
+                    "captured sweep (min, median, max) beside the gait's, and flat_captured_fraction. The "
+                    "header lines name the design's method (gradient, or gradient+polish), the stage it "
+                    "reached, its iterations and polish evaluations.",
         examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191'])
     p.add_argument("file", metavar="FILE.npz", help="a design file written by 'design'")
     p.add_argument("--seed", type=int, default=12345, help="held-out seed (default 12345; training uses others)")
@@ -34,7 +37,10 @@ def _run_evaluate(args) -> int:
     except (OSError, ValueError, TypeError, NonFiniteError) as exc:
         return error(exc, FLAGS)
     print(f"kind: {state.kind}")
+    print(f"method: {state.method}")
+    print(f"stage: {state.stage}")
     print(f"iterations: {state.iteration}")
+    print(f"evaluations: {state.evaluations}")
     print(f"status: {state.status}")
     for name, value in figures.items():
         print(f"{name}: {value:.6g}")

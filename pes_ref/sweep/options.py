@@ -13,7 +13,8 @@ import dataclasses
 from typing import Mapping, NamedTuple
 
 from pes_ref.core.checks import InputError
-from pes_ref.sweep._synthesis import DEFAULT_PLANS, OSCILLATOR_OBJECTIVES, PROBLEMS, Plan
+from pes_ref.sweep._synthesis import (DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_OBJECTIVES, OSCILLATOR_POLISH,
+                                      PROBLEMS, Plan)
 
 __all__ = ["SMOKE", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets", "parse_stages",
            "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
@@ -23,6 +24,10 @@ SMOKE = {
     "funnel": ({"grid": 12, "n_steps": 60, "dt": 0.05}, (6, 8, ((0, 0),))),
     "oscillator": ({"grid0": 8, "grid1": 8, "n_steps": 60, "eval_periods": 4}, (6, 4, ((0, 0),))),
 }
+#: The ``--smoke`` preset of the polish plan (used when the run has a polish stage).
+SMOKE_POLISH = {"funnel": {}, "oscillator": {"evaluations": 20, "n_particles": 6, "popsize": 8}}
+#: The polish options and the polish plan's fields they set.
+POLISH_OPTIONS = {"evaluations": "evaluations", "polish_particles": "n_particles"}
 
 #: The design options and the value types they take (a float option takes an int too);
 #: ``stages`` is ``"IT:GRID[:STEPS],..."`` text or a list of ``[it, grid(, n_steps)]``.
@@ -41,10 +46,18 @@ class DesignInputs(NamedTuple):
     sets: dict
     plan_overrides: dict
     base_plan: Plan
+    base_polish: object = None
+    polish_overrides: dict = {}
 
     def plan(self) -> Plan:
         """The run's plan: :attr:`base_plan` with :attr:`plan_overrides`."""
         return dataclasses.replace(self.base_plan, **self.plan_overrides)
+
+    def polish(self):
+        """The run's polish plan (None: the run has no polish stage)."""
+        if self.base_polish is None:
+            return None
+        return dataclasses.replace(self.base_polish, **self.polish_overrides)
 
 
 def scene_parameters(kind: str) -> dict:
@@ -140,7 +153,8 @@ def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None) -> D
     """
     sets = dict(sets or {})
     plan_over = plan_overrides(options)
-    base_plan = DEFAULT_PLANS[kind]
+    base_plan, base_polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind]
+    polish_over = {field: options[name] for name, field in POLISH_OPTIONS.items() if options.get(name) is not None}
     objective = options.get("objective")
     if objective is not None:
         if kind != "oscillator":
@@ -148,9 +162,15 @@ def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None) -> D
         if objective not in OSCILLATOR_OBJECTIVES:
             raise ValueError(f"objective {objective!r}: expected one of {sorted(OSCILLATOR_OBJECTIVES)}")
         obj_sets, base_plan = OSCILLATOR_OBJECTIVES[objective]
+        base_polish = OSCILLATOR_POLISH[objective]
         sets = {**obj_sets, **sets}
     if options.get("smoke"):
         smoke_sets, (its, parts, stages) = SMOKE[kind]
         sets = {**smoke_sets, **sets}
         plan_over = {"iterations": its, "n_particles": parts, "stages": stages, **plan_over}
-    return DesignInputs(sets, plan_over, base_plan)
+        if base_polish is not None:
+            polish_over = {**SMOKE_POLISH[kind], **polish_over}
+    if base_polish is None and polish_over:
+        given = [name for name in POLISH_OPTIONS if options.get(name) is not None]
+        raise InputError(given[0], f"{', '.join(given)}: this {kind} run has no polish stage")
+    return DesignInputs(sets, plan_over, base_plan, base_polish, polish_over)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import time
 
-from pes_ref.sweep._synthesis import PROBLEMS, evaluate, load_design, new_design, run_design, save_design
+from pes_ref.sweep._synthesis import PROBLEMS, evaluate, load_design, new_design, run_stages, save_design
 from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
 
 __all__ = ["run_task", "request_stop", "CHECKPOINT_SECONDS", "STOP_POLL_SECONDS"]
@@ -78,7 +78,7 @@ def _design(payload: dict, out: dict):
     plan = inputs.plan()
     state = _resume(path, PROBLEMS[kind](**inputs.sets), plan, payload["seed"])
     if state is None:
-        state = new_design(kind, seed=payload["seed"], plan=plan, **inputs.sets)
+        state = new_design(kind, seed=payload["seed"], plan=plan, polish=inputs.polish(), **inputs.sets)
     out["from_iteration"] = state.iteration
     if state.iteration >= plan.iterations and state.status == "done":
         out["iterations"] = state.iteration
@@ -93,7 +93,7 @@ def _design(payload: dict, out: dict):
         save_design(path, s, overwrite=True)
 
     try:
-        state = run_design(state, plan.iterations, callback=check_stop, progress_every=STOP_POLL_SECONDS,
+        state = run_stages(state, plan.iterations, callback=check_stop, progress_every=STOP_POLL_SECONDS,
                            checkpoint=checkpoint, checkpoint_every=CHECKPOINT_SECONDS)
     except _Stopped:                 # raised between iterations: the state is whole
         if state.status == "running":

@@ -1,42 +1,55 @@
-"""Synthesis: designing a surface's grid values by gradient descent through the adjoint.
+"""Synthesis: designing a surface's grid values by gradient descent through the adjoint,
+followed, for the oscillator, by a gradient-free polish.
 
 Modules, one idea each, in import order:
 
 - :mod:`.optimizers`  RMSprop and Adam on the grid values
+- :mod:`.gait`        the oscillator's prescribed-gait shooting cost and its starts
 - :mod:`.problems`    the funnel and oscillator design problems (scene, objective, sampler, metric)
-- :mod:`.plans`       how a problem is optimized (:class:`Plan`) and the default plans
+- :mod:`.plans`       how a problem is optimized (:class:`Plan`, :class:`PolishPlan`) and the defaults
 - :mod:`.resampling`  bilinear resampling of a grid between coarse-to-fine stages
-- :mod:`.training`    a design run (:class:`DesignState`) and the loop that advances it
+- :mod:`.training`    a design run (:class:`DesignState`) and the loop of its gradient stage
 - :mod:`.analysis`    held-out particles, cycle figures and :func:`evaluate`
+- :mod:`.polish`      the polish stage: CMA-ES on a smooth correction, capture-test fitness
+- :mod:`.stages`      a run's stages one after the other (:func:`run_stages`)
 - :mod:`.escapement`  the hand-drawn escapement surface, a reference for the oscillator
 - :mod:`.design_file` design runs in ``.npz`` files
 
 The names below are the public synthesis API.
 """
 from pes_ref.synthesis.optimizers import Adam, RMSprop, make_optimizer
+from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 from pes_ref.synthesis.problems import (IN_BAND_SHARE, OSCILLATOR_COSTS, PROBLEMS, Batch, FunnelProblem,
                                         OscillatorProblem, PhaseThenCycle, exit_positions)
-from pes_ref.synthesis.plans import DEFAULT_OSCILLATOR_OBJECTIVE, DEFAULT_PLANS, OSCILLATOR_OBJECTIVES, Plan
+from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_OBJECTIVE, DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_OBJECTIVES,
+                                     OSCILLATOR_POLISH, Plan, PolishPlan)
 from pes_ref.synthesis.resampling import resample
 from pes_ref.synthesis.training import (STOPPED, DesignState, GradientStep, Progress, check_stable_design,
                                         design_gradient, new_design, run_design)
 from pes_ref.synthesis.analysis import (ANALYSIS_PERIODS, CYCLE_DRIFT, CYCLE_TOLERANCE, Paths, TorqueSweep,
                                         cycle_figures, evaluate, funnel_paths, oscillator_grid_starts,
-                                        oscillator_torque_sweep, phase_space)
+                                        oscillator_torque_sweep, phase_space, q1_advance)
+from pes_ref.synthesis.polish import (PolishParticles, PolishResult, capture_fitness, legendre_fourier_basis, polish,
+                                      polish_particles)
+from pes_ref.synthesis.stages import PolishProgress, run_stages
 from pes_ref.synthesis.escapement import escapement_values
 from pes_ref.synthesis.design_file import (DesignFileError, check_same_scene, design_arrays, load_design,
                                            save_design)
 
 __all__ = [
     "Adam", "RMSprop", "make_optimizer",
+    "GaitShooting", "GaitStarts", "sample_gait_starts",
     "FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
     "IN_BAND_SHARE", "exit_positions",
-    "Plan", "DEFAULT_PLANS", "OSCILLATOR_OBJECTIVES", "DEFAULT_OSCILLATOR_OBJECTIVE",
+    "Plan", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_OBJECTIVES", "OSCILLATOR_POLISH",
+    "DEFAULT_OSCILLATOR_OBJECTIVE",
     "resample",
     "DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",
     "check_stable_design", "STOPPED",
     "Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
-    "phase_space", "cycle_figures", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS",
+    "phase_space", "cycle_figures", "q1_advance", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS",
+    "legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "PolishResult", "polish",
+    "PolishProgress", "run_stages",
     "escapement_values",
     "save_design", "load_design", "design_arrays", "check_same_scene", "DesignFileError",
 ]

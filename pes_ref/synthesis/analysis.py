@@ -19,7 +19,7 @@ from pes_ref.core.scene import simulate
 from pes_ref.synthesis.problems import FunnelProblem, OscillatorProblem, exit_positions
 
 __all__ = ["Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
-           "phase_space", "cycle_figures", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS"]
+           "phase_space", "cycle_figures", "q1_advance", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS"]
 
 #: Oscillator cycle test: a held-out particle "reaches the cycle" when, over the analysis window
 #: after the transient, its amplitude and period are within this relative error of the targets ...
@@ -115,6 +115,18 @@ def cycle_figures(problem: OscillatorProblem, traj: Trajectory):
     return amp, periods, drift, captured
 
 
+def q1_advance(problem: OscillatorProblem, traj: Trajectory) -> np.ndarray:
+    """(N,) how far q1 runs down per target period over the last ``ANALYSIS_PERIODS`` periods (rad).
+
+    ``-(q1_end - q1_start) / ANALYSIS_PERIODS`` over the window of :func:`cycle_figures`: an
+    escapement holds it to its gait's advance whatever the torque; a free-running q1 turns at
+    ``tau / damping1`` per unit time.
+    """
+    per = int(round(problem.period / problem.dt))
+    q1 = traj.x[:, :, 1]
+    return -(q1[-1] - q1[-ANALYSIS_PERIODS * per - 1]) / ANALYSIS_PERIODS
+
+
 def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None) -> dict:
     """The figures of ``python -m pes_ref evaluate``: name -> float.
 
@@ -123,8 +135,11 @@ def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None)
     starting surface (``flat_*``). Oscillator (``n_particles`` default 50 for the torque
     sweep, plus the 5 x 5 grid of starts): ``captured_fraction`` (both sets together),
     ``sweep_captured_fraction``, ``grid_captured_fraction``, ``amplitude_error`` and
-    ``period_error`` (relative, worst over the captured particles; NaN if none) and
-    ``flat_captured_fraction``.
+    ``period_error`` (relative, worst over the captured particles; NaN if none), their
+    medians ``amplitude_error_median`` and ``period_error_median``, ``q1_advance_min``,
+    ``q1_advance_median`` and ``q1_advance_max`` (:func:`q1_advance` over the captured
+    particles of the sweep, rad per period; NaN if none) beside ``gait_advance`` (the
+    problem's ``gait_delta``), and ``flat_captured_fraction``.
     """
     values = checks.as_float_array("values", values, ndim=2)
     seed = checks.as_nonneg_int("seed", seed)
@@ -160,12 +175,22 @@ def _evaluate_oscillator(problem: OscillatorProblem, values, seed: int, n: int) 
         out["grid_captured_fraction"] = float(np.mean(fig_g[3]))
         amp = np.concatenate([fig_s[0], fig_g[0]])[captured]
         per = np.concatenate([fig_s[1], fig_g[1]])[captured]
-        out["amplitude_error"] = float(np.max(np.abs(amp - problem.amplitude)) / problem.amplitude) \
-            if amp.size else float("nan")
-        out["period_error"] = float(np.max(np.abs(per - problem.period)) / problem.period) \
-            if per.size else float("nan")
+        amp_err, per_err = np.abs(amp - problem.amplitude), np.abs(per - problem.period)
+        out["amplitude_error"] = _reduce(np.max, amp_err) / problem.amplitude
+        out["period_error"] = _reduce(np.max, per_err) / problem.period
+        out["amplitude_error_median"] = _reduce(np.median, amp_err) / problem.amplitude
+        out["period_error_median"] = _reduce(np.median, per_err) / problem.period
+        advance = q1_advance(problem, sweep.traj)[fig_s[3]]
+        for name, reduce in (("min", np.min), ("median", np.median), ("max", np.max)):
+            out[f"q1_advance_{name}"] = _reduce(reduce, advance)
+        out["gait_advance"] = float(problem.gait_delta)
     out["particles"] = float(n + 25)
     return out
+
+
+def _reduce(reduce, x: np.ndarray) -> float:
+    """``reduce(x)`` as a float, NaN for an empty ``x``."""
+    return float(reduce(x)) if x.size else float("nan")
 
 
 #: Per problem kind: the evaluation and its default ``n_particles``.

@@ -16,7 +16,16 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 ``status``          ``"done"``, ``"interrupted"``, ``"non-finite: ..."``, ...
 ``elapsed``         float, wall seconds spent so far (information only)
 ``opt_<name>``      the optimizer's :meth:`state_dict` entries
+``method``          ``"gradient"`` or ``"gradient+polish"`` (version 2)
+``stage``           the stage the run is in, ``"gradient"`` or ``"polish"`` (version 2)
+``polish``          JSON text of the polish plan's fields, ``null`` without one (version 2)
+``base_values``     the gradient stage's final grid, where the polish starts ((0,) before it)
+``evaluations``     int, polish fitness evaluations made (version 2)
+``polish_evals``    (G,) int64, evaluations after the start and each polish generation
+``polish_fitness``  (G,) float64, the best fitness at those counts
 ==================  =====================================================================
+
+Version 1 files (before the polish stage) are read as gradient-only runs.
 
 The members are stored uncompressed. The file is written by the package's one atomic
 ``.npz`` writer (:func:`write_npz`): a crash never leaves half a design, and the writer,
@@ -34,17 +43,21 @@ from pes_ref.oracle.case import REQUIRED_KEYS
 from pes_ref.oracle.errors import CaseError
 from pes_ref.oracle.npz import read_npz, write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
-from pes_ref.synthesis.plans import Plan
+from pes_ref.synthesis.plans import Plan, PolishPlan
 from pes_ref.synthesis.problems import PROBLEMS
-from pes_ref.synthesis.training import DesignState
+from pes_ref.synthesis.training import STAGES, DesignState
 
 __all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "is_design_file", "DesignFileError",
-           "FORMAT", "VERSION"]
+           "FORMAT", "VERSION", "READABLE_VERSIONS"]
 
 FORMAT = "pes_ref.design"
-VERSION = 1
+VERSION = 2
+#: The versions this package reads.
+READABLE_VERSIONS = (1, 2)
 _REQUIRED = ("format", "version", "kind", "problem", "plan", "seed", "iteration", "values", "loss", "metric",
              "status", "elapsed")
+#: Keys a version-2 file has beyond version 1's.
+_REQUIRED_V2 = ("method", "stage", "polish", "base_values", "evaluations", "polish_evals", "polish_fitness")
 
 
 class DesignFileError(ValueError):
@@ -78,6 +91,12 @@ def design_arrays(state: DesignState) -> dict:
         "loss": np.asarray(state.history["loss"], dtype=np.float64).reshape(-1),
         "metric": np.asarray(state.history["metric"], dtype=np.float64).reshape(-1),
         "status": np.array(state.status), "elapsed": np.array(float(state.elapsed)),
+        "method": np.array(state.method), "stage": np.array(state.stage),
+        "polish": np.array(json.dumps(None if state.polish is None else _fields(state.polish), sort_keys=True)),
+        "base_values": np.zeros(0) if state.base_values is None else np.asarray(state.base_values, dtype=np.float64),
+        "evaluations": np.array(state.evaluations, dtype=np.int64),
+        "polish_evals": np.asarray(state.polish_history["evaluations"], dtype=np.int64).reshape(-1),
+        "polish_fitness": np.asarray(state.polish_history["fitness"], dtype=np.float64).reshape(-1),
     }
     for k, v in state.optimizer.state_dict().items():
         arrays["opt_" + k] = v
@@ -107,8 +126,12 @@ def load_design(path) -> DesignState:
     if missing:
         raise DesignFileError(f"{path} is a damaged design file: missing keys {missing}")
     version = int(data["version"])
-    if version != VERSION:
-        raise DesignFileError(f"{path} is a design file of version {version}; this pes_ref reads version {VERSION}")
+    if version not in READABLE_VERSIONS:
+        raise DesignFileError(f"{path} is a design file of version {version}; this pes_ref reads versions "
+                              f"{', '.join(map(str, READABLE_VERSIONS))}")
+    missing = [k for k in _REQUIRED_V2 if k not in data] if version >= 2 else []
+    if missing:
+        raise DesignFileError(f"{path} is a damaged design file: missing keys {missing}")
     kind = str(data["kind"])
     if kind not in PROBLEMS:
         raise DesignFileError(f"{path} has unknown design kind {kind!r}; expected one of {sorted(PROBLEMS)}")
@@ -125,9 +148,38 @@ def load_design(path) -> DesignState:
     if loss.shape != (iteration,) or metric.shape != (iteration,):
         raise DesignFileError(f"{path} is a damaged design file: history lengths {loss.shape}, {metric.shape} "
                               f"for iteration {iteration}")
-    return DesignState(problem, plan, int(data["seed"]), np.array(data["values"], dtype=np.float64), opt,
-                       iteration, {"loss": loss.tolist(), "metric": metric.tolist()}, str(data["status"]),
-                       float(data["elapsed"]))
+    state = DesignState(problem, plan, int(data["seed"]), np.array(data["values"], dtype=np.float64), opt,
+                        iteration, {"loss": loss.tolist(), "metric": metric.tolist()}, str(data["status"]),
+                        float(data["elapsed"]))
+    if version >= 2:
+        _read_polish(path, data, state)
+    return state
+
+
+def _read_polish(path, data: dict, state: DesignState) -> None:
+    """The version-2 fields: the polish plan, the stage and the polish's progress."""
+    try:
+        fields = json.loads(str(data["polish"]))
+        state.polish = None if fields is None else PolishPlan(**fields)
+    except (TypeError, ValueError) as exc:
+        raise DesignFileError(f"{path} is a damaged design file: polish plan: {exc}") from None
+    stage, method = str(data["stage"]), str(data["method"])
+    if stage not in STAGES or method != state.method or (stage == "polish" and state.polish is None):
+        polish = "none" if state.polish is None else repr(state.polish.method)
+        raise DesignFileError(f"{path} is a damaged design file: stage {stage!r}, method {method!r} with polish "
+                              f"{polish}")
+    state.stage = stage
+    base = np.array(data["base_values"], dtype=np.float64)
+    state.base_values = base if stage == "polish" else None
+    if stage == "polish" and base.shape != state.values.shape:
+        raise DesignFileError(f"{path} is a damaged design file: base_values {base.shape}, values "
+                              f"{state.values.shape}")
+    state.evaluations = int(data["evaluations"])
+    evals, fitness = data["polish_evals"], data["polish_fitness"]
+    if evals.shape != fitness.shape:
+        raise DesignFileError(f"{path} is a damaged design file: polish history lengths {evals.shape}, "
+                              f"{fitness.shape}")
+    state.polish_history = {"evaluations": [int(e) for e in evals], "fitness": fitness.tolist()}
 
 
 #: Files of the oracle that a user may hand to a design command by mistake: their kind,

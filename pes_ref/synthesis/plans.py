@@ -1,11 +1,13 @@
 """Plans: how a design problem is optimized, and the project's default plans.
 
-A :class:`Plan` holds the optimizer, its learning-rate schedule, the coarse-to-fine grid
-and horizon stages, and the particles per iteration; it does not depend on the run's
-total length, so a run stopped early and resumed follows the same schedule.
-:data:`DEFAULT_PLANS` are the defaults of ``python -m pes_ref design``;
-:data:`OSCILLATOR_OBJECTIVES` the oscillator's named settings (problem overrides and plan)
-of ``design oscillator --objective NAME``. Measured in ``docs/synthesis.md``, "Results".
+A :class:`Plan` holds the gradient stage: the optimizer, its learning-rate schedule, the
+coarse-to-fine grid and horizon stages, and the particles per iteration; it does not depend
+on the run's total length, so a run stopped early and resumed follows the same schedule. A
+:class:`PolishPlan` holds the optional gradient-free stage that follows it
+(:mod:`pes_ref.synthesis.polish`). :data:`DEFAULT_PLANS` and :data:`DEFAULT_POLISH` are the
+defaults of ``python -m pes_ref design``; :data:`OSCILLATOR_OBJECTIVES` (problem overrides
+and plan) and :data:`OSCILLATOR_POLISH` the oscillator's named settings of
+``design oscillator --objective NAME``. Measured in ``docs/synthesis.md``, "Results".
 """
 from __future__ import annotations
 
@@ -14,7 +16,8 @@ from dataclasses import dataclass
 from pes_ref.core import checks
 from pes_ref.synthesis.optimizers import make_optimizer
 
-__all__ = ["Plan", "DEFAULT_PLANS", "OSCILLATOR_OBJECTIVES", "DEFAULT_OSCILLATOR_OBJECTIVE"]
+__all__ = ["Plan", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_OBJECTIVES", "OSCILLATOR_POLISH",
+           "DEFAULT_OSCILLATOR_OBJECTIVE", "POLISH_METHODS"]
 
 
 @dataclass(frozen=True)
@@ -43,9 +46,12 @@ class Plan:
         (:func:`pes_ref.synthesis.resampling.resample`) and the optimizer's moments reset at each change. The learning
         rate of a stage is multiplied by ``(first stage's grid / this stage's grid)``: RMSprop
         moves every node by about ``lr`` whatever its gradient's size, so on a grid ``r``
-        times finer the same ``lr`` would roughen the surface ``r`` times more per cell.
+        times finer the same ``lr`` would roughen the surface ``r`` times more per cell
+        (unless ``scale_lr_by_grid`` is False).
     n_particles : int
         Particles per iteration.
+    scale_lr_by_grid : bool
+        Whether a stage's learning rate is scaled by the grid ratio (above).
     """
 
     iterations: int = 300
@@ -56,6 +62,7 @@ class Plan:
     clip: float | None = None
     stages: tuple = ((0, 0),)
     n_particles: int = 64
+    scale_lr_by_grid: bool = True
 
     def __post_init__(self):
         checks.as_positive_int("iterations", self.iterations)
@@ -66,6 +73,8 @@ class Plan:
         if self.clip is not None:
             checks.as_positive_float("clip", self.clip)
         checks.as_positive_int("n_particles", self.n_particles)
+        if not isinstance(self.scale_lr_by_grid, bool):
+            raise TypeError(f"scale_lr_by_grid must be a bool, got {self.scale_lr_by_grid!r}")
         stages = tuple(tuple(int(x) for x in st) + (0,) * (3 - len(st)) for st in self.stages)
         if any(len(st) != 3 or min(st) < 0 for st in stages):
             raise checks.InputError("stages", f"stages must be (start_iteration, grid[, n_steps]) tuples >= 0, "
@@ -88,29 +97,117 @@ class Plan:
         return self.stage_at(iteration)[2] or None
 
     def lr_at(self, iteration: int, problem) -> float:
-        """``lr (lr_final / lr)^min(1, k / decay_iterations)`` times the stage's grid ratio."""
+        """``lr (lr_final / lr)^min(1, k / decay_iterations)``, times the stage's grid ratio if ``scale_lr_by_grid``."""
         frac = min(1.0, iteration / self.decay_iterations)
-        ratio = self.grid_at(0, problem)[0] / self.grid_at(iteration, problem)[0]
-        return self.lr * (self.lr_final / self.lr) ** frac * ratio
+        lr = self.lr * (self.lr_final / self.lr) ** frac
+        if not self.scale_lr_by_grid:
+            return lr
+        return lr * (self.grid_at(0, problem)[0] / self.grid_at(iteration, problem)[0])
 
     def make_optimizer(self):
         return make_optimizer(self.optimizer, lr=self.lr, clip=self.clip)
 
 
+#: Gradient-free searches of the polish stage (:class:`PolishPlan` ``method``): pycma's CMA-ES and
+#: scipy's differential evolution (measured in docs/synthesis.md; CMA-ES is the default).
+POLISH_METHODS = ("cma", "de")
+
+
+@dataclass(frozen=True)
+class PolishPlan:
+    """The polish stage: a gradient-free search over ``coef`` in ``values + B coef``.
+
+    ``B`` (:func:`pes_ref.synthesis.polish.legendre_fourier_basis`) is ``legendre_terms``
+    Legendre polynomials in ``q0 / q0_extent`` times ``1, cos k q1, sin k q1`` for
+    ``k <= fourier_order`` (72 terms by default); ``values`` is the gradient stage's grid.
+    The fitness (:func:`pes_ref.synthesis.polish.capture_fitness`) runs ``n_particles`` fixed
+    training particles for ``periods`` target periods (None: the problem's
+    ``eval_periods``) and judges them with the capture test of ``evaluate``.
+
+    Parameters
+    ----------
+    method : {"cma", "de"}
+        pycma's CMA-ES from ``coef = 0`` with step ``sigma0``, or scipy's differential
+        evolution in the box ``[-bound, bound]^n`` (``coef = 0`` in its first population).
+    evaluations : int
+        Fitness evaluations: the search stops after the generation that reaches it.
+    popsize : int
+        Candidates per generation (16 is pycma's own default for 72 terms; for ``"de"`` the
+        population is the nearest multiple of the term count, at least one).
+    n_particles, rest_share, center_share, center_std, rest_max_share : int, float, float, float, float
+        The training particles (:func:`pes_ref.synthesis.polish.polish_particles`).
+    margin_weight : float
+        Weight of the smooth margin term of the fitness.
+    strictness : float in (0, 1]
+        A training particle counts as captured only within ``strictness`` times the capture
+        test's tolerances (1: the test of ``evaluate`` itself).
+    target : float
+        Stop early once the best fitness is at or below it.
+    """
+
+    method: str = "cma"
+    evaluations: int = 3000
+    sigma0: float = 0.01
+    popsize: int = 16
+    bound: float = 0.1
+    fourier_order: int = 4
+    legendre_terms: int = 8
+    n_particles: int = 96
+    rest_share: float = 2 / 3
+    center_share: float = 1 / 3
+    center_std: float = 0.05
+    rest_max_share: float = 0.5
+    periods: float | None = None
+    margin_weight: float = 0.05
+    strictness: float = 1.0
+    target: float = 0.0
+
+    def __post_init__(self):
+        checks.as_choice("method", self.method, set(POLISH_METHODS))
+        for name in ("evaluations", "popsize", "legendre_terms", "n_particles"):
+            checks.as_positive_int(name, getattr(self, name))
+        checks.as_nonneg_int("fourier_order", self.fourier_order)
+        for name in ("sigma0", "bound"):
+            checks.as_positive_float(name, getattr(self, name))
+        for name in ("center_std", "margin_weight", "target"):
+            checks.as_nonneg_float(name, getattr(self, name))
+        for name in ("rest_share", "center_share", "rest_max_share"):
+            if not 0.0 <= checks.as_finite_float(name, getattr(self, name)) <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)!r}")
+        if not 0.0 < checks.as_finite_float("strictness", self.strictness) <= 1.0:
+            raise ValueError(f"strictness must be in (0, 1], got {self.strictness!r}")
+        if self.periods is not None:
+            checks.as_positive_float("periods", self.periods)
+
+    @property
+    def n_terms(self) -> int:
+        """Coefficients searched: ``legendre_terms (2 fourier_order + 1)``."""
+        return self.legendre_terms * (2 * self.fourier_order + 1)
+
+
 #: The oscillator's named settings (``design oscillator --objective NAME``): problem overrides and plan.
-#: "eq6" is the paper's setting, eq. (6) + eq. (7) aimed at the target amplitude A; "overshoot"
-#: (the default, measured best in docs/synthesis.md) aims the same cost at 1.4 A. Both share the
-#: plan: RMSprop, lr 5e-4 -> 5e-5, 16 particles, a horizon curriculum of 250/400/600/1000 steps
-#: (2 to 8 periods) on a 16 x 16 grid for 500 iterations, then the scene's 32 x 32.
+#: "gait" (the default) is prescribed-gait multiple shooting (:mod:`pes_ref.synthesis.gait`):
+#: Adam, lr 1e-2 -> 1e-4 geometric over the 3000 iterations (no grid scaling), 256 starts on the
+#: cycle and the gait per iteration, one-period runs, 16 x 16 until 1500 then the scene's 32 x 32;
+#: its polish follows (:data:`OSCILLATOR_POLISH`). "eq6" is the paper's setting, eq. (6) + eq. (7)
+#: aimed at the target amplitude A, and "overshoot" (the previous default) aims the same cost at
+#: 1.4 A; these two share the plan: RMSprop, lr 5e-4 -> 5e-5, 16 particles, a horizon curriculum
+#: of 250/400/600/1000 steps (2 to 8 periods) on a 16 x 16 grid for 500 iterations, then 32 x 32.
+_GAIT_PLAN = Plan(iterations=3000, optimizer="adam", lr=1e-2, lr_final=1e-4, decay_iterations=2999,
+                  n_particles=256, stages=((0, 16), (1500, 0)), scale_lr_by_grid=False)
 _OSC_PLAN = Plan(iterations=3000, lr=0.0005, lr_final=0.00005, decay_iterations=3000, n_particles=16,
                  stages=((0, 16, 250), (500, 0, 400), (1000, 0, 600), (2000, 0, 1000)))
-_OSC_PAPER = {"cost": "eq6", "target_scale": 1.0, "stratified": False, "spread_share": 0.0, "settle_periods": 0.0}
+_OSC_SHARED = {"target_scale": 1.0, "stratified": False, "spread_share": 0.0, "settle_periods": 0.0}
+_OSC_PAPER = {**_OSC_SHARED, "cost": "eq6", "regularization": 1e-4}
 OSCILLATOR_OBJECTIVES = {
-    "eq6": (_OSC_PAPER, _OSC_PLAN),
+    "gait": ({**_OSC_SHARED, "cost": "gait", "regularization": 0.0}, _GAIT_PLAN),
     "overshoot": ({**_OSC_PAPER, "target_scale": 1.4}, _OSC_PLAN),
+    "eq6": (_OSC_PAPER, _OSC_PLAN),
 }
+#: The polish stage that follows each named setting's gradient stage (None: none).
+OSCILLATOR_POLISH = {"gait": PolishPlan(), "overshoot": None, "eq6": None}
 #: The objective ``design oscillator`` uses without ``--objective`` (the problem's field defaults match it).
-DEFAULT_OSCILLATOR_OBJECTIVE = "overshoot"
+DEFAULT_OSCILLATOR_OBJECTIVE = "gait"
 
 #: The defaults of ``python -m pes_ref design`` (measured in docs/synthesis.md, "Results").
 DEFAULT_PLANS = {
@@ -118,3 +215,5 @@ DEFAULT_PLANS = {
                    stages=((0, 25), (400, 0)), n_particles=64),
     "oscillator": OSCILLATOR_OBJECTIVES[DEFAULT_OSCILLATOR_OBJECTIVE][1],
 }
+#: The polish stage of each kind's default (None: the gradient stage alone).
+DEFAULT_POLISH = {"funnel": None, "oscillator": OSCILLATOR_POLISH[DEFAULT_OSCILLATOR_OBJECTIVE]}

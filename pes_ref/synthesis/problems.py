@@ -3,7 +3,8 @@
 A *problem* is a frozen dataclass holding the physics of one scene (domain, forces,
 damping, objective, particle sampler) at a final grid resolution; :data:`PROBLEMS` names
 them by kind. Each problem draws a training batch (:meth:`batch`) from a generator it is
-given and scores a batch's trajectory with its design metric (:meth:`batch_metric`): the
+given, with the objective that scores it (the oscillator's gait cost depends on the batch's
+starts), and scores a batch's trajectory with its design metric (:meth:`batch_metric`): the
 funnel's share of the batch that exits within :data:`IN_BAND_SHARE` of the domain width
 from the target; the oscillator's relative amplitude error over the batch's last simulated
 period. How a problem is optimized is a plan (:mod:`pes_ref.synthesis.plans`); see
@@ -25,6 +26,7 @@ from pes_ref.core.objectives import Funnel, Oscillator, OscillatorCycle
 from pes_ref.core.scene import Scene
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
+from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 
 __all__ = ["FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
            "IN_BAND_SHARE", "exit_positions"]
@@ -34,11 +36,13 @@ IN_BAND_SHARE = 0.10
 
 
 class Batch(NamedTuple):
-    """One iteration's particles: starts (N, 2), velocities (N, 2) and the scene with their effects."""
+    """One iteration's particles: starts (N, 2), velocities (N, 2), the scene with their effects,
+    and the objective that scores their trajectory."""
 
     x0: np.ndarray
     v0: np.ndarray
     scene: Scene
+    objective: object
 
 
 class _Problem:
@@ -136,7 +140,7 @@ class FunnelProblem(_Problem):
         scene = self.scene(values, effects)
         if n_steps is not None:
             scene = dataclasses.replace(scene, n_steps=n_steps)
-        return Batch(x0, np.zeros_like(x0), scene)
+        return Batch(x0, np.zeros_like(x0), scene, self.objective())
 
     def batch_metric(self, traj: Trajectory) -> float:
         """Share of the batch whose exit |q0 - target| < 10% of the width."""
@@ -163,20 +167,30 @@ class OscillatorProblem(_Problem):
     q1 (an angle) is periodic. A linear spring ``spring_k`` pulls q0 to 0 (natural
     frequency ``sqrt(spring_k / mass)``); damping ``damping0`` along q0 is much lower than
     ``damping1`` along q1; each particle feels a constant torque ``-tau`` along q1 with
-    ``tau`` uniform in ``[torque_min, torque_max]``. Particles start at rest at
-    ``q1 = 0``, ``q0 = amplitude (1 + kick) + start_noise * normal``. The objective is
-    eq. (6) summed over every step with target ``amplitude`` and ``omega``, plus eq. (7)
-    with weight ``regularization``. Walls stand ``wall_margin`` inside the q0 edges.
+    ``tau`` uniform in ``[torque_min, torque_max]``. Walls stand ``wall_margin`` inside the
+    q0 edges. The held-out evaluation (:mod:`pes_ref.synthesis.analysis`) starts particles at
+    rest and always measures against ``amplitude`` and ``omega``.
 
-    Training choices beyond the paper (the held-out evaluation always uses ``amplitude``):
-    ``target_scale`` multiplies the amplitude the training cost aims at (the designs' cycles
-    fall short of their training target, so aiming above A lands them nearer A); ``cost``
-    is ``"eq6"`` (the paper's), ``"cycle"`` (:class:`pes_ref.core.objectives.OscillatorCycle`, the
-    phase-free distance to the target ellipse, counted from ``settle_periods`` periods on)
-    or ``"phase_then_cycle"`` (:class:`PhaseThenCycle`: eq. (6) before ``settle_periods``,
-    the cycle cost after); ``stratified`` draws one torque per equal slice of the range;
-    ``spread_share`` of each batch starts at rest anywhere in ``[-1.5 A, 1.5 A] x [0, 2 pi)``
-    like the 5 x 5 grid. :data:`OSCILLATOR_OBJECTIVES` holds the named settings.
+    How it is trained is the ``cost`` (:data:`OSCILLATOR_COSTS`; the named settings of
+    ``design oscillator --objective`` are :data:`pes_ref.synthesis.plans.OSCILLATOR_OBJECTIVES`):
+
+    - ``"gait"`` (the default): prescribed-gait multiple shooting. Each batch starts on the
+      target cycle and on a gait of q1 advancing ``gait_delta`` per period
+      (:func:`pes_ref.synthesis.gait.sample_gait_starts`), runs ``shooting_periods`` target
+      periods and is charged :class:`pes_ref.synthesis.gait.GaitShooting` with weights
+      ``gait_w0``, ``gait_w1`` and a dead zone of ``gait_dead_zone * gait_delta`` on q1.
+    - ``"eq6"`` (the paper's): particles start at rest at ``q1 = 0``,
+      ``q0 = amplitude (1 + kick) + start_noise * normal``, and eq. (6) is summed over every
+      step of ``n_steps``; ``"cycle"`` (:class:`pes_ref.core.objectives.OscillatorCycle`, the
+      phase-free distance to the target ellipse, counted from ``settle_periods`` periods on)
+      and ``"phase_then_cycle"`` (:class:`PhaseThenCycle`: eq. (6) before ``settle_periods``,
+      the cycle cost after) start the same way. ``stratified`` draws one torque per equal
+      slice of the range; ``spread_share`` of each batch starts at rest anywhere in
+      ``[-1.5 A, 1.5 A] x [0, 2 pi)`` like the 5 x 5 grid.
+
+    Every cost aims at ``amplitude * target_scale`` (the eq. (6) designs' cycles fall short of
+    their training target, so aiming above A lands them nearer A) and adds eq. (7) with
+    weight ``regularization``.
     """
 
     kind: ClassVar[str] = "oscillator"
@@ -199,18 +213,28 @@ class OscillatorProblem(_Problem):
     wall_k: float = 100.0
     wall_margin: float = 0.05
     init_scale: float = 1e-3
-    regularization: float = 1e-4
-    cost: str = "eq6"
+    regularization: float = 0.0
+    cost: str = "gait"
     settle_periods: float = 0.0
-    target_scale: float = 1.4
+    target_scale: float = 1.0
     spread_share: float = 0.0
     stratified: bool = False
+    gait_delta: float = math.pi / 2
+    gait_w0: float = 30.0
+    gait_w1: float = 1.0
+    gait_dead_zone: float = 0.25
+    shooting_periods: float = 1.0
 
     def __post_init__(self):
         _check_fields(self)
         checks.as_choice("cost", self.cost, set(OSCILLATOR_COSTS))
         if self.spread_share > 1.0:
             raise ValueError(f"spread_share must be in [0, 1], got {self.spread_share!r}")
+        for name in ("gait_delta", "shooting_periods"):
+            checks.as_positive_float(name, getattr(self, name))
+        if self.cost in _BATCHES and (self.spread_share or self.stratified):
+            raise ValueError(f"spread_share and stratified shape the paper's starts; cost {self.cost!r} draws its own "
+                             f"(got spread_share={self.spread_share!r}, stratified={self.stratified!r})")
 
     @property
     def lower(self):
@@ -240,7 +264,12 @@ class OscillatorProblem(_Problem):
                      effects=tuple(effects))
 
     def objective(self):
-        """The training cost named by ``cost`` (:data:`OSCILLATOR_COSTS`), aimed at ``amplitude * target_scale``."""
+        """The training cost named by ``cost`` (:data:`OSCILLATOR_COSTS`), aimed at ``amplitude * target_scale``.
+
+        The gait cost depends on each batch's starts: it is ``batch(...).objective``.
+        """
+        if self.cost not in _COST_BUILDERS:
+            raise ValueError(f"cost {self.cost!r} is built per batch from its starts: use batch(...).objective")
         return _COST_BUILDERS[self.cost](self)
 
     def eq6_cost(self) -> Oscillator:
@@ -252,6 +281,17 @@ class OscillatorProblem(_Problem):
         return OscillatorCycle(amplitude=self.amplitude * self.target_scale, omega=self.omega,
                                settle=self.settle_periods * self.period)
 
+    def gait_cost(self, starts: GaitStarts) -> GaitShooting:
+        """The gait cost of a batch drawn by :func:`pes_ref.synthesis.gait.sample_gait_starts`."""
+        return GaitShooting(amplitude=self.amplitude * self.target_scale, omega=self.omega, delta=self.gait_delta,
+                            theta=starts.theta, q1_start=starts.q1_start, w0=self.gait_w0, w1=self.gait_w1,
+                            dead_zone=self.gait_dead_zone * self.gait_delta)
+
+    @property
+    def shooting_steps(self) -> int:
+        """Steps of a gait-shooting run: ``ceil(shooting_periods * period / dt)``."""
+        return int(math.ceil(self.shooting_periods * self.period / self.dt))
+
     def torque_effect(self, torques) -> PerParticle:
         torques = np.asarray(torques, dtype=np.float64)
         return PerParticle(np.stack([np.zeros_like(torques), -torques], axis=1))
@@ -262,7 +302,22 @@ class OscillatorProblem(_Problem):
         return self.scene(np.asarray(values, dtype=np.float64), (self.torque_effect(torques),), n_steps)
 
     def batch(self, values, rng, n_particles: int, n_steps: int | None = None) -> Batch:
-        """Starts beyond the target amplitude plus noise at q1 = 0, torques uniform in the range."""
+        """The cost's training batch: the gait's starts for ``"gait"``, the paper's for the others.
+
+        ``n_steps`` (default: ``shooting_steps`` for the gait, ``n_steps`` for the others)
+        sets the runs' length.
+        """
+        return _BATCHES.get(self.cost, OscillatorProblem.rest_batch)(self, values, rng, n_particles, n_steps)
+
+    def gait_batch(self, values, rng, n_particles: int, n_steps: int | None = None) -> Batch:
+        """Starts on the target cycle and on the gait (:func:`pes_ref.synthesis.gait.sample_gait_starts`)."""
+        starts = sample_gait_starts(self, rng, n_particles, self.gait_delta, self.amplitude * self.target_scale)
+        scene = self.scene(values, (self.torque_effect(starts.torques),),
+                           self.shooting_steps if n_steps is None else n_steps)
+        return Batch(starts.x0, starts.v0, scene, self.gait_cost(starts))
+
+    def rest_batch(self, values, rng, n_particles: int, n_steps: int | None = None) -> Batch:
+        """The paper's starts: beyond the target amplitude plus noise at q1 = 0, at rest, torques uniform."""
         q0 = self.amplitude * (1.0 + self.kick) + self.start_noise * rng.standard_normal(n_particles)
         x0 = np.stack([q0, np.zeros(n_particles)], axis=1)
         torques = rng.uniform(self.torque_min, self.torque_max, n_particles)
@@ -273,7 +328,8 @@ class OscillatorProblem(_Problem):
         if m:                        # the last m start at rest anywhere, like the 5 x 5 grid of Figs. 10-11
             x0[-m:, 0] = rng.uniform(-1.5 * self.amplitude, 1.5 * self.amplitude, m)
             x0[-m:, 1] = rng.uniform(self.lower[1], self.upper[1], m)
-        return Batch(x0, np.zeros_like(x0), self.scene(values, (self.torque_effect(torques),), n_steps))
+        return Batch(x0, np.zeros_like(x0), self.scene(values, (self.torque_effect(torques),), n_steps),
+                     self.objective())
 
     def batch_metric(self, traj: Trajectory) -> float:
         """Relative error of the batch's mean amplitude over its last simulated period."""
@@ -315,8 +371,11 @@ _COST_BUILDERS = {
     "cycle": OscillatorProblem.cycle_cost,
     "phase_then_cycle": lambda problem: PhaseThenCycle(problem.eq6_cost(), problem.cycle_cost()),
 }
-#: The names of the oscillator's training costs.
-OSCILLATOR_COSTS = tuple(_COST_BUILDERS)
+#: The oscillator's batch samplers by cost, where a cost has its own (the others use ``rest_batch``).
+_BATCHES = {"gait": OscillatorProblem.gait_batch}
+#: The names of the oscillator's training costs: prescribed-gait shooting first (the default), then
+#: those built without a batch.
+OSCILLATOR_COSTS = ("gait",) + tuple(_COST_BUILDERS)
 
 
 #: The fields that count grid nodes along an axis (a surface needs 2 at least).

@@ -1,9 +1,10 @@
-"""Design runs: the state of one run and the loop that advances it.
+"""Design runs: the state of one run and the loop of its gradient stage.
 
 A :class:`DesignState` is one run in progress (problem, plan, seed, grid values, optimizer
-state, iteration, loss history), which :mod:`pes_ref.synthesis.design_file` saves and
-loads; :func:`new_design` starts one and :func:`run_design` advances it, one optimizer step
-on the adjoint gradient of the problem's objective per iteration.
+state, iteration, loss history, and the optional polish stage's plan and progress), which
+:mod:`pes_ref.synthesis.design_file` saves and loads; :func:`new_design` starts one and
+:func:`run_design` advances its gradient stage, one optimizer step on the adjoint gradient
+of the batch's objective per iteration (:mod:`pes_ref.synthesis.stages` runs both stages).
 
 Iteration ``k`` of a run with seed ``s`` draws its particles (start positions, noise,
 torques) from ``numpy.random.default_rng([s, k])`` only, so a run stopped after ``k``
@@ -24,27 +25,37 @@ from pes_ref.core import checks
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.scene import value_and_grad
 from pes_ref.core.stability import UnstableStepError, check_stable
-from pes_ref.synthesis.plans import DEFAULT_PLANS, Plan
+from pes_ref.synthesis.plans import DEFAULT_PLANS, DEFAULT_POLISH, Plan, PolishPlan
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.resampling import resample
 
-__all__ = ["DesignState", "Progress", "Stage", "StageClock", "plan_stages", "GradientStep", "new_design", "run_design",
-           "design_gradient", "check_stable_design", "STOPPED"]
+__all__ = ["DesignState", "Progress", "Stage", "StageClock", "plan_stages", "GradientStep", "StopFlag", "new_design",
+           "run_design", "design_gradient", "check_stable_design", "STOPPED", "STAGES"]
 
 #: The statuses of a run that stopped on a failed iteration (rolled back to the last good state):
 #: its run left the finite numbers, or its grid steepened past the stability rule.
 STOPPED = ("non-finite", "unstable")
 
+#: A run's stages in order: gradient descent on the grid values, then (if it has a polish plan) the polish.
+STAGES = ("gradient", "polish")
+
 
 @dataclass
 class DesignState:
-    """One design run: problem, plan, seed, grid values, optimizer, iteration, history.
+    """One design run: problem, plan, seed, grid values, optimizer, iteration, history, polish.
 
     Mutable on purpose (it is what the design loop advances); every field is plain data
     that :mod:`pes_ref.synthesis.design_file` writes and reads back bit-exactly. ``history`` maps
     ``"loss"`` and ``"metric"`` to lists with one float per finished iteration;
     ``status`` is ``"running"``, ``"done"``, ``"interrupted"``, or one of :data:`STOPPED`
     followed by ``": iteration k: <reason>"``.
+
+    ``polish`` is the :class:`~pes_ref.synthesis.plans.PolishPlan` of the stage that follows
+    the gradient iterations (None: none). ``stage`` is the stage the run is in (:data:`STAGES`);
+    in the polish stage ``base_values`` holds the gradient stage's final grid (where the polish
+    starts), ``values`` the best polished grid so far, ``evaluations`` the fitness evaluations
+    made and ``polish_history`` maps ``"evaluations"`` and ``"fitness"`` to the count and the
+    best fitness after the start and each generation.
     """
 
     problem: object
@@ -56,22 +67,46 @@ class DesignState:
     history: dict = dataclasses.field(default_factory=lambda: {"loss": [], "metric": []})
     status: str = "running"
     elapsed: float = 0.0
+    polish: PolishPlan | None = None
+    stage: str = "gradient"
+    base_values: np.ndarray | None = None
+    evaluations: int = 0
+    polish_history: dict = dataclasses.field(default_factory=lambda: {"evaluations": [], "fitness": []})
 
     @property
     def kind(self) -> str:
         return self.problem.kind
 
+    @property
+    def method(self) -> str:
+        """``"gradient"`` or ``"gradient+polish"``: the stages this run has."""
+        return "gradient" if self.polish is None else "gradient+polish"
 
-def new_design(kind: str, seed: int = 0, plan: Plan | None = None, **params) -> DesignState:
-    """A fresh run of ``kind`` ("funnel" or "oscillator") with problem overrides ``params``."""
+    @property
+    def finished(self) -> bool:
+        """Every stage of the run is done."""
+        return self.status == "done" and (self.polish is None or self.stage == "polish")
+
+
+def new_design(kind: str, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
+               **params) -> DesignState:
+    """A fresh run of ``kind`` ("funnel" or "oscillator") with problem overrides ``params``.
+
+    Without ``plan`` the run has the kind's default plan and, unless ``polish`` is given,
+    its default polish stage (:data:`pes_ref.synthesis.plans.DEFAULT_POLISH`); with a
+    ``plan`` it has the ``polish`` given (None: the gradient stage alone).
+    """
     kind = checks.as_choice("kind", kind, set(PROBLEMS))
     seed = checks.as_nonneg_int("seed", seed)
+    if polish is not None and not isinstance(polish, PolishPlan):
+        raise TypeError(f"polish must be a PolishPlan or None, got {type(polish).__name__}")
     problem = PROBLEMS[kind](**params)
-    plan = DEFAULT_PLANS[kind] if plan is None else plan
+    if plan is None:
+        plan, polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind] if polish is None else polish
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))
     problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
-    state = DesignState(problem, plan, seed, values, plan.make_optimizer())
+    state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish)
     check_stable_design(state)
     return state
 
@@ -174,9 +209,10 @@ class StageClock:
         return left
 
 
-class _StopFlag:
+class StopFlag:
     """Turns SIGINT (Ctrl-C) and SIGTERM (a batch scheduler preempting the run) into a flag
-    checked between iterations (main thread only); a second signal stops at once."""
+    checked between iterations (main thread only); a second signal stops at once.
+    Nested flags each see their own signals."""
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -203,13 +239,13 @@ class _StopFlag:
 def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_steps: int | None = None):
     """Loss, masked design gradient dL/dE and trajectory of iteration ``iteration``.
 
-    Returns ``(loss, grad, traj, x0)``; the particles come from ``default_rng([seed, iteration])``;
-    ``n_steps`` overrides the problem's. Raises :class:`pes_ref.NonFiniteError` when the run
-    leaves the finite numbers.
+    Returns ``(loss, grad, traj, x0)``; the particles come from ``default_rng([seed, iteration])``
+    and the objective with them (``batch.objective``); ``n_steps`` overrides the problem's.
+    Raises :class:`pes_ref.NonFiniteError` when the run leaves the finite numbers.
     """
     rng = np.random.default_rng([seed, iteration])
     batch = problem.batch(values, rng, n_particles, n_steps)
-    loss, grads, traj = value_and_grad(batch.scene, batch.x0, batch.v0, problem.objective(),
+    loss, grads, traj = value_and_grad(batch.scene, batch.x0, batch.v0, batch.objective,
                                        regularization_weight=problem.regularization, wrt=("values",))
     return loss, grads["values"] * problem.mask(values.shape), traj, batch.x0
 
@@ -284,7 +320,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             for h in state.history.values():
                 del h[state.iteration:]
 
-    with _StopFlag() as flag:
+    with StopFlag() as flag:
         while state.iteration < total:
             if flag.stop:
                 state.status = "interrupted"

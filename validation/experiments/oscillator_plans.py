@@ -59,7 +59,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from pes_ref.synthesis import (OscillatorProblem, Plan, cycle_figures, escapement_values,  # noqa: E402
+from pes_ref.synthesis import (OSCILLATOR_OBJECTIVES, OscillatorProblem, Plan, cycle_figures, escapement_values,  # noqa: E402
                                oscillator_grid_starts, oscillator_torque_sweep, resample)
 from pes_ref.core.objectives import Oscillator, OscillatorCycle  # noqa: E402
 from pes_ref.core.scene import simulate, value_and_grad  # noqa: E402
@@ -186,9 +186,14 @@ def basis_matrix(shape, K: int, M: int) -> np.ndarray:
     return np.einsum("im,jf->ijmf", P, F).reshape(shape[0], shape[1], -1)
 
 
+#: The scene these plans were measured on: the package's previous default (eq. (6) + eq. (7), the
+#: paper's starts), which the package now keeps as the named setting "overshoot".
+PAPER_SCENE = OSCILLATOR_OBJECTIVES["overshoot"][0]
+
+
 def problem_of(s: Setting) -> OscillatorProblem:
-    return OscillatorProblem(target_scale=s.target_scale, torque_min=s.torque_min, torque_max=s.torque_max,
-                             damping0=s.damping0, damping1=s.damping1)
+    return OscillatorProblem(**{**PAPER_SCENE, "target_scale": s.target_scale, "torque_min": s.torque_min,
+                                "torque_max": s.torque_max, "damping0": s.damping0, "damping1": s.damping1})
 
 
 def plan_of(s: Setting) -> Plan:
@@ -361,7 +366,7 @@ def rank(surfaces: dict, n_steps: int = 1000, n_batches: int = 16, n_particles: 
     default sampler (seeds ``[7, b]``) run for ``n_steps`` steps, without eq. (7).
 
     Returns rows ``(name, eq6 at A, eq6 at 1.4 A, window at A)``."""
-    problem = OscillatorProblem()
+    problem = OscillatorProblem(**PAPER_SCENE)
     costs = (Oscillator(problem.amplitude, problem.omega), Oscillator(1.4 * problem.amplitude, problem.omega),
              WindowPhase(problem.amplitude, problem.omega, problem.period))
     rows = []
@@ -426,7 +431,7 @@ def main(argv=None) -> int:
         print(summary(args.out))
         return 0
     if args.rank is not None:
-        problem = OscillatorProblem()
+        problem = OscillatorProblem(**PAPER_SCENE)
         surfaces = {"flat": problem.flat_values(), "escapement": escapement_values(problem)}
         for spec in args.rank:
             path, _, key = spec.rpartition(":")

@@ -1,0 +1,278 @@
+"""The polish stage: a gradient-free search on a smooth correction of a designed surface.
+
+After the gradient stage (prescribed-gait shooting for the oscillator) the design is close;
+the polish searches ``coef`` in ``values + B coef`` (:func:`legendre_fourier_basis`, 72
+terms by default) with pycma's CMA-ES (or scipy's differential evolution, for the
+comparison), on a forward-only fitness (:func:`capture_fitness`): the capture test of
+``python -m pes_ref evaluate`` (:func:`pes_ref.synthesis.analysis.cycle_figures`) on a fixed
+set of training particles (:func:`polish_particles`) drawn from their own seed, disjoint
+from every held-out set. :func:`polish` runs it; the candidates of a generation are
+independent, so an executor (anything with ``map``, e.g. a
+:class:`concurrent.futures.ProcessPoolExecutor` or a Dask client's ``get_executor()``)
+can evaluate them in parallel, with the same result as serial.
+
+Seeds: the training particles come from ``default_rng([seed, 2**32 + 1])``, the search's
+own draws from ``default_rng([seed, 2**32 + 2])`` (the gradient stage uses ``[seed, k]``
+and ``[seed, 2**32]``); NumPy's global random state is never touched.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from pes_ref.core import checks
+from pes_ref.core.scene import simulate
+from pes_ref.synthesis.analysis import CYCLE_DRIFT, CYCLE_TOLERANCE, cycle_figures
+from pes_ref.synthesis.plans import PolishPlan
+
+__all__ = ["legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "Fitness",
+           "PolishStep", "PolishResult", "polish", "PARTICLE_SEED", "SEARCH_SEED", "MARGIN_CAP"]
+
+#: Second entry of the seed pair of the polish's training particles, ``default_rng([seed, PARTICLE_SEED])``.
+PARTICLE_SEED = 2 ** 32 + 1
+#: Second entry of the seed pair of the search's own draws.
+SEARCH_SEED = 2 ** 32 + 2
+#: The margin of a particle without a measurable cycle, and the cap of every margin.
+MARGIN_CAP = 3.0
+
+
+def legendre_fourier_basis(problem, shape: tuple | None = None, fourier_order: int = 4,
+                           legendre_terms: int = 8) -> np.ndarray:
+    """(n0, n1, M (2K + 1)): ``P_m(q0 / q0_extent)`` times ``1, cos k q1, sin k q1`` at the nodes.
+
+    ``M = legendre_terms`` Legendre polynomials ``P_0 .. P_{M-1}`` on the q0 nodes mapped to
+    ``[-1, 1]``, ``K = fourier_order`` harmonics on the q1 nodes (periodic). Term
+    ``m (2K + 1) + f`` is ``P_m`` times the ``f``-th of ``1, cos q1, sin q1, cos 2 q1, ...``.
+    """
+    n0, n1 = problem.shape() if shape is None else shape
+    q0 = np.linspace(-1.0, 1.0, n0)
+    q1 = problem.lower[1] + np.arange(n1) * (problem.upper[1] - problem.lower[1]) / n1
+    P = np.polynomial.legendre.legvander(q0, legendre_terms - 1)
+    F = np.array([np.ones_like(q1)] + [f(k * q1) for k in range(1, fourier_order + 1) for f in (np.cos, np.sin)]).T
+    return np.einsum("im,jf->ijmf", P, F).reshape(n0, n1, -1)
+
+
+class PolishParticles(NamedTuple):
+    """The polish's fixed training particles: starts at rest (N, 2) and torques (N,)."""
+
+    x0: np.ndarray
+    torques: np.ndarray
+
+
+def polish_particles(problem, rng: np.random.Generator, n: int = 96, rest_share: float = 2 / 3,
+                     center_share: float = 1 / 3, center_std: float = 0.05,
+                     rest_max_share: float = 0.5) -> PolishParticles:
+    """Training particles shaped like the two held-out sets of ``evaluate``, drawn afresh.
+
+    The first ``n - m`` start like the torque sweep (``q0 = A (1 + kick) + start_noise *
+    normal``, ``q1 = 0``) with stratified torques, one per equal slice of the range; the
+    other ``m = round(rest_share n)`` start at rest anywhere in ``[-1.5 A, 1.5 A] x [0, 2 pi)``
+    (like the 5 x 5 grid) with torques uniform over the range (not only the maximum the grid
+    uses). The last ``round(center_share n)`` of those start near the spring's rest point,
+    ``q0 = center_std * normal``: the hardest self-start, where nothing swings to open a gate.
+    A share ``rest_max_share`` of the starts at rest, spread evenly over them, has the
+    maximum torque instead, as the 5 x 5 grid of ``evaluate`` has.
+    """
+    A = problem.amplitude
+    m = int(round(rest_share * n))
+    ns = n - m
+    q0 = A * (1.0 + problem.kick) + problem.start_noise * rng.standard_normal(ns)
+    u = (np.arange(ns) + rng.uniform(size=ns)) / max(ns, 1)
+    tau_s = problem.torque_min + (problem.torque_max - problem.torque_min) * u
+    xs = np.stack([q0, np.zeros(ns)], axis=1)
+    xr = np.stack([rng.uniform(-1.5 * A, 1.5 * A, m), rng.uniform(problem.lower[1], problem.upper[1], m)], axis=1)
+    tau_r = rng.uniform(problem.torque_min, problem.torque_max, m)
+    c = min(m, int(round(center_share * n)))
+    if c:
+        xr[m - c:, 0] = center_std * rng.standard_normal(c)
+    k = np.arange(m)
+    tau_r[np.floor((k + 1) * rest_max_share) > np.floor(k * rest_max_share)] = problem.torque_max
+    return PolishParticles(np.concatenate([xs, xr]), np.concatenate([tau_s, tau_r]))
+
+
+def capture_fitness(problem, values, particles: PolishParticles, periods: float | None = None,
+                    margin_weight: float = 0.05, strictness: float = 1.0) -> float:
+    """Forward-only fitness of a grid (lower is better): the share *not* captured plus a smooth margin.
+
+    Each particle runs ``periods`` target periods (default ``problem.eval_periods``) and
+    :func:`pes_ref.synthesis.analysis.cycle_figures` judges its last periods exactly as
+    ``evaluate`` does. The margin term ``margin_weight * mean(min(3, m_i))``, with ``m_i``
+    the largest of ``amp_err / 0.25``, ``per_err / 0.25`` and ``drift / 0.05`` (3 without a
+    measurable period), ranks candidates that capture as many and keeps the captured ones
+    away from the test's edges. With ``strictness < 1`` a particle counts as captured only
+    when also ``m_i < strictness`` (the test's tolerances times ``strictness``). A run that
+    leaves the finite numbers scores ``1 + margin_weight * 3``, the worst.
+    """
+    periods = problem.eval_periods if periods is None else periods
+    scene = problem.torque_scene(values, particles.torques, periods)
+    try:
+        with np.errstate(all="ignore"):
+            traj = simulate(scene, particles.x0)
+    except FloatingPointError:              # NonFiniteError is one
+        return 1.0 + margin_weight * MARGIN_CAP
+    amp, per, drift, captured = cycle_figures(problem, traj)
+    A, T = problem.amplitude, problem.period
+    with np.errstate(invalid="ignore"):
+        m = np.maximum.reduce([np.abs(amp - A) / A / CYCLE_TOLERANCE, np.abs(per - T) / T / CYCLE_TOLERANCE,
+                               drift / CYCLE_DRIFT])
+    m = np.where(np.isfinite(m), np.minimum(m, MARGIN_CAP), MARGIN_CAP)
+    if strictness < 1.0:
+        captured = captured & (m < strictness)
+    return float(np.mean(~captured) + margin_weight * np.mean(m))
+
+
+@dataclass(frozen=True)
+class Fitness:
+    """:func:`capture_fitness` of one candidate grid, as a picklable callable for executors."""
+
+    problem: object
+    particles: PolishParticles
+    periods: float | None
+    margin_weight: float
+    strictness: float = 1.0
+
+    def __call__(self, values) -> float:
+        return capture_fitness(self.problem, values, self.particles, self.periods, self.margin_weight,
+                               self.strictness)
+
+
+class PolishStep(NamedTuple):
+    """What :func:`polish`'s callback receives after each generation: evaluations so far, the best
+    fitness, the start's fitness and the best coefficients."""
+
+    evaluations: int
+    fitness: float
+    fitness_start: float
+    coef: np.ndarray
+
+
+class PolishResult(NamedTuple):
+    """What :func:`polish` found.
+
+    ``coef`` the best coefficients (zeros if nothing beat the start), ``fitness_start`` the
+    start's fitness, ``fitness`` the best, ``evaluations`` fitness evaluations made (the start
+    included), ``history`` ``(evaluations, best fitness)`` after the start and each
+    generation, ``stopped`` True when ``stop`` ended the search early.
+    """
+
+    coef: np.ndarray
+    fitness_start: float
+    fitness: float
+    evaluations: int
+    history: list
+    stopped: bool
+
+
+class _Tracker:
+    """The best candidate so far, the evaluation count, and when to stop."""
+
+    def __init__(self, plan: PolishPlan, f0: float, n: int, callback, stop):
+        self.plan, self.callback, self.stop = plan, callback, stop
+        self.best = (f0, np.zeros(n))
+        self.evaluations = 1
+        self.history = [(1, f0)]
+        self.stopped = False
+
+    @property
+    def done(self) -> bool:
+        return self.stopped or self.evaluations >= self.plan.evaluations or self.best[0] <= self.plan.target
+
+    def generation(self, xs, fs) -> None:
+        self.evaluations += len(fs)
+        i = int(np.argmin(fs))
+        if fs[i] < self.best[0]:
+            self.best = (float(fs[i]), np.array(xs[i], dtype=np.float64))
+        self.history.append((self.evaluations, self.best[0]))
+        if self.callback is not None:
+            self.callback(PolishStep(self.evaluations, self.best[0], self.history[0][1], self.best[1]))
+        if self.stop is not None and self.stop():
+            self.stopped = True
+
+
+def _search_cma(evaluate, n: int, plan: PolishPlan, rng: np.random.Generator, tracker: _Tracker) -> None:
+    """pycma's CMA-ES from ``coef = 0``, step ``sigma0``; its normal draws from ``rng``."""
+    import cma
+    opts = {"seed": float("nan"), "randn": lambda *shape: rng.standard_normal(shape), "popsize": plan.popsize,
+            "maxfevals": plan.evaluations - 1, "verbose": -9, "verb_log": 0, "verb_disp": 0}
+    es = cma.CMAEvolutionStrategy(np.zeros(n), plan.sigma0, opts)
+    while not (es.stop() or tracker.done):
+        xs = es.ask()
+        fs = evaluate(xs)
+        es.tell(xs, fs)
+        tracker.generation(xs, fs)
+
+
+def _search_de(evaluate, n: int, plan: PolishPlan, rng: np.random.Generator, tracker: _Tracker) -> None:
+    """scipy's differential evolution in ``[-bound, bound]^n``, ``coef = 0`` in its first population."""
+    from scipy.optimize import differential_evolution
+    multiple = max(1, round(plan.popsize / n))
+    maxiter = max(1, (plan.evaluations - 1) // (multiple * n) - 1)      # (maxiter + 1) generations
+
+    def generation(_func, xs):
+        xs = [np.asarray(x, dtype=np.float64) for x in xs]
+        fs = evaluate(xs)
+        tracker.generation(xs, fs)
+        return fs
+
+    def halt(intermediate_result):
+        if tracker.done:
+            raise StopIteration
+
+    differential_evolution(lambda x: 0.0, [(-plan.bound, plan.bound)] * n, popsize=multiple, maxiter=maxiter,
+                           rng=rng, polish=False, init="latinhypercube", tol=0.0, x0=np.zeros(n),
+                           updating="deferred", workers=generation, callback=halt)
+
+
+#: The searches by :attr:`PolishPlan.method`.
+_SEARCHES = {"cma": _search_cma, "de": _search_de}
+
+
+def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, executor=None,
+           callback: Callable | None = None, stop: Callable | None = None):
+    """Polish a grid: returns ``(values + B coef, PolishResult)`` for the best ``coef`` found.
+
+    The start (``coef = 0``) is evaluated first, so the result is never worse on the training
+    particles than ``values``. The search stops after the generation that reaches
+    ``plan.evaluations`` evaluations (CMA-ES may exceed it by up to ``popsize - 1``;
+    candidates are counted, not seconds, so the result does not depend on the machine), when
+    its own stopping rules say so, when the best fitness reaches ``plan.target``, or when
+    ``stop()`` returns True after a generation.
+
+    Parameters
+    ----------
+    problem : OscillatorProblem
+    values : (n0, n1) array
+        The grid to polish.
+    seed : int
+        The design's seed (see the module docstring for the streams).
+    plan : PolishPlan
+    executor : object with ``map(fn, iterable)``, optional
+        Evaluates a generation's candidates (e.g. a ``concurrent.futures`` executor); the
+        result is the same as serial.
+    callback : callable, optional
+        ``callback(PolishStep)`` after each generation.
+    stop : callable, optional
+        ``stop() -> bool``, asked after each generation (Ctrl-C).
+    """
+    values = checks.as_float_array("values", values, ndim=2)
+    seed = checks.as_nonneg_int("seed", seed)
+    if not isinstance(plan, PolishPlan):
+        raise TypeError(f"plan must be a PolishPlan, got {type(plan).__name__}")
+    particles = polish_particles(problem, np.random.default_rng([seed, PARTICLE_SEED]), plan.n_particles,
+                                 plan.rest_share, plan.center_share, plan.center_std, plan.rest_max_share)
+    B = legendre_fourier_basis(problem, values.shape, plan.fourier_order, plan.legendre_terms)
+    fitness = Fitness(problem, particles, plan.periods, plan.margin_weight, plan.strictness)
+    mapper = map if executor is None else executor.map
+
+    def evaluate(coefs):
+        return [float(f) for f in mapper(fitness, [values + B @ np.asarray(c, dtype=np.float64) for c in coefs])]
+
+    tracker = _Tracker(plan, fitness(values + B @ np.zeros(B.shape[-1])), B.shape[-1], callback, stop)
+    if not tracker.done:
+        _SEARCHES[plan.method](evaluate, B.shape[-1], plan, np.random.default_rng([seed, SEARCH_SEED]), tracker)
+    f0 = tracker.history[0][1]
+    coef = tracker.best[1]
+    return values + B @ coef, PolishResult(coef, f0, tracker.best[0], tracker.evaluations, tracker.history,
+                                           tracker.stopped)
