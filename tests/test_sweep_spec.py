@@ -14,7 +14,7 @@ from pes_ref.cli import build_parser
 from pes_ref.sweep import options as opt
 from pes_ref.sweep.results import _TAIL
 from pes_ref.sweep.spec import TOP_LEVEL_KEYS, SweepFileError, load_sweep, parse_sweep
-from pes_ref.synthesis.designs import PROBLEMS
+from pes_ref.synthesis import PROBLEMS
 
 ROOT = Path(__file__).resolve().parents[1]
 EXPERIMENTS = ROOT / "validation" / "experiments"
