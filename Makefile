@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all test test-random test-thorough figures validate oscillator-plans bench conformance check-example venv clean
+.PHONY: all test test-random test-thorough figures validate oscillator-plans funnel-study bench conformance check-example venv clean
 
 all: test
 
@@ -48,6 +48,12 @@ oscillator-plans: $(STAMP)
 	$(PY) -m pes_ref sweep validation/experiments/oscillator_plans.toml --out validation/out/sweeps/oscillator_plans
 	$(PY) -m pes_ref sweep validation/experiments/oscillator_seeds.toml --out validation/out/sweeps/oscillator_seeds
 	$(PY) validation/experiments/oscillator_plans.py --all
+
+# The funnel study of docs/synthesis.md (issue 15): 8 settings x 16 design seeds, each evaluated
+# on held-out seeds 12345 and 9191 (about 5 minutes on 2 cores), then its table.
+funnel-study: $(STAMP)
+	$(PY) -m pes_ref sweep validation/experiments/funnel_objective.toml --out validation/out/sweeps/funnel_objective
+	$(PY) validation/experiments/funnel_objective.py validation/out/sweeps/funnel_objective/results.csv
 
 # The benchmark installs its optional extra (autograd, JAX) into the same venv first.
 BENCH_STAMP := $(VENV)/.installed-bench

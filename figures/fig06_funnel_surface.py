@@ -1,8 +1,9 @@
 """Figure 6: the synthesized funnel potential energy surface.
 
 (a) the designed grid values of the funnel design file (computed by ``python -m pes_ref
-design funnel``), with the start and exit strips the design holds at zero energy;
-(b) the run's loss (eq. (5)) and in-band share per iteration, from the file's history.
+design funnel``), with the start strip (and the exit strip, if the design has one) that the
+design holds at zero energy; (b) the run's loss (eq. (5), charged where each particle exits by
+default) and in-band share per iteration, from the file's history.
 """
 from __future__ import annotations
 
@@ -22,8 +23,9 @@ def main(argv=None) -> int:
     surface = Surface(state.values, p.lower, p.upper, p.periodic)
     fig, (ax, axh) = C.plt.subplots(1, 2, figsize=(12, 5), width_ratios=[1.2, 1.0], constrained_layout=True)
     C.energy_image(ax, surface, "designed energy E (energy units)", cmap="viridis")
-    top, bottom = p.height - p.start_zone, p.exit_zone
-    for y, text in ((top, "start strip above (held at E = 0)"), (bottom, "exit strip below (held at E = 0)")):
+    strips = ((p.start_zone, p.height - p.start_zone, "start strip above (held at E = 0)"),
+              (p.exit_zone, p.exit_zone, "exit strip below (held at E = 0)"))
+    for y, text in ((y, text) for depth, y, text in strips if depth > 0):
         ax.axhline(y, color="w", ls="--", lw=0.8)
         ax.text(p.lower[0] + 0.03, y + 0.02, text, color="w", fontsize=7)
     ax.axvline(p.target, color="#ff7f0e", ls=":", lw=1.2, label=f"target exit x0 = {p.target:g}")
@@ -37,7 +39,7 @@ def main(argv=None) -> int:
     axh.plot(it, state.history["loss"], color="#1f77b4", lw=0.8)
     axh.set_yscale("log")
     axh.set_xlabel("iteration")
-    axh.set_ylabel("batch loss, eq. (5) (length units^2)", color="#1f77b4")
+    axh.set_ylabel(f"batch loss, eq. (5) at {p.when.replace('_', ' ')} (length units^2)", color="#1f77b4")
     ax2 = axh.twinx()
     ax2.plot(it, state.history["metric"], color="#ff7f0e", lw=0.8)
     ax2.set_ylim(0, 1)

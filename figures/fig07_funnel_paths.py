@@ -50,7 +50,7 @@ def main(argv=None) -> int:
         done = e[np.isfinite(e)]
         share = np.mean(p.in_band(e))
         axh.hist(done, bins=bins, color=color, alpha=0.7,
-                 label=f"{label}: {done.size}/{e.size} exit, {100 * share:.0f}% in band")
+                 label=f"{label}: {done.size}/{e.size} exit, {100 * share:.1f}% in band")
     axh.axvspan(p.target - band, p.target + band, color="#ff7f0e", alpha=0.15, label="target exit band")
     axh.set_xlabel("exit position x at the bottom edge (length units)")
     axh.set_ylabel("held-out particles per bin (count)")

@@ -48,12 +48,14 @@ def test_design_gradient_matches_finite_differences(kind, extra):
         assert relative_error(np.sum(step.grad * u), fd) < FD_RTOL   # measured 1e-10 (funnel), 4e-9 (oscillator)
 
 
-def test_funnel_strips_are_held_at_zero():
-    st = synthesis.run_design(tiny_state(plan=Plan(iterations=3, lr=0.01, lr_final=0.01, n_particles=8)))
+@pytest.mark.parametrize("exit_zone, held_bottom_rows", [(0.0, 0), (0.2, 2)])
+def test_funnel_strips_are_held_at_zero(exit_zone, held_bottom_rows):
+    st = synthesis.run_design(tiny_state(plan=Plan(iterations=3, lr=0.01, lr_final=0.01, n_particles=8),
+                                         exit_zone=exit_zone))
     mask = st.problem.mask(st.values.shape)
-    q1 = np.linspace(0.0, st.problem.height, st.values.shape[1])
+    q1 = np.linspace(0.0, st.problem.height, st.values.shape[1])      # 13 rows, 1/6 apart
     assert not mask[:, q1 >= st.problem.height - st.problem.start_zone].any()
-    assert not mask[:, q1 < st.problem.exit_zone].any()
+    np.testing.assert_array_equal(mask[0, :3], [0.0] * held_bottom_rows + [1.0] * (3 - held_bottom_rows))
     np.testing.assert_array_equal(st.values[mask == 0], 0.0)
     assert np.all(st.values[mask == 1] != 0.0)
 

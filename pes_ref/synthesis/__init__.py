@@ -5,6 +5,7 @@ Modules, one idea each, in import order:
 
 - :mod:`.optimizers`  RMSprop and Adam on the grid values
 - :mod:`.gait`        the oscillator's prescribed-gait shooting cost and its starts
+- :mod:`.exits`       where a funnel particle leaves the domain, and eq. (5) charged there
 - :mod:`.problems`    the funnel and oscillator design problems (scene, objective, sampler, metric)
 - :mod:`.plans`       how a problem is optimized (:class:`Plan`, :class:`PolishPlan`) and the defaults
 - :mod:`.resampling`  bilinear resampling of a grid between coarse-to-fine stages
@@ -19,8 +20,9 @@ The names below are the public synthesis API.
 """
 from pes_ref.synthesis.optimizers import Adam, RMSprop, make_optimizer
 from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
-from pes_ref.synthesis.problems import (IN_BAND_SHARE, OSCILLATOR_COSTS, PROBLEMS, Batch, FunnelProblem,
-                                        OscillatorProblem, PhaseThenCycle, exit_positions)
+from pes_ref.synthesis.exits import FunnelExit, exit_steps
+from pes_ref.synthesis.problems import (FUNNEL_OBJECTIVES, IN_BAND_SHARE, OSCILLATOR_COSTS, PROBLEMS, Batch,
+                                        FunnelProblem, OscillatorProblem, PhaseThenCycle, exit_positions)
 from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_OBJECTIVE, DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_OBJECTIVES,
                                      OSCILLATOR_POLISH, Plan, PolishPlan)
 from pes_ref.synthesis.resampling import resample
@@ -39,8 +41,9 @@ from pes_ref.synthesis.design_file import (DesignFileError, check_same_scene, de
 __all__ = [
     "Adam", "RMSprop", "make_optimizer",
     "GaitShooting", "GaitStarts", "sample_gait_starts",
+    "FunnelExit", "exit_steps",
     "FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
-    "IN_BAND_SHARE", "exit_positions",
+    "IN_BAND_SHARE", "exit_positions", "FUNNEL_OBJECTIVES",
     "Plan", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_OBJECTIVES", "OSCILLATOR_POLISH",
     "DEFAULT_OSCILLATOR_OBJECTIVE",
     "resample",

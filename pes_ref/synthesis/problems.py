@@ -26,10 +26,11 @@ from pes_ref.core.objectives import Funnel, Oscillator, OscillatorCycle
 from pes_ref.core.scene import Scene
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
+from pes_ref.synthesis.exits import FunnelExit, exit_steps
 from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 
 __all__ = ["FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
-           "IN_BAND_SHARE", "exit_positions"]
+           "IN_BAND_SHARE", "exit_positions", "FUNNEL_OBJECTIVES"]
 
 #: A funnel particle is "in band" when its exit |q0 - target| is below this share of the width (issue 4).
 IN_BAND_SHARE = 0.10
@@ -66,14 +67,18 @@ class FunnelProblem(_Problem):
     """The funnel of the paper's Figs. 6-7 on the plane ``[-width/2, width/2] x [0, height]``.
 
     Particles start at uniform random q0 across the top, ``start_depth`` below it, inside
-    a strip of depth ``start_zone`` held at zero energy; a strip of depth ``exit_zone`` at
-    the bottom is held at zero too, so that the surface, which extends as a constant
-    beyond the bottom edge, cannot keep steering particles after they exit; a constant force ``-force`` along
+    a strip of depth ``start_zone`` held at zero energy; a constant force ``-force`` along
     q1 plus Gaussian noise of std ``noise`` per step and axis push them down; walls of
     stiffness ``wall_k`` stand ``wall_margin`` inside the two side edges (q0). The
-    objective is eq. (5), ``sum_i (q0_i - target)^2`` at the final step (``when =
-    "final"``) or summed over every step (``"every_step"``), plus eq. (7) with weight
-    ``regularization``. Grid axis 0 is q0, axis 1 is q1; ``grid`` nodes per axis.
+    objective is eq. (5) with weight-``regularization`` eq. (7) added, charged where it is
+    chosen by ``when`` (:data:`FUNNEL_OBJECTIVES`): ``"exit"`` (the default) at the q0 where
+    each particle leaves the domain (:class:`pes_ref.synthesis.exits.FunnelExit`), ``"final"``
+    at the last step, ``"every_step"`` summed over every step. A strip of depth ``exit_zone``
+    at the bottom is held at zero energy (0 by default: none). ``"final"`` needs one
+    (``exit_zone = 0.05`` was the default with it): the surface extends as a constant beyond
+    the bottom edge, so without it a design charged at the last step can keep steering
+    particles after they leave the domain. Grid axis 0 is q0, axis 1 is q1; ``grid`` nodes
+    per axis.
     """
 
     kind: ClassVar[str] = "funnel"
@@ -81,7 +86,7 @@ class FunnelProblem(_Problem):
     width: float = 2.0
     height: float = 2.0
     start_zone: float = 0.3
-    exit_zone: float = 0.05
+    exit_zone: float = 0.0
     start_depth: float = 0.1
     force: float = 1.0
     noise: float = 0.3
@@ -92,12 +97,12 @@ class FunnelProblem(_Problem):
     wall_k: float = 1000.0
     wall_margin: float = 0.02
     init_scale: float = 1e-3
-    when: str = "final"
+    when: str = "exit"
     regularization: float = 0.0
 
     def __post_init__(self):
         _check_fields(self)
-        checks.as_choice("when", self.when, {"final", "every_step"})
+        checks.as_choice("when", self.when, set(FUNNEL_OBJECTIVES))
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -128,7 +133,8 @@ class FunnelProblem(_Problem):
                      effects=tuple(effects))
 
     def objective(self):
-        return Funnel(target=self.target, when=self.when)
+        """Eq. (5) charged where ``when`` says (:data:`FUNNEL_OBJECTIVES`)."""
+        return FUNNEL_OBJECTIVES[self.when](self)
 
     def batch(self, values, rng, n_particles: int, n_steps: int | None = None) -> Batch:
         """Particles uniformly across the top, constant downward force plus seeded noise."""
@@ -154,10 +160,18 @@ class FunnelProblem(_Problem):
 
 def exit_positions(problem: FunnelProblem, traj: Trajectory) -> np.ndarray:
     """q0 at the first state at or below the bottom edge (q1 <= 0), NaN if a path never gets there."""
-    below = traj.x[:, :, 1] <= problem.lower[1]
-    first = np.argmax(below, axis=0)
-    exits = traj.x[first, np.arange(traj.x.shape[1]), 0]
-    return np.where(below.any(axis=0), exits, np.nan)
+    step, exited = exit_steps(traj.x, problem.lower[1])
+    exits = traj.x[step, np.arange(traj.x.shape[1]), 0]
+    return np.where(exited, exits, np.nan)
+
+
+#: The funnel's objective for each ``when``: eq. (5) at each particle's exit (the default), at
+#: the final step, or summed over every step (:class:`pes_ref.core.objectives.Funnel`).
+FUNNEL_OBJECTIVES = {
+    "exit": lambda p: FunnelExit(target=p.target, level=p.lower[1]),
+    "final": lambda p: Funnel(target=p.target, when="final"),
+    "every_step": lambda p: Funnel(target=p.target, when="every_step"),
+}
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from pes_ref.core.terms import Spring, Walls
 from pes_ref.testing.properties import max_frequency, stiffness_bound
 
 __all__ = ["TOPOLOGIES", "topologies", "seeds", "surfaces", "states", "scenes", "scene_cases",
-           "objectives"]
+           "objectives", "exit_paths"]
 
 #: The four topologies as ``periodic`` pairs: plane, the two cylinders, torus.
 TOPOLOGIES = ((False, False), (True, False), (False, True), (True, True))
@@ -418,3 +418,22 @@ def objectives(draw, scene: Scene, n_particles: int, *, kinds=("funnel_final", "
     if _resolve(draw, regularization, st.booleans()):
         R = draw(_floats(1e-3, 1.0))
     return obj, R
+
+
+@st.composite
+def exit_paths(draw, *, max_states: int = 8, max_particles: int = 4, margin: float = 1e-3):
+    """Positions ``x`` (T+1, N, 2) whose q1 falls through a level, and the level: ``(x, level)``.
+
+    Each particle's q1 decreases from state to state; some particles cross ``level``, some
+    may not; no q1 lies within ``margin`` of it (away from the kink where a particle's exit
+    step changes, for finite differences of the funnel's exit cost). q0 is uniform in [-1, 1].
+    """
+    n_states = draw(st.integers(2, max_states))
+    n = draw(st.integers(1, max_particles))
+    rng = np.random.default_rng(draw(seeds()))
+    level = float(rng.uniform(-1.0, 1.0))
+    x = np.empty((n_states, n, 2))
+    x[:, :, 0] = rng.uniform(-1.0, 1.0, (n_states, n))
+    d = np.sort(rng.uniform(-1.0, 1.0, (n_states, n)), axis=0)[::-1]     # q1 - level, falling
+    x[:, :, 1] = level + np.where(np.abs(d) < margin, np.copysign(2.0 * margin, d), d)
+    return x, level

@@ -1,0 +1,59 @@
+"""Where a funnel particle leaves the domain, and eq. (5) charged there (issue 15).
+
+A particle *exits* at the first state at or below the bottom edge ``q1 <= level``
+(:func:`exit_steps`). The held-out evaluation measures its q0 there (:func:`exit_positions`,
+``in_band_fraction``), and :class:`FunnelExit` trains on the same quantity: the paper's
+eq. (5), ``sum_i (x_i - x_0)^2``, with ``x_i`` read as the q0 at which particle ``i``
+leaves the domain ("x_0 is the desired x value of particles exiting the domain"), not its
+q0 at the end of the run, after it has coasted on below the edge. ``docs/synthesis.md``
+(decision 8 and "The funnel") has the reasons and the measurements.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pes_ref.core import checks
+
+__all__ = ["exit_steps", "FunnelExit"]
+
+
+def exit_steps(x: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each particle's exit step and whether it exits.
+
+    ``x`` is a trajectory's positions (T+1, N, 2). Returns ``(step, exited)``, both (N,):
+    ``step[i]`` is the first n with ``x[n, i, 1] <= level`` when ``exited[i]``, else T
+    (the last state).
+    """
+    below = x[:, :, 1] <= level
+    exited = below.any(axis=0)
+    return np.where(exited, np.argmax(below, axis=0), x.shape[0] - 1), exited
+
+
+@dataclass(frozen=True)
+class FunnelExit:
+    """Eq. (5) at each particle's exit: ``L = sum_i (X_{n_i, i, 0} - target)^2``.
+
+    ``n_i`` is particle ``i``'s exit step (:func:`exit_steps` at ``level``), or the last
+    state T if it never exits, where the cost is eq. (5) at the final step. The exit step
+    is piecewise constant in the grid values, so away from the values where some ``n_i``
+    changes (a particle crossing ``level`` exactly on a step) the derivative is
+    ``dL/dX_{n_i, i, 0} = 2 (X_{n_i, i, 0} - target)`` and zero at every other state.
+    ``value_and_grad(x, v, t)`` follows :mod:`pes_ref.core.objectives`.
+    """
+
+    target: float = 0.0
+    level: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "target", checks.as_finite_float("target", self.target))
+        object.__setattr__(self, "level", checks.as_finite_float("level", self.level))
+
+    def value_and_grad(self, x, v, t):
+        step, _ = exit_steps(x, self.level)
+        particle = np.arange(x.shape[1])
+        e = x[step, particle, 0] - self.target
+        gx = np.zeros_like(x)
+        gx[step, particle, 0] = 2.0 * e
+        return float(np.sum(e * e)), gx, None
