@@ -103,6 +103,24 @@ def test_the_refusal_boundary_is_the_available_memory(monkeypatch):
     pr.simulate(_scene(100), [[0.5, 0.5], [0.2, 0.3]])
 
 
+@pytest.mark.parametrize("names, flags, words", [
+    ({}, {"n_steps": "--set n_steps"}, ("--set n_steps = 100 with N = 2 particles", "reduce --set n_steps or the number")),
+    ({"particles": "n_particles"}, {"n_steps": "--set n_steps", "n_particles": "--particles"},
+     ("--set n_steps = 100 with --particles = 2", "reduce --set n_steps or --particles")),
+    ({"steps": "duration", "length": "duration = 0.1 (100 steps of dt 0.001)"}, {"duration": "--duration"},
+     ("--duration = 0.1 (100 steps of dt 0.001) with N = 2 particles", "reduce --duration or")),
+])
+def test_the_refusal_names_the_arguments_that_set_the_run(monkeypatch, names, flags, words):
+    from pes_ref.cli.common import flag_message
+    monkeypatch.setattr(budget, "available_memory", lambda: 1)
+    with pytest.raises(budget.RunTooLargeError) as info:
+        budget.check_memory(100, 2, "simulate", **names)
+    assert info.value.key == names.get("steps", "n_steps")
+    text = flag_message(info.value, flags)
+    for w in words:
+        assert w in text
+
+
 def test_validate_case_refuses_before_allocating_the_force(monkeypatch):
     """The oracle refuses n_steps = 10**9 naming the key; the (T+1, N, 2) force array is never built."""
     def no_force(*a, **k):

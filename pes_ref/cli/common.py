@@ -31,12 +31,15 @@ def error(exc, flags: dict | None = None) -> int:
 
 def flag_message(exc, flags: dict) -> str:
     """The message of ``exc`` in the command's words: when ``exc`` is a keyed input error
-    (:class:`pes_ref.core.checks.InputError`) whose key ``flags`` maps, every whole-word
-    mention of the key becomes the flag (``n_particles must be >= 1, got 0`` ->
+    (:class:`pes_ref.core.checks.InputError`), every whole-word mention of an argument it
+    names (its ``names``: its key, and any other argument the message mentions) that
+    ``flags`` maps becomes the flag (``n_particles must be >= 1, got 0`` ->
     ``--particles must be >= 1, got 0``)."""
-    text, key = str(exc), getattr(exc, "key", None)
-    if key in flags:
-        text = re.sub(rf"(?<![\w-]){re.escape(key)}(?![\w-])", flags[key], text)
+    text = str(exc)
+    names = getattr(exc, "names", None) or (getattr(exc, "key", None),)
+    for name in names:
+        if name in flags:
+            text = re.sub(rf"(?<![\w-]){re.escape(name)}(?![\w-])", flags[name], text)
     return text
 
 

@@ -164,6 +164,7 @@ def _run_design(args) -> int:
                                  f"{state.plan.optimizer}")
             state.plan = dataclasses.replace(state.plan, **plan_over)
             synthesis.check_stable_design(state)
+            synthesis.check_design_memory(state)
             if state.polish is not None:
                 from pes_ref.synthesis.stages import set_polish
                 set_polish(state, dataclasses.replace(state.polish, **inputs.polish_overrides))

@@ -59,7 +59,8 @@ _GIB = 2.0 ** 30
 
 
 class RunTooLargeError(checks.InputError):
-    """A run whose arrays cannot fit in the available memory; ``key`` is ``"n_steps"``."""
+    """A run whose arrays cannot fit in the available memory; ``key`` names what sets its
+    length (``"n_steps"`` unless the caller says otherwise, :func:`check_memory`)."""
 
 
 class RunEstimate(NamedTuple):
@@ -93,22 +94,29 @@ def available_memory() -> int | None:
         return None
 
 
-def check_memory(n_steps: int, n_particles: int, kind: str) -> int:
+def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_steps", particles: str | None = None,
+                 length: str | None = None) -> int:
     """Refuse a run that cannot fit in the available memory; return its bytes.
+
+    ``steps`` and ``particles`` name the arguments that set T and N as the caller's user
+    knows them (``particles`` None: N is the number of particles of the state); ``length``
+    says how T reads (default ``"<steps> = T"``, e.g. ``"duration = 1e9 (5e11 steps of dt 0.002)"``).
 
     Raises
     ------
     RunTooLargeError
         ``run_bytes(n_steps, n_particles, kind)`` exceeds :func:`available_memory`; one
-        line naming ``n_steps``, N and both sizes in GiB (a ``ValueError``, key ``n_steps``).
+        line naming ``steps`` (its key), N and both sizes in GiB (a ``ValueError``).
     """
     need = run_bytes(n_steps, n_particles, kind)
     avail = available_memory()
     if avail is not None and need > avail:
+        count = f"{particles} = {n_particles}" if particles else f"N = {n_particles} particles"
         raise RunTooLargeError(
-            "n_steps", f"n_steps = {n_steps} with N = {n_particles} particles needs about {need / _GIB:.3g} GiB "
-                       f"({ARRAYS[kind]} arrays of (T+1, N, 2) float64), more than the {avail / _GIB:.3g} GiB of "
-                       f"memory available; reduce n_steps or the number of particles")
+            steps, f"{length or f'{steps} = {n_steps}'} with {count} needs about {need / _GIB:.3g} GiB "
+                   f"({ARRAYS[kind]} arrays of (T+1, N, 2) float64), more than the {avail / _GIB:.3g} GiB of "
+                   f"memory available; reduce {steps} or {particles or 'the number of particles'}",
+            names=(steps, particles) if particles else (steps,))
     return need
 
 

@@ -40,11 +40,15 @@ class InputError(ValueError):
         The argument's name (None when no single argument is at fault).
     message : str
         The whole message; it names the argument and quotes the bad value.
+    names : tuple of str, optional
+        Every argument name the message mentions (default: ``key`` alone), for a command
+        line that rewords them as its flags.
     """
 
-    def __init__(self, key: str | None, message: str):
+    def __init__(self, key: str | None, message: str, names: tuple = ()):
         super().__init__(message)
         self.key = key
+        self.names = tuple(names) or ((key,) if key is not None else ())
 
 
 class InputTypeError(InputError, TypeError):

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from pes_ref.core import checks
+from pes_ref.core import budget, checks
 from pes_ref.devices.cspace import CSpaceGrid, GridSpring
 from pes_ref.core.effects import PerParticle
 from pes_ref.devices.geometry import Part, Polygon, Rotation
@@ -121,12 +121,16 @@ def ratchet_surface(design: RatchetDesign = RatchetDesign(), blocked=None) -> Su
 
 
 def ratchet_scene(design: RatchetDesign, torques, duration: float, surface: Surface | None = None) -> Scene:
-    """One particle per torque (shape (N,)), each a constant torque on the wheel."""
+    """One particle per torque (shape (N,)), each a constant torque on the wheel, for ``duration``
+    seconds (refused, naming ``duration``, when the run cannot fit in memory)."""
     torques = checks.as_float_array("torques", np.atleast_1d(torques), ndim=1)
     duration = checks.as_positive_float("duration", duration)
+    n_steps = int(np.ceil(duration / design.dt))
+    budget.check_memory(n_steps, torques.size, "simulate", steps="duration",
+                        length=f"duration = {duration:g} ({n_steps} steps of dt {design.dt:g})")
     surface = ratchet_surface(design) if surface is None else surface
     force = np.stack((torques, np.zeros_like(torques)), axis=1)
-    return Scene(surface, dt=design.dt, n_steps=int(np.ceil(duration / design.dt)),
+    return Scene(surface, dt=design.dt, n_steps=n_steps,
                  mass=np.array(design.mass), damping=np.array(design.damping), effects=(PerParticle(force),))
 
 

@@ -26,8 +26,8 @@ from pes_ref.synthesis.problems import (FUNNEL_OBJECTIVES, IN_BAND_SHARE, OSCILL
 from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_OBJECTIVE, DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_OBJECTIVES,
                                      OSCILLATOR_POLISH, Plan, PolishPlan)
 from pes_ref.synthesis.resampling import resample
-from pes_ref.synthesis.training import (STOPPED, DesignState, GradientStep, Progress, check_stable_design,
-                                        design_gradient, new_design, run_design)
+from pes_ref.synthesis.training import (STOPPED, DesignState, GradientStep, Progress, check_design_memory,
+                                        check_stable_design, design_gradient, new_design, run_design)
 from pes_ref.synthesis.analysis import (ANALYSIS_PERIODS, CYCLE_DRIFT, CYCLE_TOLERANCE, Paths, TorqueSweep,
                                         cycle_figures, evaluate, funnel_paths, oscillator_grid_starts,
                                         oscillator_torque_sweep, phase_space, q1_advance)
@@ -48,7 +48,7 @@ __all__ = [
     "DEFAULT_OSCILLATOR_OBJECTIVE",
     "resample",
     "DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",
-    "check_stable_design", "STOPPED",
+    "check_stable_design", "check_design_memory", "STOPPED",
     "Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
     "phase_space", "cycle_figures", "q1_advance", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS",
     "legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "PolishResult", "polish",

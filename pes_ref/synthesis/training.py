@@ -21,7 +21,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from pes_ref.core import checks
+from pes_ref.core import budget, checks
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.scene import value_and_grad
 from pes_ref.core.stability import UnstableStepError, check_stable
@@ -30,7 +30,7 @@ from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.resampling import resample
 
 __all__ = ["DesignState", "Progress", "Stage", "StageClock", "plan_stages", "GradientStep", "StopFlag", "new_design",
-           "run_design", "design_gradient", "check_stable_design", "STOPPED", "STAGES"]
+           "run_design", "design_gradient", "check_stable_design", "check_design_memory", "STOPPED", "STAGES"]
 
 #: The statuses of a run that stopped on a failed iteration (rolled back to the last good state):
 #: its run left the finite numbers, or its grid steepened past the stability rule.
@@ -108,6 +108,7 @@ def new_design(kind: str, seed: int = 0, plan: Plan | None = None, polish: Polis
     problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
     state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish)
     check_stable_design(state)
+    check_design_memory(state)
     return state
 
 
@@ -117,6 +118,19 @@ def check_stable_design(state: DesignState) -> None:
     ``dt`` (e.g. a ``dt`` or ``wall_k`` override too large for the problem's springs and
     walls). Every iteration checks its own scene again as the grid changes."""
     check_stable(state.problem.scene(state.values))
+
+
+def check_design_memory(state: DesignState) -> None:
+    """Refuse a run whose training iterations cannot fit in the available memory, before it
+    runs: :class:`~pes_ref.core.budget.RunTooLargeError` naming ``n_steps`` (or ``stages``,
+    when a stage's horizon is the longest) and ``n_particles`` (the plan's particles per iteration)."""
+    plan, own = state.plan, state.problem.n_steps
+    steps = max(st[2] or own for st in plan.stages)
+    if steps == own:
+        budget.check_memory(steps, plan.n_particles, "value_and_grad", particles="n_particles")
+    else:                                   # a stage's horizon is the longest
+        budget.check_memory(steps, plan.n_particles, "value_and_grad", steps="stages", particles="n_particles",
+                            length=f"stages of {steps} steps")
 
 
 class Progress(NamedTuple):
