@@ -371,23 +371,40 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
     reg, greg = regularization(scene.surface.values, R)
     raw = stepper(scene.mode, scene.integrator).adjoint(scene.field(), traj, _step_params(scene, progress), gx, gv,
                                                         want)
-    grads = {}
-    for name in GRADIENT_NAMES:
-        if name not in want:
-            continue
-        g = raw[name]
-        if name == "values":
-            g = g.reshape(scene.surface.shape)
-            if greg is not None:
-                g = g + greg
-        elif name in ("mass", "damping"):
-            src = getattr(scene, name)
-            g = checks.reduce_to_shape(np.broadcast_to(g, (n, 2)), np.shape(src) if src is not None else ())
-        elif name in ("spring_k", "spring_center"):
-            src = getattr(scene.spring, name.split("_")[1])
-            g = checks.reduce_to_shape(g, np.shape(src))
-        grads[name] = g
+    grads = {name: _INPUT_SHAPE.get(name, _as_given)(scene, raw[name], n) for name in GRADIENT_NAMES if name in want}
+    if "values" in grads and greg is not None:
+        grads["values"] = grads["values"] + greg
     return loss + reg, grads, traj
+
+
+# ---------------------------------------------------------------- a gradient in its input's shape
+# The adjoint returns per-particle (N, 2) gradients for mass and damping and flat ones for the grid;
+# each is returned in the shape its input was given in (a broadcast input's gradient is summed).
+
+def _as_given(scene: Scene, g, n: int):
+    return g
+
+
+def _grid_shape(scene: Scene, g, n: int):
+    return g.reshape(scene.surface.shape)
+
+
+def _scene_field_shape(field: str):
+    def shape(scene: Scene, g, n: int):
+        src = getattr(scene, field)
+        return checks.reduce_to_shape(np.broadcast_to(g, (n, 2)), np.shape(src) if src is not None else ())
+    return shape
+
+
+def _spring_field_shape(field: str):
+    def shape(scene: Scene, g, n: int):
+        return checks.reduce_to_shape(g, np.shape(getattr(scene.spring, field)))
+    return shape
+
+
+#: How each gradient takes its input's shape (a name not here is returned as the adjoint gives it).
+_INPUT_SHAPE = {"values": _grid_shape, "mass": _scene_field_shape("mass"), "damping": _scene_field_shape("damping"),
+                "spring_k": _spring_field_shape("k"), "spring_center": _spring_field_shape("center")}
 
 
 def _wanted(scene: Scene, wrt) -> frozenset:
