@@ -14,7 +14,7 @@ from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
 from pes_ref.sweep.spec import load_sweep
 from pes_ref.synthesis import new_design, run_design
 
-EXPERIMENTS = Path(__file__).resolve().parents[1] / "validation" / "experiments"
+EXPERIMENTS = Path(__file__).resolve().parents[2] / "validation" / "experiments"
 sys.path.insert(0, str(EXPERIMENTS))
 plans = importlib.import_module("oscillator_plans")
 
