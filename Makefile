@@ -16,14 +16,14 @@ $(STAMP): setup.cfg pyproject.toml
 
 venv: $(STAMP)
 
-# The whole suite, in file order; tests/test_architecture.py runs lint-imports on the
+# The whole suite, in file order; tests/project/test_architecture.py runs lint-imports on the
 # layer and cycle contracts of setup.cfg.
 test: $(STAMP)
 	$(PY) -m pytest -q
 
 # The suite in a random order (pytest-randomly; the seed is printed: rerun an order with
 # --randomly-seed=N): no test may depend on another having run. The plugin leaves NumPy's
-# global random state alone (--randomly-dont-reset-seed): tests/test_forces.py watches it.
+# global random state alone (--randomly-dont-reset-seed): tests/core/test_forces.py watches it.
 test-random: $(STAMP)
 	$(PY) -m pytest -p randomly --randomly-dont-reset-seed
 

@@ -9,7 +9,7 @@ result's copies. All of these scale with ``(T+1) N``, so a run needs about
     bytes = ARRAYS[kind] * (T+1) * N * 2 * 8
 
 with :data:`ARRAYS` the number of (T+1, N, 2) float64 arrays alive at the run's peak
-(measured with ``tracemalloc`` and rounded up: ``tests/test_budget.py`` checks that the
+(measured with ``tracemalloc`` and rounded up: ``tests/core/test_budget.py`` checks that the
 formula bounds the measured peak). The grid, the parameters and the per-particle buffers
 are small beside it and left out. :func:`check_memory` refuses a run whose estimate is
 more than the memory available (``MemAvailable`` of ``/proc/meminfo``, or

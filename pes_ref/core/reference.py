@@ -28,7 +28,7 @@ textbook one, this module uses it, so that most results are bit-identical:
 that same difference times ``-1/h0`` and ``-1/h1``, each kick adds its terms in the fast
 path's order, and the undamped step is the damped one with ``gamma = 0`` (``c = 0``,
 ``d = 1``: bit-identical to skipping the damping operations, which the fast path does).
-``tests/test_reference.py`` then asserts exact equality of the bilinear runs (x, v, f,
+``tests/core/test_reference.py`` then asserts exact equality of the bilinear runs (x, v, f,
 energy, loss and every gradient but ``values``, with either integrator). The grid
 gradient is summed here per step by (A3) straight into the grid, while the fast path
 sums per cell into its table and maps the table to the grid once: the same sum in

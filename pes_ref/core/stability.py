@@ -23,7 +23,7 @@ stiffness; Gershgorin's bound of the summed Hessians).
 Dynamic (damped velocity Verlet, eqs. (2)-(3)): a harmonic mode of angular frequency
 ``omega = sqrt(K / m)`` is stable iff ``omega dt < 2``, with or without damping (the
 amplification matrix of the damped step has spectral radius <= 1 exactly up to
-``omega dt = 2`` for every ``gamma >= 0``; checked in ``tests/test_hard_cases.py``). So
+``omega dt = 2`` for every ``gamma >= 0``; checked in ``tests/core/test_hard_cases.py``). So
 
     dt_max = 2 / omega_max,   omega_max = max_d sqrt(K_d / min_i m_{i,d}).
 

@@ -16,7 +16,7 @@ from pes_ref.sweep.results import _TAIL
 from pes_ref.sweep.spec import TOP_LEVEL_KEYS, SweepFileError, load_sweep, parse_sweep
 from pes_ref.synthesis import PROBLEMS
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXPERIMENTS = ROOT / "validation" / "experiments"
 
 

@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("module", ["pes_ref.core.scene", "pes_ref.oracle.case", "pes_ref.synthesis.optimizers"])

@@ -3,9 +3,6 @@ in oscillator_plans.py, bit for bit (at a few iterations on a tiny grid, the lea
 from __future__ import annotations
 
 import dataclasses
-import importlib
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,9 +11,10 @@ from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
 from pes_ref.sweep.spec import load_sweep
 from pes_ref.synthesis import new_design, run_design
 
-EXPERIMENTS = Path(__file__).resolve().parents[1] / "validation" / "experiments"
-sys.path.insert(0, str(EXPERIMENTS))
-plans = importlib.import_module("oscillator_plans")
+from _helpers import ROOT, load_script
+
+EXPERIMENTS = ROOT / "validation" / "experiments"
+plans = load_script(EXPERIMENTS / "oscillator_plans.py")
 
 SWEEP = load_sweep(EXPERIMENTS / "oscillator_plans.toml")
 #: A few iterations on an 8 x 8 grid with short runs, a stage change included.

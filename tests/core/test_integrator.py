@@ -314,7 +314,7 @@ def test_only_wanted_gradients_are_returned_and_they_do_not_change(mode):
 
 def _unstable(mode, cause):
     """A scene far past the stability limit (run with ``allow_unstable=True``: by default
-    it is refused before the run, tests/test_stability_rule.py)."""
+    it is refused before the run, tests/core/test_stability_rule.py)."""
     surf = pr.Surface(np.zeros((4, 4)), (0, 0), (1, 1), (False, False))
     kw = dict(mobility=(1.0, 1.0)) if mode == "quasistatic" else {}
     term = dict(walls=pr.Walls(1e12, 0.1, np.ones((2, 2), bool))) if cause == "walls" \

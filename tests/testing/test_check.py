@@ -1,5 +1,5 @@
 """``pes_ref check``: it passes pes_ref's own oracle and fails each broken program,
-naming the key at fault (tests/check_programs/broken.py)."""
+naming the key at fault (tests/testing/check_programs/broken.py)."""
 import json
 import subprocess
 import sys
