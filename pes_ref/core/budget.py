@@ -95,12 +95,13 @@ def available_memory() -> int | None:
 
 
 def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_steps", particles: str | None = None,
-                 length: str | None = None) -> int:
+                 length: str | None = None, fixed_particles: bool = False) -> int:
     """Refuse a run that cannot fit in the available memory; return its bytes.
 
     ``steps`` and ``particles`` name the arguments that set T and N as the caller's user
     knows them (``particles`` None: N is the number of particles of the state); ``length``
-    says how T reads (default ``"<steps> = T"``, e.g. ``"duration = 1e9 (5e11 steps of dt 0.002)"``).
+    says how T reads (default ``"<steps> = T"``, e.g. ``"duration = 1e9 (5e11 steps of dt 0.002)"``);
+    ``fixed_particles``: N is not the user's to change, and the refusal says to reduce T alone.
 
     Raises
     ------
@@ -115,7 +116,8 @@ def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_s
         raise RunTooLargeError(
             steps, f"{length or f'{steps} = {n_steps}'} with {count} needs about {need / _GIB:.3g} GiB "
                    f"({ARRAYS[kind]} arrays of (T+1, N, 2) float64), more than the {avail / _GIB:.3g} GiB of "
-                   f"memory available; reduce {steps} or {particles or 'the number of particles'}",
+                   f"memory available; reduce {steps}"
+                   + ("" if fixed_particles else f" or {particles or 'the number of particles'}"),
             names=(steps, particles) if particles else (steps,))
     return need
 

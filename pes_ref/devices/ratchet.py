@@ -126,7 +126,7 @@ def ratchet_scene(design: RatchetDesign, torques, duration: float, surface: Surf
     torques = checks.as_float_array("torques", np.atleast_1d(torques), ndim=1)
     duration = checks.as_positive_float("duration", duration)
     n_steps = int(np.ceil(duration / design.dt))
-    budget.check_memory(n_steps, torques.size, "simulate", steps="duration",
+    budget.check_memory(n_steps, torques.size, "simulate", steps="duration", fixed_particles=True,
                         length=f"duration = {duration:g} ({n_steps} steps of dt {design.dt:g})")
     surface = ratchet_surface(design) if surface is None else surface
     force = np.stack((torques, np.zeros_like(torques)), axis=1)

@@ -106,7 +106,7 @@ FAULTS = [
     Fault("ratchet-duration-zero", "analyze ratchet --smoke --duration 0", ("--duration", "0")),
     Fault("ratchet-duration-nan", "analyze ratchet --smoke --duration nan", ("--duration", "nan")),
     Fault("ratchet-duration-too-long-for-memory", "analyze ratchet --smoke --duration 1e9",
-          ("--duration = 1e+09 (500000000000 steps of dt 0.002)", "GiB", "reduce --duration")),
+          ("--duration = 1e+09 (500000000000 steps of dt 0.002)", "GiB", "available; reduce --duration")),
     Fault("ratchet-search-tol-zero", "analyze ratchet --smoke --search-tol 0", ("--search-tol", "0")),
     Fault("ratchet-search-hi-too-low", "analyze ratchet --smoke --search-hi 0.01", ("--search-hi", "0.01")),
     Fault("ratchet-unknown-option", "analyze ratchet --smoke --bogus", ("--bogus",)),

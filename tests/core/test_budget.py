@@ -109,6 +109,8 @@ def test_the_refusal_boundary_is_the_available_memory(monkeypatch):
      ("--set n_steps = 100 with --particles = 2", "reduce --set n_steps or --particles")),
     ({"steps": "duration", "length": "duration = 0.1 (100 steps of dt 0.001)"}, {"duration": "--duration"},
      ("--duration = 0.1 (100 steps of dt 0.001) with N = 2 particles", "reduce --duration or")),
+    ({"steps": "duration", "length": "duration = 0.1 (100 steps of dt 0.001)", "fixed_particles": True},
+     {"duration": "--duration"}, ("with N = 2 particles", "memory available; reduce --duration")),
 ])
 def test_the_refusal_names_the_arguments_that_set_the_run(monkeypatch, names, flags, words):
     from pes_ref.cli.common import flag_message
@@ -119,6 +121,7 @@ def test_the_refusal_names_the_arguments_that_set_the_run(monkeypatch, names, fl
     text = flag_message(info.value, flags)
     for w in words:
         assert w in text
+    assert text.endswith("the number of particles") != bool(names.get("fixed_particles") or names.get("particles"))
 
 
 def test_validate_case_refuses_before_allocating_the_force(monkeypatch):
