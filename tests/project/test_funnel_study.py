@@ -6,6 +6,7 @@ The study itself is ``make funnel-study`` (about 5 minutes), not part of ``make 
 """
 from __future__ import annotations
 
+import pytest
 from _helpers import ROOT, load_script, run_script
 
 from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
@@ -53,3 +54,36 @@ def test_a_missing_results_file_is_one_line(tmp_path):
     proc = run_script(EXPERIMENTS / "funnel_objective.py", tmp_path / "nothing.csv")
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1 and "run the sweep first" in proc.stderr
+
+
+def _results_csv(tmp_path, design_file):
+    path = tmp_path / "results.csv"
+    row = {**_row("default", 0, 0.9, 0.9), "design_file": str(design_file)}
+    path.write_text(",".join(row) + "\n" + ",".join(row.values()) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("words, said", [
+    (["default"], "expected VARIANT SEED [HELD_OUT]"),
+    (["default", "0", "abc"], "expected VARIANT SEED [HELD_OUT]"),
+    (["default", "0", "1", "2"], "expected VARIANT SEED [HELD_OUT]"),
+    (["nope", "0"], "no run of variant 'nope' with seed 0"),
+    (["default", "0"], "nothing.npz does not exist"),
+])
+def test_bad_misses_arguments_are_one_line(tmp_path, words, said):
+    proc = run_script(EXPERIMENTS / "funnel_objective.py", _results_csv(tmp_path, tmp_path / "nothing.npz"),
+                      "--misses", *words)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("error: ") and said in proc.stderr
+
+
+def test_misses_describes_a_design(tmp_path):
+    from pes_ref.synthesis import Plan, new_design, run_design, save_design
+    state = run_design(new_design("funnel", seed=0, plan=Plan(iterations=2, n_particles=4), grid=8, n_steps=300))
+    save_design(tmp_path / "d.npz", state)
+    proc = run_script(EXPERIMENTS / "funnel_objective.py", _results_csv(tmp_path, tmp_path / "d.npz"),
+                      "--misses", "default", "0", "7")
+    assert proc.returncode == 0, proc.stderr
+    first, *lines = proc.stdout.splitlines()
+    assert "when=exit, exit_zone=0; held-out seed 7:" in first and "of 200 missed" in first
+    assert lines and all(line.startswith("  start q0 ") for line in lines)

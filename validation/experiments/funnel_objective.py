@@ -71,37 +71,47 @@ def misses(design_file: str, held_out: int) -> str:
     return "\n".join(out)
 
 
-def _results(path: Path):
+def _results(path: Path) -> list[dict]:
     if not path.is_file():
-        raise SystemExit(f"error: {path} does not exist; run the sweep first: python -m pes_ref sweep "
-                         f"validation/experiments/funnel_objective.toml --out {path.parent}")
+        raise FileNotFoundError(f"{path} does not exist; run the sweep first: python -m pes_ref sweep "
+                                f"validation/experiments/funnel_objective.toml --out {path.parent}")
     with path.open(newline="") as f:
         return list(csv.DictReader(f))
+
+
+def _design_of(rows: list[dict], words: list[str]) -> tuple[str, int]:
+    """The design file and held-out seed that ``--misses VARIANT SEED [HELD_OUT]`` names."""
+    if len(words) not in (2, 3) or not all(w.isdigit() for w in words[1:]):
+        raise ValueError(f"--misses {' '.join(words)}: expected VARIANT SEED [HELD_OUT], seeds as integers >= 0")
+    variant, seed, held_out = words[0], words[1], int(words[2]) if len(words) == 3 else 12345
+    found = [r for r in rows if r["variant"] == variant and r["seed"] == str(int(seed))]
+    if not found:
+        raise ValueError(f"--misses {' '.join(words)}: no run of variant {variant!r} with seed {seed} in the "
+                         f"results (variants: {', '.join(sorted({r['variant'] for r in rows}))})")
+    return found[0]["design_file"], held_out
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("results", nargs="?", default=str(DEFAULT_CSV), help="the sweep's results.csv")
-    ap.add_argument("--misses", nargs="+", metavar="VARIANT SEED [HELD_OUT]",
-                    help="describe the misses of one design of the sweep (held-out seed default 12345)")
+    ap.add_argument("--misses", nargs="+", metavar="WORD",
+                    help="VARIANT SEED [HELD_OUT]: describe the misses of one design of the sweep "
+                         "(held-out seed default 12345)")
     args = ap.parse_args(argv)
     try:
         rows = _results(Path(args.results))
-    except SystemExit as exc:
-        print(exc, file=sys.stderr)
+        if args.misses is None:
+            print(table(rows))
+            return 0
+        design_file, held_out = _design_of(rows, args.misses)
+        print(misses(design_file, held_out))
+    except (OSError, ValueError) as exc:          # a design file moved away or not a design: one line too
+        print(f"error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
-    if args.misses is None:
-        print(table(rows))
-        return 0
-    variant, seed, *rest = args.misses + ([] if len(args.misses) > 1 else [""])
-    found = [r for r in rows if r["variant"] == variant and r["seed"] == seed]
-    if not found or len(rest) > 1:
-        print(f"error: --misses {' '.join(args.misses)}: expected VARIANT SEED [HELD_OUT] of a run in "
-              f"{args.results}", file=sys.stderr)
-        return 2
-    print(misses(found[0]["design_file"], int(rest[0]) if rest else 12345))
     return 0
 
 
 if __name__ == "__main__":
+    import signal
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)       # `| head` ends the output quietly
     sys.exit(main())
