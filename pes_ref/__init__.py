@@ -20,11 +20,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
-from pes_ref import _moved
-
 __version__ = "0.1.0"
-
-_moved.install()   # old flat import paths keep working, with a DeprecationWarning
 
 #: Each public name and the module it lives in (imported on first access, PEP 562).
 _EXPORTS = {

@@ -8,14 +8,12 @@ One idea per module:
 - :mod:`.task`: one run on a worker: design (resumable from its design file), then evaluate;
 - :mod:`.runner`: the runs as Dask tasks: retries, resume, interruption, progress;
 - :mod:`.results`: ``results.csv`` and ``summary.png``;
-- :mod:`.cluster`: a local cluster or an existing scheduler;
-- :mod:`.populations`: :func:`client_map`, a design stage's candidates on the same cluster.
+- :mod:`.cluster`: a local cluster or an existing scheduler.
 
 Dask (``pip install 'pes_ref[sweep]'``) is imported only where a cluster is used; this
 package imports without it. See ``docs/sweeps.md``.
 """
-from pes_ref.sweep.populations import client_map, task_client
 from pes_ref.sweep.runner import SweepReport, run_sweep
 from pes_ref.sweep.spec import Run, Sweep, SweepFileError, load_sweep
 
-__all__ = ["load_sweep", "Sweep", "Run", "SweepFileError", "run_sweep", "SweepReport", "client_map", "task_client"]
+__all__ = ["load_sweep", "Sweep", "Run", "SweepFileError", "run_sweep", "SweepReport"]

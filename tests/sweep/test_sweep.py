@@ -1,5 +1,5 @@
 """``python -m pes_ref sweep`` on a 2-worker LocalCluster: the smoke sweep (4 tiny runs, one injected
-failure), its table, resume, a worker that dies, Ctrl-C, and client_map for populations."""
+failure), its table, resume, a worker that dies and Ctrl-C."""
 from __future__ import annotations
 
 import csv
@@ -16,7 +16,6 @@ distributed = pytest.importorskip("distributed")
 
 from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main  # noqa: E402
 from pes_ref.sweep import cluster, task as task_module  # noqa: E402
-from pes_ref.sweep.populations import client_map, task_client  # noqa: E402
 from pes_ref.sweep.runner import run_sweep  # noqa: E402
 from pes_ref.sweep.spec import load_sweep  # noqa: E402
 from pes_ref.synthesis.design_file import load_design  # noqa: E402
@@ -196,28 +195,6 @@ def test_a_task_never_raises_and_reports_the_error(tmp_path):
     out = task_module.run_task({"id": "x", "kind": "funnel", "options": {"smoke": True}, "seed": 0,
                                 "eval_seeds": [1], "eval_particles": 4, "design_file": str(tmp_path / "x.npz")})
     assert out["status"] == "failed" and "is not an .npz archive" in out["error"] and out["worker"] == "local"
-
-
-def _square(x):
-    return x * x
-
-
-def _population(n):
-    """A task that scores its own candidates on the same cluster (a polish stage's population)."""
-    with task_client() as c:
-        assert c is not None
-        return client_map(c, _square, range(n))
-
-
-def test_client_map_in_process_on_the_cluster_and_from_inside_a_task(client):
-    import cloudpickle
-    cloudpickle.register_pickle_by_value(sys.modules[__name__])
-    assert client_map(None, _square, range(5)) == [0, 1, 4, 9, 16]
-    assert client_map(client, _square, range(5)) == [0, 1, 4, 9, 16]
-    with task_client() as none:
-        assert none is None
-    # two single-threaded workers, each task waiting on four subtasks: no deadlock
-    assert client.gather(client.map(_population, [4, 4], pure=False)) == [[0, 1, 4, 9]] * 2
 
 
 def test_without_dask_the_command_says_how_to_install_it(tmp_path, capsys, monkeypatch):

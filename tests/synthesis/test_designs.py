@@ -1,8 +1,6 @@
 """Design problems and the design loop: gradients, resampling, stopping, improvement on a small funnel."""
-import importlib
 import os
 import signal
-import sys
 
 import numpy as np
 import pytest
@@ -260,16 +258,6 @@ def test_escapement_values_bad_input(kwargs, error, word):
 def test_escapement_values_needs_the_oscillator():
     with pytest.raises(TypeError, match="OscillatorProblem"):
         synthesis.escapement_values(synthesis.FunnelProblem())
-
-
-# --------------------------------------------------------------------------- the old module paths
-
-@pytest.mark.parametrize("old", ["pes_ref.designs", "pes_ref.synthesis.designs"])
-def test_the_old_designs_module_path_gives_the_synthesis_api_with_a_warning(old, monkeypatch):
-    monkeypatch.delitem(sys.modules, old, raising=False)
-    with pytest.warns(DeprecationWarning, match=f"{old} moved to pes_ref.synthesis"):
-        module = importlib.import_module(old)
-    assert module.new_design is synthesis.new_design and module.evaluate is synthesis.evaluate
 
 
 @pytest.mark.parametrize("kind, params, key", [

@@ -29,8 +29,8 @@ from pes_ref.oracle.npz import atomic_file
 
 __all__ = ["VERSION", "Vector", "build_vectors", "write_vectors", "compare_dirs", "main"]
 
-#: The generator named in the manifest: this module. (The frozen v1 manifest names its
-#: old path, ``pes_ref.conformance.generate``, which still imports.)
+#: The generator named in the manifest: this module. (The frozen v1 manifest names the
+#: module path of the layout it was written in, ``pes_ref.conformance.generate``.)
 GENERATOR = "pes_ref.oracle.conformance.generate"
 
 #: The vector set this module writes. v2 (spec v2) adds the stability rule of
