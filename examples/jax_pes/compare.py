@@ -5,7 +5,7 @@
 
 Valid vectors: the result must have exactly the reference's keys and shapes, and each
 array must pass ``|got - want| <= atol + rtol |want|`` entrywise, with the tolerances of
-pes_ref/testing/tolerances.py (read from the file, pes_ref is not imported):
+pes_ref/oracle/tolerances.py (read from the file, pes_ref is not imported):
 trajectory keys (x, v, energy, loss) TRAJ_RTOL with the floor TRAJ_ATOL; gradients
 GRAD_RTOL with the floor GRAD_ATOL * max|want| (1 for an all-zero gradient). The number
 shown per array is ``max |got - want| / (atol/rtol + |want|)`` (passes when <= rtol). On
@@ -43,10 +43,8 @@ NAMES = ("TRAJ_RTOL", "TRAJ_ATOL", "GRAD_RTOL", "GRAD_ATOL")
 
 def find_vectors() -> str:
     """The latest shipped vector set: the highest-numbered folder ``v<k>`` with a manifest."""
-    for rel in ("pes_ref/oracle/conformance", "pes_ref/conformance"):
-        root = os.path.join(REPO, rel)
-        if not os.path.isdir(root):
-            continue
+    root = os.path.join(REPO, "pes_ref", "oracle", "conformance")
+    if os.path.isdir(root):
         sets = [(int(name[1:]), os.path.join(root, name)) for name in os.listdir(root)
                 if re.fullmatch(r"v[0-9]+", name) and os.path.isfile(os.path.join(root, name, "manifest.json"))]
         if sets:
@@ -55,12 +53,11 @@ def find_vectors() -> str:
 
 
 def read_tolerances(manifest: dict) -> tuple:
-    """The constants of pes_ref/testing/tolerances.py, parsed (not imported): that file,
-    or the module it re-exports them from; else the manifest's record of them."""
-    for rel in ("pes_ref/testing/tolerances.py", "pes_ref/oracle/tolerances.py", "pes_ref/tolerances.py"):
-        path = os.path.join(REPO, rel)
-        if not os.path.isfile(path):
-            continue
+    """The constants of pes_ref/oracle/tolerances.py, parsed (not imported); else the
+    manifest's record of them."""
+    rel = "pes_ref/oracle/tolerances.py"
+    path = os.path.join(REPO, rel)
+    if os.path.isfile(path):
         found = {}
         for node in ast.parse(open(path).read()).body:
             if isinstance(node, ast.Assign) and isinstance(node.value, ast.Constant):

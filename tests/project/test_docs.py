@@ -49,3 +49,52 @@ def test_readme_oracle_example_runs_as_written(tmp_path):
                           env={**__import__("os").environ, "PYTHONPATH": str(ROOT)})
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
     assert proc.stdout.startswith(f"wrote {result}: ") and (tmp_path / result).is_file()
+
+
+# ------------------------------------------------------------------ the docs name what exists
+
+#: The prose a reader follows: every ``pes_ref/...`` path and ``pes_ref.x.y`` name in it.
+DOCS = sorted([*ROOT.glob("docs/*.md"), ROOT / "README.md", ROOT / "tests" / "README.md",
+               *ROOT.glob("examples/*/README.md")])
+#: A repository path (a file or a folder) that starts with pes_ref/.
+DOC_PATH = re.compile(r"(?<![\w./-])pes_ref/[\w./-]*[\w/]")
+#: A dotted name under pes_ref: a module, then attributes.
+DOC_NAME = re.compile(r"(?<![\w./-])pes_ref(?:\.[A-Za-z_]\w*)+")
+
+
+def _resolves(name: str) -> bool:
+    """Whether the dotted ``name`` is a module, or attributes of its longest importable prefix."""
+    parts = name.split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:i]))
+        except ModuleNotFoundError:
+            continue
+        for attr in parts[i:]:
+            if not hasattr(obj, attr):
+                return False
+            obj = getattr(obj, attr)
+        return True
+    return False
+
+
+def broken_references(text: str) -> list:
+    """``line: reference`` for each path under pes_ref/ that does not exist and each dotted
+    pes_ref name that does not import or resolve, in the order they appear."""
+    out = []
+    for lineno, line in enumerate(text.splitlines(), 1):
+        out += [f"{lineno}: {p}" for p in DOC_PATH.findall(line) if not (ROOT / p).exists()]
+        out += [f"{lineno}: {n}" for n in DOC_NAME.findall(line) if not _resolves(n)]
+    return out
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_pes_ref_path_and_name_in_the_docs_exists(doc):
+    assert broken_references(doc.read_text()) == []
+
+
+def test_a_stale_reference_is_found():
+    text = ("`pes_ref/core/grid.py` and `pes_ref.core.grid.Locator` hold;\n"
+            "`pes_ref/surface.py`, `pes_ref.surface.Locator` and `pes_ref.core.grid.Nowhere` do not.")
+    assert broken_references(text) == ["2: pes_ref/surface.py", "2: pes_ref.surface.Locator",
+                                       "2: pes_ref.core.grid.Nowhere"]
