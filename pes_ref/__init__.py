@@ -2,15 +2,8 @@
 conceptual design and analysis of mechanical systems (Manion & Fuge, DETC2021).
 
 The numerical contract is ``docs/spec.md``; the adjoint is
-derived in ``docs/adjoint.md``. Subpackages by layer, imports only downward (docs/architecture.md):
-
-- :mod:`pes_ref.core`       surfaces, energy terms, effects, steppers and their adjoints, the scene layer
-- :mod:`pes_ref.oracle`     the case/result ``.npz`` interchange format, tolerances, conformance vectors
-- :mod:`pes_ref.devices`    part geometry -> C-space -> eq. (1) surface; the ratchet and the dart gun
-- :mod:`pes_ref.synthesis`  optimizers; the funnel and oscillator problems, plans, training, evaluation, design files
-- :mod:`pes_ref.bench`      the benchmark (``python -m pes_ref bench``)
-- :mod:`pes_ref.testing`    conformance checks, hypothesis strategies and properties for other implementations
-- :mod:`pes_ref.cli`        the command line (``python -m pes_ref``)
+derived in ``docs/adjoint.md``. The subpackages are layers that import only downward:
+``docs/architecture.md`` draws them and says what each module holds.
 
 The names below are re-exported here and imported on first use, so that a command
 that needs only the core (``python -m pes_ref oracle``) does not pay for the rest.

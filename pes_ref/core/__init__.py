@@ -3,6 +3,6 @@ energy terms, external forces, the hot loop's kernels, the steppers (a registry)
 their hand-derived adjoints, objectives, the stability limit, input checks, and the
 scene layer (``Scene``, ``simulate``, ``value_and_grad``) over them.
 
-Nothing here imports from a layer above (the oracle, devices, synthesis, bench, cli,
-testing); ``make test`` checks this with import-linter (``setup.cfg``).
+This is the lowest layer: nothing here imports from another subpackage of pes_ref
+(``docs/architecture.md``; ``make test`` checks it with import-linter).
 """

@@ -1,7 +1,6 @@
 """Sweeps: many design runs from one TOML file, run as Dask tasks on one machine or a cluster.
 
-Layer: above :mod:`pes_ref.synthesis`, below :mod:`pes_ref.cli` (``python -m pes_ref sweep``).
-One idea per module:
+The package behind ``python -m pes_ref sweep``, one idea per module:
 
 - :mod:`.options`: design options (the ``design`` command's flags) to a problem and a plan;
 - :mod:`.spec`: a sweep file read and checked into its runs;

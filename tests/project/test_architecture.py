@@ -1,9 +1,11 @@
-"""The architecture holds: pes_ref's subpackages import only downward (cli > bench |
-testing > synthesis > devices > oracle > core) and no package has an import cycle between
-its modules. The contracts are import-linter's, in setup.cfg; this runs ``lint-imports``
-on this checkout, so that ``make test`` fails on an upward import or a cycle and prints
-import-linter's report of it."""
+"""The architecture holds: pes_ref's subpackages import only downward, through the layers
+listed once, in setup.cfg's import-linter contract, and no package has an import cycle
+between its modules. This runs ``lint-imports`` on this checkout, so that ``make test``
+fails on an upward import or a cycle and prints import-linter's report of it; and it
+checks that docs/architecture.md draws those layers."""
+import configparser
 import os
+import re
 import subprocess
 import sys
 
@@ -19,3 +21,31 @@ def test_import_contracts_hold():
                            "--no-logo"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, f"import-linter (setup.cfg's contracts):\n{proc.stdout}\n{proc.stderr}"
     assert "Contracts: 2 kept, 0 broken." in proc.stdout
+
+
+def setup_cfg_layers() -> list:
+    """The layers of setup.cfg's contract, highest first, each a tuple of subpackages."""
+    cfg = configparser.ConfigParser()
+    cfg.read(ROOT / "setup.cfg")
+    lines = cfg["importlinter:contract:layers"]["layers"].splitlines()
+    return [tuple(name.strip() for name in line.split("|")) for line in lines if line.strip()]
+
+
+def drawn_layers(text: str) -> list:
+    """The layers of the diagram in ``text`` (docs/architecture.md's first code block):
+    each line that starts with two spaces and the layer's ``a | b`` names."""
+    block = re.search(r"```\n(.*?)```", text, re.S).group(1)
+    return [tuple(name.strip() for name in m.group(1).split("|"))
+            for m in re.finditer(r"^  (\w+(?: \| \w+)*)(?: {2,}|$)", block, re.M)]
+
+
+def test_the_architecture_page_draws_the_layers_of_setup_cfg():
+    layers = setup_cfg_layers()
+    assert layers[0] == ("cli",) and layers[-1] == ("core",)
+    assert drawn_layers((ROOT / "docs" / "architecture.md").read_text()) == layers
+
+
+def test_a_diagram_without_a_layer_differs():
+    diagram = "```\n  cli          the commands\n   |\n  bench | testing   the benchmark |\n" \
+              "                    more words\n   |\n  core         the core\n```\n"
+    assert drawn_layers(diagram) == [("cli",), ("bench", "testing"), ("core",)]
