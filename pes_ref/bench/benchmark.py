@@ -35,7 +35,7 @@ from pes_ref import __version__
 from pes_ref.bench.cases import CASES, reference_gradient, reference_objective, reference_scene, smooth_surface
 from pes_ref.core.effects import Constant, Noise, Window
 from pes_ref.core.interpolations import interpolation
-from pes_ref.core.integrator import adjoint_dynamic, adjoint_quasistatic
+from pes_ref.core.integrator import adjoint_dynamic, adjoint_quasistatic, step_coefficients
 from pes_ref.core.objectives import Funnel
 from pes_ref.core.scene import Scene, simulate, value_and_grad
 from pes_ref.core.surface import Surface
@@ -187,7 +187,7 @@ def _hand_loop(scene: Scene, x0, v0):
     effect checks, no validation, no finiteness check."""
     field = scene.field()
     T, N = scene.n_steps, x0.shape[0]
-    a = np.broadcast_to(scene.dt / (2.0 * scene.mass), (N, 2)).copy()
+    a, _ = step_coefficients(scene.dt, scene.mass, None, N)
     dt = scene.dt
 
     def run():

@@ -30,19 +30,19 @@ from __future__ import annotations
 import numpy as np
 
 from pes_ref.core.forces import Field, ForceAdjoint
-from pes_ref.core.integrator import Trajectory, check_finite, finish_dynamic_adjoint, reports_nonfinite, start_dynamic
+from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, reports_nonfinite, start_dynamic,
+                                     step_coefficients)
 from pes_ref.core.progress import reporting
 
 __all__ = ["simulate_gjf", "adjoint_gjf"]
 
 
 def _coefficients(dt: float, mass: np.ndarray, damping, n: int):
-    """``a = dt/(2m)``, and with damping ``c = dt gamma/(2m)``, ``d = 1/(1+c)``, ``e = (1-c) d``,
-    all (N, 2); without damping c, d, e are None."""
-    a = np.broadcast_to(dt / (2.0 * mass), (n, 2)).copy()
-    if damping is None:
+    """``a`` and ``c`` (:func:`pes_ref.core.integrator.step_coefficients`), and with damping
+    ``d = 1/(1+c)``, ``e = (1-c) d``, all (N, 2); without damping c, d, e are None."""
+    a, c = step_coefficients(dt, mass, damping, n)
+    if c is None:
         return a, None, None, None
-    c = np.broadcast_to(dt * damping / (2.0 * mass), (n, 2)).copy()
     d = 1.0 / (1.0 + c)
     return a, c, d, (1.0 - c) * d
 

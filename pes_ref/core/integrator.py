@@ -38,8 +38,8 @@ from pes_ref.core.forces import Field, ForceAdjoint, ForceKernel
 from pes_ref.core.progress import reporting
 
 __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
-           "adjoint_quasistatic", "NonFiniteError", "check_finite", "reports_nonfinite", "start_dynamic",
-           "finish_dynamic_adjoint"]
+           "adjoint_quasistatic", "NonFiniteError", "check_finite", "reports_nonfinite", "step_coefficients",
+           "start_dynamic", "finish_dynamic_adjoint"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -86,6 +86,16 @@ def reports_nonfinite(simulate_fn):
 
 # =========================================================================== dynamic
 
+def step_coefficients(dt: float, mass, damping, n: int):
+    """The dynamic step's coefficients ``a = dt/(2m)`` and ``c = dt gamma/(2m)``
+    (``docs/adjoint.md`` section 4), each a fresh (N, 2) array for ``n`` particles; ``c``
+    is None for an undamped scene (``damping=None``). The one place they are computed:
+    both integrators and :mod:`pes_ref.core.reference` call it."""
+    a = np.broadcast_to(dt / (2.0 * mass), (n, 2)).copy()
+    c = None if damping is None else np.broadcast_to(dt * damping / (2.0 * mass), (n, 2)).copy()
+    return a, c
+
+
 def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: int):
     """Allocate a dynamic run's (T+1, N, 2) arrays x, v, f, store state 0 and its force
     ``F_0 = F(X_0) + F_ext[0]``; return ``(x, v, f, force)`` with the run's force kernel
@@ -130,10 +140,9 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
     """
     N = x0.shape[0]
     x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps)
-    a = np.broadcast_to(dt / (2.0 * mass), (N, 2)).copy()       # a = dt / 2m
-    damped = damping is not None
+    a, c = step_coefficients(dt, mass, damping, N)
+    damped = c is not None
     if damped:
-        c = np.broadcast_to(dt * damping / (2.0 * mass), (N, 2)).copy()   # c = dt gamma / 2m
         inv_1pc = 1.0 / (1.0 + c)
         cv = np.empty((N, 2))
     p = np.empty((N, 2))
@@ -198,10 +207,9 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     x, v, f = traj
     T, N = x.shape[0] - 1, x.shape[1]
     adj = ForceAdjoint(field, x, want)
-    a = np.broadcast_to(dt / (2.0 * mass), (N, 2)).copy()
-    damped = damping is not None
+    a, c = step_coefficients(dt, mass, damping, N)
+    damped = c is not None
     if damped:
-        c = np.broadcast_to(dt * damping / (2.0 * mass), (N, 2)).copy()
         inv_1pc = 1.0 / (1.0 + c)
         minus_c = -c
     want_mass, want_damping = "mass" in want, "damping" in want
@@ -249,8 +257,7 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
             add(xbar, gx[n], xbar)
         if gv is not None:
             add(vbar, gv[n], vbar)
-    return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c if damped else None,
-                                  mass, want_damping)
+    return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping)
 
 
 def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping: bool) -> dict:

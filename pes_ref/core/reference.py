@@ -43,6 +43,7 @@ from typing import NamedTuple
 import numpy as np
 
 from pes_ref.core.grid import Cells
+from pes_ref.core.integrator import step_coefficients
 
 __all__ = ["Terms", "Cell", "Run", "terms_of", "lookup", "potential_energy", "force", "force_T",
            "forward", "backward", "reduce_to_shape", "simulate", "energy", "value_and_grad"]
@@ -420,11 +421,10 @@ class Run(NamedTuple):
 
 
 def coefficients(dt, mass, damping, n):
-    """``a = dt/(2m)``, ``c = dt gamma/(2m)``, ``d = 1/(1+c)``, ``e = (1-c) d``, each (N, 2);
-    an undamped scene has ``gamma = 0``: ``c = 0``, ``d = e = 1``."""
-    gamma = 0.0 if damping is None else damping
-    a = np.broadcast_to(dt / (2.0 * mass), (n, 2))
-    c = np.broadcast_to(dt * gamma / (2.0 * mass), (n, 2))
+    """``a = dt/(2m)``, ``c = dt gamma/(2m)`` (:func:`pes_ref.core.integrator.step_coefficients`),
+    ``d = 1/(1+c)``, ``e = (1-c) d``, each (N, 2); an undamped scene has ``gamma = 0``:
+    ``c = 0``, ``d = e = 1``."""
+    a, c = step_coefficients(dt, mass, 0.0 if damping is None else damping, n)
     d = 1.0 / (1.0 + c)
     return a, c, d, (1.0 - c) * d
 
