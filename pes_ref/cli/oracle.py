@@ -141,10 +141,6 @@ def _check_files(case_path: str, result_path: str, force: bool) -> None:
     output_file(result_path, "result", force=force)
 
 
-#: Members every result file holds and no case does.
-_RESULT_MEMBERS = {"x.npy", "v.npy", "energy.npy", "loss.npy"}
-
-
 def _members(path: str) -> set:
     """The member names of the zip at ``path`` (only its directory is read; none if it is no zip)."""
     try:
@@ -155,8 +151,10 @@ def _members(path: str) -> set:
 
 
 def _is_result_file(path: str) -> bool:
-    """Whether ``path`` holds a result's members."""
-    return _RESULT_MEMBERS <= _members(path)
+    """Whether ``path`` holds the members every result has and no case does
+    (:data:`pes_ref.oracle.case.TRAJECTORY_KEYS`)."""
+    from pes_ref.oracle.case import TRAJECTORY_KEYS
+    return {key + ".npy" for key in TRAJECTORY_KEYS} <= _members(path)
 
 
 def _is_design_file(path: str) -> bool:

@@ -48,7 +48,7 @@ __all__ = [
     "CaseError", "CaseTypeError", "ResultExistsError", "ValidCase",
     "REQUIRED_KEYS", "OPTIONAL_KEYS", "OBJECTIVE_PARAMS", "CASE_KEYS", "KEY_GROUPS",
     "load_case", "validate_case", "run_case", "write_result", "run_case_file", "save_case",
-    "read_npz", "write_npz", "result_keys", "grad_names_for",
+    "read_npz", "write_npz", "result_keys", "grad_names_for", "TRAJECTORY_KEYS",
 ]
 
 #: Keys every case must hold (docs/spec.md section 8.2: those marked required). ``v0``, ``mass``
@@ -355,9 +355,14 @@ def grad_names_for(mode: str, has_spring: bool) -> tuple:
     return gradient_names(mode, has_spring)
 
 
+#: The keys every result holds before its gradients (docs/spec.md section 9): the trajectory,
+#: the energy and the loss.
+TRAJECTORY_KEYS = ("x", "v", "energy", "loss")
+
+
 def result_keys(grad_names) -> tuple:
-    """The keys of a result: ``x, v, energy, loss`` and ``grad_<name>`` per name."""
-    return ("x", "v", "energy", "loss") + tuple("grad_" + g for g in grad_names)
+    """The keys of a result: :data:`TRAJECTORY_KEYS` and ``grad_<name>`` per name."""
+    return TRAJECTORY_KEYS + tuple("grad_" + g for g in grad_names)
 
 
 def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
@@ -468,10 +473,9 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None) -> dict:
         raise CaseError(blame, f"the run left the finite numbers ({exc}); {stability.advice(scene)}") from None
     except MemoryError:
         raise CaseError("n_steps", f"a run of n_steps={scene.n_steps} does not fit in memory") from None
-    result = {"x": traj.x, "v": traj.v, "energy": e, "loss": np.float64(loss)}
-    for name in vc.grad_names:
-        result["grad_" + name] = grads[name]
-    return {k: np.array(v, dtype=np.float64) for k, v in result.items()}
+    values = dict(zip(TRAJECTORY_KEYS, (traj.x, traj.v, e, np.float64(loss))))
+    values.update(("grad_" + name, grads[name]) for name in vc.grad_names)
+    return {k: np.array(values[k], dtype=np.float64) for k in result_keys(vc.grad_names)}
 
 
 def write_result(result: Mapping, path, overwrite: bool = False, compress: bool = False) -> None:

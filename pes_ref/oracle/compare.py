@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from pes_ref.oracle.case import TRAJECTORY_KEYS
 from pes_ref.oracle.tolerances import GRAD_ATOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 
-__all__ = ["TRAJECTORY_KEYS", "array_error", "passes", "compare_results"]
+__all__ = ["array_error", "passes", "compare_results"]
 
-#: Result keys compared with the trajectory tolerances; every ``grad_*`` key uses the gradient ones.
-TRAJECTORY_KEYS = ("x", "v", "energy", "loss")
+# The result's TRAJECTORY_KEYS are compared with the trajectory tolerances; every
+# ``grad_*`` key uses the gradient ones.
 
 
 def _tolerance(name: str, want: np.ndarray):

@@ -39,7 +39,7 @@ import os
 
 import numpy as np
 
-from pes_ref.oracle.case import REQUIRED_KEYS
+from pes_ref.oracle.case import REQUIRED_KEYS, TRAJECTORY_KEYS
 from pes_ref.oracle.errors import CaseError
 from pes_ref.oracle.npz import read_npz, write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
@@ -186,7 +186,7 @@ def _read_polish(path, data: dict, state: DesignState) -> None:
 #: the keys that give them away, and the command that reads them.
 _OTHER_FILES = (
     ("case", set(REQUIRED_KEYS), "the oracle runs it: python -m pes_ref oracle {path} RESULT.npz"),
-    ("result", {"x", "v", "energy", "loss"}, "it holds an oracle run's output"),
+    ("result", set(TRAJECTORY_KEYS), "it holds an oracle run's output"),
 )
 
 

@@ -37,7 +37,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pes_ref.oracle.compare import TRAJECTORY_KEYS, array_error, compare_results, passes
+from pes_ref.oracle.case import TRAJECTORY_KEYS
+from pes_ref.oracle.compare import array_error, compare_results, passes
 from pes_ref.oracle.conformance import LATEST, vectors_dir
 
 __all__ = ["VectorReport", "load_manifest", "iter_vectors", "compare_results", "relative_errors",
