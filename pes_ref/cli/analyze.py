@@ -15,12 +15,11 @@ import dataclasses
 from pes_ref.core import checks
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error  # noqa: F401
 
-#: Option defaults, and the ``--smoke`` preset (a smaller grid, shorter runs, coarser
-#: searches: for tests and a quick look; same geometry). An option given explicitly wins.
-RATCHET_DEFAULTS = {"torque": "1.0", "duration": "10.0", "search_hi": "2.0", "search_tol": "0.01"}
+#: The ``--smoke`` presets (a smaller grid, shorter runs, coarser searches: for tests and a
+#: quick look; same geometry). An option given explicitly wins; an option neither given nor
+#: in the preset takes the analysis' default (``RATCHET_ANALYSIS``, ``DARTGUN_ANALYSIS`` of
+#: :mod:`pes_ref.devices.ratchet` and :mod:`pes_ref.devices.dartgun`).
 RATCHET_SMOKE = {"shape": (128, 128), "dt": 2e-3, "duration": "3.0", "search_tol": "0.1"}
-DARTGUN_DEFAULTS = {"reload_force": "30.0", "reload_time": "1.0", "trigger_forces": "10,20,30,40",
-                    "fire_time": "0.3", "search_hi": "40.0", "search_tol": "0.1"}
 DARTGUN_SMOKE = {"shape": (121, 81), "dt": 5e-4, "trigger_forces": "10,30", "search_tol": "2.0"}
 #: The entries of a smoke preset that change the design (the rest are option texts).
 DESIGN_KEYS = ("shape", "dt")
@@ -43,7 +42,15 @@ def _floats(option: str, text: str) -> list:
     return [_float(option, p.strip(), checks.as_nonneg_float) for p in parts]
 
 
+def _texts(defaults: dict) -> dict:
+    """An analysis' defaults as the option texts that give them exactly (``10.0,20.0`` for a tuple)."""
+    return {k: ",".join(map(repr, v)) if isinstance(v, tuple) else repr(v) for k, v in defaults.items()}
+
+
 def add_parser(sub) -> None:
+    from pes_ref.devices.dartgun import DARTGUN_ANALYSIS
+    from pes_ref.devices.ratchet import RATCHET_ANALYSIS
+    rd, dd = _texts(RATCHET_ANALYSIS), _texts(DARTGUN_ANALYSIS)
     p = add_command(sub, "analyze", help="analyze a device on its potential energy surface (ratchet, dart gun)",
         description="Build a device's C-space from its part geometry, turn it into a potential energy "
                     "surface (eq. (1) plus its springs) and run the analyses of the paper's "
@@ -60,13 +67,14 @@ def add_parser(sub) -> None:
                     "prints the net rotation of each, then finds the smallest torque that advances the "
                     "wheel by one tooth within --duration by bisection.",
         examples=["analyze ratchet --smoke", "analyze ratchet --torque 0.5 --duration 5"])
-    r.add_argument("--torque", default=None, metavar="T", help="torque magnitude on the wheel (> 0; default 1.0)")
+    r.add_argument("--torque", default=None, metavar="T",
+                   help=f"torque magnitude on the wheel (> 0; default {rd['torque']})")
     r.add_argument("--duration", default=None, metavar="S",
-                   help="length of each run in seconds (> 0; default 10)")
+                   help=f"length of each run in seconds (> 0; default {rd['duration']})")
     r.add_argument("--search-hi", default=None, metavar="T",
-                   help="upper end of the torque search (> 0, must advance the wheel; default 2.0)")
+                   help=f"upper end of the torque search (> 0, must advance the wheel; default {rd['search_hi']})")
     r.add_argument("--search-tol", default=None, metavar="T",
-                   help="bracket width at which the torque search stops (> 0; default 0.01)")
+                   help=f"bracket width at which the torque search stops (> 0; default {rd['search_tol']})")
     r.add_argument("--smoke", action="store_true",
                    help=f"quick look: small grid, short runs, coarse search ({_preset(RATCHET_SMOKE)})")
     r.set_defaults(func=_run_ratchet)
@@ -79,15 +87,18 @@ def add_parser(sub) -> None:
                     "latched equilibrium with each --trigger-forces value for --fire-time and prints the "
                     "dart's exit speed; prints the bounding boxes of the reload and fire trajectories.",
         examples=["analyze dartgun --smoke", "analyze dartgun --reload-force 25 --trigger-forces 10,20"])
-    d.add_argument("--reload-force", default=None, metavar="F", help="reload push on the dart (> 0; default 30)")
-    d.add_argument("--reload-time", default=None, metavar="S", help="how long the reload push lasts (> 0; default 1)")
+    d.add_argument("--reload-force", default=None, metavar="F",
+                   help=f"reload push on the dart (> 0; default {dd['reload_force']})")
+    d.add_argument("--reload-time", default=None, metavar="S",
+                   help=f"how long the reload push lasts (> 0; default {dd['reload_time']})")
     d.add_argument("--trigger-forces", default=None, metavar="F1,F2,...",
-                   help="trigger pushes (>= 0, comma-separated; default 10,20,30,40)")
-    d.add_argument("--fire-time", default=None, metavar="S", help="how long the trigger push lasts (> 0; default 0.3)")
+                   help=f"trigger pushes (>= 0, comma-separated; default {dd['trigger_forces']})")
+    d.add_argument("--fire-time", default=None, metavar="S",
+                   help=f"how long the trigger push lasts (> 0; default {dd['fire_time']})")
     d.add_argument("--search-hi", default=None, metavar="F",
-                   help="upper end of the reload force search (> 0, must reload; default 40)")
+                   help=f"upper end of the reload force search (> 0, must reload; default {dd['search_hi']})")
     d.add_argument("--search-tol", default=None, metavar="F",
-                   help="bracket width at which the force search stops (> 0; default 0.1)")
+                   help=f"bracket width at which the force search stops (> 0; default {dd['search_tol']})")
     d.add_argument("--smoke", action="store_true",
                    help=f"quick look: small grid, fewer runs, coarse search ({_preset(DARTGUN_SMOKE)})")
     d.set_defaults(func=_run_dartgun)
@@ -98,9 +109,10 @@ def _preset(preset: dict) -> str:
 
 
 def _options(args, defaults: dict, smoke: dict) -> dict:
-    """Each option's text: given explicitly, else the smoke preset's (with --smoke), else the default."""
+    """Each option's text: given explicitly, else the smoke preset's (with --smoke), else the
+    analysis' default (``defaults``, in its own units and types)."""
     return {k: getattr(args, k) if getattr(args, k) is not None else (smoke.get(k, v) if args.smoke else v)
-            for k, v in defaults.items()}
+            for k, v in _texts(defaults).items()}
 
 
 def _run(args, defaults: dict, smoke: dict, design, analyze, parse) -> int:
@@ -119,20 +131,20 @@ def _run(args, defaults: dict, smoke: dict, design, analyze, parse) -> int:
 
 
 def _run_ratchet(args) -> int:
-    from pes_ref.devices.ratchet import RatchetDesign, analyze_ratchet
+    from pes_ref.devices.ratchet import RATCHET_ANALYSIS, RatchetDesign, analyze_ratchet
 
     def parse(o):
         duration = _float("--duration", o["duration"])
         return (_float("--torque", o["torque"]), duration, _float("--search-hi", o["search_hi"]),
                 _float("--search-tol", o["search_tol"]), duration)
-    return _run(args, RATCHET_DEFAULTS, RATCHET_SMOKE, RatchetDesign(), analyze_ratchet, parse)
+    return _run(args, RATCHET_ANALYSIS, RATCHET_SMOKE, RatchetDesign(), analyze_ratchet, parse)
 
 
 def _run_dartgun(args) -> int:
-    from pes_ref.devices.dartgun import DartGunDesign, analyze_dartgun
+    from pes_ref.devices.dartgun import DARTGUN_ANALYSIS, DartGunDesign, analyze_dartgun
 
     def parse(o):
         return (_float("--reload-force", o["reload_force"]), _float("--reload-time", o["reload_time"]),
                 _floats("--trigger-forces", o["trigger_forces"]), _float("--fire-time", o["fire_time"]),
                 _float("--search-hi", o["search_hi"]), _float("--search-tol", o["search_tol"]))
-    return _run(args, DARTGUN_DEFAULTS, DARTGUN_SMOKE, DartGunDesign(), analyze_dartgun, parse)
+    return _run(args, DARTGUN_ANALYSIS, DARTGUN_SMOKE, DartGunDesign(), analyze_dartgun, parse)

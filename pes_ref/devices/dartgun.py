@@ -38,7 +38,8 @@ from pes_ref.core.terms import Walls
 
 __all__ = ["DartGunDesign", "dartgun_parts", "dartgun_cspace", "dartgun_surface", "dartgun_start",
            "reload_scene", "fire_scene", "run_reload", "run_fire", "ReloadResult", "FireResult",
-           "min_reload_force", "exit_speeds", "settle", "latched_state", "trajectory_bbox", "DartGunReport", "analyze_dartgun"]
+           "min_reload_force", "exit_speeds", "settle", "latched_state", "trajectory_bbox", "DartGunReport", "analyze_dartgun",
+           "DARTGUN_ANALYSIS"]
 
 
 @dataclass(frozen=True)
@@ -311,9 +312,18 @@ class DartGunReport:
         return lines + [f"time_{k}: {v:.3g} s" for k, v in self.times.items()]
 
 
-def analyze_dartgun(design: DartGunDesign = DartGunDesign(), reload_force: float = 30.0, reload_time: float = 1.0,
-                    trigger_forces=(10.0, 20.0, 30.0, 40.0), fire_time: float = 0.3,
-                    search_hi: float = 40.0, search_tol: float = 0.1) -> DartGunReport:
+#: The analysis' defaults (``analyze dartgun`` uses and shows them): the reload push (force)
+#: and how long it lasts (s), the trigger pushes (force) and how long each lasts (s), and the
+#: upper end and bracket width of the search for the smallest force that reloads (force).
+DARTGUN_ANALYSIS = {"reload_force": 30.0, "reload_time": 1.0, "trigger_forces": (10.0, 20.0, 30.0, 40.0),
+                    "fire_time": 0.3, "search_hi": 40.0, "search_tol": 0.1}
+
+
+def analyze_dartgun(design: DartGunDesign = DartGunDesign(), reload_force: float = DARTGUN_ANALYSIS["reload_force"],
+                    reload_time: float = DARTGUN_ANALYSIS["reload_time"],
+                    trigger_forces=DARTGUN_ANALYSIS["trigger_forces"], fire_time: float = DARTGUN_ANALYSIS["fire_time"],
+                    search_hi: float = DARTGUN_ANALYSIS["search_hi"],
+                    search_tol: float = DARTGUN_ANALYSIS["search_tol"]) -> DartGunReport:
     """Reload with ``reload_force`` for ``reload_time``, the smallest force that reloads, the exit
     speed for each trigger force (fired from the latched state), and the trajectories' bounding boxes."""
     reload_force = checks.as_positive_float("reload_force", reload_force)

@@ -33,7 +33,8 @@ from pes_ref.core.scene import Scene, simulate
 from pes_ref.core.surface import Surface
 
 __all__ = ["RatchetDesign", "ratchet_parts", "ratchet_cspace", "ratchet_surface", "ratchet_start",
-           "ratchet_scene", "run_ratchet", "min_advancing_torque", "RatchetReport", "analyze_ratchet"]
+           "ratchet_scene", "run_ratchet", "min_advancing_torque", "RatchetReport", "analyze_ratchet",
+           "RATCHET_ANALYSIS"]
 
 
 @dataclass(frozen=True)
@@ -206,8 +207,16 @@ class RatchetReport:
         ] + [f"time_{k}: {v:.3g} s" for k, v in self.times.items()]
 
 
-def analyze_ratchet(design: RatchetDesign = RatchetDesign(), torque: float = 1.0, duration: float = 10.0,
-                    search_hi: float = 2.0, search_tol: float = 0.01, search_duration: float = 10.0) -> RatchetReport:
+#: The analysis' defaults (``analyze ratchet`` uses and shows them): the torque on the wheel
+#: (torque-unit), each run's duration (s), and the upper end and bracket width of the search
+#: for the smallest advancing torque (torque-unit), whose runs last ``duration`` too.
+RATCHET_ANALYSIS = {"torque": 1.0, "duration": 10.0, "search_hi": 2.0, "search_tol": 0.01}
+
+
+def analyze_ratchet(design: RatchetDesign = RatchetDesign(), torque: float = RATCHET_ANALYSIS["torque"],
+                    duration: float = RATCHET_ANALYSIS["duration"], search_hi: float = RATCHET_ANALYSIS["search_hi"],
+                    search_tol: float = RATCHET_ANALYSIS["search_tol"],
+                    search_duration: float = RATCHET_ANALYSIS["duration"]) -> RatchetReport:
     """Net rotation under +/- ``torque``, the pawl's swing, and the smallest advancing torque."""
     torque = checks.as_positive_float("torque", torque)
     times = {}

@@ -22,6 +22,36 @@ def test_help_explains_the_options(capsys, device, option):
     assert option in out and "--smoke" in out
 
 
+@pytest.mark.parametrize("device, module, name, table", [
+    ("ratchet", "pes_ref.devices.ratchet", "analyze_ratchet", "RATCHET_ANALYSIS"),
+    ("dartgun", "pes_ref.devices.dartgun", "analyze_dartgun", "DARTGUN_ANALYSIS"),
+])
+def test_without_options_the_command_runs_the_analysis_with_its_defaults(capsys, monkeypatch, device, module, name,
+                                                                         table):
+    """The defaults live in the device module (its table, which the function's signature
+    reads); the command passes them unchanged and its help shows each one."""
+    import importlib
+    import inspect
+
+    mod = importlib.import_module(module)
+    signature = [p.default for p in inspect.signature(getattr(mod, name)).parameters.values()][1:]
+    got = []
+
+    class Report:
+        def as_lines(self):
+            return []
+
+    def analysis(design, *values):
+        got.extend(tuple(v) if isinstance(v, list) else v for v in values)
+        return Report()
+    monkeypatch.setattr(mod, name, analysis)
+    assert run(capsys, device)[0] == EXIT_OK
+    assert got == signature
+    help_text = " ".join(run(capsys, device, "--help")[1].split())
+    for value in getattr(mod, table).values():
+        assert f"default {','.join(map(repr, value)) if isinstance(value, tuple) else repr(value)})" in help_text
+
+
 def figures(capsys, *argv) -> dict:
     """Run a command that must succeed; its lines as {name: "value unit"}."""
     code, out, err = run(capsys, *argv)
