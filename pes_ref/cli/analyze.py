@@ -11,6 +11,7 @@ one line ``error: <message>`` on stderr and exit status 2.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 
 from pes_ref.core import checks
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error  # noqa: F401
@@ -42,15 +43,32 @@ def _floats(option: str, text: str) -> list:
     return [_float(option, p.strip(), checks.as_nonneg_float) for p in parts]
 
 
-def _texts(defaults: dict) -> dict:
-    """An analysis' defaults as the option texts that give them exactly (``10.0,20.0`` for a tuple)."""
-    return {k: ",".join(map(repr, v)) if isinstance(v, tuple) else repr(v) for k, v in defaults.items()}
+def _text(value) -> str:
+    """The option text that gives ``value`` exactly (``10.0,20.0`` for a tuple)."""
+    return ",".join(map(repr, value)) if isinstance(value, tuple) else repr(value)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Default:
+    """An option's default: entry ``key`` of the analysis' table ``table`` in ``module``, read
+    only when it is needed (the help's ``%(default)s``, a run without the option), so that
+    building the parser imports no device module. An option still holding it was not given."""
+
+    module: str
+    table: str
+    key: str
+
+    def __str__(self) -> str:
+        return _text(getattr(importlib.import_module(self.module), self.table)[self.key])
 
 
 def add_parser(sub) -> None:
-    from pes_ref.devices.dartgun import DARTGUN_ANALYSIS
-    from pes_ref.devices.ratchet import RATCHET_ANALYSIS
-    rd, dd = _texts(RATCHET_ANALYSIS), _texts(DARTGUN_ANALYSIS)
+    def rd(key):
+        return _Default("pes_ref.devices.ratchet", "RATCHET_ANALYSIS", key)
+
+    def dd(key):
+        return _Default("pes_ref.devices.dartgun", "DARTGUN_ANALYSIS", key)
+
     p = add_command(sub, "analyze", help="analyze a device on its potential energy surface (ratchet, dart gun)",
         description="Build a device's C-space from its part geometry, turn it into a potential energy "
                     "surface (eq. (1) plus its springs) and run the analyses of the paper's "
@@ -67,14 +85,14 @@ def add_parser(sub) -> None:
                     "prints the net rotation of each, then finds the smallest torque that advances the "
                     "wheel by one tooth within --duration by bisection.",
         examples=["analyze ratchet --smoke", "analyze ratchet --torque 0.5 --duration 5"])
-    r.add_argument("--torque", default=None, metavar="T",
-                   help=f"torque magnitude on the wheel (> 0; default {rd['torque']})")
-    r.add_argument("--duration", default=None, metavar="S",
-                   help=f"length of each run in seconds (> 0; default {rd['duration']})")
-    r.add_argument("--search-hi", default=None, metavar="T",
-                   help=f"upper end of the torque search (> 0, must advance the wheel; default {rd['search_hi']})")
-    r.add_argument("--search-tol", default=None, metavar="T",
-                   help=f"bracket width at which the torque search stops (> 0; default {rd['search_tol']})")
+    r.add_argument("--torque", default=rd("torque"), metavar="T",
+                   help="torque magnitude on the wheel (> 0; default %(default)s)")
+    r.add_argument("--duration", default=rd("duration"), metavar="S",
+                   help="length of each run in seconds (> 0; default %(default)s)")
+    r.add_argument("--search-hi", default=rd("search_hi"), metavar="T",
+                   help="upper end of the torque search (> 0, must advance the wheel; default %(default)s)")
+    r.add_argument("--search-tol", default=rd("search_tol"), metavar="T",
+                   help="bracket width at which the torque search stops (> 0; default %(default)s)")
     r.add_argument("--smoke", action="store_true",
                    help=f"quick look: small grid, short runs, coarse search ({_preset(RATCHET_SMOKE)})")
     r.set_defaults(func=_run_ratchet)
@@ -87,18 +105,18 @@ def add_parser(sub) -> None:
                     "latched equilibrium with each --trigger-forces value for --fire-time and prints the "
                     "dart's exit speed; prints the bounding boxes of the reload and fire trajectories.",
         examples=["analyze dartgun --smoke", "analyze dartgun --reload-force 25 --trigger-forces 10,20"])
-    d.add_argument("--reload-force", default=None, metavar="F",
-                   help=f"reload push on the dart (> 0; default {dd['reload_force']})")
-    d.add_argument("--reload-time", default=None, metavar="S",
-                   help=f"how long the reload push lasts (> 0; default {dd['reload_time']})")
-    d.add_argument("--trigger-forces", default=None, metavar="F1,F2,...",
-                   help=f"trigger pushes (>= 0, comma-separated; default {dd['trigger_forces']})")
-    d.add_argument("--fire-time", default=None, metavar="S",
-                   help=f"how long the trigger push lasts (> 0; default {dd['fire_time']})")
-    d.add_argument("--search-hi", default=None, metavar="F",
-                   help=f"upper end of the reload force search (> 0, must reload; default {dd['search_hi']})")
-    d.add_argument("--search-tol", default=None, metavar="F",
-                   help=f"bracket width at which the force search stops (> 0; default {dd['search_tol']})")
+    d.add_argument("--reload-force", default=dd("reload_force"), metavar="F",
+                   help="reload push on the dart (> 0; default %(default)s)")
+    d.add_argument("--reload-time", default=dd("reload_time"), metavar="S",
+                   help="how long the reload push lasts (> 0; default %(default)s)")
+    d.add_argument("--trigger-forces", default=dd("trigger_forces"), metavar="F1,F2,...",
+                   help="trigger pushes (>= 0, comma-separated; default %(default)s)")
+    d.add_argument("--fire-time", default=dd("fire_time"), metavar="S",
+                   help="how long the trigger push lasts (> 0; default %(default)s)")
+    d.add_argument("--search-hi", default=dd("search_hi"), metavar="F",
+                   help="upper end of the reload force search (> 0, must reload; default %(default)s)")
+    d.add_argument("--search-tol", default=dd("search_tol"), metavar="F",
+                   help="bracket width at which the force search stops (> 0; default %(default)s)")
     d.add_argument("--smoke", action="store_true",
                    help=f"quick look: small grid, fewer runs, coarse search ({_preset(DARTGUN_SMOKE)})")
     d.set_defaults(func=_run_dartgun)
@@ -110,9 +128,14 @@ def _preset(preset: dict) -> str:
 
 def _options(args, defaults: dict, smoke: dict) -> dict:
     """Each option's text: given explicitly, else the smoke preset's (with --smoke), else the
-    analysis' default (``defaults``, in its own units and types)."""
-    return {k: getattr(args, k) if getattr(args, k) is not None else (smoke.get(k, v) if args.smoke else v)
-            for k, v in _texts(defaults).items()}
+    analysis' default (its entry of ``defaults``)."""
+    out = {}
+    for key, value in defaults.items():
+        given = getattr(args, key)
+        if isinstance(given, _Default):
+            given = smoke[key] if args.smoke and key in smoke else _text(value)
+        out[key] = given
+    return out
 
 
 def _run(args, defaults: dict, smoke: dict, design, analyze, parse) -> int:
