@@ -4,7 +4,7 @@ The torque sweep of ``python -m pes_ref evaluate`` (50 torques evenly from the m
 the maximum, started like the paper's batch, seed 12345, 15 target periods), run on the
 oscillator design (``--design``, the default: prescribed-gait shooting and its polish), on
 the previous default, gradient descent on eq. (6) aimed at 1.4 A (``--baseline``, made by
-``design oscillator --objective overshoot``) and on the hand-drawn escapement
+``design oscillator --plan overshoot``) and on the hand-drawn escapement
 (:func:`pes_ref.synthesis.escapement.escapement_values`, no optimization), analysed by
 :func:`pes_ref.synthesis.analysis.cycle_figures` over the last 3 periods. (a) amplitude of
 q0 per torque, filled where the particle reaches the cycle (amplitude and period within 25%
@@ -45,14 +45,14 @@ def baseline_state(args):
     if path is None and args.smoke:
         path = os.path.join(args.out, "cache", f"{BASELINE}-smoke.npz")
         os.makedirs(os.path.dirname(path), exist_ok=True)
-        if cli_main(["design", "oscillator", "--objective", "overshoot", "--smoke", "--quiet", "--force",
+        if cli_main(["design", "oscillator", "--plan", "overshoot", "--smoke", "--quiet", "--force",
                      "--out", path]) != 0:
             raise SystemExit("the smoke baseline design failed")
     elif path is None:
         path = os.path.join(args.out, "cache", f"{BASELINE}.npz")
     if not os.path.exists(path):
         raise SystemExit(f"no baseline design at {path}: run `make figures` (or `python -m pes_ref design "
-                         f"oscillator --objective overshoot --out {path}`), or pass --baseline FILE.npz")
+                         f"oscillator --plan overshoot --out {path}`), or pass --baseline FILE.npz")
     return C.design_state(argparse.Namespace(design=path, smoke=False, out=args.out), "oscillator")
 
 

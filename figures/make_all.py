@@ -5,7 +5,7 @@ Steps, each printed with its elapsed time as it starts, while it runs and when i
 1. the designs, computed by the project's own command (:data:`DESIGNS`): the funnel and the
    oscillator with the command's defaults (``python -m pes_ref design funnel|oscillator --out
    figures/out/cache/KIND.npz``), and the oscillator of the previous default, gradient
-   descent alone (``--objective overshoot``), which Fig. 12 draws beside the default; their
+   descent alone (``--plan overshoot``), which Fig. 12 draws beside the default; their
    own progress lines are passed through. A design is reused from the cache only
    when its inputs are unchanged: the sidecar ``KIND.json`` holds a key hashing every
    source file of the ``pes_ref`` package, the command line, and the Python and NumPy
@@ -57,7 +57,7 @@ FIGURES = (
 #: The designs by name, longest first (the oscillator dominates the run): the design command's arguments.
 DESIGNS = {
     "oscillator": ["design", "oscillator"],
-    "oscillator_overshoot": ["design", "oscillator", "--objective", "overshoot"],
+    "oscillator_overshoot": ["design", "oscillator", "--plan", "overshoot"],
     "funnel": ["design", "funnel"],
 }
 #: Further designs a figure draws: figure -> {option: design name}.

@@ -2,7 +2,7 @@
 
 - ``design funnel|oscillator [--iterations N] [--seed S] [--out FILE.npz] [--resume FILE.npz]
   [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C]
-  [--particles N] [--objective gait|overshoot|eq6] [--evaluations N] [--polish-particles N]
+  [--particles N] [--plan gait|overshoot|eq6] [--evaluations N] [--polish-particles N]
   [--workers N] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
   run (or continue) a design, its gradient stage and then its polish if it has one
   (:func:`pes_ref.synthesis.stages.run_stages`), and write its file
@@ -27,8 +27,9 @@ from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command
 
 METRIC_NAMES = {"funnel": "in_band", "oscillator": "amp_err"}
 #: The names ``--set`` takes, per kind: the fields of each problem of
-#: :data:`pes_ref.synthesis.PROBLEMS` (tested equal), written out so that building the
-#: parser does not import pes_ref.synthesis (every command, ``oracle`` too, builds it).
+#: :data:`pes_ref.synthesis.PROBLEMS` (tested equal), written out for the help text because
+#: ``python -m pes_ref --help`` builds every command's parser, and building a parser imports
+#: nothing from the layers below the command line (tests/cli/test_oracle_startup.py).
 SET_NAMES = {
     "funnel": ("grid", "width", "height", "start_zone", "exit_zone", "start_depth", "force", "noise",
               "damping", "dt", "n_steps", "target", "wall_k", "wall_margin", "init_scale", "when",
@@ -44,9 +45,10 @@ SET_NAMES = {
 #: the plan's parameters here, each problem parameter ``NAME`` as ``--set NAME`` (:func:`_flags`).
 PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-final", "clip": "--clip",
               "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed",
-              "objective": "--objective", "evaluations": "--evaluations", "polish_particles": "--polish-particles"}
-#: ``--objective`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_OBJECTIVES` (tested equal).
-OSCILLATOR_OBJECTIVE_NAMES = ("gait", "overshoot", "eq6")
+              "plan": "--plan", "evaluations": "--evaluations", "polish_particles": "--polish-particles"}
+#: ``--plan`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_PLANS` (tested equal;
+#: written out for the same reason as :data:`SET_NAMES`).
+OSCILLATOR_PLAN_NAMES = ("gait", "overshoot", "eq6")
 
 
 def add_parser(sub) -> None:
@@ -72,10 +74,11 @@ def add_parser(sub) -> None:
                         + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in SET_NAMES.items()))
     p.add_argument("--lr", type=float, default=None, metavar="LR", help="initial learning rate (default: the plan's)")
     p.add_argument("--lr-final", type=float, default=None, metavar="LR", help="learning rate reached at the last iteration (default: the plan's)")
-    p.add_argument("--objective", choices=OSCILLATOR_OBJECTIVE_NAMES, default=None,
-                   help="oscillator only: named training setting, 'gait' (default: prescribed-gait shooting, then "
-                        "the polish), 'overshoot' (eq. (6) + eq. (7) aimed at 1.4 times the target amplitude) or "
-                        "'eq6' (the paper's setting, aimed at the target amplitude); evaluation is the same for all")
+    p.add_argument("--plan", choices=OSCILLATOR_PLAN_NAMES, default=None,
+                   help="oscillator only: the named training plan, i.e. the objective trained on, its aim and "
+                        "the optimizer schedule: 'gait' (default: prescribed-gait shooting, then the polish), "
+                        "'overshoot' (eq. (6) + eq. (7) aimed at 1.4 times the target amplitude) or 'eq6' (the "
+                        "paper's setting, aimed at the target amplitude); evaluation is the same for all")
     p.add_argument("--evaluations", type=int, default=None,
                    help="polish stage only: fitness evaluations (default: the polish plan's)")
     p.add_argument("--polish-particles", type=int, default=None,

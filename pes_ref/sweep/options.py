@@ -1,7 +1,7 @@
 """Design options: from what a user names to a problem and a plan.
 
 One design run is named by *design options*, the flags of ``python -m pes_ref design``
-(:data:`DESIGN_OPTIONS`: ``iterations``, ``lr``, ``objective``, ``smoke``, ...), and by
+(:data:`DESIGN_OPTIONS`: ``iterations``, ``lr``, ``plan``, ``smoke``, ...), and by
 *scene parameters*, the fields of the kind's problem (``--set NAME=VALUE``).
 :func:`design_inputs` turns them into the problem overrides and the plan; the ``design``
 command and every run of a sweep go through it, so a sweep file's options mean exactly
@@ -13,8 +13,7 @@ import dataclasses
 from typing import Mapping, NamedTuple
 
 from pes_ref.core.checks import InputError
-from pes_ref.sweep._synthesis import (DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_OBJECTIVES, OSCILLATOR_POLISH,
-                                      PROBLEMS, Plan)
+from pes_ref.synthesis import DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS, OSCILLATOR_POLISH, PROBLEMS, Plan
 
 __all__ = ["SMOKE", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets", "parse_stages",
            "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
@@ -33,7 +32,7 @@ POLISH_OPTIONS = {"evaluations": "evaluations", "polish_particles": "n_particles
 #: ``stages`` is ``"IT:GRID[:STEPS],..."`` text or a list of ``[it, grid(, n_steps)]``.
 DESIGN_OPTIONS = {
     "iterations": int, "lr": float, "lr_final": float, "optimizer": str, "clip": float, "particles": int,
-    "stages": (str, list), "no_stages": bool, "objective": str, "smoke": bool,
+    "stages": (str, list), "no_stages": bool, "plan": str, "smoke": bool,
 }
 #: The plan field each plain plan option sets.
 _PLAN_FIELDS = {"iterations": "iterations", "lr": "lr", "lr_final": "lr_final", "optimizer": "optimizer",
@@ -143,27 +142,27 @@ def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None) -> D
     """Resolve design ``options`` and problem overrides ``sets`` for a ``kind`` run.
 
     The order is the design command's: the kind's default plan, or the named oscillator
-    ``objective``'s setting and plan; then the ``smoke`` preset; then the explicit options
-    and ``sets``, which win over both.
+    ``plan`` (its problem overrides, plan and polish); then the ``smoke`` preset; then the
+    explicit options and ``sets``, which win over both.
 
     Raises
     ------
     ValueError
-        For an ``objective`` the kind does not have.
+        For a ``plan`` the kind does not have.
     """
     sets = dict(sets or {})
     plan_over = plan_overrides(options)
     base_plan, base_polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind]
     polish_over = {field: options[name] for name, field in POLISH_OPTIONS.items() if options.get(name) is not None}
-    objective = options.get("objective")
-    if objective is not None:
+    name = options.get("plan")
+    if name is not None:
         if kind != "oscillator":
-            raise InputError("objective", f"objective {objective}: only the oscillator has a choice")
-        if objective not in OSCILLATOR_OBJECTIVES:
-            raise ValueError(f"objective {objective!r}: expected one of {sorted(OSCILLATOR_OBJECTIVES)}")
-        obj_sets, base_plan = OSCILLATOR_OBJECTIVES[objective]
-        base_polish = OSCILLATOR_POLISH[objective]
-        sets = {**obj_sets, **sets}
+            raise InputError("plan", f"plan {name}: only the oscillator has named plans")
+        if name not in OSCILLATOR_PLANS:
+            raise ValueError(f"plan {name!r}: expected one of {sorted(OSCILLATOR_PLANS)}")
+        plan_sets, base_plan = OSCILLATOR_PLANS[name]
+        base_polish = OSCILLATOR_POLISH[name]
+        sets = {**plan_sets, **sets}
     if options.get("smoke"):
         smoke_sets, (its, parts, stages) = SMOKE[kind]
         sets = {**smoke_sets, **sets}

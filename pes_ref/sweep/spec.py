@@ -36,7 +36,7 @@ import re
 import tomllib
 from dataclasses import dataclass
 
-from pes_ref.sweep._synthesis import PROBLEMS
+from pes_ref.synthesis import PROBLEMS
 from pes_ref.sweep.options import (DESIGN_OPTIONS, design_inputs, has_type, scene_parameters, type_name,
                                    typed_sets)
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import time
 
-from pes_ref.sweep._synthesis import PROBLEMS, evaluate, load_design, new_design, run_stages, save_design
+from pes_ref.synthesis import PROBLEMS, evaluate, load_design, new_design, run_stages, save_design
 from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
 
 __all__ = ["run_task", "request_stop", "CHECKPOINT_SECONDS", "STOP_POLL_SECONDS"]

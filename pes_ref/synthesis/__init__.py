@@ -23,7 +23,7 @@ from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 from pes_ref.synthesis.exits import FunnelExit, exit_steps
 from pes_ref.synthesis.problems import (FUNNEL_OBJECTIVES, IN_BAND_SHARE, OSCILLATOR_COSTS, PROBLEMS, Batch,
                                         FunnelProblem, OscillatorProblem, PhaseThenCycle, exit_positions)
-from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_OBJECTIVE, DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_OBJECTIVES,
+from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS,
                                      OSCILLATOR_POLISH, Plan, PolishPlan)
 from pes_ref.synthesis.resampling import resample
 from pes_ref.synthesis.training import (STOPPED, DesignState, GradientStep, Progress, check_design_memory,
@@ -44,8 +44,8 @@ __all__ = [
     "FunnelExit", "exit_steps",
     "FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
     "IN_BAND_SHARE", "exit_positions", "FUNNEL_OBJECTIVES",
-    "Plan", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_OBJECTIVES", "OSCILLATOR_POLISH",
-    "DEFAULT_OSCILLATOR_OBJECTIVE",
+    "Plan", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
+    "DEFAULT_OSCILLATOR_PLAN",
     "resample",
     "DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",
     "check_stable_design", "check_design_memory", "STOPPED",

@@ -8,7 +8,7 @@ the gait says it should be. Each run is short, so its gradient through the adjoi
 informative (over several periods of chaotic motion it is not), and tying q1 to the phase
 breaks the q1 symmetry that makes on-cycle starts with a random q1 pure noise.
 
-The plan that optimizes it (Adam, 16 x 16 then 32 x 32) is ``OSCILLATOR_OBJECTIVES["gait"]``
+The plan that optimizes it (Adam, 16 x 16 then 32 x 32) is ``OSCILLATOR_PLANS["gait"]``
 in :mod:`pes_ref.synthesis.plans`; ``docs/synthesis.md`` ("The oscillator") has the formulas
 and the measurements.
 """

@@ -5,9 +5,9 @@ coarse-to-fine grid and horizon stages, and the particles per iteration; it does
 on the run's total length, so a run stopped early and resumed follows the same schedule. A
 :class:`PolishPlan` holds the optional gradient-free stage that follows it
 (:mod:`pes_ref.synthesis.polish`). :data:`DEFAULT_PLANS` and :data:`DEFAULT_POLISH` are the
-defaults of ``python -m pes_ref design``; :data:`OSCILLATOR_OBJECTIVES` (problem overrides
-and plan) and :data:`OSCILLATOR_POLISH` the oscillator's named settings of
-``design oscillator --objective NAME``. Measured in ``docs/synthesis.md``, "Results".
+defaults of ``python -m pes_ref design``; :data:`OSCILLATOR_PLANS` (problem overrides
+and plan) and :data:`OSCILLATOR_POLISH` the oscillator's named training plans of
+``design oscillator --plan NAME``. Measured in ``docs/synthesis.md``, "Results".
 """
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 from pes_ref.core import checks
 from pes_ref.synthesis.optimizers import make_optimizer
 
-__all__ = ["Plan", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_OBJECTIVES", "OSCILLATOR_POLISH",
-           "DEFAULT_OSCILLATOR_OBJECTIVE", "POLISH_METHODS"]
+__all__ = ["Plan", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
+           "DEFAULT_OSCILLATOR_PLAN", "POLISH_METHODS"]
 
 
 @dataclass(frozen=True)
@@ -185,7 +185,8 @@ class PolishPlan:
         return self.legendre_terms * (2 * self.fourier_order + 1)
 
 
-#: The oscillator's named settings (``design oscillator --objective NAME``): problem overrides and plan.
+#: The oscillator's named training plans (``design oscillator --plan NAME``): the problem
+#: overrides that choose the objective it trains on (``cost``), its aim and weight, and the Plan.
 #: "gait" (the default) is prescribed-gait multiple shooting (:mod:`pes_ref.synthesis.gait`):
 #: Adam, lr 1e-2 -> 1e-4 geometric over the 3000 iterations (no grid scaling), 256 starts on the
 #: cycle and the gait per iteration, one-period runs, 16 x 16 until 1500 then the scene's 32 x 32;
@@ -199,21 +200,21 @@ _OSC_PLAN = Plan(iterations=3000, lr=0.0005, lr_final=0.00005, decay_iterations=
                  stages=((0, 16, 250), (500, 0, 400), (1000, 0, 600), (2000, 0, 1000)))
 _OSC_SHARED = {"target_scale": 1.0, "stratified": False, "spread_share": 0.0, "settle_periods": 0.0}
 _OSC_PAPER = {**_OSC_SHARED, "cost": "eq6", "regularization": 1e-4}
-OSCILLATOR_OBJECTIVES = {
+OSCILLATOR_PLANS = {
     "gait": ({**_OSC_SHARED, "cost": "gait", "regularization": 0.0}, _GAIT_PLAN),
     "overshoot": ({**_OSC_PAPER, "target_scale": 1.4}, _OSC_PLAN),
     "eq6": (_OSC_PAPER, _OSC_PLAN),
 }
-#: The polish stage that follows each named setting's gradient stage (None: none).
+#: The polish stage that follows each named plan's gradient stage (None: none).
 OSCILLATOR_POLISH = {"gait": PolishPlan(), "overshoot": None, "eq6": None}
-#: The objective ``design oscillator`` uses without ``--objective`` (the problem's field defaults match it).
-DEFAULT_OSCILLATOR_OBJECTIVE = "gait"
+#: The named plan ``design oscillator`` uses without ``--plan`` (the problem's field defaults match it).
+DEFAULT_OSCILLATOR_PLAN = "gait"
 
 #: The defaults of ``python -m pes_ref design`` (measured in docs/synthesis.md, "Results").
 DEFAULT_PLANS = {
     "funnel": Plan(iterations=500, lr=0.002, lr_final=0.0005, decay_iterations=400,
                    stages=((0, 25), (400, 0)), n_particles=64),
-    "oscillator": OSCILLATOR_OBJECTIVES[DEFAULT_OSCILLATOR_OBJECTIVE][1],
+    "oscillator": OSCILLATOR_PLANS[DEFAULT_OSCILLATOR_PLAN][1],
 }
 #: The polish stage of each kind's default (None: the gradient stage alone).
-DEFAULT_POLISH = {"funnel": None, "oscillator": OSCILLATOR_POLISH[DEFAULT_OSCILLATOR_OBJECTIVE]}
+DEFAULT_POLISH = {"funnel": None, "oscillator": OSCILLATOR_POLISH[DEFAULT_OSCILLATOR_PLAN]}

@@ -185,8 +185,9 @@ class OscillatorProblem(_Problem):
     q0 edges. The held-out evaluation (:mod:`pes_ref.synthesis.analysis`) starts particles at
     rest and always measures against ``amplitude`` and ``omega``.
 
-    How it is trained is the ``cost`` (:data:`OSCILLATOR_COSTS`; the named settings of
-    ``design oscillator --objective`` are :data:`pes_ref.synthesis.plans.OSCILLATOR_OBJECTIVES`):
+    ``cost`` names the objective it trains on (:data:`OSCILLATOR_COSTS`; each named training
+    plan of ``design oscillator --plan``, :data:`pes_ref.synthesis.plans.OSCILLATOR_PLANS`,
+    sets it):
 
     - ``"gait"`` (the default): prescribed-gait multiple shooting. Each batch starts on the
       target cycle and on a gait of q1 advancing ``gait_delta`` per period

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main
-from pes_ref.cli.design import OSCILLATOR_OBJECTIVE_NAMES, SET_NAMES
-from pes_ref.synthesis import OSCILLATOR_OBJECTIVES, PROBLEMS, load_design
+from pes_ref.cli.design import OSCILLATOR_PLAN_NAMES, SET_NAMES
+from pes_ref.synthesis import OSCILLATOR_PLANS, PROBLEMS, load_design
 
 
 def run(capsys, *argv):
@@ -74,8 +74,8 @@ def test_resume_continues_like_an_uninterrupted_run(tmp_path, capsys):
     (["design", "funnel", "--resume", "{f}", "--set", "n_steps=80"], "another scene: n_steps"),
     (["design", "funnel", "--set", "colour=red", "--out", "{tmp}/x.npz"], "--set 'colour=red'"),
     (["design", "funnel", "--stages", "0-25", "--out", "{tmp}/x.npz"], "--stages '0-25'"),
-    (["design", "funnel", "--objective", "eq6", "--out", "{tmp}/x.npz"], "only the oscillator"),
-    (["design", "oscillator", "--objective", "eq6", "--evaluations", "5", "--out", "{tmp}/x.npz"],
+    (["design", "funnel", "--plan", "eq6", "--out", "{tmp}/x.npz"], "only the oscillator"),
+    (["design", "oscillator", "--plan", "eq6", "--evaluations", "5", "--out", "{tmp}/x.npz"],
      "--evaluations: this oscillator run has no polish stage"),
     (["design", "funnel", "--workers", "2", "--out", "{tmp}/x.npz"], "--workers: this funnel run has no polish"),
     (["design", "oscillator", "--smoke", "--workers", "0", "--out", "{tmp}/x.npz"], "--workers must be >= 1"),
@@ -100,12 +100,12 @@ def test_evaluate_prints_one_line_per_figure(funnel_file, capsys):
     assert lines["kind"] == "funnel" and lines["particles"] == "20"
 
 
-@pytest.mark.parametrize("objective, method, stage", [("gait", "gradient+polish", "polish"),
+@pytest.mark.parametrize("plan, method, stage", [("gait", "gradient+polish", "polish"),
                                                        ("eq6", "gradient", "gradient")])
-def test_evaluate_oscillator_figures(tmp_path, capsys, objective, method, stage):
+def test_evaluate_oscillator_figures(tmp_path, capsys, plan, method, stage):
     """A smoke-size run of each stage through the command line, then evaluate."""
     path = tmp_path / "o.npz"
-    assert run(capsys, "design", "oscillator", "--smoke", "--objective", objective, "--out", path,
+    assert run(capsys, "design", "oscillator", "--smoke", "--plan", plan, "--out", path,
                "--quiet")[0] == EXIT_OK
     code, out, err = run(capsys, "evaluate", path, "--particles", 3)
     assert code == EXIT_OK
@@ -136,19 +136,19 @@ def test_polish_options_and_resume_through_the_command_line(tmp_path, capsys):
     assert sa.polish_history == sb.polish_history
 
 
-@pytest.mark.parametrize("objective", OSCILLATOR_OBJECTIVE_NAMES)
-def test_objective_selects_the_oscillator_setting_and_plan(tmp_path, capsys, objective):
-    assert set(OSCILLATOR_OBJECTIVE_NAMES) == set(OSCILLATOR_OBJECTIVES)
+@pytest.mark.parametrize("name", OSCILLATOR_PLAN_NAMES)
+def test_plan_selects_the_oscillator_overrides_and_plan(tmp_path, capsys, name):
+    assert set(OSCILLATOR_PLAN_NAMES) == set(OSCILLATOR_PLANS)
     path = tmp_path / "o.npz"
-    code, out, err = run(capsys, "design", "oscillator", "--smoke", "--objective", objective, "--out", path, "--quiet")
+    code, out, err = run(capsys, "design", "oscillator", "--smoke", "--plan", name, "--out", path, "--quiet")
     assert code == EXIT_OK, err
     st = load_design(path)
-    sets, plan = OSCILLATOR_OBJECTIVES[objective]
+    sets, plan = OSCILLATOR_PLANS[name]
     assert all(getattr(st.problem, k) == v for k, v in sets.items())
     assert st.plan.lr == plan.lr and st.iteration == 6             # the setting's plan under the smoke preset
-    # resuming with the other objective is another scene, refused
-    other = [name for name in OSCILLATOR_OBJECTIVE_NAMES if name != objective][0]
-    code, out, err = run(capsys, "design", "oscillator", "--resume", path, "--objective", other, "--quiet")
+    # resuming with another named plan is another scene, refused
+    other = [n for n in OSCILLATOR_PLAN_NAMES if n != name][0]
+    code, out, err = run(capsys, "design", "oscillator", "--resume", path, "--plan", other, "--quiet")
     assert code == EXIT_ERROR and "another scene" in err
 
 

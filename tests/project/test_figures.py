@@ -131,7 +131,7 @@ def test_schedule_runs_steps_and_skips_what_a_failed_step_needs():
 def test_fig12_draws_the_default_beside_the_previous_gradient_descent_design(tmp_path):
     designs = {name: f"{name}.npz" for name in make_all.DESIGNS}
     assert make_all.DESIGNS["oscillator"] == ["design", "oscillator"]                     # the command's defaults
-    assert make_all.DESIGNS["oscillator_overshoot"][-2:] == ["--objective", "overshoot"]
+    assert make_all.DESIGNS["oscillator_overshoot"][-2:] == ["--plan", "overshoot"]
     steps = {s.name: s for s in make_all.figure_steps(str(tmp_path), False, designs, None)}
     fig12 = steps["fig12_torque_capture"]
     assert set(fig12.needs) == {"design oscillator", "design oscillator_overshoot"}

@@ -65,11 +65,11 @@ def test_run_id_depends_on_the_design_only(tmp_path):
 
 def test_options_mean_what_the_design_flags_mean():
     """design_inputs is what `design` uses: the same flags give the same plan and overrides."""
-    args = build_parser().parse_args(["design", "oscillator", "--smoke", "--objective", "eq6", "--lr", "0.003",
+    args = build_parser().parse_args(["design", "oscillator", "--smoke", "--plan", "eq6", "--lr", "0.003",
                                       "--stages", "0:8:40,3:0", "--set", "kick=0.3"])
     from pes_ref.sweep.options import design_inputs, parse_sets
     cli = design_inputs("oscillator", vars(args), parse_sets(args.set, PROBLEMS["oscillator"]))
-    swept = design_inputs("oscillator", {"smoke": True, "objective": "eq6", "lr": 0.003,
+    swept = design_inputs("oscillator", {"smoke": True, "plan": "eq6", "lr": 0.003,
                                          "stages": [[0, 8, 40], [3, 0]]}, opt.typed_sets({"kick": 0.3}, "oscillator"))
     assert cli.plan() == swept.plan() and cli.sets == swept.sets
     assert swept.plan().lr == 0.003 and swept.plan().iterations == 6 and swept.sets["target_scale"] == 1.0
@@ -109,8 +109,8 @@ def test_option_names_do_not_collide_with_result_columns():
     (BASE + '[grid]\nlr = [0.1, "x"]\n', "grid.lr[1]: expected a float"),
     (BASE + '[grid]\nlr = [0.1, 0.1]\n', "the same run as"),
     (BASE + '[grid]\nlr = [0.1, -0.1]\n', "run lr = -0.1: lr must be"),
-    (BASE + '[base]\nobjective = "eq6"\n', "only the oscillator has a choice"),
-    ('kind = "oscillator"\neval_seeds = [1]\n[base]\nobjective = "best"\n', "objective 'best': expected one of"),
+    (BASE + '[base]\nplan = "eq6"\n', "only the oscillator has named plans"),
+    ('kind = "oscillator"\neval_seeds = [1]\n[base]\nplan = "best"\n', "plan 'best': expected one of"),
     (BASE + '[base]\noptimizer = "sgd"\n', "optimizer"),
     (BASE + '[base]\nstages = "0-25"\n', "--stages '0-25'"),
     (BASE + '[grid]\nlr = [0.1]\n[[variants]]\nlr = 0.2\n', "variants (v0).lr: also in [grid]"),

@@ -215,19 +215,19 @@ def test_oscillator_batch_spreads_starts_and_stratifies_torques():
     assert np.all(batch.x0[4:, 1] > 0.0) and np.all(batch.v0 == 0.0)
 
 
-def test_oscillator_defaults_are_the_default_objective_setting():
-    sets, plan = synthesis.OSCILLATOR_OBJECTIVES[synthesis.DEFAULT_OSCILLATOR_OBJECTIVE]
+def test_oscillator_defaults_are_the_default_named_plan():
+    sets, plan = synthesis.OSCILLATOR_PLANS[synthesis.DEFAULT_OSCILLATOR_PLAN]
     problem = synthesis.OscillatorProblem()
     assert {k: getattr(problem, k) for k in sets} == sets
     assert synthesis.DEFAULT_PLANS["oscillator"] == plan
     assert synthesis.DEFAULT_POLISH["oscillator"] == synthesis.OSCILLATOR_POLISH["gait"] == synthesis.PolishPlan()
-    assert synthesis.DEFAULT_OSCILLATOR_OBJECTIVE == "gait" and problem.cost == "gait"
+    assert synthesis.DEFAULT_OSCILLATOR_PLAN == "gait" and problem.cost == "gait"
     st = synthesis.new_design("oscillator")
     assert st.plan == plan and st.polish == synthesis.PolishPlan() and st.method == "gradient+polish"
     assert synthesis.new_design("oscillator", plan=plan).polish is None        # a plan given: no polish unless asked
-    assert synthesis.OSCILLATOR_OBJECTIVES["eq6"][0]["cost"] == "eq6"             # the paper's setting stays available
-    assert synthesis.OSCILLATOR_OBJECTIVES["eq6"][0]["target_scale"] == 1.0
-    assert synthesis.OSCILLATOR_OBJECTIVES["overshoot"][0]["target_scale"] == 1.4  # and the previous default
+    assert synthesis.OSCILLATOR_PLANS["eq6"][0]["cost"] == "eq6"             # the paper's setting stays available
+    assert synthesis.OSCILLATOR_PLANS["eq6"][0]["target_scale"] == 1.0
+    assert synthesis.OSCILLATOR_PLANS["overshoot"][0]["target_scale"] == 1.4  # and the previous default
     assert synthesis.OSCILLATOR_POLISH["eq6"] is synthesis.OSCILLATOR_POLISH["overshoot"] is None
 
 

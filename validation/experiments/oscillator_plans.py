@@ -1,4 +1,4 @@
-"""Oscillator training plans tried beyond the package's named settings (issue 4).
+"""Oscillator training plans tried beyond the package's named plans (``design oscillator --plan``).
 
 Every row of the tables "Plans tried in the third session" in ``docs/synthesis.md``
 is one named plan here (:data:`PLANS`); this script regenerates it. A plan is the
@@ -59,7 +59,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from pes_ref.synthesis import (OSCILLATOR_OBJECTIVES, OscillatorProblem, Plan, cycle_figures, escapement_values,  # noqa: E402
+from pes_ref.synthesis import (OSCILLATOR_PLANS, OscillatorProblem, Plan, cycle_figures, escapement_values,  # noqa: E402
                                oscillator_grid_starts, oscillator_torque_sweep, resample)
 from pes_ref.core.objectives import Oscillator, OscillatorCycle  # noqa: E402
 from pes_ref.core.scene import simulate, value_and_grad  # noqa: E402
@@ -186,9 +186,9 @@ def basis_matrix(shape, K: int, M: int) -> np.ndarray:
     return np.einsum("im,jf->ijmf", P, F).reshape(shape[0], shape[1], -1)
 
 
-#: The scene these plans were measured on: the package's previous default (eq. (6) + eq. (7), the
-#: paper's starts), which the package now keeps as the named setting "overshoot".
-PAPER_SCENE = OSCILLATOR_OBJECTIVES["overshoot"][0]
+#: The scene these plans were measured on: eq. (6) + eq. (7) aimed at 1.4 A from the paper's
+#: starts, the package's named plan "overshoot".
+PAPER_SCENE = OSCILLATOR_PLANS["overshoot"][0]
 
 
 def problem_of(s: Setting) -> OscillatorProblem:
