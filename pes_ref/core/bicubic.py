@@ -309,7 +309,7 @@ def point_force(values, lower, h, periodic, x, out) -> np.ndarray:
 
 def point_force_vjp(values, lower, h, periodic, x, w, xbar, gvalues) -> None:
     """Adjoint of :func:`point_force` at x for the cotangent ``w``: ``xbar -= H w`` and,
-    if ``gvalues`` (flat n0*n1) is given, ``gvalues -= (d slope/dG)^T w`` ((C4), (CB2)-(CB3))."""
+    if ``gvalues`` (flat n0*n1) is given, ``gvalues -= (d slope/dG)^T w`` ((CB1) with H by (C4), (CB2)-(CB3))."""
     adj = BicubicAdjoint.from_grid(values, lower, h, periodic, x[None], gvalues is not None)
     adj.vjp(0, w, xbar)
     if gvalues is not None:
@@ -357,7 +357,7 @@ class BicubicForce:
 
 
 class BicubicAdjoint:
-    """The adjoint of :class:`BicubicForce` over stored states ``xs`` (T+1, N, 2), (C4), (CB2)-(CB3)
+    """The adjoint of :class:`BicubicForce` over stored states ``xs`` (T+1, N, 2), (CB1)-(CB3)
     (a :class:`~pes_ref.core.kernels.GridAdjoint`).
 
     ``vjp(n, w, xbar)`` (states in descending order) does ``xbar -= H(x_n) w`` and keeps
@@ -390,7 +390,7 @@ class BicubicAdjoint:
         self.located = Located(buf["cell"], buf["f"], buf["inside"] if self.locator.clips else None)
 
     def vjp(self, n: int, w: np.ndarray, xbar: np.ndarray) -> None:
-        """``xbar -= H(x_n) w`` (C4), and the coefficient weights of ``w`` kept (CB2)."""
+        """(CB1) ``xbar -= H(x_n) w`` with H by (C4), and the coefficient weights of ``w`` kept (CB2)."""
         self.locate_into(self.xs[n])
         loc = self.located
         f0, f1 = loc.f[:, 0], loc.f[:, 1]

@@ -1,10 +1,20 @@
-"""Time stepping (docs/spec.md section 5) and its hand-derived adjoint, side by side.
+"""The fast path of the time stepping (docs/spec.md section 5) and of its hand-derived
+adjoint: one fused loop per mode and direction.
 
-Each forward step is a list of named sub-steps; its adjoint, directly below it, is
-the same list reversed with mirrored names. Equation numbers refer to
-``docs/adjoint.md``.
+:func:`simulate_dynamic` and :func:`adjoint_dynamic`, :func:`simulate_quasistatic` and
+:func:`adjoint_quasistatic` are each one loop over the steps that does a whole step's
+sub-steps inline, on preallocated buffers (nothing is allocated per step), with the force
+from a kernel built once per run (:class:`~pes_ref.core.forces.ForceKernel`,
+:class:`~pes_ref.core.forces.ForceAdjoint`); the GJF option's pair is
+:mod:`pes_ref.core.gjf`. The loop bodies mark the sub-steps with the equation numbers of
+``docs/adjoint.md``. They are an optimization of :mod:`pes_ref.core.reference`, which
+writes each sub-step as a function beside its transpose; ``tests/core/test_reference.py``
+checks that the two agree entry by entry on random scenes of every topology, mode and
+effect (bit for bit on the bilinear grid, but for the grid gradient, summed in another
+order).
 
-Dynamic mode, the paper's eqs. (2)-(3), with ``a = dt/(2m)``, ``c = dt gamma/(2m)``::
+Dynamic mode, the paper's eqs. (2)-(3), with ``a = dt/(2m)``, ``c = dt gamma/(2m)``
+(:func:`step_coefficients`)::
 
     (S1) half_kick  P       = V_n + a F_n
     (S2) drift      X_{n+1} = X_n + dt P                 = X_n + dt V_n + dt^2/(2m) F_n

@@ -1,5 +1,6 @@
 """The whole method once, readably: the time stepping of docs/spec.md sections 2-5 and its
-hand-derived adjoint, as plain NumPy functions of arrays (issue 12).
+hand-derived adjoint, as plain NumPy functions of arrays, in the order and with the section
+and equation numbers of ``docs/adjoint.md``.
 
 The fast path (:mod:`pes_ref.core.integrator`, :mod:`~pes_ref.core.gjf`,
 :mod:`~pes_ref.core.forces`, :mod:`~pes_ref.core.bilinear`, :mod:`~pes_ref.core.bicubic`)
@@ -7,19 +8,22 @@ computes the same numbers with per-surface tables, reusable buffers, chunked sca
 and bound closures. This module has none of those: every named sub-step is a small
 function of arrays that returns new arrays, with its transpose (vector-Jacobian
 product) directly beside it, in the manner of jax-md's ``momentum_step`` /
-``position_step`` or of autograd registering each VJP next to its primitive. Equation
-numbers refer to ``docs/adjoint.md``; a transpose ``foo_T`` takes the cotangent of
-``foo``'s output and returns the cotangents of its inputs (``xbar`` = dL/dx).
+``position_step`` or of autograd registering each VJP next to its primitive. A transpose
+``foo_T`` takes the cotangent of ``foo``'s output and returns the cotangents of its inputs
+(``xbar`` = dL/dx).
 
-Reading order: the grid lookup (docs/spec.md section 2), the bilinear surface (A1)-(A3), the
-bicubic option (C1)-(C4), (CB2)-(CB3), springs (A4) and walls (A5), the total force
-(A6), the damped velocity Verlet step (S1)-(S4) / (B1)-(B4), the Gronbech-Jensen-Farago
-option (G1)-(G4) / (GB1)-(GB4), the quasistatic step (Q1)-(Q2) / (QB1)-(QB2), the
-forward loops, the backward loops with (B0), (P1), (GP1), and the reduction of a
-broadcast gradient to its input's shape. :func:`simulate`, :func:`energy` and
-:func:`value_and_grad` at the end take a :class:`~pes_ref.core.scene.Scene` and have the
-signatures of the public ones (so the property checks of :mod:`pes_ref.testing` run on
-them too). Nothing is validated here: the Scene was, when it was built.
+Sections, numbered as ``docs/adjoint.md`` numbers them: the grid lookup (docs/spec.md
+section 2.3) first; 1. the surface, the bilinear rule (A1)-(A3); 2. springs (A4) and walls
+(A5); 3. the total force (A6); 4-5. dynamic mode, each sub-step (S1)-(S4) beside its
+transpose (B1)-(B4), then the forward loop and the backward loop with (B0), (P1) and the
+reduction of a broadcast gradient to its input's shape; 6. quasistatic mode, (Q1)-(Q2) and
+(QB1)-(QB2); 10. the Gronbech-Jensen-Farago option (G1)-(G4) / (GB1)-(GB4), (GP1); 11. the
+bicubic option (C1)-(C4) / (CB1)-(CB3). Sections 7-9 (objectives, kinks, cost) have no
+code here: the objectives are :mod:`pes_ref.core.objectives`'. :func:`simulate`,
+:func:`energy` and :func:`value_and_grad` at the end take a
+:class:`~pes_ref.core.scene.Scene` and have the signatures of the public ones (so the
+property checks of :mod:`pes_ref.testing` run on them too). Nothing is validated here:
+the Scene was, when it was built.
 
 Floating point. Where the fast path's order of operations is as readable as the
 textbook one, this module uses it, so that most results are bit-identical:
@@ -44,8 +48,9 @@ import numpy as np
 
 from pes_ref.core.grid import Cells
 from pes_ref.core.integrator import step_coefficients
+from pes_ref.core.objectives import regularization
 
-__all__ = ["Terms", "Cell", "Run", "terms_of", "lookup", "potential_energy", "force", "force_T",
+__all__ = ["Terms", "Run", "terms_of", "lookup", "potential_energy", "force", "force_T",
            "forward", "backward", "reduce_to_shape", "simulate", "energy", "value_and_grad"]
 
 
@@ -84,14 +89,12 @@ def terms_of(scene) -> Terms:
     return Terms(s.values, s.lower, h, s.upper - s.lower, periodic, s.interpolation, spring, walls)
 
 
-# =========================================================================== 1. the grid lookup
+# ========================================================== the grid lookup (docs/spec.md section 2.3)
 
-#: Where points fall: the core's one record of a lookup (:class:`pes_ref.core.grid.Cells`):
-#: corner indices ``i0, i1`` (axis 0), ``j0, j1`` (axis 1), fractions ``f0, f1``, switches ``s0, s1``.
-Cell = Cells
+# Where points fall is the core's one record of a lookup, :class:`pes_ref.core.grid.Cells`:
+# corner indices ``i0, i1`` (axis 0), ``j0, j1`` (axis 1), fractions ``f0, f1``, switches ``s0, s1``.
 
-
-def lookup(terms: Terms, q: np.ndarray) -> Cell:
+def lookup(terms: Terms, q: np.ndarray) -> Cells:
     """Cell, fraction, wrap and clip of points q (..., 2) (docs/spec.md section 2.3).
 
     ``u = (q_d - lower_d) / h_d``. Periodic axis: ``k = floor(u)``, ``f = u - k``, corners
@@ -114,24 +117,24 @@ def lookup(terms: Terms, q: np.ndarray) -> Cell:
             lo, hi, s = k, k + 1, ((u >= 0.0) & (u <= n - 1.0)).astype(np.float64)
         out.append((lo.astype(np.intp), hi.astype(np.intp), f, s))
     (i0, i1, f0, s0), (j0, j1, f1, s1) = out
-    return Cell(i0, i1, j0, j1, f0, f1, s0, s1)
+    return Cells(i0, i1, j0, j1, f0, f1, s0, s1)
 
 
-# =========================================================================== 2. the bilinear surface
+# ======================================================== 1. the surface: the bilinear rule, (A1)-(A3)
 
-def _corners(G: np.ndarray, c: Cell):
+def _corners(G: np.ndarray, c: Cells):
     """``G00 = G[i0,j0], G10 = G[i1,j0], G01 = G[i0,j1], G11 = G[i1,j1]``, each (...)."""
     return G[c.i0, c.j0], G[c.i1, c.j0], G[c.i0, c.j1], G[c.i1, c.j1]
 
 
-def bilinear_energy(terms: Terms, c: Cell) -> np.ndarray:
+def bilinear_energy(terms: Terms, c: Cells) -> np.ndarray:
     """E = (1-f0)(1-f1) G00 + f0(1-f1) G10 + (1-f0) f1 G01 + f0 f1 G11, shape (...) (docs/spec.md 2.4)."""
     g00, g10, g01, g11 = _corners(terms.values, c)
     f0, f1 = c.f0, c.f1
     return (1 - f0) * (1 - f1) * g00 + f0 * (1 - f1) * g10 + (1 - f0) * f1 * g01 + f0 * f1 * g11
 
 
-def bilinear_force(terms: Terms, c: Cell) -> np.ndarray:
+def bilinear_force(terms: Terms, c: Cells) -> np.ndarray:
     """The grid force ``-dE/dq`` (..., 2), eq. (A1) written as ``s (A + f D)``.
 
     (A1)'s ``-s0/h0 [(1-f1)(G10 - G00) + f1 (G11 - G01)]`` is ``s0 (A0 + f1 D0)`` with
@@ -145,7 +148,7 @@ def bilinear_force(terms: Terms, c: Cell) -> np.ndarray:
     return np.stack((c.s0 * (A0 + c.f1 * D0), c.s1 * (A1 + c.f0 * D1)), axis=-1)
 
 
-def bilinear_force_T(terms: Terms, c: Cell, w: np.ndarray, xbar: np.ndarray, gvalues: np.ndarray) -> None:
+def bilinear_force_T(terms: Terms, c: Cells, w: np.ndarray, xbar: np.ndarray, gvalues: np.ndarray) -> None:
     """Transpose of :func:`bilinear_force` for the cotangent w (N, 2), accumulated in place.
 
     Position, (A2): inside a cell the Hessian is ``[[0, Hc], [Hc, 0]]`` with ``Hc = s0 s1
@@ -166,7 +169,338 @@ def bilinear_force_T(terms: Terms, c: Cell, w: np.ndarray, xbar: np.ndarray, gva
     np.subtract.at(gvalues, (c.i1, c.j1), f1 * A + f0 * B)
 
 
-# =========================================================================== 3. option: the bicubic surface
+# ====================================================================== 2. springs (A4) and walls (A5)
+
+def spring_delta(terms: Terms, q: np.ndarray) -> np.ndarray:
+    """``delta = q - c``, the minimum image ``((q - c + L/2) mod L) - L/2`` on a periodic axis."""
+    delta = q - terms.spring[1]
+    for d in range(2):
+        if terms.periodic[d]:
+            half = 0.5 * terms.length[d]
+            delta[..., d] = np.mod(delta[..., d] + half, terms.length[d]) - half
+    return delta
+
+
+def spring_energy(terms: Terms, q: np.ndarray) -> np.ndarray:
+    """``U = sum_d k_d delta_d^2 / 2``, shape (...)."""
+    delta = spring_delta(terms, q)
+    return 0.5 * np.sum(terms.spring[0] * delta * delta, axis=-1)
+
+
+def spring_force(terms: Terms, q: np.ndarray) -> np.ndarray:
+    """``F = -k delta`` (..., 2)."""
+    return -(terms.spring[0] * spring_delta(terms, q))
+
+
+def spring_force_T(terms: Terms, q, w, xbar, kbar, cbar) -> None:
+    """(A4): ``xbar += -k w``, ``kbar += -delta w``, ``cbar += k w`` (in place)."""
+    kw = terms.spring[0] * w
+    xbar -= kw
+    kbar += -spring_delta(terms, q) * w
+    cbar += kw
+
+
+def wall_energy(terms: Terms, q: np.ndarray) -> np.ndarray:
+    """``U = k_w/2 [(a - q)^+]^2 + k_w/2 [(q - b)^+]^2`` summed over the axes, shape (...)."""
+    k_w, a, b = terms.walls
+    below, above = np.maximum(a - q, 0.0), np.maximum(q - b, 0.0)
+    return 0.5 * k_w * np.sum(below * below + above * above, axis=-1)
+
+
+def wall_force(terms: Terms, q: np.ndarray) -> np.ndarray:
+    """``F = k_w (a - q)^+ - k_w (q - b)^+`` (..., 2)."""
+    k_w, a, b = terms.walls
+    return k_w * (np.maximum(a - q, 0.0) - np.maximum(q - b, 0.0))
+
+
+def wall_force_T(terms: Terms, q, w, xbar) -> None:
+    """(A5): ``xbar += -k_w w`` where a wall is active (q < a or q > b)."""
+    k_w, a, b = terms.walls
+    xbar -= k_w * np.where((q < a) | (q > b), w, 0.0)
+
+
+# ============================================================================ 3. the total force, (A6)
+
+# The grid term comes from :data:`GRID` (end of section 11): the bilinear rule of section 1 or
+# the bicubic option of section 11.
+
+def potential_energy(terms: Terms, q: np.ndarray) -> np.ndarray:
+    """``U = U_grid + U_spring + U_wall`` at points q (..., 2), shape (...) (docs/spec.md section 3)."""
+    c = lookup(terms, q)
+    u = GRID[terms.interpolation][0](terms, c)
+    if terms.spring is not None:
+        u = u + spring_energy(terms, q)
+    if terms.walls is not None:
+        u = u + wall_energy(terms, q)
+    return u
+
+
+def force(terms: Terms, q: np.ndarray, fext_n: np.ndarray) -> np.ndarray:
+    """(S3)/(Q1) ``F(q) + F_ext[n]``, with ``F = -dU/dq`` (N, 2)."""
+    f = GRID[terms.interpolation][1](terms, lookup(terms, q))
+    if terms.spring is not None:
+        f += spring_force(terms, q)
+    if terms.walls is not None:
+        f += wall_force(terms, q)
+    return f + fext_n
+
+
+def force_T(terms: Terms, q, w, xbar, acc: dict) -> np.ndarray:
+    """(B3)/(B0)/(QB1), the transpose of :func:`force` for the cotangent w (N, 2), eq. (A6):
+    ``xbar += -H_U(q) w`` in place, the grid's and the spring's parameter cotangents into
+    ``acc``; returns ``F_ext-bar[n] = w`` (the external force enters additively)."""
+    GRID[terms.interpolation][2](terms, lookup(terms, q), w, xbar, acc["values"])
+    if terms.spring is not None:
+        spring_force_T(terms, q, w, xbar, acc["spring_k"], acc["spring_center"])
+    if terms.walls is not None:
+        wall_force_T(terms, q, w, xbar)
+    return w.copy()
+
+
+# ======================== 4-5. dynamic mode: the sub-steps (S1)-(S4) beside their transposes (B1)-(B4)
+
+# (S3), the force sub-step, is :func:`force` (section 3) and its transpose (B3) :func:`force_T`.
+
+def coefficients(dt, mass, damping, n):
+    """``a = dt/(2m)``, ``c = dt gamma/(2m)`` (:func:`pes_ref.core.integrator.step_coefficients`),
+    ``d = 1/(1+c)``, ``e = (1-c) d``, each (N, 2); an undamped scene has ``gamma = 0``:
+    ``c = 0``, ``d = e = 1``."""
+    a, c = step_coefficients(dt, mass, 0.0 if damping is None else damping, n)
+    d = 1.0 / (1.0 + c)
+    return a, c, d, (1.0 - c) * d
+
+
+def half_kick(v, f, a):
+    """(S1) ``P = V_n + a F_n``."""
+    return v + a * f
+
+
+def half_kick_T(pbar, f, a):
+    """(B1): ``(Vbar_n, Fbar_n, abar)`` contributions ``(Pbar, a Pbar, F_n Pbar)``."""
+    return pbar, a * pbar, f * pbar
+
+
+def drift(x, p, dt):
+    """(S2) ``X_{n+1} = X_n + dt P``."""
+    return x + dt * p
+
+
+def drift_T(xbar, dt):
+    """(B2): ``(Xbar_n, Pbar)`` contributions ``(Xbar_{n+1}, dt Xbar_{n+1})``."""
+    return xbar, dt * xbar
+
+
+def kick(p, v, f_next, a, c, d):
+    """(S4) ``V_{n+1} = (P - c V_n + a F_{n+1}) d``, ``d = 1/(1 + c)`` (summed as the fast path
+    sums it: ``P + a F_{n+1}``, then ``- c V_n``)."""
+    return (p + a * f_next - c * v) * d
+
+
+def kick_T(vbar_next, v, v_next, f_next, a, c, d):
+    """(B4): ``(Pbar, Vbar_n, Fbar_{n+1}, abar, cbar)`` contributions, with ``Pbar = d Vbar_{n+1}``:
+    ``(Pbar, -c Pbar, a Pbar, F_{n+1} Pbar, -(V_n + V_{n+1}) Pbar)`` (``dV_{n+1}/dc = -(V_n + V_{n+1}) d``)."""
+    pbar = d * vbar_next
+    return pbar, -c * pbar, a * pbar, f_next * pbar, -(v + v_next) * pbar
+
+
+# ============================== 4-5. dynamic mode: the forward loop; the backward loop with (B0), (P1)
+
+class Run(NamedTuple):
+    """The T+1 states: ``x``, ``v`` (zeros in quasistatic mode), ``f`` (the total force
+    ``F(X_n) + F_ext[n]``), each (T+1, N, 2)."""
+
+    x: np.ndarray
+    v: np.ndarray
+    f: np.ndarray
+
+
+def forward_verlet(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
+    """docs/spec.md section 5.2, dynamic: (S1)-(S4) for n = 0 .. T-1 after ``F_0 = F(X_0) + F_ext[0]``."""
+    a, c, d, _ = coefficients(dt, mass, damping, x0.shape[0])
+    x, v, f = [x0], [v0], [force(terms, x0, fext[0])]
+    for n in range(fext.shape[0] - 1):
+        p = half_kick(v[n], f[n], a)                      # (S1)
+        x.append(drift(x[n], p, dt))                      # (S2)
+        f.append(force(terms, x[n + 1], fext[n + 1]))     # (S3)
+        v.append(kick(p, v[n], f[n + 1], a, c, d))        # (S4)
+    return Run(np.array(x), np.array(v), np.array(f))
+
+
+def _accumulators(terms: Terms, n: int) -> dict:
+    """Zeroed parameter cotangents that :func:`force_T` sums into."""
+    acc = {"values": np.zeros(terms.values.shape)}
+    if terms.spring is not None:
+        acc["spring_k"], acc["spring_center"] = np.zeros((n, 2)), np.zeros((n, 2))
+    return acc
+
+
+class BackwardStart(NamedTuple):
+    """What both dynamic backward loops (sections 5 and 10) start from."""
+
+    run: Run            # the forward states x, v, f, each (T+1, N, 2)
+    T: int              # the number of steps
+    a: np.ndarray       # the step's coefficients (:func:`coefficients`), each (N, 2)
+    c: np.ndarray
+    d: np.ndarray
+    e: np.ndarray
+    acc: dict           # the grid's and the spring's parameter cotangents (:func:`_accumulators`)
+    gforce: np.ndarray  # F_ext-bar[n], (T+1, N, 2), zeros until each step's (B3) fills it
+    xbar: np.ndarray    # Xbar = dl_T/dX_T
+    vbar: np.ndarray    # Vbar = dl_T/dV_T
+    fbar: np.ndarray    # Fbar = 0
+
+
+def _backward_start(terms, run, gx, gv, dt, mass, damping) -> BackwardStart:
+    """Section 5's start: ``Xbar = gx[T]``, ``Vbar = gv[T]``, ``Fbar = 0``, with the run's
+    coefficients and zeroed accumulators."""
+    T, N = run.x.shape[0] - 1, run.x.shape[1]
+    a, c, d, e = coefficients(dt, mass, damping, N)
+    return BackwardStart(run, T, a, c, d, e, _accumulators(terms, N), np.zeros(run.f.shape),
+                         gx[T].copy(), gv[T].copy(), np.zeros((N, 2)))
+
+
+def backward_verlet(terms, run, gx, gv, dt, mass, damping, mobility) -> dict:
+    """Section 5 of ``docs/adjoint.md``: from ``Xbar = dl_T/dX_T``, ``Vbar = dl_T/dV_T``,
+    ``Fbar = 0``, for n = T-1 .. 0 the transposes (B4), (B3), (B2), (B1) and the objective's
+    direct terms; then (B0) and (P1)."""
+    s = _backward_start(terms, run, gx, gv, dt, mass, damping)
+    (x, v, f), a, c, d = s.run, s.a, s.c, s.d
+    xbar, vbar, fbar = s.xbar, s.vbar, s.fbar
+    abar, cbar = np.zeros(a.shape), np.zeros(a.shape)                                      # dL/da, dL/dc
+    for n in range(s.T - 1, -1, -1):
+        pbar, vbar, fbar_k, abar_k, cbar_k = kick_T(vbar, v[n], v[n + 1], f[n + 1], a, c, d)   # (B4)
+        fbar = fbar + fbar_k
+        abar = abar + abar_k
+        cbar = cbar + cbar_k
+        s.gforce[n + 1] = force_T(terms, x[n + 1], fbar, xbar, s.acc)                         # (B3)
+        xbar, pbar_k = drift_T(xbar, dt)                                                       # (B2)
+        pbar = pbar + pbar_k
+        vbar_k, fbar, abar_k = half_kick_T(pbar, f[n], a)                                      # (B1)
+        vbar = vbar + vbar_k
+        abar = abar + abar_k
+        xbar = xbar + gx[n]
+        vbar = vbar + gv[n]
+    s.gforce[0] = force_T(terms, x[0], fbar, xbar, s.acc)                                      # (B0)
+    gmass, gdamping = mass_damping_T(abar, cbar, a, c, mass)                                   # (P1)
+    return dict(s.acc, x0=xbar, v0=vbar, force=s.gforce, mass=gmass, damping=gdamping)
+
+
+def mass_damping_T(abar, cbar, a, c, mass):
+    """(P1): ``dL/dm = -(abar a + cbar c)/m``, ``dL/dgamma = cbar a``, each (N, 2)."""
+    return (-abar * a - cbar * c) / np.broadcast_to(mass, a.shape), cbar * a
+
+
+def reduce_to_shape(g: np.ndarray, shape: tuple) -> np.ndarray:
+    """The transpose of ``np.broadcast_to(input, g.shape)``: sum the leading axes that
+    broadcasting added, then (keeping them) the axes where the input has length 1."""
+    g = g.sum(axis=tuple(range(g.ndim - len(shape))))
+    g = g.sum(axis=tuple(i for i, s in enumerate(shape) if s == 1 and g.shape[i] != 1), keepdims=True)
+    return g.reshape(shape)
+
+
+# ====================================================== 6. quasistatic mode: (Q1)-(Q2) and (QB1)-(QB2)
+
+# (Q1), the force sub-step, is :func:`force` (section 3) and its transpose (QB1) :func:`force_T`.
+
+def qs_drift(x, f, mu):
+    """(Q2) ``X_{n+1} = X_n + mu F_n``."""
+    return x + mu * f
+
+
+def qs_drift_T(xbar, f, mu):
+    """(QB2): ``(Xbar_n, Fbar_n, mubar)`` contributions ``(Xbar_{n+1}, mu Xbar_{n+1}, sum_i F_n Xbar_{n+1})``."""
+    return xbar, mu * xbar, np.einsum("id,id->d", f, xbar)
+
+
+def forward_quasistatic(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
+    """docs/spec.md section 5.3, quasistatic: (Q1)-(Q2) for n = 0 .. T-1, then ``F_T`` (it moves nothing)."""
+    x, f = [x0], []
+    for n in range(fext.shape[0] - 1):
+        f.append(force(terms, x[n], fext[n]))             # (Q1)
+        x.append(qs_drift(x[n], f[n], mobility))          # (Q2)
+    f.append(force(terms, x[-1], fext[-1]))
+    return Run(np.array(x), np.zeros((len(x),) + x0.shape), np.array(f))
+
+
+def backward_quasistatic(terms, run, gx, gv, dt, mass, damping, mobility) -> dict:
+    """Section 6 of ``docs/adjoint.md``: from ``Xbar = dl_T/dX_T``, for n = T-1 .. 0 (QB2),
+    (QB1) and the objective's direct term. ``F_ext[T]`` moves nothing: its cotangent is 0."""
+    x, _, f = run
+    T, N = x.shape[0] - 1, x.shape[1]
+    acc = _accumulators(terms, N)
+    gforce, mubar = np.zeros(f.shape), np.zeros(2)
+    mu = np.broadcast_to(mobility, (N, 2))
+    xbar = gx[T].copy()
+    for n in range(T - 1, -1, -1):
+        xbar, fbar, mubar_k = qs_drift_T(xbar, f[n], mu)                                       # (QB2)
+        mubar = mubar + mubar_k
+        gforce[n] = force_T(terms, x[n], fbar, xbar, acc)                                     # (QB1)
+        xbar = xbar + gx[n]
+    return dict(acc, x0=xbar, force=gforce, mobility=mubar)
+
+
+# ============================================ 10. option: the GJF step, (G1)-(G4) / (GB1)-(GB4), (GP1)
+
+def gjf_drift(x, p, dt, d):
+    """(G2) ``X_{n+1} = X_n + dt d P``."""
+    return x + (dt * d) * p
+
+
+def gjf_drift_T(xbar, p, dt, d):
+    """(GB2): ``(Xbar_n, Pbar, dbar)`` contributions ``(Xbar_{n+1}, dt d Xbar_{n+1}, dt P Xbar_{n+1})``."""
+    return xbar, (dt * d) * xbar, dt * p * xbar
+
+
+def gjf_kick(p, f_next, a, e):
+    """(G4) ``V_{n+1} = e P + a F_{n+1}``, ``e = (1 - c) d``."""
+    return a * f_next + e * p
+
+
+def gjf_kick_T(vbar_next, p, f_next, a, e):
+    """(GB4): ``(Pbar, Fbar_{n+1}, abar, ebar)`` contributions ``(e Vbar, a Vbar, F_{n+1} Vbar, P Vbar)``."""
+    return e * vbar_next, a * vbar_next, f_next * vbar_next, p * vbar_next
+
+
+def forward_gjf(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
+    """The GJF option: (G1)-(G4) for n = 0 .. T-1 after ``F_0``."""
+    a, _, d, e = coefficients(dt, mass, damping, x0.shape[0])
+    x, v, f = [x0], [v0], [force(terms, x0, fext[0])]
+    for n in range(fext.shape[0] - 1):
+        p = half_kick(v[n], f[n], a)                      # (G1)
+        x.append(gjf_drift(x[n], p, dt, d))               # (G2)
+        f.append(force(terms, x[n + 1], fext[n + 1]))     # (G3)
+        v.append(gjf_kick(p, f[n + 1], a, e))             # (G4)
+    return Run(np.array(x), np.array(v), np.array(f))
+
+
+def backward_gjf(terms, run, gx, gv, dt, mass, damping, mobility) -> dict:
+    """Section 10 of ``docs/adjoint.md``: for n = T-1 .. 0, (GB4), (GB3), (GB2), (GB1) (P
+    recomputed by (G1)); ``sbar = dbar + 2 ebar`` is summed as it comes; then (GP1)
+    ``cbar = -d^2 sbar``, (B0) and (P1)."""
+    s = _backward_start(terms, run, gx, gv, dt, mass, damping)
+    (x, v, f), a, c, d, e = s.run, s.a, s.c, s.d, s.e
+    xbar, vbar, fbar = s.xbar, s.vbar, s.fbar
+    abar, sbar = np.zeros(a.shape), np.zeros(a.shape)                                      # dL/da, dbar + 2 ebar
+    for n in range(s.T - 1, -1, -1):
+        p = half_kick(v[n], f[n], a)                                                           # (G1)
+        pbar, fbar_k, abar_k, ebar_k = gjf_kick_T(vbar, p, f[n + 1], a, e)                     # (GB4)
+        fbar = fbar + fbar_k
+        abar = abar + abar_k
+        sbar = sbar + 2.0 * ebar_k
+        s.gforce[n + 1] = force_T(terms, x[n + 1], fbar, xbar, s.acc)                         # (GB3)
+        xbar, pbar_k, dbar_k = gjf_drift_T(xbar, p, dt, d)                                     # (GB2)
+        pbar = pbar + pbar_k
+        sbar = sbar + dbar_k
+        vbar, fbar, abar_k = half_kick_T(pbar, f[n], a)                                        # (GB1)
+        abar = abar + abar_k
+        xbar = xbar + gx[n]
+        vbar = vbar + gv[n]
+    s.gforce[0] = force_T(terms, x[0], fbar, xbar, s.acc)                                      # (B0)
+    gmass, gdamping = mass_damping_T(abar, -(d * d) * sbar, a, c, mass)                       # (GP1), (P1)
+    return dict(s.acc, x0=xbar, v0=vbar, force=s.gforce, mass=gmass, damping=gdamping)
+
+
+# ============================================ 11. option: the bicubic surface, (C1)-(C4) / (CB1)-(CB3)
 
 #: K of (C1): Catmull-Rom power coefficients (rows f^0..f^3) from the nodes c-1 .. c+2.
 CATMULL_ROM = 0.5 * np.array([[0.0, 2.0, 0.0, 0.0], [-1.0, 0.0, 1.0, 0.0],
@@ -218,13 +552,13 @@ def _form(p, A, q):
     return np.einsum("...k,...kl,...l->...", p, A, q)
 
 
-def bicubic_energy(terms: Terms, c: Cell) -> np.ndarray:
+def bicubic_energy(terms: Terms, c: Cells) -> np.ndarray:
     """(C2) ``E = p(f0)^T A p(f1)``, shape (...)."""
     A = cell_coefficients(terms)[c.i0, c.j0]
     return _form(_powers(c.f0)[0], A, _powers(c.f1)[0])
 
 
-def bicubic_force(terms: Terms, c: Cell) -> np.ndarray:
+def bicubic_force(terms: Terms, c: Cells) -> np.ndarray:
     """Minus (C3): ``-(s0/h0 p'(f0)^T A p(f1), s1/h1 p(f0)^T A p'(f1))``, shape (..., 2)."""
     A = cell_coefficients(terms)[c.i0, c.j0]
     (p0, d0, _), (p1, d1, _) = _powers(c.f0), _powers(c.f1)
@@ -232,21 +566,31 @@ def bicubic_force(terms: Terms, c: Cell) -> np.ndarray:
     return -np.stack((c.s0 / h[0] * _form(d0, A, p1), c.s1 / h[1] * _form(p0, A, d1)), axis=-1)
 
 
-def bicubic_force_T(terms: Terms, c: Cell, w: np.ndarray, xbar: np.ndarray, gvalues: np.ndarray) -> None:
-    """Transpose of :func:`bicubic_force`: ``xbar += -H w`` by (C4) and ``gvalues +=
-    -(d slope/dG)^T w`` by (CB2) (onto the cell coefficients) and (CB3) (onto the grid)."""
-    A = cell_coefficients(terms)[c.i0, c.j0]
+def bicubic_hessian(terms: Terms, c: Cells, A: np.ndarray):
+    """(C4) ``H00, H01 (= H10), H11`` per point, each (N,), for the points' cell coefficients ``A``."""
     (p0, d0, dd0), (p1, d1, dd1) = _powers(c.f0), _powers(c.f1)
     h = terms.h
     h00 = c.s0 / (h[0] * h[0]) * _form(dd0, A, p1)
     h01 = c.s0 * c.s1 / (h[0] * h[1]) * _form(d0, A, d1)
     h11 = c.s1 / (h[1] * h[1]) * _form(p0, A, dd1)
-    xbar -= np.stack((h00 * w[:, 0] + h01 * w[:, 1], h01 * w[:, 0] + h11 * w[:, 1]), axis=1)
+    return h00, h01, h11
+
+
+def bicubic_force_T(terms: Terms, c: Cells, w: np.ndarray, xbar: np.ndarray, gvalues: np.ndarray) -> None:
+    """Transpose of :func:`bicubic_force` for the cotangent w (N, 2), accumulated in place:
+    (CB1) ``xbar += -H w`` with H by (C4); (CB2) the slope's transpose onto the cell
+    coefficients, ``Abar``; (CB3) ``Abar`` onto the grid values, ``gvalues += -(d slope/dG)^T w``."""
+    A = cell_coefficients(terms)[c.i0, c.j0]
+    h00, h01, h11 = bicubic_hessian(terms, c, A)
+    xbar -= np.stack((h00 * w[:, 0] + h01 * w[:, 1], h01 * w[:, 0] + h11 * w[:, 1]), axis=1)   # (CB1)
+    (p0, d0, _), (p1, d1, _) = _powers(c.f0), _powers(c.f1)
+    h = terms.h
     alpha = (c.s0 * w[:, 0] / h[0])[:, None, None]
     beta = (c.s1 * w[:, 1] / h[1])[:, None, None]
     abar = np.zeros(cell_coefficients(terms).shape)
-    np.add.at(abar, (c.i0, c.j0), alpha * d0[:, :, None] * p1[:, None, :] + beta * p0[:, :, None] * d1[:, None, :])
-    gvalues -= cell_coefficients_T(terms, abar)
+    np.add.at(abar, (c.i0, c.j0),                                                               # (CB2)
+              alpha * d0[:, :, None] * p1[:, None, :] + beta * p0[:, :, None] * d1[:, None, :])
+    gvalues -= cell_coefficients_T(terms, abar)                                                 # (CB3)
 
 
 #: The grid term by interpolation: (energy, force, force_T).
@@ -254,307 +598,7 @@ GRID = {"bilinear": (bilinear_energy, bilinear_force, bilinear_force_T),
         "bicubic": (bicubic_energy, bicubic_force, bicubic_force_T)}
 
 
-# =========================================================================== 4. springs and walls
-
-def spring_delta(terms: Terms, q: np.ndarray) -> np.ndarray:
-    """``delta = q - c``, the minimum image ``((q - c + L/2) mod L) - L/2`` on a periodic axis."""
-    delta = q - terms.spring[1]
-    for d in range(2):
-        if terms.periodic[d]:
-            half = 0.5 * terms.length[d]
-            delta[..., d] = np.mod(delta[..., d] + half, terms.length[d]) - half
-    return delta
-
-
-def spring_energy(terms: Terms, q: np.ndarray) -> np.ndarray:
-    """``U = sum_d k_d delta_d^2 / 2``, shape (...)."""
-    delta = spring_delta(terms, q)
-    return 0.5 * np.sum(terms.spring[0] * delta * delta, axis=-1)
-
-
-def spring_force(terms: Terms, q: np.ndarray) -> np.ndarray:
-    """``F = -k delta`` (..., 2)."""
-    return -(terms.spring[0] * spring_delta(terms, q))
-
-
-def spring_force_T(terms: Terms, q, w, xbar, kbar, cbar) -> None:
-    """(A4): ``xbar += -k w``, ``kbar += -delta w``, ``cbar += k w`` (in place)."""
-    kw = terms.spring[0] * w
-    xbar -= kw
-    kbar += -spring_delta(terms, q) * w
-    cbar += kw
-
-
-def wall_energy(terms: Terms, q: np.ndarray) -> np.ndarray:
-    """``U = k_w/2 [(a - q)^+]^2 + k_w/2 [(q - b)^+]^2`` summed over the axes, shape (...)."""
-    k_w, a, b = terms.walls
-    below, above = np.maximum(a - q, 0.0), np.maximum(q - b, 0.0)
-    return 0.5 * k_w * np.sum(below * below + above * above, axis=-1)
-
-
-def wall_force(terms: Terms, q: np.ndarray) -> np.ndarray:
-    """``F = k_w (a - q)^+ - k_w (q - b)^+`` (..., 2)."""
-    k_w, a, b = terms.walls
-    return k_w * (np.maximum(a - q, 0.0) - np.maximum(q - b, 0.0))
-
-
-def wall_force_T(terms: Terms, q, w, xbar) -> None:
-    """(A5): ``xbar += -k_w w`` where a wall is active (q < a or q > b)."""
-    k_w, a, b = terms.walls
-    xbar -= k_w * np.where((q < a) | (q > b), w, 0.0)
-
-
-# =========================================================================== 5. the total force
-
-def potential_energy(terms: Terms, q: np.ndarray) -> np.ndarray:
-    """``U = U_grid + U_spring + U_wall`` at points q (..., 2), shape (...) (docs/spec.md section 3)."""
-    c = lookup(terms, q)
-    u = GRID[terms.interpolation][0](terms, c)
-    if terms.spring is not None:
-        u = u + spring_energy(terms, q)
-    if terms.walls is not None:
-        u = u + wall_energy(terms, q)
-    return u
-
-
-def force(terms: Terms, q: np.ndarray, fext_n: np.ndarray) -> np.ndarray:
-    """(S3)/(Q1) ``F(q) + F_ext[n]``, with ``F = -dU/dq`` (N, 2)."""
-    f = GRID[terms.interpolation][1](terms, lookup(terms, q))
-    if terms.spring is not None:
-        f += spring_force(terms, q)
-    if terms.walls is not None:
-        f += wall_force(terms, q)
-    return f + fext_n
-
-
-def force_T(terms: Terms, q, w, xbar, acc: dict) -> np.ndarray:
-    """(B3)/(B0)/(QB1), the transpose of :func:`force` for the cotangent w (N, 2), eq. (A6):
-    ``xbar += -H_U(q) w`` in place, the grid's and the spring's parameter cotangents into
-    ``acc``; returns ``F_ext-bar[n] = w`` (the external force enters additively)."""
-    GRID[terms.interpolation][2](terms, lookup(terms, q), w, xbar, acc["values"])
-    if terms.spring is not None:
-        spring_force_T(terms, q, w, xbar, acc["spring_k"], acc["spring_center"])
-    if terms.walls is not None:
-        wall_force_T(terms, q, w, xbar)
-    return w.copy()
-
-
-# =========================================================================== 6. dynamic mode: the Verlet step
-# (S3), the force sub-step, is :func:`force` above and its transpose (B3) :func:`force_T`.
-
-def half_kick(v, f, a):
-    """(S1) ``P = V_n + a F_n``."""
-    return v + a * f
-
-
-def half_kick_T(pbar, f, a):
-    """(B1): ``(Vbar_n, Fbar_n, abar)`` contributions ``(Pbar, a Pbar, F_n Pbar)``."""
-    return pbar, a * pbar, f * pbar
-
-
-def drift(x, p, dt):
-    """(S2) ``X_{n+1} = X_n + dt P``."""
-    return x + dt * p
-
-
-def drift_T(xbar, dt):
-    """(B2): ``(Xbar_n, Pbar)`` contributions ``(Xbar_{n+1}, dt Xbar_{n+1})``."""
-    return xbar, dt * xbar
-
-
-def kick(p, v, f_next, a, c, d):
-    """(S4) ``V_{n+1} = (P - c V_n + a F_{n+1}) d``, ``d = 1/(1 + c)`` (summed as the fast path
-    sums it: ``P + a F_{n+1}``, then ``- c V_n``)."""
-    return (p + a * f_next - c * v) * d
-
-
-def kick_T(vbar_next, v, v_next, f_next, a, c, d):
-    """(B4): ``(Pbar, Vbar_n, Fbar_{n+1}, abar, cbar)`` contributions, with ``Pbar = d Vbar_{n+1}``:
-    ``(Pbar, -c Pbar, a Pbar, F_{n+1} Pbar, -(V_n + V_{n+1}) Pbar)`` (``dV_{n+1}/dc = -(V_n + V_{n+1}) d``)."""
-    pbar = d * vbar_next
-    return pbar, -c * pbar, a * pbar, f_next * pbar, -(v + v_next) * pbar
-
-
-# =========================================================================== 7. option: the GJF step
-
-def gjf_drift(x, p, dt, d):
-    """(G2) ``X_{n+1} = X_n + dt d P``."""
-    return x + (dt * d) * p
-
-
-def gjf_drift_T(xbar, p, dt, d):
-    """(GB2): ``(Xbar_n, Pbar, dbar)`` contributions ``(Xbar_{n+1}, dt d Xbar_{n+1}, dt P Xbar_{n+1})``."""
-    return xbar, (dt * d) * xbar, dt * p * xbar
-
-
-def gjf_kick(p, f_next, a, e):
-    """(G4) ``V_{n+1} = e P + a F_{n+1}``, ``e = (1 - c) d``."""
-    return a * f_next + e * p
-
-
-def gjf_kick_T(vbar_next, p, f_next, a, e):
-    """(GB4): ``(Pbar, Fbar_{n+1}, abar, ebar)`` contributions ``(e Vbar, a Vbar, F_{n+1} Vbar, P Vbar)``."""
-    return e * vbar_next, a * vbar_next, f_next * vbar_next, p * vbar_next
-
-
-# =========================================================================== 8. quasistatic mode
-
-def qs_drift(x, f, mu):
-    """(Q2) ``X_{n+1} = X_n + mu F_n``."""
-    return x + mu * f
-
-
-def qs_drift_T(xbar, f, mu):
-    """(QB2): ``(Xbar_n, Fbar_n, mubar)`` contributions ``(Xbar_{n+1}, mu Xbar_{n+1}, sum_i F_n Xbar_{n+1})``."""
-    return xbar, mu * xbar, np.einsum("id,id->d", f, xbar)
-
-
-# =========================================================================== 9. the forward loops
-
-class Run(NamedTuple):
-    """The T+1 states: ``x``, ``v`` (zeros in quasistatic mode), ``f`` (the total force
-    ``F(X_n) + F_ext[n]``), each (T+1, N, 2)."""
-
-    x: np.ndarray
-    v: np.ndarray
-    f: np.ndarray
-
-
-def coefficients(dt, mass, damping, n):
-    """``a = dt/(2m)``, ``c = dt gamma/(2m)`` (:func:`pes_ref.core.integrator.step_coefficients`),
-    ``d = 1/(1+c)``, ``e = (1-c) d``, each (N, 2); an undamped scene has ``gamma = 0``:
-    ``c = 0``, ``d = e = 1``."""
-    a, c = step_coefficients(dt, mass, 0.0 if damping is None else damping, n)
-    d = 1.0 / (1.0 + c)
-    return a, c, d, (1.0 - c) * d
-
-
-def forward_verlet(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
-    """docs/spec.md section 5.2, dynamic: (S1)-(S4) for n = 0 .. T-1 after ``F_0 = F(X_0) + F_ext[0]``."""
-    a, c, d, _ = coefficients(dt, mass, damping, x0.shape[0])
-    x, v, f = [x0], [v0], [force(terms, x0, fext[0])]
-    for n in range(fext.shape[0] - 1):
-        p = half_kick(v[n], f[n], a)                      # (S1)
-        x.append(drift(x[n], p, dt))                      # (S2)
-        f.append(force(terms, x[n + 1], fext[n + 1]))     # (S3)
-        v.append(kick(p, v[n], f[n + 1], a, c, d))        # (S4)
-    return Run(np.array(x), np.array(v), np.array(f))
-
-
-def forward_gjf(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
-    """The GJF option: (G1)-(G4) for n = 0 .. T-1 after ``F_0``."""
-    a, _, d, e = coefficients(dt, mass, damping, x0.shape[0])
-    x, v, f = [x0], [v0], [force(terms, x0, fext[0])]
-    for n in range(fext.shape[0] - 1):
-        p = half_kick(v[n], f[n], a)                      # (G1)
-        x.append(gjf_drift(x[n], p, dt, d))               # (G2)
-        f.append(force(terms, x[n + 1], fext[n + 1]))     # (G3)
-        v.append(gjf_kick(p, f[n + 1], a, e))             # (G4)
-    return Run(np.array(x), np.array(v), np.array(f))
-
-
-def forward_quasistatic(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
-    """docs/spec.md section 5.3, quasistatic: (Q1)-(Q2) for n = 0 .. T-1, then ``F_T`` (it moves nothing)."""
-    x, f = [x0], []
-    for n in range(fext.shape[0] - 1):
-        f.append(force(terms, x[n], fext[n]))             # (Q1)
-        x.append(qs_drift(x[n], f[n], mobility))          # (Q2)
-    f.append(force(terms, x[-1], fext[-1]))
-    return Run(np.array(x), np.zeros((len(x),) + x0.shape), np.array(f))
-
-
-# =========================================================================== 10. the backward loops
-
-def _accumulators(terms: Terms, n: int) -> dict:
-    """Zeroed parameter cotangents that :func:`force_T` sums into."""
-    acc = {"values": np.zeros(terms.values.shape)}
-    if terms.spring is not None:
-        acc["spring_k"], acc["spring_center"] = np.zeros((n, 2)), np.zeros((n, 2))
-    return acc
-
-
-def mass_damping_T(abar, cbar, a, c, mass):
-    """(P1): ``dL/dm = -(abar a + cbar c)/m``, ``dL/dgamma = cbar a``, each (N, 2)."""
-    return (-abar * a - cbar * c) / np.broadcast_to(mass, a.shape), cbar * a
-
-
-def _backward_start(terms, run, gx, gv, dt, mass, damping):
-    """What both dynamic backward loops start from: the run, its sizes, the step's
-    coefficients, the parameter accumulators, zero cotangents of the force and of the
-    coefficients, and ``Xbar = gx[T]``, ``Vbar = gv[T]``, ``Fbar = 0``."""
-    x, v, f = run
-    T, N = x.shape[0] - 1, x.shape[1]
-    coef = coefficients(dt, mass, damping, N)
-    zeros = np.zeros((N, 2))
-    return (x, v, f, T, N, coef, _accumulators(terms, N), np.zeros(f.shape), zeros.copy(), zeros.copy(),
-            gx[T].copy(), gv[T].copy(), zeros.copy())
-
-
-def backward_verlet(terms, run, gx, gv, dt, mass, damping, mobility) -> dict:
-    """Section 5 of ``docs/adjoint.md``: from ``Xbar = dl_T/dX_T``, ``Vbar = dl_T/dV_T``,
-    ``Fbar = 0``, for n = T-1 .. 0 the transposes (B4), (B3), (B2), (B1) and the objective's
-    direct terms; then (B0) and (P1)."""
-    x, v, f, T, N, (a, c, d, _), acc, gforce, abar, cbar, xbar, vbar, fbar = _backward_start(
-        terms, run, gx, gv, dt, mass, damping)
-    for n in range(T - 1, -1, -1):
-        pbar, vbar, fbar_k, abar_k, cbar_k = kick_T(vbar, v[n], v[n + 1], f[n + 1], a, c, d)   # (B4)
-        fbar = fbar + fbar_k
-        abar = abar + abar_k
-        cbar = cbar + cbar_k
-        gforce[n + 1] = force_T(terms, x[n + 1], fbar, xbar, acc)                             # (B3)
-        xbar, pbar_k = drift_T(xbar, dt)                                                       # (B2)
-        pbar = pbar + pbar_k
-        vbar_k, fbar, abar_k = half_kick_T(pbar, f[n], a)                                      # (B1)
-        vbar = vbar + vbar_k
-        abar = abar + abar_k
-        xbar = xbar + gx[n]
-        vbar = vbar + gv[n]
-    gforce[0] = force_T(terms, x[0], fbar, xbar, acc)                                          # (B0)
-    gmass, gdamping = mass_damping_T(abar, cbar, a, c, mass)                                   # (P1)
-    return dict(acc, x0=xbar, v0=vbar, force=gforce, mass=gmass, damping=gdamping)
-
-
-def backward_gjf(terms, run, gx, gv, dt, mass, damping, mobility) -> dict:
-    """Section 10 of ``docs/adjoint.md``: for n = T-1 .. 0, (GB4), (GB3), (GB2), (GB1) (P
-    recomputed by (G1)); ``sbar = dbar + 2 ebar`` is summed as it comes; then (GP1)
-    ``cbar = -d^2 sbar``, (B0) and (P1)."""
-    x, v, f, T, N, (a, c, d, e), acc, gforce, abar, sbar, xbar, vbar, fbar = _backward_start(
-        terms, run, gx, gv, dt, mass, damping)
-    for n in range(T - 1, -1, -1):
-        p = half_kick(v[n], f[n], a)                                                           # (G1)
-        pbar, fbar_k, abar_k, ebar_k = gjf_kick_T(vbar, p, f[n + 1], a, e)                     # (GB4)
-        fbar = fbar + fbar_k
-        abar = abar + abar_k
-        sbar = sbar + 2.0 * ebar_k
-        gforce[n + 1] = force_T(terms, x[n + 1], fbar, xbar, acc)                             # (GB3)
-        xbar, pbar_k, dbar_k = gjf_drift_T(xbar, p, dt, d)                                     # (GB2)
-        pbar = pbar + pbar_k
-        sbar = sbar + dbar_k
-        vbar, fbar, abar_k = half_kick_T(pbar, f[n], a)                                        # (GB1)
-        abar = abar + abar_k
-        xbar = xbar + gx[n]
-        vbar = vbar + gv[n]
-    gforce[0] = force_T(terms, x[0], fbar, xbar, acc)                                          # (B0)
-    gmass, gdamping = mass_damping_T(abar, -(d * d) * sbar, a, c, mass)                       # (GP1), (P1)
-    return dict(acc, x0=xbar, v0=vbar, force=gforce, mass=gmass, damping=gdamping)
-
-
-def backward_quasistatic(terms, run, gx, gv, dt, mass, damping, mobility) -> dict:
-    """Section 6 of ``docs/adjoint.md``: from ``Xbar = dl_T/dX_T``, for n = T-1 .. 0 (QB2),
-    (QB1) and the objective's direct term. ``F_ext[T]`` moves nothing: its cotangent is 0."""
-    x, _, f = run
-    T, N = x.shape[0] - 1, x.shape[1]
-    acc = _accumulators(terms, N)
-    gforce, mubar = np.zeros(f.shape), np.zeros(2)
-    mu = np.broadcast_to(mobility, (N, 2))
-    xbar = gx[T].copy()
-    for n in range(T - 1, -1, -1):
-        xbar, fbar, mubar_k = qs_drift_T(xbar, f[n], mu)                                       # (QB2)
-        mubar = mubar + mubar_k
-        gforce[n] = force_T(terms, x[n], fbar, xbar, acc)                                     # (QB1)
-        xbar = xbar + gx[n]
-    return dict(acc, x0=xbar, force=gforce, mobility=mubar)
-
+# ============= the scene interface: the loops by mode and integrator; simulate, energy, value_and_grad
 
 #: (forward, backward) by mode and integrator.
 STEPPERS = {("dynamic", "verlet"): (forward_verlet, backward_verlet),
@@ -573,16 +617,6 @@ def backward(terms, run, gx, gv, stepper, **params) -> dict:
     (T+1, N, 2): the raw gradients (per particle, before :func:`reduce_to_shape`)."""
     return STEPPERS[stepper][1](terms, run, gx, gv, **params)
 
-
-def reduce_to_shape(g: np.ndarray, shape: tuple) -> np.ndarray:
-    """The transpose of ``np.broadcast_to(input, g.shape)``: sum the leading axes that
-    broadcasting added, then (keeping them) the axes where the input has length 1."""
-    g = g.sum(axis=tuple(range(g.ndim - len(shape))))
-    g = g.sum(axis=tuple(i for i, s in enumerate(shape) if s == 1 and g.shape[i] != 1), keepdims=True)
-    return g.reshape(shape)
-
-
-# =========================================================================== 11. scenes
 
 def _setup(scene, x0, v0, fext):
     """Plain arrays of a Scene and an initial state; ``fext`` "scene" (the schedule its
@@ -618,10 +652,10 @@ def value_and_grad(scene, x0, v0, objective, *, regularization_weight: float = 0
     gx = np.zeros(run.x.shape) if gx is None else gx
     gv = np.zeros(run.v.shape) if gv is None else gv
     grads = backward(terms, run, gx, gv, stepper, **params)
-    R, G = float(regularization_weight), scene.surface.values
-    if R != 0.0:                                          # (O4) R sum G^2
-        loss = loss + float(R * np.sum(G * G))
-        grads["values"] = grads["values"] + 2.0 * R * G
+    r_value, r_grad = regularization(scene.surface.values, float(regularization_weight))   # (O4) R sum G^2
+    if r_grad is not None:
+        loss = loss + r_value
+        grads["values"] = grads["values"] + r_grad
     inputs = {"mass": scene.mass, "damping": 0.0 if scene.damping is None else scene.damping}
     if scene.spring is not None:
         inputs.update(spring_k=scene.spring.k, spring_center=scene.spring.center)
