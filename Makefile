@@ -49,7 +49,7 @@ oscillator-plans: $(STAMP)
 	$(PY) -m pes_ref sweep validation/experiments/oscillator_seeds.toml --out validation/out/sweeps/oscillator_seeds
 	$(PY) validation/experiments/oscillator_plans.py --all
 
-# The funnel study of docs/synthesis.md (issue 15): 11 settings x 16 design seeds, each evaluated
+# The funnel study of docs/synthesis.md: 11 settings x 16 design seeds, each evaluated
 # on held-out seeds 12345 and 9191 (about 7 minutes on 2 cores), then its table.
 funnel-study: $(STAMP)
 	$(PY) -m pes_ref sweep validation/experiments/funnel_objective.toml --out validation/out/sweeps/funnel_objective

@@ -3,7 +3,7 @@
 The torque sweep of ``python -m pes_ref evaluate`` (50 torques evenly from the minimum to
 the maximum, started like the paper's batch, seed 12345, 15 target periods), run on the
 oscillator design (``--design``, the default: prescribed-gait shooting and its polish), on
-the previous default, gradient descent on eq. (6) aimed at 1.4 A (``--baseline``, made by
+gradient descent alone on eq. (6) aimed at 1.4 A (``--baseline``, made by
 ``design oscillator --plan overshoot``) and on the hand-drawn escapement
 (:func:`pes_ref.synthesis.escapement.escapement_values`, no optimization), analysed by
 :func:`pes_ref.synthesis.analysis.cycle_figures` over the last 3 periods. (a) amplitude of
@@ -26,7 +26,7 @@ from pes_ref.synthesis import CYCLE_TOLERANCE, cycle_figures, escapement_values,
 NAME = "fig12_torque_capture"
 #: Held-out seed and particle count of ``evaluate``.
 SEED, PARTICLES = 12345, 50
-#: The baseline design: the previous default, gradient descent alone.
+#: The baseline design: gradient descent alone (``--plan overshoot``).
 BASELINE = "oscillator_overshoot"
 
 
@@ -70,7 +70,7 @@ def main(argv=None) -> int:
     p = state.problem
     n, periods = (8, 4) if args.smoke else (PARTICLES, None)
     rows = [(row_label(state, "design"), "#1f77b4", "o", state.values),
-            (row_label(base, "gradient descent alone, previous default `overshoot`"), "#2ca02c", "^", base.values),
+            (row_label(base, "gradient descent alone, `--plan overshoot`"), "#2ca02c", "^", base.values),
             ("hand-drawn escapement (not optimized)", "#d62728", "s", escapement_values(p, state.values.shape))]
     fig, (ax0, ax1) = C.plt.subplots(1, 2, figsize=(13, 4.8), constrained_layout=True)
     A = p.amplitude

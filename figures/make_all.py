@@ -4,8 +4,8 @@ Steps, each printed with its elapsed time as it starts, while it runs and when i
 
 1. the designs, computed by the project's own command (:data:`DESIGNS`): the funnel and the
    oscillator with the command's defaults (``python -m pes_ref design funnel|oscillator --out
-   figures/out/cache/KIND.npz``), and the oscillator of the previous default, gradient
-   descent alone (``--plan overshoot``), which Fig. 12 draws beside the default; their
+   figures/out/cache/KIND.npz``), and the oscillator by gradient descent alone
+   (``--plan overshoot``), which Fig. 12 draws beside the default; their
    own progress lines are passed through. A design is reused from the cache only
    when its inputs are unchanged: the sidecar ``KIND.json`` holds a key hashing every
    source file of the ``pes_ref`` package, the command line, and the Python and NumPy
@@ -15,7 +15,7 @@ Steps, each printed with its elapsed time as it starts, while it runs and when i
    each as soon as the design it needs exists.
 
 Up to ``--jobs`` steps run at once (default: the CPU count), longest first, so on two
-cores the oscillator design runs beside the funnel and the previous oscillator designs and
+cores the oscillator design runs beside the funnel and the gradient-descent oscillator design and
 then the figures. The time
 of each step and the total are printed at the end and saved to ``OUT/timings.json``.
 Exit status 0 when every step succeeded, 1 otherwise.

@@ -23,7 +23,7 @@ from _common import Fragment, fit_order, parse_args, plt, topic_of
 from pes_ref.devices import cspace
 from pes_ref.devices import geometry
 
-#: Edges of each polygon (the issue's "two ~50-edge polygons").
+#: Edges of each polygon: two polygons of about 50 edges.
 N_EDGES = 50
 #: The distance field is compared at nodes within this many spacings of the exact boundary
 #: (where eq. (1) acts for a cut-off of a few spacings).
@@ -154,7 +154,7 @@ def main(argv=None) -> int:
     frag.sentence(f"The signed distance field is within {max(r['field_err'] / r['h'] for r in rows):.2f} grid "
                   f"spacings of the exact signed distance near the boundary ({last['field_err']:.3g} units at "
                   f"n = {last['n']}).")
-    big = next((r for r in rows if r["n"] == 200), rows[-1])     # the 200 x 200 case
+    big = next((r for r in rows if r["n"] == 200), rows[-1])     # the 200 x 200 case
     frag.sentence(f"The blocked region of {big['n']} x {big['n']} nodes for two {N_EDGES}-edge polygons took "
                   f"{big['t']:.3g} s.")
     frag.write()

@@ -23,7 +23,7 @@ from _common import (Fragment, analytic_potential, fit_order, option_available, 
 import pes_ref as pr
 from pes_ref.core.forces import force
 
-#: The reference's tolerances: rtol 1e-12 as the issue asks; atol far below any error measured.
+#: The reference's tolerances: rtol 1e-12; atol far below any error measured.
 REF_RTOL, REF_ATOL = 1e-12, 1e-14
 #: solve_ivp's own work-precision points.
 IVP_RTOLS = (1e-3, 1e-5, 1e-7, 1e-9)

@@ -1,4 +1,4 @@
-"""The performance benchmark behind ``python -m pes_ref bench`` (issue 6; ``docs/performance.md``).
+"""The performance benchmark behind ``python -m pes_ref bench`` (``docs/performance.md``).
 
 Measures, on a 200 x 200 surface and in float64:
 
@@ -13,7 +13,7 @@ Measures, on a 200 x 200 surface and in float64:
 - ``design``: the funnel and oscillator design gradients (:mod:`pes_ref.bench.cases`)
   against HIPS autograd and JAX where installed, each checked to agree with pes_ref's
   gradient (``GRAD_RTOL``) before it is timed, JAX's compile time apart;
-- ``targets``: issue 6's targets, each with the measured number and met / not met.
+- ``targets``: the targets of docs/performance.md, each with the measured number and met / not met.
 
 Every timing is the median of repeated wall-clock runs after one warm-up run, with its
 min and max. Nothing here is a test: it prints numbers and writes them (JSON, with the
@@ -467,7 +467,7 @@ def format_report(res: dict) -> str:
         if "pes_ref_over_jax_steady" in r:
             L.append(f"    pes_ref / JAX steady = {r['pes_ref_over_jax_steady']:.2f}; "
                      f"JAX first call (compile included) / pes_ref = {r['jax_first_call_over_pes_ref']:.0f}")
-    L += ["", "Targets (issue 6)"]
+    L += ["", "Targets (docs/performance.md)"]
     for t in res["targets"]:
         status = {True: "met", False: "NOT met", None: "not measured"}[t["met"]]
         L.append(f"  {t['target']:48s} {_fmt_v(t['measured']):>10s}  goal {t['goal']:8s} {status}")

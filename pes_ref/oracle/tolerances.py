@@ -12,7 +12,7 @@ TRAJ_ATOL = 1e-12
 GRAD_RTOL = 1e-9
 #: ... and the absolute floor, scaled by the largest entry of the gradient compared.
 GRAD_ATOL = 1e-9
-#: The adjoint against central finite differences, away from kinks (issue 2: below 1e-6).
+#: The adjoint against central finite differences, away from kinks: their relative difference is below this.
 FD_RTOL = 1e-6
 #: The default central-difference step, relative to the parameter's scale.
 FD_EPS = 1e-6

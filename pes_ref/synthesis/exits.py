@@ -1,4 +1,4 @@
-"""Where a funnel particle leaves the domain, and eq. (5) charged there (issue 15).
+"""Where a funnel particle leaves the domain, and eq. (5) charged there.
 
 A particle *exits* at the first state at or below the bottom edge ``q1 <= level``
 (:func:`exit_steps`). The held-out evaluation measures its q0 there (:func:`exit_positions`,

@@ -1,4 +1,4 @@
-"""Prescribed-gait multiple shooting for the oscillator: the cost and the starts (issue 15).
+"""Prescribed-gait multiple shooting for the oscillator: the cost and the starts.
 
 Every training particle starts *on* the target cycle at a random phase ``theta``, on a random
 tooth ``k`` of a prescribed gait of q1 (an advance of ``delta`` per target period, like an

@@ -191,9 +191,10 @@ class PolishPlan:
 #: Adam, lr 1e-2 -> 1e-4 geometric over the 3000 iterations (no grid scaling), 256 starts on the
 #: cycle and the gait per iteration, one-period runs, 16 x 16 until 1500 then the scene's 32 x 32;
 #: its polish follows (:data:`OSCILLATOR_POLISH`). "eq6" is the paper's setting, eq. (6) + eq. (7)
-#: aimed at the target amplitude A, and "overshoot" (the previous default) aims the same cost at
-#: 1.4 A; these two share the plan: RMSprop, lr 5e-4 -> 5e-5, 16 particles, a horizon curriculum
-#: of 250/400/600/1000 steps (2 to 8 periods) on a 16 x 16 grid for 500 iterations, then 32 x 32.
+#: aimed at the target amplitude A, and "overshoot" (the best eq. (6) plan of docs/synthesis.md)
+#: aims the same cost at 1.4 A; these two share the plan: RMSprop, lr 5e-4 -> 5e-5, 16 particles,
+#: a horizon curriculum of 250/400/600/1000 steps (2 to 8 periods) on a 16 x 16 grid for 500
+#: iterations, then 32 x 32.
 _GAIT_PLAN = Plan(iterations=3000, optimizer="adam", lr=1e-2, lr_final=1e-4, decay_iterations=2999,
                   n_particles=256, stages=((0, 16), (1500, 0)), scale_lr_by_grid=False)
 _OSC_PLAN = Plan(iterations=3000, lr=0.0005, lr_final=0.00005, decay_iterations=3000, n_particles=16,

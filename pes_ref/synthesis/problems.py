@@ -32,7 +32,7 @@ from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 __all__ = ["FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
            "IN_BAND_SHARE", "exit_positions", "FUNNEL_OBJECTIVES"]
 
-#: A funnel particle is "in band" when its exit |q0 - target| is below this share of the width (issue 4).
+#: A funnel particle is "in band" when its exit |q0 - target| is below this share of the width.
 IN_BAND_SHARE = 0.10
 
 
@@ -75,7 +75,7 @@ class FunnelProblem(_Problem):
     each particle leaves the domain (:class:`pes_ref.synthesis.exits.FunnelExit`), ``"final"``
     at the last step, ``"every_step"`` summed over every step. A strip of depth ``exit_zone``
     at the bottom is held at zero energy (0 by default: none). ``"final"`` needs one
-    (``exit_zone = 0.05`` was the default with it): the surface extends as a constant beyond
+    (docs/synthesis.md measures it with ``exit_zone = 0.05``): the surface extends as a constant beyond
     the bottom edge, so without it a design charged at the last step can keep steering
     particles after they leave the domain. Grid axis 0 is q0, axis 1 is q1; ``grid`` nodes
     per axis.

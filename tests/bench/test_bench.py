@@ -1,4 +1,4 @@
-"""Smoke tests of the benchmark (``python -m pes_ref bench``, issue 6) and the check that
+"""Smoke tests of the benchmark (``python -m pes_ref bench``) and the check that
 its autograd and JAX gradients agree with pes_ref's. Nothing here is timed: timings are
 what the benchmark prints, never a pass/fail criterion."""
 import json
@@ -24,7 +24,7 @@ def test_bench_quick_writes_json_and_plot(tmp_path, capsys):
     assert all(r["autograd"]["status"] == "skipped" for r in res["design"])
     assert (tmp_path / "b-scaling.png").stat().st_size > 0
     printed = capsys.readouterr().out
-    assert "Targets (issue 6)" in printed and "bare scene / loop written for it alone" in printed
+    assert "Targets (docs/performance.md)" in printed and "bare scene / loop written for it alone" in printed
 
 
 def test_bench_refuses_to_replace_a_named_file(tmp_path, capsys):

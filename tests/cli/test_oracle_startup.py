@@ -1,5 +1,5 @@
 """The oracle's command line pays only for what it uses: its imports, the parser it
-builds, and results stored uncompressed unless ``--compress`` (issue 13's timing target
+builds, and results stored uncompressed unless ``--compress`` (the oracle's timing target
 is measured by ``python -m pes_ref.bench.oracle_cli``, not here: timings are no test)."""
 import json
 import os

@@ -1,4 +1,4 @@
-"""Hard cases that must stay numerically stable (issue 5).
+"""Hard cases that must stay numerically stable.
 
 Stiff terms near and past the explicit stability limit (:mod:`pes_ref.core.stability`),
 huge surfaces, eq. (1) near its singularity, particles on the grid's special points,

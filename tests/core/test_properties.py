@@ -45,7 +45,7 @@ BILINEAR_PARTICLES = 1024
 #: dt -> dt/2 ratio of max|E_n - E_0| on springs alone (C-infinity forces). There
 #: E_n - E_0 = dt^2 g(t_n) + O(dt^4) with g fixed, so the ratio tends to 4; measured
 #: in [3.963, 4.020] at omega_max dt <= 0.2 (80 examples, 300-500 steps) and in [3.967, 4.045]
-#: over 1200 examples of the 100-step runs the property now uses (the coarse run samples
+#: over 1200 examples of the 100-step runs the property uses (the coarse run samples
 #: the error's oscillation less finely). The band leaves ~5x that deviation and still
 #: rejects first order (2) and third order (8).
 SMOOTH_RATIO_BAND = (3.8, 4.2)
@@ -66,7 +66,7 @@ BOUNDED_GROWTH = 1.3
 #: (per-bounce residue ratios measured 6.4, 2.6, 3.9, 4.2 at successive halvings).
 #: Over 300 random scenes of 128 particles the ensemble ratio was 2.97-6.12 (5%-95%:
 #: 3.46-4.94; a [3, 5] band failed the thorough profile at 2.93). With the 100-step runs
-#: the property now uses (fewer contacts per particle): 3.27-4.75 over 800 examples (200
+#: the property uses (fewer contacts per particle): 3.27-4.75 over 800 examples (200
 #: default, 600 random), C <= 0.34 for the bound below. The band still
 #: rejects first order (2) and third order (8); the (omega dt)^2 bound below pins the
 #: order down.

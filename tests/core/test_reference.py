@@ -1,4 +1,4 @@
-"""The fast path against the readable reference, entry by entry (issue 12).
+"""The fast path against the readable reference, entry by entry.
 
 :mod:`pes_ref.core.reference` writes the method once in plain NumPy; the public API
 (``pes_ref.simulate``, ``pes_ref.value_and_grad``, ``pes_ref.energy``) runs the fast

@@ -128,7 +128,7 @@ def test_schedule_runs_steps_and_skips_what_a_failed_step_needs():
     assert not make_all.succeeded(bad) and make_all.succeeded(free)
 
 
-def test_fig12_draws_the_default_beside_the_previous_gradient_descent_design(tmp_path):
+def test_fig12_draws_the_default_beside_the_gradient_descent_design(tmp_path):
     designs = {name: f"{name}.npz" for name in make_all.DESIGNS}
     assert make_all.DESIGNS["oscillator"] == ["design", "oscillator"]                     # the command's defaults
     assert make_all.DESIGNS["oscillator_overshoot"][-2:] == ["--plan", "overshoot"]

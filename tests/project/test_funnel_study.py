@@ -1,7 +1,7 @@
-"""validation/experiments/funnel_objective.{toml,py}: the funnel study of issue 15.
+"""validation/experiments/funnel_objective.{toml,py}: the funnel study of docs/synthesis.md.
 
 The sweep file's variants mean what their names say (resolved as ``design`` resolves the same
-flags), and the summary counts the bar of issue 15 (both held-out seeds >= 0.9) per design seed.
+flags), and the summary counts the bar of docs/synthesis.md (both held-out seeds >= 0.9) per design seed.
 The study itself is ``make funnel-study`` (about 5 minutes), not part of ``make test``.
 """
 from __future__ import annotations

@@ -227,7 +227,7 @@ def test_oscillator_defaults_are_the_default_named_plan():
     assert synthesis.new_design("oscillator", plan=plan).polish is None        # a plan given: no polish unless asked
     assert synthesis.OSCILLATOR_PLANS["eq6"][0]["cost"] == "eq6"             # the paper's setting stays available
     assert synthesis.OSCILLATOR_PLANS["eq6"][0]["target_scale"] == 1.0
-    assert synthesis.OSCILLATOR_PLANS["overshoot"][0]["target_scale"] == 1.4  # and the previous default
+    assert synthesis.OSCILLATOR_PLANS["overshoot"][0]["target_scale"] == 1.4  # and eq. (6) aimed above A
     assert synthesis.OSCILLATOR_POLISH["eq6"] is synthesis.OSCILLATOR_POLISH["overshoot"] is None
 
 

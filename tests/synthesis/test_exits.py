@@ -1,4 +1,4 @@
-"""pes_ref.synthesis.exits: a funnel particle's exit step, and eq. (5) charged at the exit (issue 15).
+"""pes_ref.synthesis.exits: a funnel particle's exit step, and eq. (5) charged at the exit.
 
 Values by hand, the derivative by central differences entry by entry, and the design gradient
 through the adjoint against central differences on a funnel whose particles exit.

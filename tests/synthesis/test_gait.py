@@ -1,4 +1,4 @@
-"""Prescribed-gait shooting (issue 15): the cost's gradient, the design gradient through the
+"""Prescribed-gait shooting: the cost's gradient, the design gradient through the
 adjoint, the starts, and the default oscillator setting that uses them."""
 import math
 

@@ -1,4 +1,4 @@
-"""The polish stage (issue 15): the basis, the training particles, the fitness, the search with
+"""The polish stage: the basis, the training particles, the fitness, the search with
 and without an executor, and a run's stages one after the other (stop, save, resume)."""
 import dataclasses
 import os

@@ -7,7 +7,7 @@ Run the sweep first (``make funnel-study`` does both)::
 
 One row per variant of ``funnel_objective.toml``: the mean and the worst ``in_band_fraction``
 over every design seed and held-out seed, how many design seeds reach 0.9 on both held-out
-seeds (the bar of issue 15), the worst ``exited_fraction``, and the figures of design seeds
+seeds (the bar of docs/synthesis.md), the worst ``exited_fraction``, and the figures of design seeds
 0, 1 and 2 (held-out 12345 / 9191).
 
 ``--misses VARIANT SEED [HELD_OUT]`` describes the held-out particles one of the sweep's designs
