@@ -53,7 +53,7 @@ def test_readme_oracle_example_runs_as_written(tmp_path):
 
 # ------------------------------------------------------------------ the docs name what exists
 
-#: The prose a reader follows: every ``pes_ref/...`` path and ``pes_ref.x.y`` name in it.
+#: The prose a reader follows: every ``pes_ref/...`` path and dotted ``pes_ref`` name in it must exist.
 DOCS = sorted([*ROOT.glob("docs/*.md"), ROOT / "README.md", ROOT / "tests" / "README.md",
                *ROOT.glob("examples/*/README.md")])
 #: A repository path (a file or a folder) that starts with pes_ref/.
