@@ -34,6 +34,7 @@ import numpy as np
 from pes_ref import __version__
 from pes_ref.bench.cases import CASES, reference_gradient, reference_objective, reference_scene, smooth_surface
 from pes_ref.core.effects import Constant, Noise, Window
+from pes_ref.core.files import atomic_file
 from pes_ref.core.interpolations import interpolation
 from pes_ref.core.integrator import adjoint_dynamic, adjoint_quasistatic
 from pes_ref.core.objectives import Funnel
@@ -475,7 +476,7 @@ def format_report(res: dict) -> str:
     return "\n".join(L)
 
 
-def plot_scaling(res: dict, path: str) -> None:
+def plot_scaling(res: dict, path: str, overwrite: bool = True) -> None:
     """Time per step against N, forward and forward+adjoint, both modes (log-log)."""
     import matplotlib
     matplotlib.use("Agg")
@@ -498,7 +499,8 @@ def plot_scaling(res: dict, path: str) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=150)
+    with atomic_file(path, overwrite=overwrite, what="plot") as fh:
+        fig.savefig(fh, format="png", dpi=150)
     plt.close(fig)
 
 
@@ -520,18 +522,19 @@ def output_paths(json_path: str) -> tuple:
 
 
 def write_outputs(res: dict, json_path: str, overwrite: bool) -> tuple:
-    """Write the JSON and, beside it, ``scaling.png`` (or ``<stem>-scaling.png``).
+    """Write the JSON and, beside it, ``scaling.png`` (or ``<stem>-scaling.png``), each
+    atomically (:func:`pes_ref.core.files.atomic_file`).
 
-    Refuses (FileExistsError) to replace an existing file unless ``overwrite``."""
+    Refuses (FileExistsError) to replace an existing file unless ``overwrite``: both are
+    checked before anything is written, and each again as it is published."""
     folder = os.path.dirname(os.path.abspath(json_path))
     png = output_paths(json_path)[1]
     for path in (json_path, png):
         if os.path.exists(path) and not overwrite:
             raise FileExistsError(f"{path} exists; pass --force to replace it")
     os.makedirs(folder, exist_ok=True)
-    tmp = json_path + ".tmp"
-    with open(tmp, "w") as fh:
-        json.dump(res, fh, indent=1, default=_jsonable)
-    os.replace(tmp, json_path)
-    plot_scaling(res, png)
+    text = json.dumps(res, indent=1, default=_jsonable)
+    with atomic_file(json_path, overwrite=overwrite, what="benchmark") as fh:
+        fh.write(text.encode("utf-8"))
+    plot_scaling(res, png, overwrite=overwrite)
     return json_path, png

@@ -36,12 +36,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import budget, checks, stability
+from pes_ref.core.files import ResultExistsError
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene, energy, gradient_names, value_and_grad
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
-from pes_ref.oracle.errors import CaseError, CaseTypeError, ResultExistsError
+from pes_ref.oracle.errors import CaseError, CaseTypeError
 from pes_ref.oracle.npz import read_npz, write_npz
 
 __all__ = [
