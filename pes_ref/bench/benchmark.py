@@ -41,6 +41,7 @@ from pes_ref.core.objectives import Funnel
 from pes_ref.core.scene import Scene, simulate, value_and_grad
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import GRAD_RTOL
 
 __all__ = ["Config", "FULL", "QUICK", "run", "format_report", "write_outputs"]
@@ -273,10 +274,6 @@ def exponents(cfg: Config, log=print) -> dict:
     return out
 
 
-def _relative_error(got, want) -> float:
-    return float(np.max(np.abs(got - want)) / max(np.max(np.abs(want)), 1e-300))
-
-
 def _autodiff_entry(module, case, ref_grad, repeats: int, jitted: bool, enabled: bool = True) -> dict:
     """Check one autodiff backend against the reference gradient, then time it."""
     if not enabled:
@@ -287,7 +284,7 @@ def _autodiff_entry(module, case, ref_grad, repeats: int, jitted: bool, enabled:
     t0 = time.perf_counter()
     _, grad = fn(case.values)
     first = time.perf_counter() - t0
-    err = _relative_error(grad, ref_grad)
+    err = relative_error(grad, ref_grad)
     if not err <= GRAD_RTOL:
         return {"status": "mismatch", "relative_error": err, "tolerance": GRAD_RTOL}
     entry = {"status": "ok", "relative_error": err, "first_call_s": first}

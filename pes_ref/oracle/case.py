@@ -49,7 +49,7 @@ __all__ = [
     "CaseError", "CaseTypeError", "ResultExistsError", "ValidCase",
     "REQUIRED_KEYS", "OPTIONAL_KEYS", "OBJECTIVE_PARAMS", "CASE_KEYS", "KEY_GROUPS",
     "load_case", "validate_case", "run_case", "write_result", "run_case_file", "save_case",
-    "read_npz", "write_npz", "result_keys", "grad_names_for",
+    "read_npz", "write_npz", "result_keys",
 ]
 
 #: Keys every case must hold (docs/spec.md section 8.2: those marked required). ``v0``, ``mass``
@@ -347,15 +347,6 @@ def _force(raw: Mapping, shape: tuple) -> np.ndarray:
     return checks.as_float_array("force", force)
 
 
-def grad_names_for(mode: str, has_spring: bool) -> tuple:
-    """The ``grad_<name>`` a case of this mode has, in :data:`pes_ref.GRADIENT_NAMES` order.
-
-    ``values``, ``x0`` and ``force`` always; ``v0``, ``mass``, ``damping`` in dynamic
-    mode; ``mobility`` in quasistatic mode; ``spring_k``, ``spring_center`` with a spring.
-    """
-    return gradient_names(mode, has_spring)
-
-
 def result_keys(grad_names) -> tuple:
     """The keys of a result: ``x, v, energy, loss`` and ``grad_<name>`` per name."""
     return ("x", "v", "energy", "loss") + tuple("grad_" + g for g in grad_names)
@@ -417,7 +408,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
         reg = checks.as_nonneg_float("regularization", _scalar("regularization", raw.get("regularization", 0.0)))
         if not allow_unstable:
             stability.check_stable(scene)
-    return ValidCase(scene, x0, v0, force, objective, reg, grad_names_for(mode, scene.spring is not None))
+    return ValidCase(scene, x0, v0, force, objective, reg, gradient_names(mode, scene.spring is not None))
 
 
 # =========================================================================== running
@@ -441,7 +432,7 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None) -> dict:
     -------
     dict of str -> ndarray (float64)
         ``x``, ``v`` (T+1, N, 2), ``energy`` (T+1, N), ``loss`` (0-d) and
-        ``grad_<name>`` for every name of :func:`grad_names_for`, each shaped like its
+        ``grad_<name>`` for every name of :func:`pes_ref.core.scene.gradient_names`, each shaped like its
         input (``grad_force`` (T+1, N, 2)).
 
     Raises

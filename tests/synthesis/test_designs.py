@@ -10,7 +10,8 @@ import pytest
 from pes_ref import synthesis
 from pes_ref.core.integrator import NonFiniteError as pr_nonfinite
 from pes_ref.synthesis import Plan
-from pes_ref.testing.finite_differences import directional_derivative, relative_error
+from pes_ref.testing.finite_differences import directional_derivative
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL
 
 #: A tiny funnel (13 x 13 grid, 100 steps) on which 40 iterations take about a second.
