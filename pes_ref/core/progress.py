@@ -24,9 +24,9 @@ into :class:`Progress` (the ``oracle`` command's ``ProgressLines``).
 from __future__ import annotations
 
 from itertools import islice
-from typing import Callable, Iterable, NamedTuple
+from typing import Callable, Iterable
 
-__all__ = ["EVERY", "reporting", "Progress", "Segment", "Clock", "progress_line", "figure_text", "clock_time"]
+__all__ = ["EVERY", "reporting", "Progress", "Clock", "progress_line", "figure_text", "clock_time"]
 
 #: Steps between two calls of a progress callback (a callback that reads a clock reads it
 #: this rarely; at ~10 us a step that is every few milliseconds).
@@ -57,7 +57,7 @@ def _chunks(steps, progress, phase, total):
         progress(phase, min(done, total), total)
 
 
-class Progress(NamedTuple):
+class Progress:
     """Where a long loop is, what a progress callback receives.
 
     Attributes
@@ -80,30 +80,25 @@ class Progress(NamedTuple):
     figures : tuple of (name, value)
         What else the loop shows, in order: numbers, a grid shape (a tuple of ints) or
         short text; :meth:`figure` reads one by name.
+
+    A plain class with slots rather than a named tuple: every run of the ``oracle``
+    command imports this module, and a named tuple's class would cost each run a few tenths
+    of a millisecond.
     """
 
-    label: str
-    stage: str
-    done: int
-    total: int
-    unit: str
-    rate: float
-    elapsed: float
-    seconds_left: float
-    figures: tuple = ()
+    __slots__ = ("label", "stage", "done", "total", "unit", "rate", "elapsed", "seconds_left", "figures")
+
+    def __init__(self, label: str, stage: str, done: int, total: int, unit: str, rate: float, elapsed: float,
+                 seconds_left: float, figures: tuple = ()):
+        self.label, self.stage, self.done, self.total, self.unit = label, stage, done, total, unit
+        self.rate, self.elapsed, self.seconds_left, self.figures = rate, elapsed, seconds_left, tuple(figures)
+
+    def __repr__(self) -> str:
+        return "Progress(" + ", ".join(f"{name}={getattr(self, name)!r}" for name in self.__slots__) + ")"
 
     def figure(self, name: str, default=None):
         """The figure ``name`` (``default`` when the loop does not show it)."""
         return next((value for key, value in self.figures if key == name), default)
-
-
-class Segment(NamedTuple):
-    """A part of a loop: units ``[start, end)``, each costing ``cost`` (any unit; only the
-    ratios between segments count, e.g. a design stage's steps per training run)."""
-
-    start: int
-    end: int
-    cost: float = 1.0
 
 
 class Clock:
@@ -116,19 +111,21 @@ class Clock:
 
     Parameters
     ----------
-    segments : sequence of Segment
-        In order, each starting where the previous one ends.
+    segments : sequence of ``(start, end)`` or ``(start, end, cost)``
+        The parts of the loop in order, each starting where the previous one ends: units
+        ``[start, end)``, each costing ``cost`` (default 1; any unit, only the ratios
+        between segments count, e.g. a design stage's steps per training run).
     """
 
     def __init__(self, segments):
-        self.segments = [Segment(*s) for s in segments]
+        self.segments = [(s[0], s[1], s[2] if len(s) > 2 else 1.0) for s in segments]
         self._seconds = [0.0] * len(self.segments)
         self._units = [0] * len(self.segments)
         self._per_cost = None           # seconds per cost unit of the latest segment timed
 
     def index(self, position: int) -> int:
         """The segment that unit ``position`` is in (the first for one before it)."""
-        return max(i for i, s in enumerate(self.segments) if s.start <= position or i == 0)
+        return max(i for i, (start, _, _) in enumerate(self.segments) if start <= position or i == 0)
 
     def tick(self, position: int, seconds: float, units: int = 1) -> None:
         """``units`` units from ``position`` on (in one segment) took ``seconds``."""
@@ -136,7 +133,7 @@ class Clock:
         self._seconds[i] += seconds
         self._units[i] += units
         if self._seconds[i] > 0 and self._units[i] > 0:
-            self._per_cost = self._seconds[i] / (self._units[i] * self.segments[i].cost)
+            self._per_cost = self._seconds[i] / (self._units[i] * self.segments[i][2])
 
     def rate(self, i: int) -> float:
         """Units per second of segment ``i`` (0 while it has not been timed)."""
@@ -144,17 +141,17 @@ class Clock:
 
     def seconds_left(self, position: int, total: int | None = None) -> float:
         """Seconds to run units ``position .. total - 1`` (default: to the last segment's end)."""
-        total = self.segments[-1].end if total is None else total
+        total = self.segments[-1][1] if total is None else total
         left = 0.0
-        for i, s in enumerate(self.segments):
-            n = max(0, min(s.end, total) - max(s.start, position))
+        for i, (start, end, cost) in enumerate(self.segments):
+            n = max(0, min(end, total) - max(start, position))
             if n == 0:
                 continue
             rate = self.rate(i)
             if rate > 0:
                 left += n / rate
             elif self._per_cost is not None:
-                left += n * s.cost * self._per_cost
+                left += n * cost * self._per_cost
             else:
                 return float("inf")
         return left
