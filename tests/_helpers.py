@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from pes_ref.oracle.tolerances import FD_RTOL
-from pes_ref.testing.properties import distance_to_kinks
+from pes_ref.testing.kinks import distance_to_kinks
 
 #: A dot-product test whose VJP side is below this carries no information.
 NONTRIVIAL = 1e-8
@@ -28,7 +28,7 @@ def assert_dot(lhs: float, rhs: float) -> None:
 def kink_distance(field, x) -> float:
     """The smallest distance from any position in ``x`` (..., N, 2) to a kink of the
     force of ``field`` (the core's plain-array description of a scene, SPEC section 5):
-    :func:`pes_ref.testing.properties.distance_to_kinks` of its grid, walls and spring."""
+    :func:`pes_ref.testing.kinks.distance_to_kinks` of its grid, walls and spring."""
     walls = None if field.walls is None else field.walls[1:]
     return distance_to_kinks(x, field.lower, field.h, field.values.shape, field.periodic, field.length,
                              walls=walls, spring=field.spring)

@@ -86,7 +86,7 @@ def main(argv=None) -> int:
             sc = replace(scene, dt=dt_use, n_steps=200)
             per_step = wall_time(lambda: pr.simulate(sc, [[r_c, h]], [[-1.0, 0.0]]), repeat=2) / 200
             steps = 1.0 / dt_use
-            rows.append((v, r_c, float(lim.stiffness[0]), float(apf_curvature(r_min, v, r_c, r_min)), k_turn,
+            rows.append((v, r_c, float(sum(lim.terms.values())[0]), float(apf_curvature(r_min, v, r_c, r_min)), k_turn,
                          lim.limit, dt_use, dt_use / lim.limit, steps, steps * per_step))
     frag.table(["v", "r_c", "grid stiffness K", "E''(r_min)", "E''(turning point)", "dt_max = 2/sqrt(K)",
                 "usable dt (5%)", "usable / dt_max", "steps per time unit", "seconds per time unit"], rows)

@@ -17,7 +17,8 @@ import numpy as np
 
 from _common import Fragment, parse_args, plt, topic_of, wall_time
 import pes_ref as pr
-from pes_ref.testing import properties as pp
+from pes_ref import testing as pt
+from pes_ref.oracle.compare import relative_error
 
 #: Run the full 2P-simulation difference loop only while it takes less than this (s).
 FULL_FD_BUDGET = 10.0
@@ -45,9 +46,9 @@ def fd_gradient(scene, x0, v0, objective, eps):
     """Central differences of the loss for every grid value (2P simulations).
 
     Returns (gradient, number of entries whose +-eps runs went through another
-    smooth piece than the base run, pes_ref.testing.properties.kink_signature)."""
+    smooth piece than the base run, pes_ref.testing.kinks.kink_signature)."""
     G = scene.surface.values
-    base = pp.kink_signature(scene, pr.simulate(scene, x0, v0).x)
+    base = pt.kink_signature(scene, pr.simulate(scene, x0, v0).x)
     g, crossed = np.zeros_like(G), 0
     for idx in np.ndindex(G.shape):
         vals, cross = [], False
@@ -57,7 +58,7 @@ def fd_gradient(scene, x0, v0, objective, eps):
             sc = scene.with_values(Gs)
             traj = pr.simulate(sc, x0, v0)
             vals.append(objective.value_and_grad(traj.x, traj.v, sc.times())[0])
-            cross |= not np.array_equal(pp.kink_signature(sc, traj.x), base)
+            cross |= not np.array_equal(pt.kink_signature(sc, traj.x), base)
         g[idx] = (vals[0] - vals[1]) / (2 * eps)
         crossed += cross
     return g, crossed
@@ -71,7 +72,7 @@ def step_sweep(n, N, T, smoke):
     u = np.random.default_rng(1).standard_normal(scene.surface.shape)
     u /= np.linalg.norm(u)
     exact = float(np.sum(g["values"] * u))
-    base = pp.kink_signature(scene, pr.simulate(scene, x0, v0).x)
+    base = pt.kink_signature(scene, pr.simulate(scene, x0, v0).x)
     G = scene.surface.values
     eps_list = 10.0 ** -np.arange(1, 13, 2 if smoke else 1)
     errs, crossed = [], []
@@ -81,7 +82,7 @@ def step_sweep(n, N, T, smoke):
             sc = scene.with_values(G + sign * eps * u)
             traj = pr.simulate(sc, x0, v0)
             vals.append(obj.value_and_grad(traj.x, traj.v, sc.times())[0])
-            cross |= not np.array_equal(pp.kink_signature(sc, traj.x), base)
+            cross |= not np.array_equal(pt.kink_signature(sc, traj.x), base)
         errs.append(abs((vals[0] - vals[1]) / (2 * eps) - exact) / abs(exact))
         crossed.append("yes" if cross else "no")
     return eps_list, np.array(errs), crossed
@@ -108,7 +109,7 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             g_fd, crossed = fd_gradient(scene, x0, v0, obj, 1e-6)
             t_fd, how = time.perf_counter() - t0, "measured"
-            err = pp.relative_difference(g_fd, g_adj["values"])
+            err = relative_error(g_fd, g_adj["values"])
         else:
             t_fd, how, err, crossed = 2 * P * t_sim, "2P x simulation", np.nan, "-"
         rows.append((n, P, t_sim, t_adj, t_adj / t_sim, t_fd, how, t_fd / t_adj, err, crossed))
@@ -134,12 +135,12 @@ def main(argv=None) -> int:
                caption=f"Central difference against the adjoint along a random unit direction of the n = {n} grid "
                        f"(short run: 4 particles, T = {max(T // 4, 1)}; design run: {N} particles, T = {T}):")
 
-    scene, x0, v0 = pp.chaotic_case()
+    scene, x0, v0 = pt.chaotic_case()
     steps = CHAOS_STEPS[:2] if args.smoke else CHAOS_STEPS
-    rate, norms = pp.gradient_growth_rate(pr.value_and_grad, scene, x0, v0,
+    rate, norms = pt.gradient_growth_rate(pr.value_and_grad, scene, x0, v0,
                                           pr.Quadratic(wx=1.0, wv=0.0, xref=[0.0, 0.0]), steps)
     frag.table(["T", "t", "norm of dL/dx0"], [(s, s * scene.dt, g_) for s, g_ in zip(steps, norms)],
-               caption="A chaotic scene (pes_ref.testing.properties.chaotic_case): the gradient's growth:")
+               caption="A chaotic scene (pes_ref.testing.chaos.chaotic_case): the gradient's growth:")
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     axes[0].loglog(cost[:, 0], cost[:, 2], "o-", label="adjoint (all P)")

@@ -34,12 +34,14 @@ import numpy as np
 from pes_ref import __version__
 from pes_ref.bench.cases import CASES, reference_gradient, reference_objective, reference_scene, smooth_surface
 from pes_ref.core.effects import Constant, Noise, Window
+from pes_ref.core.files import atomic_file
 from pes_ref.core.interpolations import interpolation
 from pes_ref.core.integrator import adjoint_dynamic, adjoint_quasistatic, step_coefficients
 from pes_ref.core.objectives import Funnel
 from pes_ref.core.scene import Scene, simulate, value_and_grad
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import GRAD_RTOL
 
 __all__ = ["Config", "FULL", "QUICK", "run", "format_report", "write_outputs"]
@@ -272,10 +274,6 @@ def exponents(cfg: Config, log=print) -> dict:
     return out
 
 
-def _relative_error(got, want) -> float:
-    return float(np.max(np.abs(got - want)) / max(np.max(np.abs(want)), 1e-300))
-
-
 def _autodiff_entry(module, case, ref_grad, repeats: int, jitted: bool, enabled: bool = True) -> dict:
     """Check one autodiff backend against the reference gradient, then time it."""
     if not enabled:
@@ -286,7 +284,7 @@ def _autodiff_entry(module, case, ref_grad, repeats: int, jitted: bool, enabled:
     t0 = time.perf_counter()
     _, grad = fn(case.values)
     first = time.perf_counter() - t0
-    err = _relative_error(grad, ref_grad)
+    err = relative_error(grad, ref_grad)
     if not err <= GRAD_RTOL:
         return {"status": "mismatch", "relative_error": err, "tolerance": GRAD_RTOL}
     entry = {"status": "ok", "relative_error": err, "first_call_s": first}
@@ -475,7 +473,7 @@ def format_report(res: dict) -> str:
     return "\n".join(L)
 
 
-def plot_scaling(res: dict, path: str) -> None:
+def plot_scaling(res: dict, path: str, overwrite: bool = True) -> None:
     """Time per step against N, forward and forward+adjoint, both modes (log-log)."""
     import matplotlib
     matplotlib.use("Agg")
@@ -498,7 +496,8 @@ def plot_scaling(res: dict, path: str) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=150)
+    with atomic_file(path, overwrite=overwrite, what="plot") as fh:
+        fig.savefig(fh, format="png", dpi=150)
     plt.close(fig)
 
 
@@ -520,18 +519,19 @@ def output_paths(json_path: str) -> tuple:
 
 
 def write_outputs(res: dict, json_path: str, overwrite: bool) -> tuple:
-    """Write the JSON and, beside it, ``scaling.png`` (or ``<stem>-scaling.png``).
+    """Write the JSON and, beside it, ``scaling.png`` (or ``<stem>-scaling.png``), each
+    atomically (:func:`pes_ref.core.files.atomic_file`).
 
-    Refuses (FileExistsError) to replace an existing file unless ``overwrite``."""
+    Refuses (FileExistsError) to replace an existing file unless ``overwrite``: both are
+    checked before anything is written, and each again as it is published."""
     folder = os.path.dirname(os.path.abspath(json_path))
     png = output_paths(json_path)[1]
     for path in (json_path, png):
         if os.path.exists(path) and not overwrite:
             raise FileExistsError(f"{path} exists; pass --force to replace it")
     os.makedirs(folder, exist_ok=True)
-    tmp = json_path + ".tmp"
-    with open(tmp, "w") as fh:
-        json.dump(res, fh, indent=1, default=_jsonable)
-    os.replace(tmp, json_path)
-    plot_scaling(res, png)
+    text = json.dumps(res, indent=1, default=_jsonable)
+    with atomic_file(json_path, overwrite=overwrite, what="benchmark") as fh:
+        fh.write(text.encode("utf-8"))
+    plot_scaling(res, png, overwrite=overwrite)
     return json_path, png

@@ -7,14 +7,15 @@ shows them. Exit codes and the one-line error are in :mod:`pes_ref.cli.common`.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import os
-import signal
 import sys
 
 from pes_ref import __version__
 from pes_ref.cli import analyze, bench, check, conformance, design, evaluate, oracle, sweep
 from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Parser, error
+from pes_ref.core.signals import sigterm_interrupts
 
 __all__ = ["main", "build_parser", "command_name", "COMMANDS", "EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED"]
 
@@ -56,11 +57,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def _terminate(signum, frame):
-    """SIGTERM (a batch scheduler preempting the run) stops the run like Ctrl-C does."""
-    raise KeyboardInterrupt
-
-
 def _freeze_start_up() -> None:
     """Move every object that start-up made (NumPy, the parser, ...) to the cyclic
     collector's permanent generation (:func:`gc.freeze`): they live until the process
@@ -83,11 +79,11 @@ def main(argv=None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:   # --help, --version, usage errors
         return exc.code if isinstance(exc.code, int) else EXIT_OK
-    previous = signal.signal(signal.SIGTERM, _terminate) if argv is None else None
     if argv is None:
         _freeze_start_up()
     try:
-        status = args.func(args)
+        with sigterm_interrupts() if argv is None else contextlib.nullcontext():   # SIGTERM stops as Ctrl-C does
+            status = args.func(args)
         sys.stdout.flush()
         return status
     except BrokenPipeError:
@@ -102,6 +98,3 @@ def main(argv=None) -> int:
             raise
         return error(f"internal error ({type(exc).__name__}: {exc}); please report it, with the command "
                      f"(PES_REF_DEBUG=1 shows the traceback)")
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)

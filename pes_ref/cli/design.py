@@ -19,13 +19,11 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import signal
 import sys
 import time
 
 from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error, input_file, output_file
 
-METRIC_NAMES = {"funnel": "in_band", "oscillator": "amp_err"}
 #: The names ``--set`` takes, per kind: the fields of each problem of
 #: :data:`pes_ref.synthesis.PROBLEMS` (tested equal), written out for the help text because
 #: ``python -m pes_ref --help`` builds every command's parser, and building a parser imports
@@ -106,18 +104,6 @@ def _flags(kind: str) -> dict:
     return {**{name: f"--set {name}" for name in SET_NAMES[kind]}, **PLAN_FLAGS}
 
 
-def progress_line(kind: str, metric_name: str, p) -> str:
-    """One progress line: the stage (grid, steps per run), the iteration, the loss, the
-    metric, the stage's rate and the time left summed over the stages still to run."""
-    return (f"design {kind}: stage {p.stage} (grid {_format_grid(p.grid)}, {p.steps} steps) | it {p.iteration}/"
-            f"{p.total} | loss {p.loss:.4g} | {metric_name} {p.metric:.3f} | {p.it_per_s:.1f} it/s | "
-            f"left {_format_time(p.seconds_left)}")
-
-
-def _format_grid(shape) -> str:
-    return "x".join(str(n) for n in shape)
-
-
 def _pool(workers: int, inputs, kind: str):
     """A process pool for the polish's candidates (None for 1 worker); its workers ignore Ctrl-C,
     which the main process turns into a clean stop."""
@@ -128,14 +114,9 @@ def _pool(workers: int, inputs, kind: str):
     if inputs.base_polish is None:
         raise ValueError(f"--workers: this {kind} run has no polish stage")
     from concurrent.futures import ProcessPoolExecutor
-    return ProcessPoolExecutor(workers, initializer=signal.signal, initargs=(signal.SIGINT, signal.SIG_IGN))
 
-
-def _format_time(seconds: float) -> str:
-    if not seconds < float("inf"):
-        return "?"
-    seconds = int(round(seconds))
-    return f"{seconds // 60}:{seconds % 60:02d}"
+    from pes_ref.core.signals import ignore_interrupts
+    return ProcessPoolExecutor(workers, initializer=ignore_interrupts)
 
 
 def error_stopped(state) -> int:
@@ -184,21 +165,18 @@ def _run_design(args) -> int:
     except (OSError, ValueError, TypeError) as exc:
         return error(exc, flags)
 
-    metric_name = METRIC_NAMES[args.kind]
+    from pes_ref.core.progress import figure_text, progress_line
 
     shown = []                          # the stages shown so far
 
     def progress(p):
         if args.quiet:
             return
-        if type(p).__name__ == "PolishProgress":
-            print(_polish_line(args.kind, p), file=sys.stderr, flush=True)
-            return
-        if shown and p.stage != shown[-1]:
-            print(f"design {args.kind}: now stage {p.stage}: grid {_format_grid(p.grid)}, {p.steps} steps per run "
-                  f"(its loss is not comparable with stage {shown[-1]}'s)", file=sys.stderr)
+        if shown and p.stage != shown[-1] and p.figure("steps") is not None:   # a new gradient stage
+            print(f"{p.label}: now {p.stage}: grid {figure_text(p.figure('grid'))}, {p.figure('steps')} "
+                  f"steps per run (its loss is not comparable with {shown[-1]}'s)", file=sys.stderr)
         shown.append(p.stage)
-        print(progress_line(args.kind, metric_name, p), file=sys.stderr, flush=True)
+        print(progress_line(p), file=sys.stderr, flush=True)
 
     def checkpoint(s):
         save_design(out, s, overwrite=True)
@@ -227,7 +205,7 @@ def _run_design(args) -> int:
     finally:
         if executor is not None:
             executor.shutdown()
-    print(_summary(args.kind, metric_name, out, state, state.iteration - start, time.perf_counter() - t0))
+    print(_summary(args.kind, state.problem.metric_name, out, state, state.iteration - start, time.perf_counter() - t0))
     if state.status.startswith(synthesis.STOPPED):
         print(f"error: the run stopped; its last good state (iteration {state.iteration}) is saved: {state.status}",
               file=sys.stderr)
@@ -238,11 +216,6 @@ def _run_design(args) -> int:
               file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_OK
-
-
-def _polish_line(kind: str, p) -> str:
-    return (f"design {kind}: polish {p.evaluations}/{p.total} evaluations | fitness {p.fitness:.4g} "
-            f"(start {p.fitness_start:.4g}) | {p.evals_per_s:.1f} ev/s | left {_format_time(p.seconds_left)}")
 
 
 def _summary(kind: str, metric_name: str, out: str, state, iterations: int, seconds: float) -> str:

@@ -11,6 +11,7 @@ import sys
 import time
 import zipfile
 
+from pes_ref.core.progress import Clock, Progress, clock_time, progress_line
 from pes_ref.oracle.conformance import LATEST
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, input_file, output_file
 
@@ -50,25 +51,18 @@ LONG_RUN = 3.0
 PERIOD = 2.0
 
 
-def _clock_time(seconds: float) -> str:
-    """``m:ss`` (``?`` when unknown)."""
-    if not seconds < float("inf"):
-        return "?"
-    seconds = max(int(round(seconds)), 0)
-    return f"{seconds // 60}:{seconds % 60:02d}"
-
-
 class ProgressLines:
     """The progress of one oracle run on stderr, once it is long: the estimate first, then
-    at most one line every ``period`` seconds, e.g.
-    ``case.npz: forward 40% (1200/3000 steps), left 0:12``.
+    at most one line every ``period`` seconds (:func:`pes_ref.core.progress.progress_line`), e.g.
+    ``case.npz: forward | steps 1200/3000 | 250 steps/s | elapsed 0:05 | left 0:12``.
 
     A progress callback of :mod:`pes_ref.core.progress` (called every few hundred steps).
     A run estimated longer than ``after`` seconds (:func:`pes_ref.core.budget.estimate`)
     prints its estimate at once; one estimated shorter starts printing if it runs past
-    ``after`` seconds all the same. The time left is the model's share of the phases still
-    to run (forward, then the adjoint, :func:`pes_ref.core.budget.step_cost`), scaled by
-    the rate measured so far.
+    ``after`` seconds all the same. The time left is a :class:`pes_ref.core.progress.Clock`
+    over the two phases, the forward run and then the adjoint, each step costing the
+    model's share of its phase (:func:`pes_ref.core.budget.step_cost`): a phase not yet
+    timed is scaled from the one timed (the model's estimate until then).
     """
 
     def __init__(self, label: str, estimate, period: float = PERIOD, clock=time.monotonic, after: float = LONG_RUN):
@@ -78,30 +72,38 @@ class ProgressLines:
         self.run = estimate
         forward = budget.estimate_seconds(estimate.n_steps, estimate.n_particles, "simulate")
         total = budget.estimate_seconds(estimate.n_steps, estimate.n_particles, "case")
-        self.forward_share = forward / total if total > 0 else 0.5
+        share = forward / total if total > 0 else 0.5
+        T = estimate.n_steps
+        self.pace = Clock([(0, T, share), (T, 2 * T, 1.0 - share)])
+        self.ticked = (self.start, 0)                   # when the clock was last told, and the position then
         self.started = estimate.seconds > after
         if self.started:
             self._header(estimate.seconds)
 
     def _header(self, seconds: float) -> None:
-        print(f"{self.label}: T = {self.run.n_steps}, N = {self.run.n_particles}: about {_clock_time(seconds)} "
+        print(f"{self.label}: T = {self.run.n_steps}, N = {self.run.n_particles}: about {clock_time(seconds)} "
               f"({self.run.gib:.2g} GiB); forward, then the adjoint", file=sys.stderr, flush=True)
 
     def __call__(self, phase: str, done: int, total: int) -> None:
         now = self.clock()
         elapsed = now - self.start
-        part = done / total if total else 1.0
-        work = part * self.forward_share if phase == "forward" else self.forward_share + part * (1 - self.forward_share)
+        position = done if phase == "forward" else self.run.n_steps + done
+        then, before = self.ticked
+        self.pace.tick(before, now - then, max(position - before, 0))
+        self.ticked = (now, position)
+        left = self.pace.seconds_left(position)
+        if not left < float("inf"):                     # nothing timed yet: the model's estimate
+            left = max(self.run.seconds - elapsed, 0.0)
         if not self.started:
             if elapsed < self.after:
                 return
             self.started = True
-            self._header(elapsed / work if work > 0 else self.run.seconds)
+            self._header(elapsed + left)
         if now - self.last < self.period:
             return
         self.last = now
-        left = elapsed * (1.0 - work) / work if work > 0 else self.run.seconds - elapsed
-        print(f"{self.label}: {phase} {100 * part:.0f}% ({done}/{total} steps), left {_clock_time(left)}",
+        i = self.pace.index(position)
+        print(progress_line(Progress(self.label, phase, done, total, "steps", self.pace.rate(i), elapsed, left)),
               file=sys.stderr, flush=True)
 
 

@@ -61,10 +61,11 @@ def _run_sweep(args) -> int:
         return error(exc)
     out = args.out if args.out is not None else os.path.join(DEFAULT_OUT_ROOT, sweep.name)
 
+    from pes_ref.core.progress import clock_time, progress_line
+
     def progress(p):
         if not args.quiet:
-            print(f"sweep {sweep.name}: done {p.done} | running {p.running} | failed {p.failed} | total {p.total} "
-                  f"| elapsed {_clock(p.elapsed)} | left {_clock(p.seconds_left)}", file=sys.stderr, flush=True)
+            print(progress_line(p), file=sys.stderr, flush=True)
 
     try:
         with open_client(args.scheduler, args.workers) as client:
@@ -79,18 +80,11 @@ def _run_sweep(args) -> int:
     counts = report.counts
     print(f"{len(report.rows)} runs: {counts.get('ok', 0)} ok, {counts.get('failed', 0)} failed, "
           f"{counts.get('interrupted', 0)} interrupted; {len(report.skipped)} finished earlier and skipped, "
-          f"{len(report.retried)} retried; {_clock(report.elapsed)} on {n_workers} workers; "
+          f"{len(report.retried)} retried; {clock_time(report.elapsed)} on {n_workers} workers; "
           f"wrote {report.csv_path}" + (f", {report.plot_path}" if report.plot_path else ""))
     if report.interrupted:
         print(f"interrupted; resume with: python -m pes_ref sweep {args.file} --out {out}", file=sys.stderr)
     return EXIT_FAIL if counts.get("failed", 0) else EXIT_OK
-
-
-def _clock(seconds: float) -> str:
-    if not seconds < float("inf"):
-        return "?"
-    seconds = int(round(seconds))
-    return f"{seconds // 60}:{seconds % 60:02d}"
 
 
 def _cell(value) -> str:

@@ -1,18 +1,32 @@
-"""Progress reports from the time-stepping loops, every few hundred steps.
+"""Progress and time left: the one type every long loop reports, the one clock that
+estimates the time left, and the one line a command prints.
 
-A run's forward loop and its adjoint take an optional callback ``progress(phase, done,
-total)`` (``phase`` is ``"forward"`` or ``"adjoint"``, ``done`` the steps finished out of
-``total``). :func:`reporting` wraps a loop's iterable so that the callback is called once
-before the first step, then after every :data:`EVERY` steps and after the last: the loop
-body itself never checks anything, and without a callback the iterable is returned
-unchanged, so a run without progress reports pays nothing.
+- :class:`Progress`: where a loop is (what is done out of what total, in which stage),
+  its rate, the time it has run and the time left, and the figures it shows (loss,
+  metric, fitness ...). The design loop, the polish, a sweep and a long oracle run all
+  report one (:func:`pes_ref.synthesis.run_stages`, :func:`pes_ref.sweep.runner.run_sweep`,
+  the ``oracle`` command).
+- :class:`Clock`: the rate of each segment of a loop (a stage of a design, the forward
+  run and the adjoint of an oracle run) and the time left, summed over the segments
+  still to run.
+- :func:`progress_line` and :func:`clock_time`: a :class:`Progress` as one line of text,
+  and a duration as ``m:ss``, for every command.
+
+The time-stepping loops (the forward run and its adjoint) report through a cheaper
+hook: an optional callback ``progress(phase, done, total)`` (``phase`` is ``"forward"``
+or ``"adjoint"``, ``done`` the steps finished out of ``total``). :func:`reporting`
+wraps a loop's iterable so that the callback is called once before the first step,
+then after every :data:`EVERY` steps and after the last: the loop body itself never
+checks anything, and without a callback the iterable is returned unchanged, so a run
+without progress reports pays nothing. A command that shows such a run turns the calls
+into :class:`Progress` (the ``oracle`` command's ``ProgressLines``).
 """
 from __future__ import annotations
 
 from itertools import islice
 from typing import Callable, Iterable
 
-__all__ = ["EVERY", "reporting"]
+__all__ = ["EVERY", "reporting", "Progress", "Clock", "progress_line", "figure_text", "clock_time"]
 
 #: Steps between two calls of a progress callback (a callback that reads a clock reads it
 #: this rarely; at ~10 us a step that is every few milliseconds).
@@ -41,3 +55,135 @@ def _chunks(steps, progress, phase, total):
     for done in range(EVERY, total + EVERY, EVERY):
         yield from islice(steps, EVERY)
         progress(phase, min(done, total), total)
+
+
+class Progress:
+    """Where a long loop is, what a progress callback receives.
+
+    Attributes
+    ----------
+    label : str
+        Who reports (``"design funnel"``, ``"sweep lr"``, a case file's name).
+    stage : str
+        Where in the run (``"stage 1/2"``, ``"polish"``, ``"forward"``; ``""``: one stage only).
+    done, total : int
+        Units done, out of the total to do (``done`` may pass ``total`` where the last
+        step overshoots, as the polish's last generation may).
+    unit : str
+        What is counted (``"it"``, ``"evaluations"``, ``"steps"``, ``"runs"``).
+    rate : float
+        Units per second (0 until measured).
+    elapsed : float
+        Seconds the loop has run.
+    seconds_left : float
+        Estimated seconds to the end (``inf`` while unknown).
+    figures : tuple of (name, value)
+        What else the loop shows, in order: numbers, a grid shape (a tuple of ints) or
+        short text; :meth:`figure` reads one by name.
+
+    A plain class with slots rather than a named tuple: every run of the ``oracle``
+    command imports this module, and a named tuple's class would cost each run a few tenths
+    of a millisecond.
+    """
+
+    __slots__ = ("label", "stage", "done", "total", "unit", "rate", "elapsed", "seconds_left", "figures")
+
+    def __init__(self, label: str, stage: str, done: int, total: int, unit: str, rate: float, elapsed: float,
+                 seconds_left: float, figures: tuple = ()):
+        self.label, self.stage, self.done, self.total, self.unit = label, stage, done, total, unit
+        self.rate, self.elapsed, self.seconds_left, self.figures = rate, elapsed, seconds_left, tuple(figures)
+
+    def __repr__(self) -> str:
+        return "Progress(" + ", ".join(f"{name}={getattr(self, name)!r}" for name in self.__slots__) + ")"
+
+    def figure(self, name: str, default=None):
+        """The figure ``name`` (``default`` when the loop does not show it)."""
+        return next((value for key, value in self.figures if key == name), default)
+
+
+class Clock:
+    """The rate of each segment of a loop and the time left, summed over the segments
+    still to run.
+
+    A segment that has run is timed by its own units; one yet to run, by the seconds
+    per cost unit of the latest segment timed, times its own cost. Before anything is
+    timed the time left is unknown (``inf``).
+
+    Parameters
+    ----------
+    segments : sequence of ``(start, end)`` or ``(start, end, cost)``
+        The parts of the loop in order, each starting where the previous one ends: units
+        ``[start, end)``, each costing ``cost`` (default 1; any unit, only the ratios
+        between segments count, e.g. a design stage's steps per training run).
+    """
+
+    def __init__(self, segments):
+        self.segments = [(s[0], s[1], s[2] if len(s) > 2 else 1.0) for s in segments]
+        self._seconds = [0.0] * len(self.segments)
+        self._units = [0] * len(self.segments)
+        self._per_cost = None           # seconds per cost unit of the latest segment timed
+
+    def index(self, position: int) -> int:
+        """The segment that unit ``position`` is in (the first for one before it)."""
+        return max(i for i, (start, _, _) in enumerate(self.segments) if start <= position or i == 0)
+
+    def tick(self, position: int, seconds: float, units: int = 1) -> None:
+        """``units`` units from ``position`` on (in one segment) took ``seconds``."""
+        i = self.index(position)
+        self._seconds[i] += seconds
+        self._units[i] += units
+        if self._seconds[i] > 0 and self._units[i] > 0:
+            self._per_cost = self._seconds[i] / (self._units[i] * self.segments[i][2])
+
+    def rate(self, i: int) -> float:
+        """Units per second of segment ``i`` (0 while it has not been timed)."""
+        return self._units[i] / self._seconds[i] if self._seconds[i] > 0 else 0.0
+
+    def seconds_left(self, position: int, total: int | None = None) -> float:
+        """Seconds to run units ``position .. total - 1`` (default: to the last segment's end)."""
+        total = self.segments[-1][1] if total is None else total
+        left = 0.0
+        for i, (start, end, cost) in enumerate(self.segments):
+            n = max(0, min(end, total) - max(start, position))
+            if n == 0:
+                continue
+            rate = self.rate(i)
+            if rate > 0:
+                left += n / rate
+            elif self._per_cost is not None:
+                left += n * cost * self._per_cost
+            else:
+                return float("inf")
+        return left
+
+
+def clock_time(seconds: float) -> str:
+    """A duration as ``m:ss`` (``?`` when unknown: infinite or NaN)."""
+    if not seconds < float("inf"):
+        return "?"
+    seconds = max(int(round(seconds)), 0)
+    return f"{seconds // 60}:{seconds % 60:02d}"
+
+
+def figure_text(value) -> str:
+    """A figure of a :class:`Progress` as text: a grid shape as ``25x25``, a float to 4
+    significant digits, anything else as ``str`` gives it."""
+    if isinstance(value, tuple):                        # a grid shape
+        return "x".join(str(n) for n in value)
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def _rate(rate: float) -> str:
+    return f"{rate:.0f}" if rate >= 100 else f"{rate:.3g}"
+
+
+def progress_line(p: Progress) -> str:
+    """One line of a :class:`Progress`, the same for every command, e.g.
+    ``design funnel: stage 1/2 | it 30/300 | grid 25x25 | steps 200 | loss 0.1234 |
+    in_band 0.4 | 5.2 it/s | elapsed 0:06 | left 1:10``."""
+    head = f"{p.label}: {p.stage}" if p.stage else p.label
+    return " | ".join([head, f"{p.unit} {p.done}/{p.total}", *(f"{name} {figure_text(v)}" for name, v in p.figures),
+                       f"{_rate(p.rate)} {p.unit}/s", f"elapsed {clock_time(p.elapsed)}",
+                       f"left {clock_time(p.seconds_left)}"])

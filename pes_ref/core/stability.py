@@ -46,11 +46,16 @@ stays bounded by the grid's largest slope. A scene is refused iff, over terms an
 - dynamic: ``max dt sqrt(K / min_i m_{i,d}) > 2``;
 - quasistatic: ``max mobility_d K > 2``;
 
-and it takes at least one step (``n_steps > 0``). :func:`term_limit` computes the
-stiffest term and :func:`check_stable` applies the rule, raising
-:class:`UnstableStepError` that names ``dt`` or ``mobility``, the factor past the limit,
-the term and a stable value: the :attr:`StabilityLimit.suggestion` of the summed bound
-above, which is within the per-term rule too (each term is at most the sum).
+and it takes at least one step (``n_steps > 0``).
+
+One stiffness table, one limit: :func:`term_stiffness` is each term's ``K`` per axis (the
+second differences too when asked), and :func:`stability_limit` takes a scene's
+:class:`StabilityLimit` under one of the :data:`BOUNDS`: ``"sum"`` (every term summed
+per axis, the conservative bound above) or ``"rule"`` (each term of the refusal rule
+alone). :func:`check_stable` applies the rule, raising :class:`UnstableStepError` that
+names ``dt`` or ``mobility``, the factor past the limit, the term and a stable value: the
+:attr:`StabilityLimit.suggestion` of the summed bound, which is within the per-term rule
+too (each term is at most the sum).
 """
 from __future__ import annotations
 
@@ -61,45 +66,13 @@ import numpy as np
 from pes_ref.core import checks
 
 __all__ = ["StabilityLimit", "grid_cross_curvature", "grid_second_difference", "grid_stiffness",
-           "axis_stiffness", "stability_limit", "advice", "SAFETY",
-           "RULE_TERMS", "RULE_DOC", "TermLimit", "UnstableStepError", "term_limit", "check_stable"]
+           "term_stiffness", "stability_limit", "advice", "SAFETY", "BOUNDS",
+           "RULE_TERMS", "RULE_DOC", "UnstableStepError", "check_stable"]
 
 #: The stable step :func:`advice` suggests, as a fraction of the limit: at
 #: ``omega dt = 1`` velocity Verlet's energy error is ``(omega dt)^2 / 4`` of the
 #: oscillation energy, 25%; half the limit keeps a margin for the bound's looseness.
 SAFETY = 0.5
-
-
-class StabilityLimit(NamedTuple):
-    """The stability limit of a scene (see the module docstring).
-
-    Attributes
-    ----------
-    mode : str
-        "dynamic" or "quasistatic".
-    stiffness : ndarray (2,)
-        ``K_d``, per axis.
-    terms : dict str -> ndarray (2,)
-        Its parts: ``grid_edges`` (second differences), ``grid_cross``, ``spring``, ``walls``.
-    omega_max : float
-        Dynamic: ``max_d sqrt(K_d / min m_d)``; quasistatic: nan.
-    limit : float or ndarray (2,)
-        Dynamic: ``dt_max = 2 / omega_max`` (inf without any stiffness); quasistatic:
-        the largest stable mobility per axis, ``2 / K_d`` (inf where ``K_d = 0``).
-    ratio : float
-        Dynamic: ``dt / dt_max``; quasistatic: ``max_d mu_d K_d / 2``. Stable below 1.
-    suggestion : float or ndarray
-        Dynamic: a stable ``dt`` (:data:`SAFETY` ``* dt_max``); quasistatic: a stable
-        mobility (2,), ``SAFETY * 2 / K_d`` where the given one is too large.
-    """
-
-    mode: str
-    stiffness: np.ndarray
-    terms: dict
-    omega_max: float
-    limit: float
-    ratio: float
-    suggestion: object
 
 
 def _closed(G: np.ndarray, periodic) -> np.ndarray:
@@ -142,125 +115,81 @@ def grid_stiffness(surface) -> float:
     return float(np.max(grid_second_difference(surface)))
 
 
-def axis_stiffness(scene) -> tuple:
-    """``(K, terms)``: the per-axis stiffness bound ``K_d`` (2,) and its parts."""
-    terms = {"grid_edges": grid_second_difference(scene.surface), **_rule_parts(scene)}
-    return sum(terms.values()), terms
-
-
-def _rule_parts(scene) -> dict:
-    """The parts of :func:`axis_stiffness` that the refusal rule takes, each (2,):
-    ``grid_cross``, ``spring``, ``walls`` (the second differences, the costliest, are
-    left out; the rule runs on every call of :func:`pes_ref.simulate`)."""
-    parts = {"grid_cross": np.full(2, grid_cross_curvature(scene.surface)), "spring": np.zeros(2),
+def term_stiffness(scene, edges: bool = True) -> dict:
+    """Each term's stiffness ``K`` per axis, the one stiffness table of a scene: a dict of
+    (2,) arrays ``grid_cross`` (the grid's cross curvature ``c``, the same on both axes),
+    ``spring`` (the largest ``k_d`` over particles), ``walls`` (``k_w`` on an axis with a
+    wall) and, with ``edges``, ``grid_edges`` (:func:`grid_second_difference`, the
+    costliest; the refusal rule, which runs on every :func:`pes_ref.simulate`, leaves it out)."""
+    table = {"grid_cross": np.full(2, grid_cross_curvature(scene.surface)), "spring": np.zeros(2),
              "walls": np.zeros(2)}
     if scene.spring is not None:
         k = np.broadcast_to(scene.spring.k, np.broadcast_shapes(np.shape(scene.spring.k), (1, 2)))
-        parts["spring"] = np.max(k.reshape(-1, 2), axis=0)
+        table["spring"] = np.max(k.reshape(-1, 2), axis=0)
     if scene.walls is not None:
-        parts["walls"] = np.where(scene.walls.edges.any(axis=1), scene.walls.k, 0.0)
-    return parts
+        table["walls"] = np.where(scene.walls.edges.any(axis=1), scene.walls.k, 0.0)
+    if edges:
+        table = {"grid_edges": grid_second_difference(scene.surface), **table}
+    return table
 
 
-def stability_limit(scene) -> StabilityLimit:
-    """The explicit stability limit of ``scene`` (see the module docstring).
-
-    Parameters
-    ----------
-    scene : pes_ref.Scene
-
-    Returns
-    -------
-    StabilityLimit
-    """
-    K, terms = axis_stiffness(scene)
-    if scene.mode == "dynamic":
-        m = np.broadcast_to(scene.mass, np.broadcast_shapes(np.shape(scene.mass), (1, 2)))
-        m_min = np.min(m.reshape(-1, 2), axis=0)
-        omega = float(np.sqrt(np.max(K / m_min)))
-        limit = 2.0 / omega if omega > 0 else np.inf
-        ratio = scene.dt / limit
-        return StabilityLimit("dynamic", K, terms, omega, limit, ratio, SAFETY * limit)
-    mu = np.asarray(scene.mobility, dtype=np.float64)
-    ratios = mu * K / 2.0
-    ratio = float(np.max(ratios))
-    with np.errstate(divide="ignore"):
-        mu_max = np.where(K > 0, 2.0 / np.where(K > 0, K, 1.0), np.inf)
-    suggestion = np.where(ratios >= SAFETY, SAFETY * mu_max, mu)
-    return StabilityLimit("quasistatic", K, terms, np.nan, mu_max, ratio, suggestion)
-
-
-def _fmt(values) -> str:
-    """``[a, b]`` with 3 significant digits each (or one number for a scalar)."""
-    values = np.asarray(values, dtype=np.float64)
-    if values.ndim == 0:
-        return f"{float(values):.3g}"
-    return "[" + ", ".join(f"{float(v):.3g}" for v in values.ravel()) + "]"
-
-
-def advice(scene) -> str:
-    """One clause on the scene's (summed, conservative) stability limit and a stable step,
-    for the message of a run that left the finite numbers, e.g. ``"the stability limit
-    is dt < 0.2 (dt = 1 is 5x it); a stable dt is 0.1 (docs/spec.md section 10)"``.
-    Quasistatic: the same per axis for the mobility.
-    """
-    lim = stability_limit(scene)
-    key = "dt" if lim.mode == "dynamic" else "mobility"
-    value = scene.dt if lim.mode == "dynamic" else scene.mobility
-    return (f"the stability limit is {key} < {_fmt(lim.limit)} ({key} = {_fmt(value)} is {lim.ratio:.3g}x it); "
-            f"a stable {key} is {_fmt(lim.suggestion)} ({RULE_DOC})")
-
-
-# =========================================================================== the refusal rule
-
-#: The terms of the refusal rule, by their name among :func:`axis_stiffness`'s parts,
-#: with the name a message gives them (the second differences ``grid_edges`` are none).
+#: The terms of the refusal rule, by their name in :func:`term_stiffness`'s table, with
+#: the name a message gives them (the second differences ``grid_edges`` are none).
 RULE_TERMS = {"grid_cross": "grid curvature", "spring": "spring", "walls": "wall"}
 
-#: Where the rule is stated; every refusal names it.
-RULE_DOC = "docs/spec.md section 10"
+#: The stiffness bounds a :class:`StabilityLimit` is taken under: ``"sum"``, every term of
+#: :func:`term_stiffness` summed per axis (``K_d = S_d + c + k_d + k_w``; conservative,
+#: what :func:`advice` and the suggested stable values use), and ``"rule"``, each term of
+#: :data:`RULE_TERMS` alone (the refusal rule of docs/spec.md section 10).
+BOUNDS = ("sum", "rule")
 
-#: The key a refusal names, per mode.
-_KEYS = {"dynamic": "dt", "quasistatic": "mobility"}
-
-
-class UnstableStepError(checks.InputError):
-    """A scene whose step is past the stability limit of its stiffest term (the rule of
-    docs/spec.md section 10). ``key`` is ``"dt"`` (dynamic) or ``"mobility"`` (quasistatic);
-    the message is one line naming the value, the factor past the limit, the term and a
-    stable value. A :class:`~pes_ref.core.checks.InputError`, so a ``ValueError``."""
+#: The name of the summed bound's one term.
+_SUM = "all terms"
 
 
-class TermLimit(NamedTuple):
-    """The stiffest single term of a scene and its limit (the refusal rule).
+class StabilityLimit(NamedTuple):
+    """The stability limit of a scene under one of the :data:`BOUNDS` (see the module docstring).
 
     Attributes
     ----------
     mode : str
+        "dynamic" or "quasistatic".
     key : str
-        ``"dt"`` or ``"mobility"``.
+        What the limit is on: ``"dt"`` (dynamic) or ``"mobility"`` (quasistatic).
+    bound : str
+        One of :data:`BOUNDS`.
+    terms : dict str -> ndarray (2,)
+        The stiffness of each term the bound takes (:func:`term_stiffness`); under
+        ``"sum"`` the limit is that of their sum per axis.
     term : str
-        The stiffest term's name (:data:`RULE_TERMS`); ``""`` when no term has stiffness.
+        The stiffest term's name (:data:`RULE_TERMS`' names; ``"all terms"`` under
+        ``"sum"``); ``""`` when the scene has no stiffness.
     axis : int
         The axis where it is stiffest (relative to the mass there, in dynamic mode).
     stiffness : float
-        Its ``K``.
+        Its ``K`` on that axis.
     limit : float
-        Dynamic: the largest stable dt for that term, ``2 / sqrt(K / min_i m_{i,axis})``;
-        quasistatic: the largest stable mobility on ``axis``, ``2 / K``. Infinite without
-        any stiffness.
+        Dynamic: the largest stable dt, ``2 / sqrt(K / min_i m_{i,axis})``; quasistatic:
+        the largest stable mobility on ``axis``, ``2 / K``. Infinite without stiffness.
     ratio : float
-        ``dt / limit`` or ``mobility[axis] / limit``, i.e. the largest ``dt sqrt(K/m)/2``
-        or ``mobility_d K / 2`` over terms and axes; the rule refuses above 1.
+        ``dt / limit`` or ``mobility[axis] / limit``: the largest ``dt sqrt(K/m) / 2`` or
+        ``mobility_d K / 2`` over terms and axes. Stable below 1.
+    suggestion : float or ndarray (2,)
+        Dynamic: a stable dt, :data:`SAFETY` times the limit; quasistatic: a stable
+        mobility per axis, ``SAFETY * 2 / K_d`` where the given one reaches past
+        :data:`SAFETY` of its axis's limit, else the given one.
     """
 
     mode: str
     key: str
+    bound: str
+    terms: dict
     term: str
     axis: int
     stiffness: float
     limit: float
     ratio: float
+    suggestion: object
 
 
 def _min_mass(scene) -> np.ndarray:
@@ -282,33 +211,81 @@ def _quasistatic_reach(scene, K: np.ndarray) -> np.ndarray:
 #: How far each mode's step reaches into the limit 2 of a term: per term and axis.
 _REACH = {"dynamic": _dynamic_reach, "quasistatic": _quasistatic_reach}
 
+#: The key a limit is on, per mode.
+_KEYS = {"dynamic": "dt", "quasistatic": "mobility"}
 
-def term_limit(scene) -> TermLimit:
-    """The stiffest single term of ``scene`` and its stability limit (the refusal rule,
-    docs/spec.md section 10; see the module docstring).
+
+def stability_limit(scene, bound: str = "sum") -> StabilityLimit:
+    """The stability limit of ``scene`` under ``bound`` (see the module docstring).
 
     Parameters
     ----------
     scene : pes_ref.Scene
+    bound : {"sum", "rule"}
+        :data:`BOUNDS`: every term summed per axis (conservative), or each term of the
+        refusal rule alone (what :func:`check_stable` applies).
 
     Returns
     -------
-    TermLimit
+    StabilityLimit
     """
-    parts = _rule_parts(scene)
-    names = list(RULE_TERMS)
-    K = np.array([parts[name] for name in names])                     # (terms, 2)
-    reach = _REACH[scene.mode](scene, K)
+    checks.as_choice("bound", bound, set(BOUNDS))
+    table = term_stiffness(scene, edges=bound == "sum")
+    names = [_SUM] if bound == "sum" else list(RULE_TERMS)
+    K = np.array([sum(table.values())]) if bound == "sum" else np.array([table[name] for name in names])
+    reach = _REACH[scene.mode](scene, K)                               # (terms, 2)
     t, d = np.unravel_index(int(np.argmax(reach)), reach.shape)
     key = _KEYS[scene.mode]
-    if not reach[t, d] > 0.0:
-        return TermLimit(scene.mode, key, "", 0, 0.0, np.inf, 0.0)
     value = scene.dt if scene.mode == "dynamic" else float(scene.mobility[d])
+    axis_ratio = np.max(reach, axis=0) / 2.0                           # per axis
+    if scene.mode == "dynamic":
+        suggestion = SAFETY * value / axis_ratio[d] if axis_ratio[d] > 0 else value
+    else:
+        suggestion = np.where(axis_ratio >= SAFETY, SAFETY * scene.mobility / np.maximum(axis_ratio, SAFETY),
+                              scene.mobility)
+    if not reach[t, d] > 0.0:
+        return StabilityLimit(scene.mode, key, bound, table, "", 0, 0.0, np.inf, 0.0, suggestion)
     ratio = float(reach[t, d]) / 2.0
-    return TermLimit(scene.mode, key, RULE_TERMS[names[t]], int(d), float(K[t, d]), value / ratio, ratio)
+    term = _SUM if bound == "sum" else RULE_TERMS[names[t]]
+    return StabilityLimit(scene.mode, key, bound, table, term, int(d), float(K[t, d]), value / ratio, ratio,
+                          suggestion)
 
 
-def _refusal(scene, lim: TermLimit) -> str:
+def _fmt(values) -> str:
+    """``[a, b]`` with 3 significant digits each (or one number for a scalar)."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim == 0:
+        return f"{float(values):.3g}"
+    return "[" + ", ".join(f"{float(v):.3g}" for v in values.ravel()) + "]"
+
+
+def advice(scene) -> str:
+    """One clause on the scene's (summed, conservative) stability limit and a stable step,
+    for the message of a run that left the finite numbers, e.g. ``"the stability limit
+    is dt < 0.2 (dt = 1 is 5x it); a stable dt is 0.1 (docs/spec.md section 10)"``.
+    Quasistatic: the same per axis for the mobility.
+    """
+    lim = stability_limit(scene)
+    value = scene.dt if lim.mode == "dynamic" else scene.mobility
+    where = "" if lim.mode == "dynamic" else f" on axis {lim.axis}"
+    return (f"the stability limit is {lim.key} < {_fmt(lim.limit)}{where} ({lim.key} = {_fmt(value)} is "
+            f"{lim.ratio:.3g}x it); a stable {lim.key} is {_fmt(lim.suggestion)} ({RULE_DOC})")
+
+
+# =========================================================================== the refusal rule
+
+#: Where the rule is stated; every refusal names it.
+RULE_DOC = "docs/spec.md section 10"
+
+
+class UnstableStepError(checks.InputError):
+    """A scene whose step is past the stability limit of its stiffest term (the rule of
+    docs/spec.md section 10). ``key`` is ``"dt"`` (dynamic) or ``"mobility"`` (quasistatic);
+    the message is one line naming the value, the factor past the limit, the term and a
+    stable value. A :class:`~pes_ref.core.checks.InputError`, so a ``ValueError``."""
+
+
+def _refusal(scene, lim: StabilityLimit) -> str:
     """The one-line message of a refused scene."""
     suggestion = _fmt(stability_limit(scene).suggestion)
     if lim.mode == "dynamic":
@@ -320,7 +297,7 @@ def _refusal(scene, lim: TermLimit) -> str:
             f"({RULE_DOC})")
 
 
-def check_stable(scene) -> TermLimit:
+def check_stable(scene) -> StabilityLimit:
     """Apply the refusal rule (docs/spec.md section 10): refuse a scene that takes at
     least one step past the stability limit of its stiffest term.
 
@@ -330,17 +307,18 @@ def check_stable(scene) -> TermLimit:
 
     Returns
     -------
-    TermLimit
-        The scene's stiffest term (when it is accepted).
+    StabilityLimit
+        The scene's limit under the rule (``bound = "rule"``: its stiffest term), when
+        it is accepted.
 
     Raises
     ------
     UnstableStepError
-        ``n_steps > 0`` and :attr:`TermLimit.ratio` ``> 1``; it names ``dt`` or
+        ``n_steps > 0`` and :attr:`StabilityLimit.ratio` ``> 1``; it names ``dt`` or
         ``mobility``, the factor, the term and a stable value, in one line.
     """
     with np.errstate(over="ignore", invalid="ignore"):      # a grid of huge values: infinite stiffness
-        lim = term_limit(scene)
+        lim = stability_limit(scene, "rule")
         if scene.n_steps > 0 and lim.ratio > 1.0:
             raise UnstableStepError(lim.key, _refusal(scene, lim))
     return lim

@@ -36,19 +36,20 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import budget, checks, stability
+from pes_ref.core.files import ResultExistsError
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene, energy, gradient_names, value_and_grad
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
-from pes_ref.oracle.errors import CaseError, CaseTypeError, ResultExistsError
+from pes_ref.oracle.errors import CaseError, CaseTypeError
 from pes_ref.oracle.npz import read_npz, write_npz
 
 __all__ = [
     "CaseError", "CaseTypeError", "ResultExistsError", "ValidCase",
     "REQUIRED_KEYS", "OPTIONAL_KEYS", "OBJECTIVE_PARAMS", "CASE_KEYS", "KEY_GROUPS",
     "load_case", "validate_case", "run_case", "write_result", "run_case_file", "save_case",
-    "read_npz", "write_npz", "result_keys", "grad_names_for", "TRAJECTORY_KEYS",
+    "read_npz", "write_npz", "result_keys", "TRAJECTORY_KEYS",
 ]
 
 #: Keys every case must hold (docs/spec.md section 8.2: those marked required). ``v0``, ``mass``
@@ -346,15 +347,6 @@ def _force(raw: Mapping, shape: tuple) -> np.ndarray:
     return checks.as_float_array("force", force)
 
 
-def grad_names_for(mode: str, has_spring: bool) -> tuple:
-    """The ``grad_<name>`` a case of this mode has, in :data:`pes_ref.GRADIENT_NAMES` order.
-
-    ``values``, ``x0`` and ``force`` always; ``v0``, ``mass``, ``damping`` in dynamic
-    mode; ``mobility`` in quasistatic mode; ``spring_k``, ``spring_center`` with a spring.
-    """
-    return gradient_names(mode, has_spring)
-
-
 #: The keys every result holds before its gradients (docs/spec.md section 9): the trajectory,
 #: the energy and the loss.
 TRAJECTORY_KEYS = ("x", "v", "energy", "loss")
@@ -421,7 +413,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
         reg = checks.as_nonneg_float("regularization", _scalar("regularization", raw.get("regularization", 0.0)))
         if not allow_unstable:
             stability.check_stable(scene)
-    return ValidCase(scene, x0, v0, force, objective, reg, grad_names_for(mode, scene.spring is not None))
+    return ValidCase(scene, x0, v0, force, objective, reg, gradient_names(mode, scene.spring is not None))
 
 
 # =========================================================================== running
@@ -445,7 +437,7 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None) -> dict:
     -------
     dict of str -> ndarray (float64)
         ``x``, ``v`` (T+1, N, 2), ``energy`` (T+1, N), ``loss`` (0-d) and
-        ``grad_<name>`` for every name of :func:`grad_names_for`, each shaped like its
+        ``grad_<name>`` for every name of :func:`pes_ref.core.scene.gradient_names`, each shaped like its
         input (``grad_force`` (T+1, N, 2)).
 
     Raises

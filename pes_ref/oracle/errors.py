@@ -1,4 +1,4 @@
-"""The oracle's errors: a refused case names its key; an existing file is never replaced.
+"""The oracle's errors: a refused case names its key.
 
 :class:`CaseError` is a :class:`pes_ref.core.checks.InputError` (so a ``ValueError``)
 whose ``key`` is the case key at fault; the core's own keyed errors become case errors
@@ -6,11 +6,9 @@ without any parsing of their messages (:mod:`pes_ref.oracle.case`).
 """
 from __future__ import annotations
 
-import os
-
 from pes_ref.core.checks import InputError, InputTypeError
 
-__all__ = ["CaseError", "CaseTypeError", "ResultExistsError"]
+__all__ = ["CaseError", "CaseTypeError"]
 
 
 class CaseError(InputError):
@@ -34,22 +32,3 @@ class CaseError(InputError):
 class CaseTypeError(CaseError, InputTypeError):
     """A case key holding the wrong kind of data (a string where a number belongs, a
     float ``n_steps``, an object array ...). Both a :class:`CaseError` and a ``TypeError``."""
-
-
-class ResultExistsError(FileExistsError):
-    """The file to write exists already and ``overwrite`` was not asked for.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-    what : str
-        What the file is ("result", "design", ...), for the message.
-    """
-
-    def __init__(self, path, what: str = "result"):
-        self.path = os.fspath(path)
-        super().__init__(f"{what} file {self.path!r} exists already; refusing to overwrite it "
-                         "(pass overwrite=True, or --force on the command line)")
-
-    def __str__(self):
-        return self.args[0]

@@ -16,6 +16,8 @@ import contextlib
 import logging
 import os
 
+from pes_ref.core.signals import ignore_interrupts
+
 __all__ = ["require_dask", "open_client", "local_cluster", "INSTALL_HINT", "WORKER_ENV"]
 
 #: The one line a missing extra gets.
@@ -36,21 +38,16 @@ def require_dask() -> None:
         raise ImportError(INSTALL_HINT) from None
 
 
-def _ignore_sigint(dask_worker=None) -> None:
-    """Make this worker process ignore SIGINT (run in the worker's main thread)."""
-    import signal
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 def _local_worker_setup(client) -> None:
-    """Register :func:`_ignore_sigint` on the local workers, present and restarted."""
+    """Make the local workers, present and restarted, ignore SIGINT
+    (:func:`pes_ref.core.signals.ignore_interrupts`, run in each worker's main thread)."""
     from distributed import WorkerPlugin
 
     class IgnoreSigint(WorkerPlugin):
         name = "pes_ref-ignore-sigint"
 
         def setup(self, worker):
-            _ignore_sigint()
+            ignore_interrupts()
 
     client.register_plugin(IgnoreSigint())
 

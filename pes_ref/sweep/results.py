@@ -20,7 +20,8 @@ import io
 import json
 import math
 import os
-import tempfile
+
+from pes_ref.core.files import atomic_file
 
 __all__ = ["new_row", "record", "is_finished", "read_results", "write_results", "columns", "figure_names",
            "plot_summary", "CSV_NAME", "PLOT_NAME", "HEADLINE"]
@@ -108,27 +109,15 @@ def _text(value) -> str:
 
 
 def write_results(path, sweep, rows) -> None:
-    """Write ``rows`` to the CSV at ``path`` atomically (a temporary file moved into place)."""
+    """Write ``rows`` to the CSV at ``path`` atomically (:func:`pes_ref.core.files.atomic_file`)."""
     cols = columns(sweep, rows)
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(cols)
     for row in rows:
         writer.writerow([_text(row.get(c)) for c in cols])
-    _write_atomic(os.fspath(path), buf.getvalue())
-
-
-def _write_atomic(path: str, text: str) -> None:
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".results-", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+    with atomic_file(path, overwrite=True, what="results") as fh:
+        fh.write(buf.getvalue().encode("utf-8"))
 
 
 def read_results(path) -> dict:
@@ -188,7 +177,8 @@ def plot_summary(path, sweep, rows) -> None:
         ax.set_xlabel(option, fontsize=8)
         ax.set_title(name, fontsize=9)
     fig.tight_layout()
-    fig.savefig(os.fspath(path), dpi=100)
+    with atomic_file(path, overwrite=True, what="summary plot") as fh:
+        fig.savefig(fh, format="png", dpi=100)
 
 
 def _panel(ax, rows, option, name) -> None:

@@ -19,12 +19,13 @@ import os
 import time
 import uuid
 from dataclasses import dataclass, field
-from typing import Callable, NamedTuple
+from typing import Callable
 
+from pes_ref.core.progress import Clock, Progress
 from pes_ref.sweep import results
 from pes_ref.sweep.task import request_stop, run_task
 
-__all__ = ["run_sweep", "SweepReport", "Progress", "RUNS_FOLDER"]
+__all__ = ["run_sweep", "SweepReport", "RUNS_FOLDER"]
 
 #: Design files go to ``DIR/runs/<run id>.npz``.
 RUNS_FOLDER = "runs"
@@ -34,17 +35,6 @@ RUNS_FOLDER = "runs"
 WRITE_EVERY = 1.0
 #: Seconds the cluster's thread count is trusted before it is asked again.
 THREADS_EVERY = 1.0
-
-
-class Progress(NamedTuple):
-    """What the progress callback receives."""
-
-    done: int           #: runs ok, this time or earlier
-    running: int        #: runs executing on a worker now
-    failed: int         #: runs failed twice
-    total: int
-    elapsed: float      #: seconds since the sweep started
-    seconds_left: float  #: estimate from this session's pace (inf before a run ends)
 
 
 @dataclass
@@ -75,7 +65,10 @@ def run_sweep(sweep, out_dir, client, *, task: Callable = run_task, progress: Ca
     task : callable
         ``payload -> outcome dict``, :func:`pes_ref.sweep.task.run_task` (replaceable for tests).
     progress : callable, optional
-        Called with a :class:`Progress` every ``progress_every`` seconds and at the end.
+        Called with a :class:`pes_ref.core.progress.Progress` every ``progress_every``
+        seconds and at the end: ``done`` counts the runs ok (this time or earlier) out of
+        all, its figures ``running`` (executing on a worker now) and ``failed`` (failed
+        twice); the time left is this session's pace (``inf`` before a run ends).
     stop_grace : float
         Seconds to wait on Ctrl-C for the running tasks to save and return.
     plot : bool
@@ -98,6 +91,8 @@ class _Sweeper:
         self.finished_now = 0
         self.start = time.perf_counter()
         self.last_report = self.last_write = float("-inf")
+        self.clock = Clock([(0, len(self.runs))])
+        self.ticked = (self.start, 0)               # when the clock was last told, and the runs finished then
         self.threads, self.threads_at = 1, float("-inf")
 
     # ------------------------------------------------------------------ the sweep
@@ -243,11 +238,12 @@ class _Sweeper:
         statuses = [row["status"] for row in self.rows.values()]
         done, failed = statuses.count("ok"), statuses.count("failed")
         running = self._running()
-        elapsed = now - self.start
-        left_runs = len(statuses) - done - failed
-        rate = self.finished_now / elapsed if elapsed > 0 else 0.0
-        left = left_runs / rate if rate > 0 else (0.0 if left_runs == 0 else float("inf"))
-        self.progress(Progress(done, running, failed, len(statuses), elapsed, left))
+        then, finished = self.ticked
+        self.clock.tick(0, now - then, self.finished_now - finished)
+        self.ticked = (now, self.finished_now)
+        self.progress(Progress(f"sweep {self.sweep.name}", "", done, len(statuses), "runs", self.clock.rate(0),
+                               now - self.start, self.clock.seconds_left(done + failed),
+                               (("running", running), ("failed", failed))))
 
     def _running(self) -> int:
         """Tasks of this sweep executing on a worker now (asked of the workers)."""

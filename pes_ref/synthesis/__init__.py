@@ -9,15 +9,19 @@ Modules, one idea each, in import order:
 - :mod:`.problems`    the funnel and oscillator design problems (scene, objective, sampler, metric)
 - :mod:`.plans`       how a problem is optimized (:class:`Plan`, :class:`PolishPlan`) and the defaults
 - :mod:`.resampling`  bilinear resampling of a grid between coarse-to-fine stages
-- :mod:`.training`    a design run (:class:`DesignState`) and the loop of its gradient stage
+- :mod:`.refusals`    what a design run refuses before it starts (unstable scene, memory)
+- :mod:`.design_state` a design run's state (:class:`DesignState`) and :func:`new_design`
+- :mod:`.training`    the loop of a run's gradient stage (:func:`run_design`)
 - :mod:`.analysis`    held-out particles, cycle figures and :func:`evaluate`
 - :mod:`.polish`      the polish stage: CMA-ES on a smooth correction, capture-test fitness
 - :mod:`.stages`      a run's stages one after the other (:func:`run_stages`)
 - :mod:`.escapement`  the hand-drawn escapement surface, a reference for the oscillator
 - :mod:`.design_file` design runs in ``.npz`` files
 
-The names below are the public synthesis API.
+The names below are the public synthesis API (with :class:`Progress`, what the loops'
+callbacks receive, from :mod:`pes_ref.core.progress`).
 """
+from pes_ref.core.progress import Progress
 from pes_ref.synthesis.optimizers import Adam, RMSprop, make_optimizer
 from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 from pes_ref.synthesis.exits import FunnelExit, exit_steps
@@ -26,14 +30,15 @@ from pes_ref.synthesis.problems import (FUNNEL_OBJECTIVES, IN_BAND_SHARE, OSCILL
 from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS,
                                      OSCILLATOR_POLISH, Plan, PolishPlan)
 from pes_ref.synthesis.resampling import resample
-from pes_ref.synthesis.training import (STOPPED, DesignState, GradientStep, Progress, check_design_memory,
-                                        check_stable_design, design_gradient, new_design, run_design)
+from pes_ref.synthesis.refusals import check_design_memory, check_stable_design
+from pes_ref.synthesis.design_state import STOPPED, DesignState, new_design
+from pes_ref.synthesis.training import GradientStep, design_gradient, run_design
 from pes_ref.synthesis.analysis import (ANALYSIS_PERIODS, CYCLE_DRIFT, CYCLE_TOLERANCE, Paths, TorqueSweep,
                                         cycle_figures, evaluate, funnel_paths, oscillator_grid_starts,
                                         oscillator_torque_sweep, phase_space, q1_advance)
 from pes_ref.synthesis.polish import (PolishParticles, PolishResult, capture_fitness, legendre_fourier_basis, polish,
                                       polish_particles)
-from pes_ref.synthesis.stages import PolishProgress, run_stages
+from pes_ref.synthesis.stages import run_stages
 from pes_ref.synthesis.escapement import escapement_values
 from pes_ref.synthesis.design_file import (DesignFileError, check_same_scene, design_arrays, load_design,
                                            save_design)
@@ -52,7 +57,7 @@ __all__ = [
     "Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
     "phase_space", "cycle_figures", "q1_advance", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS",
     "legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "PolishResult", "polish",
-    "PolishProgress", "run_stages",
+    "run_stages",
     "escapement_values",
     "save_design", "load_design", "design_arrays", "check_same_scene", "DesignFileError",
 ]

@@ -45,7 +45,7 @@ from pes_ref.oracle.npz import read_npz, write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
 from pes_ref.synthesis.plans import Plan, PolishPlan
 from pes_ref.synthesis.problems import PROBLEMS
-from pes_ref.synthesis.training import STAGES, DesignState
+from pes_ref.synthesis.design_state import STAGES, DesignState
 
 __all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "is_design_file", "DesignFileError",
            "FORMAT", "VERSION", "READABLE_VERSIONS"]
@@ -104,7 +104,7 @@ def design_arrays(state: DesignState) -> dict:
 
 
 def load_design(path) -> DesignState:
-    """Read a design file back into a :class:`~pes_ref.synthesis.training.DesignState` (bit-exact).
+    """Read a design file back into a :class:`~pes_ref.synthesis.design_state.DesignState` (bit-exact).
 
     Raises
     ------

@@ -12,12 +12,24 @@ and plan) and :data:`OSCILLATOR_POLISH` the oscillator's named training plans of
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from pes_ref.core import checks
 from pes_ref.synthesis.optimizers import make_optimizer
 
-__all__ = ["Plan", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
+__all__ = ["Plan", "Stage", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
            "DEFAULT_OSCILLATOR_PLAN", "POLISH_METHODS"]
+
+
+class Stage(NamedTuple):
+    """One stage of a staged run: its name (``"2/4"``: the second of four), iterations
+    ``[start, end)``, grid shape and steps per training run."""
+
+    name: str
+    start: int
+    end: int
+    grid: tuple
+    steps: int
 
 
 @dataclass(frozen=True)
@@ -95,6 +107,15 @@ class Plan:
     def steps_at(self, iteration: int):
         """The training runs' n_steps at ``iteration`` (None: the problem's own)."""
         return self.stage_at(iteration)[2] or None
+
+    def stage_list(self, problem, total: int) -> list:
+        """The :class:`Stage` list a run of ``problem`` to ``total`` iterations goes through
+        (a plan with one stage: ``"1/1"``)."""
+        starts = [st for st in self.stages if st[0] < total] or [self.stages[0]]
+        ends = [st[0] for st in starts[1:]] + [total]
+        return [Stage(f"{i + 1}/{len(starts)}", st[0], end, self.grid_at(st[0], problem),
+                      self.steps_at(st[0]) or problem.n_steps)
+                for i, (st, end) in enumerate(zip(starts, ends))]
 
     def lr_at(self, iteration: int, problem) -> float:
         """``lr (lr_final / lr)^min(1, k / decay_iterations)``, times the stage's grid ratio if ``scale_lr_by_grid``."""

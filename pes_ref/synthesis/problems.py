@@ -82,6 +82,8 @@ class FunnelProblem(_Problem):
     """
 
     kind: ClassVar[str] = "funnel"
+    #: The name of :meth:`batch_metric` in progress lines and summaries.
+    metric_name: ClassVar[str] = "in_band"
     grid: int = 200
     width: float = 2.0
     height: float = 2.0
@@ -209,6 +211,8 @@ class OscillatorProblem(_Problem):
     """
 
     kind: ClassVar[str] = "oscillator"
+    #: The name of :meth:`batch_metric` in progress lines and summaries.
+    metric_name: ClassVar[str] = "amp_err"
     grid0: int = 32
     grid1: int = 32
     q0_extent: float = 2.5

@@ -15,25 +15,17 @@ with, and polishes again.
 from __future__ import annotations
 
 import time
-from typing import Callable, NamedTuple
+from typing import Callable
 
 from pes_ref.core import checks
+from pes_ref.core.progress import Clock, Progress
+from pes_ref.core.signals import StopFlag
+from pes_ref.synthesis.design_state import DesignState
 from pes_ref.synthesis.plans import PolishPlan
 from pes_ref.synthesis.polish import PolishStep, legendre_fourier_basis, polish
-from pes_ref.synthesis.training import DesignState, StopFlag, run_design
+from pes_ref.synthesis.training import run_design
 
-__all__ = ["PolishProgress", "run_stages", "set_polish"]
-
-
-class PolishProgress(NamedTuple):
-    """What a progress callback receives during the polish."""
-
-    evaluations: int
-    total: int
-    fitness: float
-    fitness_start: float
-    evals_per_s: float
-    seconds_left: float
+__all__ = ["run_stages", "set_polish"]
 
 
 def _reopen_gradient_stage(state: DesignState) -> None:
@@ -54,16 +46,20 @@ def _run_polish(state: DesignState, flag: StopFlag, executor, callback, progress
     state.polish_history = {"evaluations": [], "fitness": []}
     state.status = "running"
     t_start = time.perf_counter()
-    last = {"report": t_start, "checkpoint": t_start}
+    last = {"report": t_start, "checkpoint": t_start, "tick": t_start, "evaluations": 0}
+    clock = Clock([(0, plan.evaluations)])
 
     def report(step: PolishStep, now: float) -> None:
-        rate = (step.evaluations - 1) / (now - t_start) if now > t_start else 0.0
-        left = max(0, plan.evaluations - step.evaluations) / rate if rate > 0 else float("inf")
-        callback(PolishProgress(step.evaluations, plan.evaluations, step.fitness, step.fitness_start, rate, left))
+        last["reported"] = step.evaluations
+        callback(Progress(f"design {state.kind}", "polish", step.evaluations, plan.evaluations, "evaluations",
+                          clock.rate(0), now - t_start, clock.seconds_left(step.evaluations),
+                          (("fitness", step.fitness), ("start", step.fitness_start))))
 
     def on_generation(step: PolishStep) -> None:
         state.evaluations = step.evaluations
         now = time.perf_counter()
+        clock.tick(last["evaluations"], now - last["tick"], step.evaluations - last["evaluations"])
+        last["tick"], last["evaluations"] = now, step.evaluations
         if callback is not None and now - last["report"] >= progress_every:
             report(step, now)
             last["report"] = now
@@ -78,7 +74,7 @@ def _run_polish(state: DesignState, flag: StopFlag, executor, callback, progress
     state.polish_history = {"evaluations": [e for e, _ in result.history], "fitness": [f for _, f in result.history]}
     state.status = "interrupted" if result.stopped else "done"
     state.elapsed += time.perf_counter() - t_start
-    if callback is not None:
+    if callback is not None and last.get("reported") != result.evaluations:     # once at the end, unless just shown
         report(PolishStep(result.evaluations, result.fitness, result.fitness_start, result.coef), time.perf_counter())
 
 
@@ -98,8 +94,9 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
     """Run every stage of ``state`` that is not done: the gradient iterations up to ``iterations``
     (default: the plan's), then the polish (if ``state.polish``).
 
-    ``callback`` receives :class:`pes_ref.synthesis.training.Progress` during the gradient
-    stage and :class:`PolishProgress` during the polish, every ``progress_every`` seconds
+    ``callback`` receives a :class:`pes_ref.core.progress.Progress` during both stages
+    (its stage ``"stage 1/2"`` ... in the gradient stage, ``"polish"`` in the polish, with
+    the ``fitness`` and its ``start`` among the figures), every ``progress_every`` seconds
     and at the end of each; ``checkpoint(state)`` is called every ``checkpoint_every``
     seconds. Ctrl-C stops either stage after its current iteration or generation with
     ``status = "interrupted"``; a gradient stage that goes non-finite stops as

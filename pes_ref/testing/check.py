@@ -41,7 +41,7 @@ import numpy as np
 from pes_ref.oracle.case import TRAJECTORY_KEYS, CaseError, run_case, save_case, validate_case
 from pes_ref.oracle.conformance import LATEST
 from pes_ref.oracle.from_scene import case_from_scene
-from pes_ref.oracle.npz import atomic_file
+from pes_ref.core.files import atomic_file
 from pes_ref.oracle.tolerances import TRAJ_RTOL
 from pes_ref.oracle.compare import compare_results, passes
 from pes_ref.testing.conformance import iter_vectors

@@ -41,7 +41,7 @@ from pes_ref.oracle.case import TRAJECTORY_KEYS
 from pes_ref.oracle.compare import array_error, compare_results, passes
 from pes_ref.oracle.conformance import LATEST, vectors_dir
 
-__all__ = ["VectorReport", "load_manifest", "iter_vectors", "compare_results", "relative_errors",
+__all__ = ["VectorReport", "load_manifest", "iter_vectors", "compare_results",
            "passes", "check_simulate", "check_gradients", "check_invalid", "TRAJECTORY_KEYS"]
 
 _SIMULATE_KEYS = ("x", "v", "energy")
@@ -127,11 +127,6 @@ def iter_vectors(version: str = LATEST, kind: str = "valid", *, directory=None):
 
 
 # =========================================================================== comparing
-
-def relative_errors(got, want) -> dict:
-    """Alias of :func:`compare_results`."""
-    return compare_results(got, want)
-
 
 # =========================================================================== the checks
 

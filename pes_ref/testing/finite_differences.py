@@ -4,7 +4,7 @@ In the spirit of autograd's ``check_vjp``: for a function ``f: R^n -> R^m`` and 
 claimed vector-Jacobian product ``vjp(w) = J^T w``, a random direction ``u`` and
 cotangent ``w`` must satisfy ``<w, J u> = <J^T w, u>``, with ``J u`` from a central
 difference. For a scalar loss, :func:`central_gradient` gives the full gradient
-entry by entry.
+entry by entry; :func:`pes_ref.oracle.compare.relative_error` compares it with a gradient.
 """
 from __future__ import annotations
 
@@ -12,15 +12,7 @@ import numpy as np
 
 from pes_ref.oracle.tolerances import FD_EPS
 
-__all__ = ["central_gradient", "directional_derivative", "check_vjp", "relative_error"]
-
-
-def relative_error(got, want) -> float:
-    """max |got - want| / max(max |want|, tiny): one number per compared array."""
-    got = np.asarray(got, dtype=np.float64)
-    want = np.asarray(want, dtype=np.float64)
-    scale = max(float(np.max(np.abs(want), initial=0.0)), 1e-300)
-    return float(np.max(np.abs(got - want), initial=0.0) / scale)
+__all__ = ["central_gradient", "directional_derivative", "check_vjp"]
 
 
 def directional_derivative(f, x: np.ndarray, u: np.ndarray, eps: float = FD_EPS) -> np.ndarray:

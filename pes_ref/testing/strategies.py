@@ -3,13 +3,13 @@
 Another implementation (JAX, PyTorch, C++ through bindings, ...) imports these to run
 its own property tests on the same distribution of inputs that ``pes_ref`` is tested
 on, and compares with ``pes_ref`` or checks the plain properties of
-:mod:`pes_ref.testing.properties`. Importing this module needs ``hypothesis`` (the
+:mod:`pes_ref.testing`. Importing this module needs ``hypothesis`` (the
 ``test`` extra).
 
 Every strategy draws small, cheap and numerically tame examples: grids of 2..12 nodes
 per axis, a handful of particles, short runs, bounded grid values, and a time step (or
 mobility) safely inside the explicit stability limit of the stiffest term (see
-:func:`pes_ref.testing.properties.max_frequency`). Random arrays are filled from
+:func:`pes_ref.testing.energy.max_frequency`). Random arrays are filled from
 ``numpy.random.default_rng(seed)`` with the seed drawn by hypothesis (``st.integers``),
 never from NumPy's global random state, so examples replay and shrink deterministically.
 
@@ -32,7 +32,7 @@ from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
-from pes_ref.testing.properties import max_frequency, stiffness_bound
+from pes_ref.testing.energy import max_frequency
 
 __all__ = ["TOPOLOGIES", "topologies", "seeds", "surfaces", "states", "scenes", "scene_cases",
            "objectives", "exit_paths"]
@@ -197,10 +197,10 @@ def scenes(draw, n_particles: int = 1, *, topology=None, mode=None, damped=None,
         The time step is drawn in this range ...
     max_omega_dt : float
         ... and then cut to ``max_omega_dt / omega_max``, where ``omega_max``
-        (:func:`~pes_ref.testing.properties.max_frequency`) bounds the frequency of the
+        (:func:`~pes_ref.testing.energy.max_frequency`) bounds the frequency of the
         stiffest term (velocity Verlet is stable for ``omega_max dt < 2``). Quasistatic
-        mobility is ``mu_d = r / K`` with ``r <= max_omega_dt`` and ``K`` the largest
-        stiffness (stable for ``mu K < 2``).
+        mobility is ``mu_d = r / K`` with ``r <= max_omega_dt`` and ``K = omega_max^2
+        min m`` the stiffness ``omega_max`` bounds by (stable for ``mu K < 2``).
     omega_dt : (float, float), optional
         Instead, set ``dt = r / omega_max`` with ``r`` drawn in this range (dynamic
         mode; capped at ``dt_range[1]``): the energy-error tests use it to control
@@ -288,10 +288,9 @@ def scenes(draw, n_particles: int = 1, *, topology=None, mode=None, damped=None,
 
     # -- the time step (or mobility) from the stiffest term: omega_max dt = r
     probe = Scene(surface, dt=1.0, n_steps=0, mass=mass, spring=spring_obj, walls=walls_obj)
-    K = stiffness_bound(probe)
+    omega = max_frequency(probe)
     mobility = None
     if mode == "dynamic":
-        omega = max_frequency(probe)
         if omega_dt is None:
             dt = min(draw(_floats(*dt_range)), max_omega_dt / omega if omega > 0 else np.inf)
         else:                      # (capped: a nearly flat scene would get a huge step)
@@ -299,6 +298,7 @@ def scenes(draw, n_particles: int = 1, *, topology=None, mode=None, damped=None,
     else:
         dt = draw(_floats(*dt_range))
         r = draw(_floats(0.05, max_omega_dt))
+        K = omega ** 2 * float(np.min(probe.mass))        # the stiffness max_frequency bounds by
         mobility = np.array([draw(_floats(0.1, 1.0)), draw(_floats(0.1, 1.0))]) * r / max(K, 1.0)
 
     # windows were drawn in units of steps; turn them into times t0 + s dt

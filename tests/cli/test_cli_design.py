@@ -41,9 +41,11 @@ def test_progress_line_and_summary(tmp_path, capsys):
     gradient = [line for line in lines if line.startswith("design oscillator: stage ")]
     polish = [line for line in lines if line.startswith("design oscillator: polish ")]
     assert gradient and polish and lines.index(gradient[-1]) < lines.index(polish[0])
-    for part in ("design oscillator: stage 1/1 (grid 8x8, 60 steps) | it 6/6", "loss", "amp_err", "it/s", "left"):
+    for part in ("design oscillator: stage 1/1 | it 6/6 | grid 8x8 | steps 60 | loss ", "| amp_err ", " it/s |",
+                 "| elapsed ", "| left "):
         assert part in gradient[-1]
-    for part in ("polish 25/20 evaluations", "fitness", "(start", "ev/s", "left"):
+    for part in ("design oscillator: polish | evaluations 25/20 | fitness ", "| start ", " evaluations/s |",
+                 "| left "):
         assert part in polish[-1]
     assert out.startswith(f"wrote {tmp_path / 'o.npz'}: oscillator, iteration 6/6 (done)")
     assert ", polish 25 evaluations, fitness " in out
@@ -194,9 +196,9 @@ def test_the_progress_line_shows_the_stage_and_a_change_of_stage_says_so(tmp_pat
                          "--out", tmp_path / "o.npz", "--progress", 0)
     assert code == EXIT_OK, err
     lines = err.strip().splitlines()
-    assert any(line.startswith("design oscillator: stage 1/2 (grid 6x6, 30 steps) | it 1/6 | loss ")
+    assert any(line.startswith("design oscillator: stage 1/2 | it 1/6 | grid 6x6 | steps 30 | loss ")
                for line in lines), err
-    assert any(line.startswith("design oscillator: stage 2/2 (grid 8x8, 60 steps) | it 6/6 | loss ")
+    assert any(line.startswith("design oscillator: stage 2/2 | it 6/6 | grid 8x8 | steps 60 | loss ")
                for line in lines), err
     changes = [line for line in lines if "now stage" in line]
     assert changes == ["design oscillator: now stage 2/2: grid 8x8, 60 steps per run "

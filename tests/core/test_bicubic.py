@@ -7,11 +7,13 @@ import pes_ref as pr
 from _helpers import TOPOLOGIES, assert_dot
 from pes_ref import Surface
 from pes_ref.core import bicubic as bc
-from pes_ref.testing import properties as pp
+from pes_ref import testing as pt
 from pes_ref.core.forces import Field
 from pes_ref.core.bilinear import grid_slope as bilinear_slope
 from pes_ref.core.grid import Cells, locate, spacing
-from pes_ref.testing.finite_differences import check_vjp, relative_error
+from pes_ref.core.scene import gradient_names
+from pes_ref.testing.finite_differences import check_vjp
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL, TRAJ_RTOL
 
 TOPO_IDS = sorted(TOPOLOGIES)
@@ -334,7 +336,7 @@ def _scene_case(topology, kind, seed):
 def _kink_free_scene(topology, kind):
     for seed in range(50):
         scene, x0, v0 = _scene_case(topology, kind, seed)
-        if pp.kink_distance(scene, pr.simulate(scene, x0, v0).x) > KINK_MARGIN:
+        if pt.kink_distance(scene, pr.simulate(scene, x0, v0).x) > KINK_MARGIN:
             return scene, x0, v0
     raise AssertionError(f"no kink-free case for {topology}/{kind}")  # pragma: no cover
 
@@ -348,10 +350,10 @@ def test_every_gradient_of_a_bicubic_scene_matches_central_differences(topology,
     assert scene.field().interpolation == "bicubic"
     objective = pr.Funnel(0.3, "every_step") if kind == "quasistatic" else \
         pr.Quadratic(wx=1.0, wv=0.5, xref=0.3, vref=-0.2)
-    check = pp.check_gradient_fd(pr.value_and_grad, scene, x0, v0, objective, full=True,
+    check = pt.check_gradient_fd(pr.value_and_grad, scene, x0, v0, objective, full=True,
                                  kink_margin=KINK_MARGIN, regularization_weight=0.05)
     assert check.valid
-    assert set(check.errors) == set(pp.gradient_names(scene))
+    assert set(check.errors) == set(gradient_names(scene.mode, scene.spring is not None))
     for name, err in check.errors.items():
         assert err < FD_RTOL, f"{name}: relative error {err:.3e}"
 
@@ -389,7 +391,7 @@ def test_order_of_the_energy_error(interpolation, topology):
     """Velocity Verlet's energy error: second order on the C1 bicubic grid, first order on
     the bilinear one (whose force jumps at cell edges); the second asserts the check fails."""
     scene, x0, v0 = _energy_case(interpolation, topology, 0)
-    r = pp.drift_ratio(pr.simulate, scene, x0, v0)
+    r = pt.drift_ratio(pr.simulate, scene, x0, v0)
     if interpolation == "bicubic":
         if topology == "plane":
             assert np.max(np.abs(r.coarse.trajectory.x - 0.5)) < 0.5      # never at a clip edge

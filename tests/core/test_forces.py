@@ -13,7 +13,8 @@ from _helpers import TOPOLOGIES, assert_dot, kink_distance
 from pes_ref.core.forces import ForceAdjoint, ForceKernel, GradAccumulator, force, force_vjp, potential_energy
 from pes_ref.core.interpolations import INTERPOLATIONS, interpolation
 from pes_ref.core.kernels import GridAdjoint, GridForce, TermAdjoint, TermForce
-from pes_ref.testing.finite_differences import central_gradient, check_vjp, relative_error
+from pes_ref.testing.finite_differences import central_gradient, check_vjp
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
 
 N = 6

@@ -10,7 +10,8 @@ import pytest
 import pes_ref as pr
 from _helpers import TOPOLOGIES, kink_distance
 from pes_ref.core.integrator import simulate_dynamic
-from pes_ref.testing.finite_differences import central_gradient, relative_error
+from pes_ref.testing.finite_differences import central_gradient
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL, TRAJ_RTOL
 
 #: One step computed by hand from SPEC section 3's formulas (a different association of

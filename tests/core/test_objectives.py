@@ -8,7 +8,8 @@ import pytest
 import pes_ref as pr
 from pes_ref import Custom, Funnel, Oscillator, Quadratic, regularization
 from pes_ref.core.objectives import OscillatorCycle
-from pes_ref.testing.finite_differences import central_gradient, relative_error
+from pes_ref.testing.finite_differences import central_gradient
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
 
 # A tiny trajectory: T + 1 = 3 states, N = 2 particles.

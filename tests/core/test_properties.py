@@ -1,7 +1,7 @@
 """Property tests of the numerical contract (SPEC sections 1-5) on random scenes.
 
 Each property draws its scenes from :mod:`pes_ref.testing.strategies` and checks them
-with the plain functions of :mod:`pes_ref.testing.properties`, the same ones another
+with the plain functions of :mod:`pes_ref.testing`, the same ones another
 implementation runs on itself (``docs/testing.md``). Hypothesis runs deterministically
 by default (``tests/conftest.py``): 200 examples per property (the gradient property as
 8 strata of 25); the counts scale with the profile, so ``make test-thorough``
@@ -18,9 +18,10 @@ from hypothesis import strategies as st
 
 import pes_ref as pr
 from pes_ref.core.forces import force
-from pes_ref.core.scene import MODES
-from pes_ref.testing import properties as pp
+from pes_ref.core.scene import MODES, gradient_names
+from pes_ref import testing as pt
 from pes_ref.testing import strategies as pst
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL, GRAD_RTOL, TRAJ_RTOL
 
 # ----------------------------------------------------------------------------- budgets
@@ -93,7 +94,7 @@ DIFFUSIVE_GROWTH = 3.0
 #: Resolution of the bilinear runs: at most this fraction of a cell per step.
 CELLS_PER_STEP = (0.05, 0.1)
 # Damping: with gamma > 0 the energy may rise above E_0 only by discretization error,
-# max_n (E_n - E_0) <= pp.energy_error_budget of the run (a leading-order worst case:
+# max_n (E_n - E_0) <= pt.energy_error_budget of the run (a leading-order worst case:
 # every crossing of a force jump at its largest error, plus (omega dt)^2 K per
 # contact). Measured at most 0.44 of it over 5000 random examples (undamped runs, whose
 # whole error max|E_n - E_0| it bounds, reach ~0.9 of it). Comparing with the undamped
@@ -124,7 +125,7 @@ def _topology_id(t):
 
 def _resolved(scene, x0, v0, r):
     """The scene with dt cut so that no particle moves more than ``r`` cells a step."""
-    vmax = pp.max_speed(scene, x0, v0)
+    vmax = pt.max_speed(scene, x0, v0)
     if vmax == 0.0:
         return scene
     return replace(scene, dt=min(scene.dt, r * float(scene.surface.spacing.min()) / vmax))
@@ -133,8 +134,8 @@ def _resolved(scene, x0, v0, r):
 # ============================================================================ energy: smooth
 
 def _check_smooth_drift(scene, x0, v0, *, ensemble=False):
-    r = pp.drift_ratio(pr.simulate, scene, x0, v0)
-    w = pp.max_frequency(scene) * scene.dt
+    r = pt.drift_ratio(pr.simulate, scene, x0, v0)
+    w = pt.max_frequency(scene) * scene.dt
     ratio = r.ensemble_ratio if ensemble else r.ratio
     lo, hi = SMOOTH_RATIO_BAND
     assert lo <= ratio <= hi, (f"energy error ratio dt -> dt/2 is {ratio:.4f}, not second order "
@@ -174,7 +175,7 @@ def _spring_case(seed, n_particles, topology, walls):
     if walls:
         v0 = v0 + rng.uniform(-2.0, 2.0, (N, 2)) * np.array([not topology[0], not topology[1]])
     x0 = np.array([1.0, 0.5]) + delta
-    return replace(scene, dt=0.15 / pp.max_frequency(scene)), x0, v0
+    return replace(scene, dt=0.15 / pt.max_frequency(scene)), x0, v0
 
 
 @pytest.mark.slow
@@ -202,12 +203,12 @@ def test_energy_springs_long_run(seed):
 def test_energy_walls_second_order(case):
     """Walls (and springs) on a constant grid: second order over an ensemble."""
     scene, x0, v0 = case
-    r = pp.drift_ratio(pr.simulate, scene, x0, v0)
+    r = pt.drift_ratio(pr.simulate, scene, x0, v0)
     note(f"ensemble ratio={r.ensemble_ratio:.3f} (single-trajectory {r.ratio:.3f})")
     assume(r.fine.ensemble_error() > ENERGY_ROUNDING * (1.0 + r.fine.kinetic_scale))  # no contact at all
     lo, hi = WALL_RATIO_BAND
     assert lo <= r.ensemble_ratio <= hi
-    w = pp.max_frequency(scene) * scene.dt
+    w = pt.max_frequency(scene) * scene.dt
     for drift, wdt in ((r.coarse, w), (r.fine, w / 2)):
         assert drift.ensemble_error() <= WALL_ERROR_C * wdt ** 2 * drift.kinetic_scale / x0.shape[0]
 
@@ -218,8 +219,8 @@ def test_energy_walls_long_run():
     each contact stays O((omega dt)^2) and the ensemble error does not drift."""
     scene, x0, v0 = _spring_case(3, 128, (False, False), walls=True)
     scene = replace(scene, n_steps=10_000)
-    drift = pp.energy_drift(pr.simulate, scene, x0, v0)
-    w = pp.max_frequency(scene) * scene.dt
+    drift = pt.energy_drift(pr.simulate, scene, x0, v0)
+    w = pt.max_frequency(scene) * scene.dt
     assert np.max(np.abs(drift.energies - drift.energies[0])) <= SMOOTH_ERROR_C * w ** 2 * drift.kinetic_scale
     assert drift.growth(0.25) <= BOUNDED_GROWTH
 
@@ -234,12 +235,12 @@ def test_energy_bilinear_first_order(case, cells_per_step):
     """gamma = 0 on a bilinear grid: the (ensemble) energy error is first order in dt."""
     scene, x0, v0 = case
     scene = _resolved(scene, x0, v0, cells_per_step)
-    r = pp.drift_ratio(pr.simulate, scene, x0, v0)
+    r = pt.drift_ratio(pr.simulate, scene, x0, v0)
     note(f"ensemble ratio={r.ensemble_ratio:.3f} (single-trajectory {r.ratio:.3f}), dt={scene.dt:.3g}")
     assume(r.fine.ensemble_error() > ENERGY_ROUNDING * (1.0 + r.fine.kinetic_scale))  # all outside the grid
     assert r.ensemble_ratio >= BILINEAR_MIN_RATIO
     for drift, sc in ((r.coarse, scene), (r.fine, replace(scene, dt=scene.dt / 2, n_steps=2 * scene.n_steps))):
-        assert drift.max_abs <= pp.energy_error_budget(sc, drift.trajectory)   # an O(dt) worst case
+        assert drift.max_abs <= pt.energy_error_budget(sc, drift.trajectory)   # an O(dt) worst case
 
 
 @pytest.mark.slow
@@ -253,9 +254,9 @@ def test_energy_bilinear_long_run(topology):
     scene = pr.Scene(surf, dt=1.0, n_steps=10_000, spring=pr.Spring(0.5, [1.0, 1.25]), walls=walls)
     x0 = rng.uniform(0.0, 1.0, (128, 2)) * surf.length
     v0 = rng.uniform(-1.0, 1.0, (128, 2))
-    scene = replace(scene, dt=min(0.2 / pp.max_frequency(scene),
-                                  0.05 * surf.spacing.min() / pp.max_speed(scene, x0, v0)))
-    drift = pp.energy_drift(pr.simulate, scene, x0, v0)
+    scene = replace(scene, dt=min(0.2 / pt.max_frequency(scene),
+                                  0.05 * surf.spacing.min() / pt.max_speed(scene, x0, v0)))
+    drift = pt.energy_drift(pr.simulate, scene, x0, v0)
     assert drift.growth(0.25) <= DIFFUSIVE_GROWTH
 
 
@@ -269,8 +270,8 @@ def test_energy_damped_never_rises(case, cells_per_step):
     """gamma > 0, no external force: E_n <= E_0 + the discretization error bound."""
     scene, x0, v0 = case
     scene = _resolved(scene, x0, v0, cells_per_step)
-    damped = pp.energy_drift(pr.simulate, scene, x0, v0)
-    budget = pp.energy_error_budget(scene, damped.trajectory)
+    damped = pt.energy_drift(pr.simulate, scene, x0, v0)
+    budget = pt.energy_error_budget(scene, damped.trajectory)
     floor = ENERGY_ROUNDING * (np.max(np.abs(damped.energies)) + damped.kinetic_scale)
     assert damped.max_increase <= budget + floor, f"rise {damped.max_increase:.3e} > budget {budget:.3e}"
 
@@ -286,7 +287,7 @@ def test_periodic_shift_by_whole_periods(case, data):
     axis = data.draw(st.sampled_from([d for d in range(2) if scene.surface.periodic[d]]), label="axis")
     particle = data.draw(st.integers(0, x0.shape[0] - 1), label="particle")
     periods = data.draw(st.sampled_from([-3, -2, -1, 1, 2, 3]), label="periods")
-    check = pp.check_periodic_shift(pr.simulate, scene, x0, v0, particle=particle, axis=axis, periods=periods)
+    check = pt.check_periodic_shift(pr.simulate, scene, x0, v0, particle=particle, axis=axis, periods=periods)
     assume(check.kink_distance > ROUNDING_KINK_MARGIN)
     assert check.max_difference <= PERIODIC_RTOL, check.differences
 
@@ -301,17 +302,17 @@ def test_grid_roll_shifts_the_trajectory(case, data):
     s = scene.surface
     axis = data.draw(st.sampled_from([d for d in range(2) if s.periodic[d]]), label="axis")
     k = data.draw(st.integers(-s.shape[axis], s.shape[axis]), label="k")
-    check = pp.check_grid_roll(pr.simulate, scene, x0, v0, axis=axis, k=k)
+    check = pt.check_grid_roll(pr.simulate, scene, x0, v0, axis=axis, k=k)
     assume(check.kink_distance > ROUNDING_KINK_MARGIN)
     assert check.max_difference <= PERIODIC_RTOL, check.differences
 
-    rolled, dq = pp.rolled_scene(scene, axis, k)
+    rolled, dq = pt.rolled_scene(scene, axis, k)
     xref = x0.mean(axis=0)         # the tracking target moves with everything else
     _, g, _ = pr.value_and_grad(scene, x0, v0, pr.Quadratic(wx=1.0, wv=0.5, xref=xref))
     _, gr, _ = pr.value_and_grad(rolled, x0 + dq, v0, pr.Quadratic(wx=1.0, wv=0.5, xref=xref + dq))
     for name in g:
         want = np.roll(g[name], k, axis=axis) if name == "values" else g[name]
-        assert pp.relative_difference(gr[name], want) <= GRAD_RTOL, name
+        assert relative_error(gr[name], want) <= GRAD_RTOL, name
 
 
 # ============================================================================ gradients
@@ -334,14 +335,14 @@ def test_gradients_match_finite_differences(topology, mode, data):
     scene, x0, v0 = data.draw(_fd_case(topology, mode), label="case")
     objective, R = data.draw(pst.objectives(scene, x0.shape[0]), label="objective")
     seed = data.draw(pst.seeds(), label="direction seed")
-    check = pp.check_gradient_fd(pr.value_and_grad, scene, x0, v0, objective, regularization_weight=R,
+    check = pt.check_gradient_fd(pr.value_and_grad, scene, x0, v0, objective, regularization_weight=R,
                                  kink_margin=FD_KINK_MARGIN, seed=seed)
     assume(check.valid)
     for name, res in check.resolution.items():
         if res > FD_RTOL:
             event(f"{name}: gradient below the difference's rounding noise")
     note(f"errors {check.errors}\nraw {check.raw_errors}\nnoise {check.noise}")
-    assert set(check.errors) == set(pp.gradient_names(scene))
+    assert set(check.errors) == set(gradient_names(scene.mode, scene.spring is not None))
     for name, err in check.errors.items():
         assert err < FD_RTOL, f"{name}: relative error {err:.3e} (fd {check.fd[name]!r}, adjoint {check.adjoint[name]!r})"
 
@@ -384,10 +385,10 @@ def test_gradients_entrywise(topology, mode, objective):
     """Every entry of every gradient (values, force, ...) against central differences,
     with regularization, on fixed scenes of every topology and mode."""
     scene, x0, v0 = _full_case(topology, mode)
-    check = pp.check_gradient_fd(pr.value_and_grad, scene, x0, v0, FULL_OBJECTIVES[objective],
+    check = pt.check_gradient_fd(pr.value_and_grad, scene, x0, v0, FULL_OBJECTIVES[objective],
                                  regularization_weight=0.05, full=True, kink_margin=FD_KINK_MARGIN)
     assert check.valid, f"the fixed case passes within {check.kink_distance:.2e} of a kink: pick another"
-    assert set(check.errors) == set(pp.gradient_names(scene))
+    assert set(check.errors) == set(gradient_names(scene.mode, scene.spring is not None))
     for name, err in check.errors.items():
         assert err < FD_RTOL, f"{name}: relative error {err:.3e}"
 
@@ -401,7 +402,7 @@ def test_fd_check_can_fail():
         grads["mass"] = grads["mass"] * (1 + 1e-4)
         return loss, grads, traj
 
-    check = pp.check_gradient_fd(wrong, scene, x0, v0, FULL_OBJECTIVES["quadratic"], full=True)
+    check = pt.check_gradient_fd(wrong, scene, x0, v0, FULL_OBJECTIVES["quadratic"], full=True)
     assert check.valid
     assert check.errors["mass"] > FD_RTOL
     assert max(e for n, e in check.errors.items() if n != "mass") < FD_RTOL
@@ -422,7 +423,7 @@ def test_energy_ratio_can_fail():
             x.append(x[-1] + sc.dt * v[-1])
         return pr.Trajectory(np.array(x), np.array(v), np.zeros((sc.n_steps + 1,) + f.shape))
 
-    r = pp.drift_ratio(symplectic_euler, scene, x0, v0)
+    r = pt.drift_ratio(symplectic_euler, scene, x0, v0)
     assert not SMOOTH_RATIO_BAND[0] <= r.ratio <= SMOOTH_RATIO_BAND[1]
 
 

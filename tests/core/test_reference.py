@@ -30,7 +30,7 @@ the scene has. How exactly they must agree, and why:
   rounding may sit on either side).
 
 The reference itself is checked against central finite differences entry by entry
-(:func:`pes_ref.testing.properties.check_gradient_fd`) on a small fixed case per mode and
+(:func:`pes_ref.testing.gradient_check.check_gradient_fd`) on a small fixed case per mode and
 per option, and :func:`test_entrywise_check_fails_on_a_perturbed_sub_step` shows that the
 comparison catches a wrong sub-step. Example counts scale with the hypothesis profile
 (``make test-thorough`` runs 10x more).
@@ -47,7 +47,8 @@ from pes_ref.core import reference
 from pes_ref.core.stability import stability_limit
 from pes_ref.oracle.tolerances import FD_RTOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 from pes_ref.testing import strategies as pst
-from pes_ref.testing.properties import check_gradient_fd, gradient_names, kink_distance
+from pes_ref.core.scene import gradient_names
+from pes_ref.testing import check_gradient_fd, kink_distance
 
 #: Examples per (topology, mode) stratum, per forced effect (36 of them) and per bicubic
 #: mode: 100, 180 and 50 in all with the default profile (200), 10x that when thorough.
@@ -72,7 +73,7 @@ def both(scene, x0, v0, objective, R) -> dict:
     traj = pr.simulate(scene, x0, v0)
     loss, grads, _ = pr.value_and_grad(scene, x0, v0, objective, regularization_weight=R)
     rloss, rgrads, run = reference.value_and_grad(scene, x0, v0, objective, regularization_weight=R)
-    assert set(grads) == set(rgrads) == set(gradient_names(scene)), (sorted(grads), sorted(rgrads))
+    assert set(grads) == set(rgrads) == set(gradient_names(scene.mode, scene.spring is not None)), (sorted(grads), sorted(rgrads))
     out = {"x": (traj.x, run.x), "v": (traj.v, run.v), "f": (traj.f, run.f),
            "energy": (pr.energy(scene, traj), reference.energy(scene, run)), "loss": (loss, rloss)}
     out.update({f"grad_{name}": (grads[name], rgrads[name]) for name in grads})
@@ -288,7 +289,7 @@ def test_reference_matches_finite_differences(mode, integrator, interpolation):
     check = check_gradient_fd(reference.value_and_grad, scene, x0, v0, objective, regularization_weight=R,
                               kink_margin=1e-3, full=True, simulate_fn=reference.simulate)
     assert check.valid, f"the fixed case passes within {check.kink_distance:.3g} of a kink"
-    assert set(check.errors) == set(gradient_names(scene))
+    assert set(check.errors) == set(gradient_names(scene.mode, scene.spring is not None))
     assert check.max_error < FD_RTOL, {k: v for k, v in check.errors.items() if v >= FD_RTOL}
 
 

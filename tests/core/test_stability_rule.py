@@ -126,7 +126,7 @@ def test_the_rule_is_per_term_not_summed():
     surface = _surface(K * np.outer(_NODES, _NODES))            # c = 8 too
     scene = pr.Scene(surface, dt=0.8 * 2.0 / np.sqrt(K), n_steps=5, spring=pr.Spring(K, [0.5, 0.5]))
     assert stability.stability_limit(scene).ratio > 1.0
-    lim = stability.term_limit(scene)
+    lim = stability.stability_limit(scene, "rule")
     assert lim.ratio == pytest.approx(0.8)
     pr.simulate(scene, X0, V0)
 
@@ -137,14 +137,15 @@ def test_second_differences_are_not_a_term():
     surface = pr.Surface(np.outer(25.0 * q ** 2, np.ones(4)), (-1, 0), (1, 1), (False, False))
     scene = pr.Scene(surface, dt=1.0, n_steps=3)              # 5x the limit of K_0 = 50
     assert stability.stability_limit(scene).ratio > 3.0
-    assert stability.term_limit(scene).ratio == 0.0
+    assert stability.stability_limit(scene, "rule").ratio == 0.0
     stability.check_stable(scene)
 
 
 def test_a_scene_without_stiffness_has_no_limit():
     scene = pr.Scene(_surface(), dt=1e6, n_steps=3)
-    lim = stability.term_limit(scene)
-    assert lim.ratio == 0.0 and lim.limit == np.inf
+    for bound in stability.BOUNDS:
+        lim = stability.stability_limit(scene, bound)
+        assert lim.ratio == 0.0 and lim.limit == np.inf and lim.term == "" and lim.suggestion == scene.dt
     stability.check_stable(scene)
 
 
@@ -167,7 +168,7 @@ def test_drawn_scenes_are_inside_the_rule(case):
     """The hypothesis strategies draw only scenes the rule accepts: their step is sized
     by ``max_omega_dt = 0.5`` of the summed stiffness, a quarter of the limit at most."""
     scene, _, _ = case
-    assert stability.term_limit(scene).ratio <= 0.25 * (1 + 1e-12)
+    assert stability.stability_limit(scene, "rule").ratio <= 0.25 * (1 + 1e-12)
     stability.check_stable(scene)
 
 
@@ -197,3 +198,28 @@ def test_the_new_keywords_are_checked(kw, name):
     for run in (lambda: pr.simulate(scene, X0, V0, **kw), lambda: pr.value_and_grad(scene, X0, V0, pr.Funnel(0.5), **kw)):
         with pytest.raises(TypeError, match=name):
             run()
+
+
+def test_one_limit_under_either_bound():
+    """The summed bound and the rule are one computation over one stiffness table: a lone
+    spring gives both the same limit, and the sum adds the grid's cell edges."""
+    scene = pr.Scene(_surface(), dt=0.1, n_steps=3, mass=2.0, spring=pr.Spring([8.0, 2.0], [0.5, 0.5]))
+    rule, summed = (stability.stability_limit(scene, bound) for bound in ("rule", "sum"))
+    assert (rule.term, rule.axis, rule.stiffness) == ("spring", 0, 8.0)
+    assert summed.term == "all terms" and summed.limit == rule.limit == pytest.approx(1.0)
+    assert set(summed.terms) == {"grid_edges", *stability.RULE_TERMS} and set(rule.terms) == set(stability.RULE_TERMS)
+    with pytest.raises(ValueError, match="bound must be one of"):
+        stability.stability_limit(scene, "max")
+
+
+def test_a_stiffness_that_overflows_is_past_every_limit():
+    """Terms that sum to inf (wall_k = 1e308 beside a spring) give an infinite ratio and a
+    zero limit under the summed bound, not a division by zero."""
+    scene = pr.Scene(_surface(), dt=0.1, n_steps=3, spring=pr.Spring(1e308, [0.5, 0.5]),
+                     walls=pr.Walls(1e308, 0.1, [[True, True], [True, True]]))
+    with np.errstate(over="ignore"):
+        lim = stability.stability_limit(scene)
+        message = stability.advice(scene)
+    assert lim.ratio == np.inf and lim.limit == 0.0 and "is infx it" in message
+    with pytest.raises(stability.UnstableStepError, match="dt = 0.1 is"):
+        stability.check_stable(scene)

@@ -8,7 +8,8 @@ import pytest
 from pes_ref import Surface
 from pes_ref.core.bilinear import grid_energy, grid_slope, grid_slope_vjp_q, grid_slope_vjp_values
 from pes_ref.core.grid import locate, spacing, wrap
-from pes_ref.testing.finite_differences import central_gradient, check_vjp, relative_error
+from pes_ref.testing.finite_differences import central_gradient, check_vjp
+from pes_ref.oracle.compare import relative_error
 from _helpers import TOPOLOGIES, assert_dot
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 

@@ -5,7 +5,8 @@ import pytest
 from pes_ref import Spring, Walls
 from pes_ref.core.terms import (spring_add_force, spring_delta, spring_energy, spring_force_vjp, wall_add_force,
                            wall_bounds, wall_energy, wall_force_vjp)
-from pes_ref.testing.finite_differences import central_gradient, check_vjp, relative_error
+from pes_ref.testing.finite_differences import central_gradient, check_vjp
+from pes_ref.oracle.compare import relative_error
 from _helpers import assert_dot
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_ATOL, TRAJ_RTOL
 

@@ -1,4 +1,5 @@
-"""pes_ref.oracle.npz: the one atomic .npz writer (and reader).
+"""pes_ref.oracle.npz: the .npz writer (through the one atomic writer,
+pes_ref.core.files.atomic_file) and reader.
 
 A file is published in one step: a reader never sees half of it, a failed write leaves
 nothing behind, and without ``overwrite`` an existing file is never replaced, not even
@@ -11,8 +12,9 @@ import os
 import numpy as np
 import pytest
 
+from pes_ref.core import files
+from pes_ref.core.files import ResultExistsError
 from pes_ref.oracle import npz
-from pes_ref.oracle.errors import ResultExistsError
 
 ARRAYS = {"a": np.arange(6.0).reshape(2, 3), "name": "text", "n": np.int64(3)}
 
@@ -93,7 +95,7 @@ def test_a_failed_write_leaves_nothing(tmp_path):
         pass
 
     with pytest.raises(Boom):
-        with npz.atomic_file(tmp_path / "r.bin") as fh:
+        with files.atomic_file(tmp_path / "r.bin") as fh:
             fh.write(b"half")
             raise Boom
     assert os.listdir(tmp_path) == []
@@ -118,7 +120,7 @@ def test_a_folder_that_cannot_be_written_is_named_not_the_temporary_file(tmp_pat
     """(Provoked by a stand-in for open: root, who runs some test machines, writes anywhere.)"""
     def refused(name, mode="r", *args, **kwargs):
         raise PermissionError(errno.EACCES, "Permission denied", name)
-    monkeypatch.setattr(npz, "open", refused, raising=False)
+    monkeypatch.setattr(files, "open", refused, raising=False)
     with pytest.raises(PermissionError) as info:
         npz.write_npz(tmp_path / "r.npz", ARRAYS)
     assert info.value.filename == str(tmp_path) and ".tmp" not in str(info.value)

@@ -10,6 +10,7 @@ import pytest
 import pes_ref
 from pes_ref import cli
 from pes_ref.core import checks
+from pes_ref.core.scene import gradient_names
 from pes_ref.oracle import case as oracle
 from pes_ref.oracle.conformance import LATEST, vectors_dir
 from pes_ref.testing.conformance import load_manifest
@@ -73,7 +74,7 @@ def test_result_keys_and_shapes(entry):
     result = oracle.run_case(case)
     T, N = int(case["n_steps"]), case["x0"].shape[0]
     mode = str(case["mode"])
-    grads = oracle.grad_names_for(mode, "spring_k" in case)
+    grads = gradient_names(mode, "spring_k" in case)
     assert tuple(result) == oracle.result_keys(grads)
     assert result["x"].shape == result["v"].shape == (T + 1, N, 2)
     assert result["energy"].shape == (T + 1, N) and result["loss"].shape == ()

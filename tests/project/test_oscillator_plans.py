@@ -9,7 +9,8 @@ import pytest
 
 from pes_ref import synthesis
 from pes_ref.core.objectives import Oscillator
-from pes_ref.testing.finite_differences import central_gradient, relative_error
+from pes_ref.testing.finite_differences import central_gradient
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
 
 from _helpers import ROOT, load_script

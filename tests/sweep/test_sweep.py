@@ -15,7 +15,7 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main  # noqa: E402
-from pes_ref.sweep import cluster, task as task_module  # noqa: E402
+from pes_ref.sweep import cluster, results, task as task_module  # noqa: E402
 from pes_ref.sweep.runner import run_sweep  # noqa: E402
 from pes_ref.sweep.spec import load_sweep  # noqa: E402
 from pes_ref.synthesis.design_file import load_design  # noqa: E402
@@ -163,7 +163,7 @@ def test_ctrl_c_saves_the_running_designs_and_the_next_run_resumes_them(client, 
     calls = []
 
     def ctrl_c_once(progress):
-        if not calls and progress.running == 2:
+        if not calls and progress.figure("running") == 2:
             calls.append(progress)
             raise KeyboardInterrupt
     report = run_sweep(sweep, tmp_path / "o", client, progress=ctrl_c_once, progress_every=0.2, plot=False)
@@ -195,6 +195,25 @@ def test_a_task_never_raises_and_reports_the_error(tmp_path):
     out = task_module.run_task({"id": "x", "kind": "funnel", "options": {"smoke": True}, "seed": 0,
                                 "eval_seeds": [1], "eval_particles": 4, "design_file": str(tmp_path / "x.npz")})
     assert out["status"] == "failed" and "is not an .npz archive" in out["error"] and out["worker"] == "local"
+
+
+def test_results_and_summary_are_published_whole_with_the_users_mode(tmp_path):
+    """Through the one atomic writer: no temporary file left, and the mode any file of the
+    user gets (0o666 less the umask), not a temporary file's 0o600."""
+    spec = tmp_path / "s.toml"
+    spec.write_text('kind = "funnel"\nseeds = [0, 1]\neval_seeds = [1]\n[base]\nsmoke = true\n')
+    sweep = load_sweep(spec)
+    rows = [results.new_row(run, sweep, str(tmp_path / f"{run.id}.npz")) for run in sweep.runs]
+    out = tmp_path / "o"
+    out.mkdir()
+    old = os.umask(0o022)
+    try:
+        results.write_results(out / results.CSV_NAME, sweep, rows)
+        results.plot_summary(out / results.PLOT_NAME, sweep, rows)
+    finally:
+        os.umask(old)
+    assert {p.name: p.stat().st_mode & 0o777 for p in out.iterdir()} == {"results.csv": 0o644, "summary.png": 0o644}
+    assert [r["run"] for r in read_csv(out / "results.csv")] == [run.id for run in sweep.runs]
 
 
 def test_without_dask_the_command_says_how_to_install_it(tmp_path, capsys, monkeypatch):

@@ -8,7 +8,8 @@ import pytest
 from pes_ref import synthesis
 from pes_ref.core.integrator import NonFiniteError as pr_nonfinite
 from pes_ref.synthesis import Plan
-from pes_ref.testing.finite_differences import directional_derivative, relative_error
+from pes_ref.testing.finite_differences import directional_derivative
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL
 
 #: A tiny funnel (13 x 13 grid, 100 steps) on which 40 iterations take about a second.
@@ -109,7 +110,7 @@ def _interrupted_run(signum, sent):
     before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
 
     def interrupt(progress):
-        if progress.iteration == 2 and not sent:
+        if progress.done == 2 and not sent:
             sent.append(True)
             os.kill(os.getpid(), signum)
 
@@ -305,13 +306,13 @@ def test_progress_shows_the_stage_and_sums_the_time_left_over_the_stages_to_run(
     plan = Plan(iterations=8, lr=0.005, lr_final=0.005, n_particles=2, stages=((0, 7, 10), (4, 0, 40)))
     seen = []
     synthesis.run_design(tiny_state(plan=plan), callback=seen.append, progress_every=0.0)
-    by_it = {p.iteration: p for p in seen}
+    by_it = {p.done: p for p in seen}
     p2, p5 = by_it[2], by_it[5]
-    assert (p2.stage, p2.grid, p2.steps) == ("1/2", (7, 7), 10)
-    assert p2.it_per_s == pytest.approx(100.0)                        # 10 steps at 1 ms each
+    assert (p2.stage, p2.figure("grid"), p2.figure("steps")) == ("stage 1/2", (7, 7), 10)
+    assert p2.rate == pytest.approx(100.0)                            # 10 steps at 1 ms each
     assert p2.seconds_left == pytest.approx(2 * 0.010 + 4 * 0.040)   # 2 more of stage 1, then 4 of stage 2
-    assert (p5.stage, p5.grid, p5.steps) == ("2/2", (13, 13), 40)
-    assert p5.it_per_s == pytest.approx(25.0)
+    assert (p5.stage, p5.figure("grid"), p5.figure("steps")) == ("stage 2/2", (13, 13), 40)
+    assert p5.rate == pytest.approx(25.0)
     assert p5.seconds_left == pytest.approx(3 * 0.040)
     assert by_it[8].seconds_left == 0.0
 
@@ -321,8 +322,8 @@ def test_a_stage_yet_to_be_measured_is_estimated_from_the_last_one(monkeypatch):
     plan = Plan(iterations=6, lr=0.005, lr_final=0.005, n_particles=2, stages=((0, 0, 10), (3, 0, 30)))
     seen = []
     synthesis.run_design(tiny_state(plan=plan), callback=seen.append, progress_every=0.0)
-    p3 = next(p for p in seen if p.iteration == 3)     # stage 1 done, stage 2 not started
-    assert p3.stage == "1/2" and p3.seconds_left == pytest.approx(3 * 0.030)
+    p3 = next(p for p in seen if p.done == 3)          # stage 1 done, stage 2 not started
+    assert p3.stage == "stage 1/2" and p3.seconds_left == pytest.approx(3 * 0.030)
 
 
 def test_a_plain_run_is_one_stage(monkeypatch):
@@ -330,5 +331,5 @@ def test_a_plain_run_is_one_stage(monkeypatch):
     seen = []
     synthesis.run_design(tiny_state(plan=Plan(iterations=3, n_particles=2)), callback=seen.append,
                          progress_every=0.0)
-    assert {p.stage for p in seen} == {"1/1"} and seen[0].steps == TINY_FUNNEL["n_steps"]
+    assert {p.stage for p in seen} == {"stage 1/1"} and seen[0].figure("steps") == TINY_FUNNEL["n_steps"]
     assert seen[0].seconds_left == pytest.approx(2 * 0.1)

@@ -11,7 +11,8 @@ from pes_ref import synthesis
 from pes_ref.core.objectives import Funnel
 from pes_ref.synthesis import FunnelExit, Plan, exit_steps
 from pes_ref.testing import strategies as pst
-from pes_ref.testing.finite_differences import central_gradient, relative_error
+from pes_ref.testing.finite_differences import central_gradient
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL, TRAJ_RTOL
 
 # T + 1 = 4 states, N = 3 particles: particle 0 exits at step 2, particle 1 at step 1 (exactly

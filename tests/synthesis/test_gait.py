@@ -8,7 +8,8 @@ import pytest
 from pes_ref import synthesis
 from pes_ref.synthesis import GaitShooting, Plan, sample_gait_starts
 from pes_ref.synthesis.gait import gait_teeth
-from pes_ref.testing.finite_differences import central_gradient, relative_error
+from pes_ref.testing.finite_differences import central_gradient
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL
 
 

@@ -12,7 +12,7 @@ from pes_ref import synthesis
 from pes_ref.synthesis import Plan, PolishPlan, capture_fitness, legendre_fourier_basis, polish, polish_particles
 from pes_ref.synthesis.design_file import load_design, save_design
 from pes_ref.synthesis.polish import MARGIN_CAP, PARTICLE_SEED
-from pes_ref.synthesis.stages import PolishProgress, run_stages, set_polish
+from pes_ref.synthesis.stages import run_stages, set_polish
 
 #: A small oscillator on which a polish generation takes a fraction of a second.
 SMALL = dict(grid0=8, grid1=8, eval_periods=4)
@@ -134,7 +134,7 @@ def test_stages_run_the_gradient_iterations_then_the_polish():
     seen = []
     st = run_stages(tiny_run(), callback=seen.append, progress_every=0.0)
     assert st.status == "done" and st.stage == "polish" and st.finished and st.iteration == 4
-    polishing = [isinstance(p, PolishProgress) for p in seen]
+    polishing = [p.stage == "polish" for p in seen]
     assert not polishing[0] and polishing[-1] and polishing == sorted(polishing)      # gradient lines, then polish
     assert st.evaluations == 25 and st.polish_history["evaluations"] == [1, 9, 17, 25]
     gradient_only = synthesis.run_design(tiny_run())
@@ -148,8 +148,8 @@ def test_a_polish_stopped_by_ctrl_c_resumes_to_the_uninterrupted_result(tmp_path
     sent = []
 
     def interrupt(p):
-        if isinstance(p, PolishProgress) and not sent:
-            sent.append(p.evaluations)
+        if p.stage == "polish" and not sent:
+            sent.append(p.done)
             os.kill(os.getpid(), signal.SIGINT)
 
     st = run_stages(tiny_run(), callback=interrupt, progress_every=0.0)

@@ -25,7 +25,7 @@ from pes_ref.oracle import case as oracle
 from pes_ref.oracle import tolerances
 from pes_ref.oracle.compare import compare_results, passes
 from pes_ref.oracle.conformance import vectors_dir
-from pes_ref.oracle.npz import atomic_file
+from pes_ref.core.files import atomic_file
 
 __all__ = ["VERSION", "Vector", "build_vectors", "write_vectors", "compare_dirs", "main"]
 

@@ -1,0 +1,100 @@
+"""The state of one design run, and how a fresh one starts.
+
+A :class:`DesignState` is one run in progress (problem, plan, seed, grid values, optimizer
+state, iteration, loss history, and the optional polish stage's plan and progress), which
+:mod:`pes_ref.synthesis.design_file` saves and loads; :func:`new_design` starts one, after
+the refusals of :mod:`pes_ref.synthesis.refusals`. :mod:`pes_ref.synthesis.training` advances
+its gradient stage and :mod:`pes_ref.synthesis.stages` runs both stages.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from pes_ref.core import checks
+from pes_ref.synthesis.plans import DEFAULT_PLANS, DEFAULT_POLISH, Plan, PolishPlan
+from pes_ref.synthesis.problems import PROBLEMS
+from pes_ref.synthesis.refusals import check_design_memory, check_stable_design
+
+__all__ = ["DesignState", "new_design", "STOPPED", "STAGES"]
+
+#: The statuses of a run that stopped on a failed iteration (rolled back to the last good state):
+#: its run left the finite numbers, or its grid steepened past the stability rule.
+STOPPED = ("non-finite", "unstable")
+
+#: A run's stages in order: gradient descent on the grid values, then (if it has a polish plan) the polish.
+STAGES = ("gradient", "polish")
+
+
+@dataclass
+class DesignState:
+    """One design run: problem, plan, seed, grid values, optimizer, iteration, history, polish.
+
+    Mutable on purpose (it is what the design loop advances); every field is plain data
+    that :mod:`pes_ref.synthesis.design_file` writes and reads back bit-exactly. ``history`` maps
+    ``"loss"`` and ``"metric"`` to lists with one float per finished iteration;
+    ``status`` is ``"running"``, ``"done"``, ``"interrupted"``, or one of :data:`STOPPED`
+    followed by ``": iteration k: <reason>"``.
+
+    ``polish`` is the :class:`~pes_ref.synthesis.plans.PolishPlan` of the stage that follows
+    the gradient iterations (None: none). ``stage`` is the stage the run is in (:data:`STAGES`);
+    in the polish stage ``base_values`` holds the gradient stage's final grid (where the polish
+    starts), ``values`` the best polished grid so far, ``evaluations`` the fitness evaluations
+    made and ``polish_history`` maps ``"evaluations"`` and ``"fitness"`` to the count and the
+    best fitness after the start and each generation.
+    """
+
+    problem: object
+    plan: Plan
+    seed: int
+    values: np.ndarray
+    optimizer: object
+    iteration: int = 0
+    history: dict = dataclasses.field(default_factory=lambda: {"loss": [], "metric": []})
+    status: str = "running"
+    elapsed: float = 0.0
+    polish: PolishPlan | None = None
+    stage: str = "gradient"
+    base_values: np.ndarray | None = None
+    evaluations: int = 0
+    polish_history: dict = dataclasses.field(default_factory=lambda: {"evaluations": [], "fitness": []})
+
+    @property
+    def kind(self) -> str:
+        return self.problem.kind
+
+    @property
+    def method(self) -> str:
+        """``"gradient"`` or ``"gradient+polish"``: the stages this run has."""
+        return "gradient" if self.polish is None else "gradient+polish"
+
+    @property
+    def finished(self) -> bool:
+        """Every stage of the run is done."""
+        return self.status == "done" and (self.polish is None or self.stage == "polish")
+
+
+def new_design(kind: str, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
+               **params) -> DesignState:
+    """A fresh run of ``kind`` ("funnel" or "oscillator") with problem overrides ``params``.
+
+    Without ``plan`` the run has the kind's default plan and, unless ``polish`` is given,
+    its default polish stage (:data:`pes_ref.synthesis.plans.DEFAULT_POLISH`); with a
+    ``plan`` it has the ``polish`` given (None: the gradient stage alone).
+    """
+    kind = checks.as_choice("kind", kind, set(PROBLEMS))
+    seed = checks.as_nonneg_int("seed", seed)
+    if polish is not None and not isinstance(polish, PolishPlan):
+        raise TypeError(f"polish must be a PolishPlan or None, got {type(polish).__name__}")
+    problem = PROBLEMS[kind](**params)
+    if plan is None:
+        plan, polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind] if polish is None else polish
+    rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
+    values = problem.initial_values(rng, plan.grid_at(0, problem))
+    problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
+    state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish)
+    check_stable_design(state)
+    check_design_memory(state)
+    return state
