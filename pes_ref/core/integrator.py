@@ -125,7 +125,7 @@ def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: i
 
 @reports_nonfinite
 def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
-                     mass: np.ndarray, damping, progress=None) -> Trajectory:
+                     mass: np.ndarray, damping, progress=None, refuse_nonfinite: bool = True) -> Trajectory:
     """Damped velocity Verlet of the paper's eqs. (2)-(3) (docs/spec.md section 5.1).
 
     Parameters
@@ -143,6 +143,9 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
     progress : callable or None
         ``progress("forward", done, n_steps)`` every few hundred steps
         (:func:`pes_ref.core.progress.reporting`).
+    refuse_nonfinite : bool
+        Raise :class:`NonFiniteError` for a trajectory that left the finite numbers
+        (:func:`check_finite`); False returns it (a population checks each member's part).
 
     Returns
     -------
@@ -185,7 +188,8 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
             sub(vn1, cv, vn1)
             mul(vn1, inv_1pc, vn1)
     traj = Trajectory(x, v, f)
-    check_finite(traj, f"dt={dt!r}")
+    if refuse_nonfinite:
+        check_finite(traj, f"dt={dt!r}")
     return traj
 
 
@@ -225,7 +229,7 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     want_mass, want_damping = "mass" in want, "damping" in want
     abar = np.zeros((N, 2)) if want_mass else None                   # dL/da
     cbar = np.zeros((N, 2)) if (want_damping or (want_mass and damped)) else None  # dL/dc
-    gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
+    gforce = np.empty((T + 1, N, 2)) if "force" in want else None    # every state written
 
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
@@ -300,12 +304,12 @@ def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass
 
 @reports_nonfinite
 def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarray, n_steps: int,
-                         progress=None) -> Trajectory:
+                         progress=None, refuse_nonfinite: bool = True) -> Trajectory:
     """Quasistatic (overdamped) stepping ``X_{n+1} = X_n + mu F_n`` (docs/spec.md section 5.3).
 
-    ``mobility`` has shape (2,). V is all zeros. ``f[T]`` is the force at the final
-    state (it moves nothing; it is kept so the trajectory has T+1 forces in both modes).
-    ``progress`` as in :func:`simulate_dynamic`.
+    ``mobility`` has shape (2,) (or (N, 2): a population's). V is all zeros. ``f[T]`` is
+    the force at the final state (it moves nothing; it is kept so the trajectory has T+1
+    forces in both modes). ``progress`` and ``refuse_nonfinite`` as in :func:`simulate_dynamic`.
     """
     T, N = n_steps, x0.shape[0]
     x = np.empty((T + 1, N, 2))
@@ -327,8 +331,9 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
     fcall(x[T], f[T])
     if fext is not None:
         f[T] += fext[T]
-    traj = Trajectory(x, np.zeros_like(x), f)
-    check_finite(traj, f"mobility={mobility.tolist()!r}")
+    traj = Trajectory(x, np.zeros(x.shape), f)          # fresh zero pages: nothing written
+    if refuse_nonfinite:
+        check_finite(traj, f"mobility={mobility.tolist()!r}")
     return traj
 
 
@@ -343,7 +348,9 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
     x, _, f = traj
     T, N = x.shape[0] - 1, x.shape[1]
     adj = ForceAdjoint(field, x, want)
-    gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
+    gforce = np.empty((T + 1, N, 2)) if "force" in want else None
+    if gforce is not None:
+        gforce[T] = 0.0                      # F_ext[T] moves nothing; the loop writes the others
     mubar = np.zeros(2) if "mobility" in want else None
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     fbar = np.empty((N, 2))
