@@ -292,9 +292,9 @@ def _clocked(monkeypatch, seconds_per_step=1e-3):
     clock = [0.0]
     real = training.design_step
 
-    def step(problem, values, seed, iteration, n_particles, n_steps=None):
+    def step(problem, values, seed, iteration, n_particles, n_steps=None, backend=None):
         clock[0] += seconds_per_step * (n_steps or problem.n_steps)
-        return real(problem, values, seed, iteration, n_particles, n_steps)
+        return real(problem, values, seed, iteration, n_particles, n_steps, backend)
     monkeypatch.setattr(training, "design_step", step)
     monkeypatch.setattr(training, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
 
