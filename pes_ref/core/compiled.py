@@ -37,8 +37,8 @@ from numba import njit
 
 from pes_ref.core.bilinear import coefficient_table, cross_table, table_grad_to_values
 from pes_ref.core.grid import stacked_table
-from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, reports_nonfinite,
-                                     step_coefficients)
+from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, quasistatic_velocities,
+                                     reports_nonfinite, step_coefficients, trajectory_arrays)
 from pes_ref.core.progress import blocks
 from pes_ref.core.steppers import STEPPERS as NUMPY_STEPPERS, Stepper, StepParams
 from pes_ref.core.terms import spring_axes
@@ -445,10 +445,10 @@ class _Adjoint:
 
 @reports_nonfinite
 def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping, progress=None,
-                     refuse_nonfinite: bool = True) -> Trajectory:
+                     refuse_nonfinite: bool = True, out=None) -> Trajectory:
     """:func:`pes_ref.core.integrator.simulate_dynamic`, compiled (same arguments, same numbers)."""
     T, N = n_steps, x0.shape[0]
-    x, v, f = np.empty((T + 1, N, 2)), np.empty((T + 1, N, 2)), np.empty((T + 1, N, 2))
+    x, v, f = trajectory_arrays(T, N, out)
     x[0], v[0] = x0, v0
     grid, spring, walls = _forward_terms(field, N)
     ext, has_fext = _c3(fext)
@@ -495,10 +495,10 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
 
 @reports_nonfinite
 def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
-                         refuse_nonfinite: bool = True) -> Trajectory:
+                         refuse_nonfinite: bool = True, out=None) -> Trajectory:
     """:func:`pes_ref.core.integrator.simulate_quasistatic`, compiled (same arguments, same numbers)."""
     T, N = n_steps, x0.shape[0]
-    x, f = np.empty((T + 1, N, 2)), np.empty((T + 1, N, 2))
+    x, v, f = trajectory_arrays(T, N, out)
     x[0] = x0
     grid, spring, walls = _forward_terms(field, N)
     ext, has_fext = _c3(fext)
@@ -506,7 +506,7 @@ def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
     for start, stop in blocks(T, progress, "forward"):
         _quasistatic_steps(x, f, ext, has_fext, start, stop, mu, grid, spring, walls)
     _forces(x[T], f[T], ext[T] if has_fext else _NONE2, has_fext, grid, spring, walls)
-    traj = Trajectory(x, np.zeros(x.shape), f)
+    traj = Trajectory(x, quasistatic_velocities(v, out), f)
     if refuse_nonfinite:
         check_finite(traj, f"mobility={np.asarray(mobility).tolist()!r}")
     return traj
@@ -547,7 +547,8 @@ def _or3(a):
 
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):
-    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite)
+    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
+                            p.out)
 
 
 def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
@@ -555,7 +556,7 @@ def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
 
 
 def _simulate_quasistatic(field, x0, v0, fext, p: StepParams):
-    return simulate_quasistatic(field, x0, fext, p.mobility, p.n_steps, p.progress, p.refuse_nonfinite)
+    return simulate_quasistatic(field, x0, fext, p.mobility, p.n_steps, p.progress, p.refuse_nonfinite, p.out)
 
 
 def _adjoint_quasistatic(field, traj, p: StepParams, gx, gv, want):

@@ -88,7 +88,7 @@ class Window:
             raise ValueError(f"Window.t_end must be > t_start, got [{self.t_start}, {self.t_end})")
 
     def add_to(self, sched, times) -> None:
-        inner = np.zeros_like(sched)
+        inner = np.zeros(sched.shape)
         self.effect.add_to(inner, times)
         on = (times >= self.t_start) & (times < self.t_end)
         sched[on] += inner[on]
@@ -111,7 +111,7 @@ class Schedule:
         sched += self.force
 
 
-def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float = 0.0):
+def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float = 0.0, out=None):
     """Realize the external force schedule of a list of effects.
 
     Parameters
@@ -119,6 +119,8 @@ def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float
     effects : sequence of effects
     n_particles, n_steps : int
     dt, t0 : float
+    out : ndarray (T+1, N, 2), optional
+        Where to realize it (a view of a population's schedule), instead of a fresh array.
 
     Returns
     -------
@@ -127,7 +129,11 @@ def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float
     """
     if not effects:
         return None
-    sched = np.zeros((n_steps + 1, n_particles, 2))
+    if out is None:
+        sched = np.zeros((n_steps + 1, n_particles, 2))
+    else:
+        sched = out
+        sched.fill(0.0)
     times = step_times(n_steps, dt, t0)
     for effect in effects:
         effect.add_to(sched, times)

@@ -49,13 +49,14 @@ def _coefficients(dt: float, mass: np.ndarray, damping, n: int):
 
 @reports_nonfinite
 def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
-                 mass: np.ndarray, damping, progress=None, refuse_nonfinite: bool = True) -> Trajectory:
+                 mass: np.ndarray, damping, progress=None, refuse_nonfinite: bool = True,
+                 out: Trajectory | None = None) -> Trajectory:
     """The Gronbech-Jensen-Farago step, deterministic part (``docs/adjoint.md`` (G1)-(G4)).
 
     Parameters and return value as :func:`pes_ref.core.integrator.simulate_dynamic`: ``x0, v0``
     (N, 2); ``fext`` (T+1, N, 2) or None; ``mass`` and ``damping`` broadcastable to
     (N, 2), ``damping=None`` for an undamped scene (then this is velocity Verlet);
-    ``progress``, ``refuse_nonfinite``.
+    ``progress``, ``refuse_nonfinite``, ``out``.
 
     Returns
     -------
@@ -63,7 +64,7 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
         ``x, v, f`` of shape (T+1, N, 2).
     """
     N = x0.shape[0]
-    x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps)
+    x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps, out)
     a, _, d, e = _coefficients(dt, mass, damping, N)
     damped = d is not None
     dt_d = dt * d if damped else None

@@ -30,9 +30,10 @@ from __future__ import annotations
 import numpy as np
 
 from pes_ref.core import backends, budget, checks, stability
+from pes_ref.core.effects import build_schedule
 from pes_ref.core.forces import Field
 from pes_ref.core.integrator import NonFiniteError, Trajectory
-from pes_ref.core.scene import Scene, _check_state, _resolve_fext, _step_params
+from pes_ref.core.scene import Scene, _check_state, _step_params
 from pes_ref.core.steppers import StepParams
 
 __all__ = ["simulate_batch", "SHARED"]
@@ -107,23 +108,42 @@ def _population_field(scenes, counts) -> Field:
     return first._replace(values=np.stack([f.values for f in fields]), spring=spring, walls=walls, offsets=offsets)
 
 
-def _population_params(scenes, counts, progress) -> StepParams:
+def _population_params(scenes, counts, progress, out) -> StepParams:
     params = [_step_params(scene) for scene in scenes]
     damping = None
     if any(p.damping is not None for p in params):
         damping = _stack([0.0 if p.damping is None else p.damping for p in params], counts)
     mobility = None if params[0].mobility is None else _stack([p.mobility for p in params], counts)
     return StepParams(params[0].dt, params[0].n_steps, _stack([p.mass for p in params], counts), damping, mobility,
-                      progress, refuse_nonfinite=False)
+                      progress, refuse_nonfinite=False, out=out)
 
 
-def _population_fext(scenes, counts):
-    """Each member's external force (its effects' schedule, zeros without), side by side."""
-    own = [_resolve_fext(scene, "scene", n) for scene, n in zip(scenes, counts)]
-    if all(f is None for f in own):
-        return None
-    T1 = scenes[0].n_steps + 1
-    return np.concatenate([np.zeros((T1, n, 2)) if f is None else f for f, n in zip(own, counts)], axis=1)
+def _population_fext(scenes, counts, sched):
+    """Each member's external force (its effects' schedule, zeros without) realized side by
+    side into ``sched`` (T+1, N, 2); None when every member's is 0 everywhere (as
+    :func:`pes_ref.simulate` drops a schedule that is 0)."""
+    start, nonzero = 0, False
+    for scene, n in zip(scenes, counts):
+        part = sched[:, start:start + n]
+        if build_schedule(scene.effects, n, scene.n_steps, scene.dt, scene.t0, out=part) is None:
+            part.fill(0.0)
+        else:
+            nonzero = nonzero or bool(part.any())
+        start += n
+    return sched if nonzero else None
+
+
+def _workspace(workspace, n_steps: int, n: int) -> tuple:
+    """``(trajectory, schedule)`` arrays (T+1, N, 2) for a population: kept in ``workspace``
+    (a dict) between calls of one size, else fresh."""
+    shape = (n_steps + 1, n, 2)
+    if workspace is None:
+        return None, np.empty(shape)
+    if workspace.get("shape") != shape:
+        workspace.clear()
+        workspace.update(shape=shape, out=Trajectory(np.empty(shape), np.empty(shape), np.empty(shape)),
+                         fext=np.empty(shape))
+    return workspace["out"], workspace["fext"]
 
 
 def _member(traj: Trajectory, start: int, stop: int) -> Trajectory:
@@ -143,7 +163,7 @@ def _nonfinite(scene: Scene, i: int, traj: Trajectory):
 
 
 def simulate_batch(scenes, x0s, v0s=None, *, allow_unstable: bool = False, progress=None,
-                   backend: str | None = None, return_errors: bool = False) -> list:
+                   backend: str | None = None, return_errors: bool = False, workspace: dict | None = None) -> list:
     """Run many scenes of one shape forward as one simulation (see the module docstring).
 
     Parameters
@@ -162,6 +182,11 @@ def simulate_batch(scenes, x0s, v0s=None, *, allow_unstable: bool = False, progr
         A member whose trajectory leaves the finite numbers raises its
         :class:`~pes_ref.core.integrator.NonFiniteError` (naming ``scenes[i]``); with True
         the error takes its place in the list and the others are returned.
+    workspace : dict, optional
+        Keeps the population's (T+1, N, 2) arrays between calls (pass the same empty dict
+        to every call of a loop that runs many populations of one size): a fresh large
+        array costs its page faults every time. The trajectories returned are then valid
+        until the next call with that workspace. One workspace per thread.
 
     Returns
     -------
@@ -177,6 +202,8 @@ def simulate_batch(scenes, x0s, v0s=None, *, allow_unstable: bool = False, progr
     if progress is not None and not callable(progress):
         raise checks.InputTypeError("progress", f"progress must be a callable (phase, done, total) or None, "
                                                 f"got {progress!r}")
+    if workspace is not None and not isinstance(workspace, dict):
+        raise checks.InputTypeError("workspace", f"workspace must be a dict or None, got {type(workspace).__name__}")
     if not allow_unstable:
         for i, scene in enumerate(scenes):
             try:
@@ -185,9 +212,10 @@ def simulate_batch(scenes, x0s, v0s=None, *, allow_unstable: bool = False, progr
                 raise stability.UnstableStepError(err.key, f"scenes[{i}]: {err}") from None
     counts = [x0.shape[0] for x0, _ in states]
     budget.check_memory(scenes[0].n_steps, sum(counts), "simulate")
+    out, sched = _workspace(workspace, scenes[0].n_steps, sum(counts))
     field = _population_field(scenes, counts)
-    params = _population_params(scenes, counts, progress)
-    fext = _population_fext(scenes, counts)
+    params = _population_params(scenes, counts, progress, out)
+    fext = _population_fext(scenes, counts, sched)
     x0 = np.concatenate([x0 for x0, _ in states])
     v0 = np.concatenate([v0 for _, v0 in states])
     first = scenes[0]

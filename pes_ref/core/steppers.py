@@ -35,7 +35,9 @@ class StepParams(NamedTuple):
     ``(phase, done, total)`` called every few hundred steps of the forward loop and of
     the adjoint (:mod:`pes_ref.core.progress`), or None; ``refuse_nonfinite`` False returns
     a trajectory that left the finite numbers instead of raising (a population checks each
-    member's part, :mod:`pes_ref.core.population`).
+    member's part, :mod:`pes_ref.core.population`); ``out`` a
+    :class:`~pes_ref.core.integrator.Trajectory` of (T+1, N, 2) arrays to run into, or None
+    for fresh ones (:func:`pes_ref.core.integrator.trajectory_arrays`).
     """
 
     dt: float
@@ -45,6 +47,7 @@ class StepParams(NamedTuple):
     mobility: np.ndarray | None
     progress: Callable | None = None
     refuse_nonfinite: bool = True
+    out: object = None
 
 
 class Stepper(NamedTuple):
@@ -72,7 +75,8 @@ class Stepper(NamedTuple):
 
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):
-    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite)
+    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
+                            p.out)
 
 
 def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
@@ -80,7 +84,8 @@ def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
 
 
 def _simulate_gjf(field, x0, v0, fext, p: StepParams):
-    return simulate_gjf(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite)
+    return simulate_gjf(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
+                        p.out)
 
 
 def _adjoint_gjf(field, traj, p: StepParams, gx, gv, want):
@@ -88,7 +93,7 @@ def _adjoint_gjf(field, traj, p: StepParams, gx, gv, want):
 
 
 def _simulate_quasistatic(field, x0, v0, fext, p: StepParams):
-    return simulate_quasistatic(field, x0, fext, p.mobility, p.n_steps, p.progress, p.refuse_nonfinite)
+    return simulate_quasistatic(field, x0, fext, p.mobility, p.n_steps, p.progress, p.refuse_nonfinite, p.out)
 
 
 def _adjoint_quasistatic(field, traj, p: StepParams, gx, gv, want):

@@ -20,6 +20,7 @@ and ``[seed, 2**32]``); NumPy's global random state is never touched.
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
@@ -121,9 +122,16 @@ def capture_fitnesses(problem, grids, particles: PolishParticles, periods: float
     own :func:`capture_fitness`."""
     periods = problem.eval_periods if periods is None else periods
     scenes = [problem.torque_scene(values, particles.torques, periods) for values in grids]
+    workspace = _WORKSPACES.__dict__.setdefault("arrays", {})
     with np.errstate(all="ignore"):
-        runs = simulate_batch(scenes, [particles.x0] * len(scenes), backend=backend, return_errors=True)
+        runs = simulate_batch(scenes, [particles.x0] * len(scenes), backend=backend, return_errors=True,
+                              workspace=workspace)
     return [_fitness(problem, run, margin_weight, strictness) for run in runs]
+
+
+#: Each thread's population arrays, kept between generations (see :func:`simulate_batch`'s
+#: ``workspace``): a generation's trajectories are consumed before the next one runs.
+_WORKSPACES = threading.local()
 
 
 def _fitness(problem, traj, margin_weight: float, strictness: float) -> float:

@@ -70,6 +70,7 @@ FAULTS = [
     Fault("oracle-out-dir-missing", "oracle case.npz --out-dir nodir", ("nodir", "does not exist")),
     Fault("oracle-result-file", "oracle result.npz out.npz", ("result.npz is an oracle result file",)),
     Fault("oracle-unknown-option", "oracle case.npz out.npz --bogus 3", ("--bogus",)),
+    Fault("oracle-backend-unknown", "oracle case.npz out.npz --backend cuda", ("--backend", "'cuda'")),
     Fault("oracle-read-only-folder", "oracle case.npz ro/out.npz", ("ro", "not writable"), needs_permissions=True),
     # ------------------------------------------------------------------ check
     Fault("check-missing-cmd", "check", ("--cmd",)),
@@ -167,6 +168,9 @@ FAULTS = [
           ("a funnel design, not an oscillator design",)),
     Fault("design-resume-other-seed", "design funnel --resume design.npz --seed 5 --out new.npz",
           ("--seed 5", "seed 0")),
+    Fault("design-resume-other-backend", "design funnel --resume design.npz --backend numpy --out new.npz",
+          ("--backend numpy differs from the resumed run's numba",)),
+    Fault("design-backend-unknown", "design funnel --smoke --out new.npz --backend cuda", ("--backend", "'cuda'")),
     Fault("design-unknown-kind", "design catapult", ("'catapult'",)),
     Fault("design-unknown-option", "design funnel --smoke --out new.npz --bogus", ("--bogus",)),
     Fault("design-read-only-folder", "design funnel --smoke --out ro/new.npz", ("ro", "not writable"),
