@@ -14,7 +14,7 @@ import numpy as np
 
 from pes_ref.core import checks
 
-__all__ = ["Constant", "PerParticle", "Window", "Noise", "Schedule", "build_schedule", "step_times"]
+__all__ = ["Constant", "PerParticle", "Window", "Noise", "Schedule", "build_schedule", "step_times", "all_zero"]
 
 
 def step_times(n_steps: int, dt: float, t0: float = 0.0) -> np.ndarray:
@@ -34,6 +34,9 @@ class Constant:
     def add_to(self, sched: np.ndarray, times: np.ndarray) -> None:
         sched += self.force
 
+    def is_zero(self) -> bool:
+        return not self.force.any()
+
 
 @dataclass(frozen=True)
 class PerParticle:
@@ -50,6 +53,9 @@ class PerParticle:
                 f"PerParticle.force must have shape ({sched.shape[1]}, 2) for {sched.shape[1]} particles, "
                 f"got {self.force.shape}")
         sched += self.force
+
+    def is_zero(self) -> bool:
+        return not self.force.any()
 
 
 @dataclass(frozen=True)
@@ -69,6 +75,9 @@ class Noise:
 
     def add_to(self, sched, times) -> None:
         sched += np.random.default_rng(self.seed).standard_normal(sched.shape) * self.std
+
+    def is_zero(self) -> bool:
+        return not self.std.any()
 
 
 @dataclass(frozen=True)
@@ -93,6 +102,9 @@ class Window:
         on = (times >= self.t_start) & (times < self.t_end)
         sched[on] += inner[on]
 
+    def is_zero(self) -> bool:
+        return self.effect.is_zero()
+
 
 @dataclass(frozen=True)
 class Schedule:
@@ -109,6 +121,16 @@ class Schedule:
         if self.force.shape != sched.shape:
             raise ValueError(f"force must have shape {sched.shape} (T+1, N, 2), got {self.force.shape}")
         sched += self.force
+
+    def is_zero(self) -> bool:
+        return not self.force.any()
+
+
+def all_zero(effects) -> bool:
+    """Whether every effect of ``effects`` pushes with 0 everywhere (each one's ``is_zero``;
+    an effect without that method counts as not zero): then a run needs no external force
+    at all, and nothing is drawn or realized."""
+    return all(getattr(effect, "is_zero", lambda: False)() for effect in effects)
 
 
 def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float = 0.0, out=None):

@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from pes_ref.core import backends, budget, checks, stability
-from pes_ref.core.effects import build_schedule
+from pes_ref.core.effects import all_zero, build_schedule
 from pes_ref.core.forces import Field
 from pes_ref.core.integrator import NonFiniteError, Trajectory
 from pes_ref.core.scene import Scene, _check_state, _step_params
@@ -119,18 +119,20 @@ def _population_params(scenes, counts, progress, out) -> StepParams:
 
 
 def _population_fext(scenes, counts, sched):
-    """Each member's external force (its effects' schedule, zeros without) realized side by
-    side into ``sched`` (T+1, N, 2); None when every member's is 0 everywhere (as
-    :func:`pes_ref.simulate` drops a schedule that is 0)."""
-    start, nonzero = 0, False
+    """Each member's external force (its effects' schedule, zeros without or when they all
+    push with 0) realized side by side into ``sched`` (T+1, N, 2); None when no member has
+    one (as :func:`pes_ref.simulate` gives the core none)."""
+    if all(all_zero(scene.effects) for scene in scenes):
+        return None
+    start = 0
     for scene, n in zip(scenes, counts):
         part = sched[:, start:start + n]
-        if build_schedule(scene.effects, n, scene.n_steps, scene.dt, scene.t0, out=part) is None:
+        if all_zero(scene.effects):
             part.fill(0.0)
         else:
-            nonzero = nonzero or bool(part.any())
+            build_schedule(scene.effects, n, scene.n_steps, scene.dt, scene.t0, out=part)
         start += n
-    return sched if nonzero else None
+    return sched
 
 
 def _workspace(workspace, n_steps: int, n: int) -> tuple:

@@ -24,7 +24,7 @@ import numpy as np
 
 from pes_ref.core import backends, budget, checks
 from pes_ref.core import stability
-from pes_ref.core.effects import build_schedule, step_times
+from pes_ref.core.effects import all_zero, build_schedule, step_times
 from pes_ref.core.forces import Field, potential_energy
 from pes_ref.core.integrator import NonFiniteError, Trajectory
 from pes_ref.core.objectives import regularization
@@ -282,13 +282,15 @@ def _check_run(scene: Scene, n_particles: int, kind: str, allow_unstable, progre
 
 
 def _resolve_fext(scene, fext, n):
-    """The external force the core gets: None for none, and for a schedule that is 0
-    everywhere (adding it would change no value), else (T+1, N, 2)."""
+    """The external force the core gets, (T+1, N, 2), or None: for none, for effects that
+    all push with 0 (:func:`pes_ref.core.effects.all_zero`: nothing is realized), and for a
+    given schedule that is 0 everywhere (adding it would change no value)."""
     if isinstance(fext, str) and fext == "scene":
-        fext = scene.schedule(n)
-    elif fext is not None:
-        fext = checks.as_float_array("fext", fext, shape=(scene.n_steps + 1, n, 2))
-    return fext if fext is not None and fext.any() else None
+        return None if all_zero(scene.effects) else scene.schedule(n)
+    if fext is None:
+        return None
+    fext = checks.as_float_array("fext", fext, shape=(scene.n_steps + 1, n, 2))
+    return fext if fext.any() else None
 
 
 def _explains_nonfinite(forward):
