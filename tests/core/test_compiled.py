@@ -152,7 +152,7 @@ def test_each_kernel_compiles_once_for_every_scene():
     for scene in scenes:
         pr.value_and_grad(scene, X0, None, pr.Quadratic(wx=1.0, wv=0.5), backend="numba")
     pr.simulate_batch([scenes[0], scenes[2], scenes[3]], [X0] * 3, backend="numba")
-    kernels = [f for f in vars(compiled).values() if isinstance(f, numba.core.registry.CPUDispatcher)]
+    kernels = [f for ns in compiled.KERNELS.values() for f in vars(ns).values()]
     ran = [f for f in kernels if f.signatures]
     assert {f.py_func.__name__ for f in ran} >= {"_dynamic_steps", "_dynamic_adjoint_steps", "_quasistatic_steps",
                                                   "_quasistatic_adjoint_steps", "_forces", "_vjp_state"}
@@ -160,7 +160,7 @@ def test_each_kernel_compiles_once_for_every_scene():
 
 
 def test_the_kernels_cache_their_machine_code_on_disk():
-    for f in (compiled._dynamic_steps, compiled._dynamic_adjoint_steps, compiled._quasistatic_steps):
+    for f in (k for ns in compiled.KERNELS.values() for k in vars(ns).values()):
         assert f._cache.__class__.__name__ == "FunctionCache"
 
 
@@ -193,3 +193,18 @@ def test_a_population_needs_no_numpy_step_and_runs_on_the_compiled_loops(monkeyp
     assert [t.x.shape for t in out] == [(41, 3, 2), (41, 1, 2)]
     with pytest.raises(AssertionError, match="the NumPy loop ran"):
         pr.simulate_batch(scenes, [X0, X0[:1]], backend="numpy")
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7)])
+def test_the_compiled_tables_are_numpys_bit_for_bit(shape):
+    """The per-cell coefficient and cross tables and the table gradient's map to the grid, each
+    the compiled twin of pes_ref.core.bilinear's, for one grid and for a stack of them."""
+    from pes_ref.core import bilinear
+    rng = np.random.default_rng(5)
+    values, h = rng.standard_normal((3,) + shape), np.array([0.3, 0.7])
+    assert np.array_equal(compiled.coefficient_table(values, h),
+                          np.concatenate([bilinear.coefficient_table(v, h) for v in values]))
+    assert np.array_equal(compiled.cross_table(values[0], h), bilinear.cross_table(values[0], h))
+    gtab = rng.standard_normal((values[0].size, 4))
+    assert np.array_equal(compiled.table_grad_to_values(gtab, h, shape),
+                          bilinear.table_grad_to_values(gtab.copy(), h, shape))
