@@ -281,44 +281,34 @@ def _make_kernels(wraps: bool) -> SimpleNamespace:
     loop whose body holds the ``fmod`` call of the image runs ~30% slower even where it is
     never taken, so the loops without one are compiled without it (numba caches both)."""
 
-    @njit(**_JIT)
-    def _forces(x, out, fext, has_fext, grid, spring, walls):
-        """``out = F(x) (+ fext)`` for one state (N, 2): the initial or final force."""
-        g, per0, per1, clips, table, offsets = grid
-        son, sk, sc, swrap0, swrap1, shalf, slen = spring
-        won, wk, wlo, whi = walls
-        for i in range(x.shape[0]):
-            F0, F1 = _force(x[i, 0], x[i, 1], i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, swrap0,
-                            swrap1, shalf, slen, won, wk, wlo, whi)
-            if has_fext:
-                F0 = F0 + fext[i, 0]
-                F1 = F1 + fext[i, 1]
-            out[i, 0] = F0
-            out[i, 1] = F1
-
-
     # ======================================================================= dynamic mode
 
     @njit(**_JIT)
     def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls):
-        """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_dynamic`, the
-        particles of each block (``blocks[b] .. blocks[b+1] - 1``: a population's member, whose
-        grid's table then stays in cache) through all the steps before the next block's
-        (particles are independent: the order changes no number)."""
+        """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_dynamic`, and
+        from ``start = 0`` the initial force ``F_0 = F(X_0) + F_ext[0]`` first (as a step -1
+        that is only (S3): one copy of the force in the loop); the particles of each block
+        (``blocks[b] .. blocks[b+1] - 1``: a population's member, whose grid's table then stays
+        in cache) through all the steps before the next block's (particles are independent:
+        the order changes no number)."""
         g, per0, per1, clips, table, offsets = grid
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         for b in range(blocks.size - 1):
-            for n in range(start, stop):
+            for n in range(start - 1 if start == 0 else start, stop):
                 for i in range(blocks[b], blocks[b + 1]):
-                    # (S1) half_kick: P = V_n + a F_n (as a F_n + V_n)
-                    p0 = a[i, 0] * f[n, i, 0] + v[n, i, 0]
-                    p1 = a[i, 1] * f[n, i, 1] + v[n, i, 1]
-                    # (S2) drift: X_{n+1} = X_n + dt P (as P dt + X_n)
-                    y0 = p0 * dt + x[n, i, 0]
-                    y1 = p1 * dt + x[n, i, 1]
-                    x[n + 1, i, 0] = y0
-                    x[n + 1, i, 1] = y1
+                    if n >= 0:
+                        # (S1) half_kick: P = V_n + a F_n (as a F_n + V_n)
+                        p0 = a[i, 0] * f[n, i, 0] + v[n, i, 0]
+                        p1 = a[i, 1] * f[n, i, 1] + v[n, i, 1]
+                        # (S2) drift: X_{n+1} = X_n + dt P (as P dt + X_n)
+                        y0 = p0 * dt + x[n, i, 0]
+                        y1 = p1 * dt + x[n, i, 1]
+                        x[n + 1, i, 0] = y0
+                        x[n + 1, i, 1] = y1
+                    else:
+                        y0, y1 = x[0, i, 0], x[0, i, 1]
+                        p0 = p1 = 0.0
                     # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
                     F0, F1 = _force(y0, y1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, swrap0,
                                     swrap1, shalf, slen, won, wk, wlo, whi)
@@ -327,6 +317,8 @@ def _make_kernels(wraps: bool) -> SimpleNamespace:
                         F1 = F1 + fext[n + 1, i, 1]
                     f[n + 1, i, 0] = F0
                     f[n + 1, i, 1] = F1
+                    if n < 0:
+                        continue
                     # (S4) kick: V_{n+1} = a F_{n+1} + P, damped ((a F_{n+1} + P) - c V_n) (1 / (1 + c))
                     w0 = a[i, 0] * F0 + p0
                     w1 = a[i, 1] * F1 + p1
@@ -338,54 +330,50 @@ def _make_kernels(wraps: bool) -> SimpleNamespace:
 
 
     @njit(**_JIT)
-    def _vjp_state(x, n, w, xbar, grid, cross, gtab, want_values, spring, want_k, gk, want_c, gc, walls):
-        """``xbar += (dF/dx)^T w`` at state ``n`` for every particle (the adjoint of the initial force, (B0))."""
-        g, per0, per1, clips, _, offsets = grid
-        son, sk, sc, swrap0, swrap1, shalf, slen = spring
-        won, wk, wlo, whi = walls
-        for i in range(x.shape[1]):
-            xbar[i, 0], xbar[i, 1] = _vjp(x[n, i, 0], x[n, i, 1], i, w[i, 0], w[i, 1], xbar[i, 0], xbar[i, 1], g, per0,
-                                          per1, clips, cross, offsets, gtab, want_values, son, sk, sc, wraps, swrap0,
-                                          swrap1, shalf, slen, want_k, gk, want_c, gc, walls)
-
-
-    @njit(**_JIT)
     def _dynamic_adjoint_steps(x, v, f, gx, has_gx, gv, has_gv, start, stop, a, inv_1pc, minus_c, damped, dt,
                                xbar, vbar, fbar, want_abar, abar, want_cbar, cbar, want_force, gforce,
                                grid, cross, gtab, want_values, spring, want_k, gk, want_c, gc, walls):
         """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_dynamic`,
-        (B4)-(B1) and the objective's direct terms, per particle."""
+        (B4)-(B1) and the objective's direct terms, per particle; down to ``start = 0``, then
+        (B0), the adjoint of the initial force (as a step -1 that is only (B3))."""
         g, per0, per1, clips, _, offsets = grid
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
-        for n in range(stop - 1, start - 1, -1):
+        for n in range(stop - 1, start - 2 if start == 0 else start - 1, -1):
             for i in range(x.shape[1]):
                 xb0, xb1 = xbar[i, 0], xbar[i, 1]
                 vb0, vb1 = vbar[i, 0], vbar[i, 1]
-                # (B4) kick^T: P^ = V^_{n+1} / (1 + c); V^_n = -c P^; F^_{n+1} += a P^; a^, c^
-                if damped:
-                    pb0 = vb0 * inv_1pc[i, 0]
-                    pb1 = vb1 * inv_1pc[i, 1]
-                    vp0 = minus_c[i, 0] * pb0
-                    vp1 = minus_c[i, 1] * pb1
-                else:
-                    pb0, pb1 = vb0, vb1
-                    vp0 = vp1 = 0.0
-                fb0 = fbar[i, 0] + a[i, 0] * pb0
-                fb1 = fbar[i, 1] + a[i, 1] * pb1
-                if want_abar:
-                    abar[i, 0] = abar[i, 0] + f[n + 1, i, 0] * pb0
-                    abar[i, 1] = abar[i, 1] + f[n + 1, i, 1] * pb1
-                if want_cbar:
-                    cbar[i, 0] = cbar[i, 0] - (v[n, i, 0] + v[n + 1, i, 0]) * pb0
-                    cbar[i, 1] = cbar[i, 1] - (v[n, i, 1] + v[n + 1, i, 1]) * pb1
-                # (B3) force^T at X_{n+1}
+                if n >= 0:
+                    # (B4) kick^T: P^ = V^_{n+1} / (1 + c); V^_n = -c P^; F^_{n+1} += a P^; a^, c^
+                    if damped:
+                        pb0 = vb0 * inv_1pc[i, 0]
+                        pb1 = vb1 * inv_1pc[i, 1]
+                        vp0 = minus_c[i, 0] * pb0
+                        vp1 = minus_c[i, 1] * pb1
+                    else:
+                        pb0, pb1 = vb0, vb1
+                        vp0 = vp1 = 0.0
+                    fb0 = fbar[i, 0] + a[i, 0] * pb0
+                    fb1 = fbar[i, 1] + a[i, 1] * pb1
+                    if want_abar:
+                        abar[i, 0] = abar[i, 0] + f[n + 1, i, 0] * pb0
+                        abar[i, 1] = abar[i, 1] + f[n + 1, i, 1] * pb1
+                    if want_cbar:
+                        cbar[i, 0] = cbar[i, 0] - (v[n, i, 0] + v[n + 1, i, 0]) * pb0
+                        cbar[i, 1] = cbar[i, 1] - (v[n, i, 1] + v[n + 1, i, 1]) * pb1
+                else:                       # (B0) is (B3) at X_0 with F^_0 = a P^ of step 0's (B1)
+                    fb0, fb1 = fbar[i, 0], fbar[i, 1]
+                    pb0 = pb1 = vp0 = vp1 = 0.0
+                # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}
                 if want_force:
                     gforce[n + 1, i, 0] = fb0
                     gforce[n + 1, i, 1] = fb1
                 xb0, xb1 = _vjp(x[n + 1, i, 0], x[n + 1, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, cross,
                                 offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk,
                                 want_c, gc, walls)
+                if n < 0:
+                    xbar[i, 0], xbar[i, 1] = xb0, xb1
+                    continue
                 # (B2) drift^T: P^ += dt X^_{n+1} (as P^ + X^ dt)
                 pb0 = pb0 + xb0 * dt
                 pb1 = pb1 + xb1 * dt
@@ -414,13 +402,15 @@ def _make_kernels(wraps: bool) -> SimpleNamespace:
 
     @njit(**_JIT)
     def _quasistatic_steps(x, f, fext, has_fext, start, stop, blocks, mu, grid, spring, walls):
-        """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_quasistatic`, a
-        block of particles at a time (as :func:`_dynamic_steps`)."""
+        """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_quasistatic`, and
+        up to ``stop = T`` then the final force ``F_T = F(X_T) + F_ext[T]`` (as a step T that is
+        only (Q1)), a block of particles at a time (as :func:`_dynamic_steps`)."""
         g, per0, per1, clips, table, offsets = grid
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
+        T = x.shape[0] - 1
         for b in range(blocks.size - 1):
-            for n in range(start, stop):
+            for n in range(start, stop + 1 if stop == T else stop):
                 for i in range(blocks[b], blocks[b + 1]):
                     # (Q1) force: F_n = F(X_n) + F_ext[n]
                     F0, F1 = _force(x[n, i, 0], x[n, i, 1], i, g, per0, per1, clips, table, offsets, son, sk, sc,
@@ -430,6 +420,8 @@ def _make_kernels(wraps: bool) -> SimpleNamespace:
                         F1 = F1 + fext[n, i, 1]
                     f[n, i, 0] = F0
                     f[n, i, 1] = F1
+                    if n == T:
+                        continue
                     # (Q2) drift: X_{n+1} = X_n + mu F_n (as mu F_n + X_n)
                     x[n + 1, i, 0] = mu[i, 0] * F0 + x[n, i, 0]
                     x[n + 1, i, 1] = mu[i, 1] * F1 + x[n, i, 1]
@@ -463,9 +455,8 @@ def _make_kernels(wraps: bool) -> SimpleNamespace:
                     xb1 = xb1 + gx[n, i, 1]
                 xbar[i, 0], xbar[i, 1] = xb0, xb1
 
-    return SimpleNamespace(forces=_forces, dynamic_steps=_dynamic_steps, vjp_state=_vjp_state,
-                           dynamic_adjoint_steps=_dynamic_adjoint_steps, quasistatic_steps=_quasistatic_steps,
-                           quasistatic_adjoint_steps=_quasistatic_adjoint_steps)
+    return SimpleNamespace(dynamic_steps=_dynamic_steps, dynamic_adjoint_steps=_dynamic_adjoint_steps,
+                           quasistatic_steps=_quasistatic_steps, quasistatic_adjoint_steps=_quasistatic_adjoint_steps)
 
 
 #: The compiled loops without a spring's minimum image (False) and with it (True).
@@ -547,9 +538,9 @@ def _forward_terms(field, n: int):
 
 
 class _Adjoint:
-    """The force's adjoint over stored states for :func:`finish_dynamic_adjoint`: ``vjp(n, w,
-    xbar)`` and ``result()``, with the compiled kernels' arguments (the grid's cross term and
-    table gradient, the spring's gradients)."""
+    """The force's adjoint over stored states: the compiled kernels' arguments (the grid's
+    cross term and table gradient, the spring's gradients) and ``result()``, for
+    :func:`finish_dynamic_adjoint`."""
 
     def __init__(self, field, xs: np.ndarray, want: frozenset):
         n = xs.shape[1]
@@ -574,9 +565,6 @@ class _Adjoint:
         return (self.grid, self.cross, self.gtab, self.want_values, self.spring, self.want_k, self.gk,
                 self.want_c, self.gc, self.walls)
 
-    def vjp(self, n: int, w: np.ndarray, xbar: np.ndarray) -> None:
-        self.kernels.vjp_state(self.xs, n, _kernel_array(w), xbar, *self.terms())
-
     def result(self) -> dict:
         out = {}
         if self.want_values:
@@ -600,13 +588,12 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
     x[0], v[0] = x0, v0
     K, grid, spring, walls = _forward_terms(field, N)
     ext, has_fext = _c3(fext)
-    K.forces(x[0], f[0], ext[0] if has_fext else _NONE2, has_fext, grid, spring, walls)
     a, c = step_coefficients(dt, mass, damping, N)
     damped = c is not None
     inv_1pc = 1.0 / (1.0 + c) if damped else _NONE2
     c = c if damped else _NONE2
     blocks = _blocks(field, N)
-    for start, stop in step_blocks(T, progress, "forward"):
+    for start, stop in step_blocks(T, progress, "forward"):         # from step 0: F_0 first
         K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, float(dt), grid, spring,
                         walls)
     traj = Trajectory(x, v, f)
@@ -640,7 +627,7 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
                                           damped, float(dt), xbar, vbar, fbar, want_abar, _or(abar), want_cbar,
                                           _or(cbar), gforce is not None, _or3(gforce), *adj.terms())
     return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c if damped else None, mass,
-                                  want_damping)
+                                  want_damping, initial_force=False)      # (B0) was the loop's last
 
 
 @reports_nonfinite
@@ -654,9 +641,8 @@ def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
     ext, has_fext = _c3(fext)
     mu = _as(mobility, N)
     blocks = _blocks(field, N)
-    for start, stop in step_blocks(T, progress, "forward"):
+    for start, stop in step_blocks(T, progress, "forward"):         # to step T: F_T last
         K.quasistatic_steps(x, f, ext, has_fext, start, stop, blocks, mu, grid, spring, walls)
-    K.forces(x[T], f[T], ext[T] if has_fext else _NONE2, has_fext, grid, spring, walls)
     traj = Trajectory(x, quasistatic_velocities(v, out), f)
     if refuse_nonfinite:
         check_finite(traj, f"mobility={np.asarray(mobility).tolist()!r}")

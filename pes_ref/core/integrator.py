@@ -285,17 +285,20 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping)
 
 
-def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping: bool) -> dict:
-    """The last piece of a dynamic adjoint (shared by :func:`adjoint_dynamic` and
-    :func:`pes_ref.core.gjf.adjoint_gjf`): (B0) the adjoint of the initial force
-    ``F_0 = F(X_0) + F_ext[0]``, then (P1) the chain rule from ``a = dt/2m`` and
-    ``c = dt gamma/2m`` to the physical parameters, ``dL/dm = -(a^ a + c^ c)/m`` and
-    ``dL/dgamma = c^ a``. ``abar`` is None unless the mass gradient is wanted; ``c`` is
-    None for an undamped scene. Returns the gradient dict."""
+def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping: bool,
+                           initial_force: bool = True) -> dict:
+    """The last piece of a dynamic adjoint (shared by :func:`adjoint_dynamic`,
+    :func:`pes_ref.core.gjf.adjoint_gjf` and the compiled loops): (B0) the adjoint of the
+    initial force ``F_0 = F(X_0) + F_ext[0]`` (unless ``initial_force`` is False: a loop that
+    did it), then (P1) the chain rule from ``a = dt/2m`` and ``c = dt gamma/2m`` to the
+    physical parameters, ``dL/dm = -(a^ a + c^ c)/m`` and ``dL/dgamma = c^ a``. ``abar`` is
+    None unless the mass gradient is wanted; ``c`` is None for an undamped scene. Returns
+    the gradient dict."""
     # (B0) adjoint of the initial force F_0 = F(X_0) + F_ext[0]
-    if gforce is not None:
-        gforce[0] = fbar
-    adj.vjp(0, fbar, xbar)
+    if initial_force:
+        if gforce is not None:
+            gforce[0] = fbar
+        adj.vjp(0, fbar, xbar)
     out = {"x0": xbar, "v0": vbar}
     out.update(adj.result())
     if gforce is not None:

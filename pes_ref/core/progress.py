@@ -61,7 +61,7 @@ def blocks(total: int, progress: Callable | None, phase: str) -> Iterable:
     """The steps ``0 .. total`` as ``(done, done_after)`` blocks for a loop that runs a
     block at a time (a compiled one): the whole run in one block when ``progress`` is
     None, else :data:`EVERY` steps per block, with ``progress(phase, done, total)`` called
-    as :func:`reporting` calls it."""
+    as :func:`reporting` calls it; a run of no steps is one empty block ``(0, 0)``."""
     if progress is None:
         return iter([(0, total)])
     return _blocks(total, progress, phase)
@@ -69,6 +69,8 @@ def blocks(total: int, progress: Callable | None, phase: str) -> Iterable:
 
 def _blocks(total, progress, phase):
     progress(phase, 0, total)
+    if total == 0:                 # a run of no steps still has its state 0 to compute
+        yield 0, 0
     for done in range(0, total, EVERY):
         yield done, min(done + EVERY, total)
         progress(phase, min(done + EVERY, total), total)

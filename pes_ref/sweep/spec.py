@@ -36,6 +36,7 @@ import re
 import tomllib
 from dataclasses import dataclass
 
+from pes_ref.core.backends import check_backend
 from pes_ref.synthesis import PROBLEMS
 from pes_ref.sweep.options import (DESIGN_OPTIONS, design_inputs, has_type, scene_parameters, type_name,
                                    typed_sets)
@@ -159,6 +160,8 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
                 inputs = design_inputs(kind, options, typed_sets(sets, kind))
                 PROBLEMS[kind](**inputs.sets)
                 inputs.plan()
+                if options.get("backend") is not None:
+                    check_backend(options["backend"])
             except (ValueError, TypeError) as exc:
                 fail(where, " ".join(str(exc).split()))
             for seed in seeds:

@@ -155,7 +155,7 @@ def test_each_kernel_compiles_once_for_every_scene():
     kernels = [f for ns in compiled.KERNELS.values() for f in vars(ns).values()]
     ran = [f for f in kernels if f.signatures]
     assert {f.py_func.__name__ for f in ran} >= {"_dynamic_steps", "_dynamic_adjoint_steps", "_quasistatic_steps",
-                                                  "_quasistatic_adjoint_steps", "_forces", "_vjp_state"}
+                                                  "_quasistatic_adjoint_steps"}
     assert all(len(f.signatures) == 1 for f in ran), {f.py_func.__name__: len(f.signatures) for f in ran}
 
 
@@ -208,3 +208,20 @@ def test_the_compiled_tables_are_numpys_bit_for_bit(shape):
     gtab = rng.standard_normal((values[0].size, 4))
     assert np.array_equal(compiled.table_grad_to_values(gtab, h, shape),
                           bilinear.table_grad_to_values(gtab.copy(), h, shape))
+
+
+@pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
+def test_a_run_of_no_steps_has_its_state_0_with_and_without_progress(mode):
+    kw = dict(mode="quasistatic", mobility=(0.01, 0.01)) if mode == "quasistatic" else {}
+    scene = _scene(n_steps=0, effects=(pr.Constant((0.3, 0.1)),), **kw)
+    runs = {}
+    for b in ("numba", "numpy"):
+        seen = []
+        runs[b] = (pr.value_and_grad(scene, X0, None, pr.Funnel(0.5), backend=b),
+                   pr.value_and_grad(scene, X0, None, pr.Funnel(0.5), backend=b, progress=lambda *a: seen.append(a)),
+                   seen)
+    for (a, a_p, seen_a), (b, b_p, seen_b) in [(runs["numba"], runs["numpy"])]:
+        for got in (a, a_p):
+            assert got[2].f.tobytes() == b[2].f.tobytes() and got[0] == b[0]
+            assert_gradients_agree(got[1], b[1])
+        assert seen_a == seen_b
