@@ -49,6 +49,7 @@ from pes_ref.core.scene import Scene, simulate, value_and_grad
 from pes_ref.core.steppers import StepParams
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
+from pes_ref.synthesis.plans import Plan, PolishPlan
 from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import GRAD_RTOL
 
@@ -75,7 +76,7 @@ class Config:
     autodiff_repeats: int = 3
     jax_repeats: int = 10
     autodiff: bool = True               # False: report autograd and JAX as skipped without importing them
-    runs: dict = None                   # design options of the oscillator design timed whole (None: none)
+    runs: dict = None                   # new_design keywords of the oscillator design timed whole (None: none)
     run_repeats: int = 1
 
 
@@ -86,7 +87,9 @@ QUICK = Config(grid=12, sizes=(1, 4), particle_steps=40, min_steps=5, max_steps=
                memory_case=(64, 10), effects_case=(4, 6), exponent_sizes=(1, 4), exponent_steps=(5, 10),
                exponent_n=4, design={"funnel": dict(n_particles=3, n_steps=6, grid=10),
                                      "oscillator": dict(n_particles=3, n_steps=6, grid=(6, 6))},
-               large=((8, 6),), autodiff_repeats=1, jax_repeats=1, runs={"smoke": True})
+               large=((8, 6),), autodiff_repeats=1, jax_repeats=1,
+               runs=dict(grid0=8, grid1=8, n_steps=60, eval_periods=4, plan=Plan(iterations=6, n_particles=4),
+                         polish=PolishPlan(evaluations=20, n_particles=6, popsize=8)))
 
 
 def installed_backends() -> tuple:
@@ -467,25 +470,23 @@ def design(cfg: Config, log=print) -> list:
 
 
 def runs(cfg: Config, log=print) -> list:
-    """The oscillator design with ``cfg.runs`` design options (``{}``: the default of ``python
-    -m pes_ref design oscillator``, gradient stage then polish), whole, on each backend:
-    wall and CPU seconds (``run_repeats`` runs, the fastest kept)."""
+    """The oscillator design made by ``new_design("oscillator", seed=0, **cfg.runs)`` (``{}``:
+    the default of ``python -m pes_ref design oscillator``, gradient stage then polish),
+    whole, on each backend: wall and CPU seconds (``run_repeats`` runs, the fastest kept)."""
     if cfg.runs is None:
         return []
-    from pes_ref.sweep.options import design_inputs
     from pes_ref.synthesis import new_design, run_stages
-    inputs = design_inputs("oscillator", cfg.runs)
     out = []
     for backend in installed_backends():
         wall, cpu = [], []
         for _ in range(cfg.run_repeats):
-            state = new_design("oscillator", seed=0, plan=inputs.plan(), polish=inputs.polish(), backend=backend,
-                               **inputs.sets)
+            state = new_design("oscillator", seed=0, backend=backend, **cfg.runs)
             t0, c0 = time.perf_counter(), time.process_time()
             state = run_stages(state)
             wall.append(time.perf_counter() - t0)
             cpu.append(time.process_time() - c0)
-        out.append(dict(backend=backend, options=dict(cfg.runs), status=state.status, seconds=min(wall),
+        options = {k: v if isinstance(v, (int, float, str)) else repr(v) for k, v in cfg.runs.items()}
+        out.append(dict(backend=backend, options=options, status=state.status, seconds=min(wall),
                         cpu_seconds=min(cpu), fitness=state.polish_history["fitness"][-1:]))
         log(f"  design oscillator on {backend}: {min(wall):.1f} s ({min(cpu):.1f} s CPU)")
     return out
