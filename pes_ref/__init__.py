@@ -27,6 +27,8 @@ _EXPORTS = {
     **dict.fromkeys(("Polygon", "Translation", "Rotation", "Part"), "pes_ref.devices.geometry"),
     **dict.fromkeys(("CSpaceGrid", "GridSpring", "apf_energy"), "pes_ref.devices.cspace"),
     **dict.fromkeys(("RMSprop", "Adam"), "pes_ref.synthesis.optimizers"),
+    **dict.fromkeys(("DesignProblem",), "pes_ref.synthesis.design_problem"),
+    **dict.fromkeys(("load_problem", "parse_problem"), "pes_ref.synthesis.problem_file"),
 }
 
 __all__ = [*_EXPORTS, "__version__"]
@@ -54,4 +56,7 @@ if TYPE_CHECKING:   # for type checkers and IDEs: the same names, imported eager
     from pes_ref.core.terms import Spring, Walls  # noqa: F401
     from pes_ref.devices.cspace import CSpaceGrid, GridSpring, apf_energy  # noqa: F401
     from pes_ref.devices.geometry import Part, Polygon, Rotation, Translation  # noqa: F401
+    from pes_ref.synthesis.design_problem import DesignProblem  # noqa: F401
     from pes_ref.synthesis.optimizers import Adam, RMSprop  # noqa: F401
+    from pes_ref.synthesis.problem_file import load_problem, parse_problem  # noqa: F401
+

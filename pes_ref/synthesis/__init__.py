@@ -16,7 +16,13 @@ Modules, one idea each, in import order:
 - :mod:`.polish`      the polish stage: CMA-ES on a smooth correction, capture-test fitness
 - :mod:`.stages`      a run's stages one after the other (:func:`run_stages`)
 - :mod:`.escapement`  the hand-drawn escapement surface, a reference for the oscillator
+- :mod:`.file_keys`   the keys of a problem file: types, defaults, units, and their reader
+- :mod:`.objective_terms` the objective terms of a problem file (registry kind -> class)
+- :mod:`.success`     the per-particle success tests of a problem file (registry kind -> class)
+- :mod:`.design_problem` a design problem stated by a problem file (:class:`DesignProblem`)
+- :mod:`.problem_file` problem files: reading, checking, changing keys, writing
 - :mod:`.design_file` design runs in ``.npz`` files
+
 
 The names below are the public synthesis API (with :class:`Progress`, what the loops'
 callbacks receive, from :mod:`pes_ref.core.progress`).
@@ -40,8 +46,14 @@ from pes_ref.synthesis.polish import (PolishParticles, PolishResult, capture_fit
                                       polish_particles)
 from pes_ref.synthesis.stages import run_stages
 from pes_ref.synthesis.escapement import escapement_values
-from pes_ref.synthesis.design_file import (DesignFileError, check_same_scene, design_arrays, load_design,
-                                           save_design)
+from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, TermSum
+from pes_ref.synthesis.success import SUCCESS_TESTS
+from pes_ref.synthesis.design_problem import FORCES, DesignProblem
+from pes_ref.synthesis.problem_file import (SHIPPED_PROBLEMS, ProblemFileError, load_problem, parse_problem,
+                                            problem_from_text, problem_text, shipped_problem, with_sets)
+from pes_ref.synthesis.design_file import (DesignFileError, check_same_problem, check_same_scene, design_arrays,
+                                           first_difference,
+                                           load_design, save_design)
 
 __all__ = [
     "Adam", "RMSprop", "make_optimizer",
@@ -59,5 +71,8 @@ __all__ = [
     "legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "PolishResult", "polish",
     "run_stages",
     "escapement_values",
-    "save_design", "load_design", "design_arrays", "check_same_scene", "DesignFileError",
+    "save_design", "load_design", "design_arrays", "check_same_scene", "check_same_problem", "first_difference",
+    "DesignFileError",
+    "DesignProblem", "OBJECTIVE_TERMS", "SUCCESS_TESTS", "FORCES", "TermSum", "load_problem", "parse_problem",
+    "problem_from_text", "problem_text", "with_sets", "shipped_problem", "SHIPPED_PROBLEMS", "ProblemFileError",
 ]

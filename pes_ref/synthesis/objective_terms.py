@@ -276,9 +276,14 @@ class Exit:
     weight: float
     domain: Domain
 
+    def __post_init__(self):
+        if self.domain.periodic[EDGES[self.edge][0]]:
+            raise ValueError(f"edge {self.edge!r} is on a periodic axis, which has no edge to leave by")
+
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         return cls(keys["edge"], keys["center"], keys["halfwidth"], keys["weight"], domain)
+
 
     def steps(self, x: np.ndarray):
         """Each particle's exit step and whether it exits (:func:`pes_ref.synthesis.exits.exit_steps`)."""

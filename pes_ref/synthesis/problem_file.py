@@ -371,7 +371,8 @@ def with_sets(problem: DesignProblem, sets: dict) -> DesignProblem:
             here = ".".join(parts[:i + 1])
             if isinstance(node, list):
                 if not (part.isdigit() and int(part) < len(node)):
-                    raise ProblemFileError(f"{problem.path}: {dotted}: {here} has entries 0 to {len(node) - 1}")
+                    raise ProblemFileError(f"{problem.path}: {dotted}: {'.'.join(parts[:i])} has entries 0 to "
+                                           f"{len(node) - 1}")
                 node = node[int(part)]
             else:
                 node = node.setdefault(part, {})
