@@ -207,7 +207,22 @@ class DesignProblem(_Problem):
         every, _ = passes_all([test for _, test in self.tests], traj.x, traj.v, self.times(traj.x.shape[0] - 1))
         return float(np.mean(every))
 
+    def phases(self, forces: tuple | None = None, n_steps: int | None = None) -> list:
+        """The run's phases: the times where a force's window opens or closes cut it into
+        segments ``(start, end, label)``, the label naming the named forces on in it (``""``:
+        none). ``forces`` and ``n_steps`` default to the problem's (a scenario's may be given)."""
+        forces = self.forces if forces is None else forces
+        end = (self.n_steps if n_steps is None else n_steps) * self.dt
+        cuts = sorted({0.0, end} | {t for f in forces for t in (f.start, f.end) if t is not None and 0 < t < end})
+        out = []
+        for start, stop in zip(cuts, cuts[1:]):
+            on = [f.name for f in forces if f.name and (f.start or 0.0) <= start
+                  and (f.end is None or f.end >= stop)]
+            out.append((start, stop, " + ".join(on)))
+        return out
+
     def run(self, values, seed: int, n_particles: int, scenario: Scenario | None = None) -> HeldOut:
+
         """Held-out particles: the training sampler with ``default_rng(seed)`` under the problem's
         schedule, or ``scenario``'s."""
         n_steps, forces = (None, None) if scenario is None else (scenario.n_steps, scenario.forces)
