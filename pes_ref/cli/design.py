@@ -1,5 +1,9 @@
 """The ``design`` command of ``python -m pes_ref``.
 
+- ``design PROBLEM.toml [same options]``, or a shipped problem by its name (``design latch``): the
+  problem a problem file states (``docs/problems.md``); ``--set`` takes its keys by dotted name;
+  ``design --resume FILE.npz`` continues a design from the problem its file holds.
+
 - ``design funnel|oscillator [--iterations N] [--seed S] [--out FILE.npz] [--resume FILE.npz]
   [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C]
   [--particles N] [--plan gait|overshoot|eq6] [--evaluations N] [--polish-particles N]
@@ -53,16 +57,21 @@ SHIPPED_NAMES = ("funnel", "latch")
 
 
 def add_parser(sub) -> None:
-    p = add_command(sub, "design", help="design a funnel or an oscillator by gradient descent (paper Figs. 6-11)",
+    p = add_command(sub, "design", help="design a funnel, an oscillator or a problem file's device by gradient "
+                                        "descent (paper Figs. 6-11; docs/problems.md)",
         description="Optimize the grid values of a potential energy surface for the paper's funnel or "
-                    "oscillator objective and write the design (grid, scene parameters, seed, loss history, "
+                    "oscillator objective, or for the problem a problem file states (docs/problems.md), and "
+                    "write the design (grid, scene parameters or the problem file's text, seed, loss history, "
                     "optimizer state) to FILE.npz. The default oscillator runs prescribed-gait shooting by "
                     "gradient descent, then a gradient-free polish (CMA-ES). --iterations is the total count "
                     "to reach, also on --resume. Ctrl-C (or SIGTERM) stops after the current iteration or "
                     "polish generation, saves and exits 130. An existing --out is refused unless --force; with "
                     "--resume and no --out the resumed file itself is updated.",
         examples=['design funnel --out funnel.npz',
-                  'design oscillator --smoke --out osc.npz && python -m pes_ref evaluate osc.npz'])
+                  'design oscillator --smoke --out osc.npz && python -m pes_ref evaluate osc.npz',
+                  'design latch --out latch.npz', 'design my_problem.toml --set dynamics.dt=0.005',
+                  'design --resume latch.npz --iterations 1500'])
+
     p.add_argument("kind", nargs="?", default=None, metavar="funnel|oscillator|PROBLEM.toml",
                    help="the device to design: the paper's funnel or oscillator, or a problem file "
                         "(docs/problems.md; a shipped one by its name: "

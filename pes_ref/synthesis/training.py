@@ -112,12 +112,13 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     clock = Clock([(st.start, st.end, st.steps) for st in stages])
 
     reported = [None]                   # the iteration of the last report
+    label = getattr(problem, "name", problem.kind)      # a problem file's problem by its name
 
     def report(now):
         reported[0] = state.iteration
         i = clock.index(max(state.iteration - 1, 0))
         st = stages[i]
-        callback(Progress(f"design {getattr(problem, 'name', problem.kind)}", f"stage {st.name}", state.iteration, total, "it", clock.rate(i),
+        callback(Progress(f"design {label}", f"stage {st.name}", state.iteration, total, "it", clock.rate(i),
                           now - t_start, clock.seconds_left(state.iteration, total),
                           (("grid", st.grid), ("steps", st.steps), ("loss", loss), (problem.metric_name, metric))))
 
