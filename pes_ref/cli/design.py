@@ -69,8 +69,8 @@ def add_parser(sub) -> None:
                     "--resume and no --out the resumed file itself is updated.",
         examples=['design funnel --out funnel.npz',
                   'design oscillator --smoke --out osc.npz && python -m pes_ref evaluate osc.npz',
-                  'design latch --out latch.npz', 'design my_problem.toml --set dynamics.dt=0.005',
-                  'design --resume latch.npz --iterations 1500'])
+                  'design latch --out latch.npz && python -m pes_ref design --resume latch.npz --iterations 1500'])
+
 
     p.add_argument("kind", nargs="?", default=None, metavar="funnel|oscillator|PROBLEM.toml",
                    help="the device to design: the paper's funnel or oscillator, or a problem file "

@@ -45,7 +45,8 @@ from pes_ref.oracle.errors import CaseError
 from pes_ref.oracle.npz import read_npz, write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
 from pes_ref.synthesis.plans import Plan, PolishPlan
-from pes_ref.synthesis.problem_file import problem_from_text, problem_text
+from pes_ref.synthesis.problem_file import ProblemFileError, problem_from_text, problem_text
+
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.design_state import STAGES, DesignState
 
@@ -141,6 +142,12 @@ def load_design(path) -> DesignState:
         raise DesignFileError(f"{path} has unknown design kind {kind!r}; expected one of {sorted(_PROBLEM_TEXT)}")
     try:
         problem = _PROBLEM_TEXT[kind][1](str(data["problem"]), path)
+    except ProblemFileError as exc:              # its problem file's text: one line naming the key
+        raise DesignFileError(str(exc)) from None
+    except (TypeError, KeyError, ValueError) as exc:
+        raise DesignFileError(f"{path} is a damaged design file: {exc}") from None
+    try:
+
         plan_fields = json.loads(str(data["plan"]))
         plan_fields["stages"] = tuple(tuple(s) for s in plan_fields["stages"])
         plan = Plan(**plan_fields)

@@ -14,8 +14,8 @@ TOML text a design file embeds (the file's own text when nothing was changed).
 """
 from __future__ import annotations
 
-import copy
 import dataclasses
+
 import math
 import os
 import sys
@@ -122,6 +122,16 @@ def shipped_problem(name: str) -> str:
     if name not in SHIPPED_PROBLEMS:
         raise ValueError(f"no shipped problem {name!r}; expected one of {', '.join(SHIPPED_PROBLEMS)}")
     return str(resources.files("pes_ref.synthesis").joinpath("data", f"{name}.toml"))
+
+
+def _tables(value):
+    """A copy of the tables and lists of problem data; the values in them (numbers, text, a
+    ``custom`` term's object built in code) are shared, not copied."""
+    if isinstance(value, dict):
+        return {k: _tables(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_tables(v) for v in value]
+    return value
 
 
 def _plain(value):
@@ -363,7 +373,7 @@ def with_sets(problem: DesignProblem, sets: dict) -> DesignProblem:
     "objective.1.weight": 2.0}``; a number picks an entry of a list of tables), checked again."""
     if not sets:
         return problem
-    data = copy.deepcopy(problem.data)
+    data = _tables(problem.data)
     for dotted, value in sets.items():
         parts = dotted.split(".")
         node = data
@@ -401,7 +411,7 @@ def problem_text(problem: DesignProblem) -> str:
     if problem.source_text is not None:
         return problem.source_text
     import tomli_w
-    data = copy.deepcopy({k: v for k, v in problem.data.items() if k != "objective"})
+    data = {k: v for k, v in problem.data.items() if k != "objective"}
     data["objective"] = []
     for i, term in enumerate(problem.data["objective"]):
         term = dict(term)
