@@ -173,16 +173,18 @@ def stability_limit(scene) -> StabilityLimit:
     -------
     StabilityLimit
     """
-    K, terms = axis_stiffness(scene)
+    with np.errstate(over="ignore", invalid="ignore"):     # a stiffness beyond float64: inf, limit 0
+        K, terms = axis_stiffness(scene)
     if scene.mode == "dynamic":
         m = np.broadcast_to(scene.mass, np.broadcast_shapes(np.shape(scene.mass), (1, 2)))
         m_min = np.min(m.reshape(-1, 2), axis=0)
-        omega = float(np.sqrt(np.max(K / m_min)))
+        omega = float(np.max(_omega(K, m_min)))
         limit = 2.0 / omega if omega > 0 else np.inf
-        ratio = scene.dt / limit
+        ratio = scene.dt / limit if limit > 0 else np.inf
         return StabilityLimit("dynamic", K, terms, omega, limit, ratio, SAFETY * limit)
     mu = np.asarray(scene.mobility, dtype=np.float64)
-    ratios = mu * K / 2.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        ratios = mu * K / 2.0
     ratio = float(np.max(ratios))
     with np.errstate(divide="ignore"):
         mu_max = np.where(K > 0, 2.0 / np.where(K > 0, K, 1.0), np.inf)
@@ -222,6 +224,9 @@ RULE_DOC = "docs/spec.md section 10"
 
 #: The key a refusal names, per mode.
 _KEYS = {"dynamic": "dt", "quasistatic": "mobility"}
+#: The key of the input each term's stiffness comes from: what a refusal names when that
+#: stiffness is beyond float64 (then no step is stable, and the step is not what to change).
+_TERM_KEYS = {"grid curvature": "values", "spring": "spring_k", "wall": "wall_k"}
 
 
 class UnstableStepError(checks.InputError):
@@ -269,9 +274,17 @@ def _min_mass(scene) -> np.ndarray:
     return np.min(m.reshape(-1, 2), axis=0)
 
 
+def _omega(K, m) -> np.ndarray:
+    """``sqrt(K / m)``, elementwise, also where ``K / m`` alone is beyond float64 (a huge
+    stiffness over a small mass): inf only where the frequency itself is."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        omega = np.sqrt(K / m)
+        return np.where(np.isfinite(omega), omega, np.sqrt(K) / np.sqrt(m))
+
+
 def _dynamic_reach(scene, K: np.ndarray) -> np.ndarray:
     """``dt sqrt(K / min m_d)`` per term and axis."""
-    return scene.dt * np.sqrt(K / _min_mass(scene))
+    return scene.dt * _omega(K, _min_mass(scene))
 
 
 def _quasistatic_reach(scene, K: np.ndarray) -> np.ndarray:
@@ -299,6 +312,7 @@ def term_limit(scene) -> TermLimit:
     names = list(RULE_TERMS)
     K = np.array([parts[name] for name in names])                     # (terms, 2)
     reach = _REACH[scene.mode](scene, K)
+    reach = np.where(np.isnan(reach), np.inf, reach)        # a stiffness beyond float64 (inf - inf)
     t, d = np.unravel_index(int(np.argmax(reach)), reach.shape)
     key = _KEYS[scene.mode]
     if not reach[t, d] > 0.0:
@@ -306,6 +320,24 @@ def term_limit(scene) -> TermLimit:
     value = scene.dt if scene.mode == "dynamic" else float(scene.mobility[d])
     ratio = float(reach[t, d]) / 2.0
     return TermLimit(scene.mode, key, RULE_TERMS[names[t]], int(d), float(K[t, d]), value / ratio, ratio)
+
+
+def _beyond_float(scene, lim: TermLimit) -> UnstableStepError | None:
+    """The refusal of a scene whose stiffest term is beyond float64, where no step is
+    stable: its stiffness is not finite (naming the input it comes from, ``values``,
+    ``spring_k`` or ``wall_k``), or, dynamic, the stiffness over the smallest mass is not
+    (naming ``mass``); None for any other scene."""
+    if not np.isfinite(lim.stiffness):
+        key = _TERM_KEYS[lim.term]
+        return UnstableStepError(key, f"{key} gives the {lim.term} a stiffness beyond float64 ({lim.stiffness:.3g} on "
+                                      f"axis {lim.axis}), so no {lim.key} is stable ({RULE_DOC})")
+    if lim.mode == "dynamic":
+        m = float(_min_mass(scene)[lim.axis])
+        if not np.isfinite(_omega(lim.stiffness, m)):
+            return UnstableStepError("mass", f"mass {m:.3g} on axis {lim.axis} is too small for the {lim.term} "
+                                             f"stiffness {lim.stiffness:.3g}: its frequency sqrt(K/m) is beyond float64, "
+                                             f"so no dt is stable ({RULE_DOC})")
+    return None
 
 
 def _refusal(scene, lim: TermLimit) -> str:
@@ -337,10 +369,13 @@ def check_stable(scene) -> TermLimit:
     ------
     UnstableStepError
         ``n_steps > 0`` and :attr:`TermLimit.ratio` ``> 1``; it names ``dt`` or
-        ``mobility``, the factor, the term and a stable value, in one line.
+        ``mobility``, the factor, the term and a stable value, in one line. Where the
+        stiffest term is beyond float64, so that no step is stable, it names the input
+        instead: ``values``, ``spring_k`` or ``wall_k`` for a stiffness that is not
+        finite, ``mass`` for a frequency ``sqrt(K/m)`` that is not.
     """
     with np.errstate(over="ignore", invalid="ignore"):      # a grid of huge values: infinite stiffness
         lim = term_limit(scene)
         if scene.n_steps > 0 and lim.ratio > 1.0:
-            raise UnstableStepError(lim.key, _refusal(scene, lim))
+            raise _beyond_float(scene, lim) or UnstableStepError(lim.key, _refusal(scene, lim))
     return lim
