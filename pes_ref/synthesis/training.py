@@ -103,12 +103,12 @@ def new_design(kind: str, seed: int = 0, plan: Plan | None = None, polish: Polis
     problem = PROBLEMS[kind](**params)
     if plan is None:
         plan, polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind] if polish is None else polish
+    _check_memory(problem, plan, polish)
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))
     problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
     state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish)
     check_stable_design(state)
-    check_design_memory(state)
     return state
 
 
@@ -122,9 +122,21 @@ def check_stable_design(state: DesignState) -> None:
 
 def check_design_memory(state: DesignState) -> None:
     """Refuse a run whose training iterations cannot fit in the available memory, before it
-    runs: :class:`~pes_ref.core.budget.RunTooLargeError` naming ``n_steps`` (or ``stages``,
-    when a stage's horizon is the longest) and ``n_particles`` (the plan's particles per iteration)."""
-    plan, own = state.plan, state.problem.n_steps
+    runs: :class:`~pes_ref.core.budget.RunTooLargeError` naming the grid's size (``grid``,
+    ``grid0`` or ``grid1``; or ``stages``, when a stage's grid is the largest), or ``n_steps``
+    (or ``stages``, when a stage's horizon is the longest) and ``n_particles`` (the plan's
+    particles per iteration)."""
+    _check_memory(state.problem, state.plan, state.polish)
+
+
+def _check_memory(problem, plan: Plan, polish: PolishPlan | None) -> None:
+    """:func:`check_design_memory` of a run of ``problem`` by ``plan`` and ``polish``, before its grid exists."""
+    shapes = {st[1]: problem.shape(st[1] or None) for st in plan.stages}
+    grid = max(shapes, key=lambda g: shapes[g][0] * shapes[g][1])
+    key = "stages" if grid else max(("grid", "grid0", "grid1"), key=lambda k: getattr(problem, k, 0))
+    arrays = budget.GRID_ARRAYS + (0 if polish is None else 2 * polish.n_terms)     # the polish's basis, built once
+    budget.check_grid_memory(shapes[grid], key, arrays, length=f"{key} = {grid or getattr(problem, key)}")
+    own = problem.n_steps
     steps = max(st[2] or own for st in plan.stages)
     if steps == own:
         budget.check_memory(steps, plan.n_particles, "value_and_grad", particles="n_particles")
