@@ -142,7 +142,7 @@ def check_grid_memory(shape: tuple, key: str, arrays: int = GRID_ARRAYS, length:
     need = arrays * n0 * n1 * 8
     avail = available_memory()
     if avail is not None and need > avail:
-        raise RunTooLargeError(key, f"{length or key} makes a {n0} x {n1} grid that needs about {need / _GIB:.3g} GiB ({arrays} "
+        raise RunTooLargeError(key, f"{length or key} makes a surface of {n0} x {n1} nodes that needs about {need / _GIB:.3g} GiB ({arrays} "
                                     f"arrays of its size, float64), more than the {avail / _GIB:.3g} GiB of memory "
                                     f"available; reduce {key}")
     return need

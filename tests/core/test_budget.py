@@ -82,10 +82,10 @@ def test_a_backward_pass_leaves_no_reference_cycle():
 
 def test_a_grid_that_cannot_fit_is_refused_before_it_is_made():
     from pes_ref import synthesis
-    with pytest.raises(budget.RunTooLargeError, match="grid = 100000 makes a 100000 x 100000 grid") as info:
+    with pytest.raises(budget.RunTooLargeError, match="grid = 100000 makes a surface of 100000 x 100000 nodes") as info:
         synthesis.new_design("funnel", grid=100000)
     assert info.value.key == "grid"
-    with pytest.raises(budget.RunTooLargeError, match="grid1 = 10000000 makes a 32 x 10000000 grid") as info:
+    with pytest.raises(budget.RunTooLargeError, match="grid1 = 10000000 makes a surface of 32 x 10000000 nodes") as info:
         synthesis.new_design("oscillator", grid1=10 ** 7)
     assert info.value.key == "grid1"
 
