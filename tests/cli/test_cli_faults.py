@@ -528,6 +528,12 @@ def _design(status: str, least: int, most: int):
     return check
 
 
+def _vectors_whole_or_absent(work: Path, before: dict) -> None:
+    if (work / "vw").exists():
+        manifest = json.loads((work / "vw" / "manifest.json").read_text())
+        assert all((work / "vw" / e["case"]).exists() for e in manifest["vectors"])
+
+
 def _sweep_whole_or_absent(work: Path, before: dict) -> None:
     if (work / "sw").exists():
         assert (work / "sw" / "results.csv").read_text().count("\n") >= 2
@@ -556,6 +562,7 @@ CLOSED_PIPES = [
     Piped("check", "check --cmd '{python} -m pes_ref oracle {pairs}' --only plane-dynamic", "stdout"),
     Piped("check-progress", "check --cmd '{python} -m pes_ref oracle {pairs}' --no-vectors --random 2", "stderr"),
     Piped("conformance", "conformance --check", "stdout"),
+    Piped("conformance-write", "conformance --write vw", "stdout", ("vw",), _vectors_whole_or_absent),
     Piped("analyze", "analyze ratchet --smoke", "stdout"),
     Piped("design", "design funnel --smoke --out new.npz", "stdout", ("new.npz",), _design("done", 6, 6)),
     Piped("design-progress", "design funnel --smoke --iterations 300 --progress 0 --out new.npz", "stderr",
