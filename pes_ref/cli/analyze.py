@@ -5,13 +5,16 @@
   [--fire-time S] [--search-hi F] [--search-tol F] [--smoke]``
 
 Each prints one ``name: value unit`` line per figure (:mod:`pes_ref.devices.ratchet`,
-:mod:`pes_ref.devices.dartgun`). Numbers are read as text and checked here, so a bad value is
-one line ``error: <message>`` on stderr and exit status 2.
+:mod:`pes_ref.devices.dartgun`), and on stderr one ``warning: ...`` line for each thing that
+makes some figures mean something else than they say (a torque that overwhelms the
+ratchet's barrier, a reload that did not latch). Numbers are read as text and checked
+here, so a bad value is one line ``error: <message>`` on stderr and exit status 2.
 """
 from __future__ import annotations
 
 import dataclasses
 import importlib
+import sys
 
 from pes_ref.core import checks
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error  # noqa: F401
@@ -37,10 +40,10 @@ def _float(option: str, text: str, check=checks.as_positive_float) -> float:
 
 
 def _floats(option: str, text: str) -> list:
-    parts = [p for p in text.split(",") if p.strip()]
-    if not parts:
-        raise ValueError(f"{option} must be a comma-separated list of numbers, got {text!r}")
-    return [_float(option, p.strip(), checks.as_nonneg_float) for p in parts]
+    parts = [p.strip() for p in text.split(",")]
+    if "" in parts:
+        raise ValueError(f"{option} must be a comma-separated list of numbers, got {text!r} (an empty entry)")
+    return [_float(option, p, checks.as_nonneg_float) for p in parts]
 
 
 def _text(value) -> str:
@@ -150,6 +153,8 @@ def _run(args, defaults: dict, smoke: dict, design, analyze, parse) -> int:
         return error(exc, FLAGS)
     for line in report.as_lines():
         print(line)
+    for line in report.warnings():
+        print("warning: " + line, file=sys.stderr)
     return EXIT_OK
 
 

@@ -131,16 +131,19 @@ def _pairs(args) -> list:
 
 
 def _check_files(case_path: str, result_path: str, force: bool) -> None:
-    """Refuse before computing: the case must be a readable file and not a design file;
-    the result's folder must exist and be writable, and an existing result is kept
-    unless ``--force``."""
+    """Refuse before computing, once: the case must be a readable file and neither a design
+    nor a result file; the result's folder must exist and be writable, an existing result
+    is kept unless ``--force``, and the result is never the case file itself."""
     input_file(case_path, "case file")
-    if _members(case_path) & {"format.npy"} and _is_design_file(case_path):
+    members = _members(case_path)
+    if "format.npy" in members and _is_design_file(case_path):
         raise ValueError(f"{case_path} is a design file, not a case; evaluate reads it: "
                          f"python -m pes_ref evaluate {case_path}")
-    if _is_result_file(case_path):
+    if _is_result_file(members):
         raise ValueError(f"{case_path} is an oracle result file, not a case (the oracle wrote it)")
     output_file(result_path, "result", force=force)
+    if os.path.exists(result_path) and os.path.samefile(case_path, result_path):
+        raise ValueError(f"the result path {result_path} is the case file itself")
 
 
 def _members(path: str) -> set:
@@ -152,11 +155,11 @@ def _members(path: str) -> set:
         return set()
 
 
-def _is_result_file(path: str) -> bool:
-    """Whether ``path`` holds the members every result has and no case does
+def _is_result_file(members: set) -> bool:
+    """Whether a zip of these member names holds what every result has and no case does
     (:data:`pes_ref.oracle.case.TRAJECTORY_KEYS`)."""
     from pes_ref.oracle.case import TRAJECTORY_KEYS
-    return {key + ".npy" for key in TRAJECTORY_KEYS} <= _members(path)
+    return {key + ".npy" for key in TRAJECTORY_KEYS} <= members
 
 
 def _is_design_file(path: str) -> bool:
@@ -176,8 +179,9 @@ def _run_oracle(args) -> int:
     for case_path, result_path in pairs:
         try:
             _check_files(case_path, result_path, args.force)
-            result = oracle.run_case_file(case_path, result_path, overwrite=args.force, compress=args.compress,
-                                          allow_unstable=args.allow_unstable, monitor=_monitor(case_path))
+            result = oracle.run_case(oracle.load_case(case_path), allow_unstable=args.allow_unstable,
+                                     monitor=_monitor(case_path))
+            oracle.write_result(result, result_path, overwrite=args.force, compress=args.compress)
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
             status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)
             continue

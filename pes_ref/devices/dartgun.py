@@ -288,6 +288,14 @@ class DartGunReport:
     dt_limit: float                  # 2 sqrt(m_min / stiffness_max)
     times: dict = dc_field(default_factory=dict)
 
+    def warnings(self) -> list:
+        """What makes some figures of the report mean something else than they say, one line each."""
+        if self.reload_latched:
+            return []
+        return [f"the reload with force {self.reload_force:.6g} did not latch: latched_q0, latched_q1 and "
+                f"the exit speeds are those of the device's reference latch (a reload with 1.5 x the static "
+                f"latch force, dartgun.latched_state), not of this reload"]
+
     def as_lines(self) -> list:
         """``name: value unit`` lines."""
         lines = [

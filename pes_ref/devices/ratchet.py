@@ -27,7 +27,7 @@ from pes_ref.devices.cspace import CSpaceGrid, GridSpring
 from pes_ref.core.effects import PerParticle
 from pes_ref.devices.geometry import Part, Polygon, Rotation
 from pes_ref.core.stability import grid_stiffness
-from pes_ref.devices.probes import threshold_search
+from pes_ref.devices.probes import steepest_slope, threshold_search
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.scene import Scene, simulate
 from pes_ref.core.surface import Surface
@@ -187,7 +187,17 @@ class RatchetReport:
     dt: float
     stiffness_max: float           # largest barrier curvature on the grid (core.stability.grid_stiffness)
     dt_limit: float                # 2 sqrt(m_min / stiffness_max)
+    barrier_torque_max: float      # the largest torque the grid can hold back (probes.steepest_slope along q0)
     times: dict = dc_field(default_factory=dict)
+
+    def warnings(self) -> list:
+        """What makes some figures of the report mean something else than they say, one line each."""
+        if self.torque <= self.barrier_torque_max:
+            return []
+        return [f"the torque {self.torque:.6g} torque-unit exceeds the largest the barrier can hold back "
+                f"(barrier_torque_max: {self.barrier_torque_max:.6g} torque-unit): the push overwhelms the "
+                f"barrier, the pawl holds the wheel in neither direction, and the net rotations are those of "
+                f"a free wheel"]
 
     def as_lines(self) -> list:
         """``name: value unit`` lines."""
@@ -204,6 +214,7 @@ class RatchetReport:
             f"dt: {self.dt:.6g} s",
             f"barrier_stiffness_max: {self.stiffness_max:.6g} torque-unit/rad",
             f"dt_stability_limit: {self.dt_limit:.6g} s",
+            f"barrier_torque_max: {self.barrier_torque_max:.6g} torque-unit",
         ] + [f"time_{k}: {v:.3g} s" for k, v in self.times.items()]
 
 
@@ -238,4 +249,5 @@ def analyze_ratchet(design: RatchetDesign = RatchetDesign(), torque: float = RAT
     k = grid_stiffness(surface)
     return RatchetReport(torque, duration, float(rot[0]), float(rot[1]), float(rot[0] / design.pitch),
                          float(np.ptp(x[:, 0, 1])), float(tmin), search_tol, float(blocked.mean()),
-                         tuple(design.shape), design.dt, k, 2.0 * np.sqrt(min(design.mass) / k), times)
+                         tuple(design.shape), design.dt, k, 2.0 * np.sqrt(min(design.mass) / k),
+                         steepest_slope(surface, 0), times)

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from pes_ref.devices import ratchet as R
+from pes_ref.devices.probes import steepest_slope
 
 #: A coarser grid and step than the default (same geometry; dt still ~30x inside the
 #: stability limit of this grid) keep the module under ~2 s.
@@ -52,6 +53,16 @@ def test_pawl_lifts_only_under_positive_torque(runs, k, torque):
     lift = start[0, 1] - x[:, :, 1].min(axis=0)     # q1 decreasing = the hook lifting out
     assert lift[2 * k] > MIN_LIFT
     assert lift[2 * k + 1] < MAX_BLOCKED_LIFT
+
+
+def test_a_torque_past_the_steepest_barrier_turns_the_wheel_both_ways(runs):
+    """What the analysis' warning says of a torque above barrier_torque_max (the grid's
+    steepest slope along q0): nothing holds the wheel, in either direction."""
+    surface, start = runs[0], runs[1]
+    torque = 1.05 * steepest_slope(surface, 0)
+    x = R.run_ratchet(DESIGN, [torque, -torque], DURATION, surface, start).x
+    turned = x[-1, :, 0] - x[0, :, 0]
+    assert turned[0] > DESIGN.pitch and turned[1] < -DESIGN.pitch
 
 
 def test_wheel_and_pawl_parts():

@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import sys
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,7 +27,7 @@ from pes_ref.oracle import case as oracle
 from pes_ref.oracle import tolerances
 from pes_ref.oracle.compare import compare_results, passes
 from pes_ref.oracle.conformance import vectors_dir
-from pes_ref.core.files import atomic_file
+from pes_ref.core.files import atomic_file, move_into
 
 __all__ = ["VERSION", "Vector", "build_vectors", "write_vectors", "compare_dirs", "main"]
 
@@ -600,7 +602,9 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
     directory : path, optional
         Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v2``.
         Created if missing; vector files of this naming scheme that are no longer
-        part of the set are removed.
+        part of the set are removed. Every file is made in a hidden folder beside it
+        first and moved in once all are made, the manifest last: a run stopped part-way
+        (Ctrl-C, a closed pipe) leaves ``directory`` as it was.
 
     Returns
     -------
@@ -608,28 +612,35 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
         The manifest.
     """
     directory = Path(vectors_dir(VERSION) if directory is None else directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    entries = []
-    for tc_id, vec in enumerate(build_vectors(), start=1):
-        entry = _entry(tc_id, vec)
-        if vec.kind == "invalid":
-            _expected_refusal(vec)
-        oracle.save_case(directory / entry["case"], overwrite=True, compress=True, **vec.case)   # shipped deflated, as in v1
-        if vec.kind == "valid":
-            result = oracle.run_case(oracle.load_case(directory / entry["case"]))
-            oracle.write_result(result, directory / entry["result"], overwrite=True, compress=True)
-        entries.append(entry)
-        if not quiet:
-            print(f"wrote {vec.kind:7s} {vec.id}")
-    keep = {e["case"] for e in entries} | {e["result"] for e in entries if "result" in e}
-    for stale in sorted(directory.glob("*.npz")):
-        if stale.name not in keep and (stale.name.endswith(".case.npz") or stale.name.endswith(".result.npz")):
-            stale.unlink()
+    directory.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", suffix=".tmp", dir=directory.parent))
+    try:
+        entries = []
+        for tc_id, vec in enumerate(build_vectors(), start=1):
+            entry = _entry(tc_id, vec)
+            if vec.kind == "invalid":
+                _expected_refusal(vec)
+            oracle.save_case(staging / entry["case"], compress=True, **vec.case)   # shipped deflated, as in v1
+            if vec.kind == "valid":
+                result = oracle.run_case(oracle.load_case(staging / entry["case"]))
+                oracle.write_result(result, staging / entry["result"], compress=True)
+            entries.append(entry)
             if not quiet:
-                print(f"removed stale {stale.name}")
-    manifest = dict(manifest_header(), vectors=entries)
-    with atomic_file(directory / "manifest.json", overwrite=True, what="manifest") as fh:
-        fh.write((json.dumps(manifest, indent=1) + "\n").encode("utf-8"))
+                print(f"wrote {vec.kind:7s} {vec.id}")
+        directory.mkdir(exist_ok=True)
+        move_into(sorted(staging.glob("*.npz")), directory)
+        keep = {e["case"] for e in entries} | {e["result"] for e in entries if "result" in e}
+        stale = [p for p in sorted(directory.glob("*.npz")) if p.name not in keep
+                 and (p.name.endswith(".case.npz") or p.name.endswith(".result.npz"))]
+        for path in stale:
+            path.unlink()
+        manifest = dict(manifest_header(), vectors=entries)
+        with atomic_file(directory / "manifest.json", overwrite=True, what="manifest") as fh:
+            fh.write((json.dumps(manifest, indent=1) + "\n").encode("utf-8"))
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    for path in stale if not quiet else ():
+        print(f"removed stale {path.name}")
     return manifest
 
 
