@@ -41,6 +41,9 @@ def test_without_options_the_command_runs_the_analysis_with_its_defaults(capsys,
         def as_lines(self):
             return []
 
+        def warnings(self):
+            return []
+
     def analysis(design, *values):
         got.extend(tuple(v) if isinstance(v, list) else v for v in values)
         return Report()
