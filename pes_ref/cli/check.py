@@ -21,8 +21,8 @@ def add_parser(sub) -> None:
                     "describes the protocol.",
         examples=['check --cmd "python -m pes_ref oracle {case} {result}" --only plane-dynamic --only mass-zero',
                   'check --cmd "python -m pes_ref oracle {pairs}" --no-vectors --random 5 --seed 1 --report check.json',
-                  'check --cmd "python -m pes_ref oracle --refusals {refusals} {pairs}" --strict',
-                  'check --list'])
+                  'check --cmd "python -m pes_ref oracle --refusals {refusals} {pairs}" --strict '
+                  '--only wall-onset-dynamic --only mass-bool'])
     p.add_argument("--cmd", default=None, metavar="TEMPLATE",
                    help="the program: {case} and {result} are replaced by one case's paths (one process per "
                         "case), or {pairs} by CASE1 RESULT1 CASE2 RESULT2 ... (one process for the valid cases, "
