@@ -30,10 +30,10 @@ The comparison is :mod:`pes_ref.oracle.compare` (re-exported here: :func:`compar
 ``GRAD_ATOL * max|want|`` (the largest entry of that gradient, or 1 for an all-zero one).
 The single number reported per array is ``max |got - want| / (atol/rtol + |want|)``, a
 relative error with a floor; the array passes when it is ``<= rtol``. On vectors
-flagged ``kink`` (a state exactly on a node, seam or clip edge, where docs/spec.md 2.5 accepts
-any one-sided gradient) the gradients bind only where the manifest entry lists the
-one-sided results it accepts (``one_sided``, from v3 on; docs/spec.md 7.3); otherwise
-only the trajectory and the loss are binding.
+flagged ``kink`` (a state exactly on a node, seam, clip edge or wall onset, where
+docs/spec.md 2.5 owes a one-sided value) each gradient entry binds to the result or to one
+of the results the manifest entry lists under ``one_sided`` (from v3 on); a kink vector
+without that list (v1, v2) binds only the trajectory and the loss.
 """
 from __future__ import annotations
 

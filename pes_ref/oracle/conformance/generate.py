@@ -74,9 +74,11 @@ class Vector:
         The case keys (as :func:`pes_ref.oracle.case.save_case` takes them).
     kind : {"valid", "invalid"}
     flags : list of str
-        ``kink``: a state sits exactly on a kink (node, seam, clip edge), where the
-        contract (docs/spec.md 2.5, 7.3) accepts any one-sided gradient; conformance checkers compare only the
-        trajectory and the loss there. Other flags are informational.
+        ``kink``: a state sits exactly on a kink (node, seam, clip edge, wall onset),
+        where the contract (docs/spec.md 2.5, 7.3) owes a one-sided gradient: the
+        result's, or one of ``other_sides``. ``file``: the case is the bytes ``file``.
+        ``nonfinite``: an invalid case refused only when run (12.1). Other flags are
+        informational.
     key, error : str
         Invalid vectors: the key at fault (None for a file that is not an ``.npz``) and the
         error type ("ValueError" or "TypeError").
