@@ -84,7 +84,7 @@ def _list(version: str) -> int:
     """Print every shipped vector: id, kind, flags (and the key at fault), what it covers."""
     from pes_ref.testing.conformance import load_manifest
     for e in load_manifest(version)["vectors"]:
-        what = e["kind"] + (f" ({e['key']})" if e["kind"] == "invalid" else "")
+        what = e["kind"] + (f" ({e['key'] or 'no key'})" if e["kind"] == "invalid" else "")
         flags = ",".join(e.get("flags", ())) or "-"
         print(f"{e['id']:40s} {what:26s} {flags:10s} {e['comment']}")
     return EXIT_OK
