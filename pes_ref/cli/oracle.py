@@ -38,6 +38,10 @@ def add_parser(sub) -> None:
     p.add_argument("--compress", action="store_true",
                    help="deflate the result's arrays (default: stored; float64 data barely compresses and "
                         "deflating costs more than the computation of a paper-sized case)")
+    p.add_argument("--refusals", default=None, metavar="FILE.jsonl",
+                   help="also append one JSON line per refused case to FILE.jsonl: {\"case\": its path, \"key\": "
+                        "the key at fault or null, \"error\": \"ValueError\" or \"TypeError\", \"message\": ...} "
+                        "(docs/spec.md section 13; pes_ref check --cmd '... --refusals {refusals} ...')")
     p.add_argument("--allow-unstable", action="store_true",
                    help="run a case past the stability limit of its stiffest term anyway (docs/spec.md section 10; "
                         "not part of the contract, which refuses it)")
@@ -169,11 +173,25 @@ def _is_design_file(path: str) -> bool:
     return is_design_file(path)
 
 
+def _record_refusal(path: str, case_path: str, exc: Exception) -> None:
+    """Append the refusal of ``case_path`` to the ``--refusals`` file as one JSON line
+    (docs/spec.md section 13): its key (None for a file that is no case, or a result
+    that cannot be written) and its kind: ``TypeError`` or ``ValueError`` for a refused
+    case, the exception's name for a file that cannot be read or written."""
+    import json
+    kind = next((k.__name__ for k in (TypeError, ValueError) if isinstance(exc, k)), type(exc).__name__)
+    record = {"case": case_path, "key": getattr(exc, "key", None), "error": kind, "message": str(exc)}
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps(record) + "\n")
+
+
 def _run_oracle(args) -> int:
     from pes_ref.oracle import case as oracle
     try:
         pairs = _pairs(args)
-    except ValueError as exc:
+        if args.refusals is not None:
+            output_file(args.refusals, "--refusals file", force=True)     # appended to if it exists
+    except (OSError, ValueError) as exc:
         return error(exc)
     status = EXIT_OK
     for case_path, result_path in pairs:
@@ -184,6 +202,8 @@ def _run_oracle(args) -> int:
             oracle.write_result(result, result_path, overwrite=args.force, compress=args.compress)
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
             status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)
+            if args.refusals is not None:
+                _record_refusal(args.refusals, case_path, exc)
             continue
         t1, n = result["x"].shape[:2]
         print(f"wrote {result_path}: T = {t1 - 1}, N = {n}, loss = {float(result['loss']):.17g}")

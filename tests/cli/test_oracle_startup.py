@@ -171,7 +171,10 @@ def test_write_result_stores_by_default(tmp_path):
 
 
 def test_the_shipped_vectors_stay_deflated():
-    files = sorted(vectors_dir(LATEST).glob("*.npz"))
+    import json
+    manifest = json.loads((vectors_dir(LATEST) / "manifest.json").read_text())
+    broken = {e["case"] for e in manifest["vectors"] if "file" in e["flags"]}     # files that are no case archive
+    files = [f for f in sorted(vectors_dir(LATEST).glob("*.npz")) if f.name not in broken]
     assert files and all(_compress_types(f) == {zipfile.ZIP_DEFLATED} for f in files)
 
 
