@@ -6,7 +6,7 @@ derived in ``docs/adjoint.md``. Subpackages by layer, imports only downward (doc
 
 - :mod:`pes_ref.core`       surfaces, energy terms, effects, steppers and their adjoints, the scene layer
 - :mod:`pes_ref.oracle`     the case/result ``.npz`` interchange format, tolerances, conformance vectors
-- :mod:`pes_ref.devices`    part geometry -> C-space -> eq. (1) surface; the ratchet and the dart gun
+- :mod:`pes_ref.devices`    device files, part geometry -> C-space -> eq. (1) surface, drive analysis; the ratchet and the dart gun
 - :mod:`pes_ref.synthesis`  optimizers; the funnel and oscillator problems, plans, training, evaluation, design files
 - :mod:`pes_ref.bench`      the benchmark (``python -m pes_ref bench``)
 - :mod:`pes_ref.testing`    conformance checks, hypothesis strategies and properties for other implementations
@@ -35,8 +35,11 @@ _EXPORTS = {
     **dict.fromkeys(("Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES"), "pes_ref.core.scene"),
     **dict.fromkeys(("Trajectory", "NonFiniteError"), "pes_ref.core.integrator"),
     **dict.fromkeys(("Funnel", "Oscillator", "Quadratic", "Custom", "regularization"), "pes_ref.core.objectives"),
-    **dict.fromkeys(("Polygon", "Translation", "Rotation", "Part"), "pes_ref.devices.geometry"),
+    **dict.fromkeys(("Polygon", "Circle", "Rectangle", "Translation", "Rotation", "Part"), "pes_ref.devices.geometry"),
     **dict.fromkeys(("CSpaceGrid", "GridSpring", "apf_energy"), "pes_ref.devices.cspace"),
+    **dict.fromkeys(("Device",), "pes_ref.devices.device"),
+    **dict.fromkeys(("load_device", "DeviceFileError"), "pes_ref.devices.device_file"),
+    **dict.fromkeys(("drive", "DriveResult"), "pes_ref.devices.drive"),
     **dict.fromkeys(("RMSprop", "Adam"), "pes_ref.synthesis.optimizers"),
 }
 
@@ -64,5 +67,8 @@ if TYPE_CHECKING:   # for type checkers and IDEs: the same names, imported eager
     from pes_ref.core.surface import Surface  # noqa: F401
     from pes_ref.core.terms import Spring, Walls  # noqa: F401
     from pes_ref.devices.cspace import CSpaceGrid, GridSpring, apf_energy  # noqa: F401
-    from pes_ref.devices.geometry import Part, Polygon, Rotation, Translation  # noqa: F401
+    from pes_ref.devices.device import Device  # noqa: F401
+    from pes_ref.devices.device_file import DeviceFileError, load_device  # noqa: F401
+    from pes_ref.devices.drive import DriveResult, drive  # noqa: F401
+    from pes_ref.devices.geometry import Circle, Part, Polygon, Rectangle, Rotation, Translation  # noqa: F401
     from pes_ref.synthesis.optimizers import Adam, RMSprop  # noqa: F401
