@@ -59,11 +59,23 @@ FILE_CHOICE = "DEVICE.toml"
 CAM = "examples/devices/cam_follower.toml"
 
 
+class _Devices(dict):
+    """The parsers of ``analyze`` by device name, which also hold every word ending in .toml."""
+
+    def __contains__(self, name) -> bool:
+        return super().__contains__(name) or (isinstance(name, str) and name.endswith(".toml")
+                                              and name != FILE_CHOICE)
+
+
 class _DeviceChoice(argparse._SubParsersAction):
     """The devices of ``analyze``: a shipped one by name, or a device file (a word ending in .toml)."""
 
+    def __init__(self, *args, **kw):
+        super().__init__(*args, **kw)
+        self._name_parser_map = self.choices = _Devices()
+
     def __call__(self, parser, namespace, values, option_string=None):
-        if values and values[0] not in self._name_parser_map and values[0].endswith(".toml"):
+        if values and not dict.__contains__(self._name_parser_map, values[0]) and values[0].endswith(".toml"):
             namespace.device_file = values[0]
             values = [FILE_CHOICE, *values[1:]]
         super().__call__(parser, namespace, values, option_string)
@@ -266,8 +278,9 @@ def _outputs(args) -> dict:
                              f"{', '.join('.' + f for f in PLOT_FORMATS)}")
         out["plot"] = output_file(args.plot, "plot", force=args.force)
     if args.out is not None:
-        output_folder(args.out)
-        out["csv"] = output_file(os.path.join(args.out, "motion_law.csv"), "motion law", force=args.force)
+        output_folder(args.out)                 # made, if it does not exist, when the results are written
+        csv = os.path.join(args.out, "motion_law.csv")
+        out["csv"] = output_file(csv, "motion law", force=args.force) if os.path.isdir(args.out) else csv
     return out
 
 
@@ -283,7 +296,7 @@ def _motion_law_csv(result) -> bytes:
 
 
 def _run_file(args) -> int:
-    from pes_ref.devices.drive import drive
+    from pes_ref.devices.drive import check_drive, drive
     from pes_ref.devices.device_file import load_device
     path = args.device_file if getattr(args, "device_file", None) else args.device
     try:
@@ -303,6 +316,7 @@ def _run_file(args) -> int:
         device = load_device(path)
         if shape is not None:
             device = device.replace(shape=shape)
+        check_drive(device, axis, load, args.mode, cycles, start, threshold)      # before anything is computed
         progress = _Progress(os.path.basename(path))
         device.cspace(progress)
         result = drive(device, axis, load, args.mode, cycles, start, threshold, progress)
@@ -312,6 +326,7 @@ def _run_file(args) -> int:
         print(line)
     try:
         if "csv" in outputs:
+            os.makedirs(args.out, exist_ok=True)
             _write(outputs["csv"], _motion_law_csv(result), args.force, "motion law")
         if "json" in outputs:
             _write(outputs["json"], (json.dumps(result.summary(), indent=2) + "\n").encode(), args.force, "JSON")
