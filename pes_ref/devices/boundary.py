@@ -16,8 +16,10 @@ is located between the nodes instead:
    neighbouring segments run straight into a cell from both sides and their lines meet
    inside it, that point is a corner of the obstacle and the cell's segment is bent there.
 3. **Distance.** Every node's distance to the nearest segment (:func:`grid_distance`),
-   exact within :data:`BAND` spacings of the boundary and propagated beyond, negative at
-   blocked nodes. Periodic axes use the minimum image.
+   exact within a band around the boundary (:data:`BAND` spacings, or eq. (1)'s cut-off
+   r_c and two spacings more for a device) and propagated beyond, where it stays within
+   about h/2 (measured: 0.6 h deep inside a large obstacle), negative at blocked nodes.
+   Periodic axes use the minimum image.
 
 The error is that of the polyline: ``O(h^2 / R)`` where the boundary has radius of
 curvature R, and at a corner of the obstacle up to the corner's cut through one cell
@@ -34,11 +36,12 @@ __all__ = ["locate_crossings", "boundary_segments", "grid_distance", "mask_dista
 #: Halvings of a grid edge when a crossing is located: the crossing is known within
 #: ``h / 2**(BISECTION_STEPS + 1)`` (h/512), far below the h/10 the distance must meet.
 BISECTION_STEPS = 8
-#: Two segments of the polyline are in a line when the sine of the angle between them is below this
-#: (about 1 degree; the crossings are exact to h/512, so an obstacle's straight edge stays within it).
-STRAIGHT = 0.02
-#: Half-width, in spacings, of the band around the boundary where the distance is exact.
-BAND = 6
+#: Three crossings of the polyline are on one line when the middle one is within this many spacings
+#: of the line through the others (the crossings are exact to h/512: a straight edge stays within it).
+STRAIGHT = 0.01
+#: Half-width, in spacings of the coarser axis, of the band around the boundary where the
+#: distance is exact by default (a device widens it to cover eq. (1)'s r_c).
+BAND = 8
 #: Rounds in which a node beyond the band looks at its neighbours' boundary points.
 REFINE = 4
 
@@ -142,11 +145,13 @@ def _corners(seg, end_ids, cell, h) -> np.ndarray:
     """Put back the corners of the obstacle that chords cut off.
 
     Each segment's two end points are crossings shared with the neighbouring segments of the
-    polyline. Where the polyline runs straight into this cell on both sides (two segments
-    in a line, within :data:`STRAIGHT`: a polygonal obstacle's edge over two cells or more),
-    the lines meet at the corner: if they meet inside the cell, ahead of both crossings,
-    the segment becomes the two segments through that point. Elsewhere (a smooth boundary,
-    corners closer than two cells) the chord stays.
+    polyline. Where the polyline runs straight into this cell on both sides (the three
+    crossings before each end on one line, within :data:`STRAIGHT` spacings: a polygonal
+    obstacle's edge over two cells or more), the two lines meet at the corner: if they meet
+    ahead of both crossings, in the cell or one next to it (a corner may poke between two
+    free nodes into the next cell), and no grid node lies between the chord and that point,
+    the segment becomes the two segments through it. Elsewhere (a smooth boundary, corners
+    closer than two cells) the chord stays.
     """
     m = seg.shape[0]
     flat = end_ids.ravel()                      # position 2k + e: end e of segment k
@@ -164,13 +169,15 @@ def _corners(seg, end_ids, cell, h) -> np.ndarray:
         nk, ne = q // 2, q % 2
         q2 = np.where(q >= 0, partner[2 * nk + 1 - ne], -1)     # the neighbour's own other neighbour
         mk, me = q2 // 2, q2 % 2
-        d1 = seg[nk, ne] - seg[nk, 1 - ne]      # along the neighbour, pointing into this cell
-        d2 = seg[mk, me] - seg[mk, 1 - me]      # along the one before it, the same way
-        cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
-        dot = np.einsum("ij,ij->i", d1, d2)
-        norm = np.hypot(d1[:, 0], d1[:, 1]) * np.hypot(d2[:, 0], d2[:, 1])
-        straight = (q >= 0) & (q2 >= 0) & (dot > 0) & (np.abs(cross) <= STRAIGHT * norm) & (norm > 0)
-        dirs.append(np.where(straight[:, None], d1, np.nan))
+        shared = seg[nk, ne]                    # this segment's end, in the neighbour's coordinates
+        p0 = seg[nk, 1 - ne]                    # the neighbour's far end
+        p1 = seg[mk, 1 - me] + (p0 - seg[mk, me])               # the one before, moved into the same coordinates
+        d = shared - p1                         # the line through the two crossings before, into this cell
+        off = p0 - p1
+        norm = np.hypot(d[:, 0], d[:, 1])
+        dev = np.abs(d[:, 0] * off[:, 1] - d[:, 1] * off[:, 0]) / np.where(norm > 0, norm, 1.0)
+        straight = (q >= 0) & (q2 >= 0) & (norm > 0) & (dev <= STRAIGHT * float(np.min(h)))
+        dirs.append(np.where(straight[:, None], d, np.nan))
     a, b = seg[:, 0], seg[:, 1]
     da, db = dirs                               # line A: a + s da (s >= 0); line B: b + u db (u >= 0)
     det = da[:, 0] * db[:, 1] - da[:, 1] * db[:, 0]
@@ -178,18 +185,39 @@ def _corners(seg, end_ids, cell, h) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         s = (rhs[:, 0] * db[:, 1] - rhs[:, 1] * db[:, 0]) / det
         u = (rhs[:, 0] * da[:, 1] - rhs[:, 1] * da[:, 0]) / det
-    x = a + s[:, None] * da
-    slack = 1e-9 * h
-    inside = np.all((x >= cell - slack) & (x <= cell + h + slack), axis=1)
+    with np.errstate(invalid="ignore"):
+        x = a + s[:, None] * da
+    near = np.all((x >= cell - h) & (x <= cell + 2 * h), axis=1)     # in this cell or one next to it
     scale = np.hypot(*np.moveaxis(da, -1, 0)) * np.hypot(*np.moveaxis(db, -1, 0))
     turn = np.abs(det) > 1e-6 * scale           # not (nearly) parallel: a real corner
-    use = np.isfinite(s) & np.isfinite(u) & (s > 0) & (u > 0) & inside & turn
+    use = np.isfinite(s) & np.isfinite(u) & (s > 0) & (u > 0) & near & turn
+    use[use] = ~_node_inside(a[use], x[use], b[use], cell[use], h)
     if not use.any():
         return seg
     keep = seg[~use]
     corner = x[use]
     out = [keep, np.stack((a[use], corner), axis=1), np.stack((corner, b[use]), axis=1)]
     return np.concatenate(out)
+
+
+def _node_inside(a, x, b, cell, h) -> np.ndarray:
+    """Whether a grid node (of the 4 x 4 around each cell) lies strictly inside triangle (a, x, b)."""
+    out = np.zeros(a.shape[0], dtype=bool)
+    for di in (-1, 0, 1, 2):
+        for dj in (-1, 0, 1, 2):
+            p = cell + h * np.array([di, dj])
+            s1 = _side(a, x, p)
+            s2 = _side(x, b, p)
+            s3 = _side(b, a, p)
+            out |= ((s1 > 0) & (s2 > 0) & (s3 > 0)) | ((s1 < 0) & (s2 < 0) & (s3 < 0))
+    return out
+
+
+def _side(p, q, r) -> np.ndarray:
+    """The orientation of r about the line p -> q (rows), zero within rounding of the coordinates."""
+    o = (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
+    tol = 1e-12 * (1.0 + np.abs(p).max(axis=1) + np.abs(q).max(axis=1)) ** 2
+    return np.where(np.abs(o) <= tol, 0.0, o)
 
 
 def _min_image(d: np.ndarray, length: np.ndarray, periodic) -> np.ndarray:
@@ -199,10 +227,10 @@ def _min_image(d: np.ndarray, length: np.ndarray, periodic) -> np.ndarray:
     return d
 
 
-def grid_distance(segments, lower, spacing, shape, periodic, band: int = BAND) -> np.ndarray:
+def grid_distance(segments, lower, spacing, shape, periodic, reach: float | None = None) -> np.ndarray:
     """The unsigned distance from every grid node to the polyline ``segments``, shape (n0, n1).
 
-    Exact within ``band`` spacings of the polyline: each segment measures its distance to
+    Exact within ``reach`` of the polyline: each segment measures its distance to
     the nodes of a window around it, and each node keeps the least (with the segment it
     came from). Farther out, each node takes the nearest in-band node (a Euclidean
     distance transform with indices) and measures its distance to that node's nearest
@@ -218,8 +246,9 @@ def grid_distance(segments, lower, spacing, shape, periodic, band: int = BAND) -
     spacing : array_like, shape (2,)
     shape : (n0, n1)
     periodic : sequence of 2 bool
-    band : int
-        Half-width of the exact band, in spacings of the coarser axis.
+    reach : float, optional
+        Half-width of the exact band, in C-space units; default :data:`BAND` spacings of the
+        coarser axis.
     """
     from scipy import ndimage     # imported here: ``import pes_ref`` stays light
     lower, h = np.asarray(lower, float), np.asarray(spacing, float)
@@ -230,10 +259,10 @@ def grid_distance(segments, lower, spacing, shape, periodic, band: int = BAND) -
     e = segments[:, 1] - a
     ee = np.einsum("ij,ij->i", e, e)
     safe = np.where(ee > 0, ee, 1.0)
-    reach = band * float(np.max(h))
+    reach = BAND * float(np.max(h)) if reach is None else float(reach)
     w = np.ceil(reach / h).astype(int)               # window half-width in nodes, per axis
     lo = np.floor((np.minimum(a, a + e) - lower) / h).astype(int) - w
-    offsets = [np.arange(2 * w[ax] + 3) for ax in range(2)]
+    offsets = [np.arange(2 * w[ax] + 5) for ax in range(2)]      # a segment spans up to 3 cells
     oi, oj = np.meshgrid(*offsets, indexing="ij")
     oi, oj = oi.ravel(), oj.ravel()
     best = np.full(n[0] * n[1], np.inf)

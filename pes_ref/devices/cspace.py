@@ -396,7 +396,7 @@ class CSpaceGrid:
         """Blocked nodes, (n0, n1) bool (:func:`blocked_mask`)."""
         return blocked_mask(*self.poses(), self.periodic, progress)
 
-    def compute(self, progress=None) -> CSpace:
+    def compute(self, progress=None, reach: float | None = None) -> CSpace:
         """The blocked nodes, the boundary between them and the signed distance to it.
 
         Parameters
@@ -404,6 +404,9 @@ class CSpaceGrid:
         progress : callable, optional
             ``progress(phase, done, total)``: ``"blocked"`` per chunk of rows, ``"boundary"``
             per bisection step, ``"distance"`` once done.
+        reach : float, optional
+            The distance is exact within ``reach`` of the boundary (C-space units; default
+            :data:`pes_ref.devices.boundary.BAND` spacings), and within about h/2 beyond.
 
         Returns
         -------
@@ -430,16 +433,16 @@ class CSpaceGrid:
         segments = boundary.boundary_segments(mask, crossings, self.lower, self.spacing, self.periodic)
         times["boundary"] = time.perf_counter() - t
         t = time.perf_counter()
-        distance = self._distance(mask, segments)
+        distance = self._distance(mask, segments, reach)
         times["distance"] = time.perf_counter() - t
         progress("distance", 1, 1)
         return CSpace(self, mask, distance, segments, times)
 
-    def _distance(self, mask, segments) -> np.ndarray:
+    def _distance(self, mask, segments, reach=None) -> np.ndarray:
         if segments.shape[0] == 0:
             far = float(np.hypot(*(self.spacing * np.array(self.shape))))
             return np.full(self.shape, -far if mask.all() else far)
-        d = boundary.grid_distance(segments, self.lower, self.spacing, self.shape, self.periodic)
+        d = boundary.grid_distance(segments, self.lower, self.spacing, self.shape, self.periodic, reach)
         return np.where(mask, -d, d)
 
     def distance(self) -> np.ndarray:

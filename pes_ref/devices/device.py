@@ -16,6 +16,7 @@ from pes_ref.core.scene import Scene
 from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Walls
+from pes_ref.devices.boundary import BAND
 from pes_ref.devices.cspace import CSpace, CSpaceGrid, GridSpring
 from pes_ref.devices.geometry import Part
 
@@ -125,9 +126,12 @@ class Device:
         return self._grid.spacing
 
     def cspace(self, progress=None) -> CSpace:
-        """The computed C-space (:meth:`pes_ref.devices.cspace.CSpaceGrid.compute`), once per device."""
+        """The computed C-space (:meth:`pes_ref.devices.cspace.CSpaceGrid.compute`), once per device;
+        its distance is exact out to eq. (1)'s cut-off r_c and two spacings more."""
         if "cspace" not in self._cache:
-            self._cache["cspace"] = self._grid.compute(progress)
+            h = float(np.max(self.spacing))
+            reach = max(BAND * h, self.r_c + 2.0 * h)
+            self._cache["cspace"] = self._grid.compute(progress, reach)
         return self._cache["cspace"]
 
     def surface(self, progress=None) -> Surface:
