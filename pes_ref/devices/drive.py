@@ -50,6 +50,8 @@ JAM_CELLS = 10.0
 JAM_FRACTION = 0.1
 #: A run stops (jammed) after this many times the steps a free run needs for the requested travel.
 MAX_FREE_FACTOR = 200.0
+#: States drawn per chunk of steps (the path of :class:`DriveResult`).
+PATH_PER_CHUNK = 64
 #: Motion-law samples per input spacing.
 SAMPLES_PER_CELL = 2
 #: dq_out/dq_in is taken across this many input spacings (centred): the state chatters across
@@ -77,7 +79,7 @@ class DriveResult:
     q_in, q_out : ndarray, shape (S,)
         The motion law: the output where the input first reaches each sample of its travel.
     path : ndarray, shape (P, 2)
-        The states, thinned to at most a few thousand (for drawing).
+        The states, thinned to :data:`PATH_PER_CHUNK` per chunk of steps (for drawing).
     """
 
     device: str
@@ -241,10 +243,9 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     x = start[None, :].copy()
     v = np.zeros((1, 2))
     history = [0.0]                          # progress at the end of each chunk (for the stall test)
-    path = [x[0].copy()]
+    path = [x.copy()]
     steps, reason = 0, "done"
-    stride = max(1, int(np.ceil(max_steps / 2000 / chunk)))          # chunks between two drawn states
-    n_chunks = 0
+    every = max(1, chunk // PATH_PER_CHUNK)  # states between two drawn ones
     while True:
         traj = simulate(scene, x, v)
         xs = traj.x[:, 0]
@@ -252,16 +253,14 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
         done = np.nonzero(p >= requested)[0]
         end = int(done[0]) + 1 if done.size else p.size
         law.feed(p[:end], xs[:end, out_axis])
+        path.append(xs[1:end:every])
         if done.size:                                     # arrived within this chunk
             steps += int(done[0])
             x = xs[done[0]][None, :]
             break
         steps += chunk
         x, v = traj.x[-1], traj.v[-1]
-        n_chunks += 1
         history.append(float(p[-1]))
-        if n_chunks % stride == 0:
-            path.append(x[0].copy())
         if progress is not None:
             progress("drive", min(law.best, requested), requested)
         back = int(np.ceil(window / chunk))
@@ -271,7 +270,7 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
         if steps >= max_steps:
             reason = "step limit"
             break
-    path.append(x[0].copy())
+    path.append(x)
     s = np.array(law.s)
     q_in = start[axis] + sign * s
     q_out = np.array(law.out)
@@ -286,4 +285,4 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     jammed = reason != "done"
     return DriveResult(device.name, axis, load, mode, bool(device.periodic[axis]), requested, travel, advance,
                        moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold, steps,
-                       q_in, q_out, np.array(path), time.perf_counter() - t_wall)
+                       q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall)

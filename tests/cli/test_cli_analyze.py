@@ -1,6 +1,7 @@
 """``python -m pes_ref analyze DEVICE.toml|ratchet|dartgun``: output lines, files, help and errors (pes_ref.cli.analyze)."""
 import json
 import re
+import sys
 
 import numpy as np
 import pytest
@@ -100,3 +101,23 @@ def test_existing_outputs_are_kept_unless_forced(capsys, tmp_path):
     code, out, err = run(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--json",
                          str(tmp_path / "cam.json"), "--force")
     assert code == EXIT_OK and json.loads((tmp_path / "cam.json").read_text())["device"] == "cam_follower"
+
+
+def test_without_shapely_the_command_prints_the_pip_line(capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "shapely", None)          # import shapely -> ImportError
+    code, out, err = run(capsys, str(CAM), "--drive", "0", "--load", "0.5")
+    assert code == EXIT_ERROR and out == ""
+    assert err.count("\n") == 1 and "pip install 'pes_ref[devices]'" in err and "Traceback" not in err
+    assert "internal error" not in err                           # refused as an input problem, not a crash
+
+
+def test_progress_lines_start_after_a_few_seconds_and_come_every_period(capsys):
+    from pes_ref.cli import analyze
+    now = [0.0]
+    progress = analyze._Progress("cam.toml", clock=lambda: now[0])
+    for t, done in ((1.0, 1), (analyze.LONG_RUN + 0.1, 2), (analyze.LONG_RUN + 0.2, 3),
+                    (analyze.LONG_RUN + analyze.PERIOD + 0.2, 4)):
+        now[0] = t
+        progress("drive", done, 8)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == ["cam.toml: drive 25% (2/8), 0:03 elapsed", "cam.toml: drive 50% (4/8), 0:05 elapsed"]

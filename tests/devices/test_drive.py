@@ -112,9 +112,14 @@ def test_the_lift_law_is_simple_harmonic(cam_drive):
     assert np.ptp(cam_drive.q_out) == pytest.approx(STROKE, rel=0.02)
 
 
+#: The chatter across cell lines (about 0.002 in q1), differenced across 4 spacings of q0
+#: (0.039 rad), adds up to about +-0.05 to a ratio, twice that at a peak read between two chatters.
+CHATTER = 0.1
+
+
 def test_the_moving_fraction_and_peak_ratio_match_the_lift_law(cam_drive):
     assert cam_drive.moving_fraction == pytest.approx(MOVING, abs=0.05)
-    assert MAX_RATIO <= cam_drive.max_ratio < 1.5 * MAX_RATIO
+    assert MAX_RATIO <= cam_drive.max_ratio < MAX_RATIO + CHATTER
 
 
 # --------------------------------------------------------------------------- jams and refusals
