@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from _common import ROOT, Fragment, parse_args, topic_of
+from _common import ROOT, Fragment, parse_args, plt, topic_of
 from pes_ref.devices.device_file import load_device
 
 #: The vertices each part should have (the issue's "about 150").
@@ -81,6 +81,17 @@ def main(argv=None) -> int:
                            f"{os.cpu_count()} CPUs at load average {load:.2f} (1 min) at the start."))
     frag.table(["circles", "vertices (crank + wheel)", "tolerance", "pose (s)", "blocked (s)", "boundary (s)",
                 "distance (s)", "eq. (1) + springs (s)", "total (s)"], rows)
+    steps = ["pose", "blocked", "boundary", "distance", "eq. (1) + springs"]
+    fig, ax = plt.subplots(figsize=(7, 2.8))
+    for k, row in enumerate(rows):
+        left = 0.0
+        for s, value in zip(steps, row[3:8]):
+            ax.barh(k, value, left=left, label=s if k == 0 else None, color=f"C{steps.index(s)}")
+            left += value
+    ax.set_yticks(range(len(rows)), [f"{r[0]} ({r[1]})" for r in rows])
+    ax.set_xlabel("seconds (best of %d)" % REPEAT)
+    ax.legend(fontsize=7, ncol=5, loc="upper center", bbox_to_anchor=(0.5, 1.3))
+    frag.figure(fig, topic, f"where the time of a {n} x {n} C-space goes")
     frag.sentence(f"With about {VERTICES} vertices per part the C-space and surface of {n} x {n} nodes take "
                   f"{rows[0][-1]:.3g} s; at the default tolerance ({rows[1][1]} vertices) {rows[1][-1]:.3g} s "
                   f"(load average {load:.2f} on {os.cpu_count()} CPUs).")

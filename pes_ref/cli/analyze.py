@@ -22,6 +22,7 @@ import sys
 import time
 
 from pes_ref.core import checks
+from pes_ref.cli import oracle
 from pes_ref.cli.common import (EXIT_ERROR, EXIT_OK, add_command, error, output_file,  # noqa: F401
                                 output_folder)
 
@@ -215,9 +216,9 @@ def _run_dartgun(args) -> int:
 
 # =========================================================================== any device file
 
-#: Runs longer than this (seconds) print progress lines on stderr, at most one every PERIOD seconds.
-LONG_RUN = 3.0
-PERIOD = 2.0
+#: Runs longer than LONG_RUN seconds print progress lines on stderr, at most one every PERIOD
+#: seconds (the oracle's settings).
+LONG_RUN, PERIOD = oracle.LONG_RUN, oracle.PERIOD
 #: The plot formats --plot writes (by the file's extension).
 PLOT_FORMATS = ("png", "pdf", "svg")
 #: The analyses' names of what the options set (errors name the option).
@@ -240,9 +241,8 @@ class _Progress:
             return
         self.last = now
         part = done / total if total else 1.0
-        elapsed = int(now - self.start)
-        print(f"{self.label}: {phase} {100 * part:.0f}% ({done:.4g}/{total:.4g}), {elapsed // 60}:{elapsed % 60:02d} "
-              f"elapsed", file=sys.stderr, flush=True)
+        print(f"{self.label}: {phase} {100 * part:.0f}% ({done:.4g}/{total:.4g}), "
+              f"{oracle._clock_time(now - self.start)} elapsed", file=sys.stderr, flush=True)
 
 
 def _pair(option: str, text: str, cast=float) -> tuple:
@@ -333,9 +333,13 @@ def _run_file(args) -> int:
         if "plot" in outputs:
             import io
             from pes_ref.devices.plots import drive_figure
+            import matplotlib.pyplot as plt
             fig = drive_figure(device, result)
             buf = io.BytesIO()
-            fig.savefig(buf, format=os.path.splitext(outputs["plot"])[1].lower().lstrip("."), dpi=120)
+            try:
+                fig.savefig(buf, format=os.path.splitext(outputs["plot"])[1].lower().lstrip("."), dpi=120)
+            finally:
+                plt.close(fig)
             _write(outputs["plot"], buf.getvalue(), args.force, "plot")
     except (OSError, ValueError) as exc:
         return error(exc)

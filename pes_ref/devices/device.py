@@ -103,7 +103,7 @@ class Device:
         if self.walls is not None:
             for d in range(2):
                 if grid.periodic[d] and self.walls.edges[d].any():
-                    raise checks.InputError("walls", f"walls: axis {d} is periodic and cannot have a wall")
+                    raise checks.InputError("walls", f"axis {d} is periodic and cannot have a wall")
         set_("analysis", dict(self.analysis))
         set_("_grid", grid)
         set_("_cache", {})
@@ -146,7 +146,10 @@ class Device:
             return self.dt
         probe = Scene(self.surface(), dt=1.0, n_steps=0, mass=self.mass, walls=self.walls)
         limit = stability_limit(probe)
-        return float(limit.suggestion) if np.isfinite(limit.suggestion) else 1e-2
+        if not np.isfinite(limit.suggestion):
+            raise checks.InputError("dt", f"device {self.name!r} has no stiffness (no barrier, spring or wall) to "
+                                          f"choose a step from: give [dynamics] dt")
+        return float(limit.suggestion)
 
     def stable_mobility(self) -> np.ndarray:
         """A stable quasistatic mobility, the same on both axes (the paper: a step proportional

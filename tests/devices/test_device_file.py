@@ -177,7 +177,7 @@ def test_a_periodic_axis_with_a_wall_is_refused():
     data = _edit("part[0]", {"motion": "rotation", "pivot": [0.0, 0.0],
                              "shapes": [{"circle": {"center": [0.2, 0.0], "radius": 0.1}}]})
     data["cspace"]["lower"], data["cspace"]["upper"] = [0.0, -0.5], [2 * np.pi, 0.5]
-    with pytest.raises(F.DeviceFileError, match="dynamics.walls: walls: axis 0 is periodic"):
+    with pytest.raises(F.DeviceFileError, match="dynamics.walls: axis 0 is periodic"):
         F.parse_device(data, "bad.toml")
 
 

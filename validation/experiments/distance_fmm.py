@@ -1,4 +1,4 @@
-"""Why the C-space distance is not taken by fast marching: scikit-fmm against exact distances.
+"""Why the C-space distance is not taken by fast marching: scikit-fmm against exact distances (docs/devices.md).
 
 scikit-fmm (``skfmm.distance``, not a dependency of pes_ref: ``pip install scikit-fmm``)
 marches a signed distance out of the zero level of a function given at the nodes. Fed the
@@ -6,17 +6,24 @@ marches a signed distance out of the zero level of a function given at the nodes
 circles) on a 64 x 64 grid of the unit square, its result is compared with the exact
 distance: at the nodes next to the interface, within 8 h of it, and within 8 h but away from
 the grid's edges (the middle 60%). pes_ref's boundary distance needs h/10 there
-(``validation/cspace_minkowski.py``). Without scikit-fmm the script says so and exits 0.
+(``validation/cspace_minkowski.py``). It prints a markdown table and one sentence.
 
-Run: ``python validation/distance_fmm.py [--smoke] [--out DIR]``.
+Run: ``pip install scikit-fmm`` (not a dependency), then
+``python validation/experiments/distance_fmm.py [--smoke]``.
 """
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
-from _common import Fragment, parse_args, topic_of
-
 N = 64
+
+
+def _table(headers, rows) -> str:
+    fmt = lambda v: v if isinstance(v, str) else (str(v) if isinstance(v, int) else f"{v:.3g}")  # noqa: E731
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    return "\n".join(lines + ["| " + " | ".join(fmt(c) for c in row) + " |" for row in rows])
 
 
 def errors(sd, order, h, X, Y):
@@ -29,15 +36,14 @@ def errors(sd, order, h, X, Y):
 
 
 def main(argv=None) -> int:
-    args = parse_args(__doc__, argv)
-    topic = topic_of(__file__)
-    frag = Fragment(topic, "Fast marching (scikit-fmm) against exact distances", args.out)
+    p = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
+    p.add_argument("--smoke", action="store_true", help="fewer lines and circles (seconds)")
+    args = p.parse_args(argv)
     try:
         import skfmm  # noqa: F401
     except ImportError:
-        frag.sentence("scikit-fmm is not installed (pip install scikit-fmm): nothing measured.")
-        frag.write()
-        return 0
+        print("scikit-fmm is not installed: pip install scikit-fmm")
+        return 2
     rng = np.random.default_rng(0)
     x = np.linspace(0.0, 1.0, N)
     h = x[1] - x[0]
@@ -54,13 +60,12 @@ def main(argv=None) -> int:
         for order in (1, 2):
             e = np.array([errors(sd, order, h, X, Y) for sd in fields])
             rows.append([name, order, len(fields), e[:, 0].max(), e[:, 1].max(), e[:, 2].max(), np.median(e[:, 3])])
-    frag.table(["interface", "order", "cases", "next to it / h", "within 8 h / h", "within 8 h, middle / h",
-                "median within 8 h / h"], rows)
+    print(_table(["interface", "order", "cases", "next to it / h", "within 8 h / h", "within 8 h, middle / h",
+                  "median within 8 h / h"], rows))
     worst = min(r[5] for r in rows if r[0] == "line")
-    frag.sentence(f"Even fed the exact distance, fast marching is off by up to {worst:.2f} h within 8 h of a straight "
-                  f"line away from the grid's edges (its better order), against the h/10 the C-space distance needs: "
-                  f"it starts from the crossings along each axis separately.")
-    frag.write()
+    print(f"- Even fed the exact distance, fast marching is off by up to {worst:.2f} h within 8 h of a straight "
+          f"line away from the grid's edges (its better order), against the h/10 the C-space distance needs: "
+          f"it starts from the crossings along each axis separately.")
     return 0
 
 
