@@ -157,6 +157,49 @@ FAULTS = [
     Fault("dartgun-fire-time-zero", "analyze dartgun --smoke --fire-time 0", ("--fire-time", "0")),
     Fault("dartgun-search-hi-too-low", "analyze dartgun --smoke --search-hi 1", ("--search-hi", "1")),
     Fault("dartgun-unknown-option", "analyze dartgun --bogus", ("--bogus",)),
+    # ------------------------------------------------------------------ analyze DEVICE.toml (a device file)
+    Fault("device-missing-file", "analyze nothing.toml --drive 0 --load 1", ("device file nothing.toml does not exist",)),
+    Fault("device-file-is-a-folder", "analyze sub.toml --drive 0 --load 1", ("device file sub.toml is a folder",)),
+    Fault("device-not-toml", "analyze broken.toml --drive 0 --load 1", ("broken.toml", "not valid TOML")),
+    Fault("device-format-missing", "analyze dev-noformat.toml --drive 0 --load 1", ("dev-noformat.toml: format: missing",)),
+    Fault("device-format-other", "analyze dev-format2.toml --drive 0 --load 1",
+          ("dev-format2.toml: format:", "format 1", "format = 2")),
+    Fault("device-unknown-top-key", "analyze dev-colour.toml --drive 0 --load 1", ("dev-colour.toml: colour: unknown key",)),
+    Fault("device-one-part", "analyze dev-onepart.toml --drive 0 --load 1", ("part: expected exactly two [[part]] tables",)),
+    Fault("device-bad-motion", "analyze dev-motion.toml --drive 0 --load 1", ("part[0].motion", "'screw'")),
+    Fault("device-pivot-on-translation", "analyze dev-pivot.toml --drive 0 --load 1",
+          ("part[0].pivot: a translating part has a direction",)),
+    Fault("device-unknown-shape", "analyze dev-ellipse.toml --drive 0 --load 1", ("part[1].shapes[0].ellipse: unknown key",)),
+    Fault("device-radius-negative", "analyze dev-radius.toml --drive 0 --load 1",
+          ("part[0].shapes[0].circle.radius: expected a number > 0, got -0.1",)),
+    Fault("device-polygon-crossing", "analyze dev-bowtie.toml --drive 0 --load 1",
+          ("part[1].shapes[0].minus[0].polygon", "simple polygon")),
+    Fault("device-cut-leaves-nothing", "analyze dev-empty.toml --drive 0 --load 1", ("part[1].shapes", "leave nothing")),
+    Fault("device-shape-one", "analyze dev-grid.toml --drive 0 --load 1", ("cspace.shape[1]: expected an integer >= 2, got 1",)),
+    Fault("device-upper-below-lower", "analyze dev-upper.toml --drive 0 --load 1", ("cspace.upper[0]: expected upper > lower",)),
+    Fault("device-spring-axis", "analyze dev-spring.toml --drive 0 --load 1", ("energy.springs[0].axis: expected 0 or 1, got 3",)),
+    Fault("device-r-min-above-r-c", "analyze dev-rmin.toml --drive 0 --load 1", ("energy.r_min: expected r_min < r_c",)),
+    Fault("device-mass-zero", "analyze dev-mass.toml --drive 0 --load 1", ("dynamics.mass[0]: expected a number > 0, got 0",)),
+    Fault("device-walls-edges", "analyze dev-walls.toml --drive 0 --load 1", ("dynamics.walls.edges", "[[lower0, upper0]")),
+    Fault("device-start-text", "analyze dev-start.toml --drive 0 --load 1", ("start.q[0]: expected a finite number, got 'zero'",)),
+    Fault("device-analysis-kind", "analyze dev-analysis.toml --drive 0 --load 1", ("analysis.kind", "'catapult'")),
+    Fault("device-drive-two", "analyze dev.toml --drive 2 --load 1", ("--drive must be 0 or 1, got 2",)),
+    Fault("device-drive-text", "analyze dev.toml --drive x --load 1", ("--drive", "'x'")),
+    Fault("device-drive-missing", "analyze dev.toml --load 1", ("--drive",)),
+    Fault("device-load-zero", "analyze dev.toml --drive 0 --load 0", ("--load must be non-zero",)),
+    Fault("device-load-nan", "analyze dev.toml --drive 0 --load nan", ("--load", "nan")),
+    Fault("device-cycles-translation", "analyze dev.toml --drive 0 --load 1 --cycles 2",
+          ("--cycles counts turns of a periodic input", "q0 is not periodic")),
+    Fault("device-cycles-zero", "analyze dev.toml --drive 0 --load 1 --cycles 0", ("--cycles must be an integer >= 1, got 0",)),
+    Fault("device-start-one-number", "analyze dev.toml --drive 0 --load 1 --start 0.1", ("--start", "'0.1'")),
+    Fault("device-start-outside", "analyze dev.toml --drive 0 --load 1 --start 9,0", ("--start q0 = 9 is outside the grid",)),
+    Fault("device-threshold-negative", "analyze dev.toml --drive 0 --load 1 --threshold -1", ("--threshold", "-1")),
+    Fault("device-shape-one-cli", "analyze dev.toml --drive 0 --load 1 --shape 1,5", ("--shape", "'1,5'")),
+    Fault("device-mode-unknown", "analyze dev.toml --drive 0 --load 1 --mode fast", ("--mode", "'fast'")),
+    Fault("device-json-exists", "analyze dev.toml --drive 0 --load 1 --json notes.txt", ("notes.txt", "exists")),
+    Fault("device-plot-extension", "analyze dev.toml --drive 0 --load 1 --plot law.txt", ("--plot law.txt", ".png")),
+    Fault("device-out-under-a-file", "analyze dev.toml --drive 0 --load 1 --out text.npz/law", ("text.npz", "not a folder")),
+    Fault("device-out-law-exists", "analyze dev.toml --drive 0 --load 1 --out sub", ("sub/motion_law.csv", "exists")),
     # ------------------------------------------------------------------ design
     Fault("design-particles-zero", "design funnel --smoke --out new.npz --particles 0", ("--particles", "0")),
     Fault("design-particles-negative", "design funnel --smoke --out new.npz --particles -2",
@@ -251,8 +294,58 @@ FAULTS = [
     Fault("unknown-command", "frobnicate", ("'frobnicate'",)),
 ]
 
+#: A small valid device file (a pin in a plate's hole, on a plane) and the faults made of it:
+#: name -> (text replaced, by).
+DEVICE = """format = 1
+[[part]]
+motion = "translation"
+direction = [1.0, 0.0]
+shapes = [{ circle = { center = [0.0, 0.0], radius = 0.1 } }]
+[[part]]
+motion = "translation"
+direction = [0.0, 1.0]
+shapes = [{ rectangle = { lower = [-1.0, -1.0], upper = [1.0, 1.0] }, minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }] }]
+[cspace]
+lower = [-0.5, -0.5]
+upper = [0.5, 0.5]
+shape = [21, 21]
+[energy]
+v = 1e-4
+r_c = 0.1
+springs = [{ axis = 1, k = 1.0, center = 0.0 }]
+[dynamics]
+mass = [1.0, 1.0]
+damping = [1.0, 1.0]
+walls = { k = 100.0, margin = 0.01, edges = [[true, true], [true, true]] }
+[start]
+q = [0.0, 0.0]
+"""
+BAD_DEVICES = {
+    "noformat": ("format = 1\n", ""),
+    "format2": ("format = 1", "format = 2"),
+    "colour": ("format = 1\n", "format = 1\ncolour = \"red\"\n"),
+    "onepart": ("[[part]]\nmotion = \"translation\"\ndirection = [1.0, 0.0]\n"
+                "shapes = [{ circle = { center = [0.0, 0.0], radius = 0.1 } }]\n", ""),
+    "motion": ("motion = \"translation\"", "motion = \"screw\""),
+    "pivot": ("direction = [1.0, 0.0]", "direction = [1.0, 0.0]\npivot = [0.0, 0.0]"),
+    "ellipse": ("{ rectangle = { lower = [-1.0, -1.0], upper = [1.0, 1.0] }", "{ ellipse = { a = 1.0 }"),
+    "radius": ("radius = 0.1", "radius = -0.1"),
+    "bowtie": ("minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }]",
+               "minus = [{ polygon = [[0.0, 0.0], [0.3, 0.3], [0.3, 0.0], [0.0, 0.1]] }]"),
+    "empty": ("minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }]",
+              "minus = [{ rectangle = { lower = [-2.0, -2.0], upper = [2.0, 2.0] } }]"),
+    "grid": ("shape = [21, 21]", "shape = [21, 1]"),
+    "upper": ("upper = [0.5, 0.5]", "upper = [-0.7, 0.5]"),
+    "spring": ("axis = 1", "axis = 3"),
+    "rmin": ("r_c = 0.1", "r_c = 0.1\nr_min = 0.2"),
+    "mass": ("mass = [1.0, 1.0]", "mass = [0, 1.0]"),
+    "walls": ("edges = [[true, true], [true, true]]", "edges = [true, true]"),
+    "start": ("q = [0.0, 0.0]", "q = [\"zero\", 0.0]"),
+    "analysis": ("[start]", "[analysis]\nkind = \"catapult\"\n[start]"),
+}
+
 #: The commands the suite must cover: every one of the command line (tested below).
-COVERED = {f.argv.split()[0] for f in FAULTS if f.argv} | {"analyze ratchet", "analyze dartgun"}
+COVERED = {f.argv.split()[0] for f in FAULTS if f.argv} | {"analyze ratchet", "analyze dartgun", "analyze DEVICE.toml"}
 
 
 def _steep_case() -> dict:
@@ -280,6 +373,13 @@ def assets(tmp_path_factory):
     save_case(folder / "huge-wall.case.npz", **dict(load_case(WALL_CASE), wall_k=np.float64(1e308)))
     save_case(folder / "steep.case.npz", **_steep_case())
     (folder / "tiny.toml").write_text(TINY_SWEEP)
+    (folder / "sub" / "motion_law.csv").write_text("q_in,q_out\n0,0\n")
+    (folder / "sub.toml").mkdir()
+    (folder / "dev.toml").write_text(DEVICE)
+    (folder / "broken.toml").write_text("format = 1\n[cspace\n")
+    for name, (old, new) in BAD_DEVICES.items():
+        assert old in DEVICE, name
+        (folder / f"dev-{name}.toml").write_text(DEVICE.replace(old, new, 1))
     return folder
 
 
@@ -342,6 +442,7 @@ def test_every_command_is_covered():
                and len(a.split()) > 1}
     assert commands <= COVERED
     assert {"analyze ratchet", "analyze dartgun"} <= devices
+    assert any(d.endswith(".toml") for d in devices)
 
 
 @pytest.mark.parametrize("fault", FAULTS, ids=[f.id for f in FAULTS])
