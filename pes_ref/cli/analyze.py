@@ -266,7 +266,7 @@ DRIVE_FLAGS = {"axis": "--drive", "load": "--load", "cycles": "--cycles", "start
 
 class _Progress:
     """Progress lines of a long analysis on stderr (:func:`pes_ref.core.progress.progress_line`):
-    ``cam.toml: drive | % 40/100 | ... | elapsed 0:07 | left 0:10``. A callback ``progress(phase,
+    ``cam.toml: drive | percent 40/100 | 8.1 percent/s | elapsed 0:07 | left 0:10``. A callback ``progress(phase,
     done, total)`` (:mod:`pes_ref.core.progress`'s signature; ``done`` and ``total`` may be a
     travel), silent for the first :data:`LONG_RUN` seconds, then at most one line every
     :data:`PERIOD` seconds; the time left is the elapsed time scaled by the share still to do."""
@@ -289,7 +289,7 @@ class _Progress:
         percent = round(100 * share)
         rate = percent / elapsed if elapsed > 0 else 0.0
         left = elapsed * (1.0 - share) / share if share > 0 else float("inf")
-        print(progress_line(Progress(self.label, phase, percent, 100, "%", rate, now - self.start, left)),
+        print(progress_line(Progress(self.label, phase, percent, 100, "percent", rate, now - self.start, left)),
               file=sys.stderr, flush=True)
 
 
