@@ -76,7 +76,8 @@ conformance: $(STAMP)
 
 # The independent JAX implementation of examples/jax_pes/, checked for real: its framework
 # goes into a venv of its own (never a dependency of pes_ref), then `pes_ref check` runs it
-# on the shipped vectors plus 100 fresh random cases (all valid cases in one process).
+# on the shipped vectors plus 100 fresh random cases (the valid and random cases in one process,
+# the invalid ones in another).
 EXAMPLE_VENV  := .venv-jax
 EXAMPLE_PY    := $(EXAMPLE_VENV)/bin/python
 EXAMPLE_STAMP := $(EXAMPLE_VENV)/.installed

@@ -169,13 +169,11 @@ def draw_paths(ax, surface, x, colors, lw: float = 0.8, alpha: float = 0.9, labe
                 label=label if i == 0 else None)
 
 
-def draw_parts(ax, part0, part1, q, labels, colors=("#9ecae1", "#fdae6b")):
-    """Both parts posed at C-space point ``q`` (2,) by :func:`pes_ref.devices.geometry.posed_vertices`."""
-    from matplotlib.patches import Polygon as Patch
-    from pes_ref.devices.geometry import posed_vertices
+def draw_parts(ax, device, q, labels, colors=("#9ecae1", "#fdae6b")):
+    """Both parts of ``device`` posed at C-space point ``q`` (2,) (:func:`pes_ref.devices.plots.draw_device`)."""
+    from pes_ref.devices.plots import draw_device
 
-    for verts, label, color in zip(posed_vertices(part0, part1, q[0], q[1]), labels, colors):
-        ax.add_patch(Patch(verts, closed=True, facecolor=color, edgecolor="k", lw=0.8, label=label))
+    draw_device(ax, device, q, labels, colors)
 
 
 def value_colors(ax, values, label: str, cmap: str = "plasma"):

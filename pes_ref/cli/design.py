@@ -122,7 +122,8 @@ def _flags(kind: str) -> dict:
     """Every name an error of a ``kind`` design may carry, and the option that sets it (a
     problem file's errors name its own keys; its steps come from its dynamics)."""
     if kind == "problem":
-        return {"n_steps": "dynamics.duration / dt", **PLAN_FLAGS}
+        return {"n_steps": "dynamics.duration / dt", "grid": "surface.shape", **PLAN_FLAGS}
+
     return {**{name: f"--set {name}" for name in SET_NAMES.get(kind, ())}, **PLAN_FLAGS}
 
 

@@ -34,7 +34,6 @@ import hashlib
 import itertools
 import json
 import os
-import re
 import tomllib
 from dataclasses import dataclass
 

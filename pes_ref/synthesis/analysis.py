@@ -13,7 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pes_ref.core import checks
+from pes_ref.core import budget, checks
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.scene import simulate
 from pes_ref.synthesis.design_problem import DesignProblem
@@ -148,6 +148,9 @@ def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None)
     evaluate_kind, default_n = _EVALUATIONS[problem.kind]
     default_n = getattr(problem, "eval_particles", default_n)
     n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
+    steps = problem.n_steps if problem.kind == "funnel" else problem.steps_for(problem.eval_periods)
+    budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True,
+                        length=f"a held-out run of {steps} steps")
     return evaluate_kind(problem, values, seed, n)
 
 

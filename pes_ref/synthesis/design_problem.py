@@ -153,6 +153,13 @@ class DesignProblem(_Problem):
     def dt(self) -> float:
         return self.scene_keys["dt"]
 
+    @property
+    def grid(self) -> int:
+        """The final grid's nodes along axis 0 (the built-in problems' ``grid``; what a memory
+        refusal names, ``surface.shape`` on the command line)."""
+        return self.grid_shape[0]
+
+
     def shape(self, grid: int | None = None) -> tuple:
         """The final grid, or ``grid`` nodes along axis 0 and axis 1 in the final grid's proportion."""
         if grid is None:

@@ -16,7 +16,7 @@ import numpy as np
 from pes_ref.core import checks
 from pes_ref.synthesis.plans import DEFAULT_PLANS, DEFAULT_POLISH, Plan, PolishPlan
 from pes_ref.synthesis.problems import PROBLEMS
-from pes_ref.synthesis.refusals import check_design_memory, check_stable_design
+from pes_ref.synthesis.refusals import check_run_memory, check_stable_design
 
 __all__ = ["DesignState", "new_design", "STOPPED", "STAGES"]
 
@@ -101,10 +101,10 @@ def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan
             raise TypeError(f"problem overrides {sorted(params)} are for the built-in kinds; change a problem "
                             f"object's keys with pes_ref.synthesis.with_sets")
         plan = problem.plan if plan is None else plan
+    check_run_memory(problem, plan, polish)         # before the first grid is made
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))
     problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
     state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish)
     check_stable_design(state)
-    check_design_memory(state)
     return state

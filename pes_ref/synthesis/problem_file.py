@@ -24,7 +24,9 @@ from importlib import resources
 
 import numpy as np
 
+from pes_ref.core import budget
 from pes_ref.core.checks import InputError
+
 from pes_ref.core.interpolations import INTERPOLATIONS
 from pes_ref.core.stability import check_stable
 from pes_ref.core.steppers import INTEGRATORS, MODES
@@ -346,7 +348,12 @@ def _train(r: Reader, table, shape) -> tuple:
 
 
 def _check_scene(r: Reader, problem: DesignProblem) -> None:
-    """The scene's own checks and the stability rule, on the final grid with flat values."""
+    """The grid's memory, the scene's own checks and the stability rule, on the final grid
+    with flat values."""
+    try:
+        budget.check_grid_memory(problem.grid_shape, "shape", length=f"shape = {list(problem.grid_shape)}")
+    except budget.RunTooLargeError as exc:
+        r.fail("surface.shape", " ".join(str(exc).split()))
     try:
         check_stable(problem.scene(problem.flat_values()))
     except InputError as exc:
