@@ -148,7 +148,7 @@ def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None)
     evaluate_kind, default_n = _EVALUATIONS[problem.kind]
     default_n = getattr(problem, "eval_particles", default_n)
     n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
-    steps = problem.n_steps if problem.kind == "funnel" else problem.steps_for(problem.eval_periods)
+    steps = _HELD_OUT_STEPS[problem.kind](problem)
     budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True,
                         length=f"a held-out run of {steps} steps")
     return evaluate_kind(problem, values, seed, n)
@@ -220,6 +220,13 @@ def _evaluate_problem(problem: DesignProblem, values, seed: int, n: int) -> dict
     return out
 
 
+#: Per problem kind: the steps of its longest held-out run (what the memory check counts).
+_HELD_OUT_STEPS = {
+    "funnel": lambda problem: problem.n_steps,
+    "oscillator": lambda problem: problem.steps_for(problem.eval_periods),
+    "problem": lambda problem: max([problem.n_steps] + [s.n_steps for s in problem.scenarios]),
+}
 #: Per problem kind: the evaluation and its default ``n_particles`` (a problem file's: its ``[evaluate]``).
+
 _EVALUATIONS = {"funnel": (_evaluate_funnel, 200), "oscillator": (_evaluate_oscillator, 50),
                 "problem": (_evaluate_problem, None)}
