@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all test test-random test-thorough figures validate oscillator-plans oscillator-backends funnel-study bench conformance check-example venv clean
+.PHONY: all test test-random test-thorough figures validate oscillator-plans oscillator-backends funnel-study problems-study bench conformance check-example venv clean
 
 all: test
 
@@ -60,6 +60,13 @@ funnel-study: $(STAMP)
 	$(PY) -m pes_ref sweep validation/experiments/funnel_objective.toml --out validation/out/sweeps/funnel_objective
 	$(PY) validation/experiments/funnel_objective.py validation/out/sweeps/funnel_objective/results.csv
 
+# The problem files of docs/problems.md at full size: the funnel from its file and the latch, design
+# seeds 0-2 each, on held-out seeds 12345 and 9191 (about 4 minutes on 2 cores), then their tables.
+problems-study: $(STAMP)
+	$(PY) -m pes_ref sweep validation/experiments/problems_funnel.toml --out validation/out/sweeps/problems_funnel
+	$(PY) -m pes_ref sweep validation/experiments/problems_latch.toml --out validation/out/sweeps/problems_latch
+	$(PY) validation/experiments/problems_study.py
+
 # The benchmark installs its optional extra (autograd, JAX) into the same venv first.
 BENCH_STAMP := $(VENV)/.installed-bench
 $(BENCH_STAMP): $(STAMP)
@@ -74,7 +81,8 @@ conformance: $(STAMP)
 
 # The independent JAX implementation of examples/jax_pes/, checked for real: its framework
 # goes into a venv of its own (never a dependency of pes_ref), then `pes_ref check` runs it
-# on the shipped vectors plus 100 fresh random cases (all valid cases in one process).
+# on the shipped vectors plus 100 fresh random cases (the valid and random cases in one process,
+# the invalid ones in another).
 EXAMPLE_VENV  := .venv-jax
 EXAMPLE_PY    := $(EXAMPLE_VENV)/bin/python
 EXAMPLE_STAMP := $(EXAMPLE_VENV)/.installed

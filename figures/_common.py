@@ -58,7 +58,9 @@ def design_state(args, kind: str):
     """The design of ``kind`` named by ``--design`` (or its default), loaded by the library.
 
     With ``--smoke`` and no file, a tiny design is made by the project's own command
-    (``python -m pes_ref design KIND --smoke``) into ``OUT/cache/KIND-smoke.npz``.
+    (``python -m pes_ref design KIND --smoke``) into ``OUT/cache/KIND-smoke.npz``. ``kind`` is
+    ``"funnel"``, ``"oscillator"`` or the name of a shipped problem file (``"latch"``).
+
     """
     from pes_ref.cli import main as cli_main
     from pes_ref.synthesis.design_file import DesignFileError, load_design
@@ -79,8 +81,9 @@ def design_state(args, kind: str):
         state = load_design(path)
     except (OSError, DesignFileError) as exc:
         raise SystemExit(f"--design {path}: {exc}") from None
-    if state.kind != kind:
-        raise SystemExit(f"--design {path} holds a {state.kind} design; this figure needs a {kind} design")
+    name = getattr(state.problem, "name", state.kind)          # a problem file's design: its problem's name
+    if name != kind:
+        raise SystemExit(f"--design {path} holds a {name} design; this figure needs a {kind} design")
     return state
 
 
@@ -166,13 +169,11 @@ def draw_paths(ax, surface, x, colors, lw: float = 0.8, alpha: float = 0.9, labe
                 label=label if i == 0 else None)
 
 
-def draw_parts(ax, part0, part1, q, labels, colors=("#9ecae1", "#fdae6b")):
-    """Both parts posed at C-space point ``q`` (2,) by :func:`pes_ref.devices.geometry.posed_vertices`."""
-    from matplotlib.patches import Polygon as Patch
-    from pes_ref.devices.geometry import posed_vertices
+def draw_parts(ax, device, q, labels, colors=("#9ecae1", "#fdae6b")):
+    """Both parts of ``device`` posed at C-space point ``q`` (2,) (:func:`pes_ref.devices.plots.draw_device`)."""
+    from pes_ref.devices.plots import draw_device
 
-    for verts, label, color in zip(posed_vertices(part0, part1, q[0], q[1]), labels, colors):
-        ax.add_patch(Patch(verts, closed=True, facecolor=color, edgecolor="k", lw=0.8, label=label))
+    draw_device(ax, device, q, labels, colors)
 
 
 def value_colors(ax, values, label: str, cmap: str = "plasma"):

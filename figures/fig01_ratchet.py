@@ -6,8 +6,6 @@ wheel under a forward and a backward torque; (c) the same C-space on a torus.
 """
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 from matplotlib.colors import to_rgb
 
@@ -21,18 +19,19 @@ TORQUE, DURATION = 1.0, 10.0
 TORUS_R, TORUS_r = 2.0, 0.9
 
 
-def _draw_parts(ax, design, state):
-    C.draw_parts(ax, *ratchet.ratchet_parts(design), state, ("wheel (angle q0)", "pawl (angle q1)"))
-    piv = design.pivot
+def _draw_parts(ax, device, state):
+    C.draw_parts(ax, device, state, ("wheel (angle q0)", "pawl (angle q1)"))
+    piv = device.parts[1].motion.pivot
+    tip = device.parts[0].geometry(device.grid.tolerance).bounds[3]      # the wheel's radius
     ax.plot([0, piv[0]], [0, piv[1]], "k+", ms=8)
     ax.annotate("pivot + torsion\nspring", piv, xytext=(piv[0] - 0.3, piv[1] + 0.35), fontsize=7,
                 arrowprops=dict(arrowstyle="->", lw=0.6))
     ax.annotate("", xy=(-0.55, 0.55), xytext=(-0.35, 0.72),
                 arrowprops=dict(arrowstyle="->", lw=1.0, connectionstyle="arc3,rad=0.3"))
     ax.text(-0.9, 0.7, "+q0", fontsize=8)
-    r = design.tip_radius + 0.5
+    r = tip + 0.5
     ax.set_xlim(-r, r)
-    ax.set_ylim(-design.tip_radius - 0.1, piv[1] + 0.7)
+    ax.set_ylim(-tip - 0.1, piv[1] + 0.7)
     ax.set_aspect("equal")
     ax.set_xlabel("x (length units)")
     ax.set_ylabel("y (length units)")
@@ -60,20 +59,19 @@ def _draw_torus(ax, surface, blocked, stride):
 
 def main(argv=None) -> int:
     args = C.parser(__doc__.splitlines()[0]).parse_args(argv)
-    design = ratchet.RatchetDesign()
+    device = ratchet.ratchet_device()
     duration, stride = DURATION, 2
     if args.smoke:
-        design, duration, stride = dataclasses.replace(design, shape=(48, 48)), 1.0, 1
-    cs = ratchet.ratchet_cspace(design)
-    blocked = cs.blocked()
-    distance = cs.distance(blocked)
-    surface = ratchet.ratchet_surface(design, blocked=blocked)
-    start = ratchet.ratchet_start(design, surface)
-    traj = ratchet.run_ratchet(design, [TORQUE, -TORQUE], duration, surface, start)
+        device, duration, stride = device.replace(shape=(48, 48)), 1.0, 1
+    cs = device.cspace()
+    blocked, distance = cs.blocked, cs.distance
+    surface = device.surface()
+    start = ratchet.ratchet_start(device)
+    traj = ratchet.run_ratchet(device, [TORQUE, -TORQUE], duration, start)
 
     fig = C.plt.figure(figsize=(14, 4.6))
     gs = fig.add_gridspec(1, 3, width_ratios=[1.0, 1.25, 1.25], wspace=0.22)
-    _draw_parts(fig.add_subplot(gs[0]), design, start[0])
+    _draw_parts(fig.add_subplot(gs[0]), device, start[0])
 
     ax = fig.add_subplot(gs[1])
     handles = C.cspace_image(ax, surface, blocked, distance)

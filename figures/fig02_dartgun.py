@@ -1,6 +1,6 @@
 """Figure 2: the spring-loaded dart gun and its trigger, drawn from the geometry the analysis uses.
 
-The dart and the trigger tooth are the polygons of :func:`pes_ref.devices.dartgun.dartgun_parts`,
+The dart and the trigger tooth are the parts of the shipped device file (:func:`pes_ref.devices.dartgun.dartgun_device`),
 posed at three states the library computes: the unloaded rest state, the latched state
 after a reload, and a moment of the fire run after the trigger is pulled. The springs
 are drawn as zigzags between the parts and the gun's frame (drawing only).
@@ -31,10 +31,10 @@ def zigzag(p0, p1, n: int = 8, width: float = 0.18):
     return p0 + t[:, None] * axis + wig[:, None] * normal
 
 
-def draw_state(ax, design, q, title, arrow=None):
+def draw_state(ax, device, q, title, arrow=None):
     """The dart and trigger at ``q`` with their springs and the frame; ``arrow`` = (xy, dxy, text)."""
-    d = design
-    C.draw_parts(ax, *dartgun.dartgun_parts(d), q, ("dart (slides along x by q0)", "trigger (slides along y by q1)"))
+    d = G.dims(device)
+    C.draw_parts(ax, device, q, ("dart (slides along x by q0)", "trigger (slides along y by q1)"))
     rear = d.dart_length + d.upper[0] + FRAME_GAP           # the frame's rear wall, behind the dart's travel
     base = -d.tooth_length + d.lower[1] - FRAME_GAP          # the frame under the trigger's travel
     spring_end = d.dart_length + max(q[0], 0.0)              # the spring acts only while compressed (q0 > 0)
@@ -64,13 +64,13 @@ def main(argv=None) -> int:
     runs = G.reload_and_fire(gun, [TRIGGER_FORCE])
     x = runs.fire.trajectory.x[:, 0]
     k = int(np.argmin(x[:, 1]))          # the fire state drawn: the trigger at its lowest
-    d, rest, latched = gun.design, gun.rest, runs.latched
+    device, d, rest, latched = gun.device, G.dims(gun.device), gun.rest, runs.latched
     fig, axes = C.plt.subplots(3, 1, figsize=(8, 9.5), constrained_layout=True)
-    draw_state(axes[0], d, rest[0], "(a) unloaded, at rest",
+    draw_state(axes[0], device, rest[0], "(a) unloaded, at rest",
                ((d.lower[0] - 2.3, d.dart_height + 0.2), (2.2, -0.5), "reload: push +q0"))
-    draw_state(axes[1], d, latched[0], f"(b) latched after a reload push of {G.RELOAD_FORCE:g} for {G.RELOAD_TIME:g} s",
+    draw_state(axes[1], device, latched[0], f"(b) latched after a reload push of {G.RELOAD_FORCE:g} for {G.RELOAD_TIME:g} s",
                ((d.tooth_x - 2.2, -0.5), (2.1, -0.7), "fire: pull -q1"))
-    draw_state(axes[2], d, x[k], f"(c) firing: trigger pulled with {TRIGGER_FORCE:g} for {G.FIRE_TIME:g} s "
+    draw_state(axes[2], device, x[k], f"(c) firing: trigger pulled with {TRIGGER_FORCE:g} for {G.FIRE_TIME:g} s "
                f"(lowest point), exit speed {runs.fire.exit_speed[0]:.2f} length/s",
                ((x[k, 0] - 0.3, d.dart_height + 0.2), (-2.0, 0.0), "dart out: -q0"))
     axes[0].legend(loc="lower left", fontsize=7, ncol=2)

@@ -1,7 +1,7 @@
 """Figure 3: the dart gun mechanism's C-space, a plane (translation q0 of the dart, q1 of the trigger).
 
 (a) the simplified mechanism at q = (0, 0) with its two motions; (b) the blocked, free
-and boundary regions that :meth:`pes_ref.devices.cspace.CSpaceGrid.blocked` and ``.distance``
+and boundary regions that :meth:`pes_ref.devices.cspace.CSpaceGrid.compute` (``.blocked``, ``.distance``)
 compute on the analysis grid, with the unloaded rest state and the latched state marked.
 """
 from __future__ import annotations
@@ -18,11 +18,11 @@ NAME = "fig03_dartgun_cspace"
 def main(argv=None) -> int:
     args = C.parser(__doc__.splitlines()[0]).parse_args(argv)
     gun = G.build(args.smoke)
-    d, surface, blocked, rest = gun.design, gun.surface, gun.blocked, gun.rest[0]
-    latched = dartgun.latched_state(d, surface, start=gun.rest)[0]
+    d, surface, blocked, rest = G.dims(gun.device), gun.surface, gun.blocked, gun.rest[0]
+    latched = dartgun.latched_state(gun.device, start=gun.rest)[0]
 
     fig, (ax0, ax1) = C.plt.subplots(1, 2, figsize=(12, 4.4), width_ratios=[1.15, 1.0], constrained_layout=True)
-    C.draw_parts(ax0, *dartgun.dartgun_parts(d), (0.0, 0.0), ("dart", "trigger"))
+    C.draw_parts(ax0, gun.device, (0.0, 0.0), ("dart", "trigger"))
     for xy, dxy, text in (((d.dart_length + 0.2, 0.5), (0.9, 0.0), "+q0"),
                           ((d.tooth_x + d.tooth_width + 0.3, -1.0), (0.0, 0.7), "+q1")):
         ax0.annotate(text, xy=np.add(xy, dxy), xytext=xy, fontsize=9, va="center", ha="center",

@@ -1,7 +1,7 @@
 """Figure 4: the reload and the fire trajectories on the dart gun's potential energy surface.
 
-The surface is :func:`pes_ref.devices.dartgun.dartgun_surface` (eq. (1) of the C-space plus the
-dart and trigger springs). Reload: a push +q0 from the unloaded rest state, after which
+The surface is the shipped dart gun's (:func:`pes_ref.devices.dartgun.dartgun_device`: eq. (1)
+of the C-space plus the dart and trigger springs). Reload: a push +q0 from the unloaded rest state, after which
 the particle settles at the latch. Fire: pushes -q1 on the trigger from the latched
 state, one too weak (the particle falls back to the latch) and one that releases the dart,
 which leaves the surface at q0 = lower edge with the exit speed the library measures.

@@ -26,9 +26,14 @@ _EXPORTS = {
     **dict.fromkeys(("BACKENDS", "default_backend"), "pes_ref.core.backends"),
     **dict.fromkeys(("Trajectory", "NonFiniteError"), "pes_ref.core.integrator"),
     **dict.fromkeys(("Funnel", "Oscillator", "Quadratic", "Custom", "regularization"), "pes_ref.core.objectives"),
-    **dict.fromkeys(("Polygon", "Translation", "Rotation", "Part"), "pes_ref.devices.geometry"),
+    **dict.fromkeys(("Polygon", "Circle", "Rectangle", "Translation", "Rotation", "Part"), "pes_ref.devices.geometry"),
     **dict.fromkeys(("CSpaceGrid", "GridSpring", "apf_energy"), "pes_ref.devices.cspace"),
+    **dict.fromkeys(("Device",), "pes_ref.devices.device"),
+    **dict.fromkeys(("load_device", "DeviceFileError"), "pes_ref.devices.device_file"),
+    **dict.fromkeys(("drive", "DriveResult"), "pes_ref.devices.drive"),
     **dict.fromkeys(("RMSprop", "Adam"), "pes_ref.synthesis.optimizers"),
+    **dict.fromkeys(("DesignProblem",), "pes_ref.synthesis.design_problem"),
+    **dict.fromkeys(("load_problem", "parse_problem"), "pes_ref.synthesis.problem_file"),
 }
 
 __all__ = [*_EXPORTS, "__version__"]
@@ -57,5 +62,11 @@ if TYPE_CHECKING:   # for type checkers and IDEs: the same names, imported eager
     from pes_ref.core.surface import Surface  # noqa: F401
     from pes_ref.core.terms import Spring, Walls  # noqa: F401
     from pes_ref.devices.cspace import CSpaceGrid, GridSpring, apf_energy  # noqa: F401
-    from pes_ref.devices.geometry import Part, Polygon, Rotation, Translation  # noqa: F401
+    from pes_ref.devices.device import Device  # noqa: F401
+    from pes_ref.devices.device_file import DeviceFileError, load_device  # noqa: F401
+    from pes_ref.devices.drive import DriveResult, drive  # noqa: F401
+    from pes_ref.devices.geometry import Circle, Part, Polygon, Rectangle, Rotation, Translation  # noqa: F401
+    from pes_ref.synthesis.design_problem import DesignProblem  # noqa: F401
     from pes_ref.synthesis.optimizers import Adam, RMSprop  # noqa: F401
+    from pes_ref.synthesis.problem_file import load_problem, parse_problem  # noqa: F401
+

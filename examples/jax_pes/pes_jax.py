@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """pes_jax: an independent JAX implementation of the pes_ref case format (SPEC section 6).
 
-    python pes_jax.py CASE.npz RESULT.npz [CASE2.npz RESULT2.npz ...]
+    python pes_jax.py [--refusals FILE.jsonl] CASE.npz RESULT.npz [CASE2.npz RESULT2.npz ...]
 
 Reads each case, validates it against SPEC.md (and the format rules of docs/oracle.md),
 runs the forward pass of SPEC sections 1-3 with ``jax.lax.scan`` under ``jax.jit`` in
@@ -9,7 +9,10 @@ float64, takes the loss of section 4 and every gradient section 5 owes with
 ``jax.value_and_grad`` (reverse-mode autodiff, no hand-written adjoint), and writes the
 result ``.npz`` (``x, v, energy, loss, grad_<name>``) atomically. A case that breaks
 the SPEC gets one line ``error: ...`` on stderr, no result file, and exit status 2.
-Pairs are independent; the exit status is 2 if any case was refused.
+Pairs are independent; the exit status is 2 if any case was refused. With
+``--refusals FILE.jsonl`` each refusal is also appended to FILE as one JSON line
+``{"case": <case path>, "key": <key or null>, "error": "ValueError" | "TypeError",
+"message": ...}`` (the ``{refusals}`` of ``pes_ref check``, docs/spec.md section 13).
 
 Written from SPEC.md, docs/decisions.md, docs/oracle.md and docs/adjoint.md; where
 they leave the order of floating-point operations open, the choice (and the pes_ref
@@ -784,10 +787,21 @@ def _check_exact_arithmetic() -> None:
               "in the last bits (XLA_FLAGS=--xla_disable_hlo_passes=algsimp prevents it)", file=sys.stderr)
 
 
+def _record_refusal(path: str, case_path: str, key, kind: str, message: str) -> None:
+    """One JSON line per refused case in the --refusals file."""
+    import json
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps({"case": case_path, "key": key, "error": kind, "message": message}) + "\n")
+
+
 def main(argv=None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
+    refusals = None
+    if args[:1] == ["--refusals"] and len(args) >= 2:
+        refusals, args = args[1], args[2:]
     if not args or len(args) % 2 or any(a in ("-h", "--help") for a in args):
-        print("usage: pes_jax.py CASE.npz RESULT.npz [CASE2.npz RESULT2.npz ...]", file=sys.stderr)
+        print("usage: pes_jax.py [--refusals FILE.jsonl] CASE.npz RESULT.npz [CASE2.npz RESULT2.npz ...]",
+              file=sys.stderr)
         return 0 if any(a in ("-h", "--help") for a in args) else 2
     pairs = list(zip(args[0::2], args[1::2]))
     status = 0
@@ -799,6 +813,8 @@ def main(argv=None) -> int:
         except CaseError as exc:
             prefix = "error: " if len(pairs) == 1 else f"error: {case_path}: "
             print(prefix + str(exc), file=sys.stderr)
+            if refusals is not None:
+                _record_refusal(refusals, case_path, exc.key, exc.kind, str(exc))
             status = 2
         except Exception as exc:   # cannot write the result, or a bug: one line, and go on with the next pair
             prefix = "error: " if len(pairs) == 1 else f"error: {case_path}: "

@@ -1,20 +1,32 @@
 """The ``analyze`` command of ``python -m pes_ref``.
 
+- ``analyze DEVICE.toml --drive AXIS --load VALUE [--mode quasistatic|dynamic] [--cycles K]
+  [--start Q0,Q1] [--threshold T] [--shape N0,N1] [--json FILE] [--plot FILE] [--out DIR] [--force]``:
+  the drive analysis of any device file (:mod:`pes_ref.devices.drive`, ``docs/devices.md``)
 - ``analyze ratchet [--torque T] [--duration S] [--search-hi T] [--search-tol T] [--smoke]``
 - ``analyze dartgun [--reload-force F] [--reload-time S] [--trigger-forces F1,F2,...]
   [--fire-time S] [--search-hi F] [--search-tol F] [--smoke]``
 
 Each prints one ``name: value unit`` line per figure (:mod:`pes_ref.devices.ratchet`,
-:mod:`pes_ref.devices.dartgun`). Numbers are read as text and checked here, so a bad value is
-one line ``error: <message>`` on stderr and exit status 2.
+:mod:`pes_ref.devices.dartgun`), and on stderr one ``warning: ...`` line for each thing that
+makes some figures mean something else than they say (a torque that overwhelms the
+ratchet's barrier, a reload that did not latch). Numbers are read as text and checked here, so a bad value is
+one line ``error: <message>`` on stderr and exit status 2; so is a bad device file (naming
+its key) and a missing optional extra (with its pip line). Every output file is checked
+before anything is computed and written atomically; an existing one is kept unless ``--force``.
 """
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import importlib
+import json
+import os
+import sys
+import time
 
 from pes_ref.core import checks
-from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error  # noqa: F401
+from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, output_file, output_folder  # noqa: F401
 
 #: The ``--smoke`` presets (a smaller grid, shorter runs, coarser searches: for tests and a
 #: quick look; same geometry). An option given explicitly wins; an option neither given nor
@@ -37,10 +49,10 @@ def _float(option: str, text: str, check=checks.as_positive_float) -> float:
 
 
 def _floats(option: str, text: str) -> list:
-    parts = [p for p in text.split(",") if p.strip()]
-    if not parts:
-        raise ValueError(f"{option} must be a comma-separated list of numbers, got {text!r}")
-    return [_float(option, p.strip(), checks.as_nonneg_float) for p in parts]
+    parts = [p.strip() for p in text.split(",")]
+    if "" in parts:
+        raise ValueError(f"{option} must be a comma-separated list of numbers, got {text!r} (an empty entry)")
+    return [_float(option, p, checks.as_nonneg_float) for p in parts]
 
 
 def _text(value) -> str:
@@ -62,6 +74,34 @@ class _Default:
         return _text(getattr(importlib.import_module(self.module), self.table)[self.key])
 
 
+#: The name under which a device file's parser is registered (any other word ending in .toml goes to it).
+FILE_CHOICE = "DEVICE.toml"
+#: The example device files (in the repository, beside docs/devices.md).
+CAM = "examples/devices/cam_follower.toml"
+
+
+class _Devices(dict):
+    """The parsers of ``analyze`` by device name, which also hold every word ending in .toml."""
+
+    def __contains__(self, name) -> bool:
+        return super().__contains__(name) or (isinstance(name, str) and name.endswith(".toml")
+                                              and name != FILE_CHOICE)
+
+
+class _DeviceChoice(argparse._SubParsersAction):
+    """The devices of ``analyze``: a shipped one by name, or a device file (a word ending in .toml)."""
+
+    def __init__(self, *args, **kw):
+        super().__init__(*args, **kw)
+        self._name_parser_map = self.choices = _Devices()
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if values and not dict.__contains__(self._name_parser_map, values[0]) and values[0].endswith(".toml"):
+            namespace.device_file = values[0]
+            values = [FILE_CHOICE, *values[1:]]
+        super().__call__(parser, namespace, values, option_string)
+
+
 def add_parser(sub) -> None:
     def rd(key):
         return _Default("pes_ref.devices.ratchet", "RATCHET_ANALYSIS", key)
@@ -69,14 +109,50 @@ def add_parser(sub) -> None:
     def dd(key):
         return _Default("pes_ref.devices.dartgun", "DARTGUN_ANALYSIS", key)
 
-    p = add_command(sub, "analyze", help="analyze a device on its potential energy surface (ratchet, dart gun)",
+    p = add_command(sub, "analyze", help="analyze a device on its potential energy surface (any device file, "
+                                         "ratchet, dart gun)",
         description="Build a device's C-space from its part geometry, turn it into a potential energy "
-                    "surface (eq. (1) plus its springs) and run the analyses of the paper's "
-                    "'Contribution 2'. Prints one 'name: value unit' line per figure, with run times. "
-                    "See docs/geometry.md.",
-        examples=['analyze ratchet --smoke', 'analyze dartgun --reload-force 25 --trigger-forces 10,20'])
-    dev = p.add_subparsers(dest="device", metavar="DEVICE", title="devices", help="the device to analyze")
+                    "surface (eq. (1) plus its springs) and analyze it: the drive analysis of any device file "
+                    "(DEVICE.toml, docs/devices.md), or the paper's 'Contribution 2' analyses of the shipped "
+                    "ratchet and dart gun. Prints one 'name: value unit' line per figure, with run times. "
+                    "See docs/devices.md and docs/geometry.md.",
+        examples=[f'analyze {CAM} --drive 0 --load 0.5', 'analyze ratchet --smoke',
+                  'analyze dartgun --reload-force 25 --trigger-forces 10,20'])
+    p.register("action", "parsers", _DeviceChoice)
+    dev = p.add_subparsers(dest="device", metavar="DEVICE", title="devices",
+                           help="a device file (DEVICE.toml) or a shipped device (ratchet, dartgun)")
     dev.required = True
+
+    f = add_command(
+        dev, FILE_CHOICE, help="any device file: drive one axis with a constant load, follow the other",
+        description="Reads the device file (docs/devices.md), builds its C-space and surface, then applies "
+                    "a constant force or torque --load on the axis --drive and follows the other axis, "
+                    "quasistatically or dynamically, for --cycles turns of a periodic input (to the grid's "
+                    "edge for a translation). Prints input_travel, advance_per_cycle, moving_fraction, "
+                    "max_ratio and whether it jammed (and where); writes the motion law to "
+                    "DIR/motion_law.csv (--out), the figures to --json and a plot of the C-space with the "
+                    "path beside the motion law to --plot.",
+        examples=[f"analyze {CAM} --drive 0 --load 0.5 --shape 96,64",
+                  f"analyze {CAM} --drive 0 --load 0.5 --mode dynamic --out cam --plot cam.png"])
+    f.add_argument("--drive", required=True, metavar="AXIS", help="the driven axis (the input): 0 or 1")
+    f.add_argument("--load", required=True, metavar="VALUE",
+                   help="constant force (translation) or torque (rotation) on the input; its sign is the direction")
+    f.add_argument("--mode", default="quasistatic", choices=("quasistatic", "dynamic"),
+                   help="quasistatic: steps along the net force; dynamic: the device's masses, damping and dt")
+    f.add_argument("--cycles", default=None, metavar="K",
+                   help="full turns of a periodic input (integer >= 1; default 1); not for a translation, "
+                        "which travels to the grid's edge")
+    f.add_argument("--start", default=None, metavar="Q0,Q1", help="where the drive starts (default: the file's [start])")
+    f.add_argument("--threshold", default="0.05", metavar="T",
+                   help="|dq_out/dq_in| above which the output counts as moving (> 0)")
+    f.add_argument("--shape", default=None, metavar="N0,N1",
+                   help="the C-space grid instead of the file's [cspace] shape (integers >= 2), e.g. for a quick look")
+    f.add_argument("--json", default=None, metavar="FILE", help="write the figures to FILE as JSON")
+    f.add_argument("--plot", default=None, metavar="FILE",
+                   help="draw the C-space with the path and the motion law side by side (PNG, PDF or SVG)")
+    f.add_argument("--out", default=None, metavar="DIR", help="write DIR/motion_law.csv (columns q_in,q_out)")
+    f.add_argument("--force", action="store_true", help="overwrite output files that exist (default: refuse)")
+    f.set_defaults(func=_run_file)
 
     r = add_command(
         dev, "ratchet", help="ratchet and pawl on a torus: direction selectivity, smallest advancing torque",
@@ -139,35 +215,183 @@ def _options(args, defaults: dict, smoke: dict) -> dict:
 
 
 def _run(args, defaults: dict, smoke: dict, design, analyze, parse) -> int:
-    """Read the options (``parse(texts) -> analysis arguments``), run ``analyze(design, *arguments)``
+    """Read the options (``parse(texts) -> analysis arguments``), run ``analyze(design(), *arguments)``
     and print its report's lines; a bad value is one ``error:`` line and EXIT_ERROR."""
     try:
         values = parse(_options(args, defaults, smoke))
+        device = design()
         if args.smoke:
-            design = dataclasses.replace(design, **{k: smoke[k] for k in DESIGN_KEYS})
-        report = analyze(design, *values)
-    except (ValueError, TypeError) as exc:
+            device = device.replace(**{k: smoke[k] for k in DESIGN_KEYS})
+        report = analyze(device, *values)
+    except (ValueError, TypeError, ImportError) as exc:
         return error(exc, FLAGS)
     for line in report.as_lines():
         print(line)
+    for line in report.warnings():
+        print("warning: " + line, file=sys.stderr)
     return EXIT_OK
 
 
 def _run_ratchet(args) -> int:
-    from pes_ref.devices.ratchet import RATCHET_ANALYSIS, RatchetDesign, analyze_ratchet
+    from pes_ref.devices.ratchet import RATCHET_ANALYSIS, analyze_ratchet, ratchet_device
 
     def parse(o):
         duration = _float("--duration", o["duration"])
         return (_float("--torque", o["torque"]), duration, _float("--search-hi", o["search_hi"]),
                 _float("--search-tol", o["search_tol"]), duration)
-    return _run(args, RATCHET_ANALYSIS, RATCHET_SMOKE, RatchetDesign(), analyze_ratchet, parse)
+    return _run(args, RATCHET_ANALYSIS, RATCHET_SMOKE, ratchet_device, analyze_ratchet, parse)
 
 
 def _run_dartgun(args) -> int:
-    from pes_ref.devices.dartgun import DARTGUN_ANALYSIS, DartGunDesign, analyze_dartgun
+    from pes_ref.devices.dartgun import DARTGUN_ANALYSIS, analyze_dartgun, dartgun_device
 
     def parse(o):
         return (_float("--reload-force", o["reload_force"]), _float("--reload-time", o["reload_time"]),
                 _floats("--trigger-forces", o["trigger_forces"]), _float("--fire-time", o["fire_time"]),
                 _float("--search-hi", o["search_hi"]), _float("--search-tol", o["search_tol"]))
-    return _run(args, DARTGUN_ANALYSIS, DARTGUN_SMOKE, DartGunDesign(), analyze_dartgun, parse)
+    return _run(args, DARTGUN_ANALYSIS, DARTGUN_SMOKE, dartgun_device, analyze_dartgun, parse)
+
+
+# =========================================================================== any device file
+
+#: Runs longer than LONG_RUN seconds print progress lines on stderr, at most one every PERIOD
+#: seconds.
+LONG_RUN, PERIOD = 3.0, 2.0
+#: The plot formats --plot writes (by the file's extension).
+PLOT_FORMATS = ("png", "pdf", "svg")
+#: The analyses' names of what the options set (errors name the option).
+DRIVE_FLAGS = {"axis": "--drive", "load": "--load", "cycles": "--cycles", "start": "--start",
+               "threshold": "--threshold", "mode": "--mode"}
+
+
+class _Progress:
+    """Progress lines of a long analysis on stderr (:func:`pes_ref.core.progress.progress_line`):
+    ``cam.toml: drive | percent 40/100 | 8.1 percent/s | elapsed 0:07 | left 0:10``. A callback ``progress(phase,
+    done, total)`` (:mod:`pes_ref.core.progress`'s signature; ``done`` and ``total`` may be a
+    travel), silent for the first :data:`LONG_RUN` seconds, then at most one line every
+    :data:`PERIOD` seconds; the time left is the elapsed time scaled by the share still to do."""
+
+    def __init__(self, label: str, clock=time.monotonic):
+        self.label, self.clock = label, clock
+        self.start = self.last = clock()
+        self.phase, self.phase_start = None, self.start
+
+    def __call__(self, phase: str, done, total) -> None:
+        from pes_ref.core.progress import Progress, progress_line
+        now = self.clock()
+        if phase != self.phase:
+            self.phase, self.phase_start = phase, now
+        if now - self.start < LONG_RUN or now - self.last < PERIOD:
+            return
+        self.last = now
+        share = min(max(done / total, 0.0), 1.0) if total else 1.0
+        elapsed = now - self.phase_start
+        percent = round(100 * share)
+        rate = percent / elapsed if elapsed > 0 else 0.0
+        left = elapsed * (1.0 - share) / share if share > 0 else float("inf")
+        print(progress_line(Progress(self.label, phase, percent, 100, "percent", rate, now - self.start, left)),
+              file=sys.stderr, flush=True)
+
+
+def _pair(option: str, text: str, cast=float) -> tuple:
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise ValueError(f"{option} must be two comma-separated numbers, got {text!r}")
+    try:
+        return tuple(cast(p.strip()) for p in parts)
+    except ValueError:
+        raise ValueError(f"{option} must be two comma-separated {'integers' if cast is int else 'numbers'}, "
+                         f"got {text!r}") from None
+
+
+def _integer(option: str, text: str, least: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise ValueError(f"{option} must be an integer >= {least}, got {text!r}") from None
+    if value < least:
+        raise ValueError(f"{option} must be an integer >= {least}, got {value}")
+    return value
+
+
+def _outputs(args) -> dict:
+    """Every output path, checked before anything is computed."""
+    out = {}
+    if args.json is not None:
+        out["json"] = output_file(args.json, "JSON", force=args.force)
+    if args.plot is not None:
+        ext = os.path.splitext(args.plot)[1].lower().lstrip(".")
+        if ext not in PLOT_FORMATS:
+            raise ValueError(f"--plot {args.plot}: the file's extension must be one of "
+                             f"{', '.join('.' + f for f in PLOT_FORMATS)}")
+        out["plot"] = output_file(args.plot, "plot", force=args.force)
+    if args.out is not None:
+        output_folder(args.out)                 # made, if it does not exist, when the results are written
+        csv = os.path.join(args.out, "motion_law.csv")
+        out["csv"] = output_file(csv, "motion law", force=args.force) if os.path.isdir(args.out) else csv
+    return out
+
+
+def _write(path: str, data: bytes, force: bool, what: str) -> None:
+    from pes_ref.core.files import atomic_file
+    with atomic_file(path, overwrite=force, what=what) as fh:
+        fh.write(data)
+
+
+def _motion_law_csv(result) -> bytes:
+    lines = ["q_in,q_out"] + [f"{a:.17g},{b:.17g}" for a, b in zip(result.q_in, result.q_out)]
+    return ("\n".join(lines) + "\n").encode()
+
+
+def _run_file(args) -> int:
+    from pes_ref.devices.drive import check_drive, drive
+    from pes_ref.devices.device_file import load_device
+    path = args.device_file if getattr(args, "device_file", None) else args.device
+    try:
+        axis = _integer("--drive", args.drive, 0)
+        if axis > 1:
+            raise ValueError(f"--drive must be 0 or 1, got {axis}")
+        load = _float("--load", args.load, checks.as_finite_float)
+        if load == 0.0:
+            raise ValueError("--load must be non-zero (its sign is the direction of travel), got 0")
+        cycles = None if args.cycles is None else _integer("--cycles", args.cycles, 1)
+        start = None if args.start is None else _pair("--start", args.start)
+        threshold = _float("--threshold", args.threshold)
+        shape = None if args.shape is None else _pair("--shape", args.shape, int)
+        if shape is not None and min(shape) < 2:
+            raise ValueError(f"--shape must be two integers >= 2, got {args.shape!r}")
+        outputs = _outputs(args)
+        device = load_device(path)
+        if shape is not None:
+            device = device.replace(shape=shape)
+        check_drive(device, axis, load, args.mode, cycles, start, threshold)      # before anything is computed
+        progress = _Progress(os.path.basename(path))
+        device.cspace(progress)
+        result = drive(device, axis, load, args.mode, cycles, start, threshold, progress)
+    except (ValueError, TypeError, OSError, ImportError) as exc:
+        return error(exc, DRIVE_FLAGS)
+    for line in result.as_lines():
+        print(line)
+    try:
+        if "csv" in outputs:
+            os.makedirs(args.out, exist_ok=True)
+            _write(outputs["csv"], _motion_law_csv(result), args.force, "motion law")
+        if "json" in outputs:
+            _write(outputs["json"], (json.dumps(result.summary(), indent=2) + "\n").encode(), args.force, "JSON")
+        if "plot" in outputs:
+            import io
+            from pes_ref.devices.plots import drive_figure
+            import matplotlib.pyplot as plt
+            fig = drive_figure(device, result)
+            buf = io.BytesIO()
+            try:
+                fig.savefig(buf, format=os.path.splitext(outputs["plot"])[1].lower().lstrip("."), dpi=120)
+            finally:
+                plt.close(fig)
+            _write(outputs["plot"], buf.getvalue(), args.force, "plot")
+    except (OSError, ValueError) as exc:
+        return error(exc)
+    for key, label in (("csv", "motion law"), ("json", "figures"), ("plot", "plot")):
+        if key in outputs:
+            print(f"wrote {outputs[key]} ({label})", file=sys.stderr)
+    return EXIT_OK

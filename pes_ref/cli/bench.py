@@ -9,8 +9,9 @@ exists is refused unless ``--force``.
 from __future__ import annotations
 
 import os
+import sys
 
-from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, output_file  # noqa: F401
+from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_OK, add_command, error, output_file  # noqa: F401
 
 #: Where ``make bench`` leaves its results (git-ignored).
 DEFAULT_OUT = os.path.join("bench", "out", "bench.json")
@@ -55,4 +56,9 @@ def _run_bench(args) -> int:
     except OSError as exc:
         return error(exc)
     print(f"wrote {json_path} and {png}")
+    wrong = [f"{row['case']} by {lib} (relative error {row[lib]['relative_error']:.2g} > {row[lib]['tolerance']:g})"
+             for row in res["design"] for lib in ("autograd", "jax") if row[lib]["status"] == "mismatch"]
+    if wrong:
+        print(f"error: the design gradient differs from pes_ref's: {'; '.join(wrong)}", file=sys.stderr)
+        return EXIT_FAIL
     return EXIT_OK

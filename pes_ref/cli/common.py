@@ -1,22 +1,28 @@
 """What every command of the command line shares: exit codes, the one-line error (with
-the library's argument names turned into the command's flags), the checks of input and
-output paths made before any computing, and how a command's parser is made (help with
-defaults and examples; a usage error is one line too)."""
+the library's argument names turned into the command's flags), the rule for a closed pipe
+(:func:`watch_pipes`), the checks of input and output paths made before any computing,
+and how a command's parser is made (help with defaults and examples; a usage error is
+one line too)."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import re
+import signal
 import sys
 import textwrap
+import threading
 
-__all__ = ["EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED", "error", "flag_message", "add_command",
+__all__ = ["EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_PIPE", "error", "flag_message",
+           "watch_pipes", "add_command",
            "HelpFormatter", "Parser", "input_file", "input_folder", "output_file", "output_folder"]
 
 EXIT_OK = 0            #: success
 EXIT_FAIL = 1          #: a check ran and failed (check, conformance --check), or a design went non-finite
 EXIT_ERROR = 2         #: bad input: a refused case, an existing result, a usage error
 EXIT_INTERRUPTED = 130  #: stopped by Ctrl-C (SIGINT) or SIGTERM, as shells expect (128 + SIGINT)
+EXIT_PIPE = 141        #: stopped because the reader of stdout or stderr closed the pipe (128 + SIGPIPE)
 
 
 def error(exc, flags: dict | None = None) -> int:
@@ -41,6 +47,88 @@ def flag_message(exc, flags: dict) -> str:
         if name in flags:
             text = re.sub(rf"(?<![\w-]){re.escape(name)}(?![\w-])", flags[name], text)
     return text
+
+
+# =========================================================================== a closed pipe
+
+class _Watched:
+    """``sys.stdout`` or ``sys.stderr`` of a program run, as :func:`watch_pipes` watches it."""
+
+    def __init__(self, stream, pipes):
+        self._stream, self._pipes = stream, pipes
+
+    def write(self, text):
+        if not self._pipes.closed:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._pipes.close(self._stream)
+        return len(text)
+
+    def writelines(self, lines):
+        for line in lines:
+            self.write(line)
+
+    def flush(self):
+        if not self._pipes.closed:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._pipes.close(self._stream)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+class _Pipes:
+    """Whether a watched stream met a closed pipe (``closed``), and what follows (:func:`watch_pipes`)."""
+
+    def __init__(self):
+        self.closed = False
+
+    def close(self, stream) -> None:
+        self.closed = True
+        try:                            # later writes, the interpreter's last flush too, go nowhere
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, stream.fileno())
+            os.close(devnull)
+        except (OSError, ValueError):
+            pass
+        handler = signal.getsignal(signal.SIGINT)
+        if callable(handler):
+            signal.raise_signal(signal.SIGINT)      # stop as Ctrl-C stops the command
+        elif threading.current_thread() is threading.main_thread():
+            raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def watch_pipes(program: bool = True):
+    """The one rule for a closed pipe, for every command (``pes_ref ... | head -1``).
+
+    When the reader of stdout or stderr closes its end before the command has written
+    all it has to say, the command writes nothing more to either stream and stops as
+    Ctrl-C stops it: at its next safe point, keeping what it has saved and leaving no
+    file half-written (a design saves its last finished iteration, an oracle result is
+    whole or absent, a report is written whole or not at all), then exits with
+    :data:`EXIT_PIPE` (141, what a shell reports for a program that SIGPIPE ended)
+    without a message. A reader that closes its end after the command's last write
+    (``head -1`` of a command that had printed everything) is not noticed, and the
+    command exits as it would have.
+
+    Yields the watcher, whose ``closed`` says whether a pipe closed. Only a program's
+    run (``program``: :func:`pes_ref.cli.main` without ``argv``) has its streams watched;
+    a call's streams are its caller's.
+    """
+    pipes = _Pipes()
+    if not program:
+        yield pipes
+        return
+    streams = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = _Watched(streams[0], pipes), _Watched(streams[1], pipes)
+    try:
+        yield pipes
+    finally:
+        sys.stdout, sys.stderr = streams
 
 
 # =========================================================================== paths, checked before computing
@@ -117,11 +205,29 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
 class Parser(argparse.ArgumentParser):
     """An argument parser whose usage errors are one line, like every other error:
-    ``error: pes_ref oracle: the following arguments are required: FILE (see pes_ref oracle --help)``."""
+    ``error: pes_ref oracle: the following arguments are required: FILE (see pes_ref oracle --help)``.
+    An unknown option is refused by the (sub)command it was given to, whose help lists the
+    options it has: ``error: pes_ref analyze ratchet: unrecognized arguments: --torqe 2 (see
+    pes_ref analyze ratchet --help)``."""
 
     def error(self, message):
         print(f"error: {self.prog}: {' '.join(message.split())} (see {self.prog} --help)", file=sys.stderr)
         sys.exit(EXIT_ERROR)
+
+    def parse_args(self, args=None, namespace=None):
+        args, extras = self.parse_known_args(args, namespace)
+        if extras:
+            self._chosen(args).error(f"unrecognized arguments: {' '.join(extras)}")
+        return args
+
+    def _chosen(self, args) -> argparse.ArgumentParser:
+        """The innermost (sub)command parser that ``args`` chose."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                chosen = action.choices.get(getattr(args, action.dest, None))
+                if chosen is not None:
+                    return chosen._chosen(args) if isinstance(chosen, Parser) else chosen
+        return self
 
 
 def add_command(sub, name: str, *, help: str, description: str, examples=()) -> argparse.ArgumentParser:

@@ -38,6 +38,10 @@ def add_parser(sub) -> None:
     p.add_argument("--compress", action="store_true",
                    help="deflate the result's arrays (default: stored; float64 data barely compresses and "
                         "deflating costs more than the computation of a paper-sized case)")
+    p.add_argument("--refusals", default=None, metavar="FILE.jsonl",
+                   help="also append one JSON line per refused case to FILE.jsonl: {\"case\": its path, \"key\": "
+                        "the key at fault or null, \"error\": \"ValueError\" or \"TypeError\", \"message\": ...} "
+                        "(docs/spec.md section 13; pes_ref check --cmd '... --refusals {refusals} ...')")
     p.add_argument("--allow-unstable", action="store_true",
                    help="run a case past the stability limit of its stiffest term anyway (docs/spec.md section 10; "
                         "not part of the contract, which refuses it)")
@@ -134,16 +138,19 @@ def _pairs(args) -> list:
 
 
 def _check_files(case_path: str, result_path: str, force: bool) -> None:
-    """Refuse before computing: the case must be a readable file and not a design file;
-    the result's folder must exist and be writable, and an existing result is kept
-    unless ``--force``."""
+    """Refuse before computing, once: the case must be a readable file and neither a design
+    nor a result file; the result's folder must exist and be writable, an existing result
+    is kept unless ``--force``, and the result is never the case file itself."""
     input_file(case_path, "case file")
-    if _members(case_path) & {"format.npy"} and _is_design_file(case_path):
+    members = _members(case_path)
+    if "format.npy" in members and _is_design_file(case_path):
         raise ValueError(f"{case_path} is a design file, not a case; evaluate reads it: "
                          f"python -m pes_ref evaluate {case_path}")
-    if _is_result_file(case_path):
+    if _is_result_file(members):
         raise ValueError(f"{case_path} is an oracle result file, not a case (the oracle wrote it)")
     output_file(result_path, "result", force=force)
+    if os.path.exists(result_path) and os.path.samefile(case_path, result_path):
+        raise ValueError(f"the result path {result_path} is the case file itself")
 
 
 def _members(path: str) -> set:
@@ -155,11 +162,11 @@ def _members(path: str) -> set:
         return set()
 
 
-def _is_result_file(path: str) -> bool:
-    """Whether ``path`` holds the members every result has and no case does
+def _is_result_file(members: set) -> bool:
+    """Whether a zip of these member names holds what every result has and no case does
     (:data:`pes_ref.oracle.case.TRAJECTORY_KEYS`)."""
     from pes_ref.oracle.case import TRAJECTORY_KEYS
-    return {key + ".npy" for key in TRAJECTORY_KEYS} <= _members(path)
+    return {key + ".npy" for key in TRAJECTORY_KEYS} <= members
 
 
 def _is_design_file(path: str) -> bool:
@@ -169,21 +176,37 @@ def _is_design_file(path: str) -> bool:
     return is_design_file(path)
 
 
+def _record_refusal(path: str, case_path: str, exc: Exception) -> None:
+    """Append the refusal of ``case_path`` to the ``--refusals`` file as one JSON line
+    (docs/spec.md section 13): its key (None for a file that is no case, or a result
+    that cannot be written) and its kind: ``TypeError`` or ``ValueError`` for a refused
+    case, the exception's name for a file that cannot be read or written."""
+    import json
+    kind = next((k.__name__ for k in (TypeError, ValueError) if isinstance(exc, k)), type(exc).__name__)
+    record = {"case": case_path, "key": getattr(exc, "key", None), "error": kind, "message": str(exc)}
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps(record) + "\n")
+
+
 def _run_oracle(args) -> int:
     from pes_ref.oracle import case as oracle
     try:
         pairs = _pairs(args)
-    except ValueError as exc:
+        if args.refusals is not None:
+            output_file(args.refusals, "--refusals file", force=True)     # appended to if it exists
+    except (OSError, ValueError) as exc:
         return error(exc)
     status = EXIT_OK
     for case_path, result_path in pairs:
         try:
             _check_files(case_path, result_path, args.force)
-            result = oracle.run_case_file(case_path, result_path, overwrite=args.force, compress=args.compress,
-                                          allow_unstable=args.allow_unstable, monitor=_monitor(case_path),
-                                          backend=args.backend)
+            result = oracle.run_case(oracle.load_case(case_path), allow_unstable=args.allow_unstable,
+                                     monitor=_monitor(case_path), backend=args.backend)
+            oracle.write_result(result, result_path, overwrite=args.force, compress=args.compress)
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
             status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)
+            if args.refusals is not None:
+                _record_refusal(args.refusals, case_path, exc)
             continue
         t1, n = result["x"].shape[:2]
         print(f"wrote {result_path}: T = {t1 - 1}, N = {n}, loss = {float(result['loss']):.17g}")

@@ -34,6 +34,7 @@ The point functions (``point_*``) and the kernels are this rule's entry in
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
@@ -366,6 +367,8 @@ class BilinearAdjoint:
         self.lo = n_states            # states [lo, hi) are located
         self.hi = n_states
         self.located = None
+        self.hcs = self.hcs_buf[:0]
+        self._chunk = [self.lo, self.hcs]   # lo and hcs, as vjp reads them
         self.vjp = self._bind()
 
     def _load(self, n: int) -> None:
@@ -387,6 +390,7 @@ class BilinearAdjoint:
                 np.multiply(hcs, c.inside[..., 0], out=hcs)
                 np.multiply(hcs, c.inside[..., 1], out=hcs)
         self.hcs = self.hcs_buf[:m]
+        self._chunk[:] = self.lo, self.hcs
         self.located = Located(self.cell[:m], self.f[:m], None if self.inside is None else self.inside[:m])
 
     def _flush(self) -> None:
@@ -423,17 +427,20 @@ class BilinearAdjoint:
         self.located = None
 
     def _bind(self):
-        """``vjp`` as a closure (bound once; no attribute lookups per step but the
-        chunk's start). The column views of ``w`` and ``xbar`` are kept while the caller
-        passes the same buffers, as a backward pass does."""
+        """``vjp`` as a closure (bound once; no attribute lookups per step). The column
+        views of ``w`` and ``xbar`` are kept while the caller passes the same buffers, as a
+        backward pass does. The closure holds its object by a weak reference (it loads a new
+        chunk through it): no reference cycle keeps the grid-sized tables alive after a
+        backward pass, until the cyclic collector happens to run."""
         mul, sub, copyto = np.multiply, np.subtract, np.copyto
-        tmp, wbuf, want_values, load = self.tmp, self.w, self.want_values, self._load
+        tmp, wbuf, want_values, chunk = self.tmp, self.w, self.want_values, self._chunk
+        owner = weakref.ref(self)
         views = [None, None, None, None, None, None]     # w, w0, w1, xbar, x0, x1
 
         def vjp(n, w, xbar):
-            if n < self.lo:
-                load(n)
-            b = n - self.lo
+            if n < chunk[0]:
+                owner()._load(n)
+            b = n - chunk[0]
             if want_values:
                 copyto(wbuf[b], w)
             if w is not views[0]:
@@ -441,7 +448,7 @@ class BilinearAdjoint:
             if xbar is not views[3]:
                 views[3:6] = xbar, xbar[:, 0], xbar[:, 1]
             _, w0, w1, _, x0, x1 = views
-            hcs = self.hcs[b]
+            hcs = chunk[1][b]
             mul(hcs, w1, tmp)
             sub(x0, tmp, x0)
             mul(hcs, w0, tmp)

@@ -11,7 +11,9 @@ result's copies. All of these scale with ``(T+1) N``, so a run needs about
 with :data:`ARRAYS` the number of (T+1, N, 2) float64 arrays alive at the run's peak
 (measured with ``tracemalloc`` and rounded up: ``tests/core/test_budget.py`` checks that the
 formula bounds the measured peak). The grid, the parameters and the per-particle buffers
-are small beside it and left out. :func:`check_memory` refuses a run whose estimate is
+are small beside it and left out, except where a user chooses the grid's size (a design's
+``grid``): :func:`check_grid_memory` refuses a grid whose :data:`GRID_ARRAYS` copies
+cannot fit. :func:`check_memory` refuses a run whose estimate is
 more than the memory available (``MemAvailable`` of ``/proc/meminfo``, or
 ``os.sysconf`` where there is none) with :class:`RunTooLargeError`, naming ``n_steps``,
 N and the size, before anything of that size is allocated; it is called at the public
@@ -44,8 +46,8 @@ import numpy as np
 
 from pes_ref.core import checks
 
-__all__ = ["ARRAYS", "RunTooLargeError", "RunEstimate", "StepCost", "TYPICAL_COST", "run_bytes",
-           "available_memory", "check_memory", "step_cost", "estimate_seconds", "estimate"]
+__all__ = ["ARRAYS", "GRID_ARRAYS", "RunTooLargeError", "RunEstimate", "StepCost", "TYPICAL_COST", "run_bytes",
+           "available_memory", "check_memory", "check_grid_memory", "step_cost", "estimate_seconds", "estimate"]
 
 #: The (T+1, N, 2) float64 arrays (or their size in other dtypes) alive at the peak of
 #: each kind of run, as measured with ``tracemalloc`` plus a margin: ``simulate`` (x, v,
@@ -54,6 +56,13 @@ __all__ = ["ARRAYS", "RunTooLargeError", "RunEstimate", "StepCost", "TYPICAL_COS
 #: measured); ``case`` (an oracle run: that, the case's force, then the energy's
 #: temporaries and the result's copies: 19.9 measured).
 ARRAYS = {"simulate": 5, "value_and_grad": 15, "case": 21}
+
+#: The grid-sized float64 arrays alive at the peak of a design's gradient iteration (the
+#: values, their gradient, the optimizer's moments, the surface's and the grid adjoint's
+#: tables and the temporaries: at most 15.5 measured with ``tracemalloc`` over a
+#: coarse-to-fine run on a 600 x 600 grid, both problems, both optimizers;
+#: ``tests/core/test_budget.py`` checks that it bounds the measured peak), plus a margin.
+GRID_ARRAYS = 24
 
 _GIB = 2.0 ** 30
 
@@ -95,13 +104,14 @@ def available_memory() -> int | None:
 
 
 def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_steps", particles: str | None = None,
-                 length: str | None = None, fixed_particles: bool = False) -> int:
+                 length: str | None = None, fixed_particles: bool = False, fixed_steps: bool = False) -> int:
     """Refuse a run that cannot fit in the available memory; return its bytes.
 
     ``steps`` and ``particles`` name the arguments that set T and N as the caller's user
     knows them (``particles`` None: N is the number of particles of the state); ``length``
     says how T reads (default ``"<steps> = T"``, e.g. ``"duration = 1e9 (5e11 steps of dt 0.002)"``);
-    ``fixed_particles``: N is not the user's to change, and the refusal says to reduce T alone.
+    ``fixed_particles``: N is not the user's to change, and the refusal says to reduce T alone;
+    ``fixed_steps``: T is not (a saved design's), and the refusal names and says to reduce N alone.
 
     Raises
     ------
@@ -113,12 +123,28 @@ def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_s
     avail = available_memory()
     if avail is not None and need > avail:
         count = f"{particles} = {n_particles}" if particles else f"N = {n_particles} particles"
+        reduce = ([] if fixed_steps else [steps]) + ([] if fixed_particles else [particles or "the number of particles"])
         raise RunTooLargeError(
-            steps, f"{length or f'{steps} = {n_steps}'} with {count} needs about {need / _GIB:.3g} GiB "
-                   f"({ARRAYS[kind]} arrays of (T+1, N, 2) float64), more than the {avail / _GIB:.3g} GiB of "
-                   f"memory available; reduce {steps}"
-                   + ("" if fixed_particles else f" or {particles or 'the number of particles'}"),
+            particles if fixed_steps else steps,
+            f"{length or f'{steps} = {n_steps}'} with {count} needs about {need / _GIB:.3g} GiB "
+            f"({ARRAYS[kind]} arrays of (T+1, N, 2) float64), more than the {avail / _GIB:.3g} GiB of "
+            f"memory available; reduce {' or '.join(reduce)}",
             names=(steps, particles) if particles else (steps,))
+    return need
+
+
+def check_grid_memory(shape: tuple, key: str, arrays: int = GRID_ARRAYS, length: str | None = None) -> int:
+    """Refuse a grid of ``shape`` (n0, n1) whose ``arrays`` float64 copies cannot fit in the
+    available memory; return their bytes. ``key`` names what sets the grid's size (a
+    design's ``grid``), in the one-line :class:`RunTooLargeError`; ``length`` says how it
+    reads (default: ``key``, e.g. ``"grid = 100000"``)."""
+    n0, n1 = (int(n) for n in shape)
+    need = arrays * n0 * n1 * 8
+    avail = available_memory()
+    if avail is not None and need > avail:
+        raise RunTooLargeError(key, f"{length or key} makes a surface of {n0} x {n1} nodes that needs about {need / _GIB:.3g} GiB ({arrays} "
+                                    f"arrays of its size, float64), more than the {avail / _GIB:.3g} GiB of memory "
+                                    f"available; reduce {key}")
     return need
 
 

@@ -18,6 +18,11 @@ the umask).
   exists) and the finished file replaces that empty reservation.
 
 An existing file that is not to be replaced raises :class:`ResultExistsError`.
+
+A set of files that belong together (the conformance vectors and their manifest) is made
+whole in a staging folder beside the destination, then :func:`move_into` moves each into
+place with :func:`os.replace`; the caller writes the set's index last, through
+:func:`atomic_file`, so a stop part-way leaves the old set's index in place.
 """
 from __future__ import annotations
 
@@ -25,7 +30,7 @@ import errno
 import os
 from contextlib import contextmanager
 
-__all__ = ["atomic_file", "ResultExistsError"]
+__all__ = ["atomic_file", "move_into", "ResultExistsError"]
 
 #: The errors of :func:`os.link` on a file system that has no hard links.
 _NO_HARD_LINKS = frozenset({errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.ENOSYS, errno.EMLINK})
@@ -125,3 +130,11 @@ def _publish_without_links(tmp: str, path: str, what: str) -> None:
     except BaseException:
         os.unlink(path)               # our own empty reservation
         raise
+
+
+def move_into(paths, directory) -> None:
+    """Move each finished file of ``paths`` into ``directory`` under its own name, each
+    in one step (:func:`os.replace`, replacing a file of that name). ``paths`` must be on
+    the file system of ``directory`` (a staging folder beside it)."""
+    for path in paths:
+        os.replace(path, os.path.join(directory, os.path.basename(path)))

@@ -340,7 +340,7 @@ def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
 
 
 def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: float = 0.0,
-                   wrt=None, fext="scene", allow_unstable: bool = False, progress=None,
+                   wrt=None, fext="scene", allow_unstable: bool = False, progress=None, checked: bool = False,
                    backend: str | None = None):
     """The loss of a run and its exact gradients by the hand-derived adjoint (docs/spec.md sections 6-7).
 
@@ -367,6 +367,12 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
         As in :func:`simulate`. The compiled loops' gradients agree with NumPy's to 1e-13
         of their largest entry (the grid's and the mobility's are sums in another order;
         the others are bit-identical).
+    checked : bool
+        The caller has checked everything already, as the oracle's
+        :func:`pes_ref.oracle.case.validate_case` does: ``x0`` and ``v0`` are float64
+        (N, 2) arrays, ``fext`` a float64 (T+1, N, 2) array or None, the weight a float
+        >= 0, the objective has ``value_and_grad``, and the run's stability and memory
+        are checked. Nothing of it is done again (``allow_unstable`` is then moot).
 
     Returns
     -------
@@ -377,15 +383,18 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
         ``force`` (T+1, N, 2); ``mobility`` (2,)).
     traj : Trajectory
     """
-    x0, v0 = _check_state(scene, x0, v0)
-    if not hasattr(objective, "value_and_grad"):
-        raise TypeError(f"objective must have a value_and_grad(x, v, t) method, got {objective!r}")
-    R = checks.as_nonneg_float("regularization_weight", regularization_weight)
+    if checked:
+        R, n = regularization_weight, x0.shape[0]
+    else:
+        x0, v0 = _check_state(scene, x0, v0)
+        if not hasattr(objective, "value_and_grad"):
+            raise TypeError(f"objective must have a value_and_grad(x, v, t) method, got {objective!r}")
+        R = checks.as_nonneg_float("regularization_weight", regularization_weight)
+        n = x0.shape[0]
+        _check_run(scene, n, "value_and_grad", allow_unstable, progress)
+        fext = _resolve_fext(scene, fext, n)
     want = _wanted(scene, wrt)
     backend = backends.check_backend(backend)
-    n = x0.shape[0]
-    _check_run(scene, n, "value_and_grad", allow_unstable, progress)
-    fext = _resolve_fext(scene, fext, n)
     traj = _forward(scene, x0, v0, fext, progress, backend)
     loss, gx, gv = objective.value_and_grad(traj.x, traj.v, scene.times())
     reg, greg = regularization(scene.surface.values, R)

@@ -1,6 +1,6 @@
 """Signals: how every command and loop of the package stops on Ctrl-C and SIGTERM.
 
-Three rules, one function each:
+Its rules, one function each:
 
 - :class:`StopFlag`: a long loop (a design's iterations, the polish's generations) turns
   SIGINT (Ctrl-C) and SIGTERM (a batch scheduler preempting the run) into a flag that it
@@ -8,6 +8,8 @@ Three rules, one function each:
   signal stops at once (:class:`KeyboardInterrupt`).
 - :func:`sigterm_interrupts`: anywhere else in a command, SIGTERM stops the process as
   Ctrl-C does (:class:`KeyboardInterrupt`), so that the command's own clean-up runs.
+- :func:`note_interrupts`, :func:`interrupted`: Ctrl-C while the command line is still
+  being imported, noted even where a C extension's import turns it into another error.
 - :func:`ignore_interrupts`: a worker process (a process pool of the polish, a Dask
   worker of a sweep) ignores SIGINT: Ctrl-C in a terminal reaches the whole process
   group, and stopping is the main process's to decide.
@@ -20,7 +22,7 @@ from __future__ import annotations
 import contextlib
 import signal
 
-__all__ = ["StopFlag", "sigterm_interrupts", "ignore_interrupts", "STOP_SIGNALS"]
+__all__ = ["StopFlag", "sigterm_interrupts", "ignore_interrupts", "note_interrupts", "interrupted", "STOP_SIGNALS"]
 
 #: The signals that ask a run to stop: Ctrl-C, and a batch scheduler's preemption.
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -92,3 +94,28 @@ def ignore_interrupts(*_) -> None:
     """Make this process ignore SIGINT (the initializer of a worker process; any
     arguments, such as the Dask worker a plugin passes, are ignored)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+# --------------------------------------------------------------------------- Ctrl-C while importing
+
+_INTERRUPTS = {"seen": False}
+
+
+def _note_interrupt(signum, frame):
+    _INTERRUPTS["seen"] = True
+    raise KeyboardInterrupt
+
+
+def note_interrupts() -> None:
+    """Handle Ctrl-C (SIGINT) as Python does, by :class:`KeyboardInterrupt`, and note that
+    it came (:func:`interrupted`): a C extension being imported (NumPy's) may turn the
+    KeyboardInterrupt into another error, which the command line then reports as the
+    interruption it is. Python's own handler only is replaced (not a SIGINT ignored, as in a
+    shell's background job)."""
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, _note_interrupt)
+
+
+def interrupted() -> bool:
+    """Whether Ctrl-C reached the handler of :func:`note_interrupts` in this process."""
+    return _INTERRUPTS["seen"]

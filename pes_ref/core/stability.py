@@ -198,9 +198,17 @@ def _min_mass(scene) -> np.ndarray:
     return np.min(m.reshape(-1, 2), axis=0)
 
 
+def _omega(K, m) -> np.ndarray:
+    """``sqrt(K / m)``, elementwise, also where ``K / m`` alone is beyond float64 (a huge
+    stiffness over a small mass): inf only where the frequency itself is."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        omega = np.sqrt(K / m)
+        return np.where(np.isfinite(omega), omega, np.sqrt(K) / np.sqrt(m))
+
+
 def _dynamic_reach(scene, K: np.ndarray) -> np.ndarray:
     """``dt sqrt(K / min m_d)`` per term and axis."""
-    return scene.dt * np.sqrt(K / _min_mass(scene))
+    return scene.dt * _omega(K, _min_mass(scene))
 
 
 def _quasistatic_reach(scene, K: np.ndarray) -> np.ndarray:
@@ -213,6 +221,9 @@ _REACH = {"dynamic": _dynamic_reach, "quasistatic": _quasistatic_reach}
 
 #: The key a limit is on, per mode.
 _KEYS = {"dynamic": "dt", "quasistatic": "mobility"}
+#: The key of the input each term's stiffness comes from: what a refusal names when that
+#: stiffness is beyond float64 (then no step is stable, and the step is not what to change).
+_TERM_KEYS = {"grid curvature": "values", "spring": "spring_k", "wall": "wall_k"}
 
 
 def stability_limit(scene, bound: str = "sum") -> StabilityLimit:
@@ -230,10 +241,12 @@ def stability_limit(scene, bound: str = "sum") -> StabilityLimit:
     StabilityLimit
     """
     checks.as_choice("bound", bound, set(BOUNDS))
-    table = term_stiffness(scene, edges=bound == "sum")
     names = [_SUM] if bound == "sum" else list(RULE_TERMS)
-    K = np.array([sum(table.values())]) if bound == "sum" else np.array([table[name] for name in names])
-    reach = _REACH[scene.mode](scene, K)                               # (terms, 2)
+    with np.errstate(over="ignore", invalid="ignore"):     # a stiffness beyond float64: inf, limit 0
+        table = term_stiffness(scene, edges=bound == "sum")
+        K = np.array([sum(table.values())]) if bound == "sum" else np.array([table[name] for name in names])
+        reach = _REACH[scene.mode](scene, K)                           # (terms, 2)
+    reach = np.where(np.isnan(reach), np.inf, reach)        # a stiffness beyond float64 (inf - inf)
     t, d = np.unravel_index(int(np.argmax(reach)), reach.shape)
     key = _KEYS[scene.mode]
     value = scene.dt if scene.mode == "dynamic" else float(scene.mobility[d])
@@ -285,6 +298,24 @@ class UnstableStepError(checks.InputError):
     stable value. A :class:`~pes_ref.core.checks.InputError`, so a ``ValueError``."""
 
 
+def _beyond_float(scene, lim: StabilityLimit) -> UnstableStepError | None:
+    """The refusal of a scene whose stiffest term is beyond float64, where no step is
+    stable: its stiffness is not finite (naming the input it comes from, ``values``,
+    ``spring_k`` or ``wall_k``), or, dynamic, the stiffness over the smallest mass is not
+    (naming ``mass``); None for any other scene."""
+    if not np.isfinite(lim.stiffness):
+        key = _TERM_KEYS[lim.term]
+        return UnstableStepError(key, f"{key} gives the {lim.term} a stiffness beyond float64 ({lim.stiffness:.3g} on "
+                                      f"axis {lim.axis}), so no {lim.key} is stable ({RULE_DOC})")
+    if lim.mode == "dynamic":
+        m = float(_min_mass(scene)[lim.axis])
+        if not np.isfinite(_omega(lim.stiffness, m)):
+            return UnstableStepError("mass", f"mass {m:.3g} on axis {lim.axis} is too small for the {lim.term} "
+                                             f"stiffness {lim.stiffness:.3g}: its frequency sqrt(K/m) is beyond float64, "
+                                             f"so no dt is stable ({RULE_DOC})")
+    return None
+
+
 def _refusal(scene, lim: StabilityLimit) -> str:
     """The one-line message of a refused scene."""
     suggestion = _fmt(stability_limit(scene).suggestion)
@@ -315,10 +346,13 @@ def check_stable(scene) -> StabilityLimit:
     ------
     UnstableStepError
         ``n_steps > 0`` and :attr:`StabilityLimit.ratio` ``> 1``; it names ``dt`` or
-        ``mobility``, the factor, the term and a stable value, in one line.
+        ``mobility``, the factor, the term and a stable value, in one line. Where the
+        stiffest term is beyond float64, so that no step is stable, it names the input
+        instead: ``values``, ``spring_k`` or ``wall_k`` for a stiffness that is not
+        finite, ``mass`` for a frequency ``sqrt(K/m)`` that is not.
     """
     with np.errstate(over="ignore", invalid="ignore"):      # a grid of huge values: infinite stiffness
         lim = stability_limit(scene, "rule")
         if scene.n_steps > 0 and lim.ratio > 1.0:
-            raise UnstableStepError(lim.key, _refusal(scene, lim))
+            raise _beyond_float(scene, lim) or UnstableStepError(lim.key, _refusal(scene, lim))
     return lim

@@ -54,6 +54,14 @@ class Surface:
             raise checks.InputError("upper", f"upper must be > lower on both axes, got lower={lower.tolist()}, "
                                              f"upper={upper.tolist()}")
         periodic = tuple(bool(p) for p in checks.as_bool_array("periodic", self.periodic, shape=(2,)))
+        with np.errstate(over="ignore", divide="ignore"):
+            h = spacing(lower, upper, values.shape, np.array(periodic))
+            representable = np.all(np.isfinite(h)) and np.all(np.isfinite(1.0 / (h * h)))
+        if not representable:
+            raise checks.InputError("upper", f"the domain lower={lower.tolist()}, upper={upper.tolist()} with "
+                                             f"{values.shape} nodes has a node spacing {h.tolist()} that float64 "
+                                             f"cannot resolve (1/h^2 must be finite); use a domain of ordinary size",
+                                    names=("upper", "lower"))
         object.__setattr__(self, "values", values)
         object.__setattr__(self, "lower", lower)
         object.__setattr__(self, "upper", upper)

@@ -10,17 +10,15 @@ energies of the device's springs into one surface.
 
 Grid. A :class:`CSpaceGrid` samples the coordinates (q0, q1) of two parts on the nodes of
 a :class:`pes_ref.Surface` of the same ``lower``, ``upper``, shape and topology (periodic
-spacing ``L/n``, otherwise ``L/(n-1)``); a node is blocked where the posed parts overlap
-with positive area (:func:`pes_ref.devices.geometry.overlap_table`).
+spacing ``L/n``, otherwise ``L/(n-1)``). Each part is posed once per node coordinate of
+its axis (:func:`pes_ref.devices.geometry.pose`); a node is blocked where the posed
+parts' interiors overlap (shapely's ``intersects`` on every pair, with part 0's poses
+prepared, then the DE-9IM test on the intersecting nodes next to a free one, where a
+mere touch is free).
 
-Distance. :func:`signed_distance` is the Euclidean distance transform
-(``scipy.ndimage.distance_transform_edt`` with the grid's spacing) from every free node to
-the nearest blocked node, minus ``min(h)/2`` (the boundary is taken halfway between the
-two nodes); blocked nodes get minus the same construction from the free side. Periodic
-axes are made seamless by wrapping the mask one full period on each side before the
-transform, so distances are the minimum over periodic images. The estimate is within
-about one spacing of the exact distance to the continuous boundary
-(``validation/cspace_minkowski.py`` measures it).
+Distance. :meth:`CSpaceGrid.compute` locates the boundary between the nodes and takes
+the exact distance to it (:mod:`pes_ref.devices.boundary`): sub-cell accurate, so eq. (1)
+is smooth across the grid and a quasistatic drive does not stall in a free channel.
 
 Cap. Eq. (1) diverges at r = 0 and the grid cannot resolve r below about half a spacing,
 so :func:`apf_energy` uses eq. (1) only for ``r >= r_min`` (default ``min(h)/2``) and
@@ -34,89 +32,122 @@ ever reaches the integrator.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field as dc_field
 
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.devices.geometry import Part, overlap_table, pose, CHUNK_ELEMENTS
 from pes_ref.core.surface import Surface, spacing as grid_spacing
+from pes_ref.devices import boundary
+from pes_ref.devices.geometry import Part, default_tolerance, pose, require_shapely
 
-__all__ = ["CSpaceGrid", "blocked_mask", "signed_distance", "apf_energy", "apf_slope", "apf_curvature",
-           "default_r_min", "GridSpring", "spring_grid", "build_surface"]
+__all__ = ["CSpaceGrid", "CSpace", "blocked_mask", "apf_energy", "apf_slope", "apf_curvature",
+           "default_r_min", "GridSpring", "spring_grid", "build_surface", "CHUNK_PAIRS"]
 
 TWO_PI = 2.0 * np.pi
+#: Pose pairs tested per call of shapely (bounds the memory of one call; progress between calls).
+CHUNK_PAIRS = 65536
 
 
 # --------------------------------------------------------------------------- blocked region
 
-def blocked_mask(part0: Part, part1: Part, q0_nodes, q1_nodes, *, chunk_elements: int = CHUNK_ELEMENTS) -> np.ndarray:
-    """Where the two parts overlap with positive area, shape (n0, n1) bool.
+def _no_progress(phase, done, total):
+    return None
+
+
+def blocked_mask(poses0, poses1, periodic, progress=None) -> np.ndarray:
+    """Where the posed parts' interiors overlap, shape (n0, n1) bool.
 
     Parameters
     ----------
-    part0, part1 : pes_ref.devices.geometry.Part
-        Part 0 moves with coordinate q0 (grid axis 0), part 1 with q1 (axis 1).
-    q0_nodes, q1_nodes : array_like, shape (n0,), (n1,)
-    chunk_elements : int
-        Memory bound of :func:`pes_ref.devices.geometry.overlap_table`.
-    """
-    for name, p in (("part0", part0), ("part1", part1)):
-        if not isinstance(p, Part):
-            raise TypeError(f"{name} must be a pes_ref.devices.geometry.Part, got {type(p).__name__}")
-    q0 = checks.as_float_array("q0_nodes", q0_nodes, ndim=1)
-    q1 = checks.as_float_array("q1_nodes", q1_nodes, ndim=1)
-    return overlap_table(pose(part0, q0), pose(part1, q1), chunk_elements=chunk_elements)
-
-
-def _edt(inside: np.ndarray, spacing: np.ndarray, periodic) -> np.ndarray:
-    """Distance from each True node to the nearest False node, seamless on periodic axes."""
-    from scipy import ndimage     # imported here: ``import pes_ref`` stays light
-    pad = [(n, n) if p else (0, 0) for n, p in zip(inside.shape, periodic)]
-    tiled = np.pad(inside, pad, mode="wrap")
-    d = ndimage.distance_transform_edt(tiled, sampling=spacing)
-    crop = tuple(slice(p[0], p[0] + n) for p, n in zip(pad, inside.shape))
-    return d[crop]
-
-
-def signed_distance(mask, spacing, periodic) -> np.ndarray:
-    """Signed distance to the C-space boundary at every node, shape (n0, n1).
-
-    Parameters
-    ----------
-    mask : array_like of bool, shape (n0, n1)
-        True where blocked.
-    spacing : array_like, shape (2,)
-        Node spacing h of each axis.
+    poses0, poses1 : ndarray of shapely geometries, shapes (n0,), (n1,)
+        Part 0 at every node of axis 0, part 1 at every node of axis 1
+        (:func:`pes_ref.devices.geometry.pose`); ``poses0`` get prepared.
     periodic : sequence of 2 bool
-
-    Returns
-    -------
-    ndarray, shape (n0, n1)
-        ``d_free - min(h)/2`` (> 0) at free nodes, ``-(d_blocked - min(h)/2)`` (< 0) at
-        blocked nodes, where ``d_free`` is the Euclidean distance to the nearest blocked
-        node and ``d_blocked`` to the nearest free node (module docstring). Without any
-        blocked (free) node every node gets + (-) the domain's diagonal ``|h * n|``.
+        For the neighbours of a node across a seam.
+    progress : callable, optional
+        ``progress("blocked", rows_done, n0)`` after each chunk of rows.
     """
-    shape = np.shape(mask)
-    if len(shape) != 2 or min(shape) < 1:
-        raise ValueError(f"mask must be a 2-d boolean grid, got shape {shape}")
-    mask = checks.as_bool_array("mask", mask, shape=shape)
-    h = checks.as_float_array("spacing", spacing, shape=(2,), positive=True)
-    periodic = tuple(bool(p) for p in checks.as_bool_array("periodic", periodic, shape=(2,)))
-    half = 0.5 * float(np.min(h))
-    far = float(np.hypot(*(h * np.array(mask.shape))))
-    out = np.empty(mask.shape)
-    free = ~mask
-    if not mask.any():
-        out[:] = far
-        return out
-    if not free.any():
-        out[:] = -far
-        return out
-    out[free] = _edt(free, h, periodic)[free] - half
-    out[mask] = half - _edt(mask, h, periodic)[mask]
+    shapely = require_shapely()
+    progress = progress or _no_progress
+    shapely.prepare(poses0)
+    n0, n1 = poses0.size, poses1.size
+    out = np.zeros((n0, n1), dtype=bool)
+    rows = max(1, CHUNK_PAIRS // max(n1, 1))
+    for s in range(0, n0, rows):
+        out[s:s + rows] = shapely.intersects(poses0[s:s + rows, None], poses1[None, :])
+        progress("blocked", min(s + rows, n0), n0)
+    # an intersecting node next to a free one may only touch: free (interiors must overlap)
+    checked = np.zeros_like(out)
+    while True:
+        todo = out & ~checked & _next_to(~out, periodic)
+        i, j = np.nonzero(todo)
+        if i.size == 0:
+            return out
+        checked[i, j] = True
+        out[i, j] = shapely.relate_pattern(poses0[i], poses1[j], "T********")
+
+
+def _next_to(mask: np.ndarray, periodic) -> np.ndarray:
+    """Nodes with a 4-neighbour in ``mask`` (across the seam on a periodic axis)."""
+    out = np.zeros_like(mask)
+    for axis in range(2):
+        for step in (1, -1):
+            shifted = np.roll(mask, step, axis=axis)
+            if not periodic[axis]:
+                edge = [slice(None)] * 2
+                edge[axis] = 0 if step == 1 else -1
+                shifted[tuple(edge)] = False
+            out |= shifted
     return out
+
+
+class _SubPoses:
+    """Poses of each part between the nodes, made on demand (each at most once): the
+    bisection of :func:`pes_ref.devices.boundary.locate_crossings` asks for them."""
+
+    def __init__(self, parts, nodes, spacing, tolerance):
+        self.parts, self.nodes, self.h, self.tol = parts, nodes, spacing, tolerance
+
+    def overlaps(self, grid_poses, axis, i, j, u, k):
+        """Whether part ``axis`` at node coordinate + u/k of a spacing overlaps the other part at its node."""
+        shapely = require_shapely()
+        start = i if axis == 0 else j
+        other = j if axis == 0 else i
+        key = start.astype(np.int64) * k + u
+        unique, inverse = np.unique(key, return_inverse=True)
+        q = self.nodes[axis][unique // k] + self.h[axis] * (unique % k) / k
+        moved = pose(self.parts[axis], q, self.tol)
+        return shapely.intersects(grid_poses[1 - axis][other], moved[inverse])
+
+
+@dataclass(frozen=True)
+class CSpace:
+    """A C-space computed on its grid (:meth:`CSpaceGrid.compute`).
+
+    Attributes
+    ----------
+    grid : CSpaceGrid
+    blocked : ndarray of bool, shape (n0, n1)
+    distance : ndarray, shape (n0, n1)
+        Signed distance to the boundary: > 0 free, < 0 blocked, in C-space units.
+    segments : ndarray, shape (M, 2, 2)
+        The boundary polyline (unwrapped (q0, q1) end points).
+    times : dict
+        Seconds spent posing, testing the nodes, locating the boundary and taking distances.
+    """
+
+    grid: "CSpaceGrid"
+    blocked: np.ndarray
+    distance: np.ndarray
+    segments: np.ndarray
+    times: dict = dc_field(default_factory=dict)
+
+    def surface(self, v: float, r_c: float, springs=(), r_min=None) -> Surface:
+        """Eq. (1) of :attr:`distance` plus ``springs`` (:func:`build_surface`)."""
+        g = self.grid
+        return build_surface(self.distance, g.lower, g.upper, g.periodic, v, r_c, r_min, springs)
 
 
 # --------------------------------------------------------------------------- eq. (1)
@@ -260,7 +291,7 @@ def build_surface(distance, lower, upper, periodic, v: float, r_c: float, r_min=
     Parameters
     ----------
     distance : array_like, shape (n0, n1)
-        Signed distance to blocked space at the nodes (:func:`signed_distance`).
+        Signed distance to blocked space at the nodes (:attr:`CSpace.distance`).
     lower, upper, periodic
         The surface's domain, as in :class:`pes_ref.Surface`.
     v, r_c : float
@@ -299,6 +330,9 @@ class CSpaceGrid:
     periodic : sequence of 2 bool, optional
         Default: an axis is periodic iff its part rotates and ``upper - lower == 2 pi``.
         A periodic axis must belong to a rotating part and span exactly 2 pi.
+    tolerance : float, optional
+        The circles' tolerance (a length); default
+        :func:`pes_ref.devices.geometry.default_tolerance` of this grid.
     """
 
     part0: Part
@@ -307,20 +341,23 @@ class CSpaceGrid:
     upper: np.ndarray
     shape: tuple
     periodic: tuple = None
+    tolerance: float = None
 
     def __post_init__(self):
         parts = (self.part0, self.part1)
         for name, p in zip(("part0", "part1"), parts):
             if not isinstance(p, Part):
-                raise TypeError(f"{name} must be a pes_ref.devices.geometry.Part, got {type(p).__name__}")
+                raise checks.InputTypeError(name, f"{name} must be a pes_ref.devices.geometry.Part, "
+                                                  f"got {type(p).__name__}")
         lower = checks.as_float_array("lower", self.lower, shape=(2,))
         upper = checks.as_float_array("upper", self.upper, shape=(2,))
         if not np.all(upper > lower):
-            raise ValueError(f"upper must be > lower on both axes, got lower={lower.tolist()}, upper={upper.tolist()}")
+            raise checks.InputError("upper", f"upper must be > lower on both axes, got lower={lower.tolist()}, "
+                                             f"upper={upper.tolist()}", names=("upper", "lower"))
         shape = tuple(checks.as_positive_int(f"shape[{d}]", n) for d, n in enumerate(self.shape)) \
             if np.ndim(self.shape) == 1 and len(self.shape) == 2 else None
         if shape is None or min(shape) < 2:
-            raise ValueError(f"shape must be two integers >= 2, got {self.shape!r}")
+            raise checks.InputError("shape", f"shape must be two integers >= 2, got {self.shape!r}")
         full = np.isclose(upper - lower, TWO_PI, rtol=1e-12, atol=0.0)
         if self.periodic is None:
             periodic = tuple(bool(p.periodic and f) for p, f in zip(parts, full))
@@ -328,12 +365,19 @@ class CSpaceGrid:
             periodic = tuple(bool(p) for p in checks.as_bool_array("periodic", self.periodic, shape=(2,)))
             for d in range(2):
                 if periodic[d] and not (parts[d].periodic and full[d]):
-                    raise ValueError(f"periodic[{d}] needs a rotating part{d} and upper - lower = 2 pi, "
-                                     f"got span {upper[d] - lower[d]:g}")
+                    raise checks.InputError("periodic", f"periodic[{d}] needs a rotating part{d} and upper - lower "
+                                                        f"= 2 pi, got span {upper[d] - lower[d]:g}")
         object.__setattr__(self, "lower", lower)
         object.__setattr__(self, "upper", upper)
         object.__setattr__(self, "shape", shape)
         object.__setattr__(self, "periodic", periodic)
+        tol = default_tolerance(parts, self.spacing) if self.tolerance is None else \
+            checks.as_positive_float("tolerance", self.tolerance)
+        object.__setattr__(self, "tolerance", tol)
+
+    @property
+    def parts(self) -> tuple:
+        return (self.part0, self.part1)
 
     @property
     def spacing(self) -> np.ndarray:
@@ -344,15 +388,67 @@ class CSpaceGrid:
         """Node coordinates along ``axis``, shape (n_axis,)."""
         return _nodes(self.lower, self.upper, self.shape, self.periodic, axis)
 
-    def blocked(self) -> np.ndarray:
+    def poses(self) -> tuple:
+        """Each part posed at every node of its axis: two arrays of shapely geometries."""
+        return tuple(pose(p, self.nodes(d), self.tolerance) for d, p in enumerate(self.parts))
+
+    def blocked(self, progress=None) -> np.ndarray:
         """Blocked nodes, (n0, n1) bool (:func:`blocked_mask`)."""
-        return blocked_mask(self.part0, self.part1, self.nodes(0), self.nodes(1))
+        return blocked_mask(*self.poses(), self.periodic, progress)
 
-    def distance(self, blocked=None) -> np.ndarray:
-        """Signed distance to the boundary, (n0, n1) (:func:`signed_distance`)."""
-        mask = self.blocked() if blocked is None else blocked
-        return signed_distance(mask, self.spacing, self.periodic)
+    def compute(self, progress=None, reach: float | None = None) -> CSpace:
+        """The blocked nodes, the boundary between them and the signed distance to it.
 
-    def surface(self, v: float, r_c: float, springs=(), r_min=None, blocked=None) -> Surface:
-        """Eq. (1) of :meth:`distance` plus ``springs`` (:func:`build_surface`)."""
-        return build_surface(self.distance(blocked), self.lower, self.upper, self.periodic, v, r_c, r_min, springs)
+        Parameters
+        ----------
+        progress : callable, optional
+            ``progress(phase, done, total)``: ``"blocked"`` per chunk of rows, ``"boundary"``
+            per bisection step, ``"distance"`` once done.
+        reach : float, optional
+            The distance is exact within ``reach`` of the boundary (C-space units; default
+            :data:`pes_ref.devices.boundary.BAND` spacings), and within about h/2 beyond.
+
+        Returns
+        -------
+        CSpace
+        """
+        progress = progress or _no_progress
+        times = {}
+        t = time.perf_counter()
+        poses = self.poses()
+        times["pose"] = time.perf_counter() - t
+        t = time.perf_counter()
+        mask = blocked_mask(*poses, self.periodic, progress)
+        times["blocked"] = time.perf_counter() - t
+        t = time.perf_counter()
+        sub = _SubPoses(self.parts, (self.nodes(0), self.nodes(1)), self.spacing, self.tolerance)
+        calls = [0]
+
+        def overlaps(axis, i, j, u, k):
+            calls[0] += 1
+            progress("boundary", calls[0], 2 * boundary.BISECTION_STEPS)
+            return sub.overlaps(poses, axis, i, j, u, k)
+
+        crossings = boundary.locate_crossings(mask, self.periodic, overlaps)
+        segments = boundary.boundary_segments(mask, crossings, self.lower, self.spacing, self.periodic)
+        times["boundary"] = time.perf_counter() - t
+        t = time.perf_counter()
+        distance = self._distance(mask, segments, reach)
+        times["distance"] = time.perf_counter() - t
+        progress("distance", 1, 1)
+        return CSpace(self, mask, distance, segments, times)
+
+    def _distance(self, mask, segments, reach=None) -> np.ndarray:
+        if segments.shape[0] == 0:
+            far = float(np.hypot(*(self.spacing * np.array(self.shape))))
+            return np.full(self.shape, -far if mask.all() else far)
+        d = boundary.grid_distance(segments, self.lower, self.spacing, self.shape, self.periodic, reach)
+        return np.where(mask, -d, d)
+
+    def distance(self) -> np.ndarray:
+        """Signed distance to the boundary, (n0, n1) (:meth:`compute`)."""
+        return self.compute().distance
+
+    def surface(self, v: float, r_c: float, springs=(), r_min=None) -> Surface:
+        """Eq. (1) of the distance plus ``springs`` (:func:`build_surface`)."""
+        return self.compute().surface(v, r_c, springs, r_min)

@@ -1,27 +1,27 @@
-"""Planar parts: polygons that move with one degree of freedom, and their overlap test.
+"""Planar parts: shapes that move with one degree of freedom, posed and tested through shapely 2.
 
-A :class:`Part` is a polygon (non-convex allowed) plus one motion relative to the frame:
-a :class:`Translation` along a direction or a :class:`Rotation` about a pivot. Two parts
-and their coordinates (q0, q1) are a point of a 2D configuration space (paper, section
-"Synthesis of higher kinematic pair devices via configuration spaces"); the point is
-*blocked* where the posed polygons overlap with positive area and *free* otherwise
-(touching is free). :func:`overlap_table` decides this for every pair of poses at once.
+A :class:`Part` is the union of its shapes (:class:`Polygon`, :class:`Circle`,
+:class:`Rectangle`, each optionally with shapes cut from it, ``minus``), which may be
+several disjoint pieces (a crank's pin and its locking disc), plus one motion relative
+to the frame: a :class:`Translation` along a direction or a :class:`Rotation` about a
+pivot. Two parts and their coordinates (q0, q1) are a point of a 2D configuration space
+(paper, section "Synthesis of higher kinematic pair devices via configuration spaces");
+the point is *blocked* where the posed parts' interiors overlap (touching is free).
 
-Overlap test (exact up to the tolerances below)
------------------------------------------------
-The interiors of two simple polygons A and B intersect iff
+The planar geometry is shapely 2's (GEOS): unions and differences build a part once,
+:func:`pose` moves it to many coordinates in one vectorized call, and
+:func:`interiors_overlap` decides many pose pairs at once. shapely is the optional extra
+``devices`` (``pip install 'pes_ref[devices]'``); without it, building a shape raises
+:class:`MissingExtraError` naming that line.
 
-1. an edge of A and an edge of B cross *properly* (each edge's end points lie strictly
-   on opposite sides of the other edge's line), or
-2. a probe point of A lies inside B, or a probe point of B inside A. The probes of a
-   polygon are its edge midpoints moved inward by ``PROBE_INSET * scale`` along the
-   edge's inward normal, so they lie strictly inside their own polygon.
-
-Case 1 finds every transversal crossing; case 2 finds containment and the aligned,
-degenerate contacts that grids hit exactly (collinear overlapping edges, a vertex on an
-edge), where no crossing is proper. Orientation values below ``ORIENT_TOL * scale**2``
-count as zero ("touching"), so an overlap thinner than about ``PROBE_INSET * scale``
-counts as touching; ``scale`` is the largest coordinate magnitude involved.
+Circles. A circle becomes a regular polygon whose vertices lie just outside it, so that
+its edge is within ``tolerance`` (a length) of the true circle everywhere: n sides with
+``cos(pi / n) >= (r - tol) / (r + tol)``, vertices at radius ``2 r / (1 + cos(pi / n))``.
+The C-space boundary then moves by at most ``tolerance`` divided by the contact's
+separation per unit of q (1 for a translation along the contact normal, the lever arm
+for a rotation). :class:`~pes_ref.devices.cspace.CSpaceGrid` chooses the tolerance
+from its grid (:func:`default_tolerance`): the error stays below h/20 wherever that lever
+is at least the smallest circle's radius.
 """
 from __future__ import annotations
 
@@ -31,96 +31,141 @@ import numpy as np
 
 from pes_ref.core import checks
 
-__all__ = ["Polygon", "rectangle", "regular_polygon", "Translation", "Rotation", "Part", "pose",
-           "posed_vertices", "overlap", "overlap_table", "bounding_boxes"]
+__all__ = ["MissingExtraError", "require_shapely", "Polygon", "Circle", "Rectangle", "regular_polygon",
+           "Translation", "Rotation", "Part", "pose", "posed_geometries", "interiors_overlap", "overlap",
+           "default_tolerance", "circle_sides", "SHAPES"]
 
-#: Relative size of the orientation values treated as zero (collinear / touching): well above
-#: the ~1e-16 relative rounding of posing a vertex, far below any real crossing.
-ORIENT_TOL = 1e-12
-#: Relative inward offset of the probe points; an overlap thinner than this (times the scale)
-#: counts as touching. Must exceed the rounding of posed coordinates (~1e-16).
-PROBE_INSET = 1e-9
-#: Pairs of (pose, edge, edge) evaluated per chunk in :func:`overlap_table` (memory bound).
-CHUNK_ELEMENTS = 2_000_000
+#: The pip line that installs what this module needs.
+PIP_LINE = "pip install 'pes_ref[devices]'"
 
 
-# --------------------------------------------------------------------------- polygons
-
-def _cross(ax, ay, bx, by):
-    return ax * by - ay * bx
+class MissingExtraError(ImportError):
+    """shapely 2 (the optional extra ``devices``) is not installed; the message says how to install it."""
 
 
-def signed_area(vertices: np.ndarray) -> np.ndarray:
-    """Shoelace signed area of polygons (..., V, 2): > 0 counter-clockwise."""
-    x, y = vertices[..., 0], vertices[..., 1]
-    return 0.5 * np.sum(x * np.roll(y, -1, axis=-1) - np.roll(x, -1, axis=-1) * y, axis=-1)
+def require_shapely():
+    """The ``shapely`` module (version 2 or later), or :class:`MissingExtraError` with the pip line."""
+    try:
+        import shapely
+    except ImportError:
+        raise MissingExtraError(f"part geometry needs shapely >= 2 (the optional extra 'devices'): "
+                                f"{PIP_LINE}") from None
+    if int(shapely.__version__.split(".")[0]) < 2:
+        raise MissingExtraError(f"part geometry needs shapely >= 2, found {shapely.__version__}: {PIP_LINE}")
+    return shapely
 
 
-def _proper_crossings(p1, p2, q1, q2, tol):
-    """Proper crossings of segment sets, broadcasting (..., 2) end points; bool (...)."""
-    def side(a, b, c):   # sign of the orientation of c with respect to a->b, 0 within tol
-        o = _cross(b[..., 0] - a[..., 0], b[..., 1] - a[..., 1], c[..., 0] - a[..., 0], c[..., 1] - a[..., 1])
-        return np.where(np.abs(o) <= tol, 0, np.sign(o))
-    return (side(p1, p2, q1) * side(p1, p2, q2) < 0) & (side(q1, q2, p1) * side(q1, q2, p2) < 0)
+# --------------------------------------------------------------------------- shapes
+
+def _minus(value) -> tuple:
+    shapes = tuple(value) if isinstance(value, (list, tuple)) else (value,)
+    for s in shapes:
+        if not isinstance(s, SHAPES):
+            raise checks.InputTypeError("minus", f"minus must hold shapes (Polygon, Circle, Rectangle), got {s!r}")
+    return shapes
+
+
+def _cut(shape, base, tolerance: float):
+    """``base`` minus the union of ``shape.minus`` (shapely geometries)."""
+    if not shape.minus:
+        return base
+    shapely = require_shapely()
+    return shapely.difference(base, shapely.union_all([m.geometry(tolerance) for m in shape.minus]))
 
 
 @dataclass(frozen=True)
 class Polygon:
-    """A simple polygon, non-convex allowed.
+    """A simple polygon (non-convex allowed), optionally with shapes cut from it.
 
     Parameters
     ----------
     vertices : array_like, shape (V, 2), V >= 3
-        Finite corners in order (either orientation; stored counter-clockwise). No
-        zero-length edge, no self-intersection, positive area.
+        Finite corners in order (either orientation); no self-intersection, positive area.
+    minus : shape or sequence of shapes, optional
+        Cut from the polygon (holes, notches).
     """
 
     vertices: np.ndarray
+    minus: tuple = ()
 
     def __post_init__(self):
         v = checks.as_float_array("vertices", self.vertices, shape=(None, 2))
         if v.shape[0] < 3:
-            raise ValueError(f"vertices must hold at least 3 corners, got shape {v.shape}")
-        scale = max(1.0, float(np.max(np.abs(v))))
-        edge = np.roll(v, -1, axis=0) - v
-        if np.any(np.hypot(edge[:, 0], edge[:, 1]) <= 1e-12 * scale):
-            raise ValueError(f"vertices must not repeat consecutively (zero-length edge): {checks._quote(v)}")
-        area = float(signed_area(v))
-        if abs(area) <= 1e-12 * scale * scale:
-            raise ValueError(f"vertices must enclose a positive area, got area {area:g}")
-        n = v.shape[0]
-        i, j = np.triu_indices(n, k=2)
-        keep = ~((i == 0) & (j == n - 1))          # the first and last edges are adjacent
-        i, j = i[keep], j[keep]
-        if i.size:
-            b = np.roll(v, -1, axis=0)
-            cross = _proper_crossings(v[i], b[i], v[j], b[j], ORIENT_TOL * scale * scale)
-            if np.any(cross):
-                k = int(np.argmax(cross))
-                raise ValueError(f"vertices must form a simple polygon; edges {int(i[k])} and {int(j[k])} cross")
-        if area < 0:
-            v = v[::-1].copy()
-            v.setflags(write=False)
+            raise checks.InputError("vertices", f"vertices must hold at least 3 corners, got shape {v.shape}")
+        shapely = require_shapely()
+        poly = shapely.Polygon(v)
+        if not poly.area > 1e-12 * max(1.0, float(np.max(np.abs(v)))) ** 2:
+            raise checks.InputError("vertices", f"vertices must enclose a positive area, got area {poly.area:g}")
+        if not poly.is_valid:
+            raise checks.InputError("vertices", f"vertices must form a simple polygon "
+                                                f"({shapely.is_valid_reason(poly)})")
         object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "minus", _minus(self.minus))
 
-    @property
-    def area(self) -> float:
-        """Enclosed area (> 0)."""
-        return float(signed_area(self.vertices))
-
-    def edges(self) -> np.ndarray:
-        """Edges as (V, 2, 2): ``edges[i] = (vertex i, vertex i+1)``."""
-        return np.stack((self.vertices, np.roll(self.vertices, -1, axis=0)), axis=1)
+    def geometry(self, tolerance: float):
+        """The shapely geometry (circles in ``minus`` within ``tolerance``)."""
+        return _cut(self, require_shapely().Polygon(self.vertices), tolerance)
 
 
-def rectangle(x0: float, y0: float, x1: float, y1: float) -> Polygon:
-    """The axis-aligned box [x0, x1] x [y0, y1] (x1 > x0, y1 > y0)."""
-    return Polygon([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+@dataclass(frozen=True)
+class Rectangle:
+    """The axis-aligned box ``lower`` .. ``upper`` (upper > lower on both axes), optionally with cuts."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+    minus: tuple = ()
+
+    def __post_init__(self):
+        lo = checks.as_float_array("lower", self.lower, shape=(2,))
+        hi = checks.as_float_array("upper", self.upper, shape=(2,))
+        if not np.all(hi > lo):
+            raise checks.InputError("upper", f"upper must be > lower on both axes, got lower={lo.tolist()}, "
+                                             f"upper={hi.tolist()}", names=("upper", "lower"))
+        object.__setattr__(self, "lower", lo)
+        object.__setattr__(self, "upper", hi)
+        object.__setattr__(self, "minus", _minus(self.minus))
+
+    def geometry(self, tolerance: float):
+        """The shapely geometry (circles in ``minus`` within ``tolerance``)."""
+        return _cut(self, require_shapely().box(*self.lower, *self.upper), tolerance)
+
+
+def circle_sides(radius: float, tolerance: float) -> int:
+    """The number of sides of the polygon that stands for a circle of ``radius`` within
+    ``tolerance`` (module docstring), at least 8."""
+    c = max(-1.0, (radius - tolerance) / (radius + tolerance))
+    return max(8, int(np.ceil(np.pi / np.arccos(c))))
+
+
+@dataclass(frozen=True)
+class Circle:
+    """A disc of ``radius`` about ``center``, optionally with cuts (see the module docstring for its polygon)."""
+
+    center: np.ndarray
+    radius: float
+    minus: tuple = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "center", checks.as_float_array("center", self.center, shape=(2,)))
+        object.__setattr__(self, "radius", checks.as_positive_float("radius", self.radius))
+        object.__setattr__(self, "minus", _minus(self.minus))
+
+    def geometry(self, tolerance: float):
+        """The shapely polygon within ``tolerance`` of the disc (minus its cuts)."""
+        n = circle_sides(self.radius, tolerance)
+        rv = 2.0 * self.radius / (1.0 + np.cos(np.pi / n))
+        t = 2.0 * np.pi * np.arange(n) / n
+        ring = self.center + rv * np.stack((np.cos(t), np.sin(t)), axis=1)
+        return _cut(self, require_shapely().Polygon(ring), tolerance)
+
+
+#: The shape kinds.
+SHAPES = (Polygon, Circle, Rectangle)
 
 
 def regular_polygon(n: int, radius: float, center=(0.0, 0.0), phase: float = 0.0) -> Polygon:
     """A convex regular n-gon of circumradius ``radius``; vertex k at angle ``phase + 2 pi k / n``."""
-    n = checks.as_positive_int("n", n)
+    n = checks.as_int_at_least("n", n, 3)
     radius = checks.as_positive_float("radius", radius)
     c = checks.as_float_array("center", center, shape=(2,))
     t = checks.as_finite_float("phase", phase) + 2.0 * np.pi * np.arange(n) / n
@@ -139,10 +184,14 @@ class Translation:
         d = checks.as_float_array("direction", self.direction, shape=(2,))
         norm = float(np.hypot(d[0], d[1]))
         if norm == 0.0:
-            raise ValueError(f"direction must be non-zero, got {d.tolist()}")
+            raise checks.InputError("direction", f"direction must be non-zero, got {d.tolist()}")
         d = d / norm
         d.setflags(write=False)
         object.__setattr__(self, "direction", d)
+
+    def apply(self, xy: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Points ``xy`` (P, 2) moved by the coordinates ``q`` (P,) (one per point)."""
+        return xy + q[:, None] * self.direction
 
 
 @dataclass(frozen=True)
@@ -154,26 +203,39 @@ class Rotation:
     def __post_init__(self):
         object.__setattr__(self, "pivot", checks.as_float_array("pivot", self.pivot, shape=(2,)))
 
+    def apply(self, xy: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Points ``xy`` (P, 2) turned by the angles ``q`` (P,) (one per point)."""
+        c, s = np.cos(q), np.sin(q)
+        rel = xy - self.pivot
+        return self.pivot + np.stack((c * rel[:, 0] - s * rel[:, 1], s * rel[:, 0] + c * rel[:, 1]), axis=1)
 
-@dataclass(frozen=True)
+
+@dataclass(frozen=True, eq=False)
 class Part:
-    """A polygon with one degree of freedom relative to the frame.
+    """Shapes with one degree of freedom relative to the frame.
 
     Parameters
     ----------
-    polygon : Polygon
-        The part's shape at coordinate q = 0.
+    shapes : shape or sequence of shapes
+        The part at coordinate q = 0 is their union (disjoint pieces allowed).
     motion : Translation or Rotation
     """
 
-    polygon: Polygon
+    shapes: tuple
     motion: object
 
     def __post_init__(self):
-        if not isinstance(self.polygon, Polygon):
-            raise TypeError(f"polygon must be a pes_ref.devices.geometry.Polygon, got {type(self.polygon).__name__}")
+        shapes = tuple(self.shapes) if isinstance(self.shapes, (list, tuple)) else (self.shapes,)
+        if not shapes:
+            raise checks.InputError("shapes", "shapes must hold at least one shape")
+        for s in shapes:
+            if not isinstance(s, SHAPES):
+                raise checks.InputTypeError("shapes", f"shapes must be Polygon, Circle or Rectangle objects, "
+                                                      f"got {type(s).__name__}")
         if not isinstance(self.motion, (Translation, Rotation)):
-            raise TypeError(f"motion must be a Translation or a Rotation, got {self.motion!r}")
+            raise checks.InputTypeError("motion", f"motion must be a Translation or a Rotation, got {self.motion!r}")
+        object.__setattr__(self, "shapes", shapes)
+        object.__setattr__(self, "_cache", {})
 
     @property
     def periodic(self) -> bool:
@@ -185,150 +247,91 @@ class Part:
         """2 pi for a rotation, None for a translation."""
         return 2.0 * np.pi if self.periodic else None
 
+    @property
+    def circles(self) -> list:
+        """Every circle of the part (cuts included)."""
+        out, todo = [], list(self.shapes)
+        while todo:
+            s = todo.pop()
+            out += [s] if isinstance(s, Circle) else []
+            todo += list(s.minus)
+        return out
 
-def _pose_points(motion, points: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Points (P, 2) moved to every coordinate of q (...): shape (..., P, 2)."""
-    q = q[..., None]
-    if isinstance(motion, Translation):
-        return points + q[..., None] * motion.direction
-    c, s = np.cos(q), np.sin(q)
-    rel = points - motion.pivot
-    x = motion.pivot[0] + c * rel[:, 0] - s * rel[:, 1]
-    y = motion.pivot[1] + s * rel[:, 0] + c * rel[:, 1]
-    return np.stack((x, y), axis=-1)
+    def geometry(self, tolerance: float):
+        """The part at q = 0 as one shapely geometry (a Polygon or MultiPolygon), circles within
+        ``tolerance``; computed once per tolerance."""
+        tolerance = checks.as_positive_float("tolerance", tolerance)
+        if tolerance not in self._cache:
+            shapely = require_shapely()
+            geom = shapely.union_all([s.geometry(tolerance) for s in self.shapes])
+            if geom.is_empty or not geom.area > 0:
+                raise checks.InputError("shapes", "the part's shapes leave nothing (the cuts remove everything)")
+            self._cache[tolerance] = shapely.normalize(geom)
+        return self._cache[tolerance]
 
 
-def pose(part: Part, q) -> np.ndarray:
-    """The part's vertices at coordinate(s) ``q``.
+def default_tolerance(parts, spacing) -> float:
+    """The circles' tolerance for a grid of ``spacing`` (2,): ``min_d h_d l_d / 20`` with
+    ``l_d`` 1 for a translation and the smallest circle radius of the device for a rotation
+    (the arc a point at that radius sweeps in one grid step); without circles it does not
+    matter, and 1e-3 of the parts' size is returned."""
+    radii = [c.radius for p in parts for c in p.circles]
+    h = checks.as_float_array("spacing", spacing, shape=(2,), positive=True)
+    if not radii:
+        return 1e-3
+    lever = [min(radii) if p.periodic else 1.0 for p in parts]
+    return float(min(h[d] * lever[d] for d in range(2)) / 20.0)
+
+
+def pose(part: Part, q, tolerance: float) -> np.ndarray:
+    """The part posed at every coordinate of ``q``.
 
     Parameters
     ----------
     part : Part
-    q : array_like, shape (...)
-        Translation distance or rotation angle (radians).
+    q : array_like, shape (K,)
+        Translation distances or rotation angles (radians).
+    tolerance : float
+        The circles' tolerance (:meth:`Part.geometry`).
 
     Returns
     -------
-    ndarray, shape (..., V, 2)
+    ndarray of shapely geometries, shape (K,)
     """
-    q = checks.as_float_array("q", q)
-    return _pose_points(part.motion, part.polygon.vertices, q)
+    shapely = require_shapely()
+    q = checks.as_float_array("q", q, ndim=1)
+    geom = part.geometry(tolerance)
+    if q.size == 0:
+        return np.empty(0, dtype=object)
+    nc = shapely.get_num_coordinates(geom)
+    per_point = np.repeat(q, nc)
+    return shapely.transform(np.full(q.size, geom, dtype=object), lambda xy: part.motion.apply(xy, per_point))
 
 
-def posed_vertices(part0: Part, part1: Part, q0, q1):
-    """Both parts posed at the C-space point (q0, q1), for drawing: ((V0, 2), (V1, 2))."""
+def posed_geometries(part0: Part, part1: Part, q0, q1, tolerance: float = 1e-3):
+    """Both parts posed at one C-space point (q0, q1), for drawing: two shapely geometries."""
     q0 = checks.as_finite_float("q0", q0)
     q1 = checks.as_finite_float("q1", q1)
-    return pose(part0, q0), pose(part1, q1)
+    return pose(part0, [q0], tolerance)[0], pose(part1, [q1], tolerance)[0]
 
 
-# --------------------------------------------------------------------------- overlap
-
-def bounding_boxes(v: np.ndarray) -> np.ndarray:
-    """Boxes (..., 4) = (xmin, ymin, xmax, ymax) of vertex sets (..., V, 2)."""
-    return np.concatenate((v.min(axis=-2), v.max(axis=-2)), axis=-1)
-
-
-def _probes(v: np.ndarray, inset: float) -> np.ndarray:
-    """Edge midpoints moved inward by ``inset``: (..., V, 2) for polygons (..., V, 2)."""
-    b = np.roll(v, -1, axis=-2)
-    e = b - v
-    length = np.maximum(np.hypot(e[..., 0], e[..., 1]), np.finfo(float).tiny)
-    orient = np.sign(signed_area(v))[..., None]          # +1 ccw: interior on the left
-    normal = np.stack((-e[..., 1], e[..., 0]), axis=-1) * (orient / length)[..., None]
-    return 0.5 * (v + b) + inset * normal
+def interiors_overlap(a, b) -> np.ndarray:
+    """Whether the interiors of shapely geometries ``a`` and ``b`` intersect (broadcast
+    arrays): positive-area overlap, touching is free. ``intersects`` first (fast, and
+    faster where ``a`` is prepared), then the DE-9IM test only where they intersect."""
+    shapely = require_shapely()
+    a, b = np.broadcast_arrays(np.asarray(a, dtype=object), np.asarray(b, dtype=object))
+    scalar = a.ndim == 0
+    a, b = np.atleast_1d(a), np.atleast_1d(b)
+    out = shapely.intersects(a, b)
+    hit = np.nonzero(out)
+    if hit[0].size:
+        out[hit] = shapely.relate_pattern(a[hit], b[hit], "T********")
+    return bool(out[0]) if scalar else out
 
 
-def _inside(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Winding-number test, (P, K, 2) points in polygons (P, V, 2) -> bool (P, K)."""
-    b1 = poly[:, None, :, :]
-    b2 = np.roll(poly, -1, axis=1)[:, None, :, :]
-    p = points[:, :, None, :]
-    py = p[..., 1]
-    o = _cross(b2[..., 0] - b1[..., 0], b2[..., 1] - b1[..., 1], p[..., 0] - b1[..., 0], py - b1[..., 1])
-    up = (b1[..., 1] <= py) & (b2[..., 1] > py) & (o > 0)
-    down = (b1[..., 1] > py) & (b2[..., 1] <= py) & (o < 0)
-    return np.sum(up, axis=-1, dtype=np.int64) != np.sum(down, axis=-1, dtype=np.int64)
-
-
-def _sides(p, b1, b2, tol) -> np.ndarray:
-    """Side of points p (P, K, 2) against edges b1->b2 (P, E, 2): int8 (P, K, E), 0 within tol."""
-    o = _cross((b2[:, None, :, 0] - b1[:, None, :, 0]), (b2[:, None, :, 1] - b1[:, None, :, 1]),
-               p[:, :, None, 0] - b1[:, None, :, 0], p[:, :, None, 1] - b1[:, None, :, 1])
-    return (o > tol).astype(np.int8) - (o < -tol).astype(np.int8)
-
-
-def _overlap_pairs(a, b, pa, pb, tol) -> np.ndarray:
-    """Overlap of P pose pairs: a (P, Va, 2), b (P, Vb, 2), probes pa, pb; bool (P,).
-
-    Stage 1 tests a few probes of each polygon inside the other (cost (Va + Vb) per pair)
-    and settles most deep overlaps; stage 2 runs the full test on the rest.
-    """
-    few = slice(None, None, max(1, min(a.shape[1], b.shape[1]) // 4))
-    hit = _inside(pa[:, few], b).any(axis=1) | _inside(pb[:, few], a).any(axis=1)
-    idx = np.nonzero(~hit)[0]
-    if idx.size == 0:
-        return hit
-    a, b, pa, pb = a[idx], b[idx], pa[idx], pb[idx]
-    a2, b2 = np.roll(a, -1, axis=1), np.roll(b, -1, axis=1)
-    s_ab = _sides(a, b, b2, tol)                     # (P, Va, Vb): A's vertices vs B's edges
-    s_ba = _sides(b, a, a2, tol)                     # (P, Vb, Va): B's vertices vs A's edges
-    cross = ((s_ab * np.roll(s_ab, -1, axis=1)) < 0) & (np.swapaxes(s_ba * np.roll(s_ba, -1, axis=1), 1, 2) < 0)
-    rest = cross.any(axis=(1, 2))
-    todo = np.nonzero(~rest)[0]
-    if todo.size:
-        rest[todo] = _inside(pa[todo], b[todo]).any(axis=1) | _inside(pb[todo], a[todo]).any(axis=1)
-    hit[idx] = rest
-    return hit
-
-
-def overlap_table(a, b, *, chunk_elements: int = CHUNK_ELEMENTS) -> np.ndarray:
-    """Positive-area overlap of every pair of posed polygons.
-
-    Parameters
-    ----------
-    a : array_like, shape (M, Va, 2)
-        M poses of polygon A (simple polygons, either orientation).
-    b : array_like, shape (K, Vb, 2)
-        K poses of polygon B.
-    chunk_elements : int
-        Upper bound on the number of (pair, edge, edge) evaluations held in memory at once.
-
-    Returns
-    -------
-    ndarray of bool, shape (M, K)
-        ``out[i, j]`` is True iff ``a[i]`` and ``b[j]`` overlap with positive area (see the
-        module docstring for the test and its tolerances). Pairs whose bounding boxes are
-        disjoint are decided without the edge tests.
-    """
-    a = checks.as_float_array("a", a, shape=(None, None, 2))
-    b = checks.as_float_array("b", b, shape=(None, None, 2))
-    if a.shape[1] < 3 or b.shape[1] < 3:
-        raise ValueError(f"polygons need at least 3 vertices, got a {a.shape} and b {b.shape}")
-    chunk_elements = checks.as_positive_int("chunk_elements", chunk_elements)
-    scale = max(1.0, float(np.max(np.abs(a), initial=0.0)), float(np.max(np.abs(b), initial=0.0)))
-    tol = ORIENT_TOL * scale * scale
-    ba, bb = bounding_boxes(a), bounding_boxes(b)
-    out = np.zeros((a.shape[0], b.shape[0]), dtype=bool)
-    boxes = ((ba[:, None, 0] < bb[None, :, 2]) & (bb[None, :, 0] < ba[:, None, 2])
-             & (ba[:, None, 1] < bb[None, :, 3]) & (bb[None, :, 1] < ba[:, None, 3]))
-    ii, jj = np.nonzero(boxes)
-    if ii.size == 0:
-        return out
-    pa, pb = _probes(a, PROBE_INSET * scale), _probes(b, PROBE_INSET * scale)
-    step = max(1, chunk_elements // (a.shape[1] * b.shape[1]))
-    for s in range(0, ii.size, step):
-        i, j = ii[s:s + step], jj[s:s + step]
-        out[i, j] = _overlap_pairs(a[i], b[j], pa[i], pb[j], tol)
-    return out
-
-
-def overlap(a, b) -> bool:
-    """True iff polygons ``a`` (Va, 2) and ``b`` (Vb, 2) overlap with positive area (touching is free)."""
-    if isinstance(a, Polygon):
-        a = a.vertices
-    if isinstance(b, Polygon):
-        b = b.vertices
-    a = checks.as_float_array("a", a, shape=(None, 2))
-    b = checks.as_float_array("b", b, shape=(None, 2))
-    return bool(overlap_table(a[None], b[None])[0, 0])
+def overlap(a, b, tolerance: float = 1e-3) -> bool:
+    """True iff two shapes (or shapely geometries) overlap with positive area (touching is free)."""
+    ga = a.geometry(tolerance) if isinstance(a, SHAPES) else a
+    gb = b.geometry(tolerance) if isinstance(b, SHAPES) else b
+    return bool(interiors_overlap(ga, gb))

@@ -460,8 +460,8 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
         with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
             loss, grads, traj = value_and_grad(scene, vc.x0, vc.v0, vc.objective,
                                                regularization_weight=vc.regularization,
-                                               wrt=vc.grad_names, fext=vc.force, allow_unstable=True,
-                                               progress=progress, backend=backend)
+                                               wrt=vc.grad_names, fext=vc.force, progress=progress, backend=backend,
+                                               checked=True)       # by validate_case, once
             e = energy(scene, traj)
     except NonFiniteError as exc:             # its message names the step and a stable value
         raise CaseError(blame, str(exc)) from None

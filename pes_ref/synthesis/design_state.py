@@ -16,7 +16,7 @@ import numpy as np
 from pes_ref.core import backends, checks
 from pes_ref.synthesis.plans import DEFAULT_PLANS, DEFAULT_POLISH, Plan, PolishPlan
 from pes_ref.synthesis.problems import PROBLEMS
-from pes_ref.synthesis.refusals import check_design_memory, check_stable_design
+from pes_ref.synthesis.refusals import check_run_memory, check_stable_design
 
 __all__ = ["DesignState", "new_design", "STOPPED", "STAGES"]
 
@@ -81,27 +81,37 @@ class DesignState:
         return self.status == "done" and (self.polish is None or self.stage == "polish")
 
 
-def new_design(kind: str, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
+def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
                backend: str | None = None, **params) -> DesignState:
-    """A fresh run of ``kind`` ("funnel" or "oscillator") with problem overrides ``params``.
+    """A fresh run of ``kind`` ("funnel" or "oscillator") with problem overrides ``params``,
+    or of a problem object ``kind`` (a :class:`~pes_ref.synthesis.design_problem.DesignProblem`,
+    from a problem file or built in code).
 
-    Without ``plan`` the run has the kind's default plan and, unless ``polish`` is given,
-    its default polish stage (:data:`pes_ref.synthesis.plans.DEFAULT_POLISH`); with a
-    ``plan`` it has the ``polish`` given (None: the gradient stage alone). ``backend``
-    (None: :func:`pes_ref.core.backends.default_backend`) runs it.
+    Without ``plan`` the run has the kind's default plan (a problem object's own, its
+    ``[train]`` section) and, unless ``polish`` is given, its default polish stage
+    (:data:`pes_ref.synthesis.plans.DEFAULT_POLISH`); with a ``plan`` it has the ``polish``
+    given (None: the gradient stage alone). ``backend`` (None:
+    :func:`pes_ref.core.backends.default_backend`) runs it.
     """
-    kind = checks.as_choice("kind", kind, set(PROBLEMS))
     seed = checks.as_nonneg_int("seed", seed)
     backend = backends.check_backend(backend)
     if polish is not None and not isinstance(polish, PolishPlan):
         raise TypeError(f"polish must be a PolishPlan or None, got {type(polish).__name__}")
-    problem = PROBLEMS[kind](**params)
-    if plan is None:
-        plan, polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind] if polish is None else polish
+    if isinstance(kind, str):
+        kind = checks.as_choice("kind", kind, set(PROBLEMS))
+        problem = PROBLEMS[kind](**params)
+        if plan is None:
+            plan, polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind] if polish is None else polish
+    else:
+        problem = kind
+        if params:
+            raise TypeError(f"problem overrides {sorted(params)} are for the built-in kinds; change a problem "
+                            f"object's keys with pes_ref.synthesis.with_sets")
+        plan = problem.plan if plan is None else plan
+    check_run_memory(problem, plan, polish)         # before the first grid is made
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))
     problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
     state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish, backend=backend)
     check_stable_design(state)
-    check_design_memory(state)
     return state

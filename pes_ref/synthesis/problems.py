@@ -38,12 +38,14 @@ IN_BAND_SHARE = 0.10
 
 class Batch(NamedTuple):
     """One iteration's particles: starts (N, 2), velocities (N, 2), the scene with their effects,
-    and the objective that scores their trajectory."""
+    the objective that scores their trajectory, and what the grid values cost beyond the
+    problem's eq. (7) (``grid_cost(values) -> (value, dL/dG or None)``; None: nothing)."""
 
     x0: np.ndarray
     v0: np.ndarray
     scene: Scene
     objective: object
+    grid_cost: object = None
 
 
 class _Problem:
@@ -248,9 +250,10 @@ class OscillatorProblem(_Problem):
         _check_fields(self)
         checks.as_choice("cost", self.cost, set(OSCILLATOR_COSTS))
         if self.spread_share > 1.0:
-            raise ValueError(f"spread_share must be in [0, 1], got {self.spread_share!r}")
-        for name in ("gait_delta", "shooting_periods"):
-            checks.as_positive_float(name, getattr(self, name))
+            raise checks.InputError("spread_share", f"spread_share must be in [0, 1], got {self.spread_share!r}")
+        if self.torque_max < self.torque_min:
+            raise checks.InputError("torque_max", f"torque_max must be >= torque_min = {self.torque_min!r}, got "
+                                                  f"{self.torque_max!r}", names=("torque_max", "torque_min"))
         if self.cost in _BATCHES and (self.spread_share or self.stratified):
             raise ValueError(f"spread_share and stratified shape the paper's starts; cost {self.cost!r} draws its own "
                              f"(got spread_share={self.spread_share!r}, stratified={self.stratified!r})")
@@ -309,7 +312,7 @@ class OscillatorProblem(_Problem):
     @property
     def shooting_steps(self) -> int:
         """Steps of a gait-shooting run: ``ceil(shooting_periods * period / dt)``."""
-        return int(math.ceil(self.shooting_periods * self.period / self.dt))
+        return self.steps_for(self.shooting_periods)
 
     def torque_effect(self, torques) -> PerParticle:
         torques = np.asarray(torques, dtype=np.float64)
@@ -317,8 +320,12 @@ class OscillatorProblem(_Problem):
 
     def torque_scene(self, values, torques, periods: float) -> Scene:
         """The scene on grid ``values`` with one torque per particle, ``periods`` target periods long."""
-        n_steps = int(math.ceil(periods * self.period / self.dt))
-        return self.scene(np.asarray(values, dtype=np.float64), (self.torque_effect(torques),), n_steps)
+        return self.scene(np.asarray(values, dtype=np.float64), (self.torque_effect(torques),),
+                          self.steps_for(periods))
+
+    def steps_for(self, periods: float) -> int:
+        """The steps of a run of ``periods`` target periods."""
+        return int(math.ceil(periods * self.period / self.dt))
 
     def batch(self, values, rng, n_particles: int, n_steps: int | None = None) -> Batch:
         """The cost's training batch: the gait's starts for ``"gait"``, the paper's for the others.
@@ -399,11 +406,15 @@ OSCILLATOR_COSTS = ("gait",) + tuple(_COST_BUILDERS)
 
 #: The fields that count grid nodes along an axis (a surface needs 2 at least).
 _GRID_FIELDS = ("grid", "grid0", "grid1")
+#: The float fields that must be > 0: lengths of the domain, the step, masses, stiffnesses,
+#: the target cycle and the gait (each is divided by, or a zero makes the scene meaningless).
+_POSITIVE_FIELDS = ("width", "height", "dt", "wall_k", "q0_extent", "amplitude", "omega", "mass", "gait_delta",
+                    "shooting_periods")
 
 
 def _check_fields(problem) -> None:
     """Validate every numeric field: ints > 0 (grid node counts >= 2), floats finite and
-    >= 0 (``target`` any finite)."""
+    >= 0 (> 0 for :data:`_POSITIVE_FIELDS`; ``target`` any finite)."""
     for f in dataclasses.fields(problem):
         val = getattr(problem, f.name)
         if isinstance(f.default, bool) or isinstance(f.default, str):
@@ -414,6 +425,8 @@ def _check_fields(problem) -> None:
             object.__setattr__(problem, f.name, checks.as_positive_int(f.name, val))
         elif f.name == "target":
             object.__setattr__(problem, f.name, checks.as_finite_float(f.name, val))
+        elif f.name in _POSITIVE_FIELDS:
+            object.__setattr__(problem, f.name, checks.as_positive_float(f.name, val))
         else:
             object.__setattr__(problem, f.name, checks.as_nonneg_float(f.name, val))
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from pes_ref.core import budget
 from pes_ref.core.stability import check_stable
 
-__all__ = ["check_stable_design", "check_design_memory"]
+__all__ = ["check_stable_design", "check_design_memory", "check_run_memory"]
 
 
 def check_stable_design(state) -> None:
@@ -24,9 +24,22 @@ def check_stable_design(state) -> None:
 
 def check_design_memory(state) -> None:
     """Refuse a run whose training iterations cannot fit in the available memory, before it
-    runs: :class:`~pes_ref.core.budget.RunTooLargeError` naming ``n_steps`` (or ``stages``,
-    when a stage's horizon is the longest) and ``n_particles`` (the plan's particles per iteration)."""
-    plan, own = state.plan, state.problem.n_steps
+    runs: :class:`~pes_ref.core.budget.RunTooLargeError` naming the grid's size (``grid``,
+    ``grid0`` or ``grid1``; or ``stages``, when a stage's grid is the largest), or ``n_steps``
+    (or ``stages``, when a stage's horizon is the longest) and ``n_particles`` (the plan's
+    particles per iteration)."""
+    check_run_memory(state.problem, state.plan, state.polish)
+
+
+def check_run_memory(problem, plan, polish) -> None:
+    """:func:`check_design_memory` of a run of ``problem`` by ``plan`` and ``polish``
+    (a :class:`~pes_ref.synthesis.plans.PolishPlan` or None), before its grid exists."""
+    shapes = {st[1]: problem.shape(st[1] or None) for st in plan.stages}
+    grid = max(shapes, key=lambda g: shapes[g][0] * shapes[g][1])
+    key = "stages" if grid else max(("grid", "grid0", "grid1"), key=lambda k: getattr(problem, k, 0))
+    arrays = budget.GRID_ARRAYS + (0 if polish is None else 2 * polish.n_terms)     # the polish's basis, built once
+    budget.check_grid_memory(shapes[grid], key, arrays, length=f"{key} = {grid or getattr(problem, key)}")
+    own = problem.n_steps
     steps = max(st[2] or own for st in plan.stages)
     if steps == own:
         budget.check_memory(steps, plan.n_particles, "value_and_grad", particles="n_particles")

@@ -3,8 +3,12 @@
 - :mod:`pes_ref.oracle.tolerances` the contract's tolerances as named constants
 - :mod:`pes_ref.testing.check` ``python -m pes_ref check``: any program against the vectors
 - :mod:`pes_ref.testing.conformance` run your simulate/gradient on the shipped vectors
-- :mod:`pes_ref.testing.strategies` hypothesis strategies that draw valid scenes
-  (needs the ``test`` extra: hypothesis)
+- :mod:`pes_ref.testing.check` ``pes_ref check``: any program against the vectors and
+  fresh random cases
+- :mod:`pes_ref.testing.draws` the distribution of random valid scenes, over a NumPy
+  Generator or any other source of draws
+- :mod:`pes_ref.testing.strategies` the same as hypothesis strategies (needs the
+  ``test`` extra: hypothesis)
 - :mod:`pes_ref.testing.finite_differences` central differences and dot-product checks
 
 and the plain properties, one topic per module, that take any ``simulate`` /

@@ -11,7 +11,11 @@ The vectors (:mod:`pes_ref.oracle.conformance`) are oracle cases with their refe
 
 where ``case`` is a dict of NumPy arrays as read by ``np.load(path, allow_pickle=False)``
 (strings are 0-d unicode arrays). Each check returns a list of :class:`VectorReport`
-and raises ``AssertionError`` listing every failing vector.
+and raises ``AssertionError`` listing every failing vector. The rules that decide a
+verdict live here once and ``pes_ref check`` (:mod:`pes_ref.testing.check`) uses them too:
+which arrays bind on a vector (:func:`binding_keys`), the one-sided gradients accepted on
+a kink (:func:`one_sided_results`, :func:`compare_vector`), and whether a refusal's
+message names the key at fault (:func:`names_key`).
 
 Example
 -------
@@ -26,12 +30,15 @@ The comparison is :mod:`pes_ref.oracle.compare` (re-exported here: :func:`compar
 ``GRAD_ATOL * max|want|`` (the largest entry of that gradient, or 1 for an all-zero one).
 The single number reported per array is ``max |got - want| / (atol/rtol + |want|)``, a
 relative error with a floor; the array passes when it is ``<= rtol``. On vectors
-flagged ``kink`` (a state exactly on a node, seam or clip edge, where docs/spec.md 2.5 accepts
-any one-sided gradient) only the trajectory and the loss are binding.
+flagged ``kink`` (a state exactly on a node, seam, clip edge or wall onset, where
+docs/spec.md 2.5 owes a one-sided value) each gradient entry binds to the result or to one
+of the results the manifest entry lists under ``one_sided`` (from v3 on); a kink vector
+without that list (v1, v2) binds only the trajectory and the loss.
 """
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import NamedTuple
 
@@ -42,7 +49,8 @@ from pes_ref.oracle.compare import array_error, compare_results, passes
 from pes_ref.oracle.conformance import LATEST, vectors_dir
 
 __all__ = ["VectorReport", "load_manifest", "iter_vectors", "compare_results",
-           "passes", "check_simulate", "check_gradients", "check_invalid", "TRAJECTORY_KEYS"]
+           "passes", "check_simulate", "check_gradients", "check_invalid", "TRAJECTORY_KEYS", "binding_keys",
+           "one_sided_results", "compare_vector", "names_key", "is_file_vector"]
 
 _SIMULATE_KEYS = ("x", "v", "energy")
 #: Gradients that a quasistatic implementation may omit (docs/spec.md section 7); if given, they must be zero.
@@ -96,6 +104,72 @@ def _read(path: Path) -> dict:
     return {k: v.copy() for k, v in _CACHE[key].items()}
 
 
+def is_file_vector(entry: dict) -> bool:
+    """Whether a vector's case file itself breaks the container rules (docs/spec.md 8.1:
+    not an ``.npz``, a damaged zip, a member that needs pickle or is not an array): it
+    has no case dict, only its bytes (manifest flag ``file``)."""
+    return "file" in entry.get("flags", ())
+
+
+def one_sided_results(entry: dict, version: str = LATEST, *, directory=None) -> list:
+    """The other one-sided gradients a kink vector accepts besides its result: the
+    ``grad_*`` arrays of each file its manifest entry lists under ``one_sided`` (empty
+    for a vector without that field)."""
+    folder = _dir(version, directory)
+    return [_read(folder / name) for name in entry.get("one_sided", ())]
+
+
+def binding_keys(entry: dict, want: dict, *, strict: bool = False) -> list:
+    """The result keys that bind on a valid vector (docs/spec.md 2.5, 7.3, 11).
+
+    Every key of the reference result, except on a vector flagged ``kink`` whose entry
+    lists no ``one_sided`` results (the v1 and v2 vectors): there only ``x``, ``v``,
+    ``energy`` and ``loss`` bind, unless ``strict`` (then the gradients are compared
+    with the reference's one-sided choice).
+    """
+    if "kink" in entry.get("flags", ()) and "one_sided" not in entry and not strict:
+        return [k for k in want if k in TRAJECTORY_KEYS]
+    return list(want)
+
+
+def compare_vector(got: dict, want: dict, names, alternatives=()) -> dict:
+    """:func:`compare_results` of ``names``, where each gradient entry may instead match
+    the same entry of any of ``alternatives`` (the other one-sided results of a kink,
+    :func:`one_sided_results`): per entry, the closest of the accepted values is the one
+    compared."""
+    errors = compare_results(got, want, names)
+    for k in names:
+        alts = [a[k] for a in alternatives if k in a]
+        if not alts or k not in got or not np.isfinite(errors[k]):
+            continue
+        g = np.asarray(got[k], dtype=np.float64)
+        closest = np.asarray(want[k], dtype=np.float64)
+        for alt in alts:
+            closest = np.where(np.abs(g - alt) < np.abs(g - closest), alt, closest)
+        errors[k] = array_error(k, g, closest)
+    return errors
+
+
+_DECLARED_KEY = re.compile(r"case key '([^']*)'")
+
+
+def names_key(message: str, key) -> bool:
+    """Whether a refusal's message names the key at fault (docs/spec.md 8.7).
+
+    A message that declares a key in the reference's form, ``case key '<name>'``, names
+    the first key it so declares; any other message names every key that appears in it
+    as a whole word (not inside a longer name: ``v0`` is not named by ``grad_v0``). A
+    case refused without a key (``key`` None: a file that is not an ``.npz``) needs only
+    a message.
+    """
+    if key is None:
+        return bool(message.strip())
+    declared = _DECLARED_KEY.search(message)
+    if declared is not None:
+        return declared.group(1) == key
+    return re.search(rf"(?<![\w]){re.escape(key)}(?![\w])", message) is not None
+
+
 def iter_vectors(version: str = LATEST, kind: str = "valid", *, directory=None):
     """Yield the vectors of a set.
 
@@ -111,8 +185,9 @@ def iter_vectors(version: str = LATEST, kind: str = "valid", *, directory=None):
     ------
     entry : dict
         The manifest entry (``id``, ``comment``, ``kind``, ``flags``, ``case``, and
-        ``result`` or ``key`` and ``error``).
-    case : dict of str -> ndarray
+        ``result`` (and ``one_sided``) or ``key`` and ``error``).
+    case : dict of str -> ndarray, or None
+        None for a vector whose case file is not a readable case (:func:`is_file_vector`).
     expected : dict of str -> ndarray, or None for an invalid vector
     """
     if kind not in ("valid", "invalid", "all"):
@@ -121,7 +196,7 @@ def iter_vectors(version: str = LATEST, kind: str = "valid", *, directory=None):
     for entry in load_manifest(version, directory=folder)["vectors"]:
         if kind != "all" and entry["kind"] != kind:
             continue
-        case = _read(folder / entry["case"])
+        case = None if is_file_vector(entry) else _read(folder / entry["case"])
         expected = _read(folder / entry["result"]) if entry["kind"] == "valid" else None
         yield entry, case, expected
 
@@ -181,11 +256,10 @@ def check_simulate(simulate_fn, version: str = LATEST, *, directory=None) -> lis
 
 
 def _gradient_names(entry: dict, want: dict, strict_kinks: bool):
-    names = ["loss"]
-    if strict_kinks or "kink" not in entry["flags"]:
-        names += sorted(k for k in want if k.startswith("grad_"))
-        return names, ""
-    return names, "kink: gradients not binding, only the loss compared"
+    names = ["loss"] + sorted(k for k in binding_keys(entry, want, strict=strict_kinks) if k.startswith("grad_"))
+    if len(names) == 1 and "kink" in entry["flags"]:
+        return names, "kink: gradients not binding, only the loss compared"
+    return names, ""
 
 
 def _extra_zero_grads(case: dict, got: dict, want: dict) -> dict:
@@ -211,8 +285,9 @@ def check_gradients(grad_fn, version: str = LATEST, *, directory=None, strict_ki
         of a quasistatic case may be omitted, and must be zero if given. Other extra
         keys are ignored.
     strict_kinks : bool
-        Also compare gradients on vectors flagged ``kink`` (the reference's one-sided
-        choice); off by default, since docs/spec.md (7.3) accepts any one-sided value there.
+        On vectors flagged ``kink`` compare the gradients with the reference's one-sided
+        choice only. By default a kink vector accepts the one-sided results its manifest
+        entry lists (docs/spec.md 7.3), and one that lists none (v1, v2) binds no gradient.
 
     Returns
     -------
@@ -223,9 +298,12 @@ def check_gradients(grad_fn, version: str = LATEST, *, directory=None, strict_ki
     AssertionError
         Listing every vector out of tolerance.
     """
+    folder = _dir(version, directory)
+
     def compare(entry, case, got, want):
         names, note = _gradient_names(entry, want, strict_kinks)
-        errors = compare_results(got, want, names)
+        others = () if strict_kinks else one_sided_results(entry, directory=folder)
+        errors = compare_vector(got, want, names, others)
         errors.update(_extra_zero_grads(case, got, want))
         return _report(entry["id"], errors, note)
     return _finish(_run_valid(grad_fn, compare, version, directory), "check_gradients")
@@ -238,7 +316,7 @@ def _refusal(entry: dict, path: Path, load_fn, require_key: bool, strict_types: 
         message = str(exc)
         if "\n" in message.strip():
             return VectorReport(entry["id"], False, {}, f"message is more than one line: {message!r}")
-        if require_key and entry["key"] not in message:
+        if require_key and not names_key(message, entry["key"]):
             return VectorReport(entry["id"], False, {}, f"message does not name key {entry['key']!r}: {message!r}")
         declared = TypeError if entry["error"] == "TypeError" else ValueError
         if strict_types and not isinstance(exc, declared):
@@ -253,6 +331,10 @@ def check_invalid(load_fn, version: str = LATEST, *, directory=None, require_key
                   strict_types: bool = False, check_valid: bool = True) -> list:
     """Check that ``load_fn(path)`` refuses every invalid case file, and accepts the valid ones.
 
+    The invalid vectors flagged ``nonfinite`` are valid cases whose run leaves the finite
+    numbers (docs/spec.md 12.1): a reader refuses them only by running them, so they are
+    left out here (``pes_ref check`` runs them).
+
     Parameters
     ----------
     load_fn : callable, str -> anything
@@ -260,7 +342,8 @@ def check_invalid(load_fn, version: str = LATEST, *, directory=None, require_key
         ``lambda p: my_load(dict(np.load(p)))``). It must raise ``ValueError`` or
         ``TypeError`` on an invalid case.
     require_key : bool
-        The one-line message must name the key at fault (docs/spec.md section 8.7).
+        The one-line message must name the key at fault (:func:`names_key`, docs/spec.md
+        section 8.7).
     strict_types : bool
         Also require the manifest's error type (``TypeError`` for data of the wrong
         kind, ``ValueError`` otherwise).
@@ -282,7 +365,8 @@ def check_invalid(load_fn, version: str = LATEST, *, directory=None, require_key
     for entry in load_manifest(version, directory=folder)["vectors"]:
         path = folder / entry["case"]
         if entry["kind"] == "invalid":
-            reports.append(_refusal(entry, path, load_fn, require_key, strict_types))
+            if "nonfinite" not in entry["flags"]:
+                reports.append(_refusal(entry, path, load_fn, require_key, strict_types))
         elif check_valid:
             _, failure = _call(load_fn, str(path))
             reports.append(VectorReport(entry["id"], failure is None, {},

@@ -1,6 +1,9 @@
-"""``python -m pes_ref analyze ratchet|dartgun``: output lines, help and errors (pes_ref.cli.analyze)."""
+"""``python -m pes_ref analyze DEVICE.toml|ratchet|dartgun``: output lines, files, help and errors (pes_ref.cli.analyze)."""
+import json
 import re
+import sys
 
+import numpy as np
 import pytest
 
 from pes_ref.cli import EXIT_ERROR, EXIT_OK, main
@@ -34,11 +37,15 @@ def test_without_options_the_command_runs_the_analysis_with_its_defaults(capsys,
     import inspect
 
     mod = importlib.import_module(module)
-    signature = [p.default for p in inspect.signature(getattr(mod, name)).parameters.values()][1:]
+    signature = [p.default for p in inspect.signature(getattr(mod, name)).parameters.values()
+                 if p.name not in ("device", "progress")]
     got = []
 
     class Report:
         def as_lines(self):
+            return []
+
+        def warnings(self):
             return []
 
     def analysis(design, *values):
@@ -55,7 +62,7 @@ def test_without_options_the_command_runs_the_analysis_with_its_defaults(capsys,
 def figures(capsys, *argv) -> dict:
     """Run a command that must succeed; its lines as {name: "value unit"}."""
     code, out, err = run(capsys, *argv)
-    assert code == EXIT_OK and err == ""
+    assert code == EXIT_OK and all(line.startswith("wrote ") for line in err.splitlines()), err
     lines = out.splitlines()
     assert all(LINE.match(line) for line in lines), lines
     return dict(line.split(": ", 1) for line in lines)
@@ -90,3 +97,63 @@ def test_bad_values_give_one_error_line(capsys, argv, quoted):
     assert code == EXIT_ERROR and out == ""
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and argv[1] in lines[0] and quoted in lines[0]
+
+
+# =========================================================================== any device file
+
+from pathlib import Path  # noqa: E402
+
+import pes_ref  # noqa: E402
+
+CAM = Path(pes_ref.__file__).resolve().parent.parent / "examples" / "devices" / "cam_follower.toml"
+#: A coarse grid for the cam (a quick look; the file's own grid is the worked example's).
+QUICK = ("--shape", "160,41")
+
+
+def test_a_device_file_prints_the_drive_figures_and_writes_its_outputs(capsys, tmp_path):
+    out, plot, js = tmp_path / "cam", tmp_path / "cam.png", tmp_path / "cam.json"
+    values = figures(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--out", str(out),
+                     "--plot", str(plot), "--json", str(js))
+    assert {"input_travel", "advance_per_cycle", "moving_fraction", "max_ratio", "jammed", "stopped_at"} <= set(values)
+    assert values["jammed"] == "False bool"
+    law = np.loadtxt(out / "motion_law.csv", delimiter=",", skiprows=1)
+    assert (out / "motion_law.csv").read_text().startswith("q_in,q_out\n")
+    assert law.shape[1] == 2 and np.all(np.diff(law[:, 0]) > 0)
+    assert law[-1, 0] - law[0, 0] == pytest.approx(2 * np.pi, abs=0.05)
+    summary = json.loads(js.read_text())
+    assert summary["jammed"] is False and summary["moving_fraction"] == pytest.approx(
+        float(values["moving_fraction"].split()[0]), rel=1e-5)
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_existing_outputs_are_kept_unless_forced(capsys, tmp_path):
+    (tmp_path / "cam.json").write_text("a user's file")
+    code, out, err = run(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--json",
+                         str(tmp_path / "cam.json"))
+    assert code == EXIT_ERROR and out == "" and "exists already" in err
+    assert (tmp_path / "cam.json").read_text() == "a user's file"
+    code, out, err = run(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--json",
+                         str(tmp_path / "cam.json"), "--force")
+    assert code == EXIT_OK and json.loads((tmp_path / "cam.json").read_text())["device"] == "cam_follower"
+
+
+def test_without_shapely_the_command_prints_the_pip_line(capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "shapely", None)          # import shapely -> ImportError
+    code, out, err = run(capsys, str(CAM), "--drive", "0", "--load", "0.5")
+    assert code == EXIT_ERROR and out == ""
+    assert err.count("\n") == 1 and "pip install 'pes_ref[devices]'" in err and "Traceback" not in err
+    assert "internal error" not in err                           # refused as an input problem, not a crash
+
+
+def test_progress_lines_start_after_a_few_seconds_and_come_every_period(capsys):
+    from pes_ref.cli import analyze
+    now = [0.0]
+    progress = analyze._Progress("cam.toml", clock=lambda: now[0])
+    for t, done in ((1.0, 1), (analyze.LONG_RUN + 0.1, 2), (analyze.LONG_RUN + 0.2, 3),
+                    (analyze.LONG_RUN + analyze.PERIOD + 0.2, 4)):
+        now[0] = t
+        progress("drive", done, 8)
+    lines = capsys.readouterr().err.splitlines()
+    assert [line.split(" | ")[:2] + line.split(" | ")[-2:] for line in lines] == [
+        ["cam.toml: drive", "percent 25/100", "elapsed 0:03", "left 0:06"],     # 2.1 s for the first quarter
+        ["cam.toml: drive", "percent 50/100", "elapsed 0:05", "left 0:04"]]

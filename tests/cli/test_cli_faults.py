@@ -11,10 +11,19 @@ user's notes and a subfolder) and checks that the command
   bytes, and no file (not even a hidden temporary one) is added.
 
 The rows run in parallel on a small thread pool (each is a process of its own); every
-refusal comes before any computing, so the whole table takes seconds.
+refusal comes before any computing, so the whole table takes seconds. Rows that need a
+read-only folder run without the capability that lets root write anywhere (``setpriv``),
+so that they run, and mean something, as root too.
+
+Three more tables: :data:`WARNINGS` (runs that succeed but whose figures mean something
+else than they say: one ``warning:`` line), :data:`CLOSED_PIPES` (every command with its
+output going into a pipe its reader has closed: the one rule of
+:func:`pes_ref.cli.common.watch_pipes`) and :data:`INTERRUPTED_IMPORTS` (Ctrl-C while the
+command line is still being imported).
 """
 from __future__ import annotations
 
+import json
 import os
 import shlex
 import shutil
@@ -23,14 +32,14 @@ import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 import pytest
 
 import pes_ref
 from pes_ref import cli
-from pes_ref.oracle import conformance, load_case, run_case, write_result
+from pes_ref.oracle import conformance, load_case, run_case, save_case, write_result
 from pes_ref.testing.conformance import load_manifest
 
 ROOT = Path(pes_ref.__file__).resolve().parent.parent
@@ -39,7 +48,11 @@ VECTORS = conformance.vectors_dir(conformance.LATEST)
 MANIFEST = load_manifest(conformance.LATEST)["vectors"]
 CASE = VECTORS / next(e for e in MANIFEST if e["id"] == "plane-dynamic")["case"]
 BAD_CASE = next(e for e in MANIFEST if e["kind"] == "invalid" and e.get("key") == "mass")
+WALL_CASE = VECTORS / next(e for e in MANIFEST if e["id"] == "wall-q0-lower")["case"]
 IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
+#: Runs a command as root without CAP_DAC_OVERRIDE, the capability that lets root write into
+#: a read-only folder: the refusal of a read-only folder is then what it is for any user.
+UNPRIVILEGED = ["setpriv", "--inh-caps=-dac_override", "--bounding-set=-dac_override", "--"] if IS_ROOT else []
 
 
 class Fault(NamedTuple):
@@ -50,7 +63,8 @@ class Fault(NamedTuple):
     argv: str
     tokens: tuple
     status: int = cli.EXIT_ERROR
-    needs_permissions: bool = False     # meaningless as root, who ignores file permissions
+    needs_permissions: bool = False     # run without root's power to ignore file permissions
+    absent: tuple = ()                  # words the error line must not hold
 
 
 #: Every subcommand's faults. Paths are relative to the row's own folder (see :func:`_workspace`).
@@ -71,9 +85,16 @@ FAULTS = [
     Fault("oracle-result-file", "oracle result.npz out.npz", ("result.npz is an oracle result file",)),
     Fault("oracle-unknown-option", "oracle case.npz out.npz --bogus 3", ("--bogus",)),
     Fault("oracle-backend-unknown", "oracle case.npz out.npz --backend cuda", ("--backend", "'cuda'")),
+    Fault("oracle-refusals-no-folder", "oracle bad.case.npz out.npz --refusals nodir/r.jsonl",
+          ("nodir/r.jsonl", "does not exist")),
+    Fault("oracle-refusals-a-folder", "oracle bad.case.npz out.npz --refusals sub", ("sub", "is a folder")),
     Fault("oracle-read-only-folder", "oracle case.npz ro/out.npz", ("ro", "not writable"), needs_permissions=True),
+    Fault("oracle-wall-k-beyond-float", "oracle huge-wall.case.npz out.npz",
+          ("case key 'dt'", "stiffest term (wall 1e+308", "a stable dt is")),
+    Fault("oracle-values-beyond-float", "oracle steep.case.npz out.npz",
+          ("case key 'values'", "stiffness beyond float64", "no dt is stable")),
     # ------------------------------------------------------------------ check
-    Fault("check-missing-cmd", "check", ("--cmd",)),
+    Fault("check-missing-cmd", "check", ("--cmd", "required")),
     Fault("check-cmd-without-paths", "check --cmd true", ("--cmd", "'true'", "{case}")),
     Fault("check-missing-program", "check --cmd './nothing.sh {case} {result}'", ("./nothing.sh", "does not exist")),
     Fault("check-unknown-program", "check --cmd 'no-such-program-here {pairs}'", ("no-such-program-here", "not found")),
@@ -82,6 +103,12 @@ FAULTS = [
     Fault("check-timeout-zero", "check --cmd '{python} -m pes_ref oracle {pairs}' --timeout 0", ("--timeout", "0")),
     Fault("check-timeout-nan", "check --cmd '{python} -m pes_ref oracle {pairs}' --timeout nan", ("--timeout", "nan")),
     Fault("check-only-unknown", "check --cmd '{python} -m pes_ref oracle {pairs}' --only nope", ("--only", "'nope'")),
+    Fault("check-only-misspelled", "check --cmd '{python} -m pes_ref oracle {pairs}' --only mass-zro",
+          ("--only", "'mass-zro'", "did you mean mass-zero", "--list")),
+    Fault("check-seed-negative", "check --cmd '{python} -m pes_ref oracle {pairs}' --random 2 --seed -1",
+          ("--seed", "-1")),
+    Fault("check-strict-without-refusals", "check --cmd '{python} -m pes_ref oracle {pairs}' --strict",
+          ("--strict", "{refusals}")),
     Fault("check-nothing-to-check", "check --cmd '{python} -m pes_ref oracle {pairs}' --no-vectors",
           ("--no-vectors", "--random 0")),
     Fault("check-report-no-folder", "check --cmd '{python} -m pes_ref oracle {pairs}' --report nodir/r.json",
@@ -109,6 +136,10 @@ FAULTS = [
     Fault("ratchet-duration-too-long-for-memory", "analyze ratchet --smoke --duration 1e9",
           ("--duration = 1e+09 (500000000000 steps of dt 0.002)", "GiB", "available; reduce --duration")),
     Fault("ratchet-search-tol-zero", "analyze ratchet --smoke --search-tol 0", ("--search-tol", "0")),
+    Fault("ratchet-search-tol-below-float", "analyze ratchet --smoke --search-tol 1e-300",
+          ("--search-tol = 1e-300 is finer than float64 can resolve", "--search-tol >= 2e-12")),
+    Fault("ratchet-misspelled-option", "analyze ratchet --smoke --torqe 2",
+          ("pes_ref analyze ratchet: unrecognized arguments: --torqe 2", "(see pes_ref analyze ratchet --help)")),
     Fault("ratchet-search-hi-too-low", "analyze ratchet --smoke --search-hi 0.01", ("--search-hi", "0.01")),
     Fault("ratchet-unknown-option", "analyze ratchet --smoke --bogus", ("--bogus",)),
     Fault("analyze-no-device", "analyze", ("DEVICE",)),
@@ -118,11 +149,58 @@ FAULTS = [
     Fault("dartgun-reload-time-negative", "analyze dartgun --smoke --reload-time -1", ("--reload-time", "-1")),
     Fault("dartgun-trigger-forces-text", "analyze dartgun --smoke --trigger-forces 10,x", ("--trigger-forces", "'x'")),
     Fault("dartgun-trigger-forces-empty", "analyze dartgun --smoke --trigger-forces ,", ("--trigger-forces", "','")),
+    Fault("dartgun-trigger-forces-empty-entry", "analyze dartgun --smoke --trigger-forces 10,,20",
+          ("--trigger-forces", "'10,,20'", "an empty entry")),
+    Fault("dartgun-search-tol-below-float", "analyze dartgun --smoke --search-tol 1e-14",
+          ("--search-tol = 1e-14 is finer than float64",)),
     Fault("dartgun-trigger-forces-negative", "analyze dartgun --smoke --trigger-forces=-5",
           ("--trigger-forces", "-5")),
     Fault("dartgun-fire-time-zero", "analyze dartgun --smoke --fire-time 0", ("--fire-time", "0")),
     Fault("dartgun-search-hi-too-low", "analyze dartgun --smoke --search-hi 1", ("--search-hi", "1")),
     Fault("dartgun-unknown-option", "analyze dartgun --bogus", ("--bogus",)),
+    # ------------------------------------------------------------------ analyze DEVICE.toml (a device file)
+    Fault("device-missing-file", "analyze nothing.toml --drive 0 --load 1", ("device file nothing.toml does not exist",)),
+    Fault("device-file-is-a-folder", "analyze sub.toml --drive 0 --load 1", ("device file sub.toml is a folder",)),
+    Fault("device-not-toml", "analyze broken.toml --drive 0 --load 1", ("broken.toml", "not valid TOML")),
+    Fault("device-format-missing", "analyze dev-noformat.toml --drive 0 --load 1", ("dev-noformat.toml: format: missing",)),
+    Fault("device-format-other", "analyze dev-format2.toml --drive 0 --load 1",
+          ("dev-format2.toml: format:", "format 1", "format = 2")),
+    Fault("device-unknown-top-key", "analyze dev-colour.toml --drive 0 --load 1", ("dev-colour.toml: colour: unknown key",)),
+    Fault("device-one-part", "analyze dev-onepart.toml --drive 0 --load 1", ("part: expected exactly two [[part]] tables",)),
+    Fault("device-bad-motion", "analyze dev-motion.toml --drive 0 --load 1", ("part[0].motion", "'screw'")),
+    Fault("device-pivot-on-translation", "analyze dev-pivot.toml --drive 0 --load 1",
+          ("part[0].pivot: a translating part has a direction",)),
+    Fault("device-unknown-shape", "analyze dev-ellipse.toml --drive 0 --load 1", ("part[1].shapes[0].ellipse: unknown key",)),
+    Fault("device-radius-negative", "analyze dev-radius.toml --drive 0 --load 1",
+          ("part[0].shapes[0].circle.radius: expected a number > 0, got -0.1",)),
+    Fault("device-polygon-crossing", "analyze dev-bowtie.toml --drive 0 --load 1",
+          ("part[1].shapes[0].minus[0].polygon", "simple polygon")),
+    Fault("device-cut-leaves-nothing", "analyze dev-empty.toml --drive 0 --load 1", ("part[1].shapes", "leave nothing")),
+    Fault("device-shape-one", "analyze dev-grid.toml --drive 0 --load 1", ("cspace.shape[1]: expected an integer >= 2, got 1",)),
+    Fault("device-upper-below-lower", "analyze dev-upper.toml --drive 0 --load 1", ("cspace.upper[0]: expected upper > lower",)),
+    Fault("device-spring-axis", "analyze dev-spring.toml --drive 0 --load 1", ("energy.springs[0].axis: expected 0 or 1, got 3",)),
+    Fault("device-r-min-above-r-c", "analyze dev-rmin.toml --drive 0 --load 1", ("energy.r_min: expected r_min < r_c",)),
+    Fault("device-mass-zero", "analyze dev-mass.toml --drive 0 --load 1", ("dynamics.mass[0]: expected a number > 0, got 0",)),
+    Fault("device-walls-edges", "analyze dev-walls.toml --drive 0 --load 1", ("dynamics.walls.edges", "[[lower0, upper0]")),
+    Fault("device-start-text", "analyze dev-start.toml --drive 0 --load 1", ("start.q[0]: expected a finite number, got 'zero'",)),
+    Fault("device-analysis-kind", "analyze dev-analysis.toml --drive 0 --load 1", ("analysis.kind", "'catapult'")),
+    Fault("device-drive-two", "analyze dev.toml --drive 2 --load 1", ("--drive must be 0 or 1, got 2",)),
+    Fault("device-drive-text", "analyze dev.toml --drive x --load 1", ("--drive", "'x'")),
+    Fault("device-drive-missing", "analyze dev.toml --load 1", ("--drive",)),
+    Fault("device-load-zero", "analyze dev.toml --drive 0 --load 0", ("--load must be non-zero",)),
+    Fault("device-load-nan", "analyze dev.toml --drive 0 --load nan", ("--load", "nan")),
+    Fault("device-cycles-translation", "analyze dev.toml --drive 0 --load 1 --cycles 2",
+          ("--cycles counts turns of a periodic input", "q0 is not periodic")),
+    Fault("device-cycles-zero", "analyze dev.toml --drive 0 --load 1 --cycles 0", ("--cycles must be an integer >= 1, got 0",)),
+    Fault("device-start-one-number", "analyze dev.toml --drive 0 --load 1 --start 0.1", ("--start", "'0.1'")),
+    Fault("device-start-outside", "analyze dev.toml --drive 0 --load 1 --start 9,0", ("--start q0 = 9 is outside the grid",)),
+    Fault("device-threshold-negative", "analyze dev.toml --drive 0 --load 1 --threshold -1", ("--threshold", "-1")),
+    Fault("device-shape-one-cli", "analyze dev.toml --drive 0 --load 1 --shape 1,5", ("--shape", "'1,5'")),
+    Fault("device-mode-unknown", "analyze dev.toml --drive 0 --load 1 --mode fast", ("--mode", "'fast'")),
+    Fault("device-json-exists", "analyze dev.toml --drive 0 --load 1 --json notes.txt", ("notes.txt", "exists")),
+    Fault("device-plot-extension", "analyze dev.toml --drive 0 --load 1 --plot law.txt", ("--plot law.txt", ".png")),
+    Fault("device-out-under-a-file", "analyze dev.toml --drive 0 --load 1 --out text.npz/law", ("text.npz", "not a folder")),
+    Fault("device-out-law-exists", "analyze dev.toml --drive 0 --load 1 --out sub", ("sub/motion_law.csv", "exists")),
     # ------------------------------------------------------------------ design
     Fault("design-particles-zero", "design funnel --smoke --out new.npz --particles 0", ("--particles", "0")),
     Fault("design-particles-negative", "design funnel --smoke --out new.npz --particles -2",
@@ -137,7 +215,21 @@ FAULTS = [
     Fault("design-iterations-zero", "design funnel --smoke --out new.npz --iterations 0",
           ("--iterations must be >= 1, got 0",)),
     Fault("design-seed-negative", "design funnel --smoke --out new.npz --seed -1", ("--seed must be >= 0", "-1")),
-    Fault("design-set-dt-zero", "design funnel --smoke --out new.npz --set dt=0", ("--set dt", "0")),
+    Fault("design-set-dt-zero", "design funnel --smoke --out new.npz --set dt=0", ("--set dt must be > 0, got 0",)),
+    Fault("design-set-dt-negative", "design funnel --smoke --out new.npz --set dt=-0.01",
+          ("--set dt must be > 0, got -0.01",)),
+    Fault("design-set-width-zero", "design funnel --smoke --out new.npz --set width=0",
+          ("--set width must be > 0, got 0",), absent=("upper", "lower")),
+    Fault("design-set-omega-zero", "design oscillator --smoke --out new.npz --set omega=0",
+          ("--set omega must be > 0, got 0",)),
+    Fault("design-set-torque-max-below-min", "design oscillator --smoke --out new.npz --set torque_max=0.1",
+          ("--set torque_max must be >= --set torque_min = 0.5, got 0.1",)),
+    Fault("design-grid-too-large-for-memory", "design funnel --out new.npz --set grid=100000",
+          ("--set grid = 100000 makes a surface of 100000 x 100000 nodes", "GiB", "reduce --set grid")),
+    Fault("design-smoke-grid-too-large-for-memory", "design funnel --smoke --out new.npz --set grid=100000",
+          ("--set grid = 100000", "GiB")),
+    Fault("design-stage-grid-too-large-for-memory", "design funnel --out new.npz --stages 0:25,10:100000",
+          ("--stages = 100000 makes a surface of 100000 x 100000 nodes", "reduce --stages")),
     Fault("design-set-n-steps-negative", "design funnel --smoke --out new.npz --set n_steps=-4",
           ("--set n_steps", "-4")),
     Fault("design-particles-too-many-for-memory", "design funnel --smoke --out new.npz --particles 100000000",
@@ -175,6 +267,50 @@ FAULTS = [
     Fault("design-unknown-option", "design funnel --smoke --out new.npz --bogus", ("--bogus",)),
     Fault("design-read-only-folder", "design funnel --smoke --out ro/new.npz", ("ro", "not writable"),
           needs_permissions=True),
+    # ------------------------------------------------------------------ design PROBLEM.toml (docs/problems.md)
+    Fault("problem-missing", "design nothing.toml --out new.npz", ("problem file nothing.toml does not exist",)),
+    Fault("problem-a-folder", "design sub --out new.npz", ("problem file sub is a folder",)),
+    Fault("problem-not-toml", "design notes.toml --out new.npz", ("notes.toml: not valid TOML",)),
+    Fault("problem-format", "design format2.toml --out new.npz",
+          ("format2.toml: format: this pes_ref reads problem files of format 1, got 2",)),
+    Fault("problem-unknown-key", "design colour.toml --out new.npz", ("colour.toml: colour: unknown key",)),
+    Fault("problem-missing-section", "design noobjective.toml --out new.npz",
+          ("noobjective.toml: objective: missing",)),
+    Fault("problem-bad-value", "design baddt.toml --out new.npz",
+          ("baddt.toml: dynamics.dt: expected a number > 0, got -0.05",)),
+    Fault("problem-unknown-term", "design happiness.toml --out new.npz",
+          ("happiness.toml: objective[0].kind: expected one of", "got 'happiness'")),
+    Fault("problem-term-key", "design shortpoint.toml --out new.npz",
+          ("shortpoint.toml: objective[0].target: expected a list of two values, got [0.3]",)),
+    Fault("problem-custom-import", "design custom.toml --out new.npz",
+          ("custom.toml: objective[0].object: cannot import it", "no_such_module_here")),
+    Fault("problem-time-after-end", "design late.toml --out new.npz",
+          ("late.toml: evaluate.success[0].time: 5 is after the end of the run (2, dynamics)",)),
+    Fault("problem-no-success-test", "design nosuccess.toml --out new.npz",
+          ("nosuccess.toml: evaluate.success: missing",)),
+    Fault("problem-unstable", "design unstable.toml --out new.npz", ("unstable.toml: dynamics.dt:", "stability limit")),
+    Fault("problem-set-bad-value", "design good.toml --out new.npz --set dynamics.damping=-1",
+          ("good.toml: dynamics.damping: expected a number >= 0, got -1",)),
+    Fault("problem-set-unknown-key", "design good.toml --out new.npz --set dynamics.colour=1",
+          ("good.toml: dynamics.colour: unknown key",)),
+    Fault("problem-set-no-value", "design good.toml --out new.npz --set dynamics.dt",
+          ("--set 'dynamics.dt'", "NAME=VALUE")),
+    Fault("problem-set-no-entry", "design good.toml --out new.npz --set objective.3.weight=1",
+          ("objective.3.weight: objective has entries 0 to 0",)),
+    Fault("problem-plan", "design good.toml --out new.npz --plan eq6", ("--plan eq6", "only the oscillator")),
+    Fault("problem-polish-option", "design good.toml --out new.npz --evaluations 5", ("--evaluations", "no polish")),
+    Fault("problem-grid-too-large-for-memory", "design good.toml --out new.npz --set 'surface.shape=[100000, 100000]'",
+          ("good.toml: surface.shape: shape = [100000, 100000] makes a surface of 100000 x 100000 nodes", "GiB")),
+    Fault("problem-too-many-for-memory", "design good.toml --out new.npz --particles 100000000",
+          ("dynamics.duration / dt = 40 with --particles = 100000000", "GiB")),
+    Fault("problem-resume-changed", "design good2.toml --resume problem.npz --out new.npz",
+          ("the problem file good2.toml differs from the one the design was made with: dynamics.damping = 2.0 "
+           "there, 1.0 in the design's problem",)),
+    Fault("problem-resume-set", "design --resume problem.npz --out new.npz --set dynamics.damping=2.0",
+          ("--set: a resumed design keeps its problem; dynamics.damping = 2.0, 1.0 in the design's problem",)),
+    Fault("problem-resume-built-in", "design funnel --resume problem.npz --out new.npz",
+          ("the resume file is a problem design, not a funnel design",)),
+    Fault("design-nothing", "design --out new.npz", ("give what to design", "--resume")),
     # ------------------------------------------------------------------ evaluate
     Fault("evaluate-missing", "evaluate nothing.npz", ("design file nothing.npz does not exist",)),
     Fault("evaluate-folder", "evaluate sub", ("design file sub is a folder",)),
@@ -186,6 +322,8 @@ FAULTS = [
     Fault("evaluate-seed-negative", "evaluate design.npz --seed -1", ("--seed must be >= 0", "-1")),
     Fault("evaluate-particles-float", "evaluate design.npz --particles 2.5", ("--particles", "'2.5'")),
     Fault("evaluate-unknown-option", "evaluate design.npz --bogus", ("--bogus",)),
+    Fault("evaluate-particles-too-many-for-memory", "evaluate design.npz --particles 1000000000",
+          ("--particles = 1000000000", "GiB", "reduce --particles"), absent=("n_steps",)),
     # ------------------------------------------------------------------ bench
     Fault("bench-out-no-folder", "bench --quick --out nodir/b.json", ("nodir", "does not exist")),
     Fault("bench-out-under-a-file", "bench --quick --out text.npz/b.json", ("text.npz", "not a folder")),
@@ -204,8 +342,110 @@ FAULTS = [
     Fault("unknown-command", "frobnicate", ("'frobnicate'",)),
 ]
 
+#: A problem file (particles gather at a point) and its malformed versions, for the rows above.
+GOOD_PROBLEM = """format = 1
+[surface]
+lower = [-1.0, -1.0]
+upper = [1.0, 1.0]
+shape = [8, 8]
+[dynamics]
+dt = 0.05
+duration = 2.0
+damping = 1.0
+[starts]
+box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }
+[[objective]]
+kind = "final_position"
+target = [0.3, -0.2]
+[evaluate]
+particles = 12
+[[evaluate.success]]
+kind = "final_position"
+target = [0.3, -0.2]
+radius = 0.3
+[train]
+iterations = 2
+particles = 4
+"""
+PROBLEM_FILES = {
+    "good.toml": GOOD_PROBLEM,
+    "good2.toml": GOOD_PROBLEM.replace("damping = 1.0", "damping = 2.0"),
+    "notes.toml": "a user's notes, not TOML\n",
+    "format2.toml": GOOD_PROBLEM.replace("format = 1", "format = 2"),
+    "colour.toml": 'colour = "red"\n' + GOOD_PROBLEM,
+    "noobjective.toml": GOOD_PROBLEM.replace('[[objective]]\nkind = "final_position"\ntarget = [0.3, -0.2]\n', ""),
+    "baddt.toml": GOOD_PROBLEM.replace("dt = 0.05", "dt = -0.05"),
+    "happiness.toml": GOOD_PROBLEM.replace('kind = "final_position"\ntarget = [0.3, -0.2]\n[evaluate]',
+                                           'kind = "happiness"\n[evaluate]'),
+    "shortpoint.toml": GOOD_PROBLEM.replace("target = [0.3, -0.2]\n[evaluate]", "target = [0.3]\n[evaluate]"),
+    "custom.toml": GOOD_PROBLEM.replace('kind = "final_position"\ntarget = [0.3, -0.2]\n[evaluate]',
+                                        'kind = "custom"\nobject = "no_such_module_here:thing"\n[evaluate]'),
+    "late.toml": GOOD_PROBLEM.replace('[[evaluate.success]]\nkind = "final_position"',
+                                      '[[evaluate.success]]\nkind = "position_at"\ntime = 5.0'),
+    "nosuccess.toml": GOOD_PROBLEM.split("[[evaluate.success]]")[0] + "[train]\niterations = 2\n",
+    "unstable.toml": GOOD_PROBLEM.replace("damping = 1.0", "damping = 1.0\nwalls = { k = 1e5, margin = 0.05 }"),
+}
+
+#: A small valid device file (a pin in a plate's hole, on a plane) and the faults made of it:
+#: name -> (text replaced, by).
+DEVICE = """format = 1
+[[part]]
+motion = "translation"
+direction = [1.0, 0.0]
+shapes = [{ circle = { center = [0.0, 0.0], radius = 0.1 } }]
+[[part]]
+motion = "translation"
+direction = [0.0, 1.0]
+shapes = [{ rectangle = { lower = [-1.0, -1.0], upper = [1.0, 1.0] }, minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }] }]
+[cspace]
+lower = [-0.5, -0.5]
+upper = [0.5, 0.5]
+shape = [21, 21]
+[energy]
+v = 1e-4
+r_c = 0.1
+springs = [{ axis = 1, k = 1.0, center = 0.0 }]
+[dynamics]
+mass = [1.0, 1.0]
+damping = [1.0, 1.0]
+walls = { k = 100.0, margin = 0.01, edges = [[true, true], [true, true]] }
+[start]
+q = [0.0, 0.0]
+"""
+BAD_DEVICES = {
+    "noformat": ("format = 1\n", ""),
+    "format2": ("format = 1", "format = 2"),
+    "colour": ("format = 1\n", "format = 1\ncolour = \"red\"\n"),
+    "onepart": ("[[part]]\nmotion = \"translation\"\ndirection = [1.0, 0.0]\n"
+                "shapes = [{ circle = { center = [0.0, 0.0], radius = 0.1 } }]\n", ""),
+    "motion": ("motion = \"translation\"", "motion = \"screw\""),
+    "pivot": ("direction = [1.0, 0.0]", "direction = [1.0, 0.0]\npivot = [0.0, 0.0]"),
+    "ellipse": ("{ rectangle = { lower = [-1.0, -1.0], upper = [1.0, 1.0] }", "{ ellipse = { a = 1.0 }"),
+    "radius": ("radius = 0.1", "radius = -0.1"),
+    "bowtie": ("minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }]",
+               "minus = [{ polygon = [[0.0, 0.0], [0.3, 0.3], [0.3, 0.0], [0.0, 0.1]] }]"),
+    "empty": ("minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }]",
+              "minus = [{ rectangle = { lower = [-2.0, -2.0], upper = [2.0, 2.0] } }]"),
+    "grid": ("shape = [21, 21]", "shape = [21, 1]"),
+    "upper": ("upper = [0.5, 0.5]", "upper = [-0.7, 0.5]"),
+    "spring": ("axis = 1", "axis = 3"),
+    "rmin": ("r_c = 0.1", "r_c = 0.1\nr_min = 0.2"),
+    "mass": ("mass = [1.0, 1.0]", "mass = [0, 1.0]"),
+    "walls": ("edges = [[true, true], [true, true]]", "edges = [true, true]"),
+    "start": ("q = [0.0, 0.0]", "q = [\"zero\", 0.0]"),
+    "analysis": ("[start]", "[analysis]\nkind = \"catapult\"\n[start]"),
+}
+
 #: The commands the suite must cover: every one of the command line (tested below).
-COVERED = {f.argv.split()[0] for f in FAULTS if f.argv} | {"analyze ratchet", "analyze dartgun"}
+COVERED = {f.argv.split()[0] for f in FAULTS if f.argv} | {"analyze ratchet", "analyze dartgun", "analyze DEVICE.toml"}
+
+
+def _steep_case() -> dict:
+    """A valid case whose grid has two neighbouring nodes at +-1e308: its curvature is beyond float64."""
+    case = load_case(CASE)
+    values = np.array(case["values"], dtype=np.float64)
+    values[1, 1], values[2, 2] = 1e308, -1e308
+    return dict(case, values=values)
 
 
 @pytest.fixture(scope="module")
@@ -216,12 +456,25 @@ def assets(tmp_path_factory):
     shutil.copy(VECTORS / BAD_CASE["case"], folder / "bad.case.npz")
     write_result(run_case(load_case(CASE)), folder / "result.npz")
     assert cli.main(["design", "funnel", "--smoke", "--quiet", "--out", str(folder / "design.npz")]) == 0
+    for name, text in PROBLEM_FILES.items():
+        (folder / name).write_text(text)
+    assert cli.main(["design", str(folder / "good.toml"), "--quiet", "--out", str(folder / "problem.npz")]) == 0
     (folder / "text.npz").write_text("values = [[0, 1], [1, 0]]\nmode = dynamic\n")
     (folder / "notes.txt").write_text("a user's own notes\n")
     (folder / "b-scaling.png").write_bytes(b"a plot the user keeps")
     (folder / "sub").mkdir()
     (folder / "sub" / "keep.txt").write_text("kept\n")
     (folder / "ro").mkdir()
+    save_case(folder / "huge-wall.case.npz", **dict(load_case(WALL_CASE), wall_k=np.float64(1e308)))
+    save_case(folder / "steep.case.npz", **_steep_case())
+    (folder / "tiny.toml").write_text(TINY_SWEEP)
+    (folder / "sub" / "motion_law.csv").write_text("q_in,q_out\n0,0\n")
+    (folder / "sub.toml").mkdir()
+    (folder / "dev.toml").write_text(DEVICE)
+    (folder / "broken.toml").write_text("format = 1\n[cspace\n")
+    for name, (old, new) in BAD_DEVICES.items():
+        assert old in DEVICE, name
+        (folder / f"dev-{name}.toml").write_text(DEVICE.replace(old, new, 1))
     return folder
 
 
@@ -248,11 +501,15 @@ class Outcome(NamedTuple):
     after: dict
 
 
+def _argv(row) -> list:
+    return shlex.split(row.argv.replace("{python}", shlex.quote(sys.executable)))
+
+
 def _run(fault: Fault, work: Path) -> Outcome:
-    argv = shlex.split(fault.argv.replace("{python}", shlex.quote(sys.executable)))
     before = snapshot(work)
-    proc = subprocess.run([sys.executable, "-m", "pes_ref", *argv], cwd=work, env=ENV, capture_output=True,
-                          text=True, timeout=120, stdin=subprocess.DEVNULL)
+    prefix = UNPRIVILEGED if getattr(fault, "needs_permissions", False) else []
+    proc = subprocess.run([*prefix, sys.executable, "-m", "pes_ref", *_argv(fault)], cwd=work, env=ENV,
+                          capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
     return Outcome(proc.returncode, proc.stdout, proc.stderr, before, snapshot(work))
 
 
@@ -260,7 +517,7 @@ def _run(fault: Fault, work: Path) -> Outcome:
 def outcomes(assets, tmp_path_factory):
     """Every row, run in parallel (each in a folder of its own)."""
     root = tmp_path_factory.mktemp("faults")
-    rows = [f for f in FAULTS if not (f.needs_permissions and IS_ROOT)]
+    rows = FAULTS
     works = {f.id: _workspace(assets, root, f) for f in rows}
     with ThreadPoolExecutor(max_workers=4) as pool:
         futures = {f.id: pool.submit(_run, f, works[f.id]) for f in rows}
@@ -275,17 +532,16 @@ def test_the_ids_are_unique():
 
 
 def test_every_command_is_covered():
-    commands = {m.__name__.rsplit(".", 1)[1] for m in cli.COMMANDS}
+    commands = set(cli.COMMANDS)
     devices = {f"analyze {a.split()[1]}" for a in (f.argv for f in FAULTS) if a.startswith("analyze ")
                and len(a.split()) > 1}
     assert commands <= COVERED
     assert {"analyze ratchet", "analyze dartgun"} <= devices
+    assert any(d.endswith(".toml") for d in devices)
 
 
 @pytest.mark.parametrize("fault", FAULTS, ids=[f.id for f in FAULTS])
 def test_fault(fault, outcomes):
-    if fault.needs_permissions and IS_ROOT:
-        pytest.skip("running as root, who may write into a read-only folder: the refusal cannot be provoked")
     got = outcomes[fault.id]
     assert "Traceback" not in got.err, got.err
     assert got.after == got.before, _changes(got.before, got.after)
@@ -294,6 +550,8 @@ def test_fault(fault, outcomes):
     line = got.err.strip()
     for token in fault.tokens:
         assert token in line, f"{token!r} is not in {line!r}"
+    for word in fault.absent:
+        assert word not in line, f"{word!r} is in {line!r}"
     assert ".tmp" not in line, line                # no temporary file's name
     assert got.out == "", got.out                  # nothing meaningless returned
 
@@ -358,18 +616,35 @@ def test_a_destination_that_cannot_be_written_is_refused_before_computing(where,
     assert snapshot(tmp_path) == before
 
 
-@pytest.mark.skipif(IS_ROOT, reason="running as root, who may write into a read-only folder: "
-                                    "the refusal cannot be provoked")
-def test_a_read_only_folder_is_refused_before_computing(long_case, tmp_path, capsys, monkeypatch):
+#: Runs the command line on its arguments and prints, last, how often the oracle ran a
+#: case and how long the command took, in seconds.
+_WATCH_RUNS = """
+import sys, time
+from pes_ref.oracle import case
+runs = []
+run = case.run_case
+case.run_case = lambda *a, **k: runs.append(1) or run(*a, **k)
+from pes_ref.cli import main
+t = time.perf_counter()
+code = main(sys.argv[1:])
+print(len(runs), time.perf_counter() - t)
+sys.exit(code)
+"""
+
+
+def test_a_read_only_folder_is_refused_before_computing(long_case, tmp_path):
     ro = tmp_path / "ro"
     ro.mkdir()
     os.chmod(ro, stat.S_IRUSR | stat.S_IXUSR)
     try:
-        seconds, err = _refused_at_once(long_case, ro / "r.npz", capsys, monkeypatch)
+        proc = subprocess.run([*UNPRIVILEGED, sys.executable, "-c", _WATCH_RUNS, "oracle", str(long_case),
+                               str(ro / "r.npz")], capture_output=True, text=True, env=ENV, timeout=120)
     finally:
         os.chmod(ro, stat.S_IRWXU)
-    assert seconds < 0.5 and "not writable" in err and ".tmp" not in err
-    assert not os.listdir(ro)
+    runs, seconds = proc.stdout.split()
+    assert proc.returncode == cli.EXIT_ERROR and runs == "0", proc.stderr
+    assert float(seconds) < 0.5 and proc.stderr.count("\n") == 1 and "not writable" in proc.stderr
+    assert ".tmp" not in proc.stderr and not os.listdir(ro)
 
 
 def test_the_long_case_is_long(long_case):
@@ -388,3 +663,208 @@ def test_a_missing_input_is_said_the_same_way_by_every_command(outcomes):
         line = outcomes[fid].err.strip()
         assert re.fullmatch(r"error: (case file|design file|--cmd: program|--check folder) "
                             r"(nothing\.npz|\./nothing\.sh|nodir) does not exist", line), (fid, line)
+
+
+# =========================================================================== warnings
+
+class Warned(NamedTuple):
+    """A run that succeeds but whose figures mean something else than they say: exit 0,
+    its figures on stdout, exactly one line ``warning: ...`` holding ``tokens`` on stderr."""
+
+    id: str
+    argv: str
+    tokens: tuple
+
+
+WARNINGS = [
+    Warned("ratchet-torque-overwhelms-the-barrier", "analyze ratchet --smoke --torque 1e30",
+           ("warning: the torque 1e+30 torque-unit exceeds", "barrier_torque_max", "overwhelms the barrier")),
+    Warned("dartgun-reload-does-not-latch", "analyze dartgun --smoke --reload-force 1e12",
+           ("warning: the reload with force 1e+12 did not latch", "reference latch")),
+]
+
+
+@pytest.fixture(scope="module")
+def warned(assets, tmp_path_factory):
+    root = tmp_path_factory.mktemp("warnings")
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        futures = {w.id: pool.submit(_run, w, _workspace(assets, root, w)) for w in WARNINGS}
+        return {wid: fut.result() for wid, fut in futures.items()}
+
+
+@pytest.mark.parametrize("row", WARNINGS, ids=[w.id for w in WARNINGS])
+def test_warning(row, warned):
+    got = warned[row.id]
+    assert got.status == cli.EXIT_OK and "Traceback" not in got.err, got.err
+    assert got.err.startswith("warning: ") and got.err.count("\n") == 1, got.err
+    for token in row.tokens:
+        assert token in got.err, f"{token!r} is not in {got.err!r}"
+    assert got.out and all(": " in line for line in got.out.splitlines()), got.out
+    assert got.after == got.before, _changes(got.before, got.after)
+
+
+# =========================================================================== closed pipes
+
+#: A sweep of one tiny run (the design command's --smoke preset).
+TINY_SWEEP = '''description = "tiny"
+kind = "funnel"
+eval_seeds = [12345]
+eval_particles = 8
+
+[base]
+smoke = true
+
+[[variants]]
+name = "a"
+lr = 0.002
+'''
+
+
+def _result_whole(work: Path, before: dict) -> None:
+    result = np.load(work / "out.npz")
+    assert {"x", "v", "energy", "loss"} <= set(result.files)
+
+
+def _design(status: str, least: int, most: int):
+    def check(work: Path, before: dict) -> None:
+        from pes_ref.synthesis import load_design
+        state = load_design(work / "new.npz")
+        assert state.status == status and least <= state.iteration <= most, (state.status, state.iteration)
+    return check
+
+
+def _vectors_whole_or_absent(work: Path, before: dict) -> None:
+    if (work / "vw").exists():
+        manifest = json.loads((work / "vw" / "manifest.json").read_text())
+        assert all((work / "vw" / e["case"]).exists() for e in manifest["vectors"])
+
+
+def _sweep_whole_or_absent(work: Path, before: dict) -> None:
+    if (work / "sw").exists():
+        assert (work / "sw" / "results.csv").read_text().count("\n") >= 2
+
+
+def _bench_whole_or_absent(work: Path, before: dict) -> None:
+    if (work / "bench.json").exists():
+        json.loads((work / "bench.json").read_text())
+
+
+class Piped(NamedTuple):
+    """A command whose ``closed`` stream(s) (``stdout``, ``stderr`` or ``both``) go into a
+    pipe whose reader has gone; ``made`` names the files it may leave and ``check`` what
+    they must hold (whole, never half-written; a design saved, never 'running')."""
+
+    id: str
+    argv: str
+    closed: str
+    made: tuple = ()
+    check: Callable | None = None
+
+
+CLOSED_PIPES = [
+    Piped("oracle", "oracle case.npz out.npz", "stdout", ("out.npz",), _result_whole),
+    Piped("oracle-head-0", "oracle case.npz out.npz", "both", ("out.npz",), _result_whole),
+    Piped("check", "check --cmd '{python} -m pes_ref oracle {pairs}' --only plane-dynamic", "stdout"),
+    Piped("check-progress", "check --cmd '{python} -m pes_ref oracle {pairs}' --no-vectors --random 2", "stderr"),
+    Piped("conformance", "conformance --check", "stdout"),
+    Piped("conformance-write", "conformance --write vw", "stdout", ("vw",), _vectors_whole_or_absent),
+    Piped("analyze", "analyze ratchet --smoke", "stdout"),
+    Piped("design", "design funnel --smoke --out new.npz", "stdout", ("new.npz",), _design("done", 6, 6)),
+    Piped("design-progress", "design funnel --smoke --iterations 300 --progress 0 --out new.npz", "stderr",
+          ("new.npz",), _design("interrupted", 1, 299)),
+    Piped("design-head-1", "design funnel --smoke --iterations 300 --progress 0 --out new.npz", "both",
+          ("new.npz",), _design("interrupted", 1, 299)),
+    Piped("evaluate", "evaluate design.npz --particles 8", "stdout"),
+    Piped("sweep", "sweep tiny.toml --out sw --workers 1", "stderr", ("sw",), _sweep_whole_or_absent),
+    Piped("bench", "bench --quick --no-autodiff --out bench.json", "stdout", ("bench.json", "bench-scaling.png"),
+          _bench_whole_or_absent),
+]
+
+
+def _run_piped(row: Piped, work: Path) -> Outcome:
+    read, write = os.pipe()
+    os.close(read)                          # the reader is gone before the command writes at all
+    streams = {name: write if row.closed in (name, "both") else subprocess.PIPE for name in ("stdout", "stderr")}
+    before = snapshot(work)
+    try:
+        proc = subprocess.run([sys.executable, "-m", "pes_ref", *_argv(row)], cwd=work, env=ENV, text=True,
+                              timeout=300, stdin=subprocess.DEVNULL, **streams)
+    finally:
+        os.close(write)
+    return Outcome(proc.returncode, proc.stdout or "", proc.stderr or "", before, snapshot(work))
+
+
+@pytest.fixture(scope="module")
+def piped(assets, tmp_path_factory):
+    root = tmp_path_factory.mktemp("pipes")
+    works = {p.id: _workspace(assets, root, p) for p in CLOSED_PIPES}
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        futures = {p.id: pool.submit(_run_piped, p, works[p.id]) for p in CLOSED_PIPES}
+        return {pid: (fut.result(), works[pid]) for pid, fut in futures.items()}
+
+
+def test_every_command_is_tested_under_a_closed_pipe():
+    assert {p.argv.split()[0] for p in CLOSED_PIPES} == set(cli.COMMANDS)
+
+
+@pytest.mark.parametrize("row", CLOSED_PIPES, ids=[p.id for p in CLOSED_PIPES])
+def test_closed_pipe(row, piped):
+    """The one rule (pes_ref.cli.common.watch_pipes): the command stops as Ctrl-C stops it,
+    keeps what it saved whole, says nothing more and exits 141."""
+    got, work = piped[row.id]
+    said = got.out + got.err                # what went to the stream that stayed open
+    for word in ("Traceback", "Exception ignored", "error", "BrokenPipe"):
+        assert word not in said, said
+    assert got.status == cli.EXIT_PIPE, (got.status, said)
+    unchanged = {k: v for k, v in got.before.items() if got.after.get(k) != v}
+    assert not unchanged, f"changed or lost: {sorted(unchanged)}"
+    added = {k.split("/")[0] for k in set(got.after) - set(got.before)}
+    assert added <= set(row.made), f"left {sorted(added - set(row.made))}"
+    if row.check is not None and added:
+        row.check(work, got.before)
+    if row.made and row.check is not None and row.check.__name__.startswith("_result"):
+        assert "out.npz" in added                    # the result was written before the line that failed
+
+
+# =========================================================================== Ctrl-C while importing
+
+#: Runs ``python -m pes_ref ARGV`` as ``pes_ref.__main__`` does, with Ctrl-C arriving while
+#: the module ``sys.argv[1]`` is being imported: raised as KeyboardInterrupt (``raise``), or
+#: turned into an ImportError as a C extension's import may turn it (``lost``).
+_INTERRUPT_IMPORT = """
+import signal, sys
+target, how = sys.argv[1], sys.argv[2]
+
+
+class Interrupt:
+    def find_spec(self, name, path=None, target_module=None):
+        if name == target:
+            sys.meta_path.remove(self)
+            try:
+                signal.raise_signal(signal.SIGINT)
+            except KeyboardInterrupt:
+                if how == "lost":
+                    raise ImportError(name + ": an extension's import turned Ctrl-C into this") from None
+                raise
+        return None
+
+
+sys.meta_path.insert(0, Interrupt())
+sys.argv = ["pes_ref", *sys.argv[3:]]
+from pes_ref.__main__ import run
+sys.exit(run())
+"""
+
+#: (module being imported, how Ctrl-C arrives): from the command line's first module to the
+#: libraries the chosen command imports.
+INTERRUPTED_IMPORTS = [("pes_ref.cli", "raise"), ("argparse", "raise"), ("pes_ref.cli.design", "raise"),
+                       ("numpy", "raise"), ("numpy", "lost"), ("pes_ref.synthesis", "raise"),
+                       ("pes_ref.synthesis", "lost")]
+
+
+@pytest.mark.parametrize("module, how", INTERRUPTED_IMPORTS, ids=[f"{m}-{h}" for m, h in INTERRUPTED_IMPORTS])
+def test_ctrl_c_while_importing(module, how, tmp_path):
+    proc = subprocess.run([sys.executable, "-c", _INTERRUPT_IMPORT, module, how, "design", "funnel", "--smoke",
+                           "--out", str(tmp_path / "new.npz")], capture_output=True, text=True, env=ENV, timeout=120)
+    assert (proc.returncode, proc.stderr, proc.stdout) == (cli.EXIT_INTERRUPTED, "interrupted\n", "")
+    assert os.listdir(tmp_path) == []

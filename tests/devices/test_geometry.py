@@ -1,45 +1,87 @@
-"""Polygons, motions, posing and the positive-area overlap test (pes_ref.devices.geometry)."""
+"""Shapes, motions, posing and the positive-area overlap test (pes_ref.devices.geometry, on shapely 2)."""
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
 from pes_ref.devices import geometry as g
 
-SQUARE = g.rectangle(0.0, 0.0, 1.0, 1.0).vertices
+SQUARE = g.Rectangle((0.0, 0.0), (1.0, 1.0))
 #: A non-convex L: the unit square's upper-right quarter is missing.
-L_SHAPE = np.array([[0, 0], [1, 0], [1, 0.5], [0.5, 0.5], [0.5, 1], [0, 1]], dtype=float)
-#: Intersection areas below this count as "touching" in the convex reference (the module's
-#: probe inset is 1e-9 relative; random polygons never overlap that thinly by chance).
-AREA_TOL = 1e-9
+L_SHAPE = g.Polygon([[0, 0], [1, 0], [1, 0.5], [0.5, 0.5], [0.5, 1], [0, 1]])
+
+
+def _square_at(dx, dy):
+    return g.Rectangle((dx, dy), (dx + 1.0, dy + 1.0))
 
 
 @pytest.mark.parametrize("offset, expected", [
-    ((0.0, 0.0), True),          # identical: collinear edges everywhere, no proper crossing
+    ((0.0, 0.0), True),          # identical
     ((1.0, 0.0), False),         # sharing an edge: touching is free
     ((1.0, 1.0), False),         # sharing a corner
-    ((0.5, 0.0), True),          # aligned half overlap (collinear edges, vertex on edge)
+    ((0.5, 0.0), True),          # aligned half overlap (collinear edges)
     ((0.999, 0.999), True),      # small corner overlap
     ((1.001, 0.0), False),       # a gap
     ((0.25, 0.25), True),        # crossing edges
 ])
 def test_overlap_of_unit_squares(offset, expected):
-    assert g.overlap(SQUARE, SQUARE + np.array(offset)) is expected
+    assert g.overlap(SQUARE, _square_at(*offset)) is expected
 
 
 @pytest.mark.parametrize("other, expected", [
-    (g.rectangle(0.6, 0.6, 0.9, 0.9).vertices, False),    # inside the L's missing quarter
-    (g.rectangle(0.5, 0.5, 1.0, 1.0).vertices, False),    # filling the missing quarter exactly
-    (g.rectangle(0.4, 0.6, 0.9, 0.9).vertices, True),     # poking into the upper arm
-    (g.rectangle(0.1, 0.1, 0.2, 0.2).vertices, True),     # contained, no edge crossing
-    (g.rectangle(-1.0, -1.0, 2.0, 2.0).vertices, True),   # containing the L
+    (g.Rectangle((0.6, 0.6), (0.9, 0.9)), False),    # inside the L's missing quarter
+    (g.Rectangle((0.5, 0.5), (1.0, 1.0)), False),    # filling the missing quarter exactly
+    (g.Rectangle((0.4, 0.6), (0.9, 0.9)), True),     # poking into the upper arm
+    (g.Rectangle((0.1, 0.1), (0.2, 0.2)), True),     # contained, no edge crossing
+    (g.Rectangle((-1.0, -1.0), (2.0, 2.0)), True),   # containing the L
 ])
 def test_overlap_non_convex(other, expected):
     assert g.overlap(L_SHAPE, other) is expected
     assert g.overlap(other, L_SHAPE) is expected
 
 
+def test_minus_cuts_a_hole_and_a_shape_in_the_hole_is_free():
+    plate = g.Rectangle((-1.0, -1.0), (1.0, 1.0), minus=[g.Circle((0.0, 0.0), 0.5)])
+    assert g.overlap(plate, g.Circle((0.0, 0.0), 0.4)) is False      # a pin in the hole
+    assert g.overlap(plate, g.Circle((0.3, 0.0), 0.4)) is True       # pressed into the hole's wall
+    geom = plate.geometry(1e-4)
+    assert geom.area == pytest.approx(4.0 - np.pi * 0.25, abs=1e-4 * np.pi)     # tolerance x perimeter
+    assert len(geom.interiors) == 1
+
+
+@pytest.mark.parametrize("radius, tol", [(0.5, 1e-3), (2.0, 1e-4), (0.05, 1e-5)])
+def test_circle_is_within_its_tolerance(radius, tol):
+    """Every point of the polygon's edge lies within ``tol`` of the true circle."""
+    poly = g.Circle((0.3, -0.2), radius).geometry(tol)
+    ring = np.asarray(poly.exterior.coords)
+    t = np.linspace(0.0, 1.0, 11)[:, None, None]
+    pts = (ring[:-1] + t * (ring[1:] - ring[:-1])).reshape(-1, 2)      # along every edge
+    err = np.abs(np.hypot(pts[:, 0] - 0.3, pts[:, 1] + 0.2) - radius)
+    assert err.max() <= tol * (1 + 1e-9)
+    assert err.max() > 0.3 * tol                 # not needlessly finer: the count follows the tolerance
+
+
+def test_part_is_the_union_of_disjoint_pieces():
+    crank = g.Part([g.Circle((-0.7, 0.0), 0.05), g.Circle((0.0, 0.0), 0.5)], g.Rotation((0.0, 0.0)))
+    geom = crank.geometry(1e-4)
+    assert geom.geom_type == "MultiPolygon" and len(geom.geoms) == 2
+    assert len(crank.circles) == 2
+
+
+def test_cuts_that_leave_nothing_are_refused():
+    part = g.Part(g.Circle((0, 0), 1.0, minus=[g.Rectangle((-2, -2), (2, 2))]), g.Translation((1, 0)))
+    with pytest.raises(ValueError, match="leave nothing"):
+        part.geometry(1e-3)
+
+
+def _convex(seed, n):
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0, 2 * np.pi, n))
+    r = rng.uniform(0.3, 1.0, 2)
+    return np.stack((r[0] * np.cos(t), r[1] * np.sin(t)), axis=1) + rng.uniform(-0.8, 0.8, 2)
+
+
 def _clip_area(subject, clip):
-    """Intersection area of two convex ccw polygons (Sutherland-Hodgman), the reference."""
+    """Intersection area of two convex ccw polygons (Sutherland-Hodgman), the independent reference."""
     out = list(subject)
     for a, b in zip(clip, np.roll(clip, -1, axis=0)):
         inp, out = out, []
@@ -54,55 +96,34 @@ def _clip_area(subject, clip):
                 out.append(p + (q - p) * (sp / (sp - sq)))
     if len(out) < 3:
         return 0.0
-    return float(g.signed_area(np.array(out)))
-
-
-def _convex(seed, n):
-    rng = np.random.default_rng(seed)
-    t = np.sort(rng.uniform(0, 2 * np.pi, n))
-    r = rng.uniform(0.3, 1.0, 2)
-    return g.Polygon(np.stack((r[0] * np.cos(t), r[1] * np.sin(t)), axis=1) + rng.uniform(-0.8, 0.8, 2))
+    x, y = np.array(out).T
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
 
 @settings(max_examples=40)
 @given(st.integers(0, 10_000), st.integers(3, 12), st.integers(3, 12))
 def test_overlap_matches_convex_clipping(seed, na, nb):
     a, b = _convex(seed, na), _convex(seed + 1, nb)
-    area = _clip_area(list(a.vertices), b.vertices)
-    if abs(area) > AREA_TOL:
-        assert g.overlap(a, b) is True
+    area = _clip_area(list(a), b)
+    if abs(area) > 1e-9:
+        assert g.overlap(g.Polygon(a), g.Polygon(b)) is True
     elif area == 0.0:
-        assert g.overlap(a, b) is False
+        assert g.overlap(g.Polygon(a), g.Polygon(b)) is False
 
 
-def test_overlap_table_is_every_pair_and_symmetric():
-    polys = [_convex(s, 5 + s % 4) for s in range(6)]
-    a = np.stack([p.vertices[:5] for p in polys])
-    table = g.overlap_table(a, a[::-1])
+def test_interiors_overlap_is_every_pair_at_once():
+    polys = np.array([g.Polygon(_convex(s, 5 + s % 4)).geometry(1e-3) for s in range(6)], dtype=object)
+    table = g.interiors_overlap(polys[:, None], polys[None, ::-1])
     for i in range(6):
         for j in range(6):
-            assert table[i, j] == g.overlap(a[i], a[::-1][j])
-    np.testing.assert_array_equal(g.overlap_table(a[::-1], a), table.T)
-
-
-def test_overlap_table_chunks_agree():
-    a = np.stack([_convex(s, 7).vertices for s in range(10)])
-    b = np.stack([_convex(s + 50, 6).vertices for s in range(9)])
-    np.testing.assert_array_equal(g.overlap_table(a, b, chunk_elements=1), g.overlap_table(a, b))
-
-
-def test_polygon_is_stored_counter_clockwise():
-    cw = g.Polygon(SQUARE[::-1])
-    assert cw.area == pytest.approx(1.0)
-    assert g.signed_area(cw.vertices) > 0
-    assert cw.edges().shape == (4, 2, 2)
+            assert table[i, j] == g.overlap(polys[i], polys[::-1][j])
+    np.testing.assert_array_equal(g.interiors_overlap(polys[::-1][:, None], polys[None, :]), table.T)
 
 
 @pytest.mark.parametrize("vertices, match", [
     ([[0, 0], [1, 0]], "at least 3"),
     ([[0, 0], [1, 0], [2, 0]], "positive area"),
-    ([[0, 0], [2, 2], [2, 0], [0, 1]], "simple polygon"),
-    ([[0, 0], [0, 0], [1, 0], [0, 1]], "zero-length"),
+    ([[0, 0], [3, 3], [3, 0], [0, 1]], "simple polygon"),
     ([[0, 0], [1, np.nan], [0, 1]], "finite"),
 ])
 def test_polygon_refuses_bad_vertices(vertices, match):
@@ -113,21 +134,27 @@ def test_polygon_refuses_bad_vertices(vertices, match):
 def test_pose_translation_and_rotation():
     tri = g.Polygon([[1, 0], [2, 0], [1, 1]])
     shift = g.Part(tri, g.Translation((0.0, 2.0)))
-    np.testing.assert_allclose(g.pose(shift, 0.5), tri.vertices + [0.0, 0.5])
+    moved = g.pose(shift, [0.5], 1e-3)[0]
+    np.testing.assert_allclose(np.asarray(moved.exterior.coords)[:-1].min(axis=0), [1.0, 0.5])
     turn = g.Part(tri, g.Rotation((1.0, 0.0)))
-    np.testing.assert_allclose(g.pose(turn, np.pi / 2), [[1, 0], [1, 1], [0, 0]], atol=1e-15)
-    np.testing.assert_allclose(g.pose(turn, 2 * np.pi), tri.vertices, atol=1e-14)
-    assert g.pose(turn, np.zeros((4, 3))).shape == (4, 3, 3, 2)
+    quarter = g.pose(turn, [np.pi / 2], 1e-3)[0]
+    assert quarter.normalize().equals_exact(g.Polygon([[1, 0], [1, 1], [0, 0]]).geometry(1e-3).normalize(), 1e-12)
+    full = g.pose(turn, [2 * np.pi], 1e-3)[0]
+    assert full.normalize().equals_exact(turn.geometry(1e-3), 1e-12)
+    assert g.pose(turn, np.zeros(7), 1e-3).shape == (7,)
     assert turn.periodic and turn.period == pytest.approx(2 * np.pi)
     assert not shift.periodic and shift.period is None
 
 
-def test_posed_vertices_and_bad_parts():
+def test_bad_parts_and_motions():
     tri = g.Polygon([[1, 0], [2, 0], [1, 1]])
-    a, b = g.posed_vertices(g.Part(tri, g.Translation((1, 0))), g.Part(tri, g.Rotation((0, 0))), 1.0, np.pi)
-    np.testing.assert_allclose(a, tri.vertices + [1, 0])
-    np.testing.assert_allclose(b, -tri.vertices, atol=1e-15)
     with pytest.raises(TypeError, match="motion"):
         g.Part(tri, "spin")
+    with pytest.raises(TypeError, match="shapes"):
+        g.Part([[0, 0], [1, 0], [0, 1]], g.Translation((1, 0)))
     with pytest.raises(ValueError, match="direction"):
         g.Translation((0.0, 0.0))
+    with pytest.raises(ValueError, match="upper must be > lower"):
+        g.Rectangle((0, 0), (1, -1))
+    with pytest.raises(ValueError, match="radius"):
+        g.Circle((0, 0), 0.0)

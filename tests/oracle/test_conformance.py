@@ -1,6 +1,7 @@
 """The shipped conformance vectors and the checker that other implementations use."""
 import configparser
 import fnmatch
+import hashlib
 import json
 import shutil
 from pathlib import Path
@@ -65,10 +66,18 @@ def test_shipped_result_matches_the_engine(entry):
     assert all(conf.passes(k, e) for k, e in errors.items()), errors
 
 
+def _files(entry: dict) -> list:
+    """Every file of a vector: its case, and its result and other one-sided results."""
+    return [entry["case"]] + ([entry["result"]] if "result" in entry else []) + entry.get("one_sided", [])
+
+
 @pytest.mark.parametrize("vid", ALL_IDS)
 def test_regenerating_gives_identical_arrays(vid, regenerated):
     entry = next(e for e in ENTRIES if e["id"] == vid)
-    for name in [entry["case"]] + ([entry["result"]] if "result" in entry else []):
+    if conf.is_file_vector(entry):          # a file that is no case: the same bytes
+        assert (regenerated / entry["case"]).read_bytes() == (VECTORS / entry["case"]).read_bytes()
+        return
+    for name in _files(entry):
         fresh, shipped = _load(regenerated, name), _load(VECTORS, name)
         assert sorted(fresh) == sorted(shipped), name
         for key in shipped:
@@ -84,14 +93,16 @@ def test_regenerated_manifest_is_identical(regenerated):
 
 
 def test_manifest_lists_exactly_the_files():
-    listed = {"manifest.json"} | {e["case"] for e in ENTRIES} | {e["result"] for e in VALID}
+    listed = {"manifest.json"} | {name for e in ENTRIES for name in _files(e)}
     assert {p.name for p in VECTORS.iterdir()} == listed
     assert len(ALL_IDS) == len(set(ALL_IDS))
     assert [e["tc_id"] for e in ENTRIES] == list(range(1, len(ENTRIES) + 1))
     for e in INVALID:
-        assert e["key"] in oracle.CASE_KEYS or e["key"] == "gravity"
+        assert e["key"] in oracle.CASE_KEYS or e["key"] == "gravity" or (e["key"] is None and conf.is_file_vector(e))
         assert e["error"] in ("ValueError", "TypeError") and "result" not in e
-    assert MANIFEST["version"] == LATEST == generate.VERSION == "v2"
+    for e in VALID:
+        assert ("one_sided" in e) == ("kink" in e["flags"])      # every kink vector of v3 binds its gradients
+    assert MANIFEST["version"] == LATEST == generate.VERSION == "v3"
     assert MANIFEST["tolerances"]["TRAJ_RTOL"] == TRAJ_RTOL and MANIFEST["tolerances"]["GRAD_RTOL"] == GRAD_RTOL
 
 
@@ -162,7 +173,13 @@ def test_checker_passes_the_reference_oracle():
     reports = conf.check_gradients(run_cached, strict_kinks=True)
     assert len(reports) == n and all(r.ok for r in reports)
     reports = conf.check_invalid(lambda p: oracle.validate_case(oracle.load_case(p)), strict_types=True)
-    assert len(reports) == len(ENTRIES) and all(r.ok for r in reports)
+    run_only = [e for e in INVALID if "nonfinite" in e["flags"]]        # refused only when run (12.1)
+    assert run_only and len(reports) == len(ENTRIES) - len(run_only) and all(r.ok for r in reports)
+    for e in run_only:
+        case = oracle.load_case(VECTORS / e["case"])
+        oracle.validate_case(case)
+        with pytest.raises(oracle.CaseError, match=f"case key '{e['key']}': the run left the finite numbers"):
+            oracle.run_case(case)
 
 
 def test_checker_reads_a_regenerated_folder(regenerated):
@@ -173,9 +190,46 @@ def _fingerprint(case) -> bytes:
     return case["values"].tobytes() + case["x0"].tobytes()
 
 
-def test_kinks_are_not_binding_by_default():
-    kinked = {e["id"] for e in VALID if "kink" in e["flags"]}
-    prints = {_fingerprint(case) for e, case, _ in conf.iter_vectors(LATEST) if e["id"] in kinked}
+KINKED = [e for e in VALID if "kink" in e["flags"]]
+#: The one-sided gradients a kink vector accepts besides its result's, by fingerprint.
+OTHER_SIDES = {_fingerprint(case): conf.one_sided_results(e) for e, case, _ in conf.iter_vectors(LATEST)
+               if "kink" in e["flags"]}
+
+
+def _at_kinks(change):
+    """The reference, with the gradients of the kink vectors replaced by ``change(result, others)``."""
+    def fn(case):
+        result = run_cached(case)
+        others = OTHER_SIDES.get(_fingerprint(case))
+        if others is not None:
+            result.update(change(result, others))
+        return result
+    return fn
+
+
+def test_kink_gradients_bind_to_their_one_sided_values():
+    """On a kink, each gradient entry may take any one-sided value the manifest lists
+    (the wall's onset: inactive or active), and no other; strict mode takes the
+    reference's own only."""
+    assert {e["id"] for e in KINKED if e["one_sided"]} == {"wall-onset-dynamic", "wall-onset-cylinder-q1-quasistatic"}
+    other_side = _at_kinks(lambda result, others: others[0] if others else {})
+    assert len(conf.check_gradients(other_side)) == len(VALID)
+    with pytest.raises(AssertionError, match="wall-onset-dynamic"):
+        conf.check_gradients(other_side, strict_kinks=True)
+
+    def halfway(result, others):       # the mean of the two one-sided values: neither of them
+        return {k: 0.5 * (result[k] + others[0][k]) for k in others[0]} if others else {}
+    with pytest.raises(AssertionError, match="2 of .* fail"):
+        conf.check_gradients(_at_kinks(halfway))
+    negated = _at_kinks(lambda result, others: {k: -v for k, v in result.items() if k.startswith("grad_")})
+    with pytest.raises(AssertionError, match=f"{len(KINKED)} of .* fail"):
+        conf.check_gradients(negated)
+
+
+def test_kinks_of_v2_do_not_bind_gradients():
+    """v2's kink vectors list no one-sided values: there only x, v, energy and loss bind."""
+    kinked = {e["id"] for e in conf.load_manifest("v2")["vectors"] if "kink" in e["flags"]}
+    prints = {_fingerprint(case) for e, case, _ in conf.iter_vectors("v2") if e["id"] in kinked}
 
     def wrong_at_kinks(case):
         result = run_cached(case)
@@ -184,10 +238,10 @@ def test_kinks_are_not_binding_by_default():
                 if k.startswith("grad_"):
                     result[k] = -result[k]
         return result
-    reports = conf.check_gradients(wrong_at_kinks)
+    reports = conf.check_gradients(wrong_at_kinks, "v2")
     assert {r.id for r in reports if "kink" in r.note} == kinked
     with pytest.raises(AssertionError):
-        conf.check_gradients(wrong_at_kinks, strict_kinks=True)
+        conf.check_gradients(wrong_at_kinks, "v2", strict_kinks=True)
 
 
 def _perturbed(name, how):
@@ -353,7 +407,31 @@ def test_cli_conformance_check_fails_on_a_changed_vector(tmp_path, capsys, monke
     assert capsys.readouterr().err.startswith("error: ")
 
 
-# =========================================================================== v1, frozen
+# =========================================================================== v1 and v2, frozen
+
+#: The sha256 of each frozen set's files (name and bytes, in name order). A frozen set
+#: never changes: a new version is a new folder.
+FROZEN = {"v1": "f40a3b79b4f55d59995ef03fb99494bdd6596e88423451901815c15a6d152e52",
+          "v2": "453e832da6d6c2c11e97406691958a603e0e157f4f9689c6a532ead1dd353c51"}
+
+
+def _digest(version: str) -> str:
+    h = hashlib.sha256()
+    for path in sorted(vectors_dir(version).iterdir()):
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()
+
+
+@pytest.mark.parametrize("version", sorted(FROZEN))
+def test_a_frozen_set_stays_byte_for_byte(version):
+    assert _digest(version) == FROZEN[version]
+
+
+def test_v3_holds_every_vector_of_v2_unchanged():
+    v2 = vectors_dir("v2")
+    for e in conf.load_manifest("v2")["vectors"]:
+        for name in [e["case"]] + ([e["result"]] if "result" in e else []):
+            assert (VECTORS / name).read_bytes() == (v2 / name).read_bytes(), name
 
 def test_v1_stays_shipped_and_readable_as_it_was():
     """v1 is frozen: still shipped, readable, its manifest unchanged (its old generator
@@ -374,6 +452,46 @@ def test_v1_stays_shipped_and_readable_as_it_was():
         errors = conf.compare_results(got, want)
         assert all(conf.passes(k, e) for k, e in errors.items()), (entry["id"], errors)
     assert past == ["far-outside-spring-quasistatic"]
+
+
+def _case(vid: str) -> dict:
+    return oracle.load_case(VECTORS / f"{vid}.case.npz")
+
+
+def _spacing(case: dict) -> np.ndarray:
+    n = np.array(case["values"].shape, dtype=float)
+    return (case["upper"] - case["lower"]) / np.where(case["periodic"], n, n - 1)
+
+
+def test_v3_sits_on_each_point_the_spec_fixes():
+    """v3's states sit exactly on a wall's onset, the closed edge of each non-periodic
+    axis, the spring's seam, and the oscillator's root at 0 mid-run; its spacings
+    include ones whose -1/h float32 does not hold; its refusals cover docs/spec.md 8.1,
+    12.1 and a non-integral n_steps."""
+    c = _case("wall-onset-dynamic")
+    onsets = np.stack((c["lower"] + c["wall_margin"], c["upper"] - c["wall_margin"]))
+    assert [c["x0"][i, d] == onsets[side, d] for i, (d, side) in enumerate([(0, 0), (0, 1), (1, 0), (1, 1)])] == [True] * 4
+    c = _case("grid-edge-plane")
+    u = (c["x0"] - c["lower"]) / _spacing(c)
+    n1 = np.array(c["values"].shape) - 1
+    assert {(d, float(u[i, d])) for i, d in enumerate([0, 0, 1, 1])} == {(0, 0.0), (0, n1[0]), (1, 0.0), (1, n1[1])}
+    c = _case("spring-seam-cylinder-q0")
+    L = c["upper"][0] - c["lower"][0]
+    assert np.all(np.mod(c["x0"][:, 0] - c["spring_center"][0] + 0.5 * L, L) == 0.0)
+    c = _case("oscillator-zero-root-mid-run")
+    result = oracle.run_case(c)
+    t = c["t0"] + c["dt"] * np.arange(int(c["n_steps"]) + 1)
+    S = (result["x"][:, 0, 0] - c["amplitude"] * np.cos(c["omega"] * t)) ** 2 + (c["amplitude"] * c["omega"] * np.sin(c["omega"] * t)) ** 2
+    assert S[5] == 0.0 and np.all(S[np.arange(len(S)) != 5] > 0)
+    for vid in ("spacing-inexact-plane", "spacing-inexact-torus-quasistatic", "spacing-inexact-cylinder-q0"):
+        h = _spacing(_case(vid))
+        assert np.any(np.float32(-1.0 / h) != -1.0 / h), vid      # on one axis at least
+    by_id = {e["id"]: e for e in ENTRIES}
+    for vid in ("object-array", "member-not-array", "not-npz", "single-npy", "truncated-zip"):
+        assert by_id[vid]["flags"] == ["file"] and by_id[vid]["kind"] == "invalid"
+    assert by_id["n-steps-float-fraction"]["key"] == "n_steps" and _case("n-steps-float-fraction")["n_steps"] == 10.5
+    assert [e["id"] for e in INVALID if "nonfinite" in e["flags"]] == ["overflow-dynamic", "overflow-quasistatic"]
+    assert sum("t0" in case and case["t0"] != 0 for _, case, _ in conf.iter_vectors(LATEST)) >= 6
 
 
 def test_v2_pins_the_stability_rule():

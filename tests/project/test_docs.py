@@ -98,3 +98,18 @@ def test_a_stale_reference_is_found():
             "`pes_ref/surface.py`, `pes_ref.surface.Locator` and `pes_ref.core.grid.Nowhere` do not.")
     assert broken_references(text) == ["2: pes_ref/surface.py", "2: pes_ref.surface.Locator",
                                        "2: pes_ref.core.grid.Nowhere"]
+
+
+def test_readme_check_transcripts_count_what_the_code_ships():
+    """Each transcript of ``pes_ref check`` in the README closes with the number of cases
+    it runs: every vector of the newest set plus its random cases."""
+    from pes_ref.testing.conformance import load_manifest
+    n_vectors = len(load_manifest()["vectors"])
+    transcripts = re.findall(r"```\n\$ (.*?)\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
+    checks = [(cmd, out) for cmd, out in transcripts if "pes_ref check" in cmd or cmd.startswith("make check-example")]
+    assert len(checks) == 2
+    for cmd, out in checks:
+        full = out.splitlines()[0] if cmd.startswith("make") else cmd
+        n = n_vectors + int(re.search(r"--random (\d+)", full).group(1))
+        assert out.rstrip().splitlines()[-1] == f"{n} passed, 0 failed", cmd
+        assert re.search(rf"^{n} cases in 2 processes of the program", out, re.M), cmd

@@ -7,7 +7,7 @@ In the style of Project Wycheproof, each version folder (``v1/``, ...) holds a
 vectors are cases that a conforming reader must refuse, naming the key at fault.
 
 A version, once shipped, is frozen: a change of docs/spec.md, of the format or of the
-vector set makes a new folder (``v2/``), and old folders stay readable. The files are
+vector set makes a new folder (the next ``v<k>/``), and old folders stay readable. The files are
 made by :mod:`pes_ref.oracle.conformance.generate` (``python -m pes_ref conformance --write``)
 and used by :mod:`pes_ref.testing.conformance`.
 """
@@ -15,8 +15,8 @@ from pathlib import Path
 
 __all__ = ["LATEST", "vectors_dir"]
 
-#: The newest vector set (v1, frozen, is still shipped and readable).
-LATEST = "v2"
+#: The newest vector set (v1 and v2, frozen, are still shipped and readable).
+LATEST = "v3"
 
 
 def vectors_dir(version: str = LATEST) -> Path:

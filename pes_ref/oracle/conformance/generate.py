@@ -8,13 +8,22 @@ results). Invalid vectors are run through :func:`pes_ref.oracle.case.validate_ca
 check that the oracle refuses them with the declared key and error type.
 
 Topologies use a node spacing of 0.25 on every axis, so node and seam positions are
-exact in binary and the edge-state vectors really sit on a node or a seam.
+exact in binary and the edge-state vectors really sit on a node or a seam; the
+``spacing-inexact-*`` vectors use spacings that are not (where a float32 ``1/h`` differs
+from float64's). A kink vector may list its other one-sided gradients (docs/spec.md 7.3),
+computed by the oracle on the case with the kink state nudged one ulp to the other side;
+an invalid vector whose file breaks the container rules (docs/spec.md 8.1) is written
+byte for byte (flag ``file``).
 """
 from __future__ import annotations
 
 import hashlib
+import io
 import json
+import shutil
 import sys
+import tempfile
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,7 +34,7 @@ from pes_ref.oracle import case as oracle
 from pes_ref.oracle import tolerances
 from pes_ref.oracle.compare import compare_results, passes
 from pes_ref.oracle.conformance import vectors_dir
-from pes_ref.core.files import atomic_file
+from pes_ref.core.files import atomic_file, move_into
 
 __all__ = ["VERSION", "Vector", "build_vectors", "write_vectors", "compare_dirs", "main"]
 
@@ -33,11 +42,15 @@ __all__ = ["VERSION", "Vector", "build_vectors", "write_vectors", "compare_dirs"
 #: module path of the layout it was written in, ``pes_ref.conformance.generate``.)
 GENERATOR = "pes_ref.oracle.conformance.generate"
 
-#: The vector set this module writes. v2 (spec v2) adds the stability rule of
-#: docs/spec.md section 10: v1's ``far-outside-spring-quasistatic`` was past it and has a
-#: stable mobility here, and the ``unstable-*`` invalid vectors and the ``near-limit-*``
-#: valid ones pin the rule down.
-VERSION = "v2"
+#: The vector set this module writes. v3 (spec v3) keeps every vector of v2 (the same
+#: cases and results) and binds the gradients of kink vectors to their one-sided values
+#: (docs/spec.md 7.3); it adds the points the spec fixes that no vector sat on (a wall's
+#: onset, the closed grid edge of each non-periodic axis, the spring's minimum-image
+#: seam, the oscillator's root at 0 in the middle of a run), the container refusals of
+#: section 8.1, a run that is stable by section 10 but overflows (section 12.1), a
+#: non-integral ``n_steps``, spacings that float32 does not hold exactly, and more cases
+#: with ``t0 != 0`` and time windows. (v2 added the stability rule of section 10 to v1.)
+VERSION = "v3"
 _SEED = 20210921
 
 # name -> (shape, lower, upper, periodic); every spacing is 0.25
@@ -63,11 +76,20 @@ class Vector:
         The case keys (as :func:`pes_ref.oracle.case.save_case` takes them).
     kind : {"valid", "invalid"}
     flags : list of str
-        ``kink``: a state sits exactly on a kink (node, seam, clip edge), where the
-        contract (docs/spec.md 2.5, 7.3) accepts any one-sided gradient; conformance checkers compare only the
-        trajectory and the loss there. Other flags are informational.
+        ``kink``: a state sits exactly on a kink (node, seam, clip edge, wall onset),
+        where the contract (docs/spec.md 2.5, 7.3) owes a one-sided gradient: the
+        result's, or one of ``other_sides``. ``file``: the case is the bytes ``file``.
+        ``nonfinite``: an invalid case refused only when run (12.1). Other flags are
+        informational.
     key, error : str
-        Invalid vectors: the key at fault and the error type ("ValueError" or "TypeError").
+        Invalid vectors: the key at fault (None for a file that is not an ``.npz``) and the
+        error type ("ValueError" or "TypeError").
+    other_sides : dict of str -> callable
+        Kink vectors: per name, a function ``case -> case`` that moves the kink state one
+        ulp to the side whose one-sided gradient is also accepted; its gradients are
+        shipped as ``<id>.<name>.result.npz``.
+    file : bytes, optional
+        The case file's bytes, for a case that is no ``.npz`` of case keys (flag ``file``).
     """
 
     id: str
@@ -77,6 +99,8 @@ class Vector:
     flags: list = field(default_factory=list)
     key: str | None = None
     error: str | None = None
+    other_sides: dict = field(default_factory=dict)
+    file: bytes | None = None
 
 
 # =========================================================================== case builders
@@ -86,12 +110,15 @@ def _rng(vid: str) -> np.random.Generator:
     return np.random.default_rng([_SEED, int.from_bytes(digest[:8], "little")])
 
 
-def _case(rng, topology="plane", *, n=2, mode="dynamic", n_steps=20, dt=0.05, shape=None,
+def _case(rng, topology="plane", *, n=2, mode="dynamic", n_steps=20, dt=0.05, shape=None, domain=None,
           objective="funnel-final", speed=0.5, **extra) -> dict:
-    """A valid case: random grid and state on a topology, and one objective."""
+    """A valid case: random grid and state on a topology, and one objective (``shape``
+    and ``domain = (lower, upper)`` replace the topology's grid)."""
     shp, lower, upper, periodic = TOPOLOGIES[topology]
     if shape is not None:
         shp = shape
+    if domain is not None:
+        lower, upper = domain
     lower, upper = np.array(lower), np.array(upper)
     case = {
         "values": rng.normal(0.0, 0.5, shp),
@@ -149,8 +176,8 @@ def _walls(*edges) -> dict:
 
 # =========================================================================== valid vectors
 
-def _valid(vid: str, comment: str, build, flags=()) -> Vector:
-    return Vector(vid, comment, build(_rng(vid)), "valid", list(flags))
+def _valid(vid: str, comment: str, build, flags=(), other_sides=None) -> Vector:
+    return Vector(vid, comment, build(_rng(vid)), "valid", list(flags), other_sides=dict(other_sides or {}))
 
 
 def _topology_vectors():
@@ -382,6 +409,124 @@ def _limit_vectors():
                                                   spring_k=np.float64(100.0), spring_center=np.array([0.5, 0.5])))
 
 
+def _nudged(*moves):
+    """``case -> case`` moving ``x0[i, d]`` one ulp toward ``toward`` (-inf or inf) for each
+    ``(i, d, toward)``: the kink state on the other side of its kink."""
+    def move(case: dict) -> dict:
+        x0 = np.array(case["x0"], dtype=np.float64)
+        for i, d, toward in moves:
+            x0[i, d] = np.nextafter(x0[i, d], toward)
+        return dict(case, x0=x0)
+    return move
+
+
+def _kink_vectors():
+    """States exactly on the kinks of docs/spec.md 7.3 that v2 had no vector on, each
+    with the one-sided gradients the spec accepts there."""
+    w = 0.125                                     # a wall margin that puts the onsets off the nodes
+
+    def wall_onset(r):
+        case = _case(r, "plane", n=4, n_steps=24, objective="quadratic", wall_k=np.float64(40.0),
+                     wall_margin=np.float64(w), walls=np.ones((2, 2), dtype=bool))
+        a, b = case["lower"] + w, case["upper"] - w            # the onsets a = lower + w, b = upper - w
+        case["x0"] = np.array([[a[0], 0.6], [b[0], 0.85], [0.4, a[1]], [0.65, b[1]]])
+        return case
+    yield _valid("wall-onset-dynamic", "plane, all four walls, one particle exactly at each wall's onset "
+                 "(q = a or q = b): the gradient of the inactive wall or of the active one is accepted",
+                 wall_onset, flags=["kink"],
+                 other_sides={"wall-active": _nudged((0, 0, -np.inf), (1, 0, np.inf), (2, 1, -np.inf),
+                                                     (3, 1, np.inf))})
+
+    def wall_onset_quasistatic(r):
+        case = _case(r, "cylinder-q1", n=2, mode="quasistatic", objective="funnel-every", wall_k=np.float64(40.0),
+                     wall_margin=np.float64(w), walls=np.array([[True, True], [False, False]]))
+        case["x0"] = np.array([[case["lower"][0] + w, 0.7], [case["upper"][0] - w, 1.3]])
+        return case
+    yield _valid("wall-onset-cylinder-q1-quasistatic", "cylinder q1, quasistatic, both walls of q0, a particle "
+                 "exactly at each onset", wall_onset_quasistatic, flags=["kink"],
+                 other_sides={"wall-active": _nudged((0, 0, -np.inf), (1, 0, np.inf))})
+
+    def grid_edge(r):
+        case = _case(r, "plane", n=4, objective="quadratic")
+        case["x0"] = np.array([[0.0, 0.6], [1.0, 0.85], [0.4, 0.0], [0.65, 1.5]])   # u = 0 or n - 1 on one axis
+        case["v0"] = np.array([[0.8, 0.1], [-0.8, -0.2], [0.1, 0.8], [-0.2, -0.8]])
+        return case
+    yield _valid("grid-edge-plane", "plane, a particle exactly on the closed grid edge of each non-periodic "
+                 "axis, lower and upper (s = 1 there), moving inward: only the inside derivative is one-sided",
+                 grid_edge, flags=["kink"])
+
+    def grid_edge_quasistatic(r):
+        case = _case(r, "cylinder-q0", n=2, mode="quasistatic", objective="quadratic")
+        case["x0"] = np.array([[0.6, -0.5], [1.3, 0.5]])
+        return case
+    yield _valid("grid-edge-cylinder-q0-quasistatic", "cylinder q0, quasistatic, particles exactly on both "
+                 "closed edges of the non-periodic axis q1", grid_edge_quasistatic, flags=["kink"])
+
+    def spring_seam(r):
+        case = _case(r, "cylinder-q0", n=3, objective="quadratic", spring_k=np.array([3.0, 1.0]),
+                     spring_center=np.array([0.875, 0.0]))
+        case["x0"][:, 0] = [1.875, -0.125, 3.875]      # q - c + L/2 = 0 mod L: delta = -L/2, off the nodes
+        return case
+    yield _valid("spring-seam-cylinder-q0", "cylinder q0, particles exactly on the spring's minimum-image seam "
+                 "(delta = -L/2), unwrapped three ways, off the grid's nodes", spring_seam, flags=["kink"])
+
+    def spring_seam_torus(r):
+        case = _case(r, "torus", n=3, mode="quasistatic", objective="funnel-every", spring_k=np.float64(2.0),
+                     spring_center=np.array([0.375, 0.875]))
+        case["x0"] = np.array([[0.875, 0.4], [0.3, 1.875], [-0.125, -0.125]])
+        return case
+    yield _valid("spring-seam-torus-quasistatic", "torus, quasistatic, particles on the spring's seam of q0, of "
+                 "q1, and of both", spring_seam_torus, flags=["kink"])
+
+    def zero_root_mid_run(r):
+        dt, steps_to_zero = 0.0625, 5
+        case = _case(r, "plane", n=1, mode="quasistatic", n_steps=12, dt=dt, objective="oscillator",
+                     t0=np.float64(-(dt * steps_to_zero)))
+        case["x0"] = np.array([[0.3, 0.6]])            # X = A cos(0) at t_5 = 0, in cell (1, 2) ...
+        case["values"][1:3, 2:4] = np.mean(case["values"][1:3, 2:4])   # ... which is flat: X stays there
+        return case
+    yield _valid("oscillator-zero-root-mid-run", "quasistatic oscillator, a particle at rest in a flat cell "
+                 "with t0 = -5 dt: the root's argument S_n is exactly 0 at n = 5 (its derivative is 0 there)",
+                 zero_root_mid_run, flags=["zero-root"])
+
+
+def _time_vectors():
+    """Step times that do not start at 0, and windowed forces across them."""
+    yield _valid("force-window-t0-negative", "plane, oscillator, t0 = -0.4, a force on for t in [-0.2, 0.3)",
+                 lambda r: _with_force(_case(r, "plane", n=2, objective="oscillator", n_steps=24, t0=np.float64(-0.4)),
+                                       Window(Constant([1.5, -0.5]), -0.2, 0.3)))
+    yield _valid("oscillator-t0-quasistatic", "torus, quasistatic, oscillator with t0 = 1.25",
+                 lambda r: _case(r, "torus", n=2, mode="quasistatic", objective="oscillator", n_steps=24,
+                                 t0=np.float64(1.25)))
+    yield _valid("force-windows-t0-cylinder-q1", "cylinder q1, damped, t0 = 2.5, a per-particle force on in "
+                 "[2.6, 3.1) and a constant one from 2.9 to past the last step, funnel at every step",
+                 lambda r: _with_force(_case(r, "cylinder-q1", n=2, n_steps=24, objective="funnel-every",
+                                             damping=np.float64(0.3), t0=np.float64(2.5)),
+                                       Window(PerParticle(r.normal(0.0, 1.0, (2, 2))), 2.6, 3.1),
+                                       Window(Constant([0.0, 1.0]), 2.9, 10.0)))
+    yield _valid("oscillator-t0-late-spring", "plane, spring and damping, oscillator with t0 = 7.3 (cos and sin "
+                 "far from their values at 0)",
+                 lambda r: _case(r, "plane", n=3, objective="oscillator", n_steps=30, t0=np.float64(7.3),
+                                 damping=np.float64(0.3), spring_k=np.array([2.0, 1.0]),
+                                 spring_center=np.array([0.5, 0.75])))
+
+
+def _spacing_vectors():
+    """Spacings that are not exact binary fractions, where ``-1/h`` in float32 differs from float64."""
+    yield _valid("spacing-inexact-plane", "plane 6 x 7 on [-0.3, 1.0] x [0.1, 1.7]: h = (0.26, 0.2667)",
+                 lambda r: _case(r, "plane", n=3, n_steps=30, shape=(6, 7), objective="oscillator",
+                                 domain=((-0.3, 0.1), (1.0, 1.7))))
+    yield _valid("spacing-inexact-torus-quasistatic", "torus 5 x 6 on [0, 1.1] x [0, 2.3]: h = (0.22, 0.3833), "
+                 "quasistatic", lambda r: _case(r, "torus", n=3, mode="quasistatic", n_steps=24, shape=(5, 6),
+                                                objective="quadratic", domain=((0.0, 0.0), (1.1, 2.3))))
+    yield _valid("spacing-inexact-cylinder-q0", "cylinder q0 7 x 5 on [0, 2.1] x [-0.6, 0.6]: h = (0.3, 0.3), "
+                 "damped, spring, particles cross the seam",
+                 lambda r: _case(r, "cylinder-q0", n=2, n_steps=30, shape=(7, 5), objective="funnel-every",
+                                 domain=((0.0, -0.6), (2.1, 0.6)), damping=np.float64(0.3),
+                                 spring_k=np.array([0.5, 1.5]), spring_center=np.array([1.0, 0.0]),
+                                 v0=np.array([[3.0, 0.2], [-2.5, -0.1]])))
+
+
 def _cross_curvature(case: dict) -> float:
     """The grid curvature c of a case, ``max over cells |G11 - G10 - G01 + G00| / (h0 h1)``
     (docs/spec.md section 10; cells closed by wrap-around on a periodic axis)."""
@@ -399,7 +544,8 @@ def valid_vectors() -> list:
     """All valid vectors, in manifest order."""
     out = []
     for group in (_topology_vectors, _spring_wall_vectors, _force_vectors, _mass_damping_vectors,
-                  _objective_vectors, _grid_vectors, _edge_vectors, _limit_vectors):
+                  _objective_vectors, _grid_vectors, _edge_vectors, _limit_vectors,
+                  _kink_vectors, _time_vectors, _spacing_vectors):
         out.extend(group())
     return out
 
@@ -415,12 +561,12 @@ def _base_quasistatic() -> dict:
                  objective="quadratic")
 
 
-def _invalid(vid, comment, key, error, *, drop=(), base=_base_dynamic, **changes) -> Vector:
+def _invalid(vid, comment, key, error, *, drop=(), base=_base_dynamic, flags=(), **changes) -> Vector:
     case = base()
     for k in drop:
         del case[k]
     case.update(changes)
-    return Vector(vid, comment, case, "invalid", [], key, error)
+    return Vector(vid, comment, case, "invalid", list(flags), key, error)
 
 
 def invalid_vectors() -> list:
@@ -512,8 +658,58 @@ def invalid_vectors() -> list:
         _invalid("mass-bool", "mass holds a bool", "mass", T, mass=np.bool_(True)),
         _invalid("periodic-float", "periodic holds floats", "periodic", T, periodic=np.array([0.0, 1.0])),
         _invalid("dt-string", "dt holds a string", "dt", T, dt="0.05"),
+        _invalid("n-steps-float-fraction", "n_steps = 10.5: an integer dtype is required, and a float that is "
+                 "not whole must not be truncated either", "n_steps", T, n_steps=np.float64(10.5)),
         # the stability rule (docs/spec.md section 10): finite numbers, but past the limit of the stiffest term
         *_unstable_vectors(),
+        # a run within the stability rule whose numbers leave the finite range (section 12.1): refused, no file
+        _invalid("overflow-dynamic", "dynamic, stable by section 10, but a force of 1e308 overflows the run: "
+                 "refused naming dt, and no result file, not even an empty one", "dt", V, flags=["nonfinite"],
+                 force=np.full((6, 2, 2), 1e308)),
+        _invalid("overflow-quasistatic", "quasistatic, stable by section 10, but a force of 1e200 against a spring "
+                 "overflows the energy: refused naming mobility", "mobility", V, base=q, flags=["nonfinite"],
+                 spring_k=np.float64(1.0), spring_center=np.zeros(2), force=np.full((6, 2, 2), 1e200)),
+        # the container (section 8.1): files that are no .npz of case keys
+        *_container_vectors(),
+    ]
+
+
+def _zip(members: dict) -> bytes:
+    """A zip of stored members with the fixed date, byte for byte reproducible."""
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_STORED) as z:
+        for name, data in members.items():
+            z.writestr(zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0)), data)
+    return buffer.getvalue()
+
+
+def _npy(array: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    np.lib.format.write_array(buffer, array, allow_pickle=array.dtype.hasobject)
+    return buffer.getvalue()
+
+
+def _container_vectors() -> list:
+    """Invalid vectors whose file breaks docs/spec.md 8.1 (flag ``file``): the bytes of
+    the base dynamic case's members, one made unreadable, or no case archive at all."""
+    base = _base_dynamic()
+    members = {f"{k}.npy": _npy(np.asarray(v)) for k, v in base.items()}
+    whole = _zip(members)
+
+    def vector(vid, comment, key, error, data):
+        return Vector(vid, comment, {}, "invalid", ["file"], key, error, file=data)
+    grid = np.asarray(base["values"])
+    return [
+        vector("object-array", "values is an object array (a member that needs pickle to be read)", "values",
+               "TypeError", _zip(dict(members, **{"values.npy": _npy(grid.astype(object))}))),
+        vector("member-not-array", "the member values.npy holds text, not a .npy array", "values", "TypeError",
+               _zip(dict(members, **{"values.npy": b"this is not an array\n"}))),
+        vector("not-npz", "a text file, not an .npz archive (refused without a key)", None, "ValueError",
+               b"values = [[0, 1], [1, 0]]\n"),
+        vector("single-npy", "a single .npy array, not an .npz archive of named arrays", None, "ValueError",
+               _npy(grid)),
+        vector("truncated-zip", "the first half of a valid case's .npz: a damaged zip", None, "ValueError",
+               whole[: len(whole) // 2]),
     ]
 
 
@@ -550,10 +746,11 @@ def build_vectors() -> list:
 
 # =========================================================================== writing
 
-def _expected_refusal(vec: Vector):
-    """Run the oracle's validation on an invalid vector and check it refuses as declared."""
+def _expected_refusal(vec: Vector, path: Path) -> str:
+    """Run the oracle on an invalid vector's file (reading, validating, and running if
+    it gets that far) and check that it refuses as declared."""
     try:
-        oracle.validate_case(vec.case)
+        oracle.run_case(path)
     except oracle.CaseError as exc:
         got = "TypeError" if isinstance(exc, TypeError) else "ValueError"
         if exc.key != vec.key or got != vec.error:
@@ -568,6 +765,8 @@ def _entry(tc_id: int, vec: Vector) -> dict:
              "flags": list(vec.flags), "case": f"{vec.id}.case.npz"}
     if vec.kind == "valid":
         entry["result"] = f"{vec.id}.result.npz"
+        if "kink" in vec.flags:
+            entry["one_sided"] = [f"{vec.id}.{name}.result.npz" for name in vec.other_sides]
     else:
         entry["key"] = vec.key
         entry["error"] = vec.error
@@ -575,11 +774,11 @@ def _entry(tc_id: int, vec: Vector) -> dict:
 
 
 def manifest_header() -> dict:
-    """The manifest's fixed part: format, version, tolerances."""
+    """The manifest's fixed part: format, version, tolerances, flags."""
     return {
         "format": "pes_ref conformance vectors (docs/spec.md sections 8-9 case/result .npz files)",
         "version": VERSION,
-        "spec": "docs/spec.md (spec v2)",
+        "spec": f"docs/spec.md (spec {VERSION})",
         "generator": GENERATOR,
         "tolerances": {
             "TRAJ_RTOL": tolerances.TRAJ_RTOL, "TRAJ_ATOL": tolerances.TRAJ_ATOL,
@@ -587,9 +786,36 @@ def manifest_header() -> dict:
             "rule": "|got - want| <= atol + rtol |want| per entry; trajectory keys (x, v, energy, loss) "
                     "use TRAJ_*, gradient keys (grad_*) use GRAD_RTOL and GRAD_ATOL * max|want| "
                     "(max|want| taken as 1 for an all-zero gradient)",
-            "kink": "on vectors flagged 'kink' only x, v, energy and loss are binding",
+            "kink": "on vectors flagged 'kink' x, v, energy and loss bind as everywhere; each gradient entry "
+                    "must match the result or any file listed under 'one_sided' (the other one-sided "
+                    "gradients, docs/spec.md 7.3); strict mode compares with the result only",
+        },
+        "flags": {
+            "kink": "a state sits exactly on a kink of docs/spec.md 7.3 (node, seam, clip edge, wall onset)",
+            "zero-root": "the oscillator's root argument is exactly 0 at some step (its derivative is 0 there)",
+            "dtype": "integer inputs, read as float64",
+            "file": "the case file itself breaks docs/spec.md 8.1: written byte for byte, it has no case dict",
+            "nonfinite": "valid by sections 8 and 10, refused when run: its numbers leave the finite range (12.1)",
         },
     }
+
+
+def _write_case(vec: Vector, path: Path) -> None:
+    if vec.file is not None:
+        with atomic_file(path, overwrite=True, what="case") as fh:
+            fh.write(vec.file)
+    else:
+        oracle.save_case(path, overwrite=True, compress=True, **vec.case)   # shipped deflated, as in v1
+
+
+def _other_side(vec: Vector, name: str, result: dict, case: dict) -> dict:
+    """The gradients of the case with its kink state moved to the other side (``name``),
+    checked to keep the trajectory within tolerance (the nudge is one ulp)."""
+    other = oracle.run_case(vec.other_sides[name](case))
+    errors = compare_results(other, result, ["x", "v", "energy", "loss"])
+    if not all(passes(k, e) for k, e in errors.items()):
+        raise RuntimeError(f"kink vector {vec.id}: the {name} side moves the trajectory by {errors}")
+    return {k: v for k, v in other.items() if k.startswith("grad_")}
 
 
 def write_vectors(directory=None, *, quiet: bool = True) -> dict:
@@ -598,9 +824,11 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
     Parameters
     ----------
     directory : path, optional
-        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v2``.
+        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v3``.
         Created if missing; vector files of this naming scheme that are no longer
-        part of the set are removed.
+        part of the set are removed. Every file is made in a hidden folder beside it
+        first and moved in once all are made, the manifest last: a run stopped part-way
+        (Ctrl-C, a closed pipe) leaves ``directory`` as it was.
 
     Returns
     -------
@@ -608,28 +836,41 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
         The manifest.
     """
     directory = Path(vectors_dir(VERSION) if directory is None else directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    entries = []
-    for tc_id, vec in enumerate(build_vectors(), start=1):
-        entry = _entry(tc_id, vec)
-        if vec.kind == "invalid":
-            _expected_refusal(vec)
-        oracle.save_case(directory / entry["case"], overwrite=True, compress=True, **vec.case)   # shipped deflated, as in v1
-        if vec.kind == "valid":
-            result = oracle.run_case(oracle.load_case(directory / entry["case"]))
-            oracle.write_result(result, directory / entry["result"], overwrite=True, compress=True)
-        entries.append(entry)
-        if not quiet:
-            print(f"wrote {vec.kind:7s} {vec.id}")
-    keep = {e["case"] for e in entries} | {e["result"] for e in entries if "result" in e}
-    for stale in sorted(directory.glob("*.npz")):
-        if stale.name not in keep and (stale.name.endswith(".case.npz") or stale.name.endswith(".result.npz")):
-            stale.unlink()
+    directory.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", suffix=".tmp", dir=directory.parent))
+    try:
+        entries = []
+        for tc_id, vec in enumerate(build_vectors(), start=1):
+            entry = _entry(tc_id, vec)
+            path = staging / entry["case"]
+            _write_case(vec, path)
+            if vec.kind == "invalid":
+                _expected_refusal(vec, path)
+            else:
+                case = oracle.load_case(path)
+                result = oracle.run_case(case)
+                oracle.write_result(result, staging / entry["result"], overwrite=True, compress=True)
+                for name, file in zip(vec.other_sides, entry.get("one_sided", ())):
+                    oracle.write_result(_other_side(vec, name, result, case), staging / file, overwrite=True,
+                                        compress=True)
+            entries.append(entry)
             if not quiet:
-                print(f"removed stale {stale.name}")
-    manifest = dict(manifest_header(), vectors=entries)
-    with atomic_file(directory / "manifest.json", overwrite=True, what="manifest") as fh:
-        fh.write((json.dumps(manifest, indent=1) + "\n").encode("utf-8"))
+                print(f"wrote {vec.kind:7s} {vec.id}")
+        directory.mkdir(exist_ok=True)
+        move_into(sorted(staging.glob("*.npz")), directory)
+        keep = {e["case"] for e in entries} | {e["result"] for e in entries if "result" in e}
+        keep |= {f for e in entries for f in e.get("one_sided", ())}
+        stale = [p for p in sorted(directory.glob("*.npz")) if p.name not in keep
+                 and (p.name.endswith(".case.npz") or p.name.endswith(".result.npz"))]
+        for path in stale:
+            path.unlink()
+        manifest = dict(manifest_header(), vectors=entries)
+        with atomic_file(directory / "manifest.json", overwrite=True, what="manifest") as fh:
+            fh.write((json.dumps(manifest, indent=1) + "\n").encode("utf-8"))
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    for path in stale if not quiet else ():
+        print(f"removed stale {path.name}")
     return manifest
 
 
@@ -651,14 +892,21 @@ def _compare_vector(entry: dict, other, want_dir: Path, got_dir: Path) -> tuple:
         return vid, False, float("inf"), "missing from the regenerated set"
     if other != entry:
         return vid, False, float("inf"), "manifest entry differs"
-    detail = _same_case(oracle.load_case(want_dir / entry["case"]), oracle.load_case(got_dir / entry["case"]))
+    if "file" in entry["flags"]:
+        same = (want_dir / entry["case"]).read_bytes() == (got_dir / entry["case"]).read_bytes()
+        detail = None if same else "case file differs"
+    else:
+        detail = _same_case(oracle.load_case(want_dir / entry["case"]), oracle.load_case(got_dir / entry["case"]))
     if detail is not None:
         return vid, False, float("inf"), detail
     if entry["kind"] != "valid":
         return vid, True, 0.0, "invalid case identical"
-    errors = compare_results(oracle.read_npz(got_dir / entry["result"], what="result"),
-                             oracle.read_npz(want_dir / entry["result"], what="result"))
-    bad = [k for k, e in errors.items() if not passes(k, e)]
+    errors = {}
+    for name in [entry["result"]] + entry.get("one_sided", []):
+        for k, e in compare_results(oracle.read_npz(got_dir / name, what="result"),
+                                    oracle.read_npz(want_dir / name, what="result")).items():
+            errors[k if name == entry["result"] else f"{name}:{k}"] = e
+    bad = [k for k, e in errors.items() if not passes(k.rpartition(":")[2], e)]
     worst = max(errors.values(), default=0.0)
     return vid, not bad, worst, f"out of tolerance: {bad}" if bad else "ok"
 

@@ -1,18 +1,128 @@
-"""Wrappers around pes_ref's oracle that each break one thing, to show that
-``pes_ref check`` catches it: ``python broken.py MODE CASE RESULT [CASE RESULT ...]``.
+"""Implementations of the case format that each break one promise of docs/spec.md, to
+show that ``pes_ref check`` catches every kind of wrong implementation:
 
-Modes: ``ok`` (the oracle itself), ``perturb`` (energy off by 1e-9 relative),
-``no-damping`` (the velocity update without damping), ``other-side`` (positions on a
-cell edge looked up in the cell below), ``omit-gradient`` (no grad_values), ``nan``
-(NaN in x), ``accept-invalid`` (an invalid case gets a result and exit 0), ``hang``.
+    python broken.py MODE [--refusals FILE] CASE RESULT [CASE RESULT ...]
+
+``ok`` is pes_ref's oracle itself, ``reference`` the readable reference
+(:mod:`pes_ref.core.reference`) run the way the oracle runs a case, and
+``first-refusal-only`` the oracle ending a run at its first refusal; every other mode
+(:data:`MODES`) but ``hang`` is one of them with one bug: a changed case before the run, a changed
+result after it, a sub-step of the readable reference replaced by a wrong one, or a
+wrong way of refusing. Pairs are run one after the other, like the oracle does; a
+refusal prints ``error: <case path>: <message>`` (``error: <message>`` for one pair).
 """
+import json
 import sys
 import time
+from contextlib import ExitStack, contextmanager
 
 import numpy as np
 
-from pes_ref.oracle.case import CaseError, load_case, run_case, write_result
+from pes_ref.core import reference
+from pes_ref.oracle.case import CaseError, CaseTypeError, load_case, run_case, validate_case, write_result
 
+# =========================================================================== the reference, patchable
+
+
+def _reference_run(case: dict) -> dict:
+    """A case run by the readable reference, as the oracle runs it (validated first; a
+    run that leaves the finite numbers refused naming dt or mobility)."""
+    vc = validate_case(case)
+    blame = "dt" if vc.scene.mode == "dynamic" else "mobility"
+    try:
+        with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            loss, grads, run = reference.value_and_grad(vc.scene, vc.x0, vc.v0, vc.objective,
+                                                        regularization_weight=vc.regularization,
+                                                        wrt=vc.grad_names, fext=vc.force)
+            energy = reference.energy(vc.scene, run)
+    except FloatingPointError as exc:
+        raise CaseError(blame, f"the run left the finite numbers ({exc})") from None
+    result = {"x": run.x, "v": run.v, "energy": energy, "loss": np.float64(loss)}
+    result.update({"grad_" + name: grads[name] for name in vc.grad_names})
+    if not all(np.all(np.isfinite(a)) for a in result.values()):
+        raise CaseError(blame, "the run left the finite numbers")
+    return {k: np.array(v, dtype=np.float64) for k, v in result.items()}
+
+
+@contextmanager
+def _patched(name: str, fn):
+    """``pes_ref.core.reference.<name>`` replaced by ``fn(original)`` for the run."""
+    original = getattr(reference, name)
+    setattr(reference, name, fn(original))
+    if name in ("bilinear_force", "bilinear_force_T"):
+        reference.GRID["bilinear"] = (reference.bilinear_energy, reference.bilinear_force, reference.bilinear_force_T)
+    try:
+        yield
+    finally:
+        setattr(reference, name, original)
+        reference.GRID["bilinear"] = (reference.bilinear_energy, reference.bilinear_force, reference.bilinear_force_T)
+
+
+# --- sub-steps with one bug each
+
+def _strict_clip(lookup):
+    """The in-range switch taken strictly: s = 0 on the clip edge u = 0, u = n - 1 (forward and adjoint)."""
+    def wrong(terms, q):
+        c = lookup(terms, q)
+        s = [c.s0.copy(), c.s1.copy()]
+        for d in range(2):
+            if not terms.periodic[d]:
+                u = (q[..., d] - terms.lower[d]) / terms.h[d]
+                s[d] = ((u > 0.0) & (u < terms.values.shape[d] - 1.0)).astype(np.float64)
+        return c._replace(s0=s[0], s1=s[1])
+    return wrong
+
+
+def _float32_inverse_spacing(bilinear_force):
+    """The grid force with ``-1/h`` rounded to float32."""
+    def wrong(terms, c):
+        # the spacing whose -1/h (as the force computes it) is the float32 one, to within an ulp
+        h = np.array([-1.0 / np.float64(np.float32(-1.0 / h)) for h in terms.h])
+        return bilinear_force(terms._replace(h=h), c)
+    return wrong
+
+
+def _wrong_period(spring_delta):
+    """The minimum image with the period (n - 1) h, the node span of a non-periodic axis."""
+    def wrong(terms, q):
+        span = terms.h * (np.array(terms.values.shape) - 1.0)
+        return spring_delta(terms._replace(length=np.where(terms.periodic, span, terms.length)), q)
+    return wrong
+
+
+def _damping_denominator(coefficients):
+    """``V_{n+1} = [...] / (1 + dt gamma / m)``: the damped step's denominator without its 2."""
+    def wrong(dt, mass, damping, n):
+        a, c, d, e = coefficients(dt, mass, damping, n)
+        return a, c, 1.0 / (1.0 + 2.0 * c), e
+    return wrong
+
+
+def _split_wall_onset(wall_force_T):
+    """A wall's stiffness counted half at its onset q = a or q = b (a clamp with tensor
+    bounds splits the derivative 0.5 / 0.5 there): neither one-sided value."""
+    def wrong(terms, q, w, xbar):
+        k_w, a, b = terms.walls
+        wall_force_T(terms, q, w, xbar)
+        xbar -= 0.5 * k_w * np.where((q == a) | (q == b), w, 0.0)
+    return wrong
+
+
+def _outside_edge_derivative(bilinear_force_T):
+    """The adjoint takes s = 0 on the closed grid edge (the derivative from outside), while
+    the forward takes s = 1 there."""
+    def wrong(terms, c, w, xbar, gvalues):
+        s = [c.s0.copy(), c.s1.copy()]
+        for d, (lo, hi, f) in enumerate(((c.i0, c.i1, c.f0), (c.j0, c.j1, c.f1))):
+            if not terms.periodic[d]:
+                n = terms.values.shape[d]
+                edge = ((lo == 0) & (f == 0.0)) | ((hi == n - 1) & (f == 1.0))
+                s[d] = np.where(edge, 0.0, s[d])
+        return bilinear_force_T(terms, c._replace(s0=s[0], s1=s[1]), w, xbar, gvalues)
+    return wrong
+
+
+# --- cases changed before the run, results after it
 
 def _on_edge_down(case: dict) -> dict:
     """x0 nudged one ulp down where it sits exactly on a grid line: the other side of the edge."""
@@ -27,38 +137,177 @@ def _on_edge_down(case: dict) -> dict:
     return {**case, "x0": x0}
 
 
-def run(mode: str, case_path: str, result_path: str) -> int:
+def _force_shifted(case: dict) -> dict:
+    """``F_ext[n]`` where ``F_ext[n+1]`` belongs: the force acts one step late."""
+    if "force" not in case:
+        return case
+    force = np.asarray(case["force"], dtype=np.float64)
+    return {**case, "force": np.concatenate((force[:1], force[:-1]))}
+
+
+def _final_force_dropped(case: dict) -> dict:
+    """``F_ext[T]`` left out of the last kick."""
+    if "force" not in case or str(case["mode"]) != "dynamic":
+        return case
+    force = np.array(case["force"], dtype=np.float64)
+    force[-1] = 0.0
+    return {**case, "force": force}
+
+
+def _t0_ignored(case: dict) -> dict:
+    return {k: v for k, v in case.items() if k != "t0"}
+
+
+def _n_steps_truncated(case: dict) -> dict:
+    """A float ``n_steps`` accepted and truncated (10.5 -> 10) instead of refused."""
+    n = np.asarray(case.get("n_steps", 0))
+    return {**case, "n_steps": np.int64(np.trunc(n))} if n.dtype.kind == "f" and np.all(np.isfinite(n)) else case
+
+
+def _no_regularization_gradient(case, result):
+    result["grad_values"] = result["grad_values"] - 2.0 * float(case.get("regularization", 0.0)) * case["values"]
+
+
+def _quasistatic_grad_v0(case, result):
+    if str(case["mode"]) == "quasistatic":
+        result["grad_v0"] = result["grad_x0"] * float(case["dt"])
+
+
+def _spring_center_sign(case, result):
+    if "grad_spring_center" in result:
+        result["grad_spring_center"] = -result["grad_spring_center"]
+
+
+def _perturb_energy(case, result):
+    result["energy"] = result["energy"] * (1 + 1e-9)
+
+
+def _omit_grad_values(case, result):
+    result.pop("grad_values", None)
+
+
+def _nan_in_x(case, result):
+    result["x"] = result["x"].copy()
+    result["x"][-1, 0, 0] = np.nan
+
+
+# =========================================================================== the modes
+
+#: mode -> (what is wrong, settings). Settings: ``run`` "oracle" (pes_ref's oracle) or
+#: "reference" (the readable one), ``patch`` (name, replacement) of a reference sub-step,
+#: ``before`` a case -> case, ``after`` a (case, result) -> None, ``refuse`` how a refusal
+#: goes wrong, ``skip`` a case -> bool (write nothing, exit 0).
+MODES = {
+    "ok": ("nothing: pes_ref's oracle", {}),
+    "reference": ("nothing: the readable reference run as the oracle runs it", {"run": "reference"}),
+    "perturb": ("energy off by 1e-9 relative", {"after": _perturb_energy}),
+    "no-damping": ("the velocity update without damping",
+                   {"before": lambda c: {**c, "damping": np.zeros_like(np.asarray(c["damping"], dtype=float))}}),
+    "other-side": ("a position on a cell edge looked up in the cell below", {"before": _on_edge_down}),
+    "omit-gradient": ("no grad_values", {"after": _omit_grad_values}),
+    "nan": ("NaN in x", {"after": _nan_in_x}),
+    "accept-invalid": ("an invalid case gets a result and exit 0", {"refuse": "accept"}),
+    "strict-clip-edge": ("the in-range switch s taken strictly (s = 0 on the clip edge)",
+                         {"run": "reference", "patch": ("lookup", _strict_clip)}),
+    "no-regularization-gradient": ("the regularization's gradient 2 R G left out of grad_values",
+                                   {"after": _no_regularization_gradient}),
+    "float32-inverse-spacing": ("the grid force with -1/h in float32",
+                                {"run": "reference", "patch": ("bilinear_force", _float32_inverse_spacing)}),
+    "force-index-shifted": ("F_ext[n] in place of F_ext[n+1]", {"before": _force_shifted}),
+    "wrong-seam-period": ("the spring's minimum image with period (n - 1) h",
+                          {"run": "reference", "patch": ("spring_delta", _wrong_period)}),
+    "wrong-damping-denominator": ("the damped kick divided by 1 + dt gamma / m",
+                                  {"run": "reference", "patch": ("coefficients", _damping_denominator)}),
+    "no-final-force": ("F_ext[T] left out of the last kick", {"before": _final_force_dropped}),
+    "quasistatic-grad-v0": ("a non-zero grad_v0 in quasistatic mode", {"after": _quasistatic_grad_v0}),
+    "t0-ignored": ("the step times start at 0 whatever t0", {"before": _t0_ignored}),
+    "truncated-n-steps": ("a float n_steps truncated to an integer instead of refused",
+                          {"before": _n_steps_truncated}),
+    "missing-torus-result": ("no result written for a torus case (exit 0)",
+                             {"skip": lambda c: bool(np.all(np.asarray(c["periodic"])))}),
+    "spring-center-sign": ("grad_spring_center with the wrong sign", {"after": _spring_center_sign}),
+    "refusal-without-key": ("a refusal that does not name the key", {"refuse": "no-key"}),
+    "wrong-key": ("a refusal that names another key", {"refuse": "wrong-key"}),
+    "result-opened-early": ("the result file opened after validation, before the run: a run that leaves "
+                            "the finite numbers leaves an empty file", {"refuse": "open-early"}),
+    "error-kinds-swapped": ("refusals recorded with TypeError and ValueError swapped", {"refuse": "swap-kinds"}),
+    "wall-onset-split": ("a wall's stiffness counted half at its onset",
+                         {"run": "reference", "patch": ("wall_force_T", _split_wall_onset)}),
+    "outside-edge-derivative": ("the adjoint's s = 0 on the closed grid edge",
+                                {"run": "reference", "patch": ("bilinear_force_T", _outside_edge_derivative)}),
+    "first-refusal-only": ("nothing wrong, but a run ends at its first refusal", {"stop": True}),
+    "hang": ("never answers", {}),
+}
+
+
+def _before(how: dict, case: dict) -> dict:
+    """The mode's change of the case, or the case as it is where the change does not
+    apply (an invalid case whose arrays it cannot read: the run refuses it)."""
+    try:
+        return how.get("before", lambda c: c)(case)
+    except (KeyError, ValueError, TypeError, IndexError, AttributeError):
+        return case
+
+
+def _record(refusals, case_path: str, exc: CaseError, swap: bool) -> None:
+    if refusals is None:
+        return
+    kind = "TypeError" if isinstance(exc, TypeError) != swap else "ValueError"
+    with open(refusals, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps({"case": case_path, "key": exc.key, "error": kind}) + "\n")
+
+
+def _wrong_key(exc: CaseError) -> str:
+    return "dt" if exc.key != "dt" else "mass"
+
+
+def run(mode: str, case_path: str, result_path: str, prefix: str, refusals) -> int:
     if mode == "hang":
         time.sleep(3600)
-    case = load_case(case_path)
-    if mode == "no-damping":
-        case = {**case, "damping": np.zeros_like(np.asarray(case["damping"], dtype=float))}
-    if mode == "other-side":
-        case = _on_edge_down(case)
+    how = MODES[mode][1]
     try:
-        result = run_case(case)
+        with ExitStack() as stack:
+            if "patch" in how:
+                stack.enter_context(_patched(*how["patch"]))
+            case = load_case(case_path)
+            if "skip" in how and "periodic" in case and how["skip"](case):
+                return 0
+            case = _before(how, case)
+            if how.get("refuse") == "open-early":
+                validate_case(case)
+                open(result_path, "wb").close()
+            result = (_reference_run if how.get("run") == "reference" else run_case)(case)
     except CaseError as exc:
-        if mode != "accept-invalid":
-            print(f"error: {exc}", file=sys.stderr)
+        refuse = how.get("refuse")
+        if refuse == "accept":
+            result = {"x": np.zeros((1, 1, 2)), "v": np.zeros((1, 1, 2)), "energy": np.zeros((1, 1)),
+                      "loss": np.float64(0.0)}
+        else:
+            if refuse == "no-key":
+                print(f"{prefix}invalid case", file=sys.stderr)
+                return 2
+            if refuse == "wrong-key":
+                exc = (CaseTypeError if isinstance(exc, TypeError) else CaseError)(_wrong_key(exc), "refused")
+            print(f"{prefix}{exc}", file=sys.stderr)
+            _record(refusals, case_path, exc, swap=refuse == "swap-kinds")
             return 2
-        result = {"x": np.zeros((1, 1, 2)), "v": np.zeros((1, 1, 2)), "energy": np.zeros((1, 1)),
-                  "loss": np.float64(0.0)}
-    if mode == "perturb":
-        result["energy"] = result["energy"] * (1 + 1e-9)
-    if mode == "omit-gradient":
-        result.pop("grad_values", None)
-    if mode == "nan":
-        result["x"] = result["x"].copy()
-        result["x"][-1, 0, 0] = np.nan
+    how.get("after", lambda c, r: None)(case, result)
     write_result(result, result_path, overwrite=True)
     return 0
 
 
 def main(argv) -> int:
     mode, files = argv[0], argv[1:]
+    refusals = None
+    if files[:1] == ["--refusals"]:
+        refusals, files = files[1], files[2:]
+    pairs = list(zip(files[::2], files[1::2]))
     status = 0
-    for case_path, result_path in zip(files[::2], files[1::2]):
-        status = max(status, run(mode, case_path, result_path))
+    for case_path, result_path in pairs:
+        prefix = "error: " if len(pairs) == 1 else f"error: {case_path}: "
+        status = max(status, run(mode, case_path, result_path, prefix, refusals))
+        if status and MODES[mode][1].get("stop"):
+            break
     return status
 
 

@@ -1,0 +1,288 @@
+"""The drive analysis of any device: push one axis, follow the other.
+
+The first question about a mechanism: drive this axis, what does the other one do?
+:func:`drive` applies a constant force or torque ``load`` on the driven axis (the input)
+of a device's surface and runs it, quasistatically (each step moves the state by the
+mobility times the net force, the paper's quasistatic mode) or dynamically (the device's
+masses, damping and step), until the input has travelled the requested distance or
+stalls. From the path it reads the *motion law*: the output at each point of the input's
+travel (where the input first gets there), sampled every half input spacing, and:
+
+- ``input_travel``: how far the input got along the load (radians or length);
+- ``advance_per_cycle``: the output's change per full turn of a periodic input (2 pi of
+  travel), or per unit of input travel otherwise;
+- ``moving_fraction``: the share of the input's travel during which
+  ``|dq_out/dq_in| > threshold`` (default 0.05), the ratio taken across
+  :data:`RATIO_CELLS` input spacings;
+- ``max_ratio``: the largest ``|dq_out/dq_in|``;
+- ``jammed``: whether the input stopped short of the requested travel, and where.
+
+Requested travel: ``cycles`` full turns of a periodic input; the distance from the start
+to the grid's edge (in the load's direction) for a translation.
+
+Stall. The run goes in chunks; the input has stalled when, over the last stretch of
+steps in which it would move :data:`JAM_CELLS` input spacings without resistance, it
+advanced less than :data:`JAM_FRACTION` of a spacing (it moves at under 1% of its free
+speed). A run that reaches :data:`MAX_FREE_FACTOR` times the steps of a free run over the
+requested travel also stops, as jammed.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field as dc_field
+
+import numpy as np
+
+from pes_ref.core import checks
+from pes_ref.core.effects import Constant
+from pes_ref.core.scene import simulate
+from pes_ref.devices.device import Device
+
+__all__ = ["DriveResult", "drive", "check_drive", "MODES", "JAM_CELLS", "JAM_FRACTION", "THRESHOLD"]
+
+#: The drive's modes.
+MODES = ("quasistatic", "dynamic")
+#: |dq_out/dq_in| above which the output counts as moving.
+THRESHOLD = 0.05
+#: The stall window: the steps in which the unresisted input would move this many spacings ...
+JAM_CELLS = 10.0
+#: ... in which the input advanced less than this share of one spacing.
+JAM_FRACTION = 0.1
+#: A run stops (jammed) after this many times the steps a free run needs for the requested travel.
+MAX_FREE_FACTOR = 200.0
+#: States drawn per chunk of steps (the path of :class:`DriveResult`).
+PATH_PER_CHUNK = 64
+#: Motion-law samples per input spacing.
+SAMPLES_PER_CELL = 2
+#: dq_out/dq_in is taken across this many input spacings (centred): the state chatters across
+#: cell lines by up to a small fraction of a spacing, which over one sample would read as motion.
+RATIO_CELLS = 4
+
+
+def _ratio(q_in: np.ndarray, q_out: np.ndarray) -> np.ndarray:
+    """``dq_out/dq_in`` at every sample, by differences across :data:`RATIO_CELLS` input spacings
+    (one-sided near the ends); empty for fewer than two samples."""
+    if q_in.size < 2:
+        return np.empty(0)
+    m = RATIO_CELLS * SAMPLES_PER_CELL // 2
+    k = np.arange(q_in.size)
+    lo, hi = np.maximum(k - m, 0), np.minimum(k + m, q_in.size - 1)
+    return (q_out[hi] - q_out[lo]) / (q_in[hi] - q_in[lo])
+
+
+@dataclass(frozen=True)
+class DriveResult:
+    """The outcome of :func:`drive`.
+
+    Attributes
+    ----------
+    q_in, q_out : ndarray, shape (S,)
+        The motion law: the output where the input first reaches each sample of its travel.
+    path : ndarray, shape (P, 2)
+        The states, thinned to :data:`PATH_PER_CHUNK` per chunk of steps (for drawing).
+    """
+
+    device: str
+    drive: int
+    load: float
+    mode: str
+    periodic_input: bool
+    requested_travel: float
+    input_travel: float
+    advance_per_cycle: float
+    moving_fraction: float
+    max_ratio: float
+    jammed: bool
+    stop_reason: str
+    stopped_at: tuple
+    threshold: float
+    steps: int
+    q_in: np.ndarray = dc_field(repr=False)
+    q_out: np.ndarray = dc_field(repr=False)
+    path: np.ndarray = dc_field(repr=False)
+    seconds: float = 0.0
+
+    def summary(self) -> dict:
+        """The figures as plain JSON-able values."""
+        return {"device": self.device, "drive": self.drive, "load": self.load, "mode": self.mode,
+                "periodic_input": self.periodic_input, "requested_travel": self.requested_travel,
+                "input_travel": self.input_travel, "advance_per_cycle": self.advance_per_cycle,
+                "moving_fraction": self.moving_fraction, "moving_threshold": self.threshold,
+                "max_ratio": self.max_ratio, "jammed": self.jammed, "stop_reason": self.stop_reason,
+                "stopped_at": list(self.stopped_at), "steps": self.steps, "samples": int(self.q_in.size),
+                "seconds": self.seconds}
+
+    def as_lines(self) -> list:
+        """``name: value unit`` lines."""
+        u_in = "rad" if self.periodic_input else "length"
+        per = "per cycle" if self.periodic_input else f"per {u_in}"
+        stop = f"{self.stopped_at[0]:.6g},{self.stopped_at[1]:.6g}"
+        return [f"device: {self.device} name",
+                f"drive: q{self.drive} axis",
+                f"load: {self.load:.6g} force-or-torque",
+                f"mode: {self.mode} mode",
+                f"requested_travel: {self.requested_travel:.6g} {u_in}",
+                f"input_travel: {self.input_travel:.6g} {u_in}",
+                f"advance_per_cycle: {self.advance_per_cycle:.6g} output-unit {per}",
+                f"moving_fraction: {self.moving_fraction:.6g} 1 (|dq_out/dq_in| > {self.threshold:g})",
+                f"max_ratio: {self.max_ratio:.6g} 1",
+                f"jammed: {self.jammed} bool",
+                f"stop_reason: {self.stop_reason} text",
+                f"stopped_at: {stop} q0,q1",
+                f"steps: {self.steps} steps",
+                f"time_drive: {self.seconds:.3g} s"]
+
+
+class _Law:
+    """The motion law, built chunk by chunk: the output where the input's progress first
+    reaches each multiple of ``spacing``."""
+
+    def __init__(self, spacing: float, first_out: float):
+        self.spacing, self.best, self.k = spacing, 0.0, 1
+        self.s, self.out = [0.0], [first_out]
+
+    def feed(self, p: np.ndarray, out: np.ndarray) -> None:
+        """Progress ``p`` and output ``out`` of consecutive states (the first is the previous chunk's last)."""
+        run = np.maximum.accumulate(np.maximum(p, self.best))
+        targets = self.spacing * np.arange(self.k, int(np.floor(run[-1] / self.spacing)) + 1)
+        if targets.size:
+            i = np.searchsorted(run, targets, side="left")         # first state at or past each target (i >= 1)
+            w = (targets - p[i - 1]) / (p[i] - p[i - 1])
+            self.s += targets.tolist()
+            self.out += (out[i - 1] + w * (out[i] - out[i - 1])).tolist()
+            self.k += targets.size
+        self.best = float(run[-1])
+
+
+def _requested(device: Device, axis: int, sign: float, start: np.ndarray, cycles):
+    if device.periodic[axis]:
+        cycles = 1 if cycles is None else checks.as_positive_int("cycles", cycles)
+        return 2.0 * np.pi * cycles
+    if cycles is not None:
+        raise checks.InputError("cycles", f"cycles counts turns of a periodic input; q{axis} is not periodic "
+                                          f"(the input travels to the grid's edge)")
+    edge = device.upper[axis] if sign > 0 else device.lower[axis]
+    travel = sign * (edge - start[axis])
+    if not travel > 0:
+        raise checks.InputError("start", f"start q{axis} = {start[axis]:g} is at or past the grid's edge "
+                                         f"{edge:g} in the load's direction: nothing to drive")
+    return float(travel)
+
+
+def check_drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cycles=None, start=None,
+                threshold: float = THRESHOLD) -> tuple:
+    """The arguments of :func:`drive`, checked without computing anything (a keyed
+    :class:`~pes_ref.core.checks.InputError` for a bad one): ``(axis, load, mode, requested
+    travel, start (2,), threshold)``."""
+    axis = checks.as_nonneg_int("axis", axis)
+    if axis > 1:
+        raise checks.InputError("axis", f"axis must be 0 or 1, got {axis}")
+    load = checks.as_finite_float("load", load)
+    if load == 0.0:
+        raise checks.InputError("load", "load must be non-zero (its sign is the direction of travel), got 0")
+    mode = checks.as_choice("mode", mode, set(MODES))
+    threshold = checks.as_positive_float("threshold", threshold)
+    start = device.start if start is None else checks.as_float_array("start", start, shape=(2,))
+    for d in range(2):
+        if not device.periodic[d] and not device.lower[d] <= start[d] <= device.upper[d]:
+            raise checks.InputError("start", f"start q{d} = {start[d]:g} is outside the grid "
+                                             f"[{device.lower[d]:g}, {device.upper[d]:g}]")
+    requested = _requested(device, axis, 1.0 if load > 0 else -1.0, start, cycles)
+    return axis, load, mode, requested, start, threshold
+
+
+def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cycles=None, start=None,
+          threshold: float = THRESHOLD, progress=None, chunk: int = 4096) -> DriveResult:
+    """Drive ``axis`` of ``device`` with a constant ``load`` and follow the other axis.
+
+    Parameters
+    ----------
+    device : Device
+    axis : {0, 1}
+        The driven axis (the input); the other is the output.
+    load : float, non-zero
+        The constant force (translation) or torque (rotation) on the input; its sign is
+        the direction of travel.
+    mode : {"quasistatic", "dynamic"}
+    cycles : int, optional
+        Full turns of a periodic input (default 1); refused for a translation, which
+        travels to the grid's edge.
+    start : array_like (2,), optional
+        Default: the device's ``[start]``.
+    threshold : float > 0
+        ``|dq_out/dq_in|`` above which the output counts as moving.
+    progress : callable, optional
+        ``progress("drive", travelled, requested)`` after each chunk of steps.
+    chunk : int
+        Steps per chunk.
+
+    Returns
+    -------
+    DriveResult
+    """
+    t_wall = time.perf_counter()
+    axis, load, mode, requested, start, threshold = check_drive(device, axis, load, mode, cycles, start, threshold)
+    sign = 1.0 if load > 0 else -1.0
+    out_axis = 1 - axis
+    h = float(device.spacing[axis])
+    force = np.zeros(2)
+    force[axis] = load
+    effects = (Constant(force),)
+    if mode == "quasistatic":
+        mobility = device.stable_mobility()
+        scene = device.scene(chunk, effects, mode="quasistatic", dt=1.0, mobility=mobility)
+        free_steps = h / (mobility[axis] * abs(load))                    # steps per spacing, unresisted
+    else:
+        scene = device.scene(chunk, effects)
+        m, c, f = device.mass[axis], device.damping[axis], abs(load)
+        free_time = max(h * c / f, np.sqrt(2.0 * h * m / f))            # time per spacing, from rest
+        free_steps = free_time / scene.dt
+    window = max(1, int(np.ceil(JAM_CELLS * free_steps)))
+    max_steps = int(np.ceil(MAX_FREE_FACTOR * free_steps * (requested / h + JAM_CELLS)))
+    law = _Law(h / SAMPLES_PER_CELL, float(start[out_axis]))
+    x = start[None, :].copy()
+    v = np.zeros((1, 2))
+    history = [0.0]                          # progress at the end of each chunk (for the stall test)
+    path = [x.copy()]
+    steps, reason = 0, "done"
+    every = max(1, chunk // PATH_PER_CHUNK)  # states between two drawn ones
+    while True:
+        traj = simulate(scene, x, v)
+        xs = traj.x[:, 0]
+        p = sign * (xs[:, axis] - start[axis])
+        done = np.nonzero(p >= requested)[0]
+        end = int(done[0]) + 1 if done.size else p.size
+        law.feed(p[:end], xs[:end, out_axis])
+        path.append(xs[1:end:every])
+        if done.size:                                     # arrived within this chunk
+            steps += int(done[0])
+            x = xs[done[0]][None, :]
+            break
+        steps += chunk
+        x, v = traj.x[-1], traj.v[-1]
+        history.append(float(p[-1]))
+        if progress is not None:
+            progress("drive", min(law.best, requested), requested)
+        back = int(np.ceil(window / chunk))
+        if len(history) > back and history[-1] - history[-1 - back] < JAM_FRACTION * h:
+            reason = "stalled"
+            break
+        if steps >= max_steps:
+            reason = "step limit"
+            break
+    path.append(x)
+    s = np.array(law.s)
+    q_in = start[axis] + sign * s
+    q_out = np.array(law.out)
+    travel = float(sign * (x[0, axis] - start[axis]))
+    ratio = _ratio(q_in, q_out)
+    moving = float(np.mean(np.abs(ratio) > threshold)) if ratio.size else 0.0
+    max_ratio = float(np.max(np.abs(ratio))) if ratio.size else 0.0
+    change = float(q_out[-1] - q_out[0])
+    span = s[-1] if s.size else 0.0
+    per = 2.0 * np.pi if device.periodic[axis] else 1.0
+    advance = change / span * per if span > 0 else 0.0
+    jammed = reason != "done"
+    return DriveResult(device.name, axis, load, mode, bool(device.periodic[axis]), requested, travel, advance,
+                       moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold, steps,
+                       q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall)

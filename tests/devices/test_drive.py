@@ -1,0 +1,153 @@
+"""The drive analysis (pes_ref.devices.drive): no stall in a free channel, the worked example's
+lift law against its analytic answer in both modes, jams, and refusals."""
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pes_ref
+from pes_ref.devices import dartgun
+from pes_ref.devices.device_file import load_device, parse_device
+from pes_ref.devices.drive import drive
+
+ROOT = Path(pes_ref.__file__).resolve().parent.parent
+CAM = ROOT / "examples" / "devices" / "cam_follower.toml"
+
+# --------------------------------------------------------------------------- a free channel
+
+#: The channel: a pin (q0, along x) in a slot of a plate (q1, along y) that rises at SLOPE; in
+#: C-space the free region is the channel q1 = -SLOPE q0, CELLS grid spacings wide (perpendicular).
+N0, SLOPE, CELLS, RC_CELLS = 64, 1.5, 8, 10
+
+
+def channel_device():
+    h = 2.0 / (N0 - 1)                                    # q0 in [-1, 1]
+    q1_half = SLOPE + 0.5
+    n1 = int(round(2 * q1_half / h)) + 1
+    half = 0.1 + CELLS * h / 2                            # the slot's half-width: pin radius + half the channel
+    d = np.array([1.0, SLOPE]) / np.hypot(1.0, SLOPE)
+    nrm = np.array([-d[1], d[0]])
+    slot = [(s * 5.0 * d + t * half * nrm).tolist() for s, t in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    rc = RC_CELLS * h
+    text = f"""
+        format = 1
+        name = "channel"
+        [[part]]
+        motion = "translation"
+        direction = [1.0, 0.0]
+        shapes = [{{ circle = {{ center = [0.0, 0.0], radius = 0.1 }} }}]
+        [[part]]
+        motion = "translation"
+        direction = [0.0, 1.0]
+        shapes = [{{ rectangle = {{ lower = [-4.0, -6.0], upper = [4.0, 6.0] }}, minus = [{{ polygon = {slot} }}] }}]
+        [cspace]
+        lower = [-1.0, {-q1_half}]
+        upper = [1.0, {q1_half}]
+        shape = [{N0}, {n1}]
+        [energy]
+        v = {rc ** 3 / 18}
+        r_c = {rc}
+        [dynamics]
+        mass = [1.0, 1.0]
+        damping = [1.0, 1.0]
+        [start]
+        q = [-0.95, {SLOPE * 0.95}]
+    """
+    return parse_device(tomllib.loads(text), "channel.toml")
+
+
+def test_a_quasistatic_drive_never_stalls_in_a_free_channel():
+    """The channel is 8 cells wide and oblique to the grid; the load pushes along q0 only, so the
+    pin slides along the slot's wall. A distance quantized to the node mask stalls here."""
+    device = channel_device()
+    h = device.spacing[0]
+    width = CELLS * h * np.hypot(1, SLOPE)                # the free band's height in q1
+    cs = device.cspace()
+    q0, q1 = np.meshgrid(device.grid.nodes(0), device.grid.nodes(1), indexing="ij")
+    centre = -SLOPE * q0
+    inside = np.abs(q1 - centre) < 0.5 * width - device.spacing[1]
+    assert not cs.blocked[inside].any() and cs.blocked[np.abs(q1 - centre) > 0.5 * width + device.spacing[1]].all()
+    r = drive(device, 0, 1.0, "quasistatic")
+    assert not r.jammed, f"stalled at {r.stopped_at} after {r.input_travel:.3g} of {r.requested_travel:.3g}"
+    middle = np.abs(r.q_in) < 0.5                         # the pin rides the wall: q1 = -SLOPE q0 + const
+    slope = np.polyfit(r.q_in[middle], r.q_out[middle], 1)[0]
+    assert slope == pytest.approx(-SLOPE, rel=0.02)
+
+
+# --------------------------------------------------------------------------- the worked example
+
+#: The cam's eccentricity and radius (examples/devices/cam_follower.toml): lift q1 = R + E sin(q0).
+E, R = 0.2, 0.5
+#: The analytic figures: stroke 2 E; |dq1/dq0| = E |cos q0| is above 0.05 where |cos q0| > 0.25.
+STROKE = 2 * E
+MOVING = 4 * np.arccos(0.25) / (2 * np.pi)          # 0.8391
+MAX_RATIO = E
+
+
+@pytest.fixture(scope="module")
+def cam():
+    device = load_device(CAM)
+    device.cspace()
+    return device
+
+
+@pytest.fixture(scope="module", params=["quasistatic", "dynamic"])
+def cam_drive(request, cam):
+    return drive(cam, 0, 0.5, request.param)
+
+
+def test_the_cam_turns_a_full_cycle_and_the_follower_returns(cam_drive):
+    assert not cam_drive.jammed and cam_drive.input_travel >= 2 * np.pi
+    assert abs(cam_drive.advance_per_cycle) < 0.01 * STROKE
+
+
+def test_the_lift_law_is_simple_harmonic(cam_drive):
+    """q_out - E sin(q_in) is R plus eq. (1)'s standoff (about r_c / 3 here), constant to 3% of the
+    stroke: the spring's force, 1.2 to 1.35 over the stroke, and the chatter across cell lines move
+    the standoff by about +-0.005 (measured: 2.3% in quasistatic, 2.5% in dynamic mode)."""
+    rest = cam_drive.q_out - E * np.sin(cam_drive.q_in)
+    assert np.ptp(rest) < 0.03 * STROKE
+    assert 0.5 < np.mean(rest) < 0.5 + 0.2 / 2             # R plus a standoff below r_c / 2
+    assert np.ptp(cam_drive.q_out) == pytest.approx(STROKE, rel=0.02)
+
+
+#: The chatter across cell lines (about 0.002 in q1), differenced across 4 spacings of q0
+#: (0.039 rad), adds up to about +-0.05 to a ratio, twice that at a peak read between two chatters.
+CHATTER = 0.1
+
+
+def test_the_moving_fraction_and_peak_ratio_match_the_lift_law(cam_drive):
+    assert cam_drive.moving_fraction == pytest.approx(MOVING, abs=0.05)
+    assert MAX_RATIO <= cam_drive.max_ratio < MAX_RATIO + CHATTER
+
+
+# --------------------------------------------------------------------------- jams and refusals
+
+@pytest.fixture(scope="module")
+def gun():
+    return dartgun.dartgun_device().replace(shape=(61, 41))
+
+
+def test_a_blocked_input_is_reported_jammed_where_it_stopped(gun):
+    """The trigger pushed up into the dart's underside (q1 = 0) stops just below it."""
+    r = drive(gun, 1, 5.0, "quasistatic")
+    assert r.jammed and r.stop_reason == "stalled"
+    assert -gun.r_c < r.stopped_at[1] < 0.0
+    assert r.input_travel < r.requested_travel
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"axis": 2}, "axis must be 0 or 1"),
+    ({"load": 0.0}, "load must be non-zero"),
+    ({"load": np.inf}, "load must be finite"),
+    ({"mode": "fast"}, "mode"),
+    ({"cycles": 2}, "cycles counts turns of a periodic input"),
+    ({"start": (5.0, 0.0)}, "start q0 = 5 is outside the grid"),
+    ({"start": (2.5, 0.0)}, "at or past the grid's edge"),
+    ({"threshold": 0.0}, "threshold must be > 0"),
+])
+def test_bad_drives_are_refused(gun, kw, match):
+    args = {"axis": 0, "load": 1.0} | kw
+    with pytest.raises(ValueError, match=match):
+        drive(gun, **args)
