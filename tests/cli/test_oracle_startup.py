@@ -36,6 +36,7 @@ ORACLE_IMPORTS = {
     "pes_ref.core.integrator", "pes_ref.core.interpolations", "pes_ref.core.objectives", "pes_ref.core.progress",
     "pes_ref.core.scene", "pes_ref.core.stability", "pes_ref.core.steppers", "pes_ref.core.surface",
     "pes_ref.core.terms", "pes_ref.core.files", "pes_ref.core.signals",
+    "pes_ref.core.backends",                # the registry of loops: finds numba, never imports it here
     "argparse", "gettext", "locale", "_locale", "copy", "dataclasses",
     "zipfile", "shutil", "binascii", "zlib", "bz2", "_bz2", "lzma", "_lzma", "_compression",
     "encodings.ascii", "encodings.cp437",
