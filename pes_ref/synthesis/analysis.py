@@ -201,9 +201,9 @@ def evaluate_seeds(problem, values, seeds, n_particles: int | None = None) -> di
     default_n = getattr(problem, "eval_particles", default_n)
     n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
     steps = _HELD_OUT_STEPS[problem.kind](problem)
-    runs = 2 * len(seeds)              # one population: each seed's runs on the design and the flat surface
-    budget.check_memory(steps, runs * n, "simulate", particles="n_particles", fixed_steps=True,
-                        length=f"{runs} held-out runs of {steps} steps as one population ({n} particles each)")
+    # one population: each seed's runs on the design and on the flat surface
+    budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True,
+                        length=f"a held-out run of {steps} steps", runs=2 * len(seeds))
     return evaluate_kind(problem, values, seeds, n)
 
 
