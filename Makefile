@@ -51,9 +51,9 @@ oscillator-plans: $(STAMP)
 	$(PY) validation/experiments/oscillator_plans.py --all
 
 # The default oscillator's table of docs/synthesis.md ("Results: three design seeds, two held-out
-# seeds"): `design oscillator --seed S` for S = 0, 1, 2, two at a time, each evaluated on held-out
-# seeds 12345 and 9191; the lines between the table's markers are rewritten, nothing else (two
-# rounds of designs of about 2 minutes each on quiet cores; design files in
+# seeds"): `design oscillator --seed S --backend B` for S = 0, 1, 2 on each installed backend, two
+# at a time, each evaluated on held-out seeds 12345 and 9191; the lines between the table's
+# markers are rewritten, nothing else (14 minutes at load 3.5-7.5; design files in
 # validation/out/oscillator_table/).
 oscillator-table: $(STAMP)
 	$(PY) validation/experiments/oscillator_table.py

@@ -37,6 +37,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 import pytest
 
+import _helpers
+
 import pes_ref
 from pes_ref import cli
 from pes_ref.oracle import conformance, load_case, run_case, save_case, write_result
@@ -343,30 +345,7 @@ FAULTS = [
 ]
 
 #: A problem file (particles gather at a point) and its malformed versions, for the rows above.
-GOOD_PROBLEM = """format = 1
-[surface]
-lower = [-1.0, -1.0]
-upper = [1.0, 1.0]
-shape = [8, 8]
-[dynamics]
-dt = 0.05
-duration = 2.0
-damping = 1.0
-[starts]
-box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }
-[[objective]]
-kind = "final_position"
-target = [0.3, -0.2]
-[evaluate]
-particles = 12
-[[evaluate.success]]
-kind = "final_position"
-target = [0.3, -0.2]
-radius = 0.3
-[train]
-iterations = 2
-particles = 4
-"""
+GOOD_PROBLEM = _helpers.gather_problem(name=None, iterations=2, train_particles=4)
 PROBLEM_FILES = {
     "good.toml": GOOD_PROBLEM,
     "good2.toml": GOOD_PROBLEM.replace("damping = 1.0", "damping = 2.0"),
