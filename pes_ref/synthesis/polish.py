@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from pes_ref.core import checks
 from pes_ref.core.integrator import Trajectory
@@ -314,9 +315,15 @@ def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, execu
         return [float(f) for part in executor.map(fitness.batch, [[grids[i] for i in p] for p in parts])
                 for f in part]
 
-    tracker = _Tracker(plan, fitness(values + B @ np.zeros(B.shape[-1])), B.shape[-1], callback, stop)
-    if not tracker.done:
-        _SEARCHES[plan.method](evaluate, B.shape[-1], plan, np.random.default_rng([seed, SEARCH_SEED]), tracker)
+    # The search's linear algebra is small (CMA-ES's 72 x 72 eigendecomposition per generation,
+    # the basis products): on one BLAS thread it takes a millisecond, where OpenBLAS's second
+    # thread, waiting for a core another process holds, made each eigendecomposition take
+    # ~130 ms (24 s of a design). One thread also keeps the bits apart from the core count.
+    with threadpool_limits(limits=1, user_api="blas"):
+        tracker = _Tracker(plan, fitness(values + B @ np.zeros(B.shape[-1])), B.shape[-1], callback, stop)
+        if not tracker.done:
+            _SEARCHES[plan.method](evaluate, B.shape[-1], plan, np.random.default_rng([seed, SEARCH_SEED]),
+                                   tracker)
     f0 = tracker.history[0][1]
     coef = tracker.best[1]
     return values + B @ coef, PolishResult(coef, f0, tracker.best[0], tracker.evaluations, tracker.history,
