@@ -1,5 +1,6 @@
 """Strict test configuration: deterministic hypothesis, floating-point errors raise."""
 import os
+import signal
 
 import numpy as np
 import pytest
@@ -16,6 +17,11 @@ settings.register_profile(
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
+
+# A suite started in the background of a non-interactive shell inherits SIGINT ignored, and so
+# would every process it starts; the tests of Ctrl-C need it delivered, as at a terminal.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(autouse=True)
