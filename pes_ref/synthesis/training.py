@@ -42,7 +42,7 @@ def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_
     batch = problem.batch(values, rng, n_particles, n_steps)
     loss, grads, traj = value_and_grad(batch.scene, batch.x0, batch.v0, batch.objective,
                                        regularization_weight=problem.regularization, wrt=("values",))
-    return loss, grads["values"] * problem.mask(values.shape), traj, batch.x0
+    return loss, problem.values_grad(values, grads["values"]) * problem.mask(values.shape), traj, batch.x0
 
 
 class GradientStep(NamedTuple):
