@@ -58,7 +58,9 @@ def design_state(args, kind: str):
     """The design of ``kind`` named by ``--design`` (or its default), loaded by the library.
 
     With ``--smoke`` and no file, a tiny design is made by the project's own command
-    (``python -m pes_ref design KIND --smoke``) into ``OUT/cache/KIND-smoke.npz``.
+    (``python -m pes_ref design KIND --smoke``) into ``OUT/cache/KIND-smoke.npz``. ``kind`` is
+    ``"funnel"``, ``"oscillator"`` or the name of a shipped problem file (``"latch"``).
+
     """
     from pes_ref.cli import main as cli_main
     from pes_ref.synthesis.design_file import DesignFileError, load_design
@@ -79,8 +81,9 @@ def design_state(args, kind: str):
         state = load_design(path)
     except (OSError, DesignFileError) as exc:
         raise SystemExit(f"--design {path}: {exc}") from None
-    if state.kind != kind:
-        raise SystemExit(f"--design {path} holds a {state.kind} design; this figure needs a {kind} design")
+    name = getattr(state.problem, "name", state.kind)          # a problem file's design: its problem's name
+    if name != kind:
+        raise SystemExit(f"--design {path} holds a {name} design; this figure needs a {kind} design")
     return state
 
 

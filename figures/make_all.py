@@ -5,8 +5,8 @@ Steps, each printed with its elapsed time as it starts, while it runs and when i
 1. the designs, computed by the project's own command (:data:`DESIGNS`): the funnel and the
    oscillator with the command's defaults (``python -m pes_ref design funnel|oscillator --out
    figures/out/cache/KIND.npz``), and the oscillator by gradient descent alone
-   (``--plan overshoot``), which Fig. 12 draws beside the default; their
-   own progress lines are passed through. A design is reused from the cache only
+   (``--plan overshoot``), which Fig. 12 draws beside the default, and the latch from its
+   shipped problem file (``design latch``, Fig. 13); their own progress lines are passed through. A design is reused from the cache only
    when its inputs are unchanged: the sidecar ``KIND.json`` holds a key hashing every
    source file of the ``pes_ref`` package, the command line, and the Python and NumPy
    versions, plus the SHA-256 of the design file; a file whose run did not finish
@@ -49,6 +49,7 @@ FIGURES = (
     ("fig10_grid_paths", "oscillator"),
     ("fig11_grid_cycles", "oscillator"),
     ("fig12_torque_capture", "oscillator"),
+    ("fig13_latch", "latch"),
     ("fig01_ratchet", None),
     ("fig02_dartgun", None),
     ("fig03_dartgun_cspace", None),
@@ -58,6 +59,7 @@ FIGURES = (
 DESIGNS = {
     "oscillator": ["design", "oscillator"],
     "oscillator_overshoot": ["design", "oscillator", "--plan", "overshoot"],
+    "latch": ["design", "latch"],
     "funnel": ["design", "funnel"],
 }
 #: Further designs a figure draws: figure -> {option: design name}.
@@ -93,13 +95,15 @@ class Log:
 # =========================================================================== cache
 
 def source_hash() -> str:
-    """SHA-256 over the path and bytes of every source file of the pes_ref package."""
+    """SHA-256 over the path and bytes of every source file of the pes_ref package (its Python
+    files and the problem files it ships)."""
     h = hashlib.sha256()
     pkg = os.path.join(ROOT, "pes_ref")
     for folder, dirs, files in sorted(os.walk(pkg)):
         dirs[:] = sorted(d for d in dirs if d != "__pycache__")
         for f in sorted(files):
-            if f.endswith(".py"):
+            if f.endswith((".py", ".toml")):
+
                 path = os.path.join(folder, f)
                 h.update(os.path.relpath(path, ROOT).encode() + b"\0")
                 with open(path, "rb") as fh:

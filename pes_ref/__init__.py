@@ -30,6 +30,8 @@ _EXPORTS = {
     **dict.fromkeys(("load_device", "DeviceFileError"), "pes_ref.devices.device_file"),
     **dict.fromkeys(("drive", "DriveResult"), "pes_ref.devices.drive"),
     **dict.fromkeys(("RMSprop", "Adam"), "pes_ref.synthesis.optimizers"),
+    **dict.fromkeys(("DesignProblem",), "pes_ref.synthesis.design_problem"),
+    **dict.fromkeys(("load_problem", "parse_problem"), "pes_ref.synthesis.problem_file"),
 }
 
 __all__ = [*_EXPORTS, "__version__"]
@@ -60,4 +62,7 @@ if TYPE_CHECKING:   # for type checkers and IDEs: the same names, imported eager
     from pes_ref.devices.device_file import DeviceFileError, load_device  # noqa: F401
     from pes_ref.devices.drive import DriveResult, drive  # noqa: F401
     from pes_ref.devices.geometry import Circle, Part, Polygon, Rectangle, Rotation, Translation  # noqa: F401
+    from pes_ref.synthesis.design_problem import DesignProblem  # noqa: F401
     from pes_ref.synthesis.optimizers import Adam, RMSprop  # noqa: F401
+    from pes_ref.synthesis.problem_file import load_problem, parse_problem  # noqa: F401
+

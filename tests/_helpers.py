@@ -79,3 +79,22 @@ def run_script(path, *args, timeout: float = 300) -> subprocess.CompletedProcess
                MPLBACKEND="Agg")
     return subprocess.run([sys.executable, "-c", _RUN_STRICT, str(path), *map(str, args)], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=timeout)
+
+
+class GatherAt:
+    """A user's own objective for problem files in tests (``custom = "_helpers:GATHER"``):
+    ``sum_i |X_{T,i} - point|^2``, written as a user would."""
+
+    def __init__(self, point):
+        self.point = point
+
+    def value_and_grad(self, x, v, t):
+        import numpy as np
+        gx = np.zeros_like(x)
+        e = x[-1] - np.asarray(self.point)
+        gx[-1] = 2 * e
+        return float(np.sum(e * e)), gx, None
+
+
+#: :class:`GatherAt` the point (0.3, -0.2).
+GATHER = GatherAt((0.3, -0.2))

@@ -1,5 +1,9 @@
 """The ``design`` command of ``python -m pes_ref``.
 
+- ``design PROBLEM.toml [same options]``, or a shipped problem by its name (``design latch``): the
+  problem a problem file states (``docs/problems.md``); ``--set`` takes its keys by dotted name;
+  ``design --resume FILE.npz`` continues a design from the problem its file holds.
+
 - ``design funnel|oscillator [--iterations N] [--seed S] [--out FILE.npz] [--resume FILE.npz]
   [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C]
   [--particles N] [--plan gait|overshoot|eq6] [--evaluations N] [--polish-particles N]
@@ -47,20 +51,33 @@ PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-fina
 #: ``--plan`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_PLANS` (tested equal;
 #: written out for the same reason as :data:`SET_NAMES`).
 OSCILLATOR_PLAN_NAMES = ("gait", "overshoot", "eq6")
+#: The problem files shipped with the package, by name: :data:`pes_ref.synthesis.problem_file.SHIPPED_PROBLEMS`
+#: (tested equal; written out for the same reason as :data:`SET_NAMES`).
+SHIPPED_NAMES = ("funnel", "latch")
 
 
 def add_parser(sub) -> None:
-    p = add_command(sub, "design", help="design a funnel or an oscillator by gradient descent (paper Figs. 6-11)",
+    p = add_command(sub, "design", help="design a funnel, an oscillator or a problem file's device by gradient "
+                                        "descent (paper Figs. 6-11; docs/problems.md)",
         description="Optimize the grid values of a potential energy surface for the paper's funnel or "
-                    "oscillator objective and write the design (grid, scene parameters, seed, loss history, "
+                    "oscillator objective, or for the problem a problem file states (docs/problems.md), and "
+                    "write the design (grid, scene parameters or the problem file's text, seed, loss history, "
                     "optimizer state) to FILE.npz. The default oscillator runs prescribed-gait shooting by "
                     "gradient descent, then a gradient-free polish (CMA-ES). --iterations is the total count "
                     "to reach, also on --resume. Ctrl-C (or SIGTERM) stops after the current iteration or "
                     "polish generation, saves and exits 130. An existing --out is refused unless --force; with "
                     "--resume and no --out the resumed file itself is updated.",
         examples=['design funnel --out funnel.npz',
-                  'design oscillator --smoke --out osc.npz && python -m pes_ref evaluate osc.npz'])
-    p.add_argument("kind", choices=["funnel", "oscillator"], help="the device to design")
+                  'design oscillator --smoke --out osc.npz && python -m pes_ref evaluate osc.npz',
+                  'design latch --out latch.npz && python -m pes_ref design --resume latch.npz --iterations 1500'])
+
+
+    p.add_argument("kind", nargs="?", default=None, metavar="funnel|oscillator|PROBLEM.toml",
+                   help="the device to design: the paper's funnel or oscillator, or a problem file "
+                        "(docs/problems.md; a shipped one by its name: "
+                        + ", ".join(f"{name}.toml" for name in SHIPPED_NAMES) + "); "
+
+                        "with --resume it may be left out")
     p.add_argument("--iterations", type=int, default=None, metavar="N", help="total iterations (default: the plan's)")
     p.add_argument("--seed", type=int, default=None, metavar="S",
                    help="run seed (default 0; a resumed run keeps its own)")
@@ -69,7 +86,9 @@ def add_parser(sub) -> None:
     p.add_argument("--force", action="store_true", help="overwrite an existing --out")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="override one scene parameter (e.g. --set n_steps=200); repeatable; the names: "
-                        + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in SET_NAMES.items()))
+                        + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in SET_NAMES.items())
+                        + "; a problem file: any of its keys by its dotted name, VALUE in TOML "
+                          "(e.g. --set dynamics.dt=0.005 --set objective.1.weight=2)")
     p.add_argument("--lr", type=float, default=None, metavar="LR", help="initial learning rate (default: the plan's)")
     p.add_argument("--lr-final", type=float, default=None, metavar="LR", help="learning rate reached at the last iteration (default: the plan's)")
     p.add_argument("--plan", choices=OSCILLATOR_PLAN_NAMES, default=None,
@@ -100,8 +119,29 @@ def add_parser(sub) -> None:
 
 
 def _flags(kind: str) -> dict:
-    """Every name an error of a ``kind`` design may carry, and the option that sets it."""
-    return {**{name: f"--set {name}" for name in SET_NAMES[kind]}, **PLAN_FLAGS}
+    """Every name an error of a ``kind`` design may carry, and the option that sets it (a
+    problem file's errors name its own keys; its steps come from its dynamics)."""
+    if kind == "problem":
+        return {"n_steps": "dynamics.duration / dt", "grid": "surface.shape", **PLAN_FLAGS}
+
+    return {**{name: f"--set {name}" for name in SET_NAMES.get(kind, ())}, **PLAN_FLAGS}
+
+
+
+def _problem_argument(arg: str):
+    """``(kind, problem)`` of the positional argument: a built-in kind and None, or
+    ``"problem"`` and the problem file read (a path; or a shipped problem by its name, with
+    or without ``.toml``, when no such path exists)."""
+    if arg in SET_NAMES:
+        return arg, None
+    from pes_ref.synthesis.problem_file import load_problem, shipped_problem
+    stem = arg[:-5] if arg.endswith(".toml") else arg
+    if not os.path.exists(arg) and os.sep not in arg and stem in SHIPPED_NAMES:
+        return "problem", load_problem(shipped_problem(stem))
+    if not arg.endswith(".toml") and not os.path.exists(arg):
+        raise ValueError(f"design {arg!r}: expected funnel, oscillator, a problem file PATH.toml, or a shipped "
+                         f"problem ({', '.join(SHIPPED_NAMES)})")
+    return "problem", load_problem(input_file(arg, "problem file"))
 
 
 def _pool(workers: int, inputs, kind: str):
@@ -134,13 +174,33 @@ def _run_design(args) -> int:
     try:
         if not args.progress >= 0:
             raise ValueError(f"--progress must be a number of seconds >= 0, got {args.progress}")
+        if args.kind is None and args.resume is None:
+            raise ValueError("give what to design (funnel, oscillator or PROBLEM.toml), or --resume FILE.npz")
+        kind, problem = (None, None) if args.kind is None else _problem_argument(args.kind)
+        state = None if args.resume is None else load_design(input_file(args.resume, "design file"))
+        if kind is None:                                    # --resume alone: the design's own problem
+            kind, problem = state.kind, state.problem if state.kind == "problem" else None
+        flags = _flags(kind)
         from pes_ref.sweep.options import design_inputs, parse_sets   # shared with sweeps
-        inputs = design_inputs(args.kind, vars(args), parse_sets(args.set, synthesis.PROBLEMS[args.kind]))
+        if problem is not None:
+            from pes_ref.synthesis.problem_file import parse_set, with_sets
+            sets = dict(parse_set(item) for item in args.set)
+        else:
+            sets = parse_sets(args.set, synthesis.PROBLEMS[kind])
+        inputs = design_inputs(kind, vars(args), sets, problem)
         sets, plan_over, base_plan = inputs.sets, inputs.plan_overrides, inputs.base_plan
-        executor = _pool(args.workers, inputs, args.kind)
-        if args.resume is not None:
-            state = load_design(input_file(args.resume, "design file"))
-            check_same_scene(state, args.kind, sets)
+        if problem is not None:
+            problem = with_sets(problem, sets)
+        executor = _pool(args.workers, inputs, kind)
+        if state is not None:
+            if args.kind is None and problem != state.problem:
+                difference = synthesis.first_difference(state.problem.data, problem.data)
+                raise ValueError(f"--set: a resumed design keeps its problem; {difference}".replace(" there,", ","))
+            if problem is not None:
+                synthesis.check_same_problem(state, problem)
+
+            else:
+                check_same_scene(state, kind, sets)
             if args.seed is not None and args.seed != state.seed:
                 raise ValueError(f"--seed {args.seed} differs from the resumed run's seed {state.seed}")
             if "optimizer" in plan_over and plan_over["optimizer"] != state.plan.optimizer:
@@ -157,9 +217,12 @@ def _run_design(args) -> int:
         else:
             plan = dataclasses.replace(base_plan, **plan_over)
             polish = inputs.polish()
-            state = synthesis.new_design(args.kind, seed=0 if args.seed is None else args.seed, plan=plan,
-                                         polish=polish, **sets)
-            out = args.out if args.out is not None else f"{args.kind}.npz"
+            seed = 0 if args.seed is None else args.seed
+            if problem is not None:
+                state = synthesis.new_design(problem, seed=seed, plan=plan)
+            else:
+                state = synthesis.new_design(kind, seed=seed, plan=plan, polish=polish, **sets)
+            out = args.out if args.out is not None else f"{problem.name if problem is not None else kind}.npz"
             may_overwrite = args.force
         output_file(out, "design", force=may_overwrite)
     except (OSError, ValueError, TypeError) as exc:
@@ -205,15 +268,18 @@ def _run_design(args) -> int:
     finally:
         if executor is not None:
             executor.shutdown()
-    print(_summary(args.kind, state.problem.metric_name, out, state, state.iteration - start, time.perf_counter() - t0))
+    name = getattr(state.problem, "name", kind)
+    print(_summary(name, state.problem.metric_name, out, state, state.iteration - start, time.perf_counter() - t0))
     if state.status.startswith(synthesis.STOPPED):
         print(f"error: the run stopped; its last good state (iteration {state.iteration}) is saved: {state.status}",
               file=sys.stderr)
         return EXIT_FAIL
     if state.status == "interrupted":
         again = " (the polish starts again from its beginning)" if state.stage == "polish" else ""
-        print(f"interrupted; saved; continue with: python -m pes_ref design {args.kind} --resume {out}{again}",
+        what = "" if problem is not None else f" {kind}"
+        print(f"interrupted; saved; continue with: python -m pes_ref design{what} --resume {out}{again}",
               file=sys.stderr)
+
         return EXIT_INTERRUPTED
     return EXIT_OK
 

@@ -13,14 +13,18 @@ def add_parser(sub) -> None:
                     "Oscillator: captured_fraction (torque sweep plus 5 x 5 starts at rest with the maximum "
                     "torque), sweep_ and grid_captured_fraction, amplitude_error and period_error (relative, "
                     "worst over the captured particles) and their medians, the q1 advance per period of the "
-                    "captured sweep (min, median, max) beside the gait's, and flat_captured_fraction. The "
-                    "header lines name the design's method (gradient, or gradient+polish), the stage it "
-                    "reached, its iterations and polish evaluations.",
+                    "captured sweep (min, median, max) beside the gait's, and flat_captured_fraction. A problem "
+                    "file's design (docs/problems.md): success_fraction (the share passing every "
+                    "[[evaluate.success]] test), success_NAME per test, objective_NAME per objective term, "
+                    "scenario_NAME_success_fraction per [[evaluate.scenario]], flat_success_fraction. The "
+                    "header lines name the design's kind (and problem), method (gradient, or gradient+polish), "
+                    "the stage it reached, its iterations and polish evaluations.",
         examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191'])
     p.add_argument("file", metavar="FILE.npz", help="a design file written by 'design'")
     p.add_argument("--seed", type=int, default=12345, help="held-out seed (default 12345; training uses others)")
     p.add_argument("--particles", type=int, default=None, metavar="N",
-                   help="held-out particles (funnel default 200; oscillator torque sweep default 50)")
+                   help="held-out particles (funnel default 200; oscillator torque sweep default 50; a problem "
+                        "file's: its [evaluate] particles)")
     p.set_defaults(func=_run_evaluate)
 
 
@@ -37,6 +41,9 @@ def _run_evaluate(args) -> int:
     except (OSError, ValueError, TypeError, NonFiniteError) as exc:
         return error(exc, FLAGS)
     print(f"kind: {state.kind}")
+    if state.kind == "problem":
+        print(f"problem: {state.problem.name}")
+
     print(f"method: {state.method}")
     print(f"stage: {state.stage}")
     print(f"iterations: {state.iteration}")

@@ -15,14 +15,18 @@ from typing import Mapping, NamedTuple
 from pes_ref.core.checks import InputError
 from pes_ref.synthesis import DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS, OSCILLATOR_POLISH, PROBLEMS, Plan
 
-__all__ = ["SMOKE", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets", "parse_stages",
-           "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
+__all__ = ["SMOKE", "SMOKE_GRID", "smoke_sets", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets",
+           "parse_stages", "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
 
 #: The ``--smoke`` preset: problem overrides per kind, and the plan's (iterations, particles, stages).
+#: A problem file keeps its dynamics and schedule (its phases), on a grid of at most
+#: :data:`SMOKE_GRID` nodes along axis 0 (:func:`smoke_sets`).
 SMOKE = {
     "funnel": ({"grid": 12, "n_steps": 60, "dt": 0.05}, (6, 8, ((0, 0),))),
     "oscillator": ({"grid0": 8, "grid1": 8, "n_steps": 60, "eval_periods": 4}, (6, 4, ((0, 0),))),
+    "problem": ({}, (6, 8, ((0, 0),))),
 }
+SMOKE_GRID = 12
 #: The ``--smoke`` preset of the polish plan (used when the run has a polish stage).
 SMOKE_POLISH = {"funnel": {}, "oscillator": {"evaluations": 20, "n_particles": 6, "popsize": 8}}
 #: The polish options and the polish plan's fields they set.
@@ -138,12 +142,18 @@ def plan_overrides(options: Mapping) -> dict:
     return out
 
 
-def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None) -> DesignInputs:
-    """Resolve design ``options`` and problem overrides ``sets`` for a ``kind`` run.
+def smoke_sets(problem) -> dict:
+    """The ``--smoke`` overrides of a problem file: its grid at most :data:`SMOKE_GRID` nodes along axis 0."""
+    return {"surface.shape": list(problem.shape(min(SMOKE_GRID, problem.shape()[0])))}
 
-    The order is the design command's: the kind's default plan, or the named oscillator
-    ``plan`` (its problem overrides, plan and polish); then the ``smoke`` preset; then the
-    explicit options and ``sets``, which win over both.
+
+def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None, problem=None) -> DesignInputs:
+    """Resolve design ``options`` and problem overrides ``sets`` for a ``kind`` run (for kind
+    ``"problem"``, of the problem file ``problem``: ``sets`` are its dotted keys).
+
+    The order is the design command's: the kind's default plan (a problem file's own
+    ``[train]``), or the named oscillator ``plan`` (its problem overrides, plan and polish);
+    then the ``smoke`` preset; then the explicit options and ``sets``, which win over both.
 
     Raises
     ------
@@ -152,7 +162,10 @@ def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None) -> D
     """
     sets = dict(sets or {})
     plan_over = plan_overrides(options)
-    base_plan, base_polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind]
+    if kind == "problem":
+        base_plan, base_polish = problem.plan, None
+    else:
+        base_plan, base_polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind]
     polish_over = {field: options[name] for name, field in POLISH_OPTIONS.items() if options.get(name) is not None}
     name = options.get("plan")
     if name is not None:
@@ -164,8 +177,9 @@ def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None) -> D
         base_polish = OSCILLATOR_POLISH[name]
         sets = {**plan_sets, **sets}
     if options.get("smoke"):
-        smoke_sets, (its, parts, stages) = SMOKE[kind]
-        sets = {**smoke_sets, **sets}
+        preset, (its, parts, stages) = SMOKE[kind]
+        sets = {**(smoke_sets(problem) if kind == "problem" else preset), **sets}
+
         plan_over = {"iterations": its, "n_particles": parts, "stages": stages, **plan_over}
         if base_polish is not None:
             polish_over = {**SMOKE_POLISH[kind], **polish_over}

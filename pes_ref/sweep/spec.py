@@ -3,7 +3,8 @@
 A sweep file (read with :mod:`tomllib`)::
 
     description = "funnel: learning rate x seed"    # optional
-    kind = "funnel"                                  # "funnel" or "oscillator"
+    kind = "funnel"                                  # "funnel" or "oscillator"; or instead:
+    # problem = "latch.toml"                         # a problem file (docs/problems.md), beside this file
     seeds = [0, 1]                                   # run seeds, one more axis (default [0])
     eval_seeds = [12345, 12346]                      # held-out seeds every run is evaluated on
     eval_particles = 100                             # optional: held-out particles (evaluate's default)
@@ -21,7 +22,8 @@ A sweep file (read with :mod:`tomllib`)::
 
 An *option* is a design option (:data:`pes_ref.sweep.options.DESIGN_OPTIONS`, the flags
 of ``python -m pes_ref design`` without the dashes, ``-`` as ``_``) or a scene parameter
-of the kind (what ``--set NAME=VALUE`` sets). The runs are every variant (or one run of
+of the kind (what ``--set NAME=VALUE`` sets; for a problem file, any of its keys by its
+dotted name, quoted: ``"dynamics.dt" = 0.005``). The runs are every variant (or one run of
 ``[base]`` alone) times every grid point times every seed; a run's options are
 ``[base]``, then its variant's, then its grid point's. Every run is checked here, once:
 a bad file raises one :class:`SweepFileError` whose message names the file and the key.
@@ -35,14 +37,15 @@ import os
 import tomllib
 from dataclasses import dataclass
 
-from pes_ref.synthesis import PROBLEMS
+from pes_ref.synthesis import PROBLEMS, ProblemFileError, load_problem, problem_text, with_sets
 from pes_ref.sweep.options import (DESIGN_OPTIONS, design_inputs, has_type, scene_parameters, type_name,
                                    typed_sets)
 
 __all__ = ["Sweep", "Run", "SweepFileError", "load_sweep", "parse_sweep", "TOP_LEVEL_KEYS"]
 
 #: The keys a sweep file may have at its top level.
-TOP_LEVEL_KEYS = ("description", "kind", "seeds", "eval_seeds", "eval_particles", "base", "grid", "variants")
+TOP_LEVEL_KEYS = ("description", "kind", "problem", "seeds", "eval_seeds", "eval_particles", "base", "grid",
+                  "variants")
 
 
 class SweepFileError(ValueError):
@@ -64,10 +67,13 @@ class Run:
     seed: int
 
     def payload(self, sweep: "Sweep", design_file: str) -> dict:
-        """The plain data a worker needs to do this run (see :func:`pes_ref.sweep.task.run_task`)."""
+        """The plain data a worker needs to do this run (see :func:`pes_ref.sweep.task.run_task`);
+        a problem file travels as its text, so a worker on another machine needs no file."""
         return {"id": self.id, "kind": self.kind, "options": self.options, "seed": self.seed,
                 "eval_seeds": list(sweep.eval_seeds), "eval_particles": sweep.eval_particles,
-                "design_file": design_file}
+                "design_file": design_file,
+                "problem_text": None if sweep.problem is None else problem_text(sweep.problem),
+                "problem_path": None if sweep.problem is None else sweep.problem.path}
 
 
 @dataclass(frozen=True)
@@ -83,6 +89,7 @@ class Sweep:
     seeds: tuple
     eval_seeds: tuple
     eval_particles: int | None
+    problem: object = None  #: the problem file's problem (kind "problem"), None for a built-in kind
 
     @property
     def name(self) -> str:
@@ -120,9 +127,17 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
     for key in data:
         if key not in TOP_LEVEL_KEYS:
             fail(key, f"unknown key; a sweep file has {', '.join(TOP_LEVEL_KEYS)}")
-    kind = data.get("kind")
-    if kind not in PROBLEMS:
-        fail("kind", f"expected one of {sorted(PROBLEMS)}, got {kind!r}" if "kind" in data else "missing")
+    problem = None
+    if "problem" in data:
+        if "kind" in data:
+            fail("kind", "give kind or problem, not both")
+        problem = _problem(data["problem"], path, fail)
+        kind = "problem"
+    else:
+        kind = data.get("kind")
+        if kind not in PROBLEMS:
+            fail("kind", f"expected one of {sorted(PROBLEMS)}, got {kind!r}" if "kind" in data
+                 else "missing (kind = \"funnel\" or \"oscillator\", or problem = \"FILE.toml\")")
     description = data.get("description", "")
     if not isinstance(description, str):
         fail("description", f"expected a string, got {description!r}")
@@ -142,6 +157,7 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
         for i, value in enumerate(values):
             _options({name: value}, f"grid.{name}[{i}]", kind, fail)
     variants = _variants(data.get("variants", []), kind, fail)
+    problem_id = None if problem is None else json.dumps(problem.data, sort_keys=True)
     for vname, options in variants:
         for name in options:
             if name in grid:
@@ -155,13 +171,17 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
             where = _where(vname, point)
             try:
                 sets = {k: v for k, v in options.items() if k not in DESIGN_OPTIONS}
-                inputs = design_inputs(kind, options, typed_sets(sets, kind))
-                PROBLEMS[kind](**inputs.sets)
+                if problem is None:
+                    inputs = design_inputs(kind, options, typed_sets(sets, kind))
+                    PROBLEMS[kind](**inputs.sets)
+                else:
+                    inputs = design_inputs(kind, options, sets, problem)
+                    with_sets(problem, inputs.sets)
                 inputs.plan()
             except (ValueError, TypeError) as exc:
                 fail(where, " ".join(str(exc).split()))
             for seed in seeds:
-                run = Run(_run_id(kind, options, seed), kind, vname, options, seed)
+                run = Run(_run_id(kind, options, seed, problem_id), kind, vname, options, seed)
                 if run.id in seen:
                     fail(where, f"the same run as {seen[run.id]} (same options and seed {seed})")
                 seen[run.id] = where
@@ -169,13 +189,24 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
     several = len(variants) > 1
     axes = (("variant",) if several else ()) + tuple(name for name, values in grid.items() if len(values) > 1)
     return Sweep(path, description, kind, tuple(runs), _swept(runs, several), axes, seeds, eval_seeds,
-                 eval_particles)
+                 eval_particles, problem)
 
 
 # --------------------------------------------------------------------------- pieces
 
 def _is_int(value) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _problem(value, path: str, fail):
+    """The problem file ``value`` names, relative to the sweep file's folder."""
+    if not isinstance(value, str):
+        fail("problem", f"expected the path of a problem file, got {value!r}")
+    where = os.path.join(os.path.dirname(os.path.abspath(path)), value)
+    try:
+        return load_problem(where)
+    except ProblemFileError as exc:
+        fail("problem", str(exc))
 
 
 def _seed_list(values, key, fail) -> tuple:
@@ -197,11 +228,13 @@ def _table(value, key, fail) -> dict:
 
 def _options(table: dict, key: str, kind: str, fail) -> dict:
     """Check that every entry of ``table`` is a known option with a value of its type."""
-    scene = scene_parameters(kind)
+    scene = scene_parameters(kind) if kind != "problem" else {}
     for name, value in table.items():
         where = key if key.endswith("]") else f"{key}.{name}"
         if name == "seed":
             fail(where, "give the run seeds as the top-level list seeds = [...]")
+        if kind == "problem" and "." in name and name not in DESIGN_OPTIONS:
+            continue                                 # a problem file's key, checked with the run
         if name in DESIGN_OPTIONS:
             want = DESIGN_OPTIONS[name]
             wants = want if isinstance(want, tuple) else (want,)
@@ -212,6 +245,9 @@ def _options(table: dict, key: str, kind: str, fail) -> dict:
                 typed_sets({name: value}, kind)
             except ValueError as exc:
                 fail(where, str(exc))
+        elif kind == "problem":
+            fail(where, f"unknown option; expected a design option ({', '.join(DESIGN_OPTIONS)}) or a key of "
+                        "the problem file by its dotted name (\"dynamics.dt\" = 0.005)")
         else:
             fail(where, f"unknown option; expected a design option ({', '.join(DESIGN_OPTIONS)}) "
                         f"or a {kind} scene parameter ({', '.join(scene)})")
@@ -239,9 +275,14 @@ def _where(variant: str, point: dict) -> str:
     return "run " + (", ".join(parts) if parts else "[base]")
 
 
-def _run_id(kind: str, options: dict, seed: int) -> str:
-    """A stable id: a readable stem and a hash of everything the design depends on."""
-    text = json.dumps({"kind": kind, "options": options, "seed": seed}, sort_keys=True)
+def _run_id(kind: str, options: dict, seed: int, problem: str | None = None) -> str:
+    """A stable id: a readable stem and a hash of everything the design depends on (with a
+    problem file's text, for kind ``"problem"``)."""
+    state = {"kind": kind, "options": options, "seed": seed}
+    if problem is not None:
+        state["problem"] = problem
+    text = json.dumps(state, sort_keys=True)
+
     digest = hashlib.sha1(text.encode()).hexdigest()[:10]
     return f"{kind}-s{seed}-{digest}"
 

@@ -17,7 +17,8 @@ from __future__ import annotations
 import os
 import time
 
-from pes_ref.synthesis import PROBLEMS, evaluate, load_design, new_design, run_stages, save_design
+from pes_ref.synthesis import (PROBLEMS, evaluate, load_design, new_design, problem_from_text, run_stages,
+                               save_design, with_sets)
 from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
 
 __all__ = ["run_task", "request_stop", "CHECKPOINT_SECONDS", "STOP_POLL_SECONDS"]
@@ -73,12 +74,22 @@ def _design(payload: dict, out: dict):
     if token in _STOP_REQUESTS:                        # the sweep stopped before this run began
         out.update(status="interrupted", error="not started: the sweep was stopped")
         return None
-    sets = typed_sets({k: v for k, v in options.items() if k not in DESIGN_OPTIONS}, kind)
-    inputs = design_inputs(kind, options, sets)
+    sets = {k: v for k, v in options.items() if k not in DESIGN_OPTIONS}
+    if payload.get("problem_text") is not None:         # a problem file's run
+        base = problem_from_text(payload["problem_text"], payload["problem_path"])
+        inputs = design_inputs(kind, options, sets, base)
+        problem = with_sets(base, inputs.sets)
+    else:
+        inputs = design_inputs(kind, options, typed_sets(sets, kind))
+        problem = PROBLEMS[kind](**inputs.sets)
     plan = inputs.plan()
-    state = _resume(path, PROBLEMS[kind](**inputs.sets), plan, payload["seed"])
+    state = _resume(path, problem, plan, payload["seed"])
     if state is None:
-        state = new_design(kind, seed=payload["seed"], plan=plan, polish=inputs.polish(), **inputs.sets)
+        if kind == "problem":
+            state = new_design(problem, seed=payload["seed"], plan=plan)
+        else:
+            state = new_design(kind, seed=payload["seed"], plan=plan, polish=inputs.polish(), **inputs.sets)
+
     out["from_iteration"] = state.iteration
     if state.iteration >= plan.iterations and state.status == "done":
         out["iterations"] = state.iteration

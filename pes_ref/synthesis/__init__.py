@@ -9,6 +9,10 @@ Modules, one idea each, in import order:
 - :mod:`.problems`    the funnel and oscillator design problems (scene, objective, sampler, metric)
 - :mod:`.plans`       how a problem is optimized (:class:`Plan`, :class:`PolishPlan`) and the defaults
 - :mod:`.resampling`  bilinear resampling of a grid between coarse-to-fine stages
+- :mod:`.file_keys`   the keys of a problem file: types, defaults, units, and their reader
+- :mod:`.objective_terms` the objective terms of a problem file (registry kind -> class)
+- :mod:`.success`     the per-particle success tests of a problem file (registry kind -> class)
+- :mod:`.design_problem` a design problem stated by a problem file (:class:`DesignProblem`)
 - :mod:`.refusals`    what a design run refuses before it starts (unstable scene, memory)
 - :mod:`.design_state` a design run's state (:class:`DesignState`) and :func:`new_design`
 - :mod:`.training`    the loop of a run's gradient stage (:func:`run_design`)
@@ -16,7 +20,9 @@ Modules, one idea each, in import order:
 - :mod:`.polish`      the polish stage: CMA-ES on a smooth correction, capture-test fitness
 - :mod:`.stages`      a run's stages one after the other (:func:`run_stages`)
 - :mod:`.escapement`  the hand-drawn escapement surface, a reference for the oscillator
+- :mod:`.problem_file` problem files: reading, checking, changing keys, writing
 - :mod:`.design_file` design runs in ``.npz`` files
+
 
 The names below are the public synthesis API (with :class:`Progress`, what the loops'
 callbacks receive, from :mod:`pes_ref.core.progress`).
@@ -30,6 +36,9 @@ from pes_ref.synthesis.problems import (FUNNEL_OBJECTIVES, IN_BAND_SHARE, OSCILL
 from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS,
                                      OSCILLATOR_POLISH, Plan, PolishPlan)
 from pes_ref.synthesis.resampling import resample
+from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, TermSum
+from pes_ref.synthesis.success import SUCCESS_TESTS
+from pes_ref.synthesis.design_problem import FORCES, DesignProblem
 from pes_ref.synthesis.refusals import check_design_memory, check_stable_design
 from pes_ref.synthesis.design_state import STOPPED, DesignState, new_design
 from pes_ref.synthesis.training import GradientStep, design_gradient, run_design
@@ -40,8 +49,10 @@ from pes_ref.synthesis.polish import (PolishParticles, PolishResult, capture_fit
                                       polish_particles)
 from pes_ref.synthesis.stages import run_stages
 from pes_ref.synthesis.escapement import escapement_values
-from pes_ref.synthesis.design_file import (DesignFileError, check_same_scene, design_arrays, load_design,
-                                           save_design)
+from pes_ref.synthesis.problem_file import (SHIPPED_PROBLEMS, ProblemFileError, load_problem, parse_problem,
+                                            problem_from_text, problem_text, shipped_problem, with_sets)
+from pes_ref.synthesis.design_file import (DesignFileError, check_same_problem, check_same_scene, design_arrays,
+                                           first_difference, load_design, save_design)
 
 __all__ = [
     "Adam", "RMSprop", "make_optimizer",
@@ -59,5 +70,8 @@ __all__ = [
     "legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "PolishResult", "polish",
     "run_stages",
     "escapement_values",
-    "save_design", "load_design", "design_arrays", "check_same_scene", "DesignFileError",
+    "save_design", "load_design", "design_arrays", "check_same_scene", "check_same_problem", "first_difference",
+    "DesignFileError",
+    "DesignProblem", "OBJECTIVE_TERMS", "SUCCESS_TESTS", "FORCES", "TermSum", "load_problem", "parse_problem",
+    "problem_from_text", "problem_text", "with_sets", "shipped_problem", "SHIPPED_PROBLEMS", "ProblemFileError",
 ]

@@ -16,7 +16,9 @@ import numpy as np
 from pes_ref.core import budget, checks
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.scene import simulate
+from pes_ref.synthesis.design_problem import DesignProblem
 from pes_ref.synthesis.problems import FunnelProblem, OscillatorProblem, exit_positions
+from pes_ref.synthesis.success import passes_all
 
 __all__ = ["Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
            "phase_space", "cycle_figures", "q1_advance", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS"]
@@ -144,8 +146,9 @@ def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None)
     values = checks.as_float_array("values", values, ndim=2)
     seed = checks.as_nonneg_int("seed", seed)
     evaluate_kind, default_n = _EVALUATIONS[problem.kind]
+    default_n = getattr(problem, "eval_particles", default_n)
     n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
-    steps = problem.n_steps if problem.kind == "funnel" else problem.steps_for(problem.eval_periods)
+    steps = _HELD_OUT_STEPS[problem.kind](problem)
     budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True,
                         length=f"a held-out run of {steps} steps")
     return evaluate_kind(problem, values, seed, n)
@@ -196,5 +199,34 @@ def _reduce(reduce, x: np.ndarray) -> float:
     return float(reduce(x)) if x.size else float("nan")
 
 
-#: Per problem kind: the evaluation and its default ``n_particles``.
-_EVALUATIONS = {"funnel": (_evaluate_funnel, 200), "oscillator": (_evaluate_oscillator, 50)}
+def _evaluate_problem(problem: DesignProblem, values, seed: int, n: int) -> dict:
+    held = problem.run(values, seed, n)
+    every, each = passes_all([test for _, test in problem.tests], held.traj.x, held.traj.v, held.times)
+    out = {"success_fraction": float(np.mean(every))}
+    for (name, _), ok in zip(problem.tests, each):
+        out[f"success_{name}"] = float(np.mean(ok))
+    values_of_terms = problem.objective.values(held.traj.x, held.traj.v, held.times)
+    values_of_terms += [term.grid_value_and_grad(values)[0] for term in problem.grid_terms]
+    for name, value in zip(problem.term_names, values_of_terms):
+        out[f"objective_{name}"] = float(value)
+    for scenario in problem.scenarios:
+        run = problem.run(values, seed, n, scenario)
+        ok, _ = passes_all([test for _, test in scenario.tests], run.traj.x, run.traj.v, run.times)
+        out[f"scenario_{scenario.name}_success_fraction"] = float(np.mean(ok))
+    flat = problem.run(problem.flat_values(values.shape), seed, n)
+    out["flat_success_fraction"] = float(np.mean(
+        passes_all([test for _, test in problem.tests], flat.traj.x, flat.traj.v, flat.times)[0]))
+    out["particles"] = float(n)
+    return out
+
+
+#: Per problem kind: the steps of its longest held-out run (what the memory check counts).
+_HELD_OUT_STEPS = {
+    "funnel": lambda problem: problem.n_steps,
+    "oscillator": lambda problem: problem.steps_for(problem.eval_periods),
+    "problem": lambda problem: max([problem.n_steps] + [s.n_steps for s in problem.scenarios]),
+}
+#: Per problem kind: the evaluation and its default ``n_particles`` (a problem file's: its ``[evaluate]``).
+
+_EVALUATIONS = {"funnel": (_evaluate_funnel, 200), "oscillator": (_evaluate_oscillator, 50),
+                "problem": (_evaluate_problem, None)}

@@ -5,8 +5,9 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 ==================  =====================================================================
 ``format``          the string ``"pes_ref.design"``
 ``version``         int, :data:`VERSION`
-``kind``            ``"funnel"`` or ``"oscillator"``
-``problem``         JSON text of the problem's fields (the scene parameters)
+``kind``            ``"funnel"``, ``"oscillator"`` or ``"problem"`` (a problem file's design)
+``problem``         JSON text of the problem's fields (the scene parameters); for kind
+                    ``"problem"``, the TOML text of its problem file (``docs/problems.md``)
 ``plan``            JSON text of the plan's fields (optimizer, learning rates, stages, ...)
 ``seed``            int, the run's seed
 ``iteration``       int, iterations finished
@@ -44,10 +45,14 @@ from pes_ref.oracle.errors import CaseError
 from pes_ref.oracle.npz import read_npz, write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
 from pes_ref.synthesis.plans import Plan, PolishPlan
+from pes_ref.synthesis.problem_file import ProblemFileError, problem_from_text, problem_text
+
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.design_state import STAGES, DesignState
 
-__all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "is_design_file", "DesignFileError",
+__all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "check_same_problem",
+           "first_difference", "is_design_file", "DesignFileError",
+
            "FORMAT", "VERSION", "READABLE_VERSIONS"]
 
 FORMAT = "pes_ref.design"
@@ -84,7 +89,7 @@ def design_arrays(state: DesignState) -> dict:
     arrays = {
         "format": np.array(FORMAT), "version": np.array(VERSION, dtype=np.int64),
         "kind": np.array(state.kind),
-        "problem": np.array(json.dumps(_fields(state.problem), sort_keys=True)),
+        "problem": np.array(_PROBLEM_TEXT[state.kind][0](state.problem)),
         "plan": np.array(json.dumps(_fields(state.plan), sort_keys=True)),
         "seed": np.array(state.seed, dtype=np.int64), "iteration": np.array(state.iteration, dtype=np.int64),
         "values": np.asarray(state.values, dtype=np.float64),
@@ -133,10 +138,16 @@ def load_design(path) -> DesignState:
     if missing:
         raise DesignFileError(f"{path} is a damaged design file: missing keys {missing}")
     kind = str(data["kind"])
-    if kind not in PROBLEMS:
-        raise DesignFileError(f"{path} has unknown design kind {kind!r}; expected one of {sorted(PROBLEMS)}")
+    if kind not in _PROBLEM_TEXT:
+        raise DesignFileError(f"{path} has unknown design kind {kind!r}; expected one of {sorted(_PROBLEM_TEXT)}")
     try:
-        problem = PROBLEMS[kind](**json.loads(str(data["problem"])))
+        problem = _PROBLEM_TEXT[kind][1](str(data["problem"]), path)
+    except ProblemFileError as exc:              # its problem file's text: one line naming the key
+        raise DesignFileError(str(exc)) from None
+    except (TypeError, KeyError, ValueError) as exc:
+        raise DesignFileError(f"{path} is a damaged design file: {exc}") from None
+    try:
+
         plan_fields = json.loads(str(data["plan"]))
         plan_fields["stages"] = tuple(tuple(s) for s in plan_fields["stages"])
         plan = Plan(**plan_fields)
@@ -209,6 +220,56 @@ def is_design_file(path) -> bool:
 
 def _a(word: str) -> str:
     return ("an " if word[:1] in "aeiou" else "a ") + word
+
+
+def _dataclass_text(problem) -> str:
+    return json.dumps(_fields(problem), sort_keys=True)
+
+
+def _dataclass_from_text(kind: str):
+    return lambda text, path: PROBLEMS[kind](**json.loads(text))
+
+
+#: How a design file holds each kind's problem: kind -> (problem -> text, (text, path) -> problem).
+_PROBLEM_TEXT = {
+    **{kind: (_dataclass_text, _dataclass_from_text(kind)) for kind in PROBLEMS},
+    "problem": (problem_text, lambda text, path: problem_from_text(text, f"{path} (its problem)")),
+}
+
+
+def first_difference(a, b, where: str = "") -> str | None:
+    """Where the plain data ``b`` first differs from ``a`` (a design's problem): its dotted key
+    and both values (None: equal)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in list(a) + [k for k in b if k not in a]:
+            at = f"{where}.{key}" if where else str(key)
+            if key not in b:
+                return f"{at} is not given there, {a[key]!r} in the design's problem"
+            if key not in a:
+                return f"{at} = {b[key]!r} there, not given in the design's problem"
+            found = first_difference(a[key], b[key], at)
+            if found:
+                return found
+        return None
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        return next((d for i, (x, y) in enumerate(zip(a, b)) if (d := first_difference(x, y, f"{where}[{i}]"))),
+                    None)
+    return None if a == b else f"{where} = {b!r} there, {a!r} in the design's problem"
+
+
+def check_same_problem(state: DesignState, problem) -> None:
+    """Refuse to resume ``state`` with a problem (a problem file read again) other than its own.
+
+    Raises :class:`DesignFileError` naming the first key that differs.
+    """
+    if state.kind != "problem":
+        raise DesignFileError(f"the resume file is {_a(state.kind)} design, not a problem file's design "
+                              f"(another scene)")
+    difference = first_difference(state.problem.data, problem.data)
+    if difference is not None:
+        raise DesignFileError(f"the problem file {problem.path} differs from the one the design was made with: "
+                              f"{difference}; resume without the file (design --resume FILE.npz) or start a new "
+                              f"design")
 
 
 def check_same_scene(state: DesignState, kind: str, overrides: dict | None = None) -> None:

@@ -76,21 +76,31 @@ class DesignState:
         return self.status == "done" and (self.polish is None or self.stage == "polish")
 
 
-def new_design(kind: str, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
+def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
                **params) -> DesignState:
-    """A fresh run of ``kind`` ("funnel" or "oscillator") with problem overrides ``params``.
+    """A fresh run of ``kind`` ("funnel" or "oscillator") with problem overrides ``params``,
+    or of a problem object ``kind`` (a :class:`~pes_ref.synthesis.design_problem.DesignProblem`,
+    from a problem file or built in code).
 
-    Without ``plan`` the run has the kind's default plan and, unless ``polish`` is given,
-    its default polish stage (:data:`pes_ref.synthesis.plans.DEFAULT_POLISH`); with a
-    ``plan`` it has the ``polish`` given (None: the gradient stage alone).
+    Without ``plan`` the run has the kind's default plan (a problem object's own, its
+    ``[train]`` section) and, unless ``polish`` is given, its default polish stage
+    (:data:`pes_ref.synthesis.plans.DEFAULT_POLISH`); with a ``plan`` it has the ``polish``
+    given (None: the gradient stage alone).
     """
-    kind = checks.as_choice("kind", kind, set(PROBLEMS))
     seed = checks.as_nonneg_int("seed", seed)
     if polish is not None and not isinstance(polish, PolishPlan):
         raise TypeError(f"polish must be a PolishPlan or None, got {type(polish).__name__}")
-    problem = PROBLEMS[kind](**params)
-    if plan is None:
-        plan, polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind] if polish is None else polish
+    if isinstance(kind, str):
+        kind = checks.as_choice("kind", kind, set(PROBLEMS))
+        problem = PROBLEMS[kind](**params)
+        if plan is None:
+            plan, polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind] if polish is None else polish
+    else:
+        problem = kind
+        if params:
+            raise TypeError(f"problem overrides {sorted(params)} are for the built-in kinds; change a problem "
+                            f"object's keys with pes_ref.synthesis.with_sets")
+        plan = problem.plan if plan is None else plan
     check_run_memory(problem, plan, polish)         # before the first grid is made
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))

@@ -19,16 +19,18 @@ from pes_ref.core import checks
 __all__ = ["exit_steps", "FunnelExit"]
 
 
-def exit_steps(x: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray]:
+def exit_steps(x: np.ndarray, level: float, axis: int = 1, side: str = "lower") -> tuple[np.ndarray, np.ndarray]:
     """Each particle's exit step and whether it exits.
 
     ``x`` is a trajectory's positions (T+1, N, 2). Returns ``(step, exited)``, both (N,):
-    ``step[i]`` is the first n with ``x[n, i, 1] <= level`` when ``exited[i]``, else T
-    (the last state).
+    ``step[i]`` is the first n with ``x[n, i, axis] <= level`` (``side="lower"``, the
+    funnel's bottom edge by default) or ``>= level`` (``side="upper"``) when ``exited[i]``,
+    else T (the last state).
     """
-    below = x[:, :, 1] <= level
-    exited = below.any(axis=0)
-    return np.where(exited, np.argmax(below, axis=0), x.shape[0] - 1), exited
+    q = x[:, :, axis]
+    past = q <= level if side == "lower" else q >= level
+    exited = past.any(axis=0)
+    return np.where(exited, np.argmax(past, axis=0), x.shape[0] - 1), exited
 
 
 @dataclass(frozen=True)

@@ -40,12 +40,14 @@ IN_BAND_SHARE = 0.10
 
 class Batch(NamedTuple):
     """One iteration's particles: starts (N, 2), velocities (N, 2), the scene with their effects,
-    and the objective that scores their trajectory."""
+    the objective that scores their trajectory, and what the grid values cost beyond the
+    problem's eq. (7) (``grid_cost(values) -> (value, dL/dG or None)``; None: nothing)."""
 
     x0: np.ndarray
     v0: np.ndarray
     scene: Scene
     objective: object
+    grid_cost: object = None
 
 
 class _Problem:

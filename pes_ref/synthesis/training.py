@@ -35,14 +35,21 @@ def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_
     """Loss, masked design gradient dL/dE and trajectory of iteration ``iteration``.
 
     Returns ``(loss, grad, traj, x0)``; the particles come from ``default_rng([seed, iteration])``
-    and the objective with them (``batch.objective``); ``n_steps`` overrides the problem's.
+    and the objective with them (``batch.objective``, plus the batch's ``grid_cost`` of the values
+    if it has one); ``n_steps`` overrides the problem's.
     Raises :class:`pes_ref.NonFiniteError` when the run leaves the finite numbers.
     """
     rng = np.random.default_rng([seed, iteration])
     batch = problem.batch(values, rng, n_particles, n_steps)
     loss, grads, traj = value_and_grad(batch.scene, batch.x0, batch.v0, batch.objective,
                                        regularization_weight=problem.regularization, wrt=("values",))
-    return loss, problem.values_grad(values, grads["values"]) * problem.mask(values.shape), traj, batch.x0
+    grad = problem.values_grad(values, grads["values"])
+    if batch.grid_cost is not None:
+        cost, cost_grad = batch.grid_cost(values)
+        loss += cost
+        if cost_grad is not None:
+            grad = grad + cost_grad
+    return loss, grad * problem.mask(values.shape), traj, batch.x0
 
 
 class GradientStep(NamedTuple):
@@ -105,12 +112,13 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     clock = Clock([(st.start, st.end, st.steps) for st in stages])
 
     reported = [None]                   # the iteration of the last report
+    label = getattr(problem, "name", problem.kind)      # a problem file's problem by its name
 
     def report(now):
         reported[0] = state.iteration
         i = clock.index(max(state.iteration - 1, 0))
         st = stages[i]
-        callback(Progress(f"design {problem.kind}", f"stage {st.name}", state.iteration, total, "it", clock.rate(i),
+        callback(Progress(f"design {label}", f"stage {st.name}", state.iteration, total, "it", clock.rate(i),
                           now - t_start, clock.seconds_left(state.iteration, total),
                           (("grid", st.grid), ("steps", st.steps), ("loss", loss), (problem.metric_name, metric))))
 

@@ -33,7 +33,7 @@ from hypothesis import strategies as st
 from pes_ref.testing import draws
 
 __all__ = ["TOPOLOGIES", "topologies", "seeds", "surfaces", "states", "scenes", "scene_cases",
-           "objectives", "exit_paths"]
+           "objectives", "exit_paths", "term_cases", "TERM_MARGIN"]
 
 #: The four topologies as ``periodic`` pairs: plane, the two cylinders, torus.
 TOPOLOGIES = draws.TOPOLOGIES
@@ -141,3 +141,82 @@ def exit_paths(draw, *, max_states: int = 8, max_particles: int = 4, margin: flo
     d = np.sort(rng.uniform(-1.0, 1.0, (n_states, n)), axis=0)[::-1]     # q1 - level, falling
     x[:, :, 1] = level + np.where(np.abs(d) < margin, np.copysign(2.0 * margin, d), d)
     return x, level
+
+
+#: The margin kept from a term's kinks (a box face, an exit level, the minimum-image seam), far
+#: beyond the finite-difference step.
+TERM_MARGIN = 1e-3
+
+
+def _away(offset: np.ndarray, half, margin: float = TERM_MARGIN) -> np.ndarray:
+    """``offset`` with every ``|offset|`` within ``margin`` of ``half`` moved ``2 margin`` away from it."""
+    near = np.abs(np.abs(offset) - half) < margin
+    return np.where(near, offset + np.sign(offset) * 2 * margin, offset)
+
+
+@st.composite
+def term_cases(draw, *, max_states: int = 7, max_particles: int = 3):
+    """A state term of a problem file (:data:`pes_ref.synthesis.objective_terms.OBJECTIVE_TERMS`,
+    every kind but the grid's) on a random domain of any topology, with a trajectory away from
+    its kinks: ``(term, x, v, t)``.
+
+    Positions lie within 0.45 of a period of the term's target, box centre or edge centre (plus
+    whole periods on a periodic axis, to exercise the minimum image), and no coordinate lies
+    within :data:`TERM_MARGIN` of a box face or an exit level; a time is one of the states' (or
+    after the run's end, where a term charges nothing).
+    """
+    from pes_ref.core.objectives import Quadratic
+    from pes_ref.synthesis.objective_terms import EDGES, OBJECTIVE_TERMS, Domain
+
+    periodic = draw(topologies())
+    kinds = [k for k, cls in OBJECTIVE_TERMS.items() if not hasattr(cls, "grid_value_and_grad")
+             and (k != "exit" or not all(periodic))]
+    kind = draw(st.sampled_from(sorted(kinds)))
+    rng = np.random.default_rng(draw(seeds()))
+    lower = rng.uniform(-2.0, 0.0, 2)
+    length = rng.uniform(1.0, 3.0, 2)
+    domain = Domain(tuple(lower), tuple(lower + length), tuple(periodic))
+    n_states, n = draw(st.integers(2, max_states)), draw(st.integers(1, max_particles))
+    t = 0.1 * np.arange(n_states)
+    shape = (n_states, n, 2)
+    v = rng.normal(0.0, 1.0, shape)
+    laps = np.where(periodic, rng.integers(-1, 2, shape), 0) * length      # whole periods on periodic axes
+    weight = float(rng.uniform(0.1, 3.0))
+    time = float(t[rng.integers(n_states)] if rng.uniform() < 0.85 else t[-1] + 0.3)
+    point = lambda: tuple(lower + rng.uniform(0, 1, 2) * length)  # noqa: E731
+
+    def near(center, half=0.0):
+        return np.asarray(center) + _away(rng.uniform(-0.45, 0.45, shape) * length, half) + laps
+
+    if kind in ("final_position", "position_at"):
+        keys = {"target": point(), "weight": weight, "time": time}
+        x = near(keys["target"])
+    elif kind == "stay_in":
+        a, b = point(), point()
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        start, end = sorted(rng.uniform(0.0, t[-1] + 0.2, 2))
+        keys = {"lower": tuple(lo), "upper": tuple(hi), "from": float(start), "to": float(end), "weight": weight}
+        x = near(0.5 * (lo + hi), 0.5 * (hi - lo))
+    elif kind == "speed_at":
+        keys = {"time": time, "axis": int(rng.integers(2)), "target": float(rng.normal()), "weight": weight}
+        x = near(point())
+    elif kind == "cycle":
+        keys = {"amplitude": float(rng.uniform(0.2, 2.0)), "omega": float(rng.uniform(0.5, 3.0)),
+                "axis": int(rng.integers(2)), "weight": weight}
+        x = near(point())
+    elif kind == "exit":
+        edge = draw(st.sampled_from([e for e, (axis, _) in EDGES.items() if not periodic[axis]]))
+        axis, side, level = domain.edge(edge)
+        keys = {"edge": edge, "center": float(point()[1 - axis]), "halfwidth": float(rng.uniform(0.0, 0.3)),
+                "weight": weight}
+        x = near(np.where(np.arange(2) == axis, level, keys["center"]), keys["halfwidth"])
+        d = np.sort(rng.uniform(-1.0, 1.0, (n_states, n)), axis=0)                 # distance past the level
+        d = d[::-1] if side == "lower" else d
+        x[:, :, axis] = level + _away(d, 0.0)
+    else:                                                                           # custom
+        keys = {"object": Quadratic(wx=float(rng.uniform(0.5, 2)), xref=float(rng.normal()),
+                                    wv=float(rng.uniform(0.5, 2)), vref=float(rng.normal())), "weight": weight}
+        x = near(point())
+    cls = OBJECTIVE_TERMS[kind]
+    term = cls.from_keys({k: keys[k] for k in cls.KEYS}, domain, float(t[-1]))
+    return term, x, v, t

@@ -263,6 +263,50 @@ FAULTS = [
     Fault("design-unknown-option", "design funnel --smoke --out new.npz --bogus", ("--bogus",)),
     Fault("design-read-only-folder", "design funnel --smoke --out ro/new.npz", ("ro", "not writable"),
           needs_permissions=True),
+    # ------------------------------------------------------------------ design PROBLEM.toml (docs/problems.md)
+    Fault("problem-missing", "design nothing.toml --out new.npz", ("problem file nothing.toml does not exist",)),
+    Fault("problem-a-folder", "design sub --out new.npz", ("problem file sub is a folder",)),
+    Fault("problem-not-toml", "design notes.toml --out new.npz", ("notes.toml: not valid TOML",)),
+    Fault("problem-format", "design format2.toml --out new.npz",
+          ("format2.toml: format: this pes_ref reads problem files of format 1, got 2",)),
+    Fault("problem-unknown-key", "design colour.toml --out new.npz", ("colour.toml: colour: unknown key",)),
+    Fault("problem-missing-section", "design noobjective.toml --out new.npz",
+          ("noobjective.toml: objective: missing",)),
+    Fault("problem-bad-value", "design baddt.toml --out new.npz",
+          ("baddt.toml: dynamics.dt: expected a number > 0, got -0.05",)),
+    Fault("problem-unknown-term", "design happiness.toml --out new.npz",
+          ("happiness.toml: objective[0].kind: expected one of", "got 'happiness'")),
+    Fault("problem-term-key", "design shortpoint.toml --out new.npz",
+          ("shortpoint.toml: objective[0].target: expected a list of two values, got [0.3]",)),
+    Fault("problem-custom-import", "design custom.toml --out new.npz",
+          ("custom.toml: objective[0].object: cannot import it", "no_such_module_here")),
+    Fault("problem-time-after-end", "design late.toml --out new.npz",
+          ("late.toml: evaluate.success[0].time: 5 is after the end of the run (2, dynamics)",)),
+    Fault("problem-no-success-test", "design nosuccess.toml --out new.npz",
+          ("nosuccess.toml: evaluate.success: missing",)),
+    Fault("problem-unstable", "design unstable.toml --out new.npz", ("unstable.toml: dynamics.dt:", "stability limit")),
+    Fault("problem-set-bad-value", "design good.toml --out new.npz --set dynamics.damping=-1",
+          ("good.toml: dynamics.damping: expected a number >= 0, got -1",)),
+    Fault("problem-set-unknown-key", "design good.toml --out new.npz --set dynamics.colour=1",
+          ("good.toml: dynamics.colour: unknown key",)),
+    Fault("problem-set-no-value", "design good.toml --out new.npz --set dynamics.dt",
+          ("--set 'dynamics.dt'", "NAME=VALUE")),
+    Fault("problem-set-no-entry", "design good.toml --out new.npz --set objective.3.weight=1",
+          ("objective.3.weight: objective has entries 0 to 0",)),
+    Fault("problem-plan", "design good.toml --out new.npz --plan eq6", ("--plan eq6", "only the oscillator")),
+    Fault("problem-polish-option", "design good.toml --out new.npz --evaluations 5", ("--evaluations", "no polish")),
+    Fault("problem-grid-too-large-for-memory", "design good.toml --out new.npz --set 'surface.shape=[100000, 100000]'",
+          ("good.toml: surface.shape: shape = [100000, 100000] makes a surface of 100000 x 100000 nodes", "GiB")),
+    Fault("problem-too-many-for-memory", "design good.toml --out new.npz --particles 100000000",
+          ("dynamics.duration / dt = 40 with --particles = 100000000", "GiB")),
+    Fault("problem-resume-changed", "design good2.toml --resume problem.npz --out new.npz",
+          ("the problem file good2.toml differs from the one the design was made with: dynamics.damping = 2.0 "
+           "there, 1.0 in the design's problem",)),
+    Fault("problem-resume-set", "design --resume problem.npz --out new.npz --set dynamics.damping=2.0",
+          ("--set: a resumed design keeps its problem; dynamics.damping = 2.0, 1.0 in the design's problem",)),
+    Fault("problem-resume-built-in", "design funnel --resume problem.npz --out new.npz",
+          ("the resume file is a problem design, not a funnel design",)),
+    Fault("design-nothing", "design --out new.npz", ("give what to design", "--resume")),
     # ------------------------------------------------------------------ evaluate
     Fault("evaluate-missing", "evaluate nothing.npz", ("design file nothing.npz does not exist",)),
     Fault("evaluate-folder", "evaluate sub", ("design file sub is a folder",)),
@@ -293,6 +337,50 @@ FAULTS = [
     Fault("no-command", "", ("COMMAND",)),
     Fault("unknown-command", "frobnicate", ("'frobnicate'",)),
 ]
+
+#: A problem file (particles gather at a point) and its malformed versions, for the rows above.
+GOOD_PROBLEM = """format = 1
+[surface]
+lower = [-1.0, -1.0]
+upper = [1.0, 1.0]
+shape = [8, 8]
+[dynamics]
+dt = 0.05
+duration = 2.0
+damping = 1.0
+[starts]
+box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }
+[[objective]]
+kind = "final_position"
+target = [0.3, -0.2]
+[evaluate]
+particles = 12
+[[evaluate.success]]
+kind = "final_position"
+target = [0.3, -0.2]
+radius = 0.3
+[train]
+iterations = 2
+particles = 4
+"""
+PROBLEM_FILES = {
+    "good.toml": GOOD_PROBLEM,
+    "good2.toml": GOOD_PROBLEM.replace("damping = 1.0", "damping = 2.0"),
+    "notes.toml": "a user's notes, not TOML\n",
+    "format2.toml": GOOD_PROBLEM.replace("format = 1", "format = 2"),
+    "colour.toml": 'colour = "red"\n' + GOOD_PROBLEM,
+    "noobjective.toml": GOOD_PROBLEM.replace('[[objective]]\nkind = "final_position"\ntarget = [0.3, -0.2]\n', ""),
+    "baddt.toml": GOOD_PROBLEM.replace("dt = 0.05", "dt = -0.05"),
+    "happiness.toml": GOOD_PROBLEM.replace('kind = "final_position"\ntarget = [0.3, -0.2]\n[evaluate]',
+                                           'kind = "happiness"\n[evaluate]'),
+    "shortpoint.toml": GOOD_PROBLEM.replace("target = [0.3, -0.2]\n[evaluate]", "target = [0.3]\n[evaluate]"),
+    "custom.toml": GOOD_PROBLEM.replace('kind = "final_position"\ntarget = [0.3, -0.2]\n[evaluate]',
+                                        'kind = "custom"\nobject = "no_such_module_here:thing"\n[evaluate]'),
+    "late.toml": GOOD_PROBLEM.replace('[[evaluate.success]]\nkind = "final_position"',
+                                      '[[evaluate.success]]\nkind = "position_at"\ntime = 5.0'),
+    "nosuccess.toml": GOOD_PROBLEM.split("[[evaluate.success]]")[0] + "[train]\niterations = 2\n",
+    "unstable.toml": GOOD_PROBLEM.replace("damping = 1.0", "damping = 1.0\nwalls = { k = 1e5, margin = 0.05 }"),
+}
 
 #: A small valid device file (a pin in a plate's hole, on a plane) and the faults made of it:
 #: name -> (text replaced, by).
@@ -364,6 +452,9 @@ def assets(tmp_path_factory):
     shutil.copy(VECTORS / BAD_CASE["case"], folder / "bad.case.npz")
     write_result(run_case(load_case(CASE)), folder / "result.npz")
     assert cli.main(["design", "funnel", "--smoke", "--quiet", "--out", str(folder / "design.npz")]) == 0
+    for name, text in PROBLEM_FILES.items():
+        (folder / name).write_text(text)
+    assert cli.main(["design", str(folder / "good.toml"), "--quiet", "--out", str(folder / "problem.npz")]) == 0
     (folder / "text.npz").write_text("values = [[0, 1], [1, 0]]\nmode = dynamic\n")
     (folder / "notes.txt").write_text("a user's own notes\n")
     (folder / "b-scaling.png").write_bytes(b"a plot the user keeps")

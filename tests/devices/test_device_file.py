@@ -164,7 +164,7 @@ BAD = [
 ]
 
 
-@pytest.mark.parametrize("key, value, message", BAD, ids=[f"{k}={v!r}"[:60] for k, v, _ in BAD])
+@pytest.mark.parametrize("key, value, message", BAD, ids=[(f"{k} deleted" if v is DELETE else f"{k}={v!r}")[:60] for k, v, _ in BAD])
 def test_a_bad_key_or_value_is_refused_in_one_line_naming_it(key, value, message):
     with pytest.raises(F.DeviceFileError) as err:
         F.parse_device(_edit(key, value), "bad.toml")

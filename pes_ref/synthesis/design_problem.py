@@ -1,0 +1,238 @@
+"""A design problem stated by a problem file: any surface, dynamics, starts, force schedule and
+sum of objective terms, with the per-particle success test it is judged by.
+
+:class:`DesignProblem` is what :mod:`pes_ref.synthesis.problem_file` reads a problem file into
+(or a dict of the same shape, built in code); it plays the part the funnel and the oscillator
+play (:mod:`pes_ref.synthesis.problems`) for the whole design machinery: :meth:`~DesignProblem.batch`
+draws a training batch, :meth:`~DesignProblem.batch_metric` scores it, and
+:meth:`~DesignProblem.run` simulates held-out particles for ``evaluate``. Its parts:
+
+- :class:`Starts`: where particles start (a uniform box, or a list of points) and at what velocity;
+- :class:`Force`: one entry of the force schedule (:data:`FORCES`: constant, noise, per-particle),
+  on for a time window if it has one (:class:`pes_ref.core.effects.Window`): windows give a
+  problem its phases;
+- :class:`Scenario`: another force schedule the design is checked under (does a latch hold
+  when nobody pulls the trigger?).
+
+Every random draw of a batch comes from the generator it is given, in a fixed order: the
+starts (box axes in order, then the velocities), then each force in the file's order.
+"""
+from __future__ import annotations
+
+from typing import ClassVar, NamedTuple
+
+import numpy as np
+
+from pes_ref.core.effects import Constant, Noise, PerParticle, Window, step_times
+from pes_ref.core.scene import Scene, simulate
+from pes_ref.core.surface import Surface
+from pes_ref.synthesis.file_keys import Key
+from pes_ref.synthesis.objective_terms import Domain, TermSum
+from pes_ref.synthesis.problems import Batch, _Problem
+from pes_ref.synthesis.success import passes_all
+
+__all__ = ["DesignProblem", "Starts", "Force", "Scenario", "FORCES", "HeldOut"]
+
+
+def _uniform(rng, lower, upper, n: int) -> np.ndarray:
+    """(n, 2) uniform in the box; an axis with ``lower == upper`` is that value and draws nothing."""
+    out = np.empty((n, 2))
+    for axis in (0, 1):
+        lo, hi = lower[axis], upper[axis]
+        out[:, axis] = rng.uniform(lo, hi, n) if hi > lo else lo
+    return out
+
+
+class Starts(NamedTuple):
+    """Where particles start: uniform in ``box`` (lower, upper), or particle ``i`` at
+    ``points[i % len(points)]``; velocities uniform in ``velocity`` (lower, upper)."""
+
+    box: tuple | None
+    points: tuple | None
+    velocity: tuple
+
+    def sample(self, rng, n: int):
+        """``(x0, v0)``, each (n, 2)."""
+        if self.box is not None:
+            x0 = _uniform(rng, *self.box, n)
+        else:
+            x0 = np.array([self.points[i % len(self.points)] for i in range(n)], dtype=np.float64).reshape(n, 2)
+        return x0, _uniform(rng, *self.velocity, n)
+
+
+#: The kinds of force (``[[forces]] kind = ...``): their keys, and the effect each draws for n particles.
+FORCES = {
+    "constant": ({"force": Key("point", unit="force")}, lambda keys, rng, n: Constant(keys["force"])),
+    "noise": ({"std": Key("nonneg_or_pair", unit="force")},
+              lambda keys, rng, n: Noise(std=keys["std"], seed=int(rng.integers(2 ** 63 - 1)))),
+    "per_particle": ({"lower": Key("point", unit="force"), "upper": Key("point", unit="force")},
+                     lambda keys, rng, n: PerParticle(_uniform(rng, keys["lower"], keys["upper"], n))),
+}
+
+
+class Force(NamedTuple):
+    """One force of the schedule: its ``kind`` (:data:`FORCES`), checked ``keys``, optional
+    ``name``, and the window ``[start, end)`` it is on for (None: always)."""
+
+    kind: str
+    keys: dict
+    name: str
+    start: float | None
+    end: float | None
+
+    def effect(self, rng, n: int):
+        """The effect on ``n`` particles, its random part drawn from ``rng``."""
+        effect = FORCES[self.kind][1](self.keys, rng, n)
+        if self.start is None and self.end is None:
+            return effect
+        return Window(effect, 0.0 if self.start is None else self.start,
+                      np.finfo(np.float64).max if self.end is None else self.end)
+
+
+class Scenario(NamedTuple):
+    """Another run the design is checked under: its ``name``, ``n_steps``, ``forces`` and the
+    success ``tests`` (name, test) it must pass."""
+
+    name: str
+    n_steps: int
+    forces: tuple
+    tests: tuple
+
+
+class HeldOut(NamedTuple):
+    """Held-out particles: starts (N, 2), the trajectory and its times (T+1,)."""
+
+    x0: np.ndarray
+    traj: object
+    times: np.ndarray
+
+
+class DesignProblem(_Problem):
+    """A design problem from a problem file (``docs/problems.md``); build one with
+    :func:`pes_ref.synthesis.problem_file.load_problem` or :func:`~pes_ref.synthesis.problem_file.parse_problem`.
+
+    Two problems are equal when their data (the file's parsed tables) are. ``regularization``
+    is 0: eq. (7) is a grid term of the objective here (``[[objective]] kind =
+    "regularization"``), charged with the others through the batch's ``grid_cost``.
+    """
+
+    kind: ClassVar[str] = "problem"
+    #: The name of :meth:`batch_metric` in progress lines and summaries.
+    metric_name: ClassVar[str] = "success"
+    regularization = 0.0
+
+    def __init__(self, *, data: dict, path: str, text: str | None, name: str, description: str, lower, upper,
+                 periodic, grid_shape, interpolation, holds, scene_keys: dict, n_steps: int, starts: Starts,
+                 forces: tuple, terms: tuple, term_names: tuple, grid_terms: tuple, tests: tuple, scenarios: tuple,
+                 eval_particles: int, plan, init_scale: float):
+        self.data, self.path, self.source_text = data, path, text
+        self.name, self.description = name, description
+        self.lower, self.upper, self.periodic = tuple(lower), tuple(upper), tuple(periodic)
+        self.grid_shape, self.interpolation, self.holds = tuple(grid_shape), interpolation, tuple(holds)
+        self.scene_keys, self.n_steps = scene_keys, n_steps
+        self.starts, self.forces = starts, tuple(forces)
+        self.terms, self.term_names, self.grid_terms = tuple(terms), tuple(term_names), tuple(grid_terms)
+        self.objective = TermSum(self.terms)
+        self.tests, self.scenarios = tuple(tests), tuple(scenarios)
+        self.eval_particles, self.plan, self.init_scale = eval_particles, plan, init_scale
+
+    def __eq__(self, other):
+        return isinstance(other, DesignProblem) and self.data == other.data
+
+    __hash__ = None
+
+    def __repr__(self):
+        return f"DesignProblem({self.name!r} from {self.path})"
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def domain(self) -> Domain:
+        return Domain(self.lower, self.upper, self.periodic)
+
+    @property
+    def dt(self) -> float:
+        return self.scene_keys["dt"]
+
+    @property
+    def grid(self) -> int:
+        """The final grid's nodes along axis 0 (the built-in problems' ``grid``; what a memory
+        refusal names, ``surface.shape`` on the command line)."""
+        return self.grid_shape[0]
+
+
+    def shape(self, grid: int | None = None) -> tuple:
+        """The final grid, or ``grid`` nodes along axis 0 and axis 1 in the final grid's proportion."""
+        if grid is None:
+            return self.grid_shape
+        n0, n1 = self.grid_shape
+        return (grid, max(2, round(grid * n1 / n0)))
+
+    def nodes(self, shape: tuple, axis: int) -> np.ndarray:
+        """The node coordinates of a grid of ``shape`` along ``axis``."""
+        lo, hi, n = self.lower[axis], self.upper[axis], shape[axis]
+        if self.periodic[axis]:
+            return lo + (hi - lo) / n * np.arange(n)
+        return np.linspace(lo, hi, n)
+
+    def mask(self, shape: tuple) -> np.ndarray:
+        """1.0 where a grid value is designed, 0.0 at the nodes of ``[[surface.hold]]`` boxes (held at zero)."""
+        q0, q1 = (self.nodes(shape, d) for d in (0, 1))
+        held = np.zeros(shape, dtype=bool)
+        for lower, upper in self.holds:
+            held |= ((q0 >= lower[0]) & (q0 <= upper[0]))[:, None] & ((q1 >= lower[1]) & (q1 <= upper[1]))[None, :]
+        return (~held).astype(np.float64)
+
+    # ------------------------------------------------------------------ runs
+    def scene(self, values, effects=(), n_steps: int | None = None) -> Scene:
+        """The design's scene on grid ``values`` with the given effects."""
+        return Scene(Surface(values, self.lower, self.upper, self.periodic, self.interpolation),
+                     n_steps=self.n_steps if n_steps is None else n_steps, effects=tuple(effects), **self.scene_keys)
+
+    def times(self, n_steps: int | None = None) -> np.ndarray:
+        return step_times(self.n_steps if n_steps is None else n_steps, self.dt)
+
+    def grid_cost(self, values):
+        """The grid terms' value and gradient on ``values`` (``(0.0, None)`` without any)."""
+        total, grad = 0.0, None
+        for term in self.grid_terms:
+            value, g = term.grid_value_and_grad(values)
+            total += value
+            if g is not None:
+                grad = g if grad is None else grad + g
+        return total, grad
+
+    def batch(self, values, rng, n_particles: int, n_steps: int | None = None, forces: tuple | None = None) -> Batch:
+        """Particles from :attr:`starts`, then the force schedule (``forces``, default the problem's), drawn
+        from ``rng``; scored by the sum of the state terms, the grid terms as the batch's ``grid_cost``."""
+        x0, v0 = self.starts.sample(rng, n_particles)
+        effects = tuple(f.effect(rng, n_particles) for f in (self.forces if forces is None else forces))
+        return Batch(x0, v0, self.scene(values, effects, n_steps), self.objective,
+                     self.grid_cost if self.grid_terms else None)
+
+    def batch_metric(self, traj) -> float:
+        """Share of the batch that passes every success test."""
+        every, _ = passes_all([test for _, test in self.tests], traj.x, traj.v, self.times(traj.x.shape[0] - 1))
+        return float(np.mean(every))
+
+    def phases(self, forces: tuple | None = None, n_steps: int | None = None) -> list:
+        """The run's phases: the times where a force's window opens or closes cut it into
+        segments ``(start, end, label)``, the label naming the named forces on in it (``""``:
+        none). ``forces`` and ``n_steps`` default to the problem's (a scenario's may be given)."""
+        forces = self.forces if forces is None else forces
+        end = (self.n_steps if n_steps is None else n_steps) * self.dt
+        cuts = sorted({0.0, end} | {t for f in forces for t in (f.start, f.end) if t is not None and 0 < t < end})
+        out = []
+        for start, stop in zip(cuts, cuts[1:]):
+            on = [f.name for f in forces if f.name and (f.start or 0.0) <= start
+                  and (f.end is None or f.end >= stop)]
+            out.append((start, stop, " + ".join(on)))
+        return out
+
+    def run(self, values, seed: int, n_particles: int, scenario: Scenario | None = None) -> HeldOut:
+
+        """Held-out particles: the training sampler with ``default_rng(seed)`` under the problem's
+        schedule, or ``scenario``'s."""
+        n_steps, forces = (None, None) if scenario is None else (scenario.n_steps, scenario.forces)
+        batch = self.batch(np.asarray(values, dtype=np.float64), np.random.default_rng(seed), n_particles, n_steps,
+                           forces)
+        return HeldOut(batch.x0, simulate(batch.scene, batch.x0, batch.v0), self.times(batch.scene.n_steps))

@@ -1,0 +1,232 @@
+"""The keys of a problem file: each key's type, default and unit, and the one reader that checks them.
+
+A section of a problem file (``[surface]``, one ``[[objective]]`` term, ...) is declared as
+a dict ``name -> Key``; :meth:`Reader.table` checks a TOML table against it: an unknown
+key, a missing required one or a value of the wrong type raises one :class:`ProblemFileError`
+whose message names the file and the key (``latch.toml: objective[2].weight: expected a
+number >= 0, got -1``). The converters are looked up by the key's type in :data:`TYPES`
+(dispatch by data). ``docs/problems.md`` documents every key; a test keeps the two equal.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+__all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES", "show"]
+
+
+class ProblemFileError(ValueError):
+    """A problem file (or problem data) that cannot be used; the message names the file and the key."""
+
+
+class _Required:
+    def __repr__(self):
+        return "REQUIRED"
+
+
+#: The default of a key that must be given.
+REQUIRED = _Required()
+
+
+class Key(NamedTuple):
+    """One key of a section: its type (a name in :data:`TYPES`), default (:data:`REQUIRED`:
+    none), unit (for the docs) and, for ``"choice"`` keys, the choices."""
+
+    type: str
+    default: object = REQUIRED
+    unit: str = ""
+    choices: tuple = ()
+
+
+def show(value) -> str:
+    """A short repr of a bad value for a message."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+class Reader:
+    """Checks the values of one file and raises :class:`ProblemFileError` naming ``path`` and the key."""
+
+    def __init__(self, path: str):
+        self.path = path
+
+    def fail(self, key: str, message: str):
+        raise ProblemFileError(f"{self.path}: {key}: {message}")
+
+    def table(self, value, where: str, keys: dict, *, also=()) -> dict:
+        """The table ``value`` at ``where`` checked against ``keys``: every key converted by
+        its type, defaults filled in. ``also`` names further keys the caller reads itself."""
+        if not isinstance(value, dict):
+            self.fail(where, f"expected a table, got {show(value)}")
+        allowed = tuple(keys) + tuple(also)
+        for name in value:
+            if name not in allowed:
+                self.fail(self.at(where, name), f"unknown key; {self.section(where)} has {', '.join(allowed)}")
+        out = {}
+        for name, key in keys.items():
+            if name in value:
+                out[name] = self.value(value[name], self.at(where, name), key)
+            elif key.default is REQUIRED:
+                self.fail(self.at(where, name), "missing")
+            else:
+                out[name] = key.default
+        return out
+
+    def value(self, value, where: str, key: Key):
+        """One value converted by its key's type."""
+        return TYPES[key.type](self, value, where, key)
+
+    @staticmethod
+    def at(where: str, name) -> str:
+        if isinstance(name, int):
+            return f"{where}[{name}]"
+        return f"{where}.{name}" if where else name
+
+    @staticmethod
+    def section(where: str) -> str:
+        return f"[{where}]" if where else "a problem file"
+
+    # ------------------------------------------------------------------ scalars
+    def number(self, value, where: str, *, least=None, above=None) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.fail(where, f"expected a finite number, got {show(value)}")
+        if least is not None and not value >= least:
+            self.fail(where, f"expected a number >= {least:g}, got {show(value)}")
+        if above is not None and not value > above:
+            self.fail(where, f"expected a number > {above:g}, got {show(value)}")
+        return float(value)
+
+    def integer(self, value, where: str, least: int) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or value < least:
+            self.fail(where, f"expected an integer >= {least}, got {show(value)}")
+        return int(value)
+
+    def pair(self, value, where: str, item) -> tuple:
+        if not isinstance(value, list) or len(value) != 2:
+            self.fail(where, f"expected a list of two values, got {show(value)}")
+        return tuple(item(v, self.at(where, i)) for i, v in enumerate(value))
+
+    def box(self, value, where: str) -> tuple:
+        """``{ lower = [a, b], upper = [c, d] }`` with upper >= lower: ``(lower, upper)``."""
+        t = self.table(value, where, {"lower": Key("point"), "upper": Key("point")})
+        for d in range(2):
+            if not t["upper"][d] >= t["lower"][d]:
+                self.fail(f"{where}.upper", f"expected upper >= lower on both axes, got lower "
+                                            f"{list(t['lower'])}, upper {list(t['upper'])}")
+        return t["lower"], t["upper"]
+
+
+def _number(r, v, w, k):
+    return r.number(v, w)
+
+
+def _positive(r, v, w, k):
+    return r.number(v, w, above=0.0)
+
+
+def _nonneg(r, v, w, k):
+    return r.number(v, w, least=0.0)
+
+
+def _axis(r, v, w, k):
+    if isinstance(v, bool) or not isinstance(v, int) or v not in (0, 1):
+        r.fail(w, f"expected an axis, 0 or 1, got {show(v)}")
+    return v
+
+
+def _point(r, v, w, k):
+    return r.pair(v, w, r.number)
+
+
+def _either(item):
+    """A number (the same on both axes) or a list of two."""
+    def convert(r, v, w, k):
+        if isinstance(v, list):
+            return r.pair(v, w, lambda x, where: item(r, x, where, k))
+        one = item(r, v, w, k)
+        return (one, one)
+    return convert
+
+
+def _text(r, v, w, k):
+    if not isinstance(v, str) or (k.choices and v not in k.choices):
+        want = f"one of {', '.join(repr(c) for c in k.choices)}" if k.choices else "a string"
+        r.fail(w, f"expected {want}, got {show(v)}")
+    return v
+
+
+def _boolean(r, v, w, k):
+    if not isinstance(v, bool):
+        r.fail(w, f"expected true or false, got {show(v)}")
+    return v
+
+
+def _edges(r, v, w, k):
+    return r.pair(v, w, lambda row, where: r.pair(row, where, lambda b, at: _boolean(r, b, at, k)))
+
+
+def _points(r, v, w, k):
+    if not isinstance(v, list) or not v:
+        r.fail(w, f"expected a non-empty list of [q0, q1] points, got {show(v)}")
+    return tuple(_point(r, p, r.at(w, i), k) for i, p in enumerate(v))
+
+
+def _stages(r, v, w, k):
+    if not isinstance(v, list) or not v:
+        r.fail(w, f"expected a non-empty list of [iteration, grid] or [iteration, grid, n_steps], got {show(v)}")
+    out = []
+    for i, st in enumerate(v):
+        if not isinstance(st, list) or len(st) not in (2, 3):
+            r.fail(r.at(w, i), f"expected [iteration, grid] or [iteration, grid, n_steps], got {show(st)}")
+        out.append(tuple(r.integer(x, r.at(r.at(w, i), j), 0) for j, x in enumerate(st)))
+    return tuple(out)
+
+
+def _box(r, v, w, k):
+    return r.box(v, w)
+
+
+def _velocity(r, v, w, k):
+    """``[v0, v1]`` (every particle), or a box ``{ lower, upper }`` (uniform)."""
+    if isinstance(v, dict):
+        return r.box(v, w)
+    p = _point(r, v, w, k)
+    return p, p
+
+
+def _object(r, v, w, k):
+    """``"module:object"``, or (in a problem built in code) the object itself."""
+    if isinstance(v, str):
+        module, sep, name = v.partition(":")
+        if not (sep and module and name):
+            r.fail(w, f"expected 'module:object' (an importable module and a name in it), got {show(v)}")
+        return v
+    if not callable(getattr(v, "value_and_grad", None)):
+        r.fail(w, f"expected 'module:object' or an object with value_and_grad(x, v, t), got {show(v)}")
+    return v
+
+
+#: Key type -> converter ``(reader, value, where, key) -> value``.
+TYPES = {
+    "number": _number,
+    "positive": _positive,
+    "nonneg": _nonneg,
+    "count": lambda r, v, w, k: r.integer(v, w, 1),
+    "grid": lambda r, v, w, k: r.integer(v, w, 2),
+    "axis": _axis,
+    "bool": _boolean,
+    "text": _text,
+    "choice": _text,
+    "point": _point,
+    "positive_pair": lambda r, v, w, k: r.pair(v, w, lambda x, at: r.number(x, at, above=0.0)),
+    "bool_pair": lambda r, v, w, k: r.pair(v, w, lambda b, at: _boolean(r, b, at, k)),
+    "grid_pair": lambda r, v, w, k: r.pair(v, w, lambda n, at: r.integer(n, at, 2)),
+    "positive_or_pair": _either(_positive),
+    "nonneg_or_pair": _either(_nonneg),
+    "edges": _edges,
+    "points": _points,
+    "stages": _stages,
+    "box": _box,
+    "velocity": _velocity,
+    "object": _object,
+}

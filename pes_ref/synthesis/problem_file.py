@@ -1,0 +1,428 @@
+"""Problem files: a TOML file (read with :mod:`tomllib`) that states a design problem completely.
+
+Every key, its unit and default is documented in ``docs/problems.md``; this module is the
+one place that reads them (the key tables, :mod:`.file_keys` for their types). A file is
+checked whole before anything runs: an unknown key, a missing one or a bad value raises
+one :class:`~pes_ref.synthesis.file_keys.ProblemFileError` whose message names the file and
+the key (``latch.toml: objective[2].weight: expected a number >= 0, got -1``). The format is
+versioned by the top-level key ``format`` (:data:`FORMAT`); a file of another version is refused.
+
+The same tables, as a dict, state a problem in code (:func:`parse_problem`), where a
+``custom`` term's ``object`` may be the object itself. :func:`with_sets` changes keys of a
+problem by their dotted names (``--set dynamics.dt=0.005``); :func:`problem_text` is the
+TOML text a design file embeds (the file's own text when nothing was changed).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import math
+import os
+import sys
+import tomllib
+from importlib import resources
+
+import numpy as np
+
+from pes_ref.core import budget
+from pes_ref.core.checks import InputError
+
+from pes_ref.core.interpolations import INTERPOLATIONS
+from pes_ref.core.stability import check_stable
+from pes_ref.core.steppers import INTEGRATORS, MODES
+from pes_ref.core.terms import Spring, Walls
+from pes_ref.synthesis.design_problem import FORCES, DesignProblem, Force, Scenario, Starts
+from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader, show
+from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
+from pes_ref.synthesis.plans import Plan
+from pes_ref.synthesis.success import SUCCESS_TESTS
+
+__all__ = ["FORMAT", "load_problem", "parse_problem", "problem_from_text", "problem_text", "with_sets",
+           "parse_set", "shipped_problem", "SHIPPED_PROBLEMS", "ProblemFileError", "SECTIONS"]
+
+#: The problem-file format this module reads.
+FORMAT = 1
+#: The problem files shipped in the package (``pes_ref/synthesis/data/NAME.toml``).
+SHIPPED_PROBLEMS = ("funnel", "latch")
+
+TOP_KEYS = {"format": Key("count"), "name": Key("text", None), "description": Key("text", "")}
+#: The sections of a problem file, after the top-level keys.
+SECTIONS = ("surface", "dynamics", "starts", "forces", "objective", "evaluate", "train")
+SURFACE_KEYS = {
+    "lower": Key("point", unit="length"), "upper": Key("point", unit="length"),
+    "periodic": Key("bool_pair", (False, False)), "shape": Key("grid_pair", unit="nodes"),
+    "interpolation": Key("choice", "bilinear", choices=tuple(INTERPOLATIONS)),
+}
+HOLD_KEYS = {"lower": Key("point", unit="length"), "upper": Key("point", unit="length")}
+DYNAMICS_KEYS = {
+    "mode": Key("choice", "dynamic", choices=MODES), "integrator": Key("choice", "verlet", choices=INTEGRATORS),
+    "dt": Key("positive", unit="time"), "duration": Key("positive", None, unit="time"),
+    "n_steps": Key("count", None, unit="steps"), "mass": Key("positive_or_pair", 1.0, unit="mass"),
+    "damping": Key("nonneg_or_pair", 0.0, unit="force time/length"),
+    "mobility": Key("positive_or_pair", None, unit="length/(force time)"),
+}
+SPRING_KEYS = {"k": Key("nonneg_or_pair", unit="force/length"), "center": Key("point", (0.0, 0.0), unit="length")}
+WALL_KEYS = {"k": Key("positive", unit="force/length"), "margin": Key("nonneg", unit="length"),
+             "edges": Key("edges", None)}
+STARTS_KEYS = {"box": Key("box", None, unit="length"), "points": Key("points", None, unit="length"),
+               "velocity": Key("velocity", ((0.0, 0.0), (0.0, 0.0)), unit="length/time")}
+#: Keys every ``[[forces]]`` entry may have beside its kind's own (:data:`pes_ref.synthesis.design_problem.FORCES`).
+FORCE_KEYS = {"kind": Key("choice", choices=tuple(FORCES)), "name": Key("text", ""),
+              "from": Key("nonneg", None, unit="time"), "to": Key("positive", None, unit="time")}
+#: Keys every ``[[objective]]`` term and ``[[evaluate.success]]`` test may have beside its kind's own.
+TERM_KEYS = {"kind": Key("choice", choices=tuple(OBJECTIVE_TERMS)), "name": Key("text", None)}
+TEST_KEYS = {"kind": Key("choice", choices=tuple(SUCCESS_TESTS)), "name": Key("text", None)}
+EVALUATE_KEYS = {"particles": Key("count", 200, unit="particles")}
+SCENARIO_KEYS = {"name": Key("text"), "duration": Key("positive", None, unit="time")}
+TRAIN_KEYS = {
+    "iterations": Key("count", 300), "particles": Key("count", 64, unit="particles"),
+    "optimizer": Key("choice", "rmsprop", choices=("rmsprop", "adam")), "lr": Key("positive", 0.002),
+    "lr_final": Key("positive", None), "decay_iterations": Key("count", None), "clip": Key("positive", None),
+    "stages": Key("stages", None), "scale_lr_by_grid": Key("bool", True),
+    "init_scale": Key("nonneg", 1e-3, unit="energy"),
+}
+#: Without ``train.stages``: a coarse grid of this many nodes along axis 0 (if the final grid is
+#: finer) for the first :data:`COARSE_SHARE` of the iterations, then the final grid.
+COARSE_GRID = 25
+COARSE_SHARE = 0.8
+#: A ``Scene`` argument named in a refusal, and the problem-file key that sets it.
+_SCENE_KEYS = {"dt": "dynamics.dt", "n_steps": "dynamics", "mass": "dynamics.mass", "damping": "dynamics.damping",
+               "mobility": "dynamics.mobility", "walls": "dynamics.walls", "wall_margin": "dynamics.walls.margin",
+               "spring": "dynamics.spring", "integrator": "dynamics.integrator", "values": "surface.shape"}
+
+
+# =========================================================================== reading
+
+def load_problem(path) -> DesignProblem:
+    """Read and check the problem file at ``path``.
+
+    Raises
+    ------
+    ProblemFileError
+        For a missing or unreadable file, bad TOML, or any bad key or value: one line naming the key.
+    """
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as fh:
+            text = fh.read().decode("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ProblemFileError(f"{path}: cannot read the problem file ({exc})") from None
+    return problem_from_text(text, path)
+
+
+def problem_from_text(text: str, path: str = "<problem>") -> DesignProblem:
+    """The problem of a problem file's ``text`` (``path`` names it in messages)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ProblemFileError(f"{path}: not valid TOML: {exc}") from None
+    return parse_problem(data, path, text)
+
+
+def shipped_problem(name: str) -> str:
+    """The path of the problem file ``name`` (:data:`SHIPPED_PROBLEMS`) shipped with the package."""
+    if name not in SHIPPED_PROBLEMS:
+        raise ValueError(f"no shipped problem {name!r}; expected one of {', '.join(SHIPPED_PROBLEMS)}")
+    return str(resources.files("pes_ref.synthesis").joinpath("data", f"{name}.toml"))
+
+
+def _tables(value):
+    """A copy of the tables and lists of problem data; the values in them (numbers, text, a
+    ``custom`` term's object built in code) are shared, not copied."""
+    if isinstance(value, dict):
+        return {k: _tables(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_tables(v) for v in value]
+    return value
+
+
+def _plain(value):
+    """``value`` with tuples as lists and NumPy scalars as Python's: data that TOML writes and reads back equal."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) -> DesignProblem:
+    """Check the tables ``data`` of a problem (a parsed file, or a dict built in code) and build it.
+
+    ``text`` is the file's text, kept for design files (None: written from ``data`` when needed).
+    """
+    r = Reader(path)
+    data = _plain(data)
+    top = r.table(data, "", TOP_KEYS, also=SECTIONS)
+    if top["format"] != FORMAT:
+        r.fail("format", f"this pes_ref reads problem files of format {FORMAT}, got {top['format']}")
+    name = top["name"] or (os.path.splitext(os.path.basename(path))[0] if not path.startswith("<") else "problem")
+
+    surface = r.table(_section(r, data, "surface"), "surface", SURFACE_KEYS, also=("hold",))
+    for d in range(2):
+        if not surface["upper"][d] > surface["lower"][d]:
+            r.fail(f"surface.upper[{d}]", f"expected upper > lower, got lower {surface['lower'][d]:g}, "
+                                          f"upper {surface['upper'][d]:g}")
+    holds = _list(r, _section(r, data, "surface").get("hold", []), "surface.hold")
+    holds = tuple(r.box(h, f"surface.hold[{i}]") for i, h in enumerate(holds))
+    domain = Domain(surface["lower"], surface["upper"], surface["periodic"])
+
+    scene_keys, n_steps = _dynamics(r, _section(r, data, "dynamics"), domain)
+    duration = n_steps * scene_keys["dt"]
+    starts = _starts(r, _section(r, data, "starts"))
+    forces = _forces(r, data.get("forces", []), "forces", duration)
+
+    entries = _list(r, data.get("objective"), "objective", required=True)
+    terms, names = [], []
+    for i, entry in enumerate(entries):
+        where = f"objective[{i}]"
+        kind = _kind(r, entry, where, TERM_KEYS)
+        cls = OBJECTIVE_TERMS[kind]
+        keys = r.table(entry, where, cls.KEYS, also=TERM_KEYS)
+        _check_times(r, keys, where, duration, scene_keys["dt"])
+        term = _build(r, where, cls.from_keys, keys, domain, duration)
+        names.append(r.value(entry["name"], f"{where}.name", TERM_KEYS["name"]) if "name" in entry else kind)
+        terms.append(term)
+    names = _unique(names)
+    grid_terms = [t for t in terms if is_grid_term(t)]
+    state = [(n, t) for n, t in zip(names, terms) if not is_grid_term(t)]
+    state = [(n, dataclasses.replace(t, name=n) if isinstance(t, CustomTerm) else t) for n, t in state]
+
+    evaluate = _section(r, data, "evaluate")
+    ev = r.table(evaluate, "evaluate", EVALUATE_KEYS, also=("success", "scenario"))
+    tests = _tests(r, evaluate.get("success"), "evaluate.success", domain, duration, scene_keys["dt"])
+    scenarios = []
+    for i, sc in enumerate(_list(r, evaluate.get("scenario", []), "evaluate.scenario")):
+        where = f"evaluate.scenario[{i}]"
+        keys = r.table(sc, where, SCENARIO_KEYS, also=("forces", "success"))
+        sc_steps = n_steps if keys["duration"] is None else _steps(keys["duration"], scene_keys["dt"])
+        sc_duration = sc_steps * scene_keys["dt"]
+        sc_forces = forces if "forces" not in sc else _forces(r, sc["forces"], f"{where}.forces", sc_duration)
+        sc_tests = _tests(r, sc.get("success"), f"{where}.success", domain, sc_duration, scene_keys["dt"])
+        scenarios.append(Scenario(keys["name"], sc_steps, sc_forces, sc_tests))
+    if len({s.name for s in scenarios}) != len(scenarios):
+        r.fail("evaluate.scenario", f"two scenarios have the same name: {[s.name for s in scenarios]}")
+
+    plan, init_scale = _train(r, data.get("train", {}), surface["shape"])
+    problem = DesignProblem(
+        data=data, path=path, text=text, name=name, description=top["description"], lower=surface["lower"],
+        upper=surface["upper"], periodic=surface["periodic"], grid_shape=surface["shape"],
+        interpolation=surface["interpolation"], holds=holds, scene_keys=scene_keys, n_steps=n_steps, starts=starts,
+        forces=forces, terms=[t for _, t in state], term_names=[n for n, _ in state] + [
+            n for n, t in zip(names, terms) if is_grid_term(t)],
+        grid_terms=grid_terms, tests=tests, scenarios=tuple(scenarios), eval_particles=ev["particles"], plan=plan,
+        init_scale=init_scale)
+    _check_scene(r, problem)
+    return problem
+
+
+def _section(r: Reader, data: dict, name: str) -> dict:
+    if name not in data:
+        r.fail(name, f"missing (a problem file has [{name}]; see docs/problems.md)")
+    if not isinstance(data[name], dict):
+        r.fail(name, f"expected a table [{name}], got {show(data[name])}")
+    return data[name]
+
+
+def _list(r: Reader, value, where: str, required: bool = False) -> list:
+    if value is None and required:
+        r.fail(where, f"missing (at least one [[{where}]] entry)")
+    if not isinstance(value, list) or (required and not value):
+        r.fail(where, f"expected a list of tables ([[{where}]]), got {show(value)}")
+    for i, entry in enumerate(value):
+        if not isinstance(entry, dict):
+            r.fail(f"{where}[{i}]", f"expected a table, got {show(entry)}")
+    return value
+
+
+def _kind(r: Reader, entry: dict, where: str, keys: dict) -> str:
+    if "kind" not in entry:
+        r.fail(f"{where}.kind", f"missing; one of {', '.join(keys['kind'].choices)}")
+    return r.value(entry["kind"], f"{where}.kind", keys["kind"])
+
+
+def _unique(names: list) -> tuple:
+    """Names with a repeated one numbered by its place (``stay_in_1``, ``stay_in_3``)."""
+    return tuple(n if names.count(n) == 1 else f"{n}_{i}" for i, n in enumerate(names))
+
+
+def _build(r: Reader, where: str, make, *args):
+    """``make(*args)``, with an import failure or a library refusal reworded to name the key."""
+    try:
+        return make(*args)
+    except ImportError as exc:
+        r.fail(f"{where}.object", f"cannot import it: {exc}")
+    except AttributeError as exc:
+        r.fail(f"{where}.object", f"not found: {exc}")
+    except (ValueError, TypeError) as exc:
+        r.fail(where, " ".join(str(exc).split()))
+
+
+def _steps(duration: float, dt: float) -> int:
+    """Steps that cover ``duration``: ``ceil(duration / dt)``, to within rounding."""
+    return max(1, math.ceil(duration / dt - 1e-9))
+
+
+def _check_times(r: Reader, keys: dict, where: str, duration: float, dt: float) -> None:
+    for name in ("time", "from"):
+        if keys.get(name) is not None and keys[name] > duration + 0.5 * dt:
+            r.fail(f"{where}.{name}", f"{keys[name]:g} is after the end of the run ({duration:g}, dynamics)")
+    if keys.get("from") is not None and keys.get("to") is not None and not keys["to"] >= keys["from"]:
+        r.fail(f"{where}.to", f"expected to >= from, got from {keys['from']:g}, to {keys['to']:g}")
+
+
+def _dynamics(r: Reader, table: dict, domain: Domain):
+    d = r.table(table, "dynamics", DYNAMICS_KEYS, also=("spring", "walls"))
+    if (d["duration"] is None) == (d["n_steps"] is None):
+        r.fail("dynamics.duration", "give exactly one of duration and n_steps")
+    n_steps = d["n_steps"] if d["duration"] is None else _steps(d["duration"], d["dt"])
+    quasistatic = d["mode"] == "quasistatic"
+    if quasistatic and d["mobility"] is None:
+        r.fail("dynamics.mobility", "missing (quasistatic mode moves a particle by mobility times the force)")
+    if not quasistatic and d["mobility"] is not None:
+        r.fail("dynamics.mobility", "only for mode = 'quasistatic'")
+    keys = {"dt": d["dt"], "mode": d["mode"], "integrator": d["integrator"], "mass": d["mass"],
+            "damping": d["damping"] if any(d["damping"]) else None, "mobility": d["mobility"]}
+    if "spring" in table:
+        s = r.table(table["spring"], "dynamics.spring", SPRING_KEYS)
+        keys["spring"] = _build(r, "dynamics.spring", Spring, s["k"], s["center"])
+    if "walls" in table:
+        w = r.table(table["walls"], "dynamics.walls", WALL_KEYS)
+        edges = w["edges"] if w["edges"] is not None else tuple((not p, not p) for p in domain.periodic)
+        keys["walls"] = _build(r, "dynamics.walls", Walls, w["k"], w["margin"], edges)
+    return keys, n_steps
+
+
+def _starts(r: Reader, table: dict) -> Starts:
+    s = r.table(table, "starts", STARTS_KEYS)
+    if (s["box"] is None) == (s["points"] is None):
+        r.fail("starts.box", "give exactly one of box and points")
+    return Starts(s["box"], s["points"], s["velocity"])
+
+
+def _forces(r: Reader, value, where: str, duration: float) -> tuple:
+    out = []
+    for i, entry in enumerate(_list(r, value, where)):
+        at = f"{where}[{i}]"
+        kind = _kind(r, entry, at, FORCE_KEYS)
+        own = FORCES[kind][0]
+        common = r.table({k: v for k, v in entry.items() if k not in own}, at, FORCE_KEYS, also=own)
+        keys = r.table({k: v for k, v in entry.items() if k not in FORCE_KEYS}, at, own, also=FORCE_KEYS)
+        _check_times(r, common, at, duration, 0.0)
+        if common["to"] is not None and not common["to"] > (common["from"] or 0.0):
+            r.fail(f"{at}.to", f"expected to > from, got from {common['from'] or 0.0:g}, to {common['to']:g}")
+        out.append(Force(kind, keys, common["name"], common["from"], common["to"]))
+    return tuple(out)
+
+
+def _tests(r: Reader, value, where: str, domain: Domain, duration: float, dt: float) -> tuple:
+    entries = _list(r, value, where, required=True)
+    out = []
+    for i, entry in enumerate(entries):
+        at = f"{where}[{i}]"
+        kind = _kind(r, entry, at, TEST_KEYS)
+        cls = SUCCESS_TESTS[kind]
+        keys = r.table(entry, at, cls.KEYS, also=TEST_KEYS)
+        _check_times(r, keys, at, duration, dt)
+        name = r.value(entry["name"], f"{at}.name", TEST_KEYS["name"]) if "name" in entry else kind
+        out.append((name, _build(r, at, cls.from_keys, keys, domain, duration)))
+    return tuple(zip(_unique([n for n, _ in out]), (t for _, t in out)))
+
+
+def _train(r: Reader, table, shape) -> tuple:
+    t = r.table(table, "train", TRAIN_KEYS)
+    its = t["iterations"]
+    stages = t["stages"]
+    if stages is None:
+        coarse = min(COARSE_GRID, shape[0])
+        stages = ((0, 0),) if coarse == shape[0] else ((0, coarse), (max(1, int(COARSE_SHARE * its)), 0))
+    lr_final = t["lr"] if t["lr_final"] is None else t["lr_final"]
+    decay = its if t["decay_iterations"] is None else t["decay_iterations"]
+    try:
+        plan = Plan(iterations=its, optimizer=t["optimizer"], lr=t["lr"], lr_final=lr_final, decay_iterations=decay,
+                    clip=t["clip"], stages=stages, n_particles=t["particles"], scale_lr_by_grid=t["scale_lr_by_grid"])
+    except (ValueError, TypeError) as exc:
+        r.fail(f"train.{getattr(exc, 'key', None) or 'stages'}", " ".join(str(exc).split()))
+    return plan, t["init_scale"]
+
+
+def _check_scene(r: Reader, problem: DesignProblem) -> None:
+    """The grid's memory, the scene's own checks and the stability rule, on the final grid
+    with flat values."""
+    try:
+        budget.check_grid_memory(problem.grid_shape, "shape", length=f"shape = {list(problem.grid_shape)}")
+    except budget.RunTooLargeError as exc:
+        r.fail("surface.shape", " ".join(str(exc).split()))
+    try:
+        check_stable(problem.scene(problem.flat_values()))
+    except InputError as exc:
+        r.fail(_SCENE_KEYS.get(exc.key, "dynamics"), " ".join(str(exc).split()))
+
+
+# =========================================================================== changing and writing
+
+def parse_set(text: str):
+    """``NAME=VALUE`` (``--set``) to ``(dotted name, value)``; VALUE is read as a TOML value
+    (``0.005``, ``[1, 2]``, ``true``, ``"text"``), or taken as text when it is not one."""
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise ValueError(f"--set {text!r}: expected NAME=VALUE with NAME a dotted key of the problem file, "
+                         f"e.g. dynamics.dt=0.005")
+    try:
+        return name.strip(), tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        return name.strip(), value
+
+
+def with_sets(problem: DesignProblem, sets: dict) -> DesignProblem:
+    """``problem`` with the keys named by dotted names changed (``{"dynamics.dt": 0.005,
+    "objective.1.weight": 2.0}``; a number picks an entry of a list of tables), checked again."""
+    if not sets:
+        return problem
+    data = _tables(problem.data)
+    for dotted, value in sets.items():
+        parts = dotted.split(".")
+        node = data
+        for i, part in enumerate(parts[:-1]):
+            here = ".".join(parts[:i + 1])
+            if isinstance(node, list):
+                if not (part.isdigit() and int(part) < len(node)):
+                    raise ProblemFileError(f"{problem.path}: {dotted}: {'.'.join(parts[:i])} has entries 0 to "
+                                           f"{len(node) - 1}")
+                node = node[int(part)]
+            else:
+                node = node.setdefault(part, {})
+            if not isinstance(node, (dict, list)):
+                raise ProblemFileError(f"{problem.path}: {dotted}: {here} is a value, not a table")
+        if not isinstance(node, dict):
+            raise ProblemFileError(f"{problem.path}: {dotted}: expected a key of a table, not an entry of a list")
+        node[parts[-1]] = value
+    return parse_problem(data, problem.path)
+
+
+def _object_name(obj, where: str) -> str:
+    """``"module:name"`` of an object built in code, if it can be imported back."""
+    module = getattr(obj, "__module__", None) or type(obj).__module__
+    found = [k for k, v in vars(sys.modules.get(module, object())).items() if v is obj]
+    if module == "__main__" or not found:
+        raise ProblemFileError(f"{where}.object: an object built in code ({show(obj)}) cannot be written into a "
+                               f"design file; define it at the top level of an importable module and name it "
+                               f"'module:object'")
+    return f"{module}:{found[0]}"
+
+
+def problem_text(problem: DesignProblem) -> str:
+    """The TOML text of ``problem``: its file's own text if it has one and nothing was changed,
+    otherwise written from its data (``custom`` objects built in code by their ``module:name``)."""
+    if problem.source_text is not None:
+        return problem.source_text
+    import tomli_w
+    data = {k: v for k, v in problem.data.items() if k != "objective"}
+    data["objective"] = []
+    for i, term in enumerate(problem.data["objective"]):
+        term = dict(term)
+        if "object" in term and not isinstance(term["object"], str):
+            term["object"] = _object_name(term["object"], f"{problem.path}: objective[{i}]")
+        data["objective"].append(term)
+    return f"# {problem.name}: written by pes_ref from {problem.path}\n" + tomli_w.dumps(data)

@@ -1,0 +1,132 @@
+"""``python -m pes_ref design PROBLEM.toml`` and ``evaluate``: a problem file gets the whole
+design machinery (progress with time left, the design file, resume, Ctrl-C) at tiny sizes."""
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import pes_ref
+from pes_ref.cli import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_OK, main
+from pes_ref.cli.design import SHIPPED_NAMES
+from pes_ref.synthesis import SHIPPED_PROBLEMS, load_design
+
+ROOT = Path(pes_ref.__file__).resolve().parent.parent
+ENV = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), OMP_NUM_THREADS="1")
+
+GATHER = """\
+format = 1
+name = "gather"
+[surface]
+lower = [-1.0, -1.0]
+upper = [1.0, 1.0]
+shape = [8, 8]
+[dynamics]
+dt = 0.05
+duration = 2.0
+damping = 1.0
+walls = { k = 100.0, margin = 0.05 }
+[starts]
+box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }
+[[objective]]
+kind = "final_position"
+target = [0.3, -0.2]
+[evaluate]
+particles = 20
+[[evaluate.success]]
+kind = "final_position"
+target = [0.3, -0.2]
+radius = 0.2
+[train]
+iterations = 6
+particles = 8
+"""
+
+
+def run(capsys, *argv):
+    code = main(list(map(str, argv)))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def gather(tmp_path):
+    path = tmp_path / "gather.toml"
+    path.write_text(GATHER)
+    return path
+
+
+def test_shipped_names_are_the_shipped_problems():
+    assert SHIPPED_NAMES == SHIPPED_PROBLEMS
+
+
+def test_design_a_problem_file_then_evaluate_and_resume(gather, tmp_path, capsys):
+    out = tmp_path / "g.npz"
+    code, stdout, err = run(capsys, "design", gather, "--out", out, "--progress", 0)
+    assert code == EXIT_OK, err
+    assert stdout.startswith(f"wrote {out}: gather, iteration 6/6 (done)") and ", success " in stdout
+    line = err.strip().splitlines()[-1]
+    for part in ("design gather: stage 1/1 | it 6/6 | grid 8x8 | steps 40 | loss ", "| success ", " it/s |",
+                 "| elapsed ", "| left 0:00"):
+        assert part in line, line
+    code, stdout, err = run(capsys, "evaluate", out, "--seed", 9191)
+    assert code == EXIT_OK, err
+    lines = dict(line.split(": ", 1) for line in stdout.strip().splitlines())
+    assert lines["kind"] == "problem" and lines["problem"] == "gather" and lines["particles"] == "20"
+    for name in ("success_fraction", "success_final_position", "flat_success_fraction"):
+        assert 0.0 <= float(lines[name]) <= 1.0
+    assert float(lines["objective_final_position"]) > 0
+    # resumed with nothing but the design file, then with the same file
+    assert run(capsys, "design", "--resume", out, "--iterations", 8, "--quiet")[0] == EXIT_OK
+    assert load_design(out).iteration == 8
+    assert run(capsys, "design", gather, "--resume", out, "--iterations", 9, "--quiet")[0] == EXIT_OK
+    assert load_design(out).iteration == 9
+
+
+def test_a_changed_problem_file_is_refused_on_resume(gather, tmp_path, capsys):
+    out = tmp_path / "g.npz"
+    assert run(capsys, "design", gather, "--out", out, "--quiet")[0] == EXIT_OK
+    before = out.read_bytes()
+    gather.write_text(GATHER.replace("dt = 0.05", "dt = 0.04"))
+    code, stdout, err = run(capsys, "design", gather, "--resume", out, "--iterations", 9)
+    assert code == EXIT_ERROR and err.count("\n") == 1
+    assert f"the problem file {gather} differs from the one the design was made with: dynamics.dt = 0.04 there, " \
+           "0.05 in the design's problem" in err
+    code, stdout, err = run(capsys, "design", "--resume", out, "--set", "dynamics.dt=0.04")
+    assert code == EXIT_ERROR and "--set: a resumed design keeps its problem; dynamics.dt = 0.04" in err
+    assert out.read_bytes() == before
+
+
+@pytest.mark.parametrize("name", ["latch", "funnel.toml"])
+def test_a_shipped_problem_by_its_name(name, tmp_path, capsys):
+    out = tmp_path / "s.npz"
+    code, stdout, err = run(capsys, "design", name, "--smoke", "--out", out, "--quiet")
+    assert code == EXIT_OK, err
+    state = load_design(out)
+    assert state.kind == "problem" and state.problem.name == name.removesuffix(".toml")
+    assert state.iteration == 6 and max(state.values.shape) <= 12
+
+
+def test_the_default_out_is_named_after_the_problem(gather, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert run(capsys, "design", gather, "--iterations", 1, "--quiet")[0] == EXIT_OK
+    assert (tmp_path / "gather.npz").exists()
+
+
+def test_a_stopped_problem_design_is_saved_and_exits_130(gather, tmp_path):
+    out = tmp_path / "g.npz"
+    proc = subprocess.Popen([sys.executable, "-m", "pes_ref", "design", str(gather), "--iterations", "100000",
+                             "--progress", "0", "--out", str(out)], stderr=subprocess.PIPE, text=True, env=ENV)
+    line = proc.stderr.readline()
+    assert line.startswith("design gather:"), line
+    time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == EXIT_INTERRUPTED and "Traceback" not in err
+    assert err.strip().splitlines()[-1].startswith(f"interrupted; saved; continue with: python -m pes_ref design "
+                                                  f"--resume {out}")
+    state = load_design(out)
+    assert state.status == "interrupted" and state.iteration >= 1

@@ -1,0 +1,308 @@
+"""Problem files (pes_ref.synthesis.problem_file, design_problem): the funnel from its file is
+the built-in funnel bit for bit, every bad key is refused in one line naming it, the design
+gradient of a problem's terms matches central differences, and a design file holds its problem."""
+import re
+import tomllib
+
+import numpy as np
+import pytest
+
+import _helpers
+from pes_ref import synthesis
+from pes_ref.oracle.compare import relative_error
+from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL
+from pes_ref.synthesis import (DesignFileError, Plan, ProblemFileError, check_same_problem, load_design, load_problem,
+                               parse_problem, problem_from_text, problem_text, save_design, shipped_problem, with_sets)
+
+#: A small problem as a stranger writes it: particles gather at a point.
+GATHER = """
+format = 1
+name = "gather"
+[surface]
+lower = [-1.0, -1.0]
+upper = [1.0, 1.0]
+shape = [8, 8]
+[dynamics]
+dt = 0.05
+duration = 2.0
+damping = 1.0
+walls = { k = 100.0, margin = 0.05 }
+[starts]
+box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }
+[[forces]]
+kind = "noise"
+std = 0.1
+[[objective]]
+kind = "final_position"
+target = [0.3, -0.2]
+[evaluate]
+particles = 20
+[[evaluate.success]]
+kind = "final_position"
+target = [0.3, -0.2]
+radius = 0.2
+[train]
+iterations = 5
+particles = 8
+"""
+
+
+def gather(**sets):
+    return with_sets(problem_from_text(GATHER, "gather.toml"), sets)
+
+
+# --------------------------------------------------------------------------- the funnel's file
+
+def test_the_funnel_file_is_the_built_in_funnel_bit_for_bit():
+    problem = with_sets(load_problem(shipped_problem("funnel")), {"surface.shape": [30, 30]})
+    assert problem.plan == synthesis.DEFAULT_PLANS["funnel"]           # the file states the built-in's plan
+    plan = Plan(iterations=5, lr=0.002, lr_final=0.0005, decay_iterations=4, stages=((0, 12), (3, 0)), n_particles=16)
+    builtin = synthesis.run_design(synthesis.new_design("funnel", seed=3, plan=plan, grid=30))
+    ours = synthesis.run_design(synthesis.new_design(problem, seed=3, plan=plan))
+    np.testing.assert_array_equal(ours.values, builtin.values)
+    assert ours.history == builtin.history
+    a = synthesis.evaluate(builtin.problem, builtin.values, seed=9191, n_particles=40)
+    b = synthesis.evaluate(ours.problem, ours.values, seed=9191, n_particles=40)
+    assert b["success_in_band"] == b["success_fraction"] == a["in_band_fraction"]
+    assert b["flat_success_fraction"] == a["flat_in_band_fraction"]
+
+
+@pytest.mark.parametrize("name", synthesis.SHIPPED_PROBLEMS)
+def test_shipped_problems_read_and_design_at_smoke_size(name):
+    problem = load_problem(shipped_problem(name))
+    small = with_sets(problem, {"surface.shape": list(problem.shape(8))})
+    state = synthesis.run_design(synthesis.new_design(small, plan=Plan(iterations=2, n_particles=4)))
+    assert state.status == "done" and state.values.shape == small.shape()
+    figures = synthesis.evaluate(small, state.values, n_particles=4)
+    assert 0.0 <= figures["success_fraction"] <= 1.0
+
+
+# --------------------------------------------------------------------------- refusals
+
+def _without(data, dotted):
+    parts = dotted.split(".")
+    node = data
+    for p in parts[:-1]:
+        node = node[int(p)] if isinstance(node, list) else node[p]
+    del node[parts[-1]]
+    return data
+
+
+#: (what changes, the key the one-line refusal names, and words it holds)
+BAD = [
+    ({"format": 2}, "format", "format 1"),
+    ({"colour": "red"}, "colour", "unknown key"),
+    ({"surface.shape": [1, 8]}, "surface.shape[0]", "integer >= 2"),
+    ({"surface.upper": [-1.0, 1.0]}, "surface.upper[0]", "upper > lower"),
+    ({"surface.periodic": ["no", False]}, "surface.periodic[0]", "true or false"),
+    ({"surface.interpolation": "cubic"}, "surface.interpolation", "'bilinear'"),
+    ({"surface.hold": [{"lower": [0, 0]}]}, "surface.hold[0].upper", "missing"),
+    ({"dynamics.dt": -0.1}, "dynamics.dt", "> 0"),
+    ({"dynamics.dt": 1.0}, "dynamics.dt", "stab"),
+    ({"dynamics.n_steps": 40}, "dynamics.duration", "exactly one"),
+    ({"dynamics.mode": "fast"}, "dynamics.mode", "'dynamic'"),
+    ({"dynamics.mobility": 1.0}, "dynamics.mobility", "quasistatic"),
+    ({"dynamics.walls.kk": 1.0}, "dynamics.walls.kk", "unknown key"),
+    ({"dynamics.walls.margin": 1.5}, "dynamics.walls.margin", "no room"),
+    ({"dynamics.spring": {"k": -1.0}}, "dynamics.spring.k", ">= 0"),
+    ({"starts.points": [[0, 0]]}, "starts.box", "exactly one"),
+    ({"starts.velocity": [1.0]}, "starts.velocity", "two values"),
+    ({"forces.0.kind": "magnet"}, "forces[0].kind", "'noise'"),
+    ({"forces.0.std": -1.0}, "forces[0].std", ">= 0"),
+    ({"forces.0.force": [1.0, 0.0]}, "forces[0].force", "unknown key"),
+    ({"forces.0.from": 1.0, "forces.0.to": 0.5}, "forces[0].to", "to >= from"),
+    ({"forces.0.from": 9.0}, "forces[0].from", "after the end of the run"),
+    ({"objective.0.kind": "happiness"}, "objective[0].kind", "'final_position'"),
+    ({"objective.0.weight": -1.0}, "objective[0].weight", ">= 0"),
+    ({"objective.0.target": [0.3]}, "objective[0].target", "two values"),
+    ({"objective.0.kind": "position_at", "objective.0.time": 3.0}, "objective[0].time", "after the end"),
+    ({"objective": [{"kind": "exit", "edge": "q2_lower", "center": 0.0}]}, "objective[0].edge", "'q0_lower'"),
+    ({"objective": [{"kind": "custom", "object": "no_such_module_here:thing"}]}, "objective[0].object",
+     "cannot import"),
+    ({"objective": [{"kind": "custom", "object": "nocolon"}]}, "objective[0].object", "'module:object'"),
+    ({"objective": [{"kind": "custom", "object": "_helpers:NOTHING"}]}, "objective[0].object", "not found"),
+    ({"surface.periodic": [True, False], "dynamics.walls.edges": [[False, False], [True, True]],
+      "objective": [{"kind": "exit", "edge": "q0_lower", "center": 0.0}]}, "objective[0]", "periodic axis"),
+    ({"objective": [{"kind": "final_position", "target": [0, 0], "colour": 1}]}, "objective[0].colour",
+     "unknown key"),
+    ({"evaluate.particles": 0}, "evaluate.particles", ">= 1"),
+    ({"evaluate.success.0.radius": 0.0}, "evaluate.success[0].radius", "> 0"),
+    ({"evaluate.scenario": [{"name": "x", "success": []}]}, "evaluate.scenario[0].success", "list of tables"),
+    ({"train.optimizer": "sgd"}, "train.optimizer", "'rmsprop'"),
+    ({"train.stages": [[5, 4]]}, "train.stages", "start at iteration 0"),
+    ({"train.lr": "fast"}, "train.lr", "finite number"),
+]
+
+
+@pytest.mark.parametrize("sets, key, words", BAD, ids=[b[1] + ":" + b[2] for b in BAD])
+def test_a_bad_key_is_refused_in_one_line_naming_it(sets, key, words):
+    with pytest.raises(ProblemFileError) as err:
+        gather(**sets)
+    message = str(err.value)
+    assert message.startswith(f"gather.toml: {key}: ") and words in message and "\n" not in message, message
+
+
+@pytest.mark.parametrize("missing, key", [("surface", "surface"), ("objective", "objective"),
+                                          ("evaluate.success", "evaluate.success"), ("dynamics.dt", "dynamics.dt"),
+                                          ("objective.0.target", "objective[0].target"),
+                                          ("forces.0.kind", "forces[0].kind")])
+def test_a_missing_key_is_refused_naming_it(missing, key):
+    data = _without(tomllib.loads(GATHER), missing)
+    with pytest.raises(ProblemFileError, match=rf"^p\.toml: {re.escape(key)}: missing"):
+        parse_problem(data, "p.toml")
+
+
+def test_bad_toml_and_unreadable_files_are_one_line(tmp_path):
+    with pytest.raises(ProblemFileError, match="not valid TOML"):
+        problem_from_text("surface = [", "x.toml")
+    with pytest.raises(ProblemFileError, match="cannot read the problem file"):
+        load_problem(tmp_path / "nothing.toml")
+
+
+# --------------------------------------------------------------------------- the design gradient
+
+def test_design_gradient_of_every_term_kind_matches_central_differences_entrywise():
+    # a cylinder (q1 periodic) with phases, a spring, a per-particle force and every smooth term
+    problem = problem_from_text("""
+format = 1
+[surface]
+lower = [-1.0, 0.0]
+upper = [1.0, 2.0]
+periodic = [false, true]
+shape = [5, 4]
+[dynamics]
+dt = 0.05
+duration = 1.0
+damping = [0.5, 1.0]
+spring = { k = [1.0, 0.0] }
+walls = { k = 50.0, margin = 0.05 }
+[starts]
+points = [[-0.3, 0.4], [0.2, 1.1], [0.5, 1.7]]
+velocity = { lower = [-0.2, 0.0], upper = [0.2, 0.3] }
+[[forces]]
+kind = "per_particle"
+lower = [0.0, 0.5]
+upper = [0.0, 1.5]
+to = 0.5
+[[forces]]
+kind = "constant"
+force = [0.4, 0.0]
+from = 0.5
+[[objective]]
+kind = "stay_in"
+lower = [-0.2, 0.5]
+upper = [0.1, 1.0]
+from = 0.3
+to = 0.7
+[[objective]]
+kind = "position_at"
+time = 0.5
+target = [0.1, 1.9]
+weight = 0.5
+[[objective]]
+kind = "speed_at"
+time = 0.8
+axis = 1
+target = 0.3
+[[objective]]
+kind = "cycle"
+amplitude = 0.5
+omega = 2.0
+weight = 0.1
+[[objective]]
+kind = "final_position"
+target = [0.3, 0.2]
+[[objective]]
+kind = "custom"
+object = "_helpers:GATHER"
+weight = 0.2
+[[objective]]
+kind = "regularization"
+R = 0.01
+[evaluate]
+[[evaluate.success]]
+kind = "final_position"
+target = [0.3, 0.2]
+radius = 0.3
+""", "cylinder.toml")
+    rng = np.random.default_rng(4)
+    values = 0.2 * rng.standard_normal(problem.shape())
+    step = synthesis.design_gradient(problem, values, seed=1, iteration=0, n_particles=3)
+    fd = np.zeros_like(values)
+    for idx in np.ndindex(values.shape):
+        e = np.zeros_like(values)
+        e[idx] = FD_EPS
+        up = synthesis.design_gradient(problem, values + e, seed=1, iteration=0, n_particles=3).loss
+        down = synthesis.design_gradient(problem, values - e, seed=1, iteration=0, n_particles=3).loss
+        fd[idx] = (up - down) / (2 * FD_EPS)
+    assert np.count_nonzero(fd) == values.size
+    assert relative_error(step.grad, fd) < FD_RTOL
+
+
+# --------------------------------------------------------------------------- design files and resuming
+
+def test_a_design_file_holds_its_problem_and_resumes_bit_identically(tmp_path):
+    problem = gather(**{"train.iterations": 6})
+    whole = synthesis.run_design(synthesis.new_design(problem, seed=2))
+    half = synthesis.run_design(synthesis.new_design(problem, seed=2), 3)
+    save_design(tmp_path / "half.npz", half)
+    back = load_design(tmp_path / "half.npz")
+    assert back.kind == "problem" and back.problem == problem and back.problem.name == "gather"
+    assert back.problem.source_text is not None and "particles gather" not in back.problem.source_text
+    finished = synthesis.run_design(back)
+    np.testing.assert_array_equal(finished.values, whole.values)
+
+
+def test_a_changed_problem_is_refused_on_resume_naming_the_key():
+    state = synthesis.new_design(gather())
+    check_same_problem(state, gather())                        # the same problem: fine
+    with pytest.raises(DesignFileError, match=r"dynamics\.dt = 0\.04 there, 0\.05 in the design's problem"):
+        check_same_problem(state, gather(**{"dynamics.dt": 0.04}))
+    with pytest.raises(DesignFileError, match="not a problem file's design"):
+        check_same_problem(synthesis.new_design("funnel", grid=8), gather())
+
+
+def test_a_problem_built_in_code_with_its_own_objective_object(tmp_path):
+    data = tomllib.loads(GATHER)
+    data["objective"] = [{"kind": "custom", "object": _helpers.GatherAt((0.3, -0.2))}]
+    problem = parse_problem(data, "<code>")
+    state = synthesis.run_design(synthesis.new_design(problem, seed=0))
+    reference = synthesis.run_design(synthesis.new_design(gather(), seed=0))
+    np.testing.assert_array_equal(state.values, reference.values)   # the same cost as final_position
+    with pytest.raises(ProblemFileError, match=r"objective\[0\]\.object: an object built in code"):
+        save_design(tmp_path / "x.npz", state)
+    data["objective"] = [{"kind": "custom", "object": _helpers.GATHER}]        # importable: saved by name
+    state = synthesis.new_design(parse_problem(data, "<code>"), seed=0)
+    save_design(tmp_path / "y.npz", state)
+    assert 'object = "_helpers:GATHER"' in problem_text(load_design(tmp_path / "y.npz").problem)
+
+
+def test_with_sets_changes_dotted_keys_and_refuses_what_is_not_there():
+    p = gather(**{"dynamics.dt": 0.04, "objective.0.weight": 2.0, "train.lr": 0.01})
+    assert p.dt == 0.04 and p.terms[0].weight == 2.0 and p.plan.lr == 0.01
+    assert problem_text(p).startswith("# gather: written by pes_ref")
+    assert problem_from_text(problem_text(p)) == p
+    with pytest.raises(ProblemFileError, match="objective.5.weight: objective has entries 0 to 0"):
+        gather(**{"objective.5.weight": 1.0})
+    with pytest.raises(ProblemFileError, match="dynamics.dt.x: dynamics.dt is a value"):
+        gather(**{"dynamics.dt.x": 1.0})
+
+
+def test_without_train_stages_a_fine_grid_starts_coarse():
+    assert gather().plan.stages == ((0, 0, 0),)
+    fine = gather(**{"surface.shape": [100, 50], "train.iterations": 100})
+    assert fine.plan.stages == ((0, 25, 0), (80, 0, 0)) and fine.shape(25) == (25, 12)
+
+
+def test_starts_and_forces_draw_from_the_generator_in_order():
+    p = gather(**{"forces": [{"kind": "per_particle", "lower": [1.0, 0.0], "upper": [2.0, 0.0], "to": 1.0}],
+                  "starts.velocity": {"lower": [0.0, -1.0], "upper": [0.0, 1.0]}})
+    a = p.batch(p.flat_values(), np.random.default_rng(5), 6)
+    rng = np.random.default_rng(5)
+    x0 = np.stack([rng.uniform(-0.8, 0.8, 6), rng.uniform(-0.8, 0.8, 6)], axis=1)
+    v0 = np.stack([np.zeros(6), rng.uniform(-1.0, 1.0, 6)], axis=1)
+    np.testing.assert_array_equal(a.x0, x0)
+    np.testing.assert_array_equal(a.v0, v0)
+    sched = a.scene.schedule(6)
+    np.testing.assert_array_equal(sched[0, :, 0], rng.uniform(1.0, 2.0, 6))     # on before t = 1
+    assert not sched[20:].any()                                                  # off from t = 1 (step 20)
