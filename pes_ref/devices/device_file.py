@@ -35,9 +35,7 @@ FULL_TURN_RTOL = 1e-6
 
 TOP_KEYS = ("format", "name", "description", "part", "cspace", "geometry", "energy", "dynamics", "start",
             "analysis")
-PART_KEYS = ("name", "motion", "pivot", "direction", "radius", "shapes")
-#: The motions a part may have (``[[part]] motion``).
-MOTIONS = ("rotation", "translation", "drum")
+PART_KEYS = ("name", "motion", "pivot", "direction", "shapes")
 SHAPE_KINDS = ("polygon", "circle", "rectangle")
 CSPACE_KEYS = ("lower", "upper", "shape")
 GEOMETRY_KEYS = ("tolerance",)
@@ -160,31 +158,20 @@ def _shape(r: _Reader, value, key: str):
     return r.build(where, g.Rectangle, lower, upper, cuts)
 
 
-#: Per motion: what it has, said when the keys that it has not (the second item) are given.
-_MOTION_KEYS = {
-    "rotation": ("a rotating part has a pivot, not a direction or a radius", ("direction", "radius")),
-    "translation": ("a translating part has a direction, not a pivot or a radius", ("pivot", "radius")),
-    "drum": ("a drum has a direction and a radius, not a pivot", ("pivot",)),
-}
-
-
 def _part(r: _Reader, value, key: str) -> g.Part:
     r.table(value, key, PART_KEYS)
-    motion = r.string(r.require(value, "motion", f"{key}.motion"), f"{key}.motion", MOTIONS)
-    for other in _MOTION_KEYS[motion][1]:
-        if other in value:
-            r.fail(f"{key}.{other}", _MOTION_KEYS[motion][0])
+    motion = r.string(r.require(value, "motion", f"{key}.motion"), f"{key}.motion", ("rotation", "translation"))
     if motion == "rotation":
+        if "direction" in value:
+            r.fail(f"{key}.direction", "a rotating part has a pivot, not a direction")
         m = g.Rotation(r.pair(r.require(value, "pivot", f"{key}.pivot"), f"{key}.pivot"))
     else:
+        if "pivot" in value:
+            r.fail(f"{key}.pivot", "a translating part has a direction, not a pivot")
         d = r.pair(r.require(value, "direction", f"{key}.direction"), f"{key}.direction")
         if not np.hypot(*d) > 0:
             r.fail(f"{key}.direction", f"expected a non-zero direction, got {d.tolist()}")
-        if motion == "translation":
-            m = g.Translation(d)
-        else:
-            radius = r.number(r.require(value, "radius", f"{key}.radius"), f"{key}.radius", positive=True)
-            m = g.Drum(d, radius)
+        m = g.Translation(d)
     if "name" in value:
         r.string(value["name"], f"{key}.name")
     shapes = r.require(value, "shapes", f"{key}.shapes")

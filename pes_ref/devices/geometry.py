@@ -4,8 +4,7 @@ A :class:`Part` is the union of its shapes (:class:`Polygon`, :class:`Circle`,
 :class:`Rectangle`, each optionally with shapes cut from it, ``minus``), which may be
 several disjoint pieces (a crank's pin and its locking disc), plus one motion relative
 to the frame: a :class:`Translation` along a direction or a :class:`Rotation` about a
-pivot, or a :class:`Drum` (a drum turning about its axis, its surface drawn unrolled). Two
-parts and their coordinates (q0, q1) are a point of a 2D configuration space
+pivot. Two parts and their coordinates (q0, q1) are a point of a 2D configuration space
 (paper, section "Synthesis of higher kinematic pair devices via configuration spaces");
 the point is *blocked* where the posed parts' interiors overlap (touching is free).
 
@@ -33,7 +32,7 @@ import numpy as np
 from pes_ref.core import checks
 
 __all__ = ["MissingExtraError", "require_shapely", "Polygon", "Circle", "Rectangle", "regular_polygon",
-           "Translation", "Rotation", "Drum", "Part", "pose", "posed_geometries", "interiors_overlap", "overlap",
+           "Translation", "Rotation", "Part", "pose", "posed_geometries", "interiors_overlap", "overlap",
            "default_tolerance", "circle_sides", "SHAPES"]
 
 #: The pip line that installs what this module needs.
@@ -211,42 +210,6 @@ class Rotation:
         return self.pivot + np.stack((c * rel[:, 0] - s * rel[:, 1], s * rel[:, 0] + c * rel[:, 1]), axis=1)
 
 
-@dataclass(frozen=True)
-class Drum:
-    """A drum turning about its axis, its surface drawn unrolled at ``radius``.
-
-    The part's shapes are the drum's surface cut open along a line parallel to its axis and
-    laid flat: ``direction`` (normalized) is the way round the drum, the way perpendicular to
-    it the drum's axis. Turning the drum by q (radians) moves the drawing by ``radius q``
-    along ``direction``, and the drawing repeats every turn, ``2 pi radius``
-    (:meth:`Part.geometry` lays a copy before and after the drawn turn, so the other part must
-    sit within the drawn turn's reach). This is the surface of a barrel cam: a pin that
-    slides along the axis and rides in a groove cut into that surface meets the groove's
-    walls where the unrolled drawing says, at the radius it is drawn at (deeper in the groove
-    the walls are nearer each other in angle, which a drawing at one radius leaves out).
-    """
-
-    direction: np.ndarray
-    radius: float
-
-    def __post_init__(self):
-        object.__setattr__(self, "direction", Translation(self.direction).direction)
-        object.__setattr__(self, "radius", checks.as_positive_float("radius", self.radius))
-
-    @property
-    def turn(self) -> float:
-        """The length of one turn of the unrolled drawing, ``2 pi radius``."""
-        return 2.0 * np.pi * self.radius
-
-    def apply(self, xy: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """Points ``xy`` (P, 2) of the drawing moved by the drum's angles ``q`` (P,) (one per point)."""
-        return xy + (self.radius * q)[:, None] * self.direction
-
-
-#: The one-DOF motions of a part.
-MOTIONS = (Translation, Rotation, Drum)
-
-
 @dataclass(frozen=True, eq=False)
 class Part:
     """Shapes with one degree of freedom relative to the frame.
@@ -255,7 +218,7 @@ class Part:
     ----------
     shapes : shape or sequence of shapes
         The part at coordinate q = 0 is their union (disjoint pieces allowed).
-    motion : Translation, Rotation or Drum
+    motion : Translation or Rotation
     """
 
     shapes: tuple
@@ -269,16 +232,15 @@ class Part:
             if not isinstance(s, SHAPES):
                 raise checks.InputTypeError("shapes", f"shapes must be Polygon, Circle or Rectangle objects, "
                                                       f"got {type(s).__name__}")
-        if not isinstance(self.motion, MOTIONS):
-            raise checks.InputTypeError("motion", f"motion must be a Translation, a Rotation or a Drum, got "
-                                                  f"{self.motion!r}")
+        if not isinstance(self.motion, (Translation, Rotation)):
+            raise checks.InputTypeError("motion", f"motion must be a Translation or a Rotation, got {self.motion!r}")
         object.__setattr__(self, "shapes", shapes)
         object.__setattr__(self, "_cache", {})
 
     @property
     def periodic(self) -> bool:
-        """True for a rotation or a drum (its coordinate is an angle)."""
-        return isinstance(self.motion, (Rotation, Drum))
+        """True for a rotation (its coordinate is an angle)."""
+        return isinstance(self.motion, Rotation)
 
     @property
     def period(self):
@@ -297,32 +259,27 @@ class Part:
 
     def geometry(self, tolerance: float):
         """The part at q = 0 as one shapely geometry (a Polygon or MultiPolygon), circles within
-        ``tolerance``; computed once per tolerance. A drum's drawing is laid three times, a
-        turn before and after the drawn one (:class:`Drum`)."""
+        ``tolerance``; computed once per tolerance."""
         tolerance = checks.as_positive_float("tolerance", tolerance)
         if tolerance not in self._cache:
             shapely = require_shapely()
             geom = shapely.union_all([s.geometry(tolerance) for s in self.shapes])
             if geom.is_empty or not geom.area > 0:
                 raise checks.InputError("shapes", "the part's shapes leave nothing (the cuts remove everything)")
-            if isinstance(self.motion, Drum):
-                step = self.motion.turn * self.motion.direction
-                geom = shapely.union_all([shapely.transform(geom, lambda xy, k=k: xy + k * step) for k in (-1, 0, 1)])
             self._cache[tolerance] = shapely.normalize(geom)
         return self._cache[tolerance]
 
 
 def default_tolerance(parts, spacing) -> float:
     """The circles' tolerance for a grid of ``spacing`` (2,): ``min_d h_d l_d / 20`` with
-    ``l_d`` 1 for a translation, the smallest circle radius of the device for a rotation
-    (the arc a point at that radius sweeps in one grid step) and the radius for a drum (the
-    drawing moves ``radius h`` per step); without circles it does not matter, and 1e-3 of
-    the parts' size is returned."""
+    ``l_d`` 1 for a translation and the smallest circle radius of the device for a rotation
+    (the arc a point at that radius sweeps in one grid step); without circles it does not
+    matter, and 1e-3 of the parts' size is returned."""
     radii = [c.radius for p in parts for c in p.circles]
     h = checks.as_float_array("spacing", spacing, shape=(2,), positive=True)
     if not radii:
         return 1e-3
-    lever = [p.motion.radius if isinstance(p.motion, Drum) else min(radii) if p.periodic else 1.0 for p in parts]
+    lever = [min(radii) if p.periodic else 1.0 for p in parts]
     return float(min(h[d] * lever[d] for d in range(2)) / 20.0)
 
 

@@ -1,4 +1,5 @@
-"""The optional extra ``realize``: shapely 2 (the parts' geometry), ezdxf (DXF) and trimesh (STL).
+"""The optional extra ``realize``: shapely >= 2.1 (the parts' geometry and their triangulation),
+contourpy (the blocked region's contour), ezdxf (DXF) and trimesh (STL).
 
 :func:`require_realize` imports them or raises
 :class:`pes_ref.devices.geometry.MissingExtraError` with the pip line, which the command line
@@ -15,7 +16,7 @@ __all__ = ["PIP_LINE", "require_realize"]
 #: The pip line that installs what realization needs.
 PIP_LINE = "pip install 'pes_ref[realize]'"
 #: The modules of the extra beyond shapely, and what each is for.
-_MODULES = (("ezdxf", "DXF files"), ("trimesh", "STL files"))
+_MODULES = (("contourpy", "contours"), ("ezdxf", "DXF files"), ("trimesh", "STL files"))
 
 
 def require_realize() -> dict:
@@ -25,6 +26,9 @@ def require_realize() -> dict:
         out = {"shapely": require_shapely()}
     except MissingExtraError:
         raise MissingExtraError(f"realization needs shapely >= 2 (the optional extra 'realize'): {PIP_LINE}") from None
+    if not hasattr(out["shapely"], "constrained_delaunay_triangles"):
+        raise MissingExtraError(f"realization needs shapely >= 2.1 (its triangulation), found "
+                                f"{out['shapely'].__version__}: {PIP_LINE}")
     for name, what in _MODULES:
         try:
             out[name] = importlib.import_module(name)

@@ -93,21 +93,25 @@ def _held(problem, shape) -> np.ndarray:
     return problem.mask(shape) == 0
 
 
+def _spacing(problem, shape) -> np.ndarray:
+    return grid_spacing(np.asarray(problem.lower, dtype=np.float64), np.asarray(problem.upper, dtype=np.float64),
+                        shape, np.asarray(problem.periodic))
+
+
 def _free_where_held(problem, phi: np.ndarray) -> np.ndarray:
     held = _held(problem, phi.shape)
-    return np.where(held, np.maximum(phi, np.max(grid_spacing(problem.lower, problem.upper, phi.shape,
-                                                              np.asarray(problem.periodic)))), phi)
+    return np.where(held, np.maximum(phi, np.max(_spacing(problem, phi.shape))), phi)
 
 
 def _level_set_rule(problem, values, energy, level):
     ls = problem.level_set
     if ls is None:
-        raise checks.InputError("level", "the contact rule 'level-set' needs a design made realizable "
-                                         "(design ... --set realizable=true); this design's grid is its energy")
+        raise checks.InputError("rule", "contact level 'level-set' needs a design made realizable (design ... "
+                                        "--set realizable=true); this design's grid is its energy")
     fine = resample(values, problem.lower, problem.upper, problem.periodic, energy.shape)
     phi = fine + ls.r_c
     e_c = float(apf_energy(np.zeros(1), ls.v, ls.r_c, ls.r_min)[0])
-    h = float(np.min(grid_spacing(problem.lower, problem.upper, energy.shape, np.asarray(problem.periodic))))
+    h = float(np.min(_spacing(problem, energy.shape)))
     return e_c, phi, (("phi - h/2", e_c, phi - 0.5 * h), ("phi + h/2", e_c, phi + 0.5 * h))
 
 
@@ -124,7 +128,7 @@ def _visited_rule(problem, values, energy, level):
 
 def _value_rule(problem, values, energy, level):
     if level is None:
-        raise checks.InputError("level", "the contact rule 'value' needs a level: --level VALUE")
+        raise checks.InputError("level", "contact level 'value' needs the level itself: level is None")
     span = float(np.ptp(energy)) or 1.0
     out = [(f"level {s:+g} x range", level + s * span) for s in (-0.05, 0.05)]
     return level, _free_where_held(problem, level - energy), tuple(
@@ -142,7 +146,7 @@ def contact_region(problem, values, rule: str | None = None, level: float | None
     values = checks.as_float_array("values", values, ndim=2)
     if rule is None:
         rule = "level-set" if problem.level_set is not None else "visited"
-    rule = checks.as_choice("level", rule, set(CONTACT_RULES))
+    rule = checks.as_choice("rule", rule, set(CONTACT_RULES))
     if level is not None:
         level = checks.as_finite_float("level", level)
     energy = np.asarray(problem.surface_values(values), dtype=np.float64)

@@ -123,7 +123,7 @@ BAD = [
     ("part[0].motion", "screw", "part[0].motion: expected one of 'rotation', 'translation', got 'screw'"),
     ("part[0].direction", DELETE, "part[0].direction: missing"),
     ("part[0].direction", [0.0, 0.0], "part[0].direction: expected a non-zero direction"),
-    ("part[0].pivot", [0.0, 0.0], "part[0].pivot: a translating part has a direction, not a pivot or a radius"),
+    ("part[0].pivot", [0.0, 0.0], "part[0].pivot: a translating part has a direction, not a pivot"),
     ("part[0].speed", 3, "part[0].speed: unknown key"),
     ("part[0].shapes", [], "part[0].shapes: expected a non-empty list of shapes"),
     ("part[0].shapes[0]", {"ellipse": {}}, "part[0].shapes[0].ellipse: unknown key"),

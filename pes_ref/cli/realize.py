@@ -1,0 +1,141 @@
+"""The ``realize`` command of ``python -m pes_ref``: ``realize DESIGN.npz --as contact --out DIR
+[--rule level-set|visited|value] [--level E] [--pin-radius R] [--rim W] [--thickness T] [--force]``.
+
+It turns a saved design into parts (:mod:`pes_ref.realize`, ``docs/realize.md``), writes
+``DIR/device.toml``, ``DIR/plate.dxf``, ``DIR/plate.stl``, ``DIR/base.stl``, ``DIR/pin.stl`` and
+``DIR/parts.png`` (each checked before anything is computed, written atomically, an existing
+one kept unless ``--force``), then reads every file back and prints one ``name: value`` line
+per figure of the check: the blocked share of the C-space the device file's parts give
+against the design's, the plate's area from the DXF against the device file's, and the STL
+meshes' watertightness and volume.
+"""
+from __future__ import annotations
+
+import io
+import os
+import sys
+import time
+
+from pes_ref.cli.common import EXIT_OK, add_command, error, input_file, output_file, output_folder
+
+#: The files a contact realization writes into ``--out``, and what each is (for refusals).
+CONTACT_FILES = {"device": ("device.toml", "device"), "dxf": ("plate.dxf", "DXF"), "plate_stl": ("plate.stl", "STL"),
+                 "base_stl": ("base.stl", "STL"), "pin_stl": ("pin.stl", "STL"), "png": ("parts.png", "drawing")}
+#: The library's names of what the options set, and the options (errors name the option).
+FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
+         "as": "--as", "rule": "--rule"}
+
+
+def add_parser(sub) -> None:
+    from pes_ref.realize.contact import CONTACT_DEFAULTS
+    p = add_command(sub, "realize", help="turn a saved design into parts: a device file, DXF, STL and a drawing",
+        description="Realize a saved design by contact: its blocked region (the design energy above a contact "
+                    "level chosen by --rule) becomes a plate with cut-outs and a pin (a plane design). Writes "
+                    "DIR/device.toml (the device-file format: analyze and evaluate --realized read it), "
+                    "DIR/plate.dxf, DIR/plate.stl, DIR/base.stl (the slab the plate's pieces stand on), DIR/pin.stl and DIR/parts.png, reads them back and prints "
+                    "the check: blocked shares, the plate's area from the DXF, the meshes' watertightness. "
+                    "Needs the optional extra 'realize' (pip install 'pes_ref[realize]'). docs/realize.md.",
+        examples=["realize funnel.npz --as contact --out funnel_parts",
+                  "realize funnel.npz --as contact --rule value --level 0.05 --out parts --force"])
+    p.add_argument("file", metavar="DESIGN.npz", help="a design file written by 'design'")
+    p.add_argument("--as", dest="as_", choices=("contact",), required=True,
+                   help="the realization: 'contact' (rigid parts and eq. (1))")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder to write into (made if missing)")
+    p.add_argument("--rule", default=None, choices=("level-set", "visited", "value"),
+                   help="how the contact level is chosen (default: 'level-set' for a design made realizable, "
+                        "else 'visited')")
+    p.add_argument("--level", type=float, default=None, metavar="E", help="the contact level of --rule value")
+    p.add_argument("--pin-radius", type=float, default=CONTACT_DEFAULTS["pin_radius"], metavar="R",
+                   help="the pin's radius (C-space length)")
+    p.add_argument("--rim", type=float, default=CONTACT_DEFAULTS["rim"], metavar="W",
+                   help="the plate's rim beyond its cut-out (C-space length)")
+    p.add_argument("--thickness", type=float, default=CONTACT_DEFAULTS["thickness"], metavar="T",
+                   help="the plate's and the pin's height in the STL files (C-space length)")
+    p.add_argument("--force", action="store_true", help="overwrite existing files in DIR")
+    p.set_defaults(func=_run_realize)
+
+
+def _outputs(args) -> dict:
+    """Every output path, checked before anything is computed."""
+    output_folder(args.out)
+    out = {}
+    for key, (name, what) in CONTACT_FILES.items():
+        path = os.path.join(args.out, name)
+        out[key] = output_file(path, what, force=args.force) if os.path.isdir(args.out) else path
+    return out
+
+
+def _run_realize(args) -> int:
+    start = time.perf_counter()
+    try:
+        from pes_ref.realize.extra import require_realize
+        require_realize()
+        from pes_ref.synthesis import load_design
+        from pes_ref.realize.contact import realize_contact
+        state = load_design(input_file(args.file, "design file"))
+        if (args.level is not None) != (args.rule == "value"):
+            raise ValueError(f"--level E goes with --rule value (the contact level given), got --level {args.level} "
+                             f"and --rule {args.rule}")
+        outputs = _outputs(args)
+        name = os.path.splitext(os.path.basename(args.file))[0]
+        real = realize_contact(state.problem, state.values, args.rule, args.level, name=name,
+                               pin_radius=args.pin_radius, rim=args.rim, thickness=args.thickness)
+    except (ValueError, TypeError, OSError, ImportError) as exc:
+        return error(exc, FLAGS)
+    try:
+        _write(real, state, outputs, args.force)
+        check = _check(real, outputs)
+    except (ValueError, OSError) as exc:
+        return error(exc, FLAGS)
+    region = real.region
+    print(f"rule: {region.rule}")
+    print(f"level: {region.level:.6g}")
+    print(f"blocked_share: {region.blocked_share:.6g}")
+    for label, level, share, changed in real.sensitivity:
+        print(f"neighbour: {label}: level {level:.6g}, blocked_share {share:.6g}, changed_share {changed:.6g}")
+    for line in real.lost:
+        print(f"lost: {line}")
+    for key, value in check.items():
+        print(f"{key}: {value:.6g}" if isinstance(value, float) else f"{key}: {value}")
+    print(f"seconds: {time.perf_counter() - start:.3g}")
+    for key, path in outputs.items():
+        print(f"wrote {path} ({CONTACT_FILES[key][1]})", file=sys.stderr)
+    return EXIT_OK
+
+
+def _write(real, state, outputs: dict, force: bool) -> None:
+    from pes_ref.realize import exports
+    from pes_ref.realize.drawing import parts_figure
+    from pes_ref.realize.evaluation import held_out_positions
+    from pes_ref.realize.regions import VISITED_SEED
+    os.makedirs(os.path.dirname(outputs["device"]) or ".", exist_ok=True)
+    header = (f"A pin in a plate realizing {os.path.basename(outputs['device'])}'s design by contact: written by "
+              f"pes_ref realize (docs/realize.md)\nrule {real.region.rule}, level {real.region.level:.6g}")
+    exports.write_text(outputs["device"], exports.device_text(real.device, header), force, "device")
+    exports.write_dxf(outputs["dxf"], real.parts.plate, force)
+    exports.write_stl(outputs["plate_stl"], exports.plate_mesh(real.parts.plate, real.thickness), force)
+    exports.write_stl(outputs["base_stl"], exports.base_mesh(real.parts.plate, real.thickness), force)
+    exports.write_stl(outputs["pin_stl"], exports.pin_mesh(real.parts.pin_radius, real.thickness), force)
+    path = held_out_positions(state.problem, state.values, VISITED_SEED, n_particles=1)[:, 0, :]
+    fig = parts_figure(real, path)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    exports.write_bytes(outputs["png"], buf.getvalue(), force, "drawing")
+
+
+def _check(real, outputs: dict) -> dict:
+    """Every file read back: the device's C-space, the DXF's plate, the meshes."""
+    from pes_ref.devices.device_file import load_device
+    from pes_ref.realize import exports
+    device = load_device(outputs["device"])
+    plate = exports.read_dxf_plate(outputs["dxf"])
+    file_plate = device.parts[1].geometry(device.grid.tolerance)
+    out = {"device_blocked_share": float(device.cspace().blocked.mean()),
+           "plate_area_dxf": float(plate.area), "plate_area_device": float(file_plate.area)}
+    for key in ("plate_stl", "base_stl", "pin_stl"):
+        mesh = exports.read_stl(outputs[key])
+        name = key.split("_")[0]
+        out[f"{name}_watertight"] = bool(mesh.is_watertight)
+        out[f"{name}_volume"] = float(mesh.volume)
+    out["plate_volume_expected"] = float(plate.area * real.thickness)
+    return out
