@@ -111,7 +111,8 @@ class FunnelProblem(_Problem):
     ``{values + contact_r_c < 0}``, and the surface is eq. (1) with strength ``contact_v``,
     cut-off ``contact_r_c`` and cap ``contact_r_min`` of the exact distance to that shape, on
     the ``grid`` x ``grid`` surface whatever the stage's grid of values. The shape starts as
-    two strips ``init_strip`` wide along the walled sides.
+    ``init_shape`` (:data:`INIT_SHAPES`): two strips ``init_strip`` wide along the walled sides
+    (``"strips"``), or a V whose gap at the exit edge is ``2 init_gap`` wide (``"vee"``).
     """
 
     kind: ClassVar[str] = "funnel"
@@ -140,6 +141,8 @@ class FunnelProblem(_Problem):
     contact_r_c: float = 0.06
     contact_r_min: float = 0.02
     init_strip: float = 0.03
+    init_shape: str = "strips"
+    init_gap: float = 0.15
 
     def __post_init__(self):
         _check_fields(self)
@@ -149,6 +152,9 @@ class FunnelProblem(_Problem):
                                               f"{self.when!r}", names=("linger", "when"))
         if not isinstance(self.realizable, bool):
             raise checks.InputTypeError("realizable", f"realizable must be true or false, got {self.realizable!r}")
+        checks.as_choice("init_shape", self.init_shape, set(INIT_SHAPES))
+        checks.as_positive_float("init_gap", self.init_gap)
+        checks.as_nonneg_float("init_strip", self.init_strip)
         if self.realizable:
             object.__setattr__(self, "level_set", LevelSet(self.contact_v, self.contact_r_c, self.contact_r_min))
 
@@ -168,14 +174,15 @@ class FunnelProblem(_Problem):
         return (n, n)
 
     def initial_values(self, rng, shape: tuple) -> np.ndarray:
-        """Small random values (std ``init_scale``); with ``realizable``, the shape of two strips
-        ``init_strip`` wide along the walled sides below the start strip (a level set's shape only
-        moves where its contour is: the walls grow from these)."""
+        """Small random values (std ``init_scale``); with ``realizable``, the starting shape
+        ``init_shape`` (:data:`INIT_SHAPES`) below the start strip (a level set's shape only
+        moves where its contour is: the walls grow from it)."""
         if not self.realizable:
             return super().initial_values(rng, shape)
         q0 = np.linspace(self.lower[0], self.upper[0], shape[0])[:, None]
-        inside = np.broadcast_to(self.width / 2 - self.init_strip - np.abs(q0), shape)
-        return self.level_set.from_distance(inside) * self.mask(shape)
+        q1 = np.linspace(self.lower[1], self.upper[1], shape[1])[None, :]
+        free = np.broadcast_to(INIT_SHAPES[self.init_shape](self, q0, q1), shape)
+        return self.level_set.from_distance(free) * self.mask(shape)
 
     def mask(self, shape: tuple) -> np.ndarray:
         """1.0 where a grid value is designed, 0.0 in the start and exit strips held at zero energy."""
@@ -214,6 +221,23 @@ class FunnelProblem(_Problem):
         """Where an exit q0 is within :data:`IN_BAND_SHARE` of the width from the target (False for NaN)."""
         with np.errstate(invalid="ignore"):
             return np.abs(exits - self.target) < IN_BAND_SHARE * self.width
+
+
+def _strips(p: FunnelProblem, q0, q1):
+    """Two strips ``init_strip`` wide along the walled sides: the signed distance (> 0 free)."""
+    return p.width / 2 - p.init_strip - np.abs(q0) + 0.0 * q1
+
+
+def _vee(p: FunnelProblem, q0, q1):
+    """A V: free within ``|q0| < init_gap + (width/2 - init_gap) q1 / h`` (``h`` the height below
+    the start strip), blocked outside; the signed distance to its two straight walls."""
+    h = p.height - p.start_zone
+    slope = (p.width / 2 - p.init_gap) / h
+    return (p.init_gap + slope * q1 - np.abs(q0)) / np.hypot(1.0, slope)
+
+
+#: The starting shapes of a realizable funnel: name -> signed distance (> 0 free) on the nodes.
+INIT_SHAPES = {"strips": _strips, "vee": _vee}
 
 
 def exit_positions(problem: FunnelProblem, traj: Trajectory) -> np.ndarray:

@@ -87,3 +87,24 @@ def test_resample_vjp_is_the_transpose_of_resample():
         y = rng.standard_normal((13, 11))
         fine = resample(x, (0.0, 0.0), (1.0, 1.0), periodic, y.shape)
         assert np.sum(fine * y) == pytest.approx(np.sum(x * resample_vjp(y, x.shape, periodic)), rel=1e-12)
+
+
+@pytest.mark.parametrize("shape, free_at, blocked_at", [
+    ("strips", [(0.0, 1.0), (0.9, 1.0)], [(0.99, 1.0), (-0.99, 0.5)]),
+    ("vee", [(0.0, 0.0), (0.1, 0.0), (0.8, 1.6)], [(0.3, 0.0), (-0.6, 0.5), (0.9, 1.0)]),
+])
+def test_a_realizable_funnel_starts_from_its_stated_shape(shape, free_at, blocked_at):
+    from pes_ref.synthesis.problems import FunnelProblem
+    p = FunnelProblem(grid=41, realizable=True, init_shape=shape)
+    values = p.initial_values(np.random.default_rng(0), (41, 41))
+    node = lambda q: (int(round((q[0] + 1.0) * 20)), int(round(q[1] * 20)))   # noqa: E731
+    assert all(values[node(q)] + p.contact_r_c > 0 for q in free_at)
+    assert all(values[node(q)] + p.contact_r_c < 0 for q in blocked_at)
+    held = p.mask((41, 41)) == 0
+    assert (values[held] == 0).all()                          # the start strip is free
+
+
+def test_a_starting_shape_is_one_of_the_stated():
+    from pes_ref.synthesis.problems import FunnelProblem
+    with pytest.raises(ValueError, match="init_shape"):
+        FunnelProblem(realizable=True, init_shape="star")
