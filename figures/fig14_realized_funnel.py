@@ -23,7 +23,7 @@ NAME = "fig14_realized_funnel"
 #: Held-out seed and count: the defaults of ``python -m pes_ref evaluate``.
 HELD_OUT_SEED, HELD_OUT = 12345, 200
 #: The smoke design: the realizable funnel of ``make figures`` on the design command's tiny preset.
-SMOKE_SETS = ["--set", "realizable=true", "--set", "linger=1", "--set", "init_shape=vee"]
+SMOKE_SETS = ["--set", "realizable=true", "--set", "linger=20", "--set", "init_shape=vee"]
 
 
 def main(argv=None) -> int:

@@ -63,7 +63,7 @@ DESIGNS = {
     "oscillator_overshoot": ["design", "oscillator", "--plan", "overshoot"],
     "latch": ["design", "latch"],
     "funnel": ["design", "funnel"],
-    "funnel_realizable": ["design", "funnel", "--set", "realizable=true", "--set", "linger=1",
+    "funnel_realizable": ["design", "funnel", "--set", "realizable=true", "--set", "linger=20",
                           "--set", "init_shape=vee"],
 }
 #: Further designs a figure draws: figure -> {option: design name}.

@@ -65,9 +65,10 @@ def test_the_exit_edge_is_open_and_the_walled_sides_are_not(realized):
     plate = realized.parts.plate
     lo, hi = realized.parts.box
     import shapely
-    below = shapely.box(-0.05, lo[1] - 0.3, 0.05, lo[1] - 0.25)      # under the exit, beyond the rim
-    assert not plate.intersects(below)
-    side = shapely.box(hi[0] + 0.01, 0.5, hi[0] + 0.05, 0.6)           # in the side rim
+    r, rim = realized.parts.pin_radius, 0.1
+    below = shapely.box(-0.05, lo[1] - r - rim + 0.01, 0.05, lo[1] - r - 0.01)   # in the bottom rim, under the exit
+    assert plate.bounds[1] < below.bounds[1] and not plate.intersects(below)
+    side = shapely.box(hi[0] + r + 0.01, 0.5, hi[0] + r + rim - 0.01, 0.6)        # in the side rim
     assert plate.contains(side)
 
 
