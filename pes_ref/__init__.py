@@ -33,8 +33,6 @@ _EXPORTS = {
     **dict.fromkeys(("DesignProblem",), "pes_ref.synthesis.design_problem"),
     **dict.fromkeys(("load_problem", "parse_problem"), "pes_ref.synthesis.problem_file"),
     **dict.fromkeys(("LevelSet",), "pes_ref.synthesis.level_set"),
-    **dict.fromkeys(("realize_contact",), "pes_ref.realize.contact"),
-    **dict.fromkeys(("evaluate_realized",), "pes_ref.realize.evaluation"),
 }
 
 __all__ = [*_EXPORTS, "__version__"]
@@ -69,6 +67,4 @@ if TYPE_CHECKING:   # for type checkers and IDEs: the same names, imported eager
     from pes_ref.synthesis.optimizers import Adam, RMSprop  # noqa: F401
     from pes_ref.synthesis.problem_file import load_problem, parse_problem  # noqa: F401
     from pes_ref.synthesis.level_set import LevelSet  # noqa: F401
-    from pes_ref.realize.contact import realize_contact  # noqa: F401
-    from pes_ref.realize.evaluation import evaluate_realized  # noqa: F401
 
