@@ -16,7 +16,7 @@ import os
 import sys
 import time
 
-from pes_ref.cli.common import EXIT_OK, add_command, error, input_file, output_file, output_folder
+from pes_ref.cli.common import EXIT_OK, LazyDefault, add_command, error, input_file, output_file, output_folder
 
 #: The files a contact realization writes into ``--out``, and what each is (for refusals).
 CONTACT_FILES = {"device": ("device.toml", "device"), "dxf": ("plate.dxf", "DXF"), "plate_stl": ("plate.stl", "STL"),
@@ -26,8 +26,12 @@ FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness
          "as": "--as", "rule": "--rule"}
 
 
+def _default(key: str) -> LazyDefault:
+    """``key``'s default, :data:`pes_ref.realize.contact.CONTACT_DEFAULTS` (read when needed)."""
+    return LazyDefault("pes_ref.realize.contact", "CONTACT_DEFAULTS", key)
+
+
 def add_parser(sub) -> None:
-    from pes_ref.realize.contact import CONTACT_DEFAULTS
     p = add_command(sub, "realize", help="turn a saved design into parts: a device file, DXF, STL and a drawing",
         description="Realize a saved design by contact: its blocked region (the design energy above a contact "
                     "level chosen by --rule) becomes a plate with cut-outs and a pin (a plane design). Writes "
@@ -45,11 +49,11 @@ def add_parser(sub) -> None:
                    help="how the contact level is chosen (default: 'level-set' for a design made realizable, "
                         "else 'visited')")
     p.add_argument("--level", type=float, default=None, metavar="E", help="the contact level of --rule value")
-    p.add_argument("--pin-radius", type=float, default=CONTACT_DEFAULTS["pin_radius"], metavar="R",
+    p.add_argument("--pin-radius", type=float, default=_default("pin_radius"), metavar="R",
                    help="the pin's radius (C-space length)")
-    p.add_argument("--rim", type=float, default=CONTACT_DEFAULTS["rim"], metavar="W",
+    p.add_argument("--rim", type=float, default=_default("rim"), metavar="W",
                    help="the plate's rim beyond its cut-out (C-space length)")
-    p.add_argument("--thickness", type=float, default=CONTACT_DEFAULTS["thickness"], metavar="T",
+    p.add_argument("--thickness", type=float, default=_default("thickness"), metavar="T",
                    help="the plate's and the pin's height in the STL files (C-space length)")
     p.add_argument("--force", action="store_true", help="overwrite existing files in DIR")
     p.set_defaults(func=_run_realize)
@@ -78,8 +82,9 @@ def _run_realize(args) -> int:
                              f"and --rule {args.rule}")
         outputs = _outputs(args)
         name = os.path.splitext(os.path.basename(args.file))[0]
-        real = realize_contact(state.problem, state.values, args.rule, args.level, name=name,
-                               pin_radius=args.pin_radius, rim=args.rim, thickness=args.thickness)
+        sizes = {key: value.value() if isinstance(value, LazyDefault) else value
+                 for key, value in (("pin_radius", args.pin_radius), ("rim", args.rim), ("thickness", args.thickness))}
+        real = realize_contact(state.problem, state.values, args.rule, args.level, name=name, **sizes)
     except (ValueError, TypeError, OSError, ImportError) as exc:
         return error(exc, FLAGS)
     try:
