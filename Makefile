@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all test test-random test-thorough figures validate oscillator-plans funnel-study problems-study realize-study bench conformance check-example venv clean
+.PHONY: all test test-random test-thorough figures validate oscillator-plans oscillator-table funnel-study problems-study realize-study bench conformance check-example venv clean
 
 all: test
 
@@ -16,10 +16,11 @@ $(STAMP): setup.cfg pyproject.toml
 
 venv: $(STAMP)
 
-# The whole suite, in file order; tests/project/test_architecture.py runs lint-imports on the
-# layer and cycle contracts of setup.cfg.
+# The whole suite on two processes (pytest-xdist; each test file's tests stay in one process,
+# in file order); tests/project/test_architecture.py runs lint-imports on the layer and cycle
+# contracts of setup.cfg. `$(PY) -m pytest -q` runs it in one process.
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n 2 --dist loadfile
 
 # The suite in a random order (pytest-randomly; the seed is printed: rerun an order with
 # --randomly-seed=N): no test may depend on another having run. The plugin leaves NumPy's
@@ -49,7 +50,15 @@ oscillator-plans: $(STAMP)
 	$(PY) -m pes_ref sweep validation/experiments/oscillator_seeds.toml --out validation/out/sweeps/oscillator_seeds
 	$(PY) validation/experiments/oscillator_plans.py --all
 
-# The funnel study of docs/synthesis.md: 11 settings x 16 design seeds, each evaluated
+# The default oscillator's table of docs/synthesis.md ("Results: three design seeds, two held-out
+# seeds"): `design oscillator --seed S --backend B` for S = 0, 1, 2 on each installed backend, two
+# at a time, each evaluated on held-out seeds 12345 and 9191; the lines between the table's
+# markers are rewritten, nothing else (14 minutes at load 3.5-7.5; design files in
+# validation/out/oscillator_table/).
+oscillator-table: $(STAMP)
+	$(PY) validation/experiments/oscillator_table.py
+
+# The funnel study of docs/synthesis.md 11 settings x 16 design seeds, each evaluated
 # on held-out seeds 12345 and 9191 (about 7 minutes on 2 cores), then its table.
 funnel-study: $(STAMP)
 	$(PY) -m pes_ref sweep validation/experiments/funnel_objective.toml --out validation/out/sweeps/funnel_objective

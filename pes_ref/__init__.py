@@ -22,6 +22,8 @@ _EXPORTS = {
     **dict.fromkeys(("Constant", "PerParticle", "Noise", "Window", "Schedule", "build_schedule"),
                     "pes_ref.core.effects"),
     **dict.fromkeys(("Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES"), "pes_ref.core.scene"),
+    **dict.fromkeys(("simulate_batch",), "pes_ref.core.population"),
+    **dict.fromkeys(("BACKENDS", "default_backend"), "pes_ref.core.backends"),
     **dict.fromkeys(("Trajectory", "NonFiniteError"), "pes_ref.core.integrator"),
     **dict.fromkeys(("Funnel", "Oscillator", "Quadratic", "Custom", "regularization"), "pes_ref.core.objectives"),
     **dict.fromkeys(("Polygon", "Circle", "Rectangle", "Translation", "Rotation", "Part"), "pes_ref.devices.geometry"),
@@ -55,6 +57,8 @@ if TYPE_CHECKING:   # for type checkers and IDEs: the same names, imported eager
     from pes_ref.core.effects import Constant, Noise, PerParticle, Schedule, Window, build_schedule  # noqa: F401
     from pes_ref.core.integrator import NonFiniteError, Trajectory  # noqa: F401
     from pes_ref.core.objectives import Custom, Funnel, Oscillator, Quadratic, regularization  # noqa: F401
+    from pes_ref.core.backends import BACKENDS, default_backend  # noqa: F401
+    from pes_ref.core.population import simulate_batch  # noqa: F401
     from pes_ref.core.scene import GRADIENT_NAMES, Scene, energy, simulate, value_and_grad  # noqa: F401
     from pes_ref.core.surface import Surface  # noqa: F401
     from pes_ref.core.terms import Spring, Walls  # noqa: F401

@@ -98,3 +98,21 @@ class GatherAt:
 
 #: :class:`GatherAt` the point (0.3, -0.2).
 GATHER = GatherAt((0.3, -0.2))
+
+
+def gather_problem(*, name: str | None = "gather", walls: bool = False, noise: bool = False,
+                   eval_particles: int = 12, radius: float = 0.3, iterations: int = 4,
+                   train_particles: int = 6) -> str:
+    """The text of a small problem file as a stranger writes it: particles gather at
+    (0.3, -0.2) on an 8 x 8 plane (docs/problems.md); the keywords change its few settings."""
+    return "\n".join(
+        ["format = 1"] + ([f'name = "{name}"'] if name else []) +
+        ["[surface]", "lower = [-1.0, -1.0]", "upper = [1.0, 1.0]", "shape = [8, 8]",
+         "[dynamics]", "dt = 0.05", "duration = 2.0", "damping = 1.0"] +
+        (["walls = { k = 100.0, margin = 0.05 }"] if walls else []) +
+        ["[starts]", "box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }"] +
+        (["[[forces]]", 'kind = "noise"', "std = 0.1"] if noise else []) +
+        ["[[objective]]", 'kind = "final_position"', "target = [0.3, -0.2]",
+         "[evaluate]", f"particles = {eval_particles}",
+         "[[evaluate.success]]", 'kind = "final_position"', "target = [0.3, -0.2]", f"radius = {radius}",
+         "[train]", f"iterations = {iterations}", f"particles = {train_particles}"]) + "\n"

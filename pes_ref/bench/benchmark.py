@@ -4,15 +4,21 @@ Measures, on a 200 x 200 surface and in float64:
 
 - ``scaling``: forward, adjoint and forward+adjoint time per step and particle-steps per
   second for N in {1, 16, 256, 4096, 65536}, dynamic and quasistatic, and the ratio
-  adjoint / forward;
+  adjoint / forward, on each installed backend (:data:`pes_ref.core.backends.BACKENDS`);
 - ``memory``: the peak of ``value_and_grad`` (``tracemalloc``) against the stored
-  trajectory (x, v, f) plus the grid;
+  trajectory (x, v, f) plus the grid, and the trajectory-sized arrays a run fills with
+  zeros beyond those that must hold zeros;
 - ``effects``: the step time of a bare scene, of a loop written for that scene alone,
-  and with each effect added alone and all together;
+  and with each effect added alone and all together; then, on each backend, terms named
+  with zero coefficients (which must cost nothing) and a spring with a zero periodic axis
+  (whose minimum image must not be computed);
 - ``exponents``: how time grows with N and with T (least-squares slopes in log-log);
-- ``design``: the funnel and oscillator design gradients (:mod:`pes_ref.bench.cases`)
-  against HIPS autograd and JAX where installed, each checked to agree with pes_ref's
-  gradient (``GRAD_RTOL``) before it is timed, JAX's compile time apart;
+- ``design``: the funnel and oscillator design gradients (:mod:`pes_ref.bench.cases`) on
+  each backend against HIPS autograd and JAX where installed, each checked to agree with
+  pes_ref's gradient (``GRAD_RTOL``) before it is timed, JAX's compile time apart; and the
+  funnel at N = 4096 and N = 65536 against JAX;
+- ``runs``: the default oscillator design (``python -m pes_ref design oscillator``), whole,
+  on each backend;
 - ``targets``: the targets of docs/performance.md, each with the measured number and met / not met.
 
 Every timing is the median of repeated wall-clock runs after one warm-up run, with its
@@ -33,14 +39,17 @@ import numpy as np
 
 from pes_ref import __version__
 from pes_ref.bench.cases import CASES, reference_gradient, reference_objective, reference_scene, smooth_surface
+from pes_ref.core import backends
 from pes_ref.core.effects import Constant, Noise, Window
 from pes_ref.core.files import atomic_file
 from pes_ref.core.interpolations import interpolation
-from pes_ref.core.integrator import adjoint_dynamic, adjoint_quasistatic, step_coefficients
+from pes_ref.core.integrator import step_coefficients
 from pes_ref.core.objectives import Funnel
 from pes_ref.core.scene import Scene, simulate, value_and_grad
+from pes_ref.core.steppers import StepParams
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
+from pes_ref.synthesis.plans import Plan, PolishPlan
 from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import GRAD_RTOL
 
@@ -63,34 +72,61 @@ class Config:
     exponent_steps: tuple = (100, 200, 400, 800)
     exponent_n: int = 256
     design: dict = None                 # case name -> keyword arguments of its builder
+    large: tuple = ()                   # (N, T) of the funnel gradient at scale, against JAX only
     autodiff_repeats: int = 3
     jax_repeats: int = 10
     autodiff: bool = True               # False: report autograd and JAX as skipped without importing them
+    runs: dict = None                   # new_design keywords of the oscillator design timed whole (None: none)
+    run_repeats: int = 1
 
 
 FULL = Config(design={"funnel": dict(n_particles=64, n_steps=400, grid=200),
-                      "oscillator": dict(n_particles=64, n_steps=500, grid=(32, 32))})
+                      "oscillator": dict(n_particles=64, n_steps=500, grid=(32, 32))},
+              large=((4096, 400), (65536, 100)), runs={})
 QUICK = Config(grid=12, sizes=(1, 4), particle_steps=40, min_steps=5, max_steps=10, repeats=1,
-               memory_case=(4, 10), effects_case=(4, 6), exponent_sizes=(1, 4), exponent_steps=(5, 10),
+               memory_case=(64, 10), effects_case=(4, 6), exponent_sizes=(1, 4), exponent_steps=(5, 10),
                exponent_n=4, design={"funnel": dict(n_particles=3, n_steps=6, grid=10),
                                      "oscillator": dict(n_particles=3, n_steps=6, grid=(6, 6))},
-               autodiff_repeats=1, jax_repeats=1)
+               large=((8, 6),), autodiff_repeats=1, jax_repeats=1,
+               runs=dict(grid0=8, grid1=8, n_steps=60, eval_periods=4, plan=Plan(iterations=6, n_particles=4),
+                         polish=PolishPlan(evaluations=20, n_particles=6, popsize=8)))
+
+
+def installed_backends() -> tuple:
+    """The backends this machine can run, in :data:`pes_ref.core.backends.BACKENDS` order."""
+    return tuple(name for name in backends.BACKENDS if backends.installed(name))
 
 MODES = ("dynamic", "quasistatic")
 
 
 # =========================================================================== timing
 
-def _timed(fn, repeats: int, warmup: bool = True) -> dict:
-    """Median, min and max wall-clock seconds of ``fn()`` over ``repeats`` runs."""
+def _timed(fn, repeats: int, warmup: bool = True, clock=time.perf_counter) -> dict:
+    """Median, min and max seconds of ``fn()`` over ``repeats`` runs (wall clock, or ``clock``)."""
     if warmup:
         fn()
     ts = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         fn()
-        ts.append(time.perf_counter() - t0)
+        ts.append(clock() - t0)
     return {"median": float(np.median(ts)), "min": float(min(ts)), "max": float(max(ts)), "repeats": repeats}
+
+
+def _interleaved(fns: dict, repeats: int, clock=time.perf_counter) -> dict:
+    """:func:`_timed` of several functions, their runs interleaved (one run of each in turn,
+    after one warm-up run of each), so that a slow spell of a shared machine falls on all of
+    them alike: name -> timing."""
+    for fn in fns.values():
+        fn()
+    ts = {name: [] for name in fns}
+    for _ in range(repeats):
+        for name, fn in fns.items():
+            t0 = clock()
+            fn()
+            ts[name].append(clock() - t0)
+    return {name: {"median": float(np.median(t)), "min": float(min(t)), "max": float(max(t)), "repeats": repeats}
+            for name, t in ts.items()}
 
 
 def _per(t: dict, k: float) -> dict:
@@ -123,44 +159,46 @@ def _steps_for(cfg: Config, n: int) -> int:
 OBJECTIVE = Funnel(target=0.5, when="every_step")
 
 
-def _core_adjoint(scene: Scene, x0, v0):
-    """A closure running only the core adjoint of one stored run (its objective's
-    derivatives computed beforehand)."""
-    traj = simulate(scene, x0, v0)
+def _core_adjoint(scene: Scene, x0, v0, backend: str):
+    """A closure running only the core adjoint of one stored run on ``backend`` (its
+    objective's derivatives computed beforehand)."""
+    traj = simulate(scene, x0, v0, backend=backend)
     _, gx, gv = OBJECTIVE.value_and_grad(traj.x, traj.v, scene.times())
     field = scene.field()
-    if scene.mode == "dynamic":
-        want = frozenset({"values", "x0", "v0"})
-        return lambda: adjoint_dynamic(field, traj, scene.dt, scene.mass, None, gx, gv, want)
-    want = frozenset({"values", "x0"})
-    return lambda: adjoint_quasistatic(field, traj, scene.mobility, gx, want)
+    step = backends.stepper(backend, scene.mode, scene.integrator, scene.surface.interpolation)
+    params = StepParams(scene.dt, scene.n_steps, scene.mass, None, scene.mobility)
+    want = frozenset({"values", "x0", "v0"} if scene.mode == "dynamic" else {"values", "x0"})
+    return lambda: step.adjoint(field, traj, params, gx, gv, want)
 
 
 # =========================================================================== sections
 
 def scaling(cfg: Config, log=print) -> list:
-    """Forward, adjoint and forward+adjoint per step for each N and mode."""
+    """Forward, adjoint and forward+adjoint per step for each N, mode and backend."""
     rows = []
-    for mode in MODES:
-        for n in cfg.sizes:
-            T = _steps_for(cfg, n)
-            scene = _scene(cfg, mode, T)
-            x0, v0 = _state(n)
-            fwd = _timed(lambda: simulate(scene, x0, v0), cfg.repeats)
-            adj = _timed(_core_adjoint(scene, x0, v0), cfg.repeats)
-            both = _timed(lambda: value_and_grad(scene, x0, v0, OBJECTIVE, wrt=("values",)), cfg.repeats)
-            row = dict(mode=mode, N=n, T=T, forward=_per(fwd, T), adjoint=_per(adj, T), forward_adjoint=_per(both, T),
-                       forward_particle_steps_per_s=n * T / fwd["median"],
-                       forward_adjoint_particle_steps_per_s=n * T / both["median"],
-                       adjoint_over_forward=adj["median"] / fwd["median"])
-            rows.append(row)
-            log(f"  scaling {mode:11s} N={n:6d} T={T:5d}: fwd {row['forward']['median'] * 1e6:9.1f} us/step, "
-                f"adj/fwd {row['adjoint_over_forward']:.2f}")
+    for backend in installed_backends():
+        for mode in MODES:
+            for n in cfg.sizes:
+                T = _steps_for(cfg, n)
+                scene = _scene(cfg, mode, T)
+                x0, v0 = _state(n)
+                fwd = _timed(lambda: simulate(scene, x0, v0, backend=backend), cfg.repeats)
+                adj = _timed(_core_adjoint(scene, x0, v0, backend), cfg.repeats)
+                both = _timed(lambda: value_and_grad(scene, x0, v0, OBJECTIVE, wrt=("values",), backend=backend),
+                              cfg.repeats)
+                row = dict(backend=backend, mode=mode, N=n, T=T, forward=_per(fwd, T), adjoint=_per(adj, T),
+                           forward_adjoint=_per(both, T), forward_particle_steps_per_s=n * T / fwd["median"],
+                           forward_adjoint_particle_steps_per_s=n * T / both["median"],
+                           adjoint_over_forward=adj["median"] / fwd["median"])
+                rows.append(row)
+                log(f"  scaling {backend:5s} {mode:11s} N={n:6d} T={T:5d}: fwd {row['forward']['median'] * 1e6:9.1f} "
+                    f"us/step, adj/fwd {row['adjoint_over_forward']:.2f}")
     return rows
 
 
 def memory(cfg: Config) -> dict:
-    """Peak traced memory of one value_and_grad against trajectory + grid.
+    """Peak traced memory of one value_and_grad against trajectory + grid (NumPy's loops,
+    then each other backend's), and the arrays zero-filled (:func:`zero_filled`).
 
     The objective is the funnel at the final step; its derivative array dL/dX
     (T+1, N, 2), an input of the adjoint, is part of the peak (one third of a
@@ -169,18 +207,73 @@ def memory(cfg: Config) -> dict:
     scene = _scene(cfg, "dynamic", T)
     x0, v0 = _state(n)
     objective = Funnel(target=0.5, when="final")
-    value_and_grad(scene, x0, v0, objective, wrt=("values",))     # warm-up (imports, caches)
-    tracemalloc.start()
-    tracemalloc.reset_peak()
-    base = tracemalloc.get_traced_memory()[0]
-    _, _, traj = value_and_grad(scene, x0, v0, objective, wrt=("values",))
-    peak = tracemalloc.get_traced_memory()[1] - base
-    tracemalloc.stop()
+    peaks = {}
+    for backend in installed_backends():
+        value_and_grad(scene, x0, v0, objective, wrt=("values",), backend=backend)   # warm-up (imports, caches)
+        tracemalloc.start()
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        _, _, traj = value_and_grad(scene, x0, v0, objective, wrt=("values",), backend=backend)
+        peaks[backend] = tracemalloc.get_traced_memory()[1] - base
+        tracemalloc.stop()
     traj_bytes = traj.x.nbytes + traj.v.nbytes + traj.f.nbytes
     grid_bytes = scene.surface.values.nbytes
-    return dict(N=n, T=T, objective="funnel, final step", peak_bytes=peak, trajectory_bytes=traj_bytes,
-                grid_bytes=grid_bytes,
-                peak_over_trajectory_plus_grid=peak / (traj_bytes + grid_bytes))
+    ratios = {b: p / (traj_bytes + grid_bytes) for b, p in peaks.items()}
+    return dict(N=n, T=T, objective="funnel, final step", peak_bytes=peaks["numpy"], trajectory_bytes=traj_bytes,
+                grid_bytes=grid_bytes, peak_over_trajectory_plus_grid=ratios["numpy"], by_backend=ratios,
+                zero_filled=zero_filled(cfg))
+
+
+#: The functions that make an array full of zeros (or ones, or a value): each such array of a
+#: trajectory's size is a pass over its memory unless its entries must hold that value.
+_FILLED_MAKERS = ("zeros", "zeros_like", "ones", "ones_like", "full", "full_like")
+
+#: The zero-filled (T+1, N, 2) arrays each run needs, because their entries stay 0: the
+#: final-step funnel's dL/dX (written at the last state only); quasistatic V (all zeros).
+#: An array of that size made by :data:`_FILLED_MAKERS` beyond these is a wasted pass.
+_ZEROS_NEEDED = {("dynamic", "simulate"): 0, ("dynamic", "value_and_grad"): 1,
+                 ("quasistatic", "simulate"): 1, ("quasistatic", "value_and_grad"): 2}
+
+
+def _filled_arrays(run, n_bytes: int) -> list:
+    """The names of :data:`_FILLED_MAKERS` that made an array of at least ``n_bytes`` while
+    ``run()`` ran (NumPy's functions counted in place for the call, then restored)."""
+    made, saved = [], {name: getattr(np, name) for name in _FILLED_MAKERS}
+
+    def counted(name, fn):
+        def make(*args, **kwargs):
+            out = fn(*args, **kwargs)
+            if getattr(out, "nbytes", 0) >= n_bytes:
+                made.append(name)
+            return out
+        return make
+    try:
+        for name, fn in saved.items():
+            setattr(np, name, counted(name, fn))
+        run()
+    finally:
+        for name, fn in saved.items():
+            setattr(np, name, fn)
+    return made
+
+
+def zero_filled(cfg: Config) -> list:
+    """Per backend, mode and call (``simulate``; ``value_and_grad`` with every gradient of the
+    scene and the final-step funnel): the (T+1, N, 2) arrays made filled, against
+    :data:`_ZEROS_NEEDED`."""
+    n, T = cfg.memory_case
+    x0, v0 = _state(n)
+    rows = []
+    for backend in installed_backends():
+        for mode in MODES:
+            scene = _scene(cfg, mode, T, spring=Spring(1.0, (0.5, 0.5)))
+            calls = {"simulate": lambda: simulate(scene, x0, v0, backend=backend),
+                     "value_and_grad": lambda: value_and_grad(scene, x0, v0, Funnel(0.5, "final"), backend=backend)}
+            for call, run in calls.items():      # larger than the grid's tables too (at least a trajectory's)
+                made = _filled_arrays(run, max((T + 1) * n * 2 * 8, 4 * scene.surface.values.nbytes + 1))
+                rows.append(dict(backend=backend, mode=mode, call=call, arrays=made,
+                                 needed=_ZEROS_NEEDED[(mode, call)]))
+    return rows
 
 
 def _hand_loop(scene: Scene, x0, v0):
@@ -230,24 +323,65 @@ def _effect_scenes(cfg: Config, n: int, T: int) -> dict:
     return {name: _scene(cfg, "dynamic", T, **k) for name, k in kw.items()}
 
 
-def effects(cfg: Config, log=print) -> dict:
-    """Step time of the bare scene, a loop written for it alone, and each effect."""
-    n, T = cfg.effects_case
-    x0, v0 = _state(n)
+def _nothing_scenes(cfg: Config, n: int, T: int) -> dict:
+    """Scenes that name a term whose coefficients are 0 (each must cost what the bare scene
+    costs), and on a cylinder (q1 periodic) a spring on both axes and one whose q1 axis is 0
+    (whose minimum image must not be computed: it must cost less than the first)."""
+    centers = np.random.default_rng(3).uniform(0.3, 0.7, (n, 2))
+    kw = {"bare": {}, "spring, k = 0": dict(spring=Spring(0.0, centers)),
+          "constant force (0, 0)": dict(effects=(Constant((0.0, 0.0)),)),
+          "noise, std 0": dict(effects=(Noise((0.0, 0.0), seed=0),)), "damping 0": dict(damping=0.0)}
+    out = {name: _scene(cfg, "dynamic", T, **k) for name, k in kw.items()}
+    cylinder = Surface(out["bare"].surface.values, (0.0, 0.0), (1.0, 1.0), (False, True))
+    for name, k in (("cylinder: spring k = (1, 1)", (1.0, 1.0)), ("cylinder: spring k = (1, 0)", (1.0, 0.0))):
+        out[name] = Scene(cylinder, dt=1e-3, n_steps=T, spring=Spring(k, centers))
+    return out
+
+
+def _effect_rows(scenes: dict, x0, v0, T: int, repeats: int, backend: str, clock=None) -> list:
+    """Per scene: forward and forward+adjoint per step on ``backend``, and as multiples of the
+    first scene (the bare one): medians, and the minima (the least disturbed runs). With a
+    ``clock``, the scenes' runs are interleaved (:func:`_interleaved`) and timed by it."""
     rows = []
-    scenes = _effect_scenes(cfg, n, T)
-    hand = _per(_timed(_hand_loop(scenes["bare"], x0, v0), cfg.repeats), T)
-    for name, scene in scenes.items():
-        fwd = _per(_timed(lambda: simulate(scene, x0, v0), cfg.repeats), T)
-        both = _per(_timed(lambda: value_and_grad(scene, x0, v0, OBJECTIVE, wrt=("values",)), cfg.repeats), T)
-        rows.append(dict(effect=name, forward=fwd, forward_adjoint=both))
+    if clock is not None:
+        fwd = _interleaved({name: (lambda s=s: simulate(s, x0, v0, backend=backend)) for name, s in scenes.items()},
+                           repeats, clock)
+        both = _interleaved({name: (lambda s=s: value_and_grad(s, x0, v0, OBJECTIVE, wrt=("values",),
+                                                                 backend=backend)) for name, s in scenes.items()},
+                            repeats, clock)
+        rows = [dict(effect=name, backend=backend, forward=_per(fwd[name], T), forward_adjoint=_per(both[name], T))
+                for name in scenes]
+    for name, scene in scenes.items() if clock is None else ():
+        fwd = _per(_timed(lambda: simulate(scene, x0, v0, backend=backend), repeats), T)
+        both = _per(_timed(lambda: value_and_grad(scene, x0, v0, OBJECTIVE, wrt=("values",), backend=backend),
+                           repeats), T)
+        rows.append(dict(effect=name, backend=backend, forward=fwd, forward_adjoint=both))
     bare = rows[0]
     for row in rows:
-        row["forward_over_bare"] = row["forward"]["median"] / bare["forward"]["median"]
-        row["forward_adjoint_over_bare"] = row["forward_adjoint"]["median"] / bare["forward_adjoint"]["median"]
+        for key in ("forward", "forward_adjoint"):
+            row[f"{key}_over_bare"] = row[key]["median"] / bare[key]["median"]
+            row[f"{key}_min_over_bare"] = row[key]["min"] / bare[key]["min"]
+    return rows
+
+
+def effects(cfg: Config, log=print) -> dict:
+    """Step time of the bare scene, a loop written for it alone (both on NumPy's loops), and
+    each effect on each backend; then the terms named with zero coefficients
+    (:func:`_nothing_scenes`) on each backend."""
+    n, T = cfg.effects_case
+    x0, v0 = _state(n)
+    scenes = _effect_scenes(cfg, n, T)
+    hand = _per(_timed(_hand_loop(scenes["bare"], x0, v0), cfg.repeats), T)
+    by_backend = {b: _effect_rows(scenes, x0, v0, T, cfg.repeats, b) for b in installed_backends()}
+    rows = by_backend.pop("numpy")
+    bare = rows[0]
     log(f"  effects N={n} T={T}: bare / hand loop = {bare['forward']['median'] / hand['median']:.3f}")
+    # interleaved, in CPU time (the runs use one core): on a shared machine it leaves out the waits for a core
+    nothing = [row for b in installed_backends()
+               for row in _effect_rows(_nothing_scenes(cfg, n, T), x0, v0, T, max(cfg.repeats, 9), b,
+                                       time.process_time)]
     return dict(N=n, T=T, hand_loop_forward=hand, bare_over_hand_loop=bare["forward"]["median"] / hand["median"],
-                rows=rows)
+                rows=rows, other_backends=by_backend, nothing=nothing)
 
 
 def _slope(xs, ys) -> float:
@@ -300,39 +434,118 @@ def _autodiff_entry(module, case, ref_grad, repeats: int, jitted: bool, enabled:
 
 
 def design(cfg: Config, log=print) -> list:
-    """Funnel and oscillator design gradients: pes_ref vs autograd vs JAX."""
+    """Funnel and oscillator design gradients: pes_ref on each backend vs autograd vs JAX;
+    then the funnel at the sizes of ``cfg.large`` against JAX only (autograd would take
+    minutes). ``pes_ref`` is NumPy's loops (the row's first backend), ``backends`` every
+    installed backend's time."""
     from pes_ref.bench import with_autograd as bench_autograd
     from pes_ref.bench import with_jax as bench_jax
+    cases = [(name, kw, True) for name, kw in cfg.design.items()]
+    cases += [("funnel", dict(cfg.design["funnel"], n_particles=n, n_steps=T), False) for n, T in cfg.large]
     rows = []
-    for name, kw in cfg.design.items():
+    for name, kw, with_autograd in cases:
         case = CASES[name](**kw)
         scene, objective = reference_scene(case), reference_objective(case)
-        _, ref_grad = reference_gradient(case, scene, objective)
-        ref = _timed(lambda: reference_gradient(case, scene, objective), max(cfg.repeats, 5))
+        _, ref_grad = reference_gradient(case, scene, objective, backend="numpy")
+        times = {b: _timed(lambda: reference_gradient(case, scene, objective, backend=b),
+                           max(cfg.repeats, 5) if case.x0.shape[0] < 4096 else 3) for b in installed_backends()}
+        ref = times["numpy"]
+        autograd = (_autodiff_entry(bench_autograd, case, ref_grad, cfg.autodiff_repeats, False, cfg.autodiff)
+                    if with_autograd else {"status": "skipped", "reason": "not run at this size"})
         row = dict(case=name, N=case.x0.shape[0], T=case.n_steps, grid=list(case.values.shape), pes_ref=ref,
-                   autograd=_autodiff_entry(bench_autograd, case, ref_grad, cfg.autodiff_repeats, False, cfg.autodiff),
+                   backends=times, autograd=autograd,
                    jax=_autodiff_entry(bench_jax, case, ref_grad, cfg.jax_repeats, True, cfg.autodiff))
         if row["autograd"]["status"] == "ok":
             row["autograd_over_pes_ref"] = row["autograd"]["steady"]["median"] / ref["median"]
         if row["jax"]["status"] == "ok":
-            row["pes_ref_over_jax_steady"] = ref["median"] / row["jax"]["steady"]["median"]
+            jax = row["jax"]["steady"]["median"]
+            row["pes_ref_over_jax_steady"] = ref["median"] / jax
+            row["over_jax_steady"] = {b: t["median"] / jax for b, t in times.items()}
             row["jax_first_call_over_pes_ref"] = row["jax"]["first_call_s"] / ref["median"]
         rows.append(row)
-        log(f"  design {name}: pes_ref {ref['median'] * 1e3:.1f} ms, autograd {row['autograd']['status']}, "
-            f"jax {row['jax']['status']}")
+        log(f"  design {name} N={row['N']} T={row['T']}: "
+            + ", ".join(f"{b} {t['median'] * 1e3:.1f} ms" for b, t in times.items())
+            + f", autograd {row['autograd']['status']}, jax {row['jax']['status']}")
     return rows
+
+
+def runs(cfg: Config, log=print) -> list:
+    """The oscillator design made by ``new_design("oscillator", seed=0, **cfg.runs)`` (``{}``:
+    the default of ``python -m pes_ref design oscillator``, gradient stage then polish),
+    whole, on each backend: wall and CPU seconds (``run_repeats`` runs, the fastest kept)."""
+    if cfg.runs is None:
+        return []
+    from pes_ref.synthesis import new_design, run_stages
+    out = []
+    for backend in installed_backends():
+        wall, cpu = [], []
+        for _ in range(cfg.run_repeats):
+            state = new_design("oscillator", seed=0, backend=backend, **cfg.runs)
+            t0, c0 = time.perf_counter(), time.process_time()
+            state = run_stages(state)
+            wall.append(time.perf_counter() - t0)
+            cpu.append(time.process_time() - c0)
+        options = {k: v if isinstance(v, (int, float, str)) else repr(v) for k, v in cfg.runs.items()}
+        out.append(dict(backend=backend, options=options, status=state.status, seconds=min(wall),
+                        cpu_seconds=min(cpu), fitness=state.polish_history["fitness"][-1:]))
+        log(f"  design oscillator on {backend}: {min(wall):.1f} s ({min(cpu):.1f} s CPU)")
+    return out
 
 
 # =========================================================================== targets
 
+#: The speed targets of the compiled loops and the populations (docs/performance.md):
+#: (backend, design gradient, N, largest multiple of JAX's steady-state time, inclusive).
+JAX_TARGETS = (("numba", 64, 0.5, True), ("numpy", 64, 1.8, True), ("numba", 4096, 1.0, False),
+               ("numpy", 4096, 1.0, False), ("numba", 65536, 1.0, False), ("numpy", 65536, 1.0, False))
+#: Seconds of the default oscillator design (``runs`` with no options) per backend.
+RUN_TARGETS = {"numba": 45.0, "numpy": 70.0}
+#: Largest multiple of the bare scene that a term with zero coefficients may cost (minimum
+#: of the repeats), and largest ratio of the cylinder's spring k = (1, 0) to k = (1, 1)
+#: (the zero axis's minimum image skipped).
+NOTHING_TARGET, ZERO_AXIS_TARGET = 1.05, 0.95
+
+
+def _compiled_targets(res: dict, add) -> None:
+    """The targets of the compiled loops, the populations and the scenes that pay only for
+    what they name."""
+    for backend, n, goal, inclusive in JAX_TARGETS:
+        row = next((r for r in res["design"] if r["case"] == "funnel" and r["N"] == n), None)
+        name = f"funnel gradient N = {n}: {backend} / JAX steady"
+        goal_text = f"{'<=' if inclusive else '<'} {goal:g}"
+        if row is None or "over_jax_steady" not in row or backend not in row["over_jax_steady"]:
+            add(name, None, goal_text, None)
+            continue
+        v = row["over_jax_steady"][backend]
+        add(name, v, goal_text, v <= goal if inclusive else v < goal)
+    for run in res.get("runs", []):
+        if not run["options"] and run["backend"] in RUN_TARGETS:
+            goal = RUN_TARGETS[run["backend"]]
+            add(f"default oscillator design on {run['backend']} (s)", run["seconds"], f"<= {goal:g}",
+                run["seconds"] <= goal)
+    rows = res["effects"]["nothing"]
+    for row in rows:
+        if row["effect"] not in ("bare",) and not row["effect"].startswith("cylinder"):
+            v = row["forward_min_over_bare"]
+            add(f"{row['backend']}: {row['effect']} / bare", v, f"<= {NOTHING_TARGET:g}", v <= NOTHING_TARGET)
+    for backend in dict.fromkeys(r["backend"] for r in rows):
+        cyl = {r["effect"]: r["forward"]["min"] for r in rows if r["backend"] == backend}
+        v = cyl["cylinder: spring k = (1, 0)"] / cyl["cylinder: spring k = (1, 1)"]
+        add(f"{backend}: cylinder spring k = (1, 0) / (1, 1)", v, f"<= {ZERO_AXIS_TARGET:g}", v <= ZERO_AXIS_TARGET)
+    extra = sum(max(0, len(r["arrays"]) - r["needed"]) for r in res["memory"]["zero_filled"])
+    add("trajectory-sized arrays filled, not needed", extra, "0", extra == 0)
+
+
 def targets(res: dict) -> list:
-    """Issue 6's targets with the measured numbers: (name, measured, goal, met or None if not measured)."""
+    """The targets with the measured numbers: (name, measured, goal, met or None if not
+    measured). Issue 6's are NumPy's loops' (the scaling, memory and effects of NumPy's
+    loops); then :func:`_compiled_targets`."""
     out = []
 
     def add(name, value, goal, met):
         out.append(dict(target=name, measured=value, goal=goal, met=met))
 
-    sc = res["scaling"]
+    sc = [r for r in res["scaling"] if r.get("backend", "numpy") == "numpy"]
     big = [r["adjoint_over_forward"] for r in sc if r["N"] >= 64]
     if big:
         add("adjoint / forward, N >= 64 (worst)", max(big), "<= 1.5", max(big) <= 1.5)
@@ -349,19 +562,13 @@ def targets(res: dict) -> list:
     add("bare scene / loop written for it alone", eff, "<= 1.05", eff <= 1.05)
     mem = res["memory"]["peak_over_trajectory_plus_grid"]
     add("peak memory / (trajectory + grid)", mem, "<= 1.5", mem <= 1.5)
-    for row in res["design"]:
-        if row["case"] != "funnel":
-            continue
+    for row in res["design"][:1]:
         if "autograd_over_pes_ref" in row:
             v = row["autograd_over_pes_ref"]
             add("funnel gradient: autograd / pes_ref", v, ">= 20", v >= 20)
         else:
             add("funnel gradient: autograd / pes_ref", None, ">= 20", None)
-        if "pes_ref_over_jax_steady" in row:
-            v = row["pes_ref_over_jax_steady"]
-            add("funnel gradient: pes_ref / JAX steady state", v, "<= 2", v <= 2)
-        else:
-            add("funnel gradient: pes_ref / JAX steady state", None, "<= 2", None)
+    _compiled_targets(res, add)
     return out
 
 
@@ -370,7 +577,7 @@ def targets(res: dict) -> list:
 def _versions() -> dict:
     import importlib.metadata as md
     out = {"python": platform.python_version(), "pes_ref": __version__}
-    for pkg in ("numpy", "scipy", "matplotlib", "autograd", "jax", "jaxlib"):
+    for pkg in ("numpy", "numba", "scipy", "matplotlib", "autograd", "jax", "jaxlib"):
         try:
             out[pkg] = md.version(pkg)
         except md.PackageNotFoundError:
@@ -406,6 +613,8 @@ def run(cfg: Config = FULL, log=print) -> dict:
     res["exponents"] = exponents(cfg, log)
     log("design gradients ...")
     res["design"] = design(cfg, log)
+    log("design runs ...")
+    res["runs"] = runs(cfg, log)
     res["targets"] = targets(res)
     res["machine"]["load_average_end"] = os.getloadavg() if hasattr(os, "getloadavg") else None
     res["seconds"] = time.perf_counter() - t0
@@ -426,33 +635,56 @@ def _fmt_v(v) -> str:
 def format_report(res: dict) -> str:
     """The human-readable tables."""
     L = [f"pes_ref bench  {res['date']}  {res['machine']['cpu']} x{res['machine']['cpu_count']}  "
-         f"load {res['machine']['load_average']}  numpy {res['versions']['numpy']}", ""]
+         f"load {res['machine']['load_average']}  numpy {res['versions']['numpy']}  "
+         f"numba {res['versions'].get('numba')}", ""]
     L.append(f"Scaling on a {res['config']['grid']}x{res['config']['grid']} grid: us per step, median [min-max] "
              f"of {res['config']['repeats']} runs")
-    L.append(f"{'mode':11s} {'N':>6s} {'T':>5s} {'forward':>26s} {'adjoint':>26s} {'fwd+adj':>26s} "
+    L.append(f"{'backend':7s} {'mode':11s} {'N':>6s} {'T':>5s} {'forward':>26s} {'adjoint':>26s} {'fwd+adj':>26s} "
              f"{'fwd p-s/s':>10s} {'f+a p-s/s':>10s} {'adj/fwd':>7s}")
     for r in res["scaling"]:
-        L.append(f"{r['mode']:11s} {r['N']:6d} {r['T']:5d} {_fmt_t(r['forward']):>26s} {_fmt_t(r['adjoint']):>26s} "
+        L.append(f"{r.get('backend', 'numpy'):7s} {r['mode']:11s} {r['N']:6d} {r['T']:5d} "
+                 f"{_fmt_t(r['forward']):>26s} {_fmt_t(r['adjoint']):>26s} "
                  f"{_fmt_t(r['forward_adjoint']):>26s} {r['forward_particle_steps_per_s']:10.3g} "
                  f"{r['forward_adjoint_particle_steps_per_s']:10.3g} {r['adjoint_over_forward']:7.2f}")
     m = res["memory"]
     L += ["", f"Memory (value_and_grad, N={m['N']}, T={m['T']}): peak {m['peak_bytes'] / 2**20:.1f} MiB, trajectory "
           f"{m['trajectory_bytes'] / 2**20:.1f} MiB + grid {m['grid_bytes'] / 2**20:.2f} MiB -> "
-          f"ratio {m['peak_over_trajectory_plus_grid']:.2f}"]
+          f"ratio {m['peak_over_trajectory_plus_grid']:.2f}"
+          + "".join(f"; {b}: {v:.2f}" for b, v in m.get("by_backend", {}).items() if b != "numpy"),
+          "Arrays of a trajectory's size made filled (zeros, ones, full) per run, and how many must be "
+          "(their entries stay 0):"]
+    for r in m.get("zero_filled", []):
+        flag = "" if len(r["arrays"]) <= r["needed"] else "   <- more than needed"
+        L.append(f"  {r['backend']:6s} {r['mode']:11s} {r['call']:15s} {len(r['arrays'])} ({', '.join(r['arrays']) or '-'})"
+                 f", needed {r['needed']}{flag}")
     e = res["effects"]
+    header = f"{'effect':28s} {'forward':>26s} {'x bare':>7s} {'fwd+adj':>26s} {'x bare':>7s}"
+
+    def effect_lines(rows, mins=False):
+        for r in rows:
+            a, b = ("forward_min_over_bare", "forward_adjoint_min_over_bare") if mins else \
+                ("forward_over_bare", "forward_adjoint_over_bare")
+            yield (f"{r['effect']:28s} {_fmt_t(r['forward']):>26s} {r[a]:7.2f} "
+                   f"{_fmt_t(r['forward_adjoint']):>26s} {r[b]:7.2f}")
     L += ["", f"Effects (dynamic, N={e['N']}, T={e['T']}): us per step; loop written for the bare scene alone: "
           f"{_fmt_t(e['hand_loop_forward'])}; bare / that loop = {e['bare_over_hand_loop']:.3f}",
-          f"{'effect':18s} {'forward':>26s} {'x bare':>7s} {'fwd+adj':>26s} {'x bare':>7s}"]
-    for r in e["rows"]:
-        L.append(f"{r['effect']:18s} {_fmt_t(r['forward']):>26s} {r['forward_over_bare']:7.2f} "
-                 f"{_fmt_t(r['forward_adjoint']):>26s} {r['forward_adjoint_over_bare']:7.2f}")
+          "numpy:", header, *effect_lines(e["rows"])]
+    for backend, rows in e.get("other_backends", {}).items():
+        L += [f"{backend}:", header, *effect_lines(rows)]
+    if e.get("nothing"):
+        L += ["", "Named with zero coefficients (must cost what the bare scene costs), and a cylinder's spring with "
+                  "a zero q1 axis (must cost less than k = (1, 1)): CPU time, x bare from the minima of the repeats"]
+        for backend in dict.fromkeys(r["backend"] for r in e["nothing"]):
+            L += [f"{backend}:", header, *effect_lines([r for r in e["nothing"] if r["backend"] == backend], True)]
     x = res["exponents"]
     L += ["", f"Exponents (fwd+adj): time ~ N^{x['N']['exponent']:.2f} (N = {x['N']['sizes']}, T = {x['N']['T']}), "
           f"~ T^{x['T']['exponent']:.2f} (T = {x['T']['steps']}, N = {x['T']['N']})"]
     L += ["", "Design gradients (ms, median [min-max]); autodiff versions checked against pes_ref first"]
     for r in res["design"]:
-        L.append(f"  {r['case']} ({r['grid'][0]}x{r['grid'][1]}, N={r['N']}, T={r['T']}): "
-                 f"pes_ref {_fmt_t(r['pes_ref'], 1e3)}")
+        L.append(f"  {r['case']} ({r['grid'][0]}x{r['grid'][1]}, N={r['N']}, T={r['T']}):")
+        for backend, t in r.get("backends", {"numpy": r["pes_ref"]}).items():
+            ratio = r.get("over_jax_steady", {}).get(backend)
+            L.append(f"    {backend:8s} {_fmt_t(t, 1e3)}" + ("" if ratio is None else f"  (/ JAX steady = {ratio:.2f})"))
         for lib in ("autograd", "jax"):
             d = r[lib]
             if d["status"] != "ok":
@@ -461,14 +693,16 @@ def format_report(res: dict) -> str:
             extra = f", compile {d['compile_s']:.2f} s, first call {d['first_call_s']:.2f} s" if lib == "jax" else ""
             L.append(f"    {lib:8s} {_fmt_t(d['steady'], 1e3)}  (rel. err {d['relative_error']:.1e}{extra})")
         if "autograd_over_pes_ref" in r:
-            L.append(f"    autograd / pes_ref = {r['autograd_over_pes_ref']:.1f}")
-        if "pes_ref_over_jax_steady" in r:
-            L.append(f"    pes_ref / JAX steady = {r['pes_ref_over_jax_steady']:.2f}; "
-                     f"JAX first call (compile included) / pes_ref = {r['jax_first_call_over_pes_ref']:.0f}")
+            L.append(f"    autograd / numpy = {r['autograd_over_pes_ref']:.1f}")
+    if res.get("runs"):
+        L += ["", "Design runs: the oscillator design, gradient stage then polish"
+                  + (f" (options {res['runs'][0]['options']})" if res["runs"][0]["options"] else " (the default)")]
+        for r in res["runs"]:
+            L.append(f"  {r['backend']:8s} {r['seconds']:7.1f} s  ({r['cpu_seconds']:.1f} s CPU), {r['status']}")
     L += ["", "Targets (docs/performance.md)"]
     for t in res["targets"]:
         status = {True: "met", False: "NOT met", None: "not measured"}[t["met"]]
-        L.append(f"  {t['target']:48s} {_fmt_v(t['measured']):>10s}  goal {t['goal']:8s} {status}")
+        L.append(f"  {t['target']:52s} {_fmt_v(t['measured']):>10s}  goal {t['goal']:8s} {status}")
     L.append(f"\n(total {res['seconds']:.0f} s)")
     return "\n".join(L)
 

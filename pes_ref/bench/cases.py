@@ -129,9 +129,11 @@ def reference_objective(case: DesignCase):
     return Oscillator(amplitude=case.objective[1], omega=case.objective[2])
 
 
-def reference_gradient(case: DesignCase, scene: Scene | None = None, objective=None):
-    """``(loss, dL/dvalues)`` by pes_ref's adjoint (``value_and_grad(..., wrt="values")``)."""
+def reference_gradient(case: DesignCase, scene: Scene | None = None, objective=None, backend: str | None = None):
+    """``(loss, dL/dvalues)`` by pes_ref's adjoint (``value_and_grad(..., wrt="values")``) on
+    ``backend`` (None: the default, :func:`pes_ref.core.backends.default_backend`)."""
     scene = reference_scene(case) if scene is None else scene
     objective = reference_objective(case) if objective is None else objective
-    loss, grads, _ = value_and_grad(scene, case.x0, case.v0, objective, wrt=("values",), fext=case.fext)
+    loss, grads, _ = value_and_grad(scene, case.x0, case.v0, objective, wrt=("values",), fext=case.fext,
+                                    backend=backend)
     return loss, grads["values"]

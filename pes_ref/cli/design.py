@@ -7,7 +7,7 @@
 - ``design funnel|oscillator [--iterations N] [--seed S] [--out FILE.npz] [--resume FILE.npz]
   [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C]
   [--particles N] [--plan gait|overshoot|eq6] [--evaluations N] [--polish-particles N]
-  [--workers N] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
+  [--workers N] [--backend numba|numpy] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
   run (or continue) a design, its gradient stage and then its polish if it has one
   (:func:`pes_ref.synthesis.stages.run_stages`), and write its file
   (:mod:`pes_ref.synthesis.design_file`). A progress line goes to stderr every ``--progress``
@@ -48,7 +48,8 @@ SET_NAMES = {
 #: the plan's parameters here, each problem parameter ``NAME`` as ``--set NAME`` (:func:`_flags`).
 PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-final", "clip": "--clip",
               "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed",
-              "plan": "--plan", "evaluations": "--evaluations", "polish_particles": "--polish-particles"}
+              "plan": "--plan", "evaluations": "--evaluations", "polish_particles": "--polish-particles",
+              "backend": "--backend"}
 #: ``--plan`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_PLANS` (tested equal;
 #: written out for the same reason as :data:`SET_NAMES`).
 OSCILLATOR_PLAN_NAMES = ("gait", "overshoot", "eq6")
@@ -103,6 +104,10 @@ def add_parser(sub) -> None:
                    help="polish stage only: training particles of the fitness (default: the polish plan's)")
     p.add_argument("--workers", type=int, default=1,
                    help="processes evaluating the polish's candidates (the result does not depend on it)")
+    p.add_argument("--backend", choices=["numba", "numpy"], default=None,
+                   help="the loops that run the design: 'numba' (compiled; the default when the extra 'fast' is "
+                        "installed) or 'numpy'; the design file records it and a resumed run keeps its own (the "
+                        "gradients differ in their last bits, so a long design may end elsewhere)")
     p.add_argument("--optimizer", choices=["rmsprop", "adam"], default=None,
                    help="the optimizer (default: the plan's; a resumed run keeps its own)")
     p.add_argument("--clip", type=float, default=None, metavar="NORM", help="clip the gradient to this norm (default: the plan's)")
@@ -207,6 +212,10 @@ def _run_design(args) -> int:
             if "optimizer" in plan_over and plan_over["optimizer"] != state.plan.optimizer:
                 raise ValueError(f"--optimizer {plan_over['optimizer']} differs from the resumed run's "
                                  f"{state.plan.optimizer}")
+            if args.backend is not None and args.backend != state.backend:
+                raise ValueError(f"--backend {args.backend} differs from the resumed run's {state.backend}")
+            from pes_ref.core.backends import check_backend
+            check_backend(state.backend)
             state.plan = dataclasses.replace(state.plan, **plan_over)
             synthesis.check_stable_design(state)
             synthesis.check_design_memory(state)
@@ -220,9 +229,10 @@ def _run_design(args) -> int:
             polish = inputs.polish()
             seed = 0 if args.seed is None else args.seed
             if problem is not None:
-                state = synthesis.new_design(problem, seed=seed, plan=plan)
+                state = synthesis.new_design(problem, seed=seed, plan=plan, backend=args.backend)
             else:
-                state = synthesis.new_design(kind, seed=seed, plan=plan, polish=polish, **sets)
+                state = synthesis.new_design(kind, seed=seed, plan=plan, polish=polish, backend=args.backend,
+                                             **sets)
             out = args.out if args.out is not None else f"{problem.name if problem is not None else kind}.npz"
             may_overwrite = args.force
         output_file(out, "design", force=may_overwrite)
@@ -253,8 +263,8 @@ def _run_design(args) -> int:
             save_design(out, state, overwrite=may_overwrite)   # claims the file before the long run
         elif not os.access(out, os.W_OK):                      # --force over a file kept until there is a result
             raise PermissionError(f"cannot write {out}: the file is not writable")
-        state = synthesis.run_stages(state, state.plan.iterations, executor=executor, callback=progress,
-                                     progress_every=args.progress, checkpoint=checkpoint)
+        state = synthesis.run_stages(state, state.plan.iterations, executor=executor, tasks=args.workers,
+                                     callback=progress, progress_every=args.progress, checkpoint=checkpoint)
         if fresh and state.iteration == 0 and state.status.startswith(synthesis.STOPPED):
             if created:
                 os.remove(out)                                 # never leave a file that holds no iteration

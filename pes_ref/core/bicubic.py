@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pes_ref.core.grid import Cells, Located, Locator
+from pes_ref.core.grid import Cells, Located, Locator, stacked_table
 
 __all__ = ["CATMULL_ROM", "cell_coefficients", "cell_coefficients_vjp", "grid_energy", "grid_slope",
            "grid_slope_vjp_q", "grid_slope_vjp_coefficients", "grid_slope_vjp_values", "slope_table",
@@ -324,7 +324,7 @@ class BicubicForce:
     rows, the (N, 16) monomials, one batched matmul, the switches."""
 
     def __init__(self, field, n_particles: int):
-        self._setup(field.values, field.lower, field.h, field.periodic, n_particles)
+        self._setup(field.values, field.lower, field.h, field.periodic, n_particles, field.offsets)
 
     @classmethod
     def from_grid(cls, values, lower, h, periodic, n_particles: int) -> "BicubicForce":
@@ -332,9 +332,11 @@ class BicubicForce:
         self._setup(values, lower, h, periodic, n_particles)
         return self
 
-    def _setup(self, values, lower, h, periodic, n_particles):
-        self.locator = Locator(lower, h, values.shape, periodic)
-        self.table = -slope_table(cell_coefficients(values, periodic), h).reshape(-1, 2, 16)
+    def _setup(self, values, lower, h, periodic, n_particles, offsets=None):
+        self.locator = Locator(lower, h, values.shape[-2:], periodic)
+        self.table = stacked_table(lambda v: -slope_table(cell_coefficients(v, periodic), h).reshape(-1, 2, 16),
+                                   values)
+        self.offsets = offsets
         self.buf = self.locator.buffers((n_particles,))
         self.rows = np.empty((n_particles, 2, 16))
         self.powers, self.monomials = _monomial_buffers(n_particles)
@@ -343,11 +345,13 @@ class BicubicForce:
     def _bind(self):
         locate_into, table, rows, powers, monomials = (self.locator.bind(self.buf), self.table, self.rows,
                                                        self.powers, self.monomials)
-        cell, f = self.buf["cell"], self.buf["f"]
+        cell, f, offsets = self.buf["cell"], self.buf["f"], self.offsets
         inside = self.buf["inside"] if self.locator.clips else None
 
         def call(x, out):
             locate_into(x)
+            if offsets is not None:          # a population: each particle's grid
+                np.add(cell, offsets, out=cell)
             np.take(table, cell, axis=0, out=rows, mode="clip")
             np.einsum("nrj,nj->nr", rows, _monomials_into(f, powers, monomials), out=out)
             if inside is not None:

@@ -38,7 +38,7 @@ import weakref
 
 import numpy as np
 
-from pes_ref.core.grid import Cells, Located, Locator, locate
+from pes_ref.core.grid import Cells, Located, Locator, locate, stacked_table
 
 __all__ = ["grid_energy", "grid_slope", "grid_slope_vjp_q", "grid_slope_vjp_values",
            "point_energy", "point_slope", "point_force", "point_force_vjp",
@@ -261,8 +261,9 @@ class BilinearForce:
     """
 
     def __init__(self, field, n_particles: int):
-        self.locator = Locator(field.lower, field.h, field.values.shape, field.periodic)
-        self.table = coefficient_table(field.values, field.h)
+        self.locator = Locator(field.lower, field.h, field.values.shape[-2:], field.periodic)
+        self.table = stacked_table(lambda v: coefficient_table(v, field.h), field.values)
+        self.offsets = field.offsets
         self.buf = self.locator.buffers((n_particles,))
         self.coef = np.empty((n_particles, 4))
         self.call = self._bind()
@@ -270,9 +271,10 @@ class BilinearForce:
     def _bind(self):
         """The call as a closure over its buffers (no attribute lookups per step). The
         force is built in a buffer of its own (whose column views are made once) and
-        written to ``out`` by the switches' multiplication (a copy on a torus)."""
+        written to ``out`` by the switches' multiplication (a copy on a torus). In a
+        population each particle's grid offset is added to the cell it is in (one call)."""
         locate_into = self.locator.bind(self.buf)
-        take, cell, coef = self.table.take, self.buf["cell"], self.coef
+        take, cell, coef, offsets = self.table.take, self.buf["cell"], self.coef, self.offsets
         A0, A1, D0, D1 = (coef[:, i] for i in range(4))
         f0, f1 = self.buf["f"][:, 0], self.buf["f"][:, 1]
         mul, add, copyto = np.multiply, np.add, np.copyto
@@ -282,6 +284,8 @@ class BilinearForce:
 
         def call(x, out):
             locate_into(x)
+            if offsets is not None:
+                add(cell, offsets, cell)
             take(cell, 0, coef, "clip")
             mul(D0, f1, F0)
             add(F0, A0, F0)
@@ -461,5 +465,6 @@ class BilinearAdjoint:
 
 def forward_kernel(field, n_particles: int):
     """The forward grid force for ``n_particles`` (a :class:`~pes_ref.core.kernels.GridForce`):
-    :class:`BilinearForce1` for one particle, else :class:`BilinearForce` (bit-identical)."""
-    return (BilinearForce1 if n_particles == 1 else BilinearForce)(field, n_particles)
+    :class:`BilinearForce1` for one particle on one grid, else :class:`BilinearForce`
+    (bit-identical)."""
+    return (BilinearForce1 if n_particles == 1 and field.offsets is None else BilinearForce)(field, n_particles)

@@ -104,7 +104,8 @@ def available_memory() -> int | None:
 
 
 def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_steps", particles: str | None = None,
-                 length: str | None = None, fixed_particles: bool = False, fixed_steps: bool = False) -> int:
+                 length: str | None = None, fixed_particles: bool = False, fixed_steps: bool = False,
+                 runs: int = 1) -> int:
     """Refuse a run that cannot fit in the available memory; return its bytes.
 
     ``steps`` and ``particles`` name the arguments that set T and N as the caller's user
@@ -112,21 +113,22 @@ def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_s
     says how T reads (default ``"<steps> = T"``, e.g. ``"duration = 1e9 (5e11 steps of dt 0.002)"``);
     ``fixed_particles``: N is not the user's to change, and the refusal says to reduce T alone;
     ``fixed_steps``: T is not (a saved design's), and the refusal names and says to reduce N alone.
+    ``runs``: that many runs of this size held at once (a population of them).
 
     Raises
     ------
     RunTooLargeError
-        ``run_bytes(n_steps, n_particles, kind)`` exceeds :func:`available_memory`; one
+        ``runs * run_bytes(n_steps, n_particles, kind)`` exceeds :func:`available_memory`; one
         line naming ``steps`` (its key), N and both sizes in GiB (a ``ValueError``).
     """
-    need = run_bytes(n_steps, n_particles, kind)
+    need = runs * run_bytes(n_steps, n_particles, kind)
     avail = available_memory()
     if avail is not None and need > avail:
         count = f"{particles} = {n_particles}" if particles else f"N = {n_particles} particles"
         reduce = ([] if fixed_steps else [steps]) + ([] if fixed_particles else [particles or "the number of particles"])
         raise RunTooLargeError(
             particles if fixed_steps else steps,
-            f"{length or f'{steps} = {n_steps}'} with {count} needs about {need / _GIB:.3g} GiB "
+            f"{length or f'{steps} = {n_steps}'} with {count}{f' ({runs} runs at once)' if runs > 1 else ''} needs about {need / _GIB:.3g} GiB "
             f"({ARRAYS[kind]} arrays of (T+1, N, 2) float64), more than the {avail / _GIB:.3g} GiB of "
             f"memory available; reduce {' or '.join(reduce)}",
             names=(steps, particles) if particles else (steps,))

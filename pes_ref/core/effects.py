@@ -14,7 +14,7 @@ import numpy as np
 
 from pes_ref.core import checks
 
-__all__ = ["Constant", "PerParticle", "Window", "Noise", "Schedule", "build_schedule", "step_times"]
+__all__ = ["Constant", "PerParticle", "Window", "Noise", "Schedule", "build_schedule", "step_times", "all_zero"]
 
 
 def step_times(n_steps: int, dt: float, t0: float = 0.0) -> np.ndarray:
@@ -34,6 +34,9 @@ class Constant:
     def add_to(self, sched: np.ndarray, times: np.ndarray) -> None:
         sched += self.force
 
+    def is_zero(self) -> bool:
+        return not self.force.any()
+
 
 @dataclass(frozen=True)
 class PerParticle:
@@ -50,6 +53,9 @@ class PerParticle:
                 f"PerParticle.force must have shape ({sched.shape[1]}, 2) for {sched.shape[1]} particles, "
                 f"got {self.force.shape}")
         sched += self.force
+
+    def is_zero(self) -> bool:
+        return not self.force.any()
 
 
 @dataclass(frozen=True)
@@ -70,6 +76,9 @@ class Noise:
     def add_to(self, sched, times) -> None:
         sched += np.random.default_rng(self.seed).standard_normal(sched.shape) * self.std
 
+    def is_zero(self) -> bool:
+        return not self.std.any()
+
 
 @dataclass(frozen=True)
 class Window:
@@ -88,10 +97,13 @@ class Window:
             raise ValueError(f"Window.t_end must be > t_start, got [{self.t_start}, {self.t_end})")
 
     def add_to(self, sched, times) -> None:
-        inner = np.zeros_like(sched)
+        inner = np.zeros(sched.shape)
         self.effect.add_to(inner, times)
         on = (times >= self.t_start) & (times < self.t_end)
         sched[on] += inner[on]
+
+    def is_zero(self) -> bool:
+        return self.effect.is_zero()
 
 
 @dataclass(frozen=True)
@@ -110,8 +122,18 @@ class Schedule:
             raise ValueError(f"force must have shape {sched.shape} (T+1, N, 2), got {self.force.shape}")
         sched += self.force
 
+    def is_zero(self) -> bool:
+        return not self.force.any()
 
-def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float = 0.0):
+
+def all_zero(effects) -> bool:
+    """Whether every effect of ``effects`` pushes with 0 everywhere (each one's ``is_zero``;
+    an effect without that method counts as not zero): then a run needs no external force
+    at all, and nothing is drawn or realized."""
+    return all(getattr(effect, "is_zero", lambda: False)() for effect in effects)
+
+
+def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float = 0.0, out=None):
     """Realize the external force schedule of a list of effects.
 
     Parameters
@@ -119,6 +141,8 @@ def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float
     effects : sequence of effects
     n_particles, n_steps : int
     dt, t0 : float
+    out : ndarray (T+1, N, 2), optional
+        Where to realize it (a view of a population's schedule), instead of a fresh array.
 
     Returns
     -------
@@ -127,7 +151,11 @@ def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float
     """
     if not effects:
         return None
-    sched = np.zeros((n_steps + 1, n_particles, 2))
+    if out is None:
+        sched = np.zeros((n_steps + 1, n_particles, 2))
+    else:
+        sched = out
+        sched.fill(0.0)
     times = step_times(n_steps, dt, t0)
     for effect in effects:
         effect.add_to(sched, times)

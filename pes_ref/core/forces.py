@@ -19,8 +19,8 @@ from typing import NamedTuple
 import numpy as np
 
 from pes_ref.core.interpolations import interpolation
-from pes_ref.core.terms import (SpringAdjoint, SpringKernel, WallAdjoint, WallKernel, spring_add_force, spring_energy,
-                                spring_force_vjp, wall_add_force, wall_energy, wall_force_vjp)
+from pes_ref.core.terms import (SpringAdjoint, SpringKernel, WallAdjoint, WallKernel, spring_add_force, spring_axes,
+                                spring_energy, spring_force_vjp, wall_add_force, wall_energy, wall_force_vjp)
 
 __all__ = ["Field", "force", "force_vjp", "potential_energy", "GradAccumulator", "ForceKernel",
            "ForceAdjoint"]
@@ -31,9 +31,16 @@ class Field(NamedTuple):
 
     ``values`` (n0, n1), ``lower``/``h``/``length`` (2,), ``periodic`` tuple of 2 bool;
     ``spring`` is ``(k, center)`` or None; ``walls`` is ``(k_w, lo, hi)`` or None
-    (see :func:`pes_ref.core.terms.wall_bounds`); ``interpolation`` names the grid
-    interpolation (a key of :data:`pes_ref.core.interpolations.INTERPOLATIONS`;
-    ``"bilinear"`` is docs/spec.md section 2).
+    (see :func:`pes_ref.core.terms.wall_bounds`; ``k_w``, ``lo``, ``hi`` broadcastable to
+    (N, 2)); ``interpolation`` names the grid interpolation (a key of
+    :data:`pes_ref.core.interpolations.INTERPOLATIONS`; ``"bilinear"`` is docs/spec.md
+    section 2).
+
+    A population (:mod:`pes_ref.core.population`) runs many grids of one shape at once:
+    ``values`` is then a stack (K, n0, n1) and ``offsets`` (N,) intp holds each particle's
+    grid as the row offset ``c n0 n1`` of grid ``c`` in the stacked per-cell tables
+    (:func:`pes_ref.core.grid.stacked_table`), added to the cell index after the lookup;
+    None for a single grid. Only the forward kernels take a population.
     """
 
     values: np.ndarray
@@ -44,6 +51,7 @@ class Field(NamedTuple):
     spring: tuple | None
     walls: tuple | None
     interpolation: str = "bilinear"
+    offsets: np.ndarray | None = None
 
 
 class GradAccumulator:
@@ -115,9 +123,10 @@ def _terms_force_vjp(field: Field, x, w, xbar, acc: GradAccumulator) -> None:
 # =========================================================================== the hot loop's force
 
 def _term_kernels(field: Field, n_particles: int) -> tuple:
-    """Forward kernels of the spring and the walls, only for the terms the field has."""
+    """Forward kernels of the spring and the walls, only for the terms the field has (a
+    spring whose ``k`` is 0 on both axes has no force: ``out -= 0 delta`` changes no value)."""
     out = []
-    if field.spring is not None:
+    if field.spring is not None and spring_axes(field.spring[0]):
         out.append(SpringKernel(field.spring[0], field.spring[1], field.length, field.periodic, n_particles))
     if field.walls is not None:
         out.append(WallKernel(*field.walls, n_particles))
@@ -125,9 +134,10 @@ def _term_kernels(field: Field, n_particles: int) -> tuple:
 
 
 def _term_adjoints(field: Field, xs: np.ndarray, want: frozenset) -> tuple:
-    """Adjoint kernels of the spring and the walls, only for the terms the field has."""
+    """Adjoint kernels of the spring and the walls, only for the terms the field has (a
+    spring with ``k`` 0 everywhere only when its gradients are wanted)."""
     out = []
-    if field.spring is not None:
+    if field.spring is not None and (spring_axes(field.spring[0]) or {"spring_k", "spring_center"} & want):
         out.append(SpringAdjoint(field.spring[0], field.spring[1], field.length, field.periodic, xs,
                                  "spring_k" in want, "spring_center" in want))
     if field.walls is not None:

@@ -49,12 +49,14 @@ def _coefficients(dt: float, mass: np.ndarray, damping, n: int):
 
 @reports_nonfinite
 def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
-                 mass: np.ndarray, damping, progress=None) -> Trajectory:
+                 mass: np.ndarray, damping, progress=None, refuse_nonfinite: bool = True,
+                 out: Trajectory | None = None) -> Trajectory:
     """The Gronbech-Jensen-Farago step, deterministic part (``docs/adjoint.md`` (G1)-(G4)).
 
     Parameters and return value as :func:`pes_ref.core.integrator.simulate_dynamic`: ``x0, v0``
     (N, 2); ``fext`` (T+1, N, 2) or None; ``mass`` and ``damping`` broadcastable to
-    (N, 2), ``damping=None`` for an undamped scene (then this is velocity Verlet).
+    (N, 2), ``damping=None`` for an undamped scene (then this is velocity Verlet);
+    ``progress``, ``refuse_nonfinite``, ``out``.
 
     Returns
     -------
@@ -62,7 +64,7 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
         ``x, v, f`` of shape (T+1, N, 2).
     """
     N = x0.shape[0]
-    x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps)
+    x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps, out)
     a, _, d, e = _coefficients(dt, mass, damping, N)
     damped = d is not None
     dt_d = dt * d if damped else None
@@ -86,7 +88,8 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
             np.multiply(p, e, out=p)
         np.add(vn1, p, out=vn1)
     traj = Trajectory(x, v, f)
-    check_finite(traj, f"integrator='gjf', dt={dt!r}")
+    if refuse_nonfinite:
+        check_finite(traj, f"integrator='gjf', dt={dt!r}")
     return traj
 
 
@@ -109,7 +112,7 @@ def adjoint_gjf(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, dam
     abar = np.zeros((N, 2)) if want_mass else None                    # dL/da
     # dL/dc through d and e: d'(c) = -d^2, e'(c) = -2 d^2; sbar collects dL/dd + 2 dL/de
     sbar = np.zeros((N, 2)) if (want_damping or (want_mass and damped)) else None
-    gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
+    gforce = np.empty((T + 1, N, 2)) if "force" in want else None    # every state written
 
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()

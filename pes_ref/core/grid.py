@@ -28,7 +28,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Cells", "Located", "Locator", "spacing", "locate", "wrap", "clip"]
+__all__ = ["Cells", "Located", "Locator", "spacing", "locate", "wrap", "clip", "stacked_table"]
 
 try:   # the clip ufunc itself: one pass for both bounds, without np.clip's Python wrapper
     from numpy._core.umath import clip
@@ -244,6 +244,16 @@ class Locator:
                 k1 = k1 - float(floor(k1 / n1)) * n1
             return int(k0 * nn1 + k1), f0, f1, s0, s1
         return locate1
+
+
+def stacked_table(table, values: np.ndarray) -> np.ndarray:
+    """A per-cell table of a grid (n0, n1), or of a stack of grids (K, n0, n1) one after
+    another: ``table(values)`` of each grid (rows ``i * n1 + j``), concatenated, so that
+    grid ``c``'s cells are the rows ``c n0 n1 + i n1 + j`` (a population's tables: each
+    particle's lookup adds its grid's offset ``c n0 n1`` to the cell it finds)."""
+    if values.ndim == 2:
+        return table(values)
+    return np.concatenate([table(v) for v in values])
 
 
 def locate(q: np.ndarray, lower: np.ndarray, h: np.ndarray, shape: tuple, periodic) -> Cells:

@@ -49,7 +49,7 @@ from pes_ref.core.progress import reporting
 
 __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
            "adjoint_quasistatic", "NonFiniteError", "check_finite", "reports_nonfinite", "step_coefficients",
-           "start_dynamic", "finish_dynamic_adjoint"]
+           "trajectory_arrays", "quasistatic_velocities", "start_dynamic", "finish_dynamic_adjoint"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -106,14 +106,22 @@ def step_coefficients(dt: float, mass, damping, n: int):
     return a, c
 
 
-def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: int):
-    """Allocate a dynamic run's (T+1, N, 2) arrays x, v, f, store state 0 and its force
-    ``F_0 = F(X_0) + F_ext[0]``; return ``(x, v, f, force)`` with the run's force kernel
-    (shared by :func:`simulate_dynamic` and :func:`pes_ref.core.gjf.simulate_gjf`)."""
-    T, N = n_steps, x0.shape[0]
-    x = np.empty((T + 1, N, 2))
-    v = np.empty((T + 1, N, 2))
-    f = np.empty((T + 1, N, 2))
+def trajectory_arrays(n_steps: int, n_particles: int, out=None) -> tuple:
+    """A run's (T+1, N, 2) arrays ``x, v, f``: fresh, or ``out``'s (a :class:`Trajectory` of
+    such arrays that a caller running many runs of one size reuses: fresh memory costs its
+    page faults on first touch, and a large run's arrays are fresh every time)."""
+    if out is None:
+        shape = (n_steps + 1, n_particles, 2)
+        return np.empty(shape), np.empty(shape), np.empty(shape)
+    return out.x, out.v, out.f
+
+
+def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: int, out=None):
+    """A dynamic run's (T+1, N, 2) arrays x, v, f (:func:`trajectory_arrays`), with state 0
+    and its force ``F_0 = F(X_0) + F_ext[0]`` stored; return ``(x, v, f, force)`` with the
+    run's force kernel (shared by :func:`simulate_dynamic` and :func:`pes_ref.core.gjf.simulate_gjf`)."""
+    N = x0.shape[0]
+    x, v, f = trajectory_arrays(n_steps, N, out)
     force = ForceKernel(field, N)
     x[0] = x0
     v[0] = v0
@@ -125,7 +133,8 @@ def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: i
 
 @reports_nonfinite
 def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
-                     mass: np.ndarray, damping, progress=None) -> Trajectory:
+                     mass: np.ndarray, damping, progress=None, refuse_nonfinite: bool = True,
+                     out: Trajectory | None = None) -> Trajectory:
     """Damped velocity Verlet of the paper's eqs. (2)-(3) (docs/spec.md section 5.1).
 
     Parameters
@@ -143,13 +152,18 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
     progress : callable or None
         ``progress("forward", done, n_steps)`` every few hundred steps
         (:func:`pes_ref.core.progress.reporting`).
+    refuse_nonfinite : bool
+        Raise :class:`NonFiniteError` for a trajectory that left the finite numbers
+        (:func:`check_finite`); False returns it (a population checks each member's part).
+    out : Trajectory or None
+        Arrays (T+1, N, 2) to run into instead of fresh ones (:func:`trajectory_arrays`).
 
     Returns
     -------
     Trajectory
     """
     N = x0.shape[0]
-    x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps)
+    x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps, out)
     a, c = step_coefficients(dt, mass, damping, N)
     damped = c is not None
     if damped:
@@ -185,7 +199,8 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
             sub(vn1, cv, vn1)
             mul(vn1, inv_1pc, vn1)
     traj = Trajectory(x, v, f)
-    check_finite(traj, f"dt={dt!r}")
+    if refuse_nonfinite:
+        check_finite(traj, f"dt={dt!r}")
     return traj
 
 
@@ -225,7 +240,7 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     want_mass, want_damping = "mass" in want, "damping" in want
     abar = np.zeros((N, 2)) if want_mass else None                   # dL/da
     cbar = np.zeros((N, 2)) if (want_damping or (want_mass and damped)) else None  # dL/dc
-    gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
+    gforce = np.empty((T + 1, N, 2)) if "force" in want else None    # every state written
 
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
@@ -270,17 +285,20 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping)
 
 
-def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping: bool) -> dict:
-    """The last piece of a dynamic adjoint (shared by :func:`adjoint_dynamic` and
-    :func:`pes_ref.core.gjf.adjoint_gjf`): (B0) the adjoint of the initial force
-    ``F_0 = F(X_0) + F_ext[0]``, then (P1) the chain rule from ``a = dt/2m`` and
-    ``c = dt gamma/2m`` to the physical parameters, ``dL/dm = -(a^ a + c^ c)/m`` and
-    ``dL/dgamma = c^ a``. ``abar`` is None unless the mass gradient is wanted; ``c`` is
-    None for an undamped scene. Returns the gradient dict."""
+def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping: bool,
+                           initial_force: bool = True) -> dict:
+    """The last piece of a dynamic adjoint (shared by :func:`adjoint_dynamic`,
+    :func:`pes_ref.core.gjf.adjoint_gjf` and the compiled loops): (B0) the adjoint of the
+    initial force ``F_0 = F(X_0) + F_ext[0]`` (unless ``initial_force`` is False: a loop that
+    did it), then (P1) the chain rule from ``a = dt/2m`` and ``c = dt gamma/2m`` to the
+    physical parameters, ``dL/dm = -(a^ a + c^ c)/m`` and ``dL/dgamma = c^ a``. ``abar`` is
+    None unless the mass gradient is wanted; ``c`` is None for an undamped scene. Returns
+    the gradient dict."""
     # (B0) adjoint of the initial force F_0 = F(X_0) + F_ext[0]
-    if gforce is not None:
-        gforce[0] = fbar
-    adj.vjp(0, fbar, xbar)
+    if initial_force:
+        if gforce is not None:
+            gforce[0] = fbar
+        adj.vjp(0, fbar, xbar)
     out = {"x0": xbar, "v0": vbar}
     out.update(adj.result())
     if gforce is not None:
@@ -300,16 +318,15 @@ def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass
 
 @reports_nonfinite
 def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarray, n_steps: int,
-                         progress=None) -> Trajectory:
+                         progress=None, refuse_nonfinite: bool = True, out: Trajectory | None = None) -> Trajectory:
     """Quasistatic (overdamped) stepping ``X_{n+1} = X_n + mu F_n`` (docs/spec.md section 5.3).
 
-    ``mobility`` has shape (2,). V is all zeros. ``f[T]`` is the force at the final
-    state (it moves nothing; it is kept so the trajectory has T+1 forces in both modes).
-    ``progress`` as in :func:`simulate_dynamic`.
+    ``mobility`` has shape (2,) (or (N, 2): a population's). V is all zeros. ``f[T]`` is
+    the force at the final state (it moves nothing; it is kept so the trajectory has T+1
+    forces in both modes). ``progress``, ``refuse_nonfinite`` and ``out`` as in :func:`simulate_dynamic`.
     """
     T, N = n_steps, x0.shape[0]
-    x = np.empty((T + 1, N, 2))
-    f = np.empty((T + 1, N, 2))
+    x, v, f = trajectory_arrays(T, N, out)
     force = ForceKernel(field, N)
     mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))   # (2,) would broadcast with an inner loop of 2
     x[0] = x0
@@ -327,9 +344,19 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
     fcall(x[T], f[T])
     if fext is not None:
         f[T] += fext[T]
-    traj = Trajectory(x, np.zeros_like(x), f)
-    check_finite(traj, f"mobility={mobility.tolist()!r}")
+    traj = Trajectory(x, quasistatic_velocities(v, out), f)
+    if refuse_nonfinite:
+        check_finite(traj, f"mobility={mobility.tolist()!r}")
     return traj
+
+
+def quasistatic_velocities(v: np.ndarray, out) -> np.ndarray:
+    """V of a quasistatic run, all zeros: ``out``'s array set to 0, or fresh zero pages
+    (nothing written) for a fresh run (``v`` from :func:`trajectory_arrays` is then dropped)."""
+    if out is None:
+        return np.zeros(v.shape)
+    v.fill(0.0)
+    return v
 
 
 def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx, want: frozenset,
@@ -343,7 +370,9 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
     x, _, f = traj
     T, N = x.shape[0] - 1, x.shape[1]
     adj = ForceAdjoint(field, x, want)
-    gforce = np.zeros((T + 1, N, 2)) if "force" in want else None
+    gforce = np.empty((T + 1, N, 2)) if "force" in want else None
+    if gforce is not None:
+        gforce[T] = 0.0                      # F_ext[T] moves nothing; the loop writes the others
     mubar = np.zeros(2) if "mobility" in want else None
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     fbar = np.empty((N, 2))

@@ -40,7 +40,7 @@ class Funnel:
         object.__setattr__(self, "when", checks.as_choice("when", self.when, {"final", "every_step"}))
 
     def value_and_grad(self, x, v, t):
-        gx = np.zeros_like(x)
+        gx = np.zeros(x.shape)       # fresh zero pages (np.zeros_like would write every zero)
         if self.when == "final":
             e = x[-1, :, 0] - self.target
             gx[-1, :, 0] = 2.0 * e
@@ -75,8 +75,8 @@ class Oscillator:
         root = np.sqrt(s)
         scale = n_particles ** 2
         inv = np.divide(1.0, root * scale, out=np.zeros_like(root), where=root > 0)
-        gx = np.zeros_like(x)
-        gv = np.zeros_like(v)
+        gx = np.zeros(x.shape)
+        gv = np.zeros(v.shape)
         gx[:, :, 0] = ex * inv[:, None]
         gv[:, :, 0] = ev * inv[:, None]
         return float(np.sum(root) / scale), gx, gv
@@ -115,8 +115,8 @@ class OscillatorCycle:
         scale = n_particles ** 2
         inv = np.divide(1.0, root * scale, out=np.zeros_like(root), where=root > 0)
         de = np.divide(e * inv[:, None], r, out=np.zeros_like(r), where=r > 0)
-        gx = np.zeros_like(x)
-        gv = np.zeros_like(v)
+        gx = np.zeros(x.shape)
+        gv = np.zeros(v.shape)
         gx[:, :, 0] = de * x[:, :, 0]
         gv[:, :, 0] = de * v[:, :, 0] / (w * w)
         return float(np.sum(root) / scale), gx, gv

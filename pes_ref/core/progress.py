@@ -18,7 +18,7 @@ or ``"adjoint"``, ``done`` the steps finished out of ``total``). :func:`reportin
 wraps a loop's iterable so that the callback is called once before the first step,
 then after every :data:`EVERY` steps and after the last: the loop body itself never
 checks anything, and without a callback the iterable is returned unchanged, so a run
-without progress reports pays nothing. A command that shows such a run turns the calls
+without progress reports pays nothing; a compiled loop runs in :func:`blocks` of as many steps. A command that shows such a run turns the calls
 into :class:`Progress` (the ``oracle`` command's ``ProgressLines``).
 """
 from __future__ import annotations
@@ -26,7 +26,7 @@ from __future__ import annotations
 from itertools import islice
 from typing import Callable, Iterable
 
-__all__ = ["EVERY", "reporting", "Progress", "Clock", "progress_line", "figure_text", "clock_time"]
+__all__ = ["EVERY", "reporting", "blocks", "Progress", "Clock", "progress_line", "figure_text", "clock_time"]
 
 #: Steps between two calls of a progress callback (a callback that reads a clock reads it
 #: this rarely; at ~10 us a step that is every few milliseconds).
@@ -55,6 +55,25 @@ def _chunks(steps, progress, phase, total):
     for done in range(EVERY, total + EVERY, EVERY):
         yield from islice(steps, EVERY)
         progress(phase, min(done, total), total)
+
+
+def blocks(total: int, progress: Callable | None, phase: str) -> Iterable:
+    """The steps ``0 .. total`` as ``(done, done_after)`` blocks for a loop that runs a
+    block at a time (a compiled one): the whole run in one block when ``progress`` is
+    None, else :data:`EVERY` steps per block, with ``progress(phase, done, total)`` called
+    as :func:`reporting` calls it; a run of no steps is one empty block ``(0, 0)``."""
+    if progress is None:
+        return iter([(0, total)])
+    return _blocks(total, progress, phase)
+
+
+def _blocks(total, progress, phase):
+    progress(phase, 0, total)
+    if total == 0:                 # a run of no steps still has its state 0 to compute
+        yield 0, 0
+    for done in range(0, total, EVERY):
+        yield done, min(done + EVERY, total)
+        progress(phase, min(done + EVERY, total), total)
 
 
 class Progress:

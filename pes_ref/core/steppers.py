@@ -33,7 +33,11 @@ class StepParams(NamedTuple):
     broadcastable to (N, 2), or None for an undamped scene (no damping arithmetic at
     all); ``mobility`` (2,) in quasistatic mode, else None; ``progress`` a callback
     ``(phase, done, total)`` called every few hundred steps of the forward loop and of
-    the adjoint (:mod:`pes_ref.core.progress`), or None.
+    the adjoint (:mod:`pes_ref.core.progress`), or None; ``refuse_nonfinite`` False returns
+    a trajectory that left the finite numbers instead of raising (a population checks each
+    member's part, :mod:`pes_ref.core.population`); ``out`` a
+    :class:`~pes_ref.core.integrator.Trajectory` of (T+1, N, 2) arrays to run into, or None
+    for fresh ones (:func:`pes_ref.core.integrator.trajectory_arrays`).
     """
 
     dt: float
@@ -42,6 +46,8 @@ class StepParams(NamedTuple):
     damping: np.ndarray | None
     mobility: np.ndarray | None
     progress: Callable | None = None
+    refuse_nonfinite: bool = True
+    out: object = None
 
 
 class Stepper(NamedTuple):
@@ -69,7 +75,8 @@ class Stepper(NamedTuple):
 
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):
-    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress)
+    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
+                            p.out)
 
 
 def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
@@ -77,7 +84,8 @@ def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
 
 
 def _simulate_gjf(field, x0, v0, fext, p: StepParams):
-    return simulate_gjf(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress)
+    return simulate_gjf(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
+                        p.out)
 
 
 def _adjoint_gjf(field, traj, p: StepParams, gx, gv, want):
@@ -85,7 +93,7 @@ def _adjoint_gjf(field, traj, p: StepParams, gx, gv, want):
 
 
 def _simulate_quasistatic(field, x0, v0, fext, p: StepParams):
-    return simulate_quasistatic(field, x0, fext, p.mobility, p.n_steps, p.progress)
+    return simulate_quasistatic(field, x0, fext, p.mobility, p.n_steps, p.progress, p.refuse_nonfinite, p.out)
 
 
 def _adjoint_quasistatic(field, traj, p: StepParams, gx, gv, want):

@@ -20,7 +20,7 @@ from pes_ref.core import checks
 from pes_ref.core.grid import clip
 
 __all__ = ["Spring", "Walls", "spring_delta", "spring_energy", "spring_add_force",
-           "spring_force_vjp", "wall_bounds", "wall_energy", "wall_add_force", "wall_force_vjp",
+           "spring_force_vjp", "spring_axes", "wall_bounds", "wall_energy", "wall_add_force", "wall_force_vjp",
            "SpringKernel", "SpringAdjoint", "WallKernel", "WallAdjoint"]
 
 
@@ -122,11 +122,12 @@ class WallKernel:
     ``add_force(q, out)``, bound once here: ``out += k (clip(q, a, b) - q)``, which is
     ``k (a - q)^+ - k (q - b)^+`` since ``a < b`` (bit-identical to :func:`wall_add_force`:
     one of the two terms is exactly 0): four whole-array operations per call instead of
-    eight with temporaries.
+    eight with temporaries. ``k``, ``lo`` and ``hi`` broadcast to (N, 2) (a population's
+    walls differ per particle).
     """
 
-    def __init__(self, k: float, lo, hi, n_particles: int):
-        self.k = np.array(float(k))
+    def __init__(self, k, lo, hi, n_particles: int):
+        self.k = _per_particle(k, n_particles)
         self.lo = np.ascontiguousarray(np.broadcast_to(lo, (n_particles, 2)))
         self.hi = np.ascontiguousarray(np.broadcast_to(hi, (n_particles, 2)))
         self.buf = np.empty((n_particles, 2))
@@ -159,9 +160,9 @@ class WallAdjoint:
     #: operations instead of three per state.
     CHUNK_ELEMENTS = 1 << 14
 
-    def __init__(self, k: float, lo, hi, xs: np.ndarray):
+    def __init__(self, k, lo, hi, xs: np.ndarray):
         n = xs.shape[1]
-        self.k = np.array(float(k))
+        self.k = _per_particle(k, n)
         self.lo = np.ascontiguousarray(np.broadcast_to(lo, (n, 2)))
         self.hi = np.ascontiguousarray(np.broadcast_to(hi, (n, 2)))
         self.xs = xs
@@ -194,6 +195,22 @@ class WallAdjoint:
         return {}
 
 
+def _per_particle(k, n_particles: int) -> np.ndarray:
+    """A stiffness as the hot loop's operand: a 0-d array when it is one number, else
+    contiguous (N, 2)."""
+    k = np.asarray(k, dtype=np.float64)
+    return k.copy() if k.ndim == 0 else np.ascontiguousarray(np.broadcast_to(k, (n_particles, 2)))
+
+
+def spring_axes(k) -> tuple:
+    """The axes on which a spring of stiffness ``k`` (broadcastable to (N, 2)) pulls some
+    particle: those with a nonzero ``k_d``. On the others its force is ``-0 delta_d``, and
+    the forward kernels compute no minimum image there (nor anything, on neither axis)."""
+    k = np.asarray(k, dtype=np.float64)
+    k = np.broadcast_to(k, np.broadcast_shapes(k.shape, (2,)))
+    return tuple(d for d in range(2) if np.any(k[..., d]))
+
+
 def _delta_into(q, center, wrap, out) -> np.ndarray:
     """:func:`spring_delta` into ``out``: ``q - c``, the minimum image on the axes of ``wrap``
     (``(d, L_d / 2, L_d)`` per periodic axis), the same operations."""
@@ -206,11 +223,12 @@ def _delta_into(q, center, wrap, out) -> np.ndarray:
     return out
 
 
-def _spring_arrays(k, center, length, periodic, n_particles: int):
-    """``k`` and ``center`` as contiguous (N, 2) arrays and the periodic axes' ``(d, L/2, L)``."""
+def _spring_arrays(k, center, length, periodic, n_particles: int, axes=(0, 1)):
+    """``k`` and ``center`` as contiguous (N, 2) arrays and ``(d, L/2, L)`` of the periodic
+    axes among ``axes``."""
     k = np.ascontiguousarray(np.broadcast_to(k, (n_particles, 2)))
     center = np.ascontiguousarray(np.broadcast_to(center, (n_particles, 2)))
-    wrap = [(d, 0.5 * float(length[d]), float(length[d])) for d in range(2) if periodic[d]]
+    wrap = [(d, 0.5 * float(length[d]), float(length[d])) for d in axes if periodic[d]]
     return k, center, wrap
 
 
@@ -219,11 +237,13 @@ class SpringKernel:
     :class:`~pes_ref.core.kernels.TermForce`).
 
     ``add_force(q, out)``, bound once here: ``out -= k delta``, the arithmetic of
-    :func:`spring_add_force` into preallocated buffers; the minimum image only on periodic
-    axes."""
+    :func:`spring_add_force` into preallocated buffers; the minimum image only on the
+    periodic axes where the spring pulls (:func:`spring_axes`): on an axis whose ``k`` is 0
+    everywhere ``out -= 0 delta`` changes no value, wrapped or not. Built only for a
+    spring that pulls on some axis."""
 
     def __init__(self, k, center, length, periodic, n_particles: int):
-        self.k, self.center, self.wrap = _spring_arrays(k, center, length, periodic, n_particles)
+        self.k, self.center, self.wrap = _spring_arrays(k, center, length, periodic, n_particles, spring_axes(k))
         self.delta = np.empty((n_particles, 2))
         self.buf = np.empty((n_particles, 2))
         self.add_force = self._bind()

@@ -418,7 +418,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
 
 # =========================================================================== running
 
-def run_case(case, *, allow_unstable: bool = False, monitor=None) -> dict:
+def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str = "numpy") -> dict:
     """Run a case with the reference engine: the oracle.
 
     Parameters
@@ -432,6 +432,10 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None) -> dict:
         :class:`pes_ref.core.budget.RunEstimate` (steps, particles, memory, seconds); it
         returns a progress callback ``(phase, done, total)`` for the run's forward loop
         and adjoint (:mod:`pes_ref.core.progress`), or None for no reports.
+    backend : {"numpy", "numba"}
+        The loops that run it (:data:`pes_ref.core.backends.BACKENDS`): NumPy's by default,
+        so that the oracle imports no compiler; the compiled ones give the same trajectory
+        and gradients to 1e-13 of their largest entry.
 
     Returns
     -------
@@ -456,7 +460,7 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None) -> dict:
         with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
             loss, grads, traj = value_and_grad(scene, vc.x0, vc.v0, vc.objective,
                                                regularization_weight=vc.regularization,
-                                               wrt=vc.grad_names, fext=vc.force, progress=progress,
+                                               wrt=vc.grad_names, fext=vc.force, progress=progress, backend=backend,
                                                checked=True)       # by validate_case, once
             e = energy(scene, traj)
     except NonFiniteError as exc:             # its message names the step and a stable value
@@ -486,13 +490,13 @@ def write_result(result: Mapping, path, overwrite: bool = False, compress: bool 
 
 
 def run_case_file(case_path, result_path, overwrite: bool = False, compress: bool = False, *,
-                  allow_unstable: bool = False, monitor=None) -> dict:
+                  allow_unstable: bool = False, monitor=None, backend: str = "numpy") -> dict:
     """Run the case file ``case_path`` and write its result to ``result_path``
     (deflated if ``compress``; see :func:`write_result`).
 
     Nothing is written when the case is refused, when its run fails, or when
-    ``result_path`` exists and ``overwrite`` is False. ``allow_unstable`` and
-    ``monitor`` as in :func:`run_case`.
+    ``result_path`` exists and ``overwrite`` is False. ``allow_unstable``, ``monitor`` and
+    ``backend`` as in :func:`run_case`.
 
     Returns
     -------
@@ -505,6 +509,6 @@ def run_case_file(case_path, result_path, overwrite: bool = False, compress: boo
             raise ValueError(f"the result path {result_path!r} is the case file itself")
         if not overwrite:
             raise ResultExistsError(result_path)
-    result = run_case(load_case(case_path), allow_unstable=allow_unstable, monitor=monitor)
+    result = run_case(load_case(case_path), allow_unstable=allow_unstable, monitor=monitor, backend=backend)
     write_result(result, result_path, overwrite=overwrite, compress=compress)
     return result

@@ -36,7 +36,7 @@ POLISH_OPTIONS = {"evaluations": "evaluations", "polish_particles": "n_particles
 #: ``stages`` is ``"IT:GRID[:STEPS],..."`` text or a list of ``[it, grid(, n_steps)]``.
 DESIGN_OPTIONS = {
     "iterations": int, "lr": float, "lr_final": float, "optimizer": str, "clip": float, "particles": int,
-    "stages": (str, list), "no_stages": bool, "plan": str, "smoke": bool,
+    "stages": (str, list), "no_stages": bool, "plan": str, "smoke": bool, "backend": str,
 }
 #: The plan field each plain plan option sets.
 _PLAN_FIELDS = {"iterations": "iterations", "lr": "lr", "lr_final": "lr_final", "optimizer": "optimizer",

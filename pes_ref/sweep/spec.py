@@ -37,6 +37,7 @@ import os
 import tomllib
 from dataclasses import dataclass
 
+from pes_ref.core.backends import check_backend
 from pes_ref.synthesis import PROBLEMS, ProblemFileError, load_problem, problem_text, with_sets
 from pes_ref.sweep.options import (DESIGN_OPTIONS, design_inputs, has_type, scene_parameters, type_name,
                                    typed_sets)
@@ -178,6 +179,8 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
                     inputs = design_inputs(kind, options, sets, problem)
                     with_sets(problem, inputs.sets)
                 inputs.plan()
+                if options.get("backend") is not None:
+                    check_backend(options["backend"])
             except (ValueError, TypeError) as exc:
                 fail(where, " ".join(str(exc).split()))
             for seed in seeds:

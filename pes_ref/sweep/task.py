@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import time
 
-from pes_ref.synthesis import (PROBLEMS, evaluate, load_design, new_design, problem_from_text, run_stages,
+from pes_ref.synthesis import (PROBLEMS, evaluate_seeds, load_design, new_design, problem_from_text, run_stages,
                                save_design, with_sets)
 from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
 
@@ -58,9 +58,8 @@ def run_task(payload: dict) -> dict:
     try:
         state = _design(payload, out)
         if state is not None:
-            out["figures"] = {seed: evaluate(state.problem, state.values, seed=seed,
-                                             n_particles=payload["eval_particles"])
-                              for seed in payload["eval_seeds"]}
+            out["figures"] = evaluate_seeds(state.problem, state.values, payload["eval_seeds"],
+                                            payload["eval_particles"])
     except Exception as exc:        # any failure is a result of the run, reported with its error
         out.update(status="failed", error=" ".join(f"{type(exc).__name__}: {exc}".split()))
     out["wall_s"] = time.perf_counter() - start
@@ -83,12 +82,14 @@ def _design(payload: dict, out: dict):
         inputs = design_inputs(kind, options, typed_sets(sets, kind))
         problem = PROBLEMS[kind](**inputs.sets)
     plan = inputs.plan()
-    state = _resume(path, problem, plan, payload["seed"])
+    backend = options.get("backend")
+    state = _resume(path, problem, plan, payload["seed"], backend)
     if state is None:
         if kind == "problem":
-            state = new_design(problem, seed=payload["seed"], plan=plan)
+            state = new_design(problem, seed=payload["seed"], plan=plan, backend=backend)
         else:
-            state = new_design(kind, seed=payload["seed"], plan=plan, polish=inputs.polish(), **inputs.sets)
+            state = new_design(kind, seed=payload["seed"], plan=plan, polish=inputs.polish(), backend=backend,
+                               **inputs.sets)
 
     out["from_iteration"] = state.iteration
     if state.iteration >= plan.iterations and state.status == "done":
@@ -120,19 +121,21 @@ def _design(payload: dict, out: dict):
     return state
 
 
-def _resume(path: str, problem, plan, seed: int):
+def _resume(path: str, problem, plan, seed: int, backend: str | None = None):
     """The saved state of this run at ``path``, or None when there is none.
 
     Raises
     ------
     ValueError
-        If ``path`` holds a design of another run (another scene, plan or seed).
+        If ``path`` holds a design of another run (another scene, plan, seed or backend,
+        when the run names one).
     """
     if not os.path.exists(path):
         return None
     state = load_design(path)
-    if state.problem != problem or state.plan != plan or state.seed != seed:
-        raise ValueError(f"{path} holds another run's design (scene, plan or seed differ); move it away")
+    if state.problem != problem or state.plan != plan or state.seed != seed or \
+            backend not in (None, state.backend):
+        raise ValueError(f"{path} holds another run's design (scene, plan, seed or backend differ); move it away")
     return state
 
 

@@ -43,7 +43,8 @@ from pes_ref.synthesis.refusals import check_design_memory, check_stable_design
 from pes_ref.synthesis.design_state import STOPPED, DesignState, new_design
 from pes_ref.synthesis.training import GradientStep, design_gradient, run_design
 from pes_ref.synthesis.analysis import (ANALYSIS_PERIODS, CYCLE_DRIFT, CYCLE_TOLERANCE, Paths, TorqueSweep,
-                                        cycle_figures, evaluate, funnel_paths, oscillator_grid_starts,
+                                        cycle_figures, evaluate, evaluate_seeds, funnel_paths,
+                                        oscillator_grid_starts,
                                         oscillator_torque_sweep, phase_space, q1_advance)
 from pes_ref.synthesis.polish import (PolishParticles, PolishResult, capture_fitness, legendre_fourier_basis, polish,
                                       polish_particles)
@@ -66,7 +67,8 @@ __all__ = [
     "DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",
     "check_stable_design", "check_design_memory", "STOPPED",
     "Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
-    "phase_space", "cycle_figures", "q1_advance", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS",
+    "phase_space", "cycle_figures", "q1_advance", "evaluate", "evaluate_seeds", "CYCLE_TOLERANCE", "CYCLE_DRIFT",
+    "ANALYSIS_PERIODS",
     "legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "PolishResult", "polish",
     "run_stages",
     "escapement_values",

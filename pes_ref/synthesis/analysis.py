@@ -4,7 +4,9 @@ Held-out particles come from seeds training never uses. The funnel's figures are
 particles exit (:func:`pes_ref.synthesis.problems.exit_positions`); the oscillator's are
 per-particle amplitude, period and drift over the last :data:`ANALYSIS_PERIODS` periods
 (:func:`cycle_figures`), and whether a particle reaches the target cycle. :func:`evaluate`
-gives the figures of ``python -m pes_ref evaluate``.
+gives the figures of ``python -m pes_ref evaluate``, and :func:`evaluate_seeds` those of
+several held-out seeds, their runs (design and flat surface, every seed) as one population
+(:func:`pes_ref.core.population.simulate_batch`: each run's numbers are its own).
 """
 from __future__ import annotations
 
@@ -15,13 +17,15 @@ import numpy as np
 
 from pes_ref.core import budget, checks
 from pes_ref.core.integrator import Trajectory
+from pes_ref.core.population import simulate_batch
 from pes_ref.core.scene import simulate
 from pes_ref.synthesis.design_problem import DesignProblem
 from pes_ref.synthesis.problems import FunnelProblem, OscillatorProblem, exit_positions
 from pes_ref.synthesis.success import passes_all
 
 __all__ = ["Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
-           "phase_space", "cycle_figures", "q1_advance", "evaluate", "CYCLE_TOLERANCE", "CYCLE_DRIFT", "ANALYSIS_PERIODS"]
+           "phase_space", "cycle_figures", "q1_advance", "evaluate", "evaluate_seeds", "CYCLE_TOLERANCE", "CYCLE_DRIFT",
+           "ANALYSIS_PERIODS"]
 
 #: Oscillator cycle test: a held-out particle "reaches the cycle" when, over the analysis window
 #: after the transient, its amplitude and period are within this relative error of the targets ...
@@ -48,10 +52,16 @@ class TorqueSweep(NamedTuple):
     traj: Trajectory
 
 
+def _funnel_run(problem: FunnelProblem, values, n_particles: int, seed: int):
+    """``(scene, x0, v0)`` of :func:`funnel_paths`."""
+    batch = problem.batch(np.asarray(values, dtype=np.float64), np.random.default_rng(seed), n_particles)
+    return batch.scene, batch.x0, batch.v0
+
+
 def funnel_paths(problem: FunnelProblem, values, n_particles: int = 200, seed: int = 1) -> Paths:
     """Held-out funnel particles: the training sampler with ``default_rng(seed)``."""
-    batch = problem.batch(np.asarray(values, dtype=np.float64), np.random.default_rng(seed), n_particles)
-    return Paths(batch.x0, simulate(batch.scene, batch.x0, batch.v0))
+    scene, x0, v0 = _funnel_run(problem, values, n_particles, seed)
+    return Paths(x0, simulate(scene, x0, v0))
 
 
 def oscillator_torque_sweep(problem: OscillatorProblem, values, n_particles: int = 50, periods: float | None = None,
@@ -61,12 +71,18 @@ def oscillator_torque_sweep(problem: OscillatorProblem, values, n_particles: int
     Start q0 = amplitude (1 + kick) + start_noise * normal from ``default_rng(seed)``;
     simulated for ``periods`` target periods (default ``problem.eval_periods``).
     """
+    torques, x0, scene = _torque_sweep_run(problem, values, n_particles, periods, seed)
+    return TorqueSweep(torques, x0, simulate(scene, x0))
+
+
+def _torque_sweep_run(problem: OscillatorProblem, values, n_particles: int, periods, seed: int):
+    """``(torques, x0, scene)`` of :func:`oscillator_torque_sweep`."""
     periods = problem.eval_periods if periods is None else periods
     torques = np.linspace(problem.torque_min, problem.torque_max, n_particles)
     q0 = problem.amplitude * (1.0 + problem.kick) + problem.start_noise * \
         np.random.default_rng(seed).standard_normal(n_particles)
     x0 = np.stack([q0, np.zeros(n_particles)], axis=1)
-    return TorqueSweep(torques, x0, simulate(problem.torque_scene(values, torques, periods), x0))
+    return torques, x0, problem.torque_scene(values, torques, periods)
 
 
 def oscillator_grid_starts(problem: OscillatorProblem, values, periods: float | None = None, n: int = 5) -> Paths:
@@ -75,12 +91,18 @@ def oscillator_grid_starts(problem: OscillatorProblem, values, periods: float | 
     q0 evenly in ``[-1.5 A, 1.5 A]`` (A the target amplitude), q1 evenly over the
     period ``[0, 2 pi)``.
     """
+    x0, scene = _grid_starts_run(problem, values, periods, n)
+    return Paths(x0, simulate(scene, x0))
+
+
+def _grid_starts_run(problem: OscillatorProblem, values, periods, n: int):
+    """``(x0, scene)`` of :func:`oscillator_grid_starts`."""
     periods = problem.eval_periods if periods is None else periods
     a = np.linspace(-1.5 * problem.amplitude, 1.5 * problem.amplitude, n)
     b = np.arange(n) * (problem.upper[1] - problem.lower[1]) / n
     x0 = np.stack(np.meshgrid(a, b, indexing="ij"), axis=-1).reshape(-1, 2)
     torques = np.full(x0.shape[0], problem.torque_max)
-    return Paths(x0, simulate(problem.torque_scene(values, torques, periods), x0))
+    return x0, problem.torque_scene(values, torques, periods)
 
 
 def phase_space(problem: OscillatorProblem, traj: Trajectory, after_periods: float):
@@ -103,18 +125,40 @@ def cycle_figures(problem: OscillatorProblem, traj: Trajectory):
     amp = 0.5 * (q.max(axis=0) - q.min(axis=0))
     first, last = q[:per + 1], q[-per - 1:]
     drift = np.abs(0.5 * (last.max(0) - last.min(0)) - 0.5 * (first.max(0) - first.min(0))) / problem.amplitude
-    c = q - q.mean(axis=0)
-    periods = np.full(q.shape[1], np.nan)
-    for i in range(q.shape[1]):
-        up = np.nonzero((c[:-1, i] < 0) & (c[1:, i] >= 0))[0]
-        if up.size >= 2:
-            tcross = (up + c[up, i] / (c[up, i] - c[up + 1, i])) * problem.dt
-            periods[i] = np.mean(np.diff(tcross))
+    periods = _crossing_periods(q - q.mean(axis=0), problem.dt)
     with np.errstate(invalid="ignore"):
         amp_err = np.abs(amp - problem.amplitude) / problem.amplitude
         per_err = np.abs(periods - problem.period) / problem.period
         captured = (amp_err < CYCLE_TOLERANCE) & (per_err < CYCLE_TOLERANCE) & (drift < CYCLE_DRIFT)
     return amp, periods, drift, captured
+
+
+def _crossing_periods(c: np.ndarray, dt: float) -> np.ndarray:
+    """Per column of ``c`` (W, N): the mean spacing of its upward zero crossings, linearly
+    interpolated (``(k + c_k / (c_k - c_{k+1})) dt`` for ``c_k < 0 <= c_{k+1}``), NaN with
+    fewer than two.
+
+    The crossings of every column at once; the mean of a column's m spacings is summed left
+    to right as ``np.mean`` sums fewer than 8 numbers (bit-identical to ``np.mean(np.diff(t))``
+    per column; ``np.mean`` itself for the rare column with more)."""
+    n = c.shape[1]
+    periods = np.full(n, np.nan)
+    column, k = np.nonzero(((c[:-1] < 0) & (c[1:] >= 0)).T)         # column by column, k ascending
+    ck = c[k, column]
+    t = (k + ck / (ck - c[k + 1, column])) * dt
+    spacings = np.bincount(column, minlength=n) - 1
+    d = np.diff(t)                              # d[first[i] + j]: column i's spacing j
+    first = np.cumsum(spacings + 1) - (spacings + 1)
+    few = np.nonzero((spacings >= 1) & (spacings < 8))[0]
+    if few.size:
+        start, m = first[few], spacings[few]
+        total = d[start]
+        for j in range(1, int(m.max())):
+            total = np.where(j < m, total + d[np.minimum(start + j, d.size - 1)], total)
+        periods[few] = total / m
+    for i in np.nonzero(spacings >= 8)[0]:
+        periods[i] = np.mean(d[first[i]:first[i] + spacings[i]])
+    return periods
 
 
 def q1_advance(problem: OscillatorProblem, traj: Trajectory) -> np.ndarray:
@@ -143,36 +187,77 @@ def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None)
     particles of the sweep, rad per period; NaN if none) beside ``gait_advance`` (the
     problem's ``gait_delta``), and ``flat_captured_fraction``.
     """
-    values = checks.as_float_array("values", values, ndim=2)
     seed = checks.as_nonneg_int("seed", seed)
+    return evaluate_seeds(problem, values, (seed,), n_particles)[seed]
+
+
+def evaluate_seeds(problem, values, seeds, n_particles: int | None = None) -> dict:
+    """:func:`evaluate` on each held-out seed of ``seeds``: seed -> figures, each the same
+    numbers as ``evaluate(problem, values, seed, n_particles)``; the runs of every seed (and
+    of the flat surface) are one population (:func:`pes_ref.core.population.simulate_batch`)."""
+    values = checks.as_float_array("values", values, ndim=2)
+    seeds = tuple(dict.fromkeys(checks.as_nonneg_int("seed", s) for s in seeds))
     evaluate_kind, default_n = _EVALUATIONS[problem.kind]
     default_n = getattr(problem, "eval_particles", default_n)
     n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
     steps = _HELD_OUT_STEPS[problem.kind](problem)
+    # one population: each seed's runs on the design and on the flat surface
     budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True,
-                        length=f"a held-out run of {steps} steps")
-    return evaluate_kind(problem, values, seed, n)
+                        length=f"a held-out run of {steps} steps", runs=2 * len(seeds))
+    return evaluate_kind(problem, values, seeds, n)
 
 
-def _evaluate_funnel(problem: FunnelProblem, values, seed: int, n: int) -> dict:
+def _surfaces(problem, values) -> tuple:
+    """The design's surface and the flat starting one, with the prefix of their figures."""
+    return ("", values), ("flat_", problem.flat_values(values.shape))
+
+
+def _population(runs: dict) -> dict:
+    """``simulate_batch`` of the ``(scene, x0, v0)`` runs of ``runs``: name -> trajectory."""
+    trajectories = simulate_batch([r[0] for r in runs.values()], [r[1] for r in runs.values()],
+                                  [r[2] for r in runs.values()])
+    return dict(zip(runs, trajectories))
+
+
+def _evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int) -> dict:
+    runs = {(prefix, seed): _funnel_run(problem, vals, n, seed)
+            for prefix, vals in _surfaces(problem, values) for seed in seeds}
+    paths = _population(runs)
+    figures = {}
+    for seed in seeds:
+        out = figures[seed] = {}
+        for prefix, _ in _surfaces(problem, values):
+            exits = exit_positions(problem, paths[(prefix, seed)])
+            out[prefix + "in_band_fraction"] = float(np.mean(problem.in_band(exits)))
+            done = exits[np.isfinite(exits)]
+            out[prefix + "exit_spread"] = float(np.std(done)) if done.size else float("nan")
+            out[prefix + "exited_fraction"] = float(np.mean(np.isfinite(exits)))
+        out["particles"] = float(n)
+    return figures
+
+
+def _evaluate_oscillator(problem: OscillatorProblem, values, seeds: tuple, n: int) -> dict:
+    """The torque sweep of each seed and the 5 x 5 grid (the same for every seed), on the
+    design and on the flat surface, as one population."""
+    runs = {}
+    for prefix, vals in _surfaces(problem, values):
+        x0, scene = _grid_starts_run(problem, vals, None, 5)
+        runs[(prefix, "grid")] = (scene, x0, None)
+        for seed in seeds:
+            _, x0, scene = _torque_sweep_run(problem, vals, n, None, seed)
+            runs[(prefix, seed)] = (scene, x0, None)
+    traj = _population(runs)
+    return {seed: _oscillator_figures(problem, {prefix: (traj[(prefix, seed)], traj[(prefix, "grid")])
+                                                for prefix, _ in _surfaces(problem, values)}, n)
+            for seed in seeds}
+
+
+def _oscillator_figures(problem: OscillatorProblem, runs: dict, n: int) -> dict:
+    """The figures of :func:`evaluate` from the torque sweep's and the grid's trajectories,
+    per surface prefix."""
     out = {}
-    for prefix, vals in (("", values), ("flat_", problem.flat_values(values.shape))):
-        paths = funnel_paths(problem, vals, n, seed)
-        exits = exit_positions(problem, paths.traj)
-        out[prefix + "in_band_fraction"] = float(np.mean(problem.in_band(exits)))
-        done = exits[np.isfinite(exits)]
-        out[prefix + "exit_spread"] = float(np.std(done)) if done.size else float("nan")
-        out[prefix + "exited_fraction"] = float(np.mean(np.isfinite(exits)))
-    out["particles"] = float(n)
-    return out
-
-
-def _evaluate_oscillator(problem: OscillatorProblem, values, seed: int, n: int) -> dict:
-    out = {}
-    for prefix, vals in (("", values), ("flat_", problem.flat_values(values.shape))):
-        sweep = oscillator_torque_sweep(problem, vals, n, seed=seed)
-        grid = oscillator_grid_starts(problem, vals)
-        fig_s, fig_g = cycle_figures(problem, sweep.traj), cycle_figures(problem, grid.traj)
+    for prefix, (sweep_traj, grid_traj) in runs.items():
+        fig_s, fig_g = cycle_figures(problem, sweep_traj), cycle_figures(problem, grid_traj)
         captured = np.concatenate([fig_s[3], fig_g[3]])
         out[prefix + "captured_fraction"] = float(np.mean(captured))
         if prefix:
@@ -186,7 +271,7 @@ def _evaluate_oscillator(problem: OscillatorProblem, values, seed: int, n: int) 
         out["period_error"] = _reduce(np.max, per_err) / problem.period
         out["amplitude_error_median"] = _reduce(np.median, amp_err) / problem.amplitude
         out["period_error_median"] = _reduce(np.median, per_err) / problem.period
-        advance = q1_advance(problem, sweep.traj)[fig_s[3]]
+        advance = q1_advance(problem, sweep_traj)[fig_s[3]]
         for name, reduce in (("min", np.min), ("median", np.median), ("max", np.max)):
             out[f"q1_advance_{name}"] = _reduce(reduce, advance)
         out["gait_advance"] = float(problem.gait_delta)
@@ -199,7 +284,11 @@ def _reduce(reduce, x: np.ndarray) -> float:
     return float(reduce(x)) if x.size else float("nan")
 
 
-def _evaluate_problem(problem: DesignProblem, values, seed: int, n: int) -> dict:
+def _evaluate_problem(problem: DesignProblem, values, seeds: tuple, n: int) -> dict:
+    return {seed: _evaluate_problem_seed(problem, values, seed, n) for seed in seeds}
+
+
+def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int) -> dict:
     held = problem.run(values, seed, n)
     every, each = passes_all([test for _, test in problem.tests], held.traj.x, held.traj.v, held.times)
     out = {"success_fraction": float(np.mean(every))}

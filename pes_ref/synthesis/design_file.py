@@ -24,9 +24,12 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 ``evaluations``     int, polish fitness evaluations made (version 2)
 ``polish_evals``    (G,) int64, evaluations after the start and each polish generation
 ``polish_fitness``  (G,) float64, the best fitness at those counts
+``backend``         the loops that ran it, ``"numba"`` or ``"numpy"`` (version 3;
+                    :data:`pes_ref.core.backends.BACKENDS`): a run resumes on its own
 ==================  =====================================================================
 
-Version 1 files (before the polish stage) are read as gradient-only runs.
+Version 1 files (before the polish stage) are read as gradient-only runs, and version 1
+and 2 files (before the compiled loops) as runs of the ``"numpy"`` backend.
 
 The members are stored uncompressed. The file is written by the package's one atomic
 ``.npz`` writer (:func:`write_npz`): a crash never leaves half a design, and the writer,
@@ -40,6 +43,7 @@ import os
 
 import numpy as np
 
+from pes_ref.core.backends import BACKENDS
 from pes_ref.oracle.case import REQUIRED_KEYS, TRAJECTORY_KEYS
 from pes_ref.oracle.errors import CaseError
 from pes_ref.oracle.npz import read_npz, write_npz
@@ -56,9 +60,9 @@ __all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "c
            "FORMAT", "VERSION", "READABLE_VERSIONS"]
 
 FORMAT = "pes_ref.design"
-VERSION = 2
+VERSION = 3
 #: The versions this package reads.
-READABLE_VERSIONS = (1, 2)
+READABLE_VERSIONS = (1, 2, 3)
 _REQUIRED = ("format", "version", "kind", "problem", "plan", "seed", "iteration", "values", "loss", "metric",
              "status", "elapsed")
 #: Keys a version-2 file has beyond version 1's.
@@ -102,6 +106,7 @@ def design_arrays(state: DesignState) -> dict:
         "evaluations": np.array(state.evaluations, dtype=np.int64),
         "polish_evals": np.asarray(state.polish_history["evaluations"], dtype=np.int64).reshape(-1),
         "polish_fitness": np.asarray(state.polish_history["fitness"], dtype=np.float64).reshape(-1),
+        "backend": np.array(state.backend),
     }
     for k, v in state.optimizer.state_dict().items():
         arrays["opt_" + k] = v
@@ -164,6 +169,12 @@ def load_design(path) -> DesignState:
                         float(data["elapsed"]))
     if version >= 2:
         _read_polish(path, data, state)
+    if version >= 3:
+        backend = str(data.get("backend", ""))
+        if backend not in BACKENDS:
+            raise DesignFileError(f"{path} is a damaged design file: backend {backend!r}, expected one of "
+                                  f"{sorted(BACKENDS)}")
+        state.backend = backend
     return state
 
 

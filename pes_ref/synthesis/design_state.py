@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pes_ref.core import checks
+from pes_ref.core import backends, checks
 from pes_ref.synthesis.plans import DEFAULT_PLANS, DEFAULT_POLISH, Plan, PolishPlan
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.refusals import check_run_memory, check_stable_design
@@ -44,6 +44,10 @@ class DesignState:
     starts), ``values`` the best polished grid so far, ``evaluations`` the fitness evaluations
     made and ``polish_history`` maps ``"evaluations"`` and ``"fitness"`` to the count and the
     best fitness after the start and each generation.
+
+    ``backend`` names the loops that run it (:data:`pes_ref.core.backends.BACKENDS`): the
+    gradients, hence the design, depend on it in their last bits, so a run keeps its own
+    (the same backend reproduces a design bit for bit).
     """
 
     problem: object
@@ -60,6 +64,7 @@ class DesignState:
     base_values: np.ndarray | None = None
     evaluations: int = 0
     polish_history: dict = dataclasses.field(default_factory=lambda: {"evaluations": [], "fitness": []})
+    backend: str = "numpy"
 
     @property
     def kind(self) -> str:
@@ -77,7 +82,7 @@ class DesignState:
 
 
 def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
-               **params) -> DesignState:
+               backend: str | None = None, **params) -> DesignState:
     """A fresh run of ``kind`` ("funnel" or "oscillator") with problem overrides ``params``,
     or of a problem object ``kind`` (a :class:`~pes_ref.synthesis.design_problem.DesignProblem`,
     from a problem file or built in code).
@@ -85,9 +90,11 @@ def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan
     Without ``plan`` the run has the kind's default plan (a problem object's own, its
     ``[train]`` section) and, unless ``polish`` is given, its default polish stage
     (:data:`pes_ref.synthesis.plans.DEFAULT_POLISH`); with a ``plan`` it has the ``polish``
-    given (None: the gradient stage alone).
+    given (None: the gradient stage alone). ``backend`` (None:
+    :func:`pes_ref.core.backends.default_backend`) runs it.
     """
     seed = checks.as_nonneg_int("seed", seed)
+    backend = backends.check_backend(backend)
     if polish is not None and not isinstance(polish, PolishPlan):
         raise TypeError(f"polish must be a PolishPlan or None, got {type(polish).__name__}")
     if isinstance(kind, str):
@@ -105,6 +112,6 @@ def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))
     problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
-    state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish)
+    state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish, backend=backend)
     check_stable_design(state)
     return state

@@ -66,7 +66,7 @@ class FunnelExit:
         step, _ = exit_steps(x, self.level)
         particle = np.arange(x.shape[1])
         e = x[step, particle, 0] - self.target
-        gx = np.zeros_like(x)
+        gx = np.zeros(x.shape)
         gx[step, particle, 0] = 2.0 * e
         value = float(np.sum(e * e))
         if self.linger:

@@ -95,8 +95,8 @@ class GaitShooting:
         z = d - np.clip(d, -h, h)
         scale = 1.0 / (n_states * n)
         value = scale * (self.w0 * np.sum(ex * ex + ev * ev) + self.w1 * np.sum(z * z))
-        gx = np.zeros_like(x)
-        gv = np.zeros_like(v)
+        gx = np.empty(x.shape)        # both columns written below
+        gv = np.zeros(v.shape)
         gx[:, :, 0] = 2.0 * scale * self.w0 * ex
         gx[:, :, 1] = 2.0 * scale * self.w1 * z
         gv[:, :, 0] = 2.0 * scale * self.w0 * ev / w

@@ -6,10 +6,13 @@ terms by default) with pycma's CMA-ES (or scipy's differential evolution, for th
 comparison), on a forward-only fitness (:func:`capture_fitness`): the capture test of
 ``python -m pes_ref evaluate`` (:func:`pes_ref.synthesis.analysis.cycle_figures`) on a fixed
 set of training particles (:func:`polish_particles`) drawn from their own seed, disjoint
-from every held-out set. :func:`polish` runs it; the candidates of a generation are
-independent, so an executor (anything with ``map``, e.g. a
-:class:`concurrent.futures.ProcessPoolExecutor` or a Dask client's ``get_executor()``)
-can evaluate them in parallel, with the same result as serial.
+from every held-out set. :func:`polish` runs it. The candidates of a generation are run
+as one population (:func:`pes_ref.core.population.simulate_batch`, :func:`capture_fitnesses`):
+each candidate's trajectory, hence its fitness, is bit-identical to its own run, at a
+fraction of the per-step cost. They are independent, so an executor (anything with ``map``,
+e.g. a :class:`concurrent.futures.ProcessPoolExecutor` or a Dask client's
+``get_executor()``) can evaluate a generation in ``tasks`` parts in parallel, with the same
+result as serial.
 
 Seeds: the training particles come from ``default_rng([seed, 2**32 + 1])``, the search's
 own draws from ``default_rng([seed, 2**32 + 2])`` (the gradient stage uses ``[seed, k]``
@@ -17,17 +20,20 @@ and ``[seed, 2**32]``); NumPy's global random state is never touched.
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.core.scene import simulate
+from pes_ref.core.integrator import Trajectory
+from pes_ref.core.population import simulate_batch
 from pes_ref.synthesis.analysis import CYCLE_DRIFT, CYCLE_TOLERANCE, cycle_figures
 from pes_ref.synthesis.plans import PolishPlan
 
-__all__ = ["legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "Fitness",
+__all__ = ["legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "capture_fitnesses",
+           "Fitness",
            "PolishStep", "PolishResult", "polish", "PARTICLE_SEED", "SEARCH_SEED", "MARGIN_CAP"]
 
 #: Second entry of the seed pair of the polish's training particles, ``default_rng([seed, PARTICLE_SEED])``.
@@ -93,7 +99,7 @@ def polish_particles(problem, rng: np.random.Generator, n: int = 96, rest_share:
 
 
 def capture_fitness(problem, values, particles: PolishParticles, periods: float | None = None,
-                    margin_weight: float = 0.05, strictness: float = 1.0) -> float:
+                    margin_weight: float = 0.05, strictness: float = 1.0, backend: str | None = None) -> float:
     """Forward-only fitness of a grid (lower is better): the share *not* captured plus a smooth margin.
 
     Each particle runs ``periods`` target periods (default ``problem.eval_periods``) and
@@ -103,14 +109,35 @@ def capture_fitness(problem, values, particles: PolishParticles, periods: float 
     measurable period), ranks candidates that capture as many and keeps the captured ones
     away from the test's edges. With ``strictness < 1`` a particle counts as captured only
     when also ``m_i < strictness`` (the test's tolerances times ``strictness``). A run that
-    leaves the finite numbers scores ``1 + margin_weight * 3``, the worst.
+    leaves the finite numbers scores ``1 + margin_weight * 3``, the worst. ``backend`` as in
+    :func:`pes_ref.simulate` (the fitness does not depend on it).
     """
+    return capture_fitnesses(problem, [values], particles, periods, margin_weight, strictness, backend)[0]
+
+
+def capture_fitnesses(problem, grids, particles: PolishParticles, periods: float | None = None,
+                      margin_weight: float = 0.05, strictness: float = 1.0, backend: str | None = None) -> list:
+    """:func:`capture_fitness` of each grid of ``grids``, their runs as one population
+    (:func:`pes_ref.core.population.simulate_batch`): each value is bit-identical to the grid's
+    own :func:`capture_fitness`."""
     periods = problem.eval_periods if periods is None else periods
-    scene = problem.torque_scene(values, particles.torques, periods)
-    try:
-        with np.errstate(all="ignore"):
-            traj = simulate(scene, particles.x0)
-    except FloatingPointError:              # NonFiniteError is one
+    scenes = [problem.torque_scene(values, particles.torques, periods) for values in grids]
+    workspace = _WORKSPACES.__dict__.setdefault("arrays", {})
+    with np.errstate(all="ignore"):
+        runs = simulate_batch(scenes, [particles.x0] * len(scenes), backend=backend, return_errors=True,
+                              workspace=workspace)
+    return [_fitness(problem, run, margin_weight, strictness) for run in runs]
+
+
+#: Each thread's population arrays, kept between generations (see :func:`simulate_batch`'s
+#: ``workspace``): a generation's trajectories are consumed before the next one runs.
+_WORKSPACES = threading.local()
+
+
+def _fitness(problem, traj, margin_weight: float, strictness: float) -> float:
+    """The fitness of one candidate's run (a :class:`Trajectory`, or the error of one that
+    left the finite numbers)."""
+    if not isinstance(traj, Trajectory):
         return 1.0 + margin_weight * MARGIN_CAP
     amp, per, drift, captured = cycle_figures(problem, traj)
     A, T = problem.amplitude, problem.period
@@ -125,17 +152,23 @@ def capture_fitness(problem, values, particles: PolishParticles, periods: float 
 
 @dataclass(frozen=True)
 class Fitness:
-    """:func:`capture_fitness` of one candidate grid, as a picklable callable for executors."""
+    """:func:`capture_fitness` of one candidate grid (a call) or of several (:meth:`batch`),
+    picklable for executors."""
 
     problem: object
     particles: PolishParticles
     periods: float | None
     margin_weight: float
     strictness: float = 1.0
+    backend: str | None = None
 
     def __call__(self, values) -> float:
-        return capture_fitness(self.problem, values, self.particles, self.periods, self.margin_weight,
-                               self.strictness)
+        return self.batch([values])[0]
+
+    def batch(self, grids) -> list:
+        """The fitness of each grid, their runs as one population (:func:`capture_fitnesses`)."""
+        return capture_fitnesses(self.problem, grids, self.particles, self.periods, self.margin_weight,
+                                 self.strictness, self.backend)
 
 
 class PolishStep(NamedTuple):
@@ -229,8 +262,8 @@ def _search_de(evaluate, n: int, plan: PolishPlan, rng: np.random.Generator, tra
 _SEARCHES = {"cma": _search_cma, "de": _search_de}
 
 
-def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, executor=None,
-           callback: Callable | None = None, stop: Callable | None = None):
+def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, executor=None, tasks: int | None = None,
+           callback: Callable | None = None, stop: Callable | None = None, backend: str | None = None):
     """Polish a grid: returns ``(values + B coef, PolishResult)`` for the best ``coef`` found.
 
     The start (``coef = 0``) is evaluated first, so the result is never worse on the training
@@ -251,23 +284,35 @@ def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, execu
     executor : object with ``map(fn, iterable)``, optional
         Evaluates a generation's candidates (e.g. a ``concurrent.futures`` executor); the
         result is the same as serial.
+    tasks : int, optional
+        With an executor, the parts a generation is split into, each run as one population
+        (default: one per candidate); without one, a generation is one population.
     callback : callable, optional
         ``callback(PolishStep)`` after each generation.
     stop : callable, optional
         ``stop() -> bool``, asked after each generation (Ctrl-C).
+    backend : {"numba", "numpy"} or None
+        Which loops run the candidates (:func:`pes_ref.simulate`); the result does not
+        depend on it.
     """
     values = checks.as_float_array("values", values, ndim=2)
     seed = checks.as_nonneg_int("seed", seed)
+    if tasks is not None:
+        tasks = checks.as_positive_int("tasks", tasks)
     if not isinstance(plan, PolishPlan):
         raise TypeError(f"plan must be a PolishPlan, got {type(plan).__name__}")
     particles = polish_particles(problem, np.random.default_rng([seed, PARTICLE_SEED]), plan.n_particles,
                                  plan.rest_share, plan.center_share, plan.center_std, plan.rest_max_share)
     B = legendre_fourier_basis(problem, values.shape, plan.fourier_order, plan.legendre_terms)
-    fitness = Fitness(problem, particles, plan.periods, plan.margin_weight, plan.strictness)
-    mapper = map if executor is None else executor.map
+    fitness = Fitness(problem, particles, plan.periods, plan.margin_weight, plan.strictness, backend)
 
     def evaluate(coefs):
-        return [float(f) for f in mapper(fitness, [values + B @ np.asarray(c, dtype=np.float64) for c in coefs])]
+        grids = [values + B @ np.asarray(c, dtype=np.float64) for c in coefs]
+        if executor is None:
+            return [float(f) for f in fitness.batch(grids)]
+        parts = np.array_split(np.arange(len(grids)), min(len(grids), tasks or len(grids)))
+        return [float(f) for part in executor.map(fitness.batch, [[grids[i] for i in p] for p in parts])
+                for f in part]
 
     tracker = _Tracker(plan, fitness(values + B @ np.zeros(B.shape[-1])), B.shape[-1], callback, stop)
     if not tracker.done:

@@ -35,7 +35,7 @@ def _reopen_gradient_stage(state: DesignState) -> None:
     state.polish_history = {"evaluations": [], "fitness": []}
 
 
-def _run_polish(state: DesignState, flag: StopFlag, executor, callback, progress_every: float,
+def _run_polish(state: DesignState, flag: StopFlag, executor, tasks, callback, progress_every: float,
                 checkpoint, checkpoint_every: float) -> None:
     """The polish from the gradient stage's grid (``base_values``), from its beginning."""
     if state.stage != "polish":
@@ -68,8 +68,8 @@ def _run_polish(state: DesignState, flag: StopFlag, executor, callback, progress
             checkpoint(state)
             last["checkpoint"] = now
 
-    values, result = polish(state.problem, base, state.seed, plan, executor=executor, callback=on_generation,
-                            stop=lambda: flag.stop)
+    values, result = polish(state.problem, base, state.seed, plan, executor=executor, tasks=tasks,
+                            callback=on_generation, stop=lambda: flag.stop, backend=state.backend)
     state.values, state.evaluations = values, result.evaluations
     state.polish_history = {"evaluations": [e for e, _ in result.history], "fitness": [f for _, f in result.history]}
     state.status = "interrupted" if result.stopped else "done"
@@ -88,8 +88,8 @@ def set_polish(state: DesignState, plan) -> None:
             state.status = "interrupted"
 
 
-def run_stages(state: DesignState, iterations: int | None = None, *, executor=None, callback: Callable | None = None,
-               progress_every: float = 2.0, checkpoint: Callable | None = None,
+def run_stages(state: DesignState, iterations: int | None = None, *, executor=None, tasks: int | None = None,
+               callback: Callable | None = None, progress_every: float = 2.0, checkpoint: Callable | None = None,
                checkpoint_every: float = 60.0) -> DesignState:
     """Run every stage of ``state`` that is not done: the gradient iterations up to ``iterations``
     (default: the plan's), then the polish (if ``state.polish``).
@@ -101,7 +101,8 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
     seconds. Ctrl-C stops either stage after its current iteration or generation with
     ``status = "interrupted"``; a gradient stage that goes non-finite stops as
     :func:`pes_ref.synthesis.training.run_design` says, and the polish does not start.
-    ``executor`` evaluates the polish's candidates (see :func:`pes_ref.synthesis.polish.polish`).
+    ``executor`` evaluates the polish's candidates in ``tasks`` parts (see
+    :func:`pes_ref.synthesis.polish.polish`); both stages run on ``state.backend``.
     """
     total = state.plan.iterations if iterations is None else checks.as_nonneg_int("iterations", iterations)
     with StopFlag() as flag:
@@ -119,5 +120,5 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
         if flag.stop:
             state.status = "interrupted"
             return state
-        _run_polish(state, flag, executor, callback, progress_every, checkpoint, checkpoint_every)
+        _run_polish(state, flag, executor, tasks, callback, progress_every, checkpoint, checkpoint_every)
     return state

@@ -31,18 +31,21 @@ from pes_ref.synthesis.resampling import resample
 __all__ = ["GradientStep", "run_design", "design_gradient"]
 
 
-def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_steps: int | None = None):
+def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_steps: int | None = None,
+                backend: str | None = None):
     """Loss, masked design gradient dL/dE and trajectory of iteration ``iteration``.
 
     Returns ``(loss, grad, traj, x0)``; the particles come from ``default_rng([seed, iteration])``
     and the objective with them (``batch.objective``, plus the batch's ``grid_cost`` of the values
-    if it has one); ``n_steps`` overrides the problem's.
+    if it has one); ``n_steps`` overrides the problem's;
+    ``backend`` as in :func:`pes_ref.value_and_grad`.
     Raises :class:`pes_ref.NonFiniteError` when the run leaves the finite numbers.
     """
     rng = np.random.default_rng([seed, iteration])
     batch = problem.batch(values, rng, n_particles, n_steps)
     loss, grads, traj = value_and_grad(batch.scene, batch.x0, batch.v0, batch.objective,
-                                       regularization_weight=problem.regularization, wrt=("values",))
+                                       regularization_weight=problem.regularization, wrt=("values",),
+                                       backend=backend)
     grad = problem.values_grad(values, grads["values"])
     if batch.grid_cost is not None:
         cost, cost_grad = batch.grid_cost(values)
@@ -62,10 +65,10 @@ class GradientStep(NamedTuple):
 
 
 def design_gradient(problem, values, seed: int = 0, iteration: int = 0, n_particles: int = 64,
-                    n_steps: int | None = None) -> GradientStep:
+                    n_steps: int | None = None, backend: str | None = None) -> GradientStep:
     """One iteration's design gradient dL/dE (masked like the run's) with the paths behind it."""
     values = checks.as_float_array("values", values, ndim=2)
-    return GradientStep(*design_step(problem, values, seed, iteration, n_particles, n_steps))
+    return GradientStep(*design_step(problem, values, seed, iteration, n_particles, n_steps, backend))
 
 
 def _values_on_stage_grid(state: DesignState, shape: tuple) -> np.ndarray:
@@ -145,7 +148,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             try:
                 with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                     loss_k, grad, traj, _ = design_step(problem, values, state.seed, k, plan.n_particles,
-                                                        plan.steps_at(k))
+                                                        plan.steps_at(k), state.backend)
             except FloatingPointError as exc:          # NonFiniteError is one
                 roll_back(f"iteration {k}: {exc}")
                 break

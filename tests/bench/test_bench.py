@@ -59,6 +59,30 @@ def test_autograd_version_gives_the_reference_gradient(name):
     _agrees(bench_autograd, name)
 
 
+def test_bench_quick_reports_every_backend_and_what_a_scene_does_not_name(tmp_path, capsys):
+    """Both backends side by side (scaling, effects, design gradients, the design run); the
+    terms named with zero coefficients; the arrays zero-filled; the new targets printed."""
+    from pes_ref.core import backends
+    out = tmp_path / "b.json"
+    assert cli.main(["bench", "--quick", "--no-autodiff", "--out", str(out)]) == cli.EXIT_OK
+    res = json.loads(out.read_text())
+    installed = [b for b in ("numpy", "numba") if backends.installed(b)]
+    assert sorted({r["backend"] for r in res["scaling"]}) == sorted(installed)
+    assert all(sorted(r["backends"]) == sorted(installed) for r in res["design"])
+    assert [r["N"] for r in res["design"] if r["case"] == "funnel"][-1] == 8          # the funnel at scale (quick: 8)
+    assert [r["backend"] for r in res["runs"]] == installed and all(r["status"] == "done" for r in res["runs"])
+    nothing = {r["effect"] for r in res["effects"]["nothing"]}
+    assert {"spring, k = 0", "noise, std 0", "cylinder: spring k = (1, 0)"} <= nothing
+    filled = res["memory"]["zero_filled"]
+    assert {(r["mode"], r["call"]) for r in filled} >= {("dynamic", "value_and_grad"), ("quasistatic", "simulate")}
+    assert all(len(r["arrays"]) == r["needed"] for r in filled)
+    names = {t["target"] for t in res["targets"]}
+    assert "trajectory-sized arrays filled, not needed" in names
+    assert {f"funnel gradient N = {n}: {b} / JAX steady" for n in (64, 4096, 65536) for b in installed} <= names
+    printed = capsys.readouterr().out
+    assert "Named with zero coefficients" in printed and "Design runs" in printed
+
+
 def test_bench_fails_when_a_framework_gradient_differs(tmp_path, capsys, monkeypatch):
     """The benchmark checks every framework's gradient (autograd here, JAX under make
     bench) against pes_ref's before timing it: a wrong one is exit 1 and one error line."""

@@ -37,6 +37,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 import pytest
 
+import _helpers
+
 import pes_ref
 from pes_ref import cli
 from pes_ref.oracle import conformance, load_case, run_case, save_case, write_result
@@ -84,6 +86,7 @@ FAULTS = [
     Fault("oracle-out-dir-missing", "oracle case.npz --out-dir nodir", ("nodir", "does not exist")),
     Fault("oracle-result-file", "oracle result.npz out.npz", ("result.npz is an oracle result file",)),
     Fault("oracle-unknown-option", "oracle case.npz out.npz --bogus 3", ("--bogus",)),
+    Fault("oracle-backend-unknown", "oracle case.npz out.npz --backend cuda", ("--backend", "'cuda'")),
     Fault("oracle-refusals-no-folder", "oracle bad.case.npz out.npz --refusals nodir/r.jsonl",
           ("nodir/r.jsonl", "does not exist")),
     Fault("oracle-refusals-a-folder", "oracle bad.case.npz out.npz --refusals sub", ("sub", "is a folder")),
@@ -259,6 +262,9 @@ FAULTS = [
           ("a funnel design, not an oscillator design",)),
     Fault("design-resume-other-seed", "design funnel --resume design.npz --seed 5 --out new.npz",
           ("--seed 5", "seed 0")),
+    Fault("design-resume-other-backend", "design funnel --resume design.npz --backend numpy --out new.npz",
+          ("--backend numpy differs from the resumed run's numba",)),
+    Fault("design-backend-unknown", "design funnel --smoke --out new.npz --backend cuda", ("--backend", "'cuda'")),
     Fault("design-unknown-kind", "design catapult", ("'catapult'",)),
     Fault("design-unknown-option", "design funnel --smoke --out new.npz --bogus", ("--bogus",)),
     Fault("design-read-only-folder", "design funnel --smoke --out ro/new.npz", ("ro", "not writable"),
@@ -379,30 +385,7 @@ FAULTS = [
 ]
 
 #: A problem file (particles gather at a point) and its malformed versions, for the rows above.
-GOOD_PROBLEM = """format = 1
-[surface]
-lower = [-1.0, -1.0]
-upper = [1.0, 1.0]
-shape = [8, 8]
-[dynamics]
-dt = 0.05
-duration = 2.0
-damping = 1.0
-[starts]
-box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }
-[[objective]]
-kind = "final_position"
-target = [0.3, -0.2]
-[evaluate]
-particles = 12
-[[evaluate.success]]
-kind = "final_position"
-target = [0.3, -0.2]
-radius = 0.3
-[train]
-iterations = 2
-particles = 4
-"""
+GOOD_PROBLEM = _helpers.gather_problem(name=None, iterations=2, train_particles=4)
 PROBLEM_FILES = {
     "good.toml": GOOD_PROBLEM,
     "good2.toml": GOOD_PROBLEM.replace("damping = 1.0", "damping = 2.0"),

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+import _helpers
+
 import pes_ref
 from pes_ref.cli import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_OK, main
 from pes_ref.cli.design import SHIPPED_NAMES
@@ -17,33 +19,7 @@ from pes_ref.synthesis import SHIPPED_PROBLEMS, load_design
 ROOT = Path(pes_ref.__file__).resolve().parent.parent
 ENV = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""), OMP_NUM_THREADS="1")
 
-GATHER = """\
-format = 1
-name = "gather"
-[surface]
-lower = [-1.0, -1.0]
-upper = [1.0, 1.0]
-shape = [8, 8]
-[dynamics]
-dt = 0.05
-duration = 2.0
-damping = 1.0
-walls = { k = 100.0, margin = 0.05 }
-[starts]
-box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }
-[[objective]]
-kind = "final_position"
-target = [0.3, -0.2]
-[evaluate]
-particles = 20
-[[evaluate.success]]
-kind = "final_position"
-target = [0.3, -0.2]
-radius = 0.2
-[train]
-iterations = 6
-particles = 8
-"""
+GATHER = _helpers.gather_problem(walls=True, eval_particles=20, radius=0.2, iterations=6, train_particles=8)
 
 
 def run(capsys, *argv):

@@ -36,6 +36,7 @@ ORACLE_IMPORTS = {
     "pes_ref.core.integrator", "pes_ref.core.interpolations", "pes_ref.core.objectives", "pes_ref.core.progress",
     "pes_ref.core.scene", "pes_ref.core.stability", "pes_ref.core.steppers", "pes_ref.core.surface",
     "pes_ref.core.terms", "pes_ref.core.files", "pes_ref.core.signals",
+    "pes_ref.core.backends",                # the registry of loops: finds numba, never imports it here
     "argparse", "gettext", "locale", "_locale", "copy", "dataclasses",
     "zipfile", "shutil", "binascii", "zlib", "bz2", "_bz2", "lzma", "_lzma", "_compression",
     "encodings.ascii", "encodings.cp437",
@@ -186,6 +187,20 @@ def test_the_funnel_timing_case_is_paper_sized():
     vc = oracle.validate_case(funnel_case_keys())
     assert vc.scene.surface.values.shape == (200, 200) and vc.x0.shape == (64, 2) and vc.scene.n_steps == 400
     assert vc.grad_names == ("values", "x0", "v0", "force", "mass", "damping")
+
+
+def test_the_oracle_runs_numpy_and_never_imports_numba_unless_asked(tmp_path):
+    """The compiled loops are the library's default when numba is installed, but the oracle
+    runs NumPy's unless ``--backend numba`` (then it does import numba: the probe sees it)."""
+    oracle.save_case(tmp_path / "c.npz", **small_case())
+    plain = modules_added_by_oracle(tmp_path / "c.npz", tmp_path / "r.npz")
+    assert plain["status"] == 0 and not [m for m in plain["added"] if m.split(".")[0] in ("numba", "llvmlite")]
+    assert "pes_ref.core.compiled" not in plain["added"]
+    pytest.importorskip("numba")
+    compiled = modules_added_by_oracle(tmp_path / "c.npz", tmp_path / "r2.npz", "--backend", "numba")
+    assert compiled["status"] == 0 and "numba" in compiled["added"] and "pes_ref.core.compiled" in compiled["added"]
+    a, b = (oracle.read_npz(tmp_path / name) for name in ("r.npz", "r2.npz"))
+    assert a["x"].tobytes() == b["x"].tobytes()
 
 
 def test_the_oracle_checks_each_thing_once(tmp_path, monkeypatch, capsys):

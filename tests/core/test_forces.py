@@ -246,11 +246,13 @@ def _names(terms) -> set:
 
 
 def _run_everything(scene, n=3):
-    """simulate, value_and_grad (forward and backward), energy and a single force_vjp."""
+    """simulate, value_and_grad (forward and backward), energy and a single force_vjp, on the
+    NumPy loops (whose kernels and steppers these tests watch)."""
     x0 = scene.surface.lower + np.linspace(0.2, 0.8, 2 * n).reshape(n, 2) * scene.surface.length
     v0 = np.full((n, 2), 0.3)
-    traj = pr.simulate(scene, x0, v0)
-    loss, grads, _ = pr.value_and_grad(scene, x0, v0, pr.Quadratic(wx=1.0, wv=0.5), regularization_weight=0.1)
+    traj = pr.simulate(scene, x0, v0, backend="numpy")
+    loss, grads, _ = pr.value_and_grad(scene, x0, v0, pr.Quadratic(wx=1.0, wv=0.5), regularization_weight=0.1,
+                                       backend="numpy")
     pr.energy(scene, traj)
     field = scene.field()
     force_vjp(field, x0, v0, np.zeros((n, 2)), GradAccumulator(field, n, frozenset(grads)))

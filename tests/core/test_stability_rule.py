@@ -93,7 +93,7 @@ def test_the_refusal_happens_before_the_run(term, mode, monkeypatch):
 
     def boom(*a, **k):
         raise AssertionError("the run started")
-    monkeypatch.setattr(scene_mod, "stepper", boom)
+    monkeypatch.setattr(scene_mod, "_stepper", boom)
     with pytest.raises(stability.UnstableStepError):
         pr.simulate(_scene(term, mode, 1.01), X0, V0)
     with pytest.raises(stability.UnstableStepError):

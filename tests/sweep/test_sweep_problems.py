@@ -4,36 +4,13 @@ from __future__ import annotations
 
 import pytest
 
+import _helpers
+
 from pes_ref.sweep import task as task_module
 from pes_ref.sweep.spec import SweepFileError, load_sweep
 from pes_ref.synthesis import load_design
 
-GATHER = """\
-format = 1
-name = "gather"
-[surface]
-lower = [-1.0, -1.0]
-upper = [1.0, 1.0]
-shape = [8, 8]
-[dynamics]
-dt = 0.05
-duration = 2.0
-damping = 1.0
-[starts]
-box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }
-[[objective]]
-kind = "final_position"
-target = [0.3, -0.2]
-[evaluate]
-particles = 12
-[[evaluate.success]]
-kind = "final_position"
-target = [0.3, -0.2]
-radius = 0.3
-[train]
-iterations = 4
-particles = 6
-"""
+GATHER = _helpers.gather_problem()
 
 SWEEP = """\
 problem = "gather.toml"

@@ -4,6 +4,7 @@ import os
 import numpy as np
 import pytest
 
+import pes_ref as pr
 from pes_ref import synthesis
 from pes_ref.synthesis import Plan, design_file
 from pes_ref.synthesis.design_file import DesignFileError, check_same_scene, load_design, save_design
@@ -201,7 +202,7 @@ def test_round_trip_of_a_polished_design_is_exact(tmp_path):
     np.testing.assert_array_equal(back.base_values, st.base_values)
     assert back.evaluations == 9 and back.polish_history == st.polish_history and back.finished
     with np.load(tmp_path / "p.npz") as z:
-        assert int(z["version"]) == design_file.VERSION == 2 and str(z["method"]) == "gradient+polish"
+        assert int(z["version"]) == design_file.VERSION == 3 and str(z["method"]) == "gradient+polish"
 
 
 def test_a_version_1_file_is_read_as_a_gradient_only_run(tmp_path):
@@ -217,6 +218,42 @@ def test_a_version_1_file_is_read_as_a_gradient_only_run(tmp_path):
     back = load_design(tmp_path / "v1.npz")
     assert_same_state(st, back)
     assert back.polish is None and back.stage == "gradient" and back.method == "gradient" and back.finished
+    assert back.backend == "numpy"
+
+
+# --------------------------------------------------------------------------- version 3: the backend
+
+@pytest.mark.parametrize("backend", sorted(pr.BACKENDS))
+def test_a_design_file_records_its_backend(tmp_path, backend):
+    st = synthesis.run_design(synthesis.new_design("funnel", plan=Plan(iterations=2, n_particles=3), backend=backend,
+                                                   grid=8, n_steps=20))
+    save_design(tmp_path / "d.npz", st)
+    back = load_design(tmp_path / "d.npz")
+    assert st.backend == back.backend == backend
+    with np.load(tmp_path / "d.npz") as z:
+        assert str(z["backend"]) == backend
+
+
+def test_a_version_2_file_is_read_as_a_numpy_run(tmp_path):
+    st = synthesis.run_design(tiny())
+    arrays = design_file.design_arrays(st)
+    del arrays["backend"]
+    arrays.update(version=np.array(2))
+    np.savez(tmp_path / "v2.npz", **arrays)
+    back = load_design(tmp_path / "v2.npz")
+    assert_same_state(st, back)
+    assert back.backend == "numpy"
+
+
+@pytest.mark.parametrize("change", [lambda d: d.pop("backend"), lambda d: d.update(backend=np.array("cuda"))],
+                         ids=["missing", "unknown"])
+def test_a_damaged_backend_is_refused(tmp_path, change):
+    save_design(tmp_path / "d.npz", synthesis.run_design(tiny()))
+    data = dict(np.load(tmp_path / "d.npz"))
+    change(data)
+    np.savez(tmp_path / "d.npz", **data)
+    with pytest.raises(DesignFileError, match="backend ''|backend 'cuda'"):
+        load_design(tmp_path / "d.npz")
 
 
 @pytest.mark.parametrize("change, match", [

@@ -292,9 +292,9 @@ def _clocked(monkeypatch, seconds_per_step=1e-3):
     clock = [0.0]
     real = training.design_step
 
-    def step(problem, values, seed, iteration, n_particles, n_steps=None):
+    def step(problem, values, seed, iteration, n_particles, n_steps=None, backend=None):
         clock[0] += seconds_per_step * (n_steps or problem.n_steps)
-        return real(problem, values, seed, iteration, n_particles, n_steps)
+        return real(problem, values, seed, iteration, n_particles, n_steps, backend)
     monkeypatch.setattr(training, "design_step", step)
     monkeypatch.setattr(training, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
 
@@ -333,3 +333,26 @@ def test_a_plain_run_is_one_stage(monkeypatch):
                          progress_every=0.0)
     assert {p.stage for p in seen} == {"stage 1/1"} and seen[0].figure("steps") == TINY_FUNNEL["n_steps"]
     assert seen[0].seconds_left == pytest.approx(2 * 0.1)
+
+
+@pytest.mark.parametrize("kind, kw", [("funnel", dict(grid=8, n_steps=40)),
+                                      ("oscillator", dict(grid0=6, grid1=6, eval_periods=4))])
+def test_the_seeds_evaluated_together_give_each_seeds_own_figures(kind, kw):
+    """evaluate_seeds runs every seed's held-out particles (and the flat surface's) as one
+    population: the figures are evaluate's for each seed, number for number."""
+    problem = synthesis.PROBLEMS[kind](**kw)
+    values = 0.05 * np.random.default_rng(0).standard_normal(problem.shape())
+    together = synthesis.evaluate_seeds(problem, values, (12345, 9191, 12345), n_particles=7)
+    assert list(together) == [12345, 9191]
+    for seed, figures in together.items():
+        alone = synthesis.evaluate(problem, values, seed=seed, n_particles=7)
+        assert figures.keys() == alone.keys()
+        assert all(figures[k] == alone[k] or (np.isnan(figures[k]) and np.isnan(alone[k])) for k in alone)
+        if kind == "funnel":        # against the held-out runs simulated one by one
+            exits = synthesis.exit_positions(problem, synthesis.funnel_paths(problem, values, 7, seed).traj)
+            assert figures["in_band_fraction"] == float(np.mean(problem.in_band(exits)))
+        else:
+            sweep = synthesis.oscillator_torque_sweep(problem, values, 7, seed=seed)
+            grid = synthesis.oscillator_grid_starts(problem, values)
+            assert figures["sweep_captured_fraction"] == float(np.mean(synthesis.cycle_figures(problem, sweep.traj)[3]))
+            assert figures["grid_captured_fraction"] == float(np.mean(synthesis.cycle_figures(problem, grid.traj)[3]))

@@ -15,36 +15,8 @@ from pes_ref.synthesis import (DesignFileError, Plan, ProblemFileError, check_sa
                                parse_problem, problem_from_text, problem_text, save_design, shipped_problem, with_sets)
 
 #: A small problem as a stranger writes it: particles gather at a point.
-GATHER = """
-format = 1
-name = "gather"
-[surface]
-lower = [-1.0, -1.0]
-upper = [1.0, 1.0]
-shape = [8, 8]
-[dynamics]
-dt = 0.05
-duration = 2.0
-damping = 1.0
-walls = { k = 100.0, margin = 0.05 }
-[starts]
-box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }
-[[forces]]
-kind = "noise"
-std = 0.1
-[[objective]]
-kind = "final_position"
-target = [0.3, -0.2]
-[evaluate]
-particles = 20
-[[evaluate.success]]
-kind = "final_position"
-target = [0.3, -0.2]
-radius = 0.2
-[train]
-iterations = 5
-particles = 8
-"""
+GATHER = _helpers.gather_problem(walls=True, noise=True, eval_particles=20, radius=0.2, iterations=5,
+                                 train_particles=8)
 
 
 def gather(**sets):

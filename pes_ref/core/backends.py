@@ -1,0 +1,99 @@
+"""The registry of backends: which code runs a scene's steps and their adjoints.
+
+- ``"numpy"``: the NumPy loops (:data:`pes_ref.core.steppers.STEPPERS`); every scene.
+- ``"numba"``: compiled loops (:mod:`pes_ref.core.compiled`, the optional extra ``fast``:
+  ``pip install 'pes_ref[fast]'``), for the bilinear grid with the paper's dynamic step and
+  the quasistatic step, springs, walls, damping and the external force. A scene it does not
+  cover (the bicubic grid, the GJF step) runs on NumPy. Its forward trajectories are
+  bit-identical to NumPy's; its gradients agree to 1e-13 of their largest entry (the grid
+  gradient and the mobility's are sums in another order; the others are bit-identical).
+
+The default (``backend=None`` everywhere) is the first of :data:`DEFAULT_ORDER` that is
+installed: the compiled loops when numba is, else NumPy. Whether a backend is installed is
+read from the import system without importing it, so choosing the default imports nothing
+(``python -m pes_ref oracle`` asks for ``"numpy"`` and never imports numba).
+:func:`stepper` is the one dispatch point (``core/scene.py`` and ``core/population.py``).
+"""
+from __future__ import annotations
+
+import functools
+import importlib
+import importlib.util
+from typing import NamedTuple
+
+from pes_ref.core import checks
+from pes_ref.core.steppers import Stepper, stepper as numpy_stepper
+
+__all__ = ["Backend", "BACKENDS", "DEFAULT_ORDER", "installed", "default_backend", "check_backend", "stepper",
+           "covers"]
+
+
+class Backend(NamedTuple):
+    """One way to run the steps.
+
+    ``module`` holds its ``STEPPERS`` (``(mode, integrator) -> Stepper``), imported on first
+    use; ``requires`` the package it needs (None: NumPy alone) and ``extra`` the pip extra
+    that installs it; ``interpolations`` the grid rules its steppers compute. What it does not
+    cover runs on ``"numpy"``.
+    """
+
+    name: str
+    module: str
+    requires: str | None
+    extra: str | None
+    interpolations: tuple
+
+
+#: Every backend by name.
+BACKENDS = {
+    "numpy": Backend("numpy", "pes_ref.core.steppers", None, None, ("bilinear", "bicubic")),
+    "numba": Backend("numba", "pes_ref.core.compiled", "numba", "fast", ("bilinear",)),
+}
+
+#: The default backend is the first of these that is installed.
+DEFAULT_ORDER = ("numba", "numpy")
+
+
+@functools.lru_cache(maxsize=None)
+def installed(name: str) -> bool:
+    """Whether backend ``name``'s package can be imported (found, not imported)."""
+    requires = BACKENDS[name].requires
+    return requires is None or importlib.util.find_spec(requires) is not None
+
+
+def default_backend() -> str:
+    """The first installed backend of :data:`DEFAULT_ORDER`."""
+    return next(name for name in DEFAULT_ORDER if installed(name))
+
+
+def check_backend(backend) -> str:
+    """``backend`` checked at a public boundary: None gives :func:`default_backend`; a name
+    not in :data:`BACKENDS`, or one whose package is not installed, raises an
+    :class:`~pes_ref.core.checks.InputError` keyed ``"backend"``."""
+    if backend is None:
+        return default_backend()
+    if not isinstance(backend, str) or backend not in BACKENDS:
+        raise checks.InputError("backend", f"backend must be one of {sorted(BACKENDS)} or None (the default), "
+                                           f"got {backend!r}")
+    if not installed(backend):
+        b = BACKENDS[backend]
+        raise checks.InputError("backend", f"backend={backend!r} needs {b.requires}, which is not installed: "
+                                           f"pip install 'pes_ref[{b.extra}]'")
+    return backend
+
+
+def _steppers(name: str) -> dict:
+    return importlib.import_module(BACKENDS[name].module).STEPPERS
+
+
+def covers(backend: str, mode: str, integrator: str, interpolation: str) -> bool:
+    """Whether ``backend`` itself runs a scene of this mode, integrator and grid rule."""
+    return interpolation in BACKENDS[backend].interpolations and (mode, integrator) in _steppers(backend)
+
+
+def stepper(backend: str, mode: str, integrator: str, interpolation: str) -> Stepper:
+    """The stepper that runs ``(mode, integrator)`` on an ``interpolation`` grid for
+    ``backend`` (checked): its own when it covers the scene, else NumPy's."""
+    if backend != "numpy" and covers(backend, mode, integrator, interpolation):
+        return _steppers(backend)[(mode, integrator)]
+    return numpy_stepper(mode, integrator)

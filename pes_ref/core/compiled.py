@@ -1,0 +1,709 @@
+"""Compiled loops: the paper's dynamic step, the quasistatic step and their adjoints as numba
+kernels (the backend ``"numba"`` of :data:`pes_ref.core.backends.BACKENDS`; the optional
+extra ``fast``).
+
+They are an optimization of :mod:`pes_ref.core.integrator` (and, through it, of
+:mod:`pes_ref.core.reference`): the same sub-steps, (S1)-(S4) and (B1)-(B4), (Q1)-(Q2) and
+(QB1)-(QB2) of ``docs/adjoint.md``, written per particle instead of per array. Every
+floating-point operation of the NumPy path is done here in the same order on the same
+operands (IEEE double, no fused multiply-add: numba's default ``fastmath=False``), so:
+
+- the forward trajectory ``x, v, f`` is bit-identical to the NumPy path's, on the bilinear
+  grid (the same per-cell table, :func:`pes_ref.core.bilinear.coefficient_table`), springs
+  (the minimum image by ``fmod`` as NumPy's ``np.mod`` computes it), walls, damping and the
+  external force;
+- every gradient but two is bit-identical too; the grid gradient is accumulated per state
+  into the coefficient table's gradient (NumPy's path scatters a chunk of states at a time)
+  and the mobility's is summed particle by particle (NumPy's by ``einsum``): the same sums
+  in another order, within 1e-13 of their largest entry (``tests/core/test_compiled.py``).
+
+A population (:mod:`pes_ref.core.population`) runs with the grid offset of each particle
+added to its cell (``Field.offsets``). The bicubic grid and the GJF step are not compiled:
+:func:`pes_ref.core.backends.stepper` runs them on NumPy.
+
+The kernels take every array C-contiguous float64 of a fixed dimension (absent terms as
+placeholders with a flag), so each compiles once; numba caches the machine code on disk
+(``cache=True``: beside this file in ``__pycache__``, or in numba's user cache directory
+when the package is installed read-only, or in ``NUMBA_CACHE_DIR``). A run without a
+progress callback is one call; with one, a call per :data:`pes_ref.core.progress.EVERY`
+steps (:func:`pes_ref.core.progress.blocks`), so Ctrl-C and progress lines come between
+them.
+"""
+from __future__ import annotations
+
+
+from types import SimpleNamespace
+
+import numpy as np
+from numba import njit
+
+from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, quasistatic_velocities,
+                                     reports_nonfinite, step_coefficients, trajectory_arrays)
+from pes_ref.core.progress import blocks as step_blocks
+from pes_ref.core.steppers import STEPPERS as NUMPY_STEPPERS, Stepper, StepParams
+from pes_ref.core.terms import spring_axes
+
+__all__ = ["STEPPERS", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic", "adjoint_quasistatic"]
+
+#: ``error_model="numpy"``: a division by zero gives inf or NaN as in NumPy, not an exception.
+#: The per-particle helpers are inlined into the loops (``inline="always"``): a call that
+#: passes arrays costs a reference count per array, more than the arithmetic.
+_JIT = dict(cache=True, nogil=True, error_model="numpy", _nrt=False)
+
+
+# =========================================================================== the force of one particle
+
+@njit(inline="always", **_JIT)
+def _clip(u, lo, hi):
+    """NumPy's ``clip`` ufunc on floats: ``min(max(u, lo), hi)``, NaN kept."""
+    m = u if (u != u or u > lo) else lo
+    return m if (m != m or m < hi) else hi
+
+
+@njit(inline="always", **_JIT)
+def _mod(a, length):
+    """NumPy's ``np.mod`` of floats for ``length > 0`` (``fmod``, then the sign of the divisor)."""
+    m = np.fmod(a, length)
+    if m != 0.0:
+        if m < 0.0:
+            m += length
+    else:
+        m = 0.0
+    return m
+
+
+@njit(inline="always", **_JIT)
+def _locate(q0, q1, g, per0, per1, clips):
+    """The lookup of :meth:`pes_ref.core.grid.Locator.bind` for one point, both axes:
+    ``(cell, f0, f1, s0, s1)``. ``g`` holds ``lower0, lower1, h0, h1, n0 - 1, n1 - 1,
+    n0 - 2, n1 - 2, n0, n1``. A periodic axis is neither clipped nor switched (a no-op
+    there), a non-periodic one never wrapped (idem); a non-finite point gets cell 0."""
+    u0 = (q0 - g[0]) / g[2]
+    u1 = (q1 - g[1]) / g[3]
+    s0 = 1.0
+    s1 = 1.0
+    uc0 = u0
+    uc1 = u1
+    if clips:
+        if not per0:
+            uc0 = _clip(u0, 0.0, g[4])
+            s0 = 1.0 if u0 == uc0 else 0.0
+        if not per1:
+            uc1 = _clip(u1, 0.0, g[5])
+            s1 = 1.0 if u1 == uc1 else 0.0
+    k0 = np.floor(uc0)
+    k1 = np.floor(uc1)
+    if clips:
+        if not per0:
+            k0 = _clip(k0, -np.inf, g[6])
+        if not per1:
+            k1 = _clip(k1, -np.inf, g[7])
+    f0 = uc0 - k0
+    f1 = uc1 - k1
+    if per0:
+        k0 = k0 - np.floor(k0 / g[8]) * g[8]
+    if per1:
+        k1 = k1 - np.floor(k1 / g[9]) * g[9]
+    cf = k0 * g[9] + k1
+    cell = int(cf) if (cf >= 0.0 and cf < g[8] * g[9]) else 0
+    return cell, f0, f1, s0, s1
+
+
+@njit(inline="always", **_JIT)
+def _force(q0, q1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
+           won, wk, wlo, whi):
+    """``F(q)`` of particle ``i`` (N, 2 row): the grid's ``(A + f D) s`` from its table row,
+    then ``-k delta`` of the spring, then the walls' ``k (clip(q, a, b) - q)``: the
+    operations of :class:`~pes_ref.core.forces.ForceKernel` in its order. (The arguments are
+    the unpacked tuples of :func:`_grid`, :func:`_spring` and :func:`_walls`: a kernel
+    unpacks them once, outside its loops; ``wraps`` is its compile-time constant.)"""
+    cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
+    row = cell + offsets[i]
+    if row >= table.shape[0]:
+        row = table.shape[0] - 1
+    F0 = (table[row, 2] * f1 + table[row, 0]) * s0
+    F1 = (table[row, 3] * f0 + table[row, 1]) * s1
+    if son:
+        d0 = q0 - sc[i, 0]
+        d1 = q1 - sc[i, 1]
+        if wraps:
+            if swrap0:
+                d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
+            if swrap1:
+                d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
+        F0 = F0 - sk[i, 0] * d0
+        F1 = F1 - sk[i, 1] * d1
+    if won:
+        F0 = F0 + (_clip(q0, wlo[i, 0], whi[i, 0]) - q0) * wk[i, 0]
+        F1 = F1 + (_clip(q1, wlo[i, 1], whi[i, 1]) - q1) * wk[i, 1]
+    return F0, F1
+
+
+@njit(inline="always", **_JIT)
+def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, cross, offsets, gtab, want_values,
+         son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, gc, walls):
+    """(A6) at particle ``i``'s position for the cotangent ``w``: returns ``xbar + (dF/dx)^T w``
+    (the grid's ``-Hc s0 s1 (w1, w0)``, the spring's ``-k w``, the walls' ``-k w`` where
+    active, in :class:`~pes_ref.core.forces.ForceAdjoint`'s order) and accumulates the
+    grid's table gradient and the spring's, as wanted."""
+    cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
+    row = cell + offsets[i]
+    if row >= cross.size:
+        row = cross.size - 1
+    hcs = cross[row]
+    if clips:
+        hcs = hcs * s0 * s1
+    xb0 = xb0 - hcs * w1
+    xb1 = xb1 - hcs * w0
+    if want_values:
+        wa0 = w0 * s0 if clips else w0
+        wa1 = w1 * s1 if clips else w1
+        gtab[row, 0] += wa0
+        gtab[row, 1] += wa1
+        gtab[row, 2] += wa0 * f1
+        gtab[row, 3] += wa1 * f0
+    if son:
+        b0 = sk[i, 0] * w0
+        b1 = sk[i, 1] * w1
+        xb0 = xb0 - b0
+        xb1 = xb1 - b1
+        if want_k:
+            d0 = q0 - sc[i, 0]
+            d1 = q1 - sc[i, 1]
+            if wraps:
+                if swrap0:
+                    d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
+                if swrap1:
+                    d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
+            gk[i, 0] = gk[i, 0] - d0 * w0
+            gk[i, 1] = gk[i, 1] - d1 * w1
+        if want_c:
+            gc[i, 0] = gc[i, 0] + b0
+            gc[i, 1] = gc[i, 1] + b1
+    won, wk, wlo, whi = walls        # a tuple: numba inlines a function of at most 30 arguments
+    if won:
+        k0 = wk[i, 0] if _clip(q0, wlo[i, 0], whi[i, 0]) != q0 else 0.0
+        k1 = wk[i, 1] if _clip(q1, wlo[i, 1], whi[i, 1]) != q1 else 0.0
+        xb0 = xb0 - k0 * w0
+        xb1 = xb1 - k1 * w1
+    return xb0, xb1
+
+
+
+# =========================================================================== the per-cell tables
+
+@njit(**_JIT)
+def _coefficient_table(values, nih0, nih1, out):
+    """:func:`pes_ref.core.bilinear.coefficient_table` into ``out`` (n0 n1, 4): the same
+    differences, wrapped, then scaled by ``-1/h`` (bit-identical)."""
+    n0, n1 = values.shape
+    for i in range(n0):
+        ip = i + 1 if i + 1 < n0 else 0
+        for j in range(n1):
+            jp = j + 1 if j + 1 < n1 else 0
+            d0a = values[ip, j] - values[i, j]
+            d1a = values[i, jp] - values[i, j]
+            row = i * n1 + j
+            out[row, 0] = d0a * nih0
+            out[row, 1] = d1a * nih1
+            out[row, 2] = ((values[ip, jp] - values[i, jp]) - d0a) * nih0
+            out[row, 3] = ((values[ip, jp] - values[ip, j]) - d1a) * nih1
+
+
+@njit(**_JIT)
+def _cross_table(values, nih0, nih1, out):
+    """:func:`pes_ref.core.bilinear.cross_table` into ``out`` (n0 n1,) (bit-identical)."""
+    n0, n1 = values.shape
+    for i in range(n0):
+        ip = i + 1 if i + 1 < n0 else 0
+        for j in range(n1):
+            jp = j + 1 if j + 1 < n1 else 0
+            out[i * n1 + j] = (((values[ip, jp] - values[i, jp]) - (values[ip, j] - values[i, j])) * nih0) * nih1
+
+
+@njit(**_JIT)
+def _table_grad_to_values(gtab, nih0, nih1, n0, n1, out):
+    """:func:`pes_ref.core.bilinear.table_grad_to_values` into ``out`` (n0, n1): per node
+    ``-c10 - c01 - c11`` of its own cell plus ``c10``, ``c01``, ``c11`` of the cells it is
+    the other corner of (wrapped), in that order (bit-identical)."""
+    for i in range(n0):
+        im = i - 1 if i > 0 else n0 - 1
+        for j in range(n1):
+            jm = j - 1 if j > 0 else n1 - 1
+            r, ru, rl, rd = i * n1 + j, im * n1 + j, i * n1 + jm, im * n1 + jm
+            c11 = gtab[r, 2] * nih0 + gtab[r, 3] * nih1
+            acc = -(gtab[r, 0] * nih0 - c11)
+            acc = acc - (gtab[r, 1] * nih1 - c11)
+            acc = acc - c11
+            c11u = gtab[ru, 2] * nih0 + gtab[ru, 3] * nih1
+            acc = acc + (gtab[ru, 0] * nih0 - c11u)
+            c11l = gtab[rl, 2] * nih0 + gtab[rl, 3] * nih1
+            acc = acc + (gtab[rl, 1] * nih1 - c11l)
+            out[i, j] = acc + (gtab[rd, 2] * nih0 + gtab[rd, 3] * nih1)
+
+
+def _stacked(values: np.ndarray, width: int) -> tuple:
+    """``(out, grids, size)``: a per-cell table (``width`` columns, 0 for one) of a grid or of
+    a stack of grids, one after another (:func:`pes_ref.core.grid.stacked_table`), the grids
+    (K, n0, n1) and the cells of one."""
+    grids = values.reshape((-1,) + values.shape[-2:])
+    size = grids.shape[1] * grids.shape[2]
+    out = np.empty((grids.shape[0] * size, width) if width else (grids.shape[0] * size,))
+    return out, grids, size
+
+
+def coefficient_table(values: np.ndarray, h) -> np.ndarray:
+    """:func:`pes_ref.core.bilinear.coefficient_table` (of each grid of a stack), compiled."""
+    out, grids, size = _stacked(values, 4)
+    for c, grid in enumerate(grids):
+        _coefficient_table(_kernel_array(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
+    return out
+
+
+def cross_table(values: np.ndarray, h) -> np.ndarray:
+    """:func:`pes_ref.core.bilinear.cross_table` (of each grid of a stack), compiled."""
+    out, grids, size = _stacked(values, 0)
+    for c, grid in enumerate(grids):
+        _cross_table(_kernel_array(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
+    return out
+
+
+def table_grad_to_values(gtab: np.ndarray, h, shape: tuple) -> np.ndarray:
+    """:func:`pes_ref.core.bilinear.table_grad_to_values` of one grid, compiled; flat (n0 n1,)."""
+    out = np.empty(shape)
+    _table_grad_to_values(gtab, -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out)
+    return out.reshape(-1)
+
+
+def _make_kernels(wraps: bool) -> SimpleNamespace:
+    """The compiled loops, with ``wraps`` a compile-time constant: True where a spring's
+    minimum image is computed (a periodic axis where it pulls, or its gradient wanted). A
+    loop whose body holds the ``fmod`` call of the image runs ~30% slower even where it is
+    never taken, so the loops without one are compiled without it (numba caches both)."""
+
+    # ======================================================================= dynamic mode
+
+    @njit(**_JIT)
+    def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls):
+        """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_dynamic`, and
+        from ``start = 0`` the initial force ``F_0 = F(X_0) + F_ext[0]`` first (as a step -1
+        that is only (S3): one copy of the force in the loop); the particles of each block
+        (``blocks[b] .. blocks[b+1] - 1``: a population's member, whose grid's table then stays
+        in cache) through all the steps before the next block's (particles are independent:
+        the order changes no number)."""
+        g, per0, per1, clips, table, offsets = grid
+        son, sk, sc, swrap0, swrap1, shalf, slen = spring
+        won, wk, wlo, whi = walls
+        for b in range(blocks.size - 1):
+            for n in range(start - 1 if start == 0 else start, stop):
+                for i in range(blocks[b], blocks[b + 1]):
+                    if n >= 0:
+                        # (S1) half_kick: P = V_n + a F_n (as a F_n + V_n)
+                        p0 = a[i, 0] * f[n, i, 0] + v[n, i, 0]
+                        p1 = a[i, 1] * f[n, i, 1] + v[n, i, 1]
+                        # (S2) drift: X_{n+1} = X_n + dt P (as P dt + X_n)
+                        y0 = p0 * dt + x[n, i, 0]
+                        y1 = p1 * dt + x[n, i, 1]
+                        x[n + 1, i, 0] = y0
+                        x[n + 1, i, 1] = y1
+                    else:
+                        y0, y1 = x[0, i, 0], x[0, i, 1]
+                        p0 = p1 = 0.0
+                    # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
+                    F0, F1 = _force(y0, y1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, swrap0,
+                                    swrap1, shalf, slen, won, wk, wlo, whi)
+                    if has_fext:
+                        F0 = F0 + fext[n + 1, i, 0]
+                        F1 = F1 + fext[n + 1, i, 1]
+                    f[n + 1, i, 0] = F0
+                    f[n + 1, i, 1] = F1
+                    if n < 0:
+                        continue
+                    # (S4) kick: V_{n+1} = a F_{n+1} + P, damped ((a F_{n+1} + P) - c V_n) (1 / (1 + c))
+                    w0 = a[i, 0] * F0 + p0
+                    w1 = a[i, 1] * F1 + p1
+                    if damped:
+                        w0 = (w0 - c[i, 0] * v[n, i, 0]) * inv_1pc[i, 0]
+                        w1 = (w1 - c[i, 1] * v[n, i, 1]) * inv_1pc[i, 1]
+                    v[n + 1, i, 0] = w0
+                    v[n + 1, i, 1] = w1
+
+
+    @njit(**_JIT)
+    def _dynamic_adjoint_steps(x, v, f, gx, has_gx, gv, has_gv, start, stop, a, inv_1pc, minus_c, damped, dt,
+                               xbar, vbar, fbar, want_abar, abar, want_cbar, cbar, want_force, gforce,
+                               grid, cross, gtab, want_values, spring, want_k, gk, want_c, gc, walls):
+        """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_dynamic`,
+        (B4)-(B1) and the objective's direct terms, per particle; down to ``start = 0``, then
+        (B0), the adjoint of the initial force (as a step -1 that is only (B3))."""
+        g, per0, per1, clips, _, offsets = grid
+        son, sk, sc, swrap0, swrap1, shalf, slen = spring
+        won, wk, wlo, whi = walls
+        for n in range(stop - 1, start - 2 if start == 0 else start - 1, -1):
+            for i in range(x.shape[1]):
+                xb0, xb1 = xbar[i, 0], xbar[i, 1]
+                vb0, vb1 = vbar[i, 0], vbar[i, 1]
+                if n >= 0:
+                    # (B4) kick^T: P^ = V^_{n+1} / (1 + c); V^_n = -c P^; F^_{n+1} += a P^; a^, c^
+                    if damped:
+                        pb0 = vb0 * inv_1pc[i, 0]
+                        pb1 = vb1 * inv_1pc[i, 1]
+                        vp0 = minus_c[i, 0] * pb0
+                        vp1 = minus_c[i, 1] * pb1
+                    else:
+                        pb0, pb1 = vb0, vb1
+                        vp0 = vp1 = 0.0
+                    fb0 = fbar[i, 0] + a[i, 0] * pb0
+                    fb1 = fbar[i, 1] + a[i, 1] * pb1
+                    if want_abar:
+                        abar[i, 0] = abar[i, 0] + f[n + 1, i, 0] * pb0
+                        abar[i, 1] = abar[i, 1] + f[n + 1, i, 1] * pb1
+                    if want_cbar:
+                        cbar[i, 0] = cbar[i, 0] - (v[n, i, 0] + v[n + 1, i, 0]) * pb0
+                        cbar[i, 1] = cbar[i, 1] - (v[n, i, 1] + v[n + 1, i, 1]) * pb1
+                else:                       # (B0) is (B3) at X_0 with F^_0 = a P^ of step 0's (B1)
+                    fb0, fb1 = fbar[i, 0], fbar[i, 1]
+                    pb0 = pb1 = vp0 = vp1 = 0.0
+                # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}
+                if want_force:
+                    gforce[n + 1, i, 0] = fb0
+                    gforce[n + 1, i, 1] = fb1
+                xb0, xb1 = _vjp(x[n + 1, i, 0], x[n + 1, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, cross,
+                                offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk,
+                                want_c, gc, walls)
+                if n < 0:
+                    xbar[i, 0], xbar[i, 1] = xb0, xb1
+                    continue
+                # (B2) drift^T: P^ += dt X^_{n+1} (as P^ + X^ dt)
+                pb0 = pb0 + xb0 * dt
+                pb1 = pb1 + xb1 * dt
+                # (B1) half_kick^T: V^_n += P^; F^_n = a P^; a^ += F_n P^
+                if damped:
+                    vb0 = vp0 + pb0
+                    vb1 = vp1 + pb1
+                else:
+                    vb0, vb1 = pb0, pb1
+                fbar[i, 0] = a[i, 0] * pb0
+                fbar[i, 1] = a[i, 1] * pb1
+                if want_abar:
+                    abar[i, 0] = abar[i, 0] + f[n, i, 0] * pb0
+                    abar[i, 1] = abar[i, 1] + f[n, i, 1] * pb1
+                if has_gx:
+                    xb0 = xb0 + gx[n, i, 0]
+                    xb1 = xb1 + gx[n, i, 1]
+                if has_gv:
+                    vb0 = vb0 + gv[n, i, 0]
+                    vb1 = vb1 + gv[n, i, 1]
+                xbar[i, 0], xbar[i, 1] = xb0, xb1
+                vbar[i, 0], vbar[i, 1] = vb0, vb1
+
+
+    # ======================================================================= quasistatic mode
+
+    @njit(**_JIT)
+    def _quasistatic_steps(x, f, fext, has_fext, start, stop, blocks, mu, grid, spring, walls):
+        """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_quasistatic`, and
+        up to ``stop = T`` then the final force ``F_T = F(X_T) + F_ext[T]`` (as a step T that is
+        only (Q1)), a block of particles at a time (as :func:`_dynamic_steps`)."""
+        g, per0, per1, clips, table, offsets = grid
+        son, sk, sc, swrap0, swrap1, shalf, slen = spring
+        won, wk, wlo, whi = walls
+        T = x.shape[0] - 1
+        for b in range(blocks.size - 1):
+            for n in range(start, stop + 1 if stop == T else stop):
+                for i in range(blocks[b], blocks[b + 1]):
+                    # (Q1) force: F_n = F(X_n) + F_ext[n]
+                    F0, F1 = _force(x[n, i, 0], x[n, i, 1], i, g, per0, per1, clips, table, offsets, son, sk, sc,
+                                    wraps, swrap0, swrap1, shalf, slen, won, wk, wlo, whi)
+                    if has_fext:
+                        F0 = F0 + fext[n, i, 0]
+                        F1 = F1 + fext[n, i, 1]
+                    f[n, i, 0] = F0
+                    f[n, i, 1] = F1
+                    if n == T:
+                        continue
+                    # (Q2) drift: X_{n+1} = X_n + mu F_n (as mu F_n + X_n)
+                    x[n + 1, i, 0] = mu[i, 0] * F0 + x[n, i, 0]
+                    x[n + 1, i, 1] = mu[i, 1] * F1 + x[n, i, 1]
+
+
+    @njit(**_JIT)
+    def _quasistatic_adjoint_steps(x, f, gx, has_gx, start, stop, mu, xbar, want_mubar, mubar, want_force, gforce,
+                                   grid, cross, gtab, want_values, spring, want_k, gk, want_c, gc, walls):
+        """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_quasistatic`."""
+        g, per0, per1, clips, _, offsets = grid
+        son, sk, sc, swrap0, swrap1, shalf, slen = spring
+        won, wk, wlo, whi = walls
+        for n in range(stop - 1, start - 1, -1):
+            for i in range(x.shape[1]):
+                xb0, xb1 = xbar[i, 0], xbar[i, 1]
+                # (QB2) drift^T: F^_n = mu X^_{n+1}; mu^ += F_n X^_{n+1}
+                fb0 = mu[i, 0] * xb0
+                fb1 = mu[i, 1] * xb1
+                if want_mubar:
+                    mubar[0] += f[n, i, 0] * xb0
+                    mubar[1] += f[n, i, 1] * xb1
+                # (QB1) force^T at X_n
+                if want_force:
+                    gforce[n, i, 0] = fb0
+                    gforce[n, i, 1] = fb1
+                xb0, xb1 = _vjp(x[n, i, 0], x[n, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, cross, offsets,
+                                gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c,
+                                gc, walls)
+                if has_gx:
+                    xb0 = xb0 + gx[n, i, 0]
+                    xb1 = xb1 + gx[n, i, 1]
+                xbar[i, 0], xbar[i, 1] = xb0, xb1
+
+    return SimpleNamespace(dynamic_steps=_dynamic_steps, dynamic_adjoint_steps=_dynamic_adjoint_steps,
+                           quasistatic_steps=_quasistatic_steps, quasistatic_adjoint_steps=_quasistatic_adjoint_steps)
+
+
+#: The compiled loops without a spring's minimum image (False) and with it (True).
+KERNELS = {wraps: _make_kernels(wraps) for wraps in (False, True)}
+
+
+# =========================================================================== the kernels' arguments
+
+_NONE2 = np.zeros((1, 2))
+_NONE3 = np.zeros((1, 1, 2))
+
+
+def _as(a, n: int) -> np.ndarray:
+    """``a`` broadcast to a fresh contiguous float64 (N, 2)."""
+    return np.broadcast_to(np.asarray(a, dtype=np.float64), (n, 2)).copy()
+
+
+def _kernel_array(a) -> np.ndarray:
+    """``a`` as every kernel argument is: C-contiguous and writable (numba compiles a kernel
+    again for each layout and for read-only arrays), copied only when it is not."""
+    return np.require(a, dtype=np.float64, requirements=["C", "W"])
+
+
+def _c3(a):
+    """A (T+1, N, 2) input as the kernels take it (placeholder and False when None)."""
+    return (_NONE3, False) if a is None else (_kernel_array(a), True)
+
+
+def _grid(field, n: int, table):
+    """The grid's lookup constants, its stacked ``table`` and each particle's row offset."""
+    shape = np.asarray(field.values.shape[-2:], dtype=np.float64)
+    g = np.array([field.lower[0], field.lower[1], field.h[0], field.h[1], shape[0] - 1, shape[1] - 1,
+                  shape[0] - 2, shape[1] - 2, shape[0], shape[1]], dtype=np.float64)
+    per0, per1 = bool(field.periodic[0]), bool(field.periodic[1])
+    offsets = np.zeros(n, dtype=np.intp) if field.offsets is None else np.array(field.offsets, dtype=np.intp)
+    return g, per0, per1, not (per0 and per1), _kernel_array(table), offsets
+
+
+def _spring(field, n: int, on: bool, axes):
+    """``(on, k, center, wrap0, wrap1, half, length)``: the minimum image on the periodic
+    axes among ``axes``."""
+    if field.spring is None:
+        return False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2)
+    length = np.asarray(field.length, dtype=np.float64)
+    wrap = [bool(field.periodic[d]) and d in axes for d in range(2)]
+    return (on, _as(field.spring[0], n), _as(field.spring[1], n), wrap[0], wrap[1], 0.5 * length,
+            length.copy())
+
+
+def _walls(field, n: int):
+    if field.walls is None:
+        return False, _NONE2, _NONE2, _NONE2
+    k, lo, hi = field.walls
+    return True, _as(k, n), _as(lo, n), _as(hi, n)
+
+
+def _blocks(field, n: int) -> np.ndarray:
+    """The particle blocks of the forward kernels: a population's members (particles of one
+    grid offset, contiguous), else all particles in one."""
+    if field.offsets is None:
+        return np.array([0, n], dtype=np.intp)
+    offsets = np.asarray(field.offsets)
+    return np.concatenate(([0], np.nonzero(offsets[1:] != offsets[:-1])[0] + 1, [n])).astype(np.intp)
+
+
+def _wraps(spring: tuple) -> bool:
+    """Whether the kernels for ``spring`` (:func:`_spring`) compute a minimum image."""
+    return bool(spring[0] and (spring[3] or spring[4]))
+
+
+def _forward_terms(field, n: int):
+    """The forward kernels (:data:`KERNELS`) and their grid, spring and walls arguments: the
+    spring only where the NumPy path builds its kernel (some nonzero ``k``), its minimum
+    image where it pulls."""
+    grid = _grid(field, n, coefficient_table(field.values, field.h))
+    axes = () if field.spring is None else spring_axes(field.spring[0])
+    spring = _spring(field, n, bool(axes), axes)
+    return KERNELS[_wraps(spring)], grid, spring, _walls(field, n)
+
+
+class _Adjoint:
+    """The force's adjoint over stored states: the compiled kernels' arguments (the grid's
+    cross term and table gradient, the spring's gradients) and ``result()``, for
+    :func:`finish_dynamic_adjoint`."""
+
+    def __init__(self, field, xs: np.ndarray, want: frozenset):
+        n = xs.shape[1]
+        self.field, self.xs = field, xs
+        self.want_values = "values" in want
+        table = cross_table(field.values, field.h)
+        self.grid = _grid(field, n, np.empty((table.shape[0], 0)))      # the adjoint reads the cross term
+        self.cross = _kernel_array(table)
+        self.gtab = np.zeros((table.shape[0], 4)) if self.want_values else _NONE2
+        has_spring = field.spring is not None
+        self.want_k = has_spring and "spring_k" in want
+        self.want_c = has_spring and "spring_center" in want
+        on = has_spring and bool(spring_axes(field.spring[0]) or self.want_k or self.want_c)
+        self.spring = _spring(field, n, on, (0, 1))
+        self.kernels = KERNELS[self.want_k and _wraps(self.spring)]      # the image only for k's gradient
+        self.gk = np.zeros((n, 2)) if self.want_k else _NONE2
+        self.gc = np.zeros((n, 2)) if self.want_c else _NONE2
+        self.walls = _walls(field, n)
+
+    def terms(self) -> tuple:
+        """The trailing arguments of the adjoint kernels."""
+        return (self.grid, self.cross, self.gtab, self.want_values, self.spring, self.want_k, self.gk,
+                self.want_c, self.gc, self.walls)
+
+    def result(self) -> dict:
+        out = {}
+        if self.want_values:
+            shape = self.field.values.shape
+            out["values"] = table_grad_to_values(self.gtab, self.field.h, shape[-2:])
+        if self.want_k:
+            out["spring_k"] = self.gk
+        if self.want_c:
+            out["spring_center"] = self.gc
+        return out
+
+
+# =========================================================================== the steppers
+
+@reports_nonfinite
+def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping, progress=None,
+                     refuse_nonfinite: bool = True, out=None) -> Trajectory:
+    """:func:`pes_ref.core.integrator.simulate_dynamic`, compiled (same arguments, same numbers)."""
+    T, N = n_steps, x0.shape[0]
+    x, v, f = trajectory_arrays(T, N, out)
+    x[0], v[0] = x0, v0
+    K, grid, spring, walls = _forward_terms(field, N)
+    ext, has_fext = _c3(fext)
+    a, c = step_coefficients(dt, mass, damping, N)
+    damped = c is not None
+    inv_1pc = 1.0 / (1.0 + c) if damped else _NONE2
+    c = c if damped else _NONE2
+    blocks = _blocks(field, N)
+    for start, stop in step_blocks(T, progress, "forward"):         # from step 0: F_0 first
+        K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, float(dt), grid, spring,
+                        walls)
+    traj = Trajectory(x, v, f)
+    if refuse_nonfinite:
+        check_finite(traj, f"dt={dt!r}")
+    return traj
+
+
+def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, want: frozenset,
+                    progress=None) -> dict:
+    """:func:`pes_ref.core.integrator.adjoint_dynamic`, compiled (same arguments and gradients;
+    the grid's summed in another order)."""
+    x, v, f = (_kernel_array(a) for a in traj)
+    T, N = x.shape[0] - 1, x.shape[1]
+    adj = _Adjoint(field, x, want)
+    a, c = step_coefficients(dt, mass, damping, N)
+    damped = c is not None
+    inv_1pc, minus_c = (1.0 / (1.0 + c), -c) if damped else (_NONE2, _NONE2)
+    want_mass, want_damping = "mass" in want, "damping" in want
+    want_abar, want_cbar = want_mass, want_damping or (want_mass and damped)
+    abar = np.zeros((N, 2)) if want_abar else None
+    cbar = np.zeros((N, 2)) if want_cbar else None
+    gforce = np.empty((T + 1, N, 2)) if "force" in want else None     # every state written
+    gx_, has_gx = _c3(gx)
+    gv_, has_gv = _c3(gv)
+    xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
+    vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
+    fbar = np.zeros((N, 2))
+    for done, after in step_blocks(T, progress, "adjoint"):
+        adj.kernels.dynamic_adjoint_steps(x, v, f, gx_, has_gx, gv_, has_gv, T - after, T - done, a, inv_1pc, minus_c,
+                                          damped, float(dt), xbar, vbar, fbar, want_abar, _or(abar), want_cbar,
+                                          _or(cbar), gforce is not None, _or3(gforce), *adj.terms())
+    return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c if damped else None, mass,
+                                  want_damping, initial_force=False)      # (B0) was the loop's last
+
+
+@reports_nonfinite
+def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
+                         refuse_nonfinite: bool = True, out=None) -> Trajectory:
+    """:func:`pes_ref.core.integrator.simulate_quasistatic`, compiled (same arguments, same numbers)."""
+    T, N = n_steps, x0.shape[0]
+    x, v, f = trajectory_arrays(T, N, out)
+    x[0] = x0
+    K, grid, spring, walls = _forward_terms(field, N)
+    ext, has_fext = _c3(fext)
+    mu = _as(mobility, N)
+    blocks = _blocks(field, N)
+    for start, stop in step_blocks(T, progress, "forward"):         # to step T: F_T last
+        K.quasistatic_steps(x, f, ext, has_fext, start, stop, blocks, mu, grid, spring, walls)
+    traj = Trajectory(x, quasistatic_velocities(v, out), f)
+    if refuse_nonfinite:
+        check_finite(traj, f"mobility={np.asarray(mobility).tolist()!r}")
+    return traj
+
+
+def adjoint_quasistatic(field, traj: Trajectory, mobility, gx, want: frozenset, progress=None) -> dict:
+    """:func:`pes_ref.core.integrator.adjoint_quasistatic`, compiled (the grid and mobility
+    gradients summed in another order)."""
+    x, f = _kernel_array(traj.x), _kernel_array(traj.f)
+    T, N = x.shape[0] - 1, x.shape[1]
+    adj = _Adjoint(field, x, want)
+    gforce = np.empty((T + 1, N, 2)) if "force" in want else None
+    if gforce is not None:
+        gforce[T] = 0.0                      # F_ext[T] moves nothing; the loop writes the others
+    mubar = np.zeros(2) if "mobility" in want else None
+    gx_, has_gx = _c3(gx)
+    xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
+    mu = _as(mobility, N)
+    for done, after in step_blocks(T, progress, "adjoint"):
+        adj.kernels.quasistatic_adjoint_steps(x, f, gx_, has_gx, T - after, T - done, mu, xbar, mubar is not None,
+                                              np.zeros(2) if mubar is None else mubar, gforce is not None,
+                                              _or3(gforce), *adj.terms())
+    out = {"x0": xbar}
+    out.update(adj.result())
+    if gforce is not None:
+        out["force"] = gforce
+    if mubar is not None:
+        out["mobility"] = mubar
+    return out
+
+
+def _or(a):
+    return _NONE2 if a is None else a
+
+
+def _or3(a):
+    return _NONE3 if a is None else a
+
+
+def _simulate_verlet(field, x0, v0, fext, p: StepParams):
+    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
+                            p.out)
+
+
+def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
+    return adjoint_dynamic(field, traj, p.dt, p.mass, p.damping, gx, gv, want, p.progress)
+
+
+def _simulate_quasistatic(field, x0, v0, fext, p: StepParams):
+    return simulate_quasistatic(field, x0, fext, p.mobility, p.n_steps, p.progress, p.refuse_nonfinite, p.out)
+
+
+def _adjoint_quasistatic(field, traj, p: StepParams, gx, gv, want):
+    return adjoint_quasistatic(field, traj, p.mobility, gx, want, p.progress)
+
+
+#: The compiled steppers by ``(mode, integrator)``: what :data:`pes_ref.core.backends.BACKENDS`
+#: ``"numba"`` covers (the GJF step runs on NumPy).
+STEPPERS = {
+    ("dynamic", "verlet"): Stepper(_simulate_verlet, _adjoint_verlet, NUMPY_STEPPERS[("dynamic", "verlet")].gradients),
+    ("quasistatic", "verlet"): Stepper(_simulate_quasistatic, _adjoint_quasistatic,
+                                       NUMPY_STEPPERS[("quasistatic", "verlet")].gradients),
+}

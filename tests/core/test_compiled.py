@@ -1,0 +1,227 @@
+"""The compiled loops (backend ``"numba"``, ``pes_ref/core/compiled.py``) against the NumPy loops.
+
+The compiled loops do the NumPy loops' floating-point operations in the same order, so:
+
+- the forward trajectory ``x, v, f`` is bit-identical (every byte, zeros' signs included),
+  on every shipped conformance vector of every version and on random scenes of every
+  topology and mode (hypothesis);
+- every gradient is bit-identical but the grid's and the mobility's, which are the same
+  sums in another order: within 1e-13 of their largest entry.
+
+(``tests/core/test_reference.py`` holds the default backend, the compiled one here, to the
+readable reference entry by entry; ``tests/core/test_population.py`` runs populations on
+both.) A scene the compiled loops do not cover runs on NumPy's; progress reports come at
+the same steps; each kernel compiles once for every scene (its arguments' types never
+change), and the oracle never imports numba unless asked (``tests/cli/test_oracle_startup.py``).
+"""
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import pes_ref as pr
+from pes_ref.core import backends, steppers
+from pes_ref.core.checks import InputError
+from pes_ref.oracle import case as oracle
+from pes_ref.oracle.conformance import vectors_dir
+from pes_ref.testing import conformance as conf
+from pes_ref.testing import strategies as pst
+
+numba = pytest.importorskip("numba", reason="the compiled loops need the extra 'fast' (make test installs it)")
+from pes_ref.core import compiled  # noqa: E402
+
+#: Gradients the compiled loops sum in another order, and their tolerance relative to the
+#: largest entry.
+SUMMED, SUMMED_RTOL = ("values", "mobility"), 1e-13
+N_STRATUM = max(1, settings.default.max_examples // 25)
+
+VERSIONS = sorted(p.name for p in vectors_dir("v1").parent.glob("v[0-9]*") if (p / "manifest.json").exists())
+VALID = [(version, entry["id"]) for version in VERSIONS for entry in conf.load_manifest(version)["vectors"]
+         if entry["kind"] == "valid"]
+
+
+def relative_to_largest(a, b) -> float:
+    diff = float(np.max(np.abs(np.subtract(a, b)), initial=0.0))
+    return 0.0 if diff == 0.0 else diff / float(np.max(np.abs(b), initial=0.0))
+
+
+def assert_gradients_agree(got: dict, want: dict) -> None:
+    assert got.keys() == want.keys()
+    for name in want:
+        summed = any(name in (s, f"grad_{s}") for s in SUMMED)
+        if summed:
+            err = relative_to_largest(got[name], want[name])
+            assert err <= SUMMED_RTOL, f"{name}: {err:.3g} of its largest entry"
+        else:
+            assert np.array_equal(got[name], want[name]), f"{name}: differs (must be bit-identical)"
+
+
+@pytest.mark.parametrize("version, vid", VALID, ids=[f"{v}-{i}" for v, i in VALID])
+def test_every_conformance_vector_runs_bit_identically(version, vid):
+    """(Past the stability rule too: v1 has vectors that the rule added later refuses.)"""
+    case = oracle.load_case(vectors_dir(version) / f"{vid}.case.npz")
+    fast, ref = (oracle.run_case(case, allow_unstable=True, backend=b) for b in ("numba", "numpy"))
+    for key in ("x", "v", "energy", "loss"):
+        assert fast[key].tobytes() == ref[key].tobytes(), f"{key} differs"
+    assert_gradients_agree({k: v for k, v in fast.items() if k.startswith("grad_")},
+                           {k: v for k, v in ref.items() if k.startswith("grad_")})
+
+
+STRATA = [(mode, topology) for mode in ("dynamic", "quasistatic") for topology in pst.TOPOLOGIES]
+
+
+@pytest.mark.parametrize("mode, topology", STRATA)
+@settings(max_examples=N_STRATUM)
+@given(data=st.data())
+def test_random_scenes_run_bit_identically(mode, topology, data):
+    """Random scenes (every effect, springs with a zero axis among them) and objectives."""
+    scene, x0, v0 = data.draw(pst.scene_cases(mode=mode, topology=topology))
+    objective, R = data.draw(pst.objectives(scene, x0.shape[0]))
+    runs = {}
+    for b in ("numba", "numpy"):
+        traj = pr.simulate(scene, x0, v0, backend=b)
+        loss, grads, _ = pr.value_and_grad(scene, x0, v0, objective, regularization_weight=R, backend=b)
+        runs[b] = (traj, loss, grads)
+    (fast, loss_f, grads_f), (ref, loss_r, grads_r) = runs["numba"], runs["numpy"]
+    for name, a, b in zip("xvf", fast, ref):
+        assert a.tobytes() == b.tobytes(), f"{name} differs"
+    assert loss_f == loss_r
+    assert_gradients_agree(grads_f, grads_r)
+
+
+def _scene(**kw):
+    rng = np.random.default_rng(4)
+    surf = pr.Surface(rng.uniform(-0.2, 0.2, (7, 6)), (0, 0), (1, 2), kw.pop("periodic", (False, True)),
+                      kw.pop("interpolation", "bilinear"))
+    return pr.Scene(surf, dt=kw.pop("dt", 0.01), n_steps=kw.pop("n_steps", 40), **kw)
+
+
+X0 = np.array([[0.3, 0.4], [0.6, 1.5], [0.5, 0.1]])
+
+
+@pytest.mark.parametrize("kw, mode, integrator", [
+    (dict(interpolation="bicubic", damping=0.2), "dynamic", "verlet"),
+    (dict(integrator="gjf", damping=0.2), "dynamic", "gjf"),
+    (dict(interpolation="bicubic", mode="quasistatic", mobility=(0.01, 0.01)), "quasistatic", "verlet"),
+])
+def test_a_scene_the_compiled_loops_do_not_cover_runs_on_numpy(kw, mode, integrator):
+    scene = _scene(**kw)
+    assert backends.stepper("numba", mode, integrator, scene.surface.interpolation) is steppers.stepper(mode,
+                                                                                                       integrator)
+    assert not backends.covers("numba", mode, integrator, scene.surface.interpolation)
+    loss = pr.Quadratic(wx=1.0)
+    a = pr.value_and_grad(scene, X0, None, loss, backend="numba")
+    b = pr.value_and_grad(scene, X0, None, loss, backend="numpy")
+    assert a[0] == b[0] and all(np.array_equal(a[1][k], b[1][k]) for k in b[1])
+
+
+@pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
+def test_progress_comes_at_the_same_steps(mode):
+    kw = dict(mode="quasistatic", mobility=(0.01, 0.01)) if mode == "quasistatic" else dict(damping=0.3)
+    scene = _scene(n_steps=600, spring=pr.Spring((1.0, 0.0), (0.5, 1.0)), **kw)
+    calls = {}
+    for b in ("numba", "numpy"):
+        seen = calls[b] = []
+        pr.value_and_grad(scene, X0, None, pr.Funnel(0.5), progress=lambda *a, _s=seen: _s.append(a), backend=b)
+    assert calls["numba"] == calls["numpy"]
+    assert calls["numba"][:4] == [("forward", 0, 600), ("forward", 256, 600), ("forward", 512, 600),
+                                  ("forward", 600, 600)]
+
+
+def test_a_run_past_the_stability_limit_fails_alike():
+    scene = _scene(dt=2.0, n_steps=200, walls=pr.Walls(1e4, 0.05, [[True, True], [False, False]]))
+    errors = []
+    for b in ("numba", "numpy"):
+        with pytest.raises(pr.NonFiniteError) as err:
+            pr.simulate(scene, X0, allow_unstable=True, backend=b)
+        errors.append(str(err.value))
+    assert errors[0] == errors[1] and "became non-finite at step" in errors[0]
+
+
+def test_each_kernel_compiles_once_for_every_scene():
+    """Scenes with and without every term, both modes, a population: the kernels' argument
+    types never change, so each compiled function has one signature (a second would be
+    a compilation, seconds, inside someone's run)."""
+    spring, walls = pr.Spring([[1.0, 0.0]], (0.5, 1.0)), pr.Walls(20.0, 0.05, [[True, True], [False, False]])
+    scenes = [_scene(), _scene(periodic=(True, True), damping=0.1), _scene(spring=spring, walls=walls),
+              _scene(effects=(pr.Constant((0.1, 0.0)),), mass=[[1.0], [2.0], [1.5]], damping=[0.1, 0.0]),
+              _scene(mode="quasistatic", mobility=(0.01, 0.02), spring=spring, walls=walls,
+                     effects=(pr.Noise((0.1, 0.1), 1),))]
+    for scene in scenes:
+        pr.value_and_grad(scene, X0, None, pr.Quadratic(wx=1.0, wv=0.5), backend="numba")
+    pr.simulate_batch([scenes[0], scenes[2], scenes[3]], [X0] * 3, backend="numba")
+    kernels = [f for ns in compiled.KERNELS.values() for f in vars(ns).values()]
+    ran = [f for f in kernels if f.signatures]
+    assert {f.py_func.__name__ for f in ran} >= {"_dynamic_steps", "_dynamic_adjoint_steps", "_quasistatic_steps",
+                                                  "_quasistatic_adjoint_steps"}
+    assert all(len(f.signatures) == 1 for f in ran), {f.py_func.__name__: len(f.signatures) for f in ran}
+
+
+def test_the_kernels_cache_their_machine_code_on_disk():
+    for f in (k for ns in compiled.KERNELS.values() for k in vars(ns).values()):
+        assert f._cache.__class__.__name__ == "FunctionCache"
+
+
+def test_the_default_is_the_first_installed_backend(monkeypatch):
+    assert backends.default_backend() == "numba"
+    monkeypatch.setattr(backends, "installed", lambda name: name == "numpy")
+    assert backends.default_backend() == "numpy"
+    assert pr.simulate(_scene(), X0).x.shape == (41, 3, 2)
+
+
+def test_a_backend_that_is_unknown_or_not_installed_is_refused(monkeypatch):
+    with pytest.raises(InputError, match=r"backend must be one of \['numba', 'numpy'\] or None .*got 'cuda'") as err:
+        pr.simulate(_scene(), X0, backend="cuda")
+    assert err.value.key == "backend"
+    monkeypatch.setattr(backends, "installed", lambda name: name == "numpy")
+    with pytest.raises(InputError, match=r"backend='numba' needs numba, which is not installed: "
+                                         r"pip install 'pes_ref\[fast\]'") as err:
+        pr.value_and_grad(_scene(), X0, None, pr.Funnel(0.5), backend="numba")
+    assert err.value.key == "backend"
+
+
+def test_a_population_needs_no_numpy_step_and_runs_on_the_compiled_loops(monkeypatch):
+    """With the compiled backend a population of covered scenes never reaches NumPy's loops."""
+    def boom(*args, **kwargs):
+        raise AssertionError("the NumPy loop ran")
+    monkeypatch.setattr(steppers, "simulate_dynamic", boom)
+    scenes = [_scene(damping=0.1), replace(_scene(), surface=_scene().surface.__class__(
+        np.zeros((7, 6)), (0, 0), (1, 2), (False, True)))]
+    out = pr.simulate_batch(scenes, [X0, X0[:1]], backend="numba")
+    assert [t.x.shape for t in out] == [(41, 3, 2), (41, 1, 2)]
+    with pytest.raises(AssertionError, match="the NumPy loop ran"):
+        pr.simulate_batch(scenes, [X0, X0[:1]], backend="numpy")
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7)])
+def test_the_compiled_tables_are_numpys_bit_for_bit(shape):
+    """The per-cell coefficient and cross tables and the table gradient's map to the grid, each
+    the compiled twin of pes_ref.core.bilinear's, for one grid and for a stack of them."""
+    from pes_ref.core import bilinear
+    rng = np.random.default_rng(5)
+    values, h = rng.standard_normal((3,) + shape), np.array([0.3, 0.7])
+    assert np.array_equal(compiled.coefficient_table(values, h),
+                          np.concatenate([bilinear.coefficient_table(v, h) for v in values]))
+    assert np.array_equal(compiled.cross_table(values[0], h), bilinear.cross_table(values[0], h))
+    gtab = rng.standard_normal((values[0].size, 4))
+    assert np.array_equal(compiled.table_grad_to_values(gtab, h, shape),
+                          bilinear.table_grad_to_values(gtab.copy(), h, shape))
+
+
+@pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
+def test_a_run_of_no_steps_has_its_state_0_with_and_without_progress(mode):
+    kw = dict(mode="quasistatic", mobility=(0.01, 0.01)) if mode == "quasistatic" else {}
+    scene = _scene(n_steps=0, effects=(pr.Constant((0.3, 0.1)),), **kw)
+    runs = {}
+    for b in ("numba", "numpy"):
+        seen = []
+        runs[b] = (pr.value_and_grad(scene, X0, None, pr.Funnel(0.5), backend=b),
+                   pr.value_and_grad(scene, X0, None, pr.Funnel(0.5), backend=b, progress=lambda *a: seen.append(a)),
+                   seen)
+    for (a, a_p, seen_a), (b, b_p, seen_b) in [(runs["numba"], runs["numpy"])]:
+        for got in (a, a_p):
+            assert got[2].f.tobytes() == b[2].f.tobytes() and got[0] == b[0]
+            assert_gradients_agree(got[1], b[1])
+        assert seen_a == seen_b
