@@ -3,8 +3,8 @@
 
 It turns a saved design into parts (:mod:`pes_ref.realize`, ``docs/realize.md``), writes
 ``DIR/device.toml``, ``DIR/plate.dxf``, ``DIR/plate.stl``, ``DIR/base.stl``, ``DIR/pin.stl`` and
-``DIR/parts.png`` (each checked before anything is computed, written atomically, an existing
-one kept unless ``--force``), then reads every file back and prints one ``name: value`` line
+``DIR/parts.png`` (each checked before anything is computed, an existing one kept unless
+``--force``; the set made whole in a staging folder, ``device.toml`` written last), then reads every file back and prints one ``name: value`` line
 per figure of the check: the blocked share of the C-space the device file's parts give
 against the design's, the plate's area from the DXF against the device file's, and the STL
 meshes' watertightness and volume.
@@ -109,23 +109,34 @@ def _run_realize(args) -> int:
 
 
 def _write(real, state, outputs: dict, force: bool) -> None:
+    """The files as one set: the drawings and meshes made whole in a staging folder inside
+    ``--out`` and moved into place (:func:`pes_ref.core.files.move_into`), then the set's
+    index, ``device.toml``, written last and atomically; a stop part-way leaves no half file."""
+    import shutil
+    import tempfile
+    from pes_ref.core.files import move_into
     from pes_ref.realize import exports
     from pes_ref.realize.drawing import parts_figure
     from pes_ref.realize.evaluation import held_out_positions
     from pes_ref.realize.regions import VISITED_SEED
-    os.makedirs(os.path.dirname(outputs["device"]) or ".", exist_ok=True)
-    header = (f"A pin in a plate realizing {os.path.basename(outputs['device'])}'s design by contact: written by "
-              f"pes_ref realize (docs/realize.md)\nrule {real.region.rule}, level {real.region.level:.6g}")
+    folder = os.path.dirname(outputs["device"]) or "."
+    os.makedirs(folder, exist_ok=True)
+    staging = tempfile.mkdtemp(prefix=".realize-", dir=folder)
+    try:
+        staged = {key: os.path.join(staging, os.path.basename(path)) for key, path in outputs.items()}
+        exports.write_dxf(staged["dxf"], real.parts.plate, False)
+        exports.write_stl(staged["plate_stl"], exports.plate_mesh(real.parts.plate, real.thickness), False)
+        exports.write_stl(staged["base_stl"], exports.base_mesh(real.parts.plate, real.thickness), False)
+        exports.write_stl(staged["pin_stl"], exports.pin_mesh(real.parts.pin_radius, real.thickness), False)
+        path = held_out_positions(state.problem, state.values, VISITED_SEED, n_particles=1)[:, 0, :]
+        buf = io.BytesIO()
+        parts_figure(real, path).savefig(buf, format="png", dpi=110)
+        exports.write_bytes(staged["png"], buf.getvalue(), False, "drawing")
+        move_into([staged[key] for key in ("dxf", "plate_stl", "base_stl", "pin_stl", "png")], folder)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    header = f"{real.device['description']}\nwritten by pes_ref realize (docs/realize.md)"
     exports.write_text(outputs["device"], exports.device_text(real.device, header), force, "device")
-    exports.write_dxf(outputs["dxf"], real.parts.plate, force)
-    exports.write_stl(outputs["plate_stl"], exports.plate_mesh(real.parts.plate, real.thickness), force)
-    exports.write_stl(outputs["base_stl"], exports.base_mesh(real.parts.plate, real.thickness), force)
-    exports.write_stl(outputs["pin_stl"], exports.pin_mesh(real.parts.pin_radius, real.thickness), force)
-    path = held_out_positions(state.problem, state.values, VISITED_SEED, n_particles=1)[:, 0, :]
-    fig = parts_figure(real, path)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    exports.write_bytes(outputs["png"], buf.getvalue(), force, "drawing")
 
 
 def _check(real, outputs: dict) -> dict:

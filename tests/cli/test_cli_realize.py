@@ -75,6 +75,25 @@ def test_existing_files_are_kept_unless_forced(capsys, design, tmp_path):
     assert code == EXIT_OK and (out_dir / "plate.dxf").read_text().startswith("  0\nSECTION")
 
 
+def test_a_write_that_fails_part_way_leaves_no_file_of_the_set(capsys, monkeypatch, design, tmp_path):
+    from pes_ref.realize import exports
+    real_write = exports.write_stl
+
+    def fail_on_the_base(path, mesh, overwrite):
+        if str(path).endswith("base.stl"):
+            raise OSError(28, "No space left on device", str(path))
+        real_write(path, mesh, overwrite)
+
+    monkeypatch.setattr(exports, "write_stl", fail_on_the_base)
+    out_dir = tmp_path / "parts"
+    out_dir.mkdir()
+    (out_dir / "notes.txt").write_text("a user's notes")
+    code, out, err = run(capsys, "realize", str(design), "--as", "contact", "--rule", "value", "--level", "0.1",
+                         "--out", str(out_dir))
+    assert code == EXIT_ERROR and err.count("\n") == 1 and "No space left on device" in err
+    assert [p.name for p in out_dir.iterdir()] == ["notes.txt"]        # no staging folder, no part of the set
+
+
 @pytest.mark.parametrize("module", ["ezdxf", "trimesh", "contourpy"])
 def test_without_the_extra_the_command_prints_the_pip_line(capsys, monkeypatch, design, tmp_path, module):
     monkeypatch.setitem(sys.modules, module, None)           # import MODULE -> ImportError
