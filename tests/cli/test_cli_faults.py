@@ -365,6 +365,22 @@ FAULTS = [
     Fault("realize-bad-rule", "realize design.npz --as contact --out newparts --rule guess", ("--rule", "'guess'")),
     Fault("realize-problem-design", "realize problem.npz --as contact --out newparts",
           ("realization covers funnel designs", "'problem' design")),
+    Fault("realize-heightfield-g-negative", "realize design.npz --as heightfield --out newparts --g -1",
+          ("--g must be > 0", "-1")),
+    Fault("realize-heightfield-base-zero", "realize design.npz --as heightfield --out newparts --base 0",
+          ("--base must be > 0", "0")),
+    Fault("realize-heightfield-particles-zero", "realize design.npz --as heightfield --out newparts --particles 0",
+          ("--particles must be >= 1", "0")),
+    Fault("realize-heightfield-seed-negative", "realize design.npz --as heightfield --out newparts --seed -2",
+          ("--seed must be >= 0", "-2")),
+    Fault("realize-heightfield-pin-radius", "realize design.npz --as heightfield --out newparts --pin-radius 0.1",
+          ("--pin-radius goes with --as contact, not --as heightfield",)),
+    Fault("realize-contact-g", "realize design.npz --as contact --out newparts --g 9.81",
+          ("--g goes with --as heightfield, not --as contact",)),
+    Fault("realize-heightfield-existing", "realize design.npz --as heightfield --out sub2",
+          ("STL file", "sub2/heightfield.stl", "exists already")),
+    Fault("realize-heightfield-problem-design", "realize problem.npz --as heightfield --out newparts",
+          ("realization covers funnel designs", "'problem' design")),
     Fault("realize-unknown-option", "realize design.npz --as contact --out newparts --bogus", ("--bogus",)),
     # ------------------------------------------------------------------ bench
     Fault("bench-out-no-folder", "bench --quick --out nodir/b.json", ("nodir", "does not exist")),
@@ -491,6 +507,8 @@ def assets(tmp_path_factory):
     (folder / "sub.toml").mkdir()
     (folder / "parts").mkdir()
     (folder / "parts" / "device.toml").write_text("# a user's own device file\n")
+    (folder / "sub2").mkdir()
+    (folder / "sub2" / "heightfield.stl").write_text("solid a user's own mesh\n")
     (folder / "dev.toml").write_text(DEVICE)
     (folder / "broken.toml").write_text("format = 1\n[cspace\n")
     for name, (old, new) in BAD_DEVICES.items():

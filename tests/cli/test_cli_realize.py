@@ -63,6 +63,19 @@ def test_realize_writes_every_file_and_checks_each_read_back(capsys, design, tmp
     assert float(got["realized_dt"]) <= float(got["dt"])
 
 
+def test_realize_as_heightfield_writes_the_plate_and_checks_the_rolling_ball(capsys, design, tmp_path):
+    code, out, err = run(capsys, "realize", str(design), "--as", "heightfield", "--out", str(tmp_path / "hf"),
+                         "--g", "2", "--particles", "40", "--seed", "9191")
+    assert code == EXIT_OK, err
+    assert [p.name for p in (tmp_path / "hf").iterdir()] == ["heightfield.stl"]
+    got = figures(out)
+    assert got["watertight"] == "True" and float(got["height_error"]) < 1e-6
+    assert float(got["height_range"]) == pytest.approx(0.2 / 2.0, rel=1e-12)      # the design's range / (m g)
+    assert float(got["max_slope"]) > 0 and got["seed"] == "9191" and got["particles"] == "40"
+    for name in ("in_band_fraction", "rolling_in_band_fraction", "sloped_in_band_fraction"):
+        assert 0.0 <= float(got[name]) <= 1.0
+
+
 def test_existing_files_are_kept_unless_forced(capsys, design, tmp_path):
     out_dir = tmp_path / "parts"
     out_dir.mkdir()

@@ -5,7 +5,8 @@ variant it runs the project's own commands in-process: ``design funnel ...`` (or
 V start alone, the starting shape saved as a design file with no iteration), ``realize DESIGN
 --as contact --out DIR``, and ``evaluate DESIGN --realized DIR/device.toml --seed S`` for the
 held-out seeds 12345 and 9191 (for :data:`SENSITIVITY`, also at the contact level's neighbours);
-it prints one row per variant and seed (the design's in-band
+the variants of :data:`HEIGHTFIELD` are also realized as a heightfield and checked with the
+rolling ball (``realize --as heightfield --seed S``); it prints one row per variant and seed (the design's in-band
 and exited fractions beside the realized device's, the realized step, each command's wall
 time) and writes them to ``OUT/realize_study.csv``. ``--smoke`` uses the design command's
 tiny preset (seconds; for the tests).
@@ -37,6 +38,10 @@ VARIANTS = {
 #: The variants whose contact level's neighbours (the realize command's ``neighbour:`` lines) are
 #: realized and evaluated too (``--rule value --level E``): how sensitive the result is to the level.
 SENSITIVITY = ("default funnel (visited rule)",)
+#: The variants also realized as a heightfield (``realize --as heightfield --seed S``): the rolling-ball check.
+HEIGHTFIELD = ("default funnel (visited rule)", "realizable, V start, linger 20")
+HEIGHTFIELD_FIGURES = ("max_slope", "slope_share_over_0.1", "in_band_fraction", "rolling_in_band_fraction",
+                       "sloped_in_band_fraction", "slope_exit_shift")
 FIGURES = ("in_band_fraction", "exited_fraction")
 
 
@@ -70,6 +75,10 @@ def _v_start(path: Path, smoke: bool) -> float:
     return time.perf_counter() - start
 
 
+#: The heightfield rows of the last :func:`run`.
+HEIGHTFIELD_ROWS: list = []
+
+
 def run(out: Path, smoke: bool, names=None) -> list:
     out.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -85,6 +94,13 @@ def run(out: Path, smoke: bool, names=None) -> list:
         parts = out / f"parts{i}"
         text, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force"])
         rows += _evaluated(name, design, parts, text, t_design, t_realize)
+        if name in HEIGHTFIELD:
+            for seed in HELD_OUT:
+                more, t_hf = _cli(["realize", str(design), "--as", "heightfield", "--seed", str(seed),
+                                   "--out", str(out / f"plate{i}"), "--force"])
+                got = _figures(more)
+                HEIGHTFIELD_ROWS.append({"variant": name, "seed": seed, **{k: got[k] for k in HEIGHTFIELD_FIGURES},
+                                         "realize_s": f"{t_hf:.1f}"})
         if name not in SENSITIVITY:
             continue
         for k, line in enumerate(line for line in text.splitlines() if line.startswith("neighbour: ")):
@@ -129,8 +145,17 @@ def main(argv=None) -> int:
     p.add_argument("--smoke", action="store_true", help="the design command's tiny preset (seconds)")
     p.add_argument("--only", action="append", default=None, metavar="VARIANT", help="run only this variant")
     args = p.parse_args(argv)
+    HEIGHTFIELD_ROWS.clear()
     rows = run(args.out, args.smoke, args.only)
     print(table(rows))
+    if HEIGHTFIELD_ROWS:
+        keys = list(HEIGHTFIELD_ROWS[0])
+        print("\n| " + " | ".join(keys) + " |\n|" + "---|" * len(keys))
+        print("\n".join("| " + " | ".join(str(r[k]) for k in keys) + " |" for r in HEIGHTFIELD_ROWS))
+        with open(args.out / "realize_study_heightfield.csv", "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=keys)
+            writer.writeheader()
+            writer.writerows(HEIGHTFIELD_ROWS)
     with open(args.out / "realize_study.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
