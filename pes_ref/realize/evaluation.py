@@ -26,7 +26,7 @@ from pes_ref.core import checks
 from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.synthesis.analysis import evaluate, funnel_paths
 
-__all__ = ["RealizedRun", "realized_problem", "evaluate_realized", "held_out_positions", "REALIZABLE_KINDS"]
+__all__ = ["RealizedRun", "realized_problem", "plain_problem", "evaluate_realized", "held_out_positions", "REALIZABLE_KINDS"]
 
 #: The design kinds a device can stand in for: their surface is one grid the device replaces.
 REALIZABLE_KINDS = ("funnel",)
@@ -61,7 +61,7 @@ def realized_problem(problem, device) -> RealizedRun:
                                             f"is not the design's ({shape[0]} x {shape[1]} on "
                                             f"{list(map(float, problem.lower))} .. {list(map(float, problem.upper))})")
     values = np.asarray(device.surface().values, dtype=np.float64)
-    plain = dataclasses.replace(problem, realizable=False) if getattr(problem, "realizable", False) else problem
+    plain = plain_problem(problem)
     lim = stability_limit(plain.scene(values), "rule")
     if lim.ratio <= 1.0:
         return RealizedRun(plain, values, plain.dt, plain.n_steps)
@@ -69,6 +69,12 @@ def realized_problem(problem, device) -> RealizedRun:
     n_steps = int(math.ceil(plain.n_steps * plain.dt / dt))
     noise = plain.noise * math.sqrt(plain.dt / dt)
     return RealizedRun(dataclasses.replace(plain, dt=dt, n_steps=n_steps, noise=noise), values, dt, n_steps)
+
+
+def plain_problem(problem):
+    """``problem`` with its grid values the surface's energies (a realizable problem's level
+    set turned off): what runs a realized surface."""
+    return dataclasses.replace(problem, realizable=False) if getattr(problem, "realizable", False) else problem
 
 
 def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: int | None = None) -> dict:

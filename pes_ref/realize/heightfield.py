@@ -21,6 +21,7 @@ the exported STL (:func:`heights_from_mesh`).
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,8 +124,9 @@ def rolling_paths(problem, energy, seed: int, n_particles: int, g: float | None 
     """Held-out funnel particles as rolling balls on grid ``energy``: the design's batch from
     ``default_rng(seed)`` with every mass :data:`ROLLING` times the design's; with ``g`` the
     surface's force is also scaled by ``1 / (1 + |grad h|^2)``, ``h = E / (m g)`` (module docstring)."""
-    batch = problem.batch(np.asarray(energy, dtype=np.float64), np.random.default_rng(seed), n_particles)
-    import dataclasses
+    from pes_ref.realize.evaluation import plain_problem
+    batch = plain_problem(problem).batch(np.asarray(energy, dtype=np.float64), np.random.default_rng(seed),
+                                         n_particles)
     m = _scalar_mass(batch.scene)
     scene = dataclasses.replace(batch.scene, mass=ROLLING * m)
     if g is None:

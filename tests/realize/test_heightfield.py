@@ -77,3 +77,16 @@ def test_heights_read_back_need_every_node(problem, values):
     partial = HeightField(np.zeros((GRID + 1, GRID)), hf.lower, hf.upper, hf.mass, hf.g)
     with pytest.raises(ValueError, match="lacks a vertex"):
         heights_from_mesh(mesh, partial)
+
+
+def test_a_realizable_design_s_ball_rolls_on_its_surface_not_on_its_level_set():
+    """The heights are the surface's energies; the ball runs on them as they are (the level
+    set is the design's variables, not the ball's surface)."""
+    import dataclasses
+    p = FunnelProblem(grid=GRID, n_steps=150, realizable=True, init_shape="vee")
+    values = p.initial_values(np.random.default_rng(0), (GRID, GRID))
+    energy = p.surface_values(values)
+    got = rolling_paths(p, energy, seed=4, n_particles=5)
+    batch = dataclasses.replace(p, realizable=False).batch(energy, np.random.default_rng(4), 5)
+    want = simulate(dataclasses.replace(batch.scene, mass=ROLLING), batch.x0, batch.v0)
+    np.testing.assert_array_equal(got.x, want.x)
