@@ -1,6 +1,6 @@
 """Realization: a designed surface becomes parts you can make, checked by simulating those parts.
 
-``python -m pes_ref realize DESIGN.npz --as contact --out DIR`` and
+``python -m pes_ref realize DESIGN.npz --as contact|heightfield --out DIR`` and
 ``python -m pes_ref evaluate DESIGN.npz --realized DIR/device.toml`` (``docs/realize.md``).
 Modules, one idea each:
 
@@ -12,5 +12,6 @@ Modules, one idea each:
 - :mod:`.contact`     a contact realization: parts, the device file's tables, what is lost
 - :mod:`.exports`     writing and reading back device.toml, DXF (ezdxf) and STL (trimesh)
 - :mod:`.evaluation`  the design's own held-out evaluation on a realized device
+- :mod:`.heightfield` a plate whose top is the energy, and a ball rolling on it
 - :mod:`.drawing`     the parts at three positions
 """
