@@ -54,12 +54,13 @@ def save(fig, out: str, name: str, smoke: bool = False) -> list:
     return paths
 
 
-def design_state(args, kind: str):
+def design_state(args, kind: str, smoke_sets=()):
     """The design of ``kind`` named by ``--design`` (or its default), loaded by the library.
 
     With ``--smoke`` and no file, a tiny design is made by the project's own command
     (``python -m pes_ref design KIND --smoke``) into ``OUT/cache/KIND-smoke.npz``. ``kind`` is
-    ``"funnel"``, ``"oscillator"`` or the name of a shipped problem file (``"latch"``).
+    ``"funnel"``, ``"oscillator"`` or the name of a shipped problem file (``"latch"``);
+    ``smoke_sets`` are further options of that smoke design (``--set NAME=VALUE`` pairs).
 
     """
     from pes_ref.cli import main as cli_main
@@ -69,7 +70,7 @@ def design_state(args, kind: str):
     if path is None and args.smoke:
         path = os.path.join(args.out, "cache", f"{kind}-smoke.npz")
         os.makedirs(os.path.dirname(path), exist_ok=True)
-        code = cli_main(["design", kind, "--smoke", "--quiet", "--force", "--out", path])
+        code = cli_main(["design", kind, *smoke_sets, "--smoke", "--quiet", "--force", "--out", path])
         if code != 0:
             raise SystemExit(f"the smoke {kind} design failed (exit {code})")
     elif path is None:

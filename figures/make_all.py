@@ -6,7 +6,8 @@ Steps, each printed with its elapsed time as it starts, while it runs and when i
    oscillator with the command's defaults (``python -m pes_ref design funnel|oscillator --out
    figures/out/cache/KIND.npz``), and the oscillator by gradient descent alone
    (``--plan overshoot``), which Fig. 12 draws beside the default, and the latch from its
-   shipped problem file (``design latch``, Fig. 13); their own progress lines are passed through. A design is reused from the cache only
+   shipped problem file (``design latch``, Fig. 13), and the funnel designed realizable
+   (``--set realizable=true``, Fig. 14); their own progress lines are passed through. A design is reused from the cache only
    when its inputs are unchanged: the sidecar ``KIND.json`` holds a key hashing every
    source file of the ``pes_ref`` package, the command line, and the Python and NumPy
    versions, plus the SHA-256 of the design file; a file whose run did not finish
@@ -50,6 +51,7 @@ FIGURES = (
     ("fig11_grid_cycles", "oscillator"),
     ("fig12_torque_capture", "oscillator"),
     ("fig13_latch", "latch"),
+    ("fig14_realized_funnel", "funnel_realizable"),
     ("fig01_ratchet", None),
     ("fig02_dartgun", None),
     ("fig03_dartgun_cspace", None),
@@ -61,6 +63,8 @@ DESIGNS = {
     "oscillator_overshoot": ["design", "oscillator", "--plan", "overshoot"],
     "latch": ["design", "latch"],
     "funnel": ["design", "funnel"],
+    "funnel_realizable": ["design", "funnel", "--set", "realizable=true", "--set", "linger=20",
+                          "--set", "init_shape=vee"],
 }
 #: Further designs a figure draws: figure -> {option: design name}.
 EXTRA_DESIGNS = {"fig12_torque_capture": {"--baseline": "oscillator_overshoot"}}

@@ -34,6 +34,7 @@ _EXPORTS = {
     **dict.fromkeys(("RMSprop", "Adam"), "pes_ref.synthesis.optimizers"),
     **dict.fromkeys(("DesignProblem",), "pes_ref.synthesis.design_problem"),
     **dict.fromkeys(("load_problem", "parse_problem"), "pes_ref.synthesis.problem_file"),
+    **dict.fromkeys(("LevelSet",), "pes_ref.synthesis.level_set"),
 }
 
 __all__ = [*_EXPORTS, "__version__"]
@@ -69,4 +70,5 @@ if TYPE_CHECKING:   # for type checkers and IDEs: the same names, imported eager
     from pes_ref.synthesis.design_problem import DesignProblem  # noqa: F401
     from pes_ref.synthesis.optimizers import Adam, RMSprop  # noqa: F401
     from pes_ref.synthesis.problem_file import load_problem, parse_problem  # noqa: F401
+    from pes_ref.synthesis.level_set import LevelSet  # noqa: F401
 

@@ -24,7 +24,8 @@ __all__ = ["main", "build_parser", "command_module", "COMMANDS", "EXIT_OK", "EXI
 
 #: Each command's name and its module, in the order of ``--help``.
 COMMANDS = {name: f"pes_ref.cli.{name}"
-            for name in ("oracle", "check", "conformance", "analyze", "design", "evaluate", "sweep", "bench")}
+            for name in ("oracle", "check", "conformance", "analyze", "design", "evaluate", "realize", "sweep",
+                                  "bench")}
 
 
 def command_module(name: str):

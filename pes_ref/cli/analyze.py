@@ -18,15 +18,14 @@ before anything is computed and written atomically; an existing one is kept unle
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import importlib
 import json
 import os
 import sys
 import time
 
 from pes_ref.core import checks
-from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, output_file, output_folder  # noqa: F401
+from pes_ref.cli.common import (EXIT_ERROR, EXIT_OK, LazyDefault, add_command, error, option_text,  # noqa: F401
+                                output_file, output_folder)
 
 #: The ``--smoke`` presets (a smaller grid, shorter runs, coarser searches: for tests and a
 #: quick look; same geometry). An option given explicitly wins; an option neither given nor
@@ -55,23 +54,6 @@ def _floats(option: str, text: str) -> list:
     return [_float(option, p, checks.as_nonneg_float) for p in parts]
 
 
-def _text(value) -> str:
-    """The option text that gives ``value`` exactly (``10.0,20.0`` for a tuple)."""
-    return ",".join(map(repr, value)) if isinstance(value, tuple) else repr(value)
-
-
-@dataclasses.dataclass(frozen=True)
-class _Default:
-    """An option's default: entry ``key`` of the analysis' table ``table`` in ``module``, read
-    only when it is needed (the help's ``%(default)s``, a run without the option), so that
-    building the parser imports no device module. An option still holding it was not given."""
-
-    module: str
-    table: str
-    key: str
-
-    def __str__(self) -> str:
-        return _text(getattr(importlib.import_module(self.module), self.table)[self.key])
 
 
 #: The name under which a device file's parser is registered (any other word ending in .toml goes to it).
@@ -104,10 +86,10 @@ class _DeviceChoice(argparse._SubParsersAction):
 
 def add_parser(sub) -> None:
     def rd(key):
-        return _Default("pes_ref.devices.ratchet", "RATCHET_ANALYSIS", key)
+        return LazyDefault("pes_ref.devices.ratchet", "RATCHET_ANALYSIS", key)
 
     def dd(key):
-        return _Default("pes_ref.devices.dartgun", "DARTGUN_ANALYSIS", key)
+        return LazyDefault("pes_ref.devices.dartgun", "DARTGUN_ANALYSIS", key)
 
     p = add_command(sub, "analyze", help="analyze a device on its potential energy surface (any device file, "
                                          "ratchet, dart gun)",
@@ -208,8 +190,8 @@ def _options(args, defaults: dict, smoke: dict) -> dict:
     out = {}
     for key, value in defaults.items():
         given = getattr(args, key)
-        if isinstance(given, _Default):
-            given = smoke[key] if args.smoke and key in smoke else _text(value)
+        if isinstance(given, LazyDefault):
+            given = smoke[key] if args.smoke and key in smoke else option_text(value)
         out[key] = given
     return out
 

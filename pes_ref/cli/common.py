@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
+import importlib
 import os
 import re
 import signal
@@ -16,7 +18,8 @@ import threading
 
 __all__ = ["EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_PIPE", "error", "flag_message",
            "watch_pipes", "add_command",
-           "HelpFormatter", "Parser", "input_file", "input_folder", "output_file", "output_folder"]
+           "HelpFormatter", "Parser", "input_file", "input_folder", "output_file", "output_folder", "LazyDefault",
+           "option_text"]
 
 EXIT_OK = 0            #: success
 EXIT_FAIL = 1          #: a check ran and failed (check, conformance --check), or a design went non-finite
@@ -188,6 +191,28 @@ def output_folder(path: str) -> str:
 
 
 # =========================================================================== parsers
+
+def option_text(value) -> str:
+    """The option text that gives ``value`` exactly (``10.0,20.0`` for a tuple)."""
+    return ",".join(map(repr, value)) if isinstance(value, tuple) else repr(value)
+
+
+@dataclasses.dataclass(frozen=True)
+class LazyDefault:
+    """An option's default: entry ``key`` of the table ``table`` in ``module``, read only when
+    it is needed (the help's ``%(default)s``, a run without the option), so that building the
+    parser imports none of the library. An option still holding it was not given."""
+
+    module: str
+    table: str
+    key: str
+
+    def value(self):
+        return getattr(importlib.import_module(self.module), self.table)[self.key]
+
+    def __str__(self) -> str:
+        return option_text(self.value())
+
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):

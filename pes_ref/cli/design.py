@@ -35,7 +35,8 @@ from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command
 SET_NAMES = {
     "funnel": ("grid", "width", "height", "start_zone", "exit_zone", "start_depth", "force", "noise",
               "damping", "dt", "n_steps", "target", "wall_k", "wall_margin", "init_scale", "when",
-              "regularization"),
+              "regularization", "linger", "realizable", "contact_v", "contact_r_c", "contact_r_min", "init_strip",
+               "init_shape", "init_gap"),
     "oscillator": ("grid0", "grid1", "q0_extent", "amplitude", "omega", "spring_k", "mass", "damping0",
                   "damping1", "torque_min", "torque_max", "kick", "start_noise", "dt", "n_steps",
                   "eval_periods", "wall_k", "wall_margin", "init_scale", "regularization", "cost",

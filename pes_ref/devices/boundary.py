@@ -96,7 +96,7 @@ def locate_crossings(mask, periodic, overlaps, steps: int = BISECTION_STEPS):
     return out
 
 
-def boundary_segments(mask, crossings, lower, spacing, periodic, corners: bool = True) -> np.ndarray:
+def boundary_segments(mask, crossings, lower, spacing, periodic, corners: bool = True, return_ids: bool = False):
     """The boundary polyline by marching squares: segments (M, 2, 2) of (q0, q1) end points.
 
     Each cell (i, j) spans nodes i..i+1 and j..j+1 (across the seam on a periodic axis, so
@@ -104,7 +104,13 @@ def boundary_segments(mask, crossings, lower, spacing, periodic, corners: bool =
     one segment; one with four (two blocked corners on a diagonal) gives two, each cutting
     off one blocked corner. With ``corners``, a corner of the obstacle inside a cell is put
     back (:func:`_corners`) instead of being cut off by the chord between the crossings.
+
+    With ``return_ids`` (and ``corners`` False) it also returns the crossing each end point is
+    (M, 2) int: ``axis * n0 * n1 + i * n1 + j`` for the crossing on the edge from node (i, j)
+    along ``axis`` (a level set's distance differentiates through them).
     """
+    if return_ids and corners:
+        raise ValueError("return_ids needs corners=False: a corner put back is no crossing")
     n0, n1 = mask.shape
     t0, t1 = crossings
     h = np.asarray(spacing, dtype=float)
@@ -134,9 +140,11 @@ def boundary_segments(mask, crossings, lower, spacing, periodic, corners: bool =
     br_tl = four & ~mask[i, j]
     pairs += [(bl_tr, "b", "l"), (bl_tr, "t", "r"), (br_tl, "b", "r"), (br_tl, "t", "l")]
     if not any(sel.any() for sel, _, _ in pairs):
-        return np.empty((0, 2, 2))
+        return (np.empty((0, 2, 2)), np.empty((0, 2), dtype=np.int64)) if return_ids else np.empty((0, 2, 2))
     seg = np.concatenate([np.stack((pts[a][sel], pts[b][sel]), axis=1) for sel, a, b in pairs])
     end_ids = np.concatenate([np.stack((ids[a][sel], ids[b][sel]), axis=1) for sel, a, b in pairs])
+    if return_ids:
+        return seg, end_ids
     cell = np.concatenate([base[sel] for sel, _, _ in pairs])
     return _corners(seg, end_ids, cell, h) if corners else seg
 
@@ -227,7 +235,8 @@ def _min_image(d: np.ndarray, length: np.ndarray, periodic) -> np.ndarray:
     return d
 
 
-def grid_distance(segments, lower, spacing, shape, periodic, reach: float | None = None) -> np.ndarray:
+def grid_distance(segments, lower, spacing, shape, periodic, reach: float | None = None,
+                  return_nearest: bool = False, propagate: bool = True):
     """The unsigned distance from every grid node to the polyline ``segments``, shape (n0, n1).
 
     Exact within ``reach`` of the polyline: each segment measures its distance to
@@ -249,6 +258,12 @@ def grid_distance(segments, lower, spacing, shape, periodic, reach: float | None
     reach : float, optional
         Half-width of the exact band, in C-space units; default :data:`BAND` spacings of the
         coarser axis.
+    return_nearest : bool
+        Also return, shape (n0, n1), the index of the segment each node's exact distance is
+        to (-1 beyond the band).
+    propagate : bool
+        Whether the distance beyond the band is propagated (else those nodes get ``inf``: all
+        a caller needs to know when nothing acts beyond ``reach``).
     """
     from scipy import ndimage     # imported here: ``import pes_ref`` stays light
     lower, h = np.asarray(lower, float), np.asarray(spacing, float)
@@ -289,8 +304,9 @@ def grid_distance(segments, lower, spacing, shape, periodic, reach: float | None
         win = d == best[flat]
         nearest[flat[win]] = seg[win]
     inside = nearest >= 0
-    if inside.all():
-        return best.reshape(shape)
+    band = nearest.reshape(shape).copy() if return_nearest else None
+    if inside.all() or not propagate:
+        return (best.reshape(shape), band) if return_nearest else best.reshape(shape)
     # closest-point propagation from the band to the rest
     node = np.stack(np.unravel_index(np.arange(best.size), shape), axis=1)
     foot = np.full((best.size, 2), np.nan)
@@ -329,7 +345,7 @@ def grid_distance(segments, lower, spacing, shape, periodic, reach: float | None
         if not changed:
             break
     best[far] = d
-    return best.reshape(shape)
+    return (best.reshape(shape), band) if return_nearest else best.reshape(shape)
 
 
 def mask_distance(mask, spacing, periodic) -> np.ndarray:

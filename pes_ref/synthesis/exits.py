@@ -42,15 +42,25 @@ class FunnelExit:
     is piecewise constant in the grid values, so away from the values where some ``n_i``
     changes (a particle crossing ``level`` exactly on a step) the derivative is
     ``dL/dX_{n_i, i, 0} = 2 (X_{n_i, i, 0} - target)`` and zero at every other state.
+
+    ``linger`` (>= 0, default 0) adds ``linger sum_i sum_{n <= n_i} (X_{n, i, 1} - level) dt``,
+    the time each particle spends above the exit edge weighted by its height: a particle
+    held on a ledge costs more the longer it stays. Eq. (5) at the final step alone pays a
+    design for moving a held particle toward the target (a pocket drifts to the middle),
+    which walls, unlike gentle slopes, easily do; this term pays it for letting the particle
+    go (``docs/realize.md``). Its derivative is ``linger dt`` on ``X_{n, i, 1}`` for
+    ``n <= n_i`` (``dt`` the spacing of ``t``).
     ``value_and_grad(x, v, t)`` follows :mod:`pes_ref.core.objectives`.
     """
 
     target: float = 0.0
     level: float = 0.0
+    linger: float = 0.0
 
     def __post_init__(self):
         object.__setattr__(self, "target", checks.as_finite_float("target", self.target))
         object.__setattr__(self, "level", checks.as_finite_float("level", self.level))
+        object.__setattr__(self, "linger", checks.as_nonneg_float("linger", self.linger))
 
     def value_and_grad(self, x, v, t):
         step, _ = exit_steps(x, self.level)
@@ -58,4 +68,10 @@ class FunnelExit:
         e = x[step, particle, 0] - self.target
         gx = np.zeros(x.shape)
         gx[step, particle, 0] = 2.0 * e
-        return float(np.sum(e * e)), gx, None
+        value = float(np.sum(e * e))
+        if self.linger:
+            dt = float(t[1] - t[0]) if len(t) > 1 else 0.0
+            live = np.arange(x.shape[0])[:, None] <= step[None, :]
+            value += self.linger * dt * float(np.sum((x[:, :, 1] - self.level) * live))
+            gx[:, :, 1] += self.linger * dt * live
+        return value, gx, None

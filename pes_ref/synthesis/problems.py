@@ -28,6 +28,8 @@ from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
 from pes_ref.synthesis.exits import FunnelExit, exit_steps
 from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
+from pes_ref.synthesis.level_set import LevelSet
+from pes_ref.synthesis.resampling import resample, resample_vjp
 
 __all__ = ["FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
            "IN_BAND_SHARE", "exit_positions", "FUNNEL_OBJECTIVES"]
@@ -49,7 +51,28 @@ class Batch(NamedTuple):
 
 
 class _Problem:
-    """What both problems share: the initial grid, the flat surface, the design mask."""
+    """What both problems share: the initial grid, the flat surface, the design mask, and
+    how the grid values become the surface (the values themselves, unless the problem's
+    :attr:`level_set` makes them a shape: :mod:`pes_ref.synthesis.level_set`)."""
+
+    #: None: the grid values are the surface's energies.
+    level_set = None
+
+    def surface_values(self, values) -> np.ndarray:
+        """The surface's grid values of design ``values``: the values, or with a level set
+        eq. (1) of their shape on the problem's own grid (:meth:`shape`)."""
+        if self.level_set is None:
+            return values
+        fine = resample(values, self.lower, self.upper, self.periodic, self.shape())
+        return self.level_set.energy(fine, self.lower, self.upper, self.periodic)
+
+    def values_grad(self, values, grad_surface) -> np.ndarray:
+        """dL/d(design values) from dL/d(surface values) (:meth:`surface_values` transposed)."""
+        if self.level_set is None:
+            return grad_surface
+        fine = resample(values, self.lower, self.upper, self.periodic, self.shape())
+        grad = self.level_set.vjp(fine, grad_surface, self.lower, self.upper, self.periodic)
+        return resample_vjp(grad, np.shape(values), self.periodic)
 
     def mask(self, shape: tuple) -> np.ndarray:
         """1.0 where a grid value is designed (everywhere unless a problem holds some at zero)."""
@@ -80,7 +103,16 @@ class FunnelProblem(_Problem):
     (docs/synthesis.md measures it with ``exit_zone = 0.05``): the surface extends as a constant beyond
     the bottom edge, so without it a design charged at the last step can keep steering
     particles after they leave the domain. Grid axis 0 is q0, axis 1 is q1; ``grid`` nodes
-    per axis.
+    per axis. ``linger`` weighs a term of the exit cost on the time particles spend above the
+    exit edge (:class:`pes_ref.synthesis.exits.FunnelExit`).
+
+    ``realizable`` makes the design realizable as designed (``docs/realize.md``): the grid
+    values become a level set (:class:`pes_ref.synthesis.level_set.LevelSet`), the shape
+    ``{values + contact_r_c < 0}``, and the surface is eq. (1) with strength ``contact_v``,
+    cut-off ``contact_r_c`` and cap ``contact_r_min`` of the exact distance to that shape, on
+    the ``grid`` x ``grid`` surface whatever the stage's grid of values. The shape starts as
+    ``init_shape`` (:data:`INIT_SHAPES`): two strips ``init_strip`` wide along the walled sides
+    (``"strips"``), or a V whose gap at the exit edge is ``2 init_gap`` wide (``"vee"``).
     """
 
     kind: ClassVar[str] = "funnel"
@@ -103,10 +135,28 @@ class FunnelProblem(_Problem):
     init_scale: float = 1e-3
     when: str = "exit"
     regularization: float = 0.0
+    linger: float = 0.0
+    realizable: bool = False
+    contact_v: float = 1.08e-4
+    contact_r_c: float = 0.06
+    contact_r_min: float = 0.02
+    init_strip: float = 0.03
+    init_shape: str = "strips"
+    init_gap: float = 0.15
 
     def __post_init__(self):
         _check_fields(self)
         checks.as_choice("when", self.when, set(FUNNEL_OBJECTIVES))
+        if self.linger and self.when != "exit":
+            raise checks.InputError("linger", f"linger is a term of the exit cost (when = 'exit'), got when = "
+                                              f"{self.when!r}", names=("linger", "when"))
+        if not isinstance(self.realizable, bool):
+            raise checks.InputTypeError("realizable", f"realizable must be true or false, got {self.realizable!r}")
+        checks.as_choice("init_shape", self.init_shape, set(INIT_SHAPES))
+        checks.as_positive_float("init_gap", self.init_gap)
+        checks.as_nonneg_float("init_strip", self.init_strip)
+        if self.realizable:
+            object.__setattr__(self, "level_set", LevelSet(self.contact_v, self.contact_r_c, self.contact_r_min))
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -123,6 +173,17 @@ class FunnelProblem(_Problem):
         n = self.grid if grid is None else grid
         return (n, n)
 
+    def initial_values(self, rng, shape: tuple) -> np.ndarray:
+        """Small random values (std ``init_scale``); with ``realizable``, the starting shape
+        ``init_shape`` (:data:`INIT_SHAPES`) below the start strip (a level set's shape only
+        moves where its contour is: the walls grow from it)."""
+        if not self.realizable:
+            return super().initial_values(rng, shape)
+        q0 = np.linspace(self.lower[0], self.upper[0], shape[0])[:, None]
+        q1 = np.linspace(self.lower[1], self.upper[1], shape[1])[None, :]
+        free = np.broadcast_to(INIT_SHAPES[self.init_shape](self, q0, q1), shape)
+        return self.level_set.from_distance(free) * self.mask(shape)
+
     def mask(self, shape: tuple) -> np.ndarray:
         """1.0 where a grid value is designed, 0.0 in the start and exit strips held at zero energy."""
         q1 = np.linspace(self.lower[1], self.upper[1], shape[1])
@@ -131,8 +192,8 @@ class FunnelProblem(_Problem):
 
     def scene(self, values, effects=()) -> Scene:
         """The design's scene on grid ``values`` with the given per-batch effects."""
-        return Scene(Surface(values, self.lower, self.upper, self.periodic), dt=self.dt, n_steps=self.n_steps,
-                     damping=(self.damping, self.damping),
+        return Scene(Surface(self.surface_values(values), self.lower, self.upper, self.periodic), dt=self.dt,
+                     n_steps=self.n_steps, damping=(self.damping, self.damping),
                      walls=Walls(k=self.wall_k, margin=self.wall_margin, edges=[[True, True], [False, False]]),
                      effects=tuple(effects))
 
@@ -162,6 +223,23 @@ class FunnelProblem(_Problem):
             return np.abs(exits - self.target) < IN_BAND_SHARE * self.width
 
 
+def _strips(p: FunnelProblem, q0, q1):
+    """Two strips ``init_strip`` wide along the walled sides: the signed distance (> 0 free)."""
+    return p.width / 2 - p.init_strip - np.abs(q0) + 0.0 * q1
+
+
+def _vee(p: FunnelProblem, q0, q1):
+    """A V: free within ``|q0| < init_gap + (width/2 - init_gap) q1 / h`` (``h`` the height below
+    the start strip), blocked outside; the signed distance to its two straight walls."""
+    h = p.height - p.start_zone
+    slope = (p.width / 2 - p.init_gap) / h
+    return (p.init_gap + slope * q1 - np.abs(q0)) / np.hypot(1.0, slope)
+
+
+#: The starting shapes of a realizable funnel: name -> signed distance (> 0 free) on the nodes.
+INIT_SHAPES = {"strips": _strips, "vee": _vee}
+
+
 def exit_positions(problem: FunnelProblem, traj: Trajectory) -> np.ndarray:
     """q0 at the first state at or below the bottom edge (q1 <= 0), NaN if a path never gets there."""
     step, exited = exit_steps(traj.x, problem.lower[1])
@@ -172,7 +250,7 @@ def exit_positions(problem: FunnelProblem, traj: Trajectory) -> np.ndarray:
 #: The funnel's objective for each ``when``: eq. (5) at each particle's exit (the default), at
 #: the final step, or summed over every step (:class:`pes_ref.core.objectives.Funnel`).
 FUNNEL_OBJECTIVES = {
-    "exit": lambda p: FunnelExit(target=p.target, level=p.lower[1]),
+    "exit": lambda p: FunnelExit(target=p.target, level=p.lower[1], linger=p.linger),
     "final": lambda p: Funnel(target=p.target, when="final"),
     "every_step": lambda p: Funnel(target=p.target, when="every_step"),
 }
@@ -409,7 +487,7 @@ _GRID_FIELDS = ("grid", "grid0", "grid1")
 #: The float fields that must be > 0: lengths of the domain, the step, masses, stiffnesses,
 #: the target cycle and the gait (each is divided by, or a zero makes the scene meaningless).
 _POSITIVE_FIELDS = ("width", "height", "dt", "wall_k", "q0_extent", "amplitude", "omega", "mass", "gait_delta",
-                    "shooting_periods")
+                    "shooting_periods", "contact_v", "contact_r_c", "contact_r_min")
 
 
 def _check_fields(problem) -> None:

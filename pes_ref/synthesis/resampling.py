@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["resample"]
+__all__ = ["resample", "resample_vjp"]
 
 
 def _axis_weights(n_old: int, n_new: int, periodic: bool):
@@ -31,4 +31,19 @@ def resample(values, lower, upper, periodic, shape) -> np.ndarray:
         a, b = np.take(out, i0, axis=d), np.take(out, i1, axis=d)
         fb = f[:, None] if d == 0 else f[None, :]
         out = a * (1.0 - fb) + b * fb
+    return out
+
+
+def resample_vjp(grad, shape_old, periodic) -> np.ndarray:
+    """The transpose of :func:`resample` from ``shape_old``: the gradient with respect to the
+    old grid's values of a function of the resampled ones, given its gradient ``grad`` there."""
+    out = np.asarray(grad, dtype=np.float64)
+    for d in (1, 0):
+        i0, i1, f = _axis_weights(shape_old[d], out.shape[d], bool(periodic[d]))
+        moved = np.moveaxis(out, d, 0)
+        acc = np.zeros((shape_old[d],) + moved.shape[1:])
+        fb = f.reshape((-1,) + (1,) * (moved.ndim - 1))
+        np.add.at(acc, i0, moved * (1.0 - fb))
+        np.add.at(acc, i1, moved * fb)
+        out = np.moveaxis(acc, 0, d)
     return out

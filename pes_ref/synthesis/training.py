@@ -46,7 +46,7 @@ def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_
     loss, grads, traj = value_and_grad(batch.scene, batch.x0, batch.v0, batch.objective,
                                        regularization_weight=problem.regularization, wrt=("values",),
                                        backend=backend)
-    grad = grads["values"]
+    grad = problem.values_grad(values, grads["values"])
     if batch.grid_cost is not None:
         cost, cost_grad = batch.grid_cost(values)
         loss += cost

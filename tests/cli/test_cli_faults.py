@@ -326,6 +326,62 @@ FAULTS = [
     Fault("evaluate-unknown-option", "evaluate design.npz --bogus", ("--bogus",)),
     Fault("evaluate-particles-too-many-for-memory", "evaluate design.npz --particles 1000000000",
           ("--particles = 1000000000", "GiB", "reduce --particles"), absent=("n_steps",)),
+    Fault("evaluate-realized-missing", "evaluate design.npz --realized nothing.toml",
+          ("device file nothing.toml does not exist",)),
+    Fault("evaluate-realized-folder", "evaluate design.npz --realized sub", ("device file sub is a folder",)),
+    Fault("evaluate-realized-not-toml", "evaluate design.npz --realized broken.toml", ("broken.toml", "not valid TOML")),
+    Fault("evaluate-realized-bad-key", "evaluate design.npz --realized dev-radius.toml",
+          ("dev-radius.toml", "part[0].shapes[0].circle.radius")),
+    Fault("evaluate-realized-other-grid", "evaluate design.npz --realized dev.toml",
+          ("--realized dev.toml: the device's grid (21 x 21", "is not the design's (12 x 12")),
+    Fault("evaluate-realized-problem-design", "evaluate problem.npz --realized dev.toml",
+          ("realization covers funnel designs", "'problem' design")),
+    # ------------------------------------------------------------------ realize
+    Fault("realize-missing", "realize nothing.npz --as contact --out parts", ("design file nothing.npz does not exist",)),
+    Fault("realize-folder", "realize sub --as contact --out parts", ("design file sub is a folder",)),
+    Fault("realize-case-file", "realize case.npz --as contact --out parts", ("case.npz is an oracle case file",)),
+    Fault("realize-no-as", "realize design.npz --out newparts", ("--as",)),
+    Fault("realize-bad-as", "realize design.npz --as glue --out newparts", ("--as", "'glue'")),
+    Fault("realize-no-out", "realize design.npz --as contact", ("--out",)),
+    Fault("realize-out-is-a-file", "realize design.npz --as contact --out notes.txt", ("notes.txt", "is a file")),
+    Fault("realize-out-not-writable", "realize design.npz --as contact --out ro", ("ro", "not writable"),
+          needs_permissions=True),
+    Fault("realize-out-no-parent", "realize design.npz --as contact --out nodir/parts", ("nodir", "does not exist")),
+    Fault("realize-existing-file", "realize design.npz --as contact --out parts",
+          ("device file", "parts/device.toml", "exists already")),
+    Fault("realize-pin-radius-negative", "realize design.npz --as contact --out newparts --pin-radius -1",
+          ("--pin-radius must be > 0", "-1")),
+    Fault("realize-rim-zero", "realize design.npz --as contact --out newparts --rim 0", ("--rim must be > 0", "0")),
+    Fault("realize-thickness-nan", "realize design.npz --as contact --out newparts --thickness nan",
+          ("--thickness must be", "nan")),
+    Fault("realize-level-text", "realize design.npz --as contact --out newparts --rule value --level high",
+          ("--level", "'high'")),
+    Fault("realize-level-without-value", "realize design.npz --as contact --out newparts --level 0.1",
+          ("--level E goes with --rule value", "--level 0.1", "--rule None")),
+    Fault("realize-value-without-level", "realize design.npz --as contact --out newparts --rule value",
+          ("--level E goes with --rule value", "--level None", "--rule value")),
+    Fault("realize-level-set-of-a-plain-design", "realize design.npz --as contact --out newparts --rule level-set",
+          ("'level-set' needs a design made realizable", "realizable=true")),
+    Fault("realize-bad-rule", "realize design.npz --as contact --out newparts --rule guess", ("--rule", "'guess'")),
+    Fault("realize-problem-design", "realize problem.npz --as contact --out newparts",
+          ("realization covers funnel designs", "'problem' design")),
+    Fault("realize-heightfield-g-negative", "realize design.npz --as heightfield --out newparts --g -1",
+          ("--g must be > 0", "-1")),
+    Fault("realize-heightfield-base-zero", "realize design.npz --as heightfield --out newparts --base 0",
+          ("--base must be > 0", "0")),
+    Fault("realize-heightfield-particles-zero", "realize design.npz --as heightfield --out newparts --particles 0",
+          ("--particles must be >= 1", "0")),
+    Fault("realize-heightfield-seed-negative", "realize design.npz --as heightfield --out newparts --seed -2",
+          ("--seed must be >= 0", "-2")),
+    Fault("realize-heightfield-pin-radius", "realize design.npz --as heightfield --out newparts --pin-radius 0.1",
+          ("--pin-radius goes with --as contact, not --as heightfield",)),
+    Fault("realize-contact-g", "realize design.npz --as contact --out newparts --g 9.81",
+          ("--g goes with --as heightfield, not --as contact",)),
+    Fault("realize-heightfield-existing", "realize design.npz --as heightfield --out sub2",
+          ("STL file", "sub2/heightfield.stl", "exists already")),
+    Fault("realize-heightfield-problem-design", "realize problem.npz --as heightfield --out newparts",
+          ("realization covers funnel designs", "'problem' design")),
+    Fault("realize-unknown-option", "realize design.npz --as contact --out newparts --bogus", ("--bogus",)),
     # ------------------------------------------------------------------ bench
     Fault("bench-out-no-folder", "bench --quick --out nodir/b.json", ("nodir", "does not exist")),
     Fault("bench-out-under-a-file", "bench --quick --out text.npz/b.json", ("text.npz", "not a folder")),
@@ -449,6 +505,10 @@ def assets(tmp_path_factory):
     (folder / "tiny.toml").write_text(TINY_SWEEP)
     (folder / "sub" / "motion_law.csv").write_text("q_in,q_out\n0,0\n")
     (folder / "sub.toml").mkdir()
+    (folder / "parts").mkdir()
+    (folder / "parts" / "device.toml").write_text("# a user's own device file\n")
+    (folder / "sub2").mkdir()
+    (folder / "sub2" / "heightfield.stl").write_text("solid a user's own mesh\n")
     (folder / "dev.toml").write_text(DEVICE)
     (folder / "broken.toml").write_text("format = 1\n[cspace\n")
     for name, (old, new) in BAD_DEVICES.items():
@@ -728,6 +788,13 @@ def _bench_whole_or_absent(work: Path, before: dict) -> None:
         json.loads((work / "bench.json").read_text())
 
 
+def _parts_whole_or_absent(work: Path, before: dict) -> None:
+    if (work / "rp").exists():
+        from pes_ref.devices.device_file import load_device
+        assert load_device(work / "rp" / "device.toml").name == "design_contact"
+        assert (work / "rp" / "parts.png").read_bytes()[:4] == b"\x89PNG"
+
+
 class Piped(NamedTuple):
     """A command whose ``closed`` stream(s) (``stdout``, ``stderr`` or ``both``) go into a
     pipe whose reader has gone; ``made`` names the files it may leave and ``check`` what
@@ -754,6 +821,7 @@ CLOSED_PIPES = [
     Piped("design-head-1", "design funnel --smoke --iterations 300 --progress 0 --out new.npz", "both",
           ("new.npz",), _design("interrupted", 1, 299)),
     Piped("evaluate", "evaluate design.npz --particles 8", "stdout"),
+    Piped("realize", "realize design.npz --as contact --out rp", "stdout", ("rp",), _parts_whole_or_absent),
     Piped("sweep", "sweep tiny.toml --out sw --workers 1", "stderr", ("sw",), _sweep_whole_or_absent),
     Piped("bench", "bench --quick --no-autodiff --out bench.json", "stdout", ("bench.json", "bench-scaling.png"),
           _bench_whole_or_absent),

@@ -79,7 +79,14 @@ def test_every_parser_shows_examples_that_parse(name, parser):
 
 #: The examples quick enough to run here, as written (in a scratch folder holding the
 #: shipped vectors at their path in the repository).
-QUICK = ["pes_ref oracle", "pes_ref check", "pes_ref analyze ratchet", "pes_ref evaluate"]
+QUICK = ["pes_ref oracle", "pes_ref check", "pes_ref analyze ratchet", "pes_ref evaluate", "pes_ref realize"]
+#: What each command's examples read, made first by the commands that write it.
+SETUP = {
+    "pes_ref evaluate": ("design funnel --smoke --quiet --out funnel.npz",
+                         "design oscillator --smoke --quiet --out osc.npz",
+                         "realize funnel.npz --as contact --out funnel_parts"),
+    "pes_ref realize": ("design funnel --smoke --quiet --out funnel.npz",),
+}
 
 
 @pytest.mark.parametrize("name", QUICK)
@@ -88,10 +95,9 @@ def test_quick_examples_run_as_written(name, tmp_path):
     shutil.copytree(ROOT / "pes_ref" / "oracle" / "conformance" / LATEST,
                     tmp_path / "pes_ref" / "oracle" / "conformance" / LATEST)
     env = dict(os.environ, PYTHONPATH=str(ROOT), OMP_NUM_THREADS="1")
-    if name == "pes_ref evaluate":        # its examples read the designs the design examples write
-        for argv in ("design funnel --smoke --quiet --out funnel.npz", "design oscillator --smoke --quiet --out osc.npz"):
-            subprocess.run([sys.executable, "-m", "pes_ref", *argv.split()], cwd=tmp_path, env=env, check=True,
-                           capture_output=True, timeout=120)
+    for argv in SETUP.get(name, ()):        # its examples read what other commands' examples write
+        subprocess.run([sys.executable, "-m", "pes_ref", *argv.split()], cwd=tmp_path, env=env, check=True,
+                       capture_output=True, timeout=120)
     for chain in examples(parser):
         for argv in chain:
             argv = [sys.executable if a == "python" else

@@ -9,7 +9,7 @@ from hypothesis import given
 
 from pes_ref import synthesis
 from pes_ref.core.objectives import Funnel
-from pes_ref.synthesis import FunnelExit, Plan, exit_steps
+from pes_ref.synthesis import FunnelExit, FunnelProblem, Plan, exit_steps
 from pes_ref.testing import strategies as pst
 from pes_ref.testing.finite_differences import central_gradient
 from pes_ref.oracle.compare import relative_error
@@ -63,6 +63,30 @@ def test_exit_gradient_matches_central_differences(seed):
     fd = central_gradient(lambda z: cost.value_and_grad(z, v, t)[0], x)
     assert np.count_nonzero(fd) == 4                   # one state per particle counts
     assert relative_error(gx, fd) < FD_RTOL
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_linger_gradient_matches_central_differences(seed):
+    """The linger term: ``linger dt`` on q1 of every state up to each particle's exit, nothing after."""
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0.0, 1.0, (6, 4, 2))
+    x[:, :, 1] = np.sort(rng.uniform(-1.0, 1.0, (6, 4)), axis=0)[::-1]
+    assert np.min(np.abs(x[:, :, 1] - 0.25)) > 10 * FD_EPS
+    cost = FunnelExit(target=-0.3, level=0.25, linger=0.7)
+    t = np.arange(6.0) * 0.5
+    value, gx, _ = cost.value_and_grad(x, None, t)
+    fd = central_gradient(lambda z: cost.value_and_grad(z, None, t)[0], x)
+    assert relative_error(gx, fd) < FD_RTOL
+    step, _ = exit_steps(x, 0.25)
+    live = np.arange(6)[:, None] <= step[None, :]
+    assert value == pytest.approx(np.sum((x[step, np.arange(4), 0] + 0.3) ** 2)
+                                  + 0.7 * 0.5 * np.sum((x[:, :, 1] - 0.25) * live), rel=1e-12)
+    assert (fd[..., 1][~live] == 0).all() and (fd[..., 1][live] != 0).all()
+
+
+def test_linger_belongs_to_the_exit_cost():
+    with pytest.raises(ValueError, match="linger is a term of the exit cost"):
+        FunnelProblem(linger=1.0, when="final", exit_zone=0.05)
 
 
 def test_bad_exit_parameters_are_keyed():

@@ -1,0 +1,258 @@
+"""The ``realize`` command of ``python -m pes_ref``: ``realize DESIGN.npz --as contact --out DIR
+[--rule level-set|visited|value] [--level E] [--pin-radius R] [--rim W] [--thickness T] [--force]``.
+
+It turns a saved design into parts (:mod:`pes_ref.realize`, ``docs/realize.md``), writes
+``DIR/device.toml``, ``DIR/plate.dxf``, ``DIR/plate.stl``, ``DIR/base.stl``, ``DIR/pin.stl`` and
+``DIR/parts.png`` (each checked before anything is computed, an existing one kept unless
+``--force``; the set made whole in a staging folder, ``device.toml`` written last), then reads every file back and prints one ``name: value`` line
+per figure of the check: the blocked share of the C-space the device file's parts give
+against the design's, the plate's area from the DXF against the device file's, and the STL
+meshes' watertightness and volume.
+"""
+from __future__ import annotations
+
+import io
+import os
+import sys
+import time
+
+from pes_ref.cli.common import EXIT_OK, LazyDefault, add_command, error, input_file, output_file, output_folder
+
+#: The files each realization writes into ``--out``, and what each is (for refusals).
+HEIGHTFIELD_FILES = {"stl": ("heightfield.stl", "STL")}
+CONTACT_FILES = {"device": ("device.toml", "device"), "dxf": ("plate.dxf", "DXF"), "plate_stl": ("plate.stl", "STL"),
+                 "base_stl": ("base.stl", "STL"), "pin_stl": ("pin.stl", "STL"), "png": ("parts.png", "drawing")}
+#: The library's names of what the options set, and the options (errors name the option).
+FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
+         "as": "--as", "rule": "--rule", "g": "--g", "base": "--base", "seed": "--seed", "n_particles": "--particles"}
+#: Each realization's own options (``dest``, flag): given with the other, they are refused.
+OPTIONS = {"contact": (("rule", "--rule"), ("level", "--level"), ("pin_radius", "--pin-radius"), ("rim", "--rim"),
+                       ("thickness", "--thickness")),
+           "heightfield": (("g", "--g"), ("base", "--base"), ("seed", "--seed"), ("particles", "--particles"))}
+
+
+def _default(key: str) -> LazyDefault:
+    """``key``'s default, :data:`pes_ref.realize.contact.CONTACT_DEFAULTS` (read when needed)."""
+    return LazyDefault("pes_ref.realize.contact", "CONTACT_DEFAULTS", key)
+
+
+def _hf_default(key: str) -> LazyDefault:
+    """``key``'s default, :data:`pes_ref.realize.heightfield.HEIGHTFIELD_DEFAULTS` (read when needed)."""
+    return LazyDefault("pes_ref.realize.heightfield", "HEIGHTFIELD_DEFAULTS", key)
+
+
+def add_parser(sub) -> None:
+    p = add_command(sub, "realize", help="turn a saved design into parts: a device file, DXF, STL and a drawing",
+        description="Realize a saved design by contact (--as contact): its blocked region (the design energy above "
+                    "a contact level chosen by --rule) becomes a plate with cut-outs and a pin (a plane design). Writes "
+                    "DIR/device.toml (the device-file format: analyze and evaluate --realized read it), "
+                    "DIR/plate.dxf, DIR/plate.stl, DIR/base.stl (the slab the plate's pieces stand on), DIR/pin.stl and DIR/parts.png, reads them back and prints "
+                    "the check: blocked shares, the plate's area from the DXF, the meshes' watertightness. "
+                    "--as heightfield writes DIR/heightfield.stl, a plate whose top is h = E / (m g), reads it back "
+                    "and runs the held-out particles as rolling balls on it (7/5 the mass; with and without the "
+                    "slope's shortening of the force): max_slope and the in-band fractions. "
+                    "Needs the optional extra 'realize' (pip install 'pes_ref[realize]'). docs/realize.md.",
+        examples=["realize funnel.npz --as contact --out funnel_parts",
+                  "realize funnel.npz --as contact --rule value --level 0.05 --out parts --force",
+                  "realize funnel.npz --as heightfield --out funnel_plate"])
+    p.add_argument("file", metavar="DESIGN.npz", help="a design file written by 'design'")
+    p.add_argument("--as", dest="as_", choices=tuple(REALIZATIONS), required=True,
+                   help="the realization: 'contact' (rigid parts and eq. (1)) or 'heightfield' (a plate whose top "
+                        "is the energy, for a rolling ball)")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder to write into (made if missing)")
+    p.add_argument("--rule", default=None, choices=("level-set", "visited", "value"),
+                   help="how the contact level is chosen (default: 'level-set' for a design made realizable, "
+                        "else 'visited')")
+    p.add_argument("--level", type=float, default=None, metavar="E", help="the contact level of --rule value")
+    p.add_argument("--pin-radius", type=float, default=_default("pin_radius"), metavar="R",
+                   help="the pin's radius (C-space length)")
+    p.add_argument("--rim", type=float, default=_default("rim"), metavar="W",
+                   help="the plate's rim beyond its cut-out (C-space length)")
+    p.add_argument("--thickness", type=float, default=_default("thickness"), metavar="T",
+                   help="the plate's and the pin's height in the STL files (C-space length)")
+    p.add_argument("--g", type=float, default=_hf_default("g"), metavar="G",
+                   help="heightfield: gravity, length / time^2 in the design's units (h = E / (m g))")
+    p.add_argument("--base", type=float, default=_hf_default("base"), metavar="B",
+                   help="heightfield: the plate's thickness below its lowest point (length)")
+    p.add_argument("--seed", type=int, default=None, metavar="S",
+                   help="heightfield: the held-out seed of the rolling-ball check (default 12345)")
+    p.add_argument("--particles", type=int, default=None, metavar="N",
+                   help="heightfield: held-out particles of the rolling-ball check (default 200)")
+    p.add_argument("--force", action="store_true", help="overwrite existing files in DIR")
+    p.set_defaults(func=_run_realize)
+
+
+def _outputs(args, files: dict) -> dict:
+    """Every output path, checked before anything is computed."""
+    output_folder(args.out)
+    out = {}
+    for key, (name, what) in files.items():
+        path = os.path.join(args.out, name)
+        out[key] = output_file(path, what, force=args.force) if os.path.isdir(args.out) else path
+    return out
+
+
+def _value(option):
+    """An option's value: the library's default where it was not given."""
+    return option.value() if isinstance(option, LazyDefault) else option
+
+
+def _refuse_others(args) -> None:
+    """An option of the other realization, given, is refused (one line naming both)."""
+    for kind, options in OPTIONS.items():
+        if kind == args.as_:
+            continue
+        for dest, flag in options:
+            value = getattr(args, dest)
+            if value is not None and not isinstance(value, LazyDefault):
+                raise ValueError(f"{flag} goes with --as {kind}, not --as {args.as_}")
+
+
+def _run_realize(args) -> int:
+    start = time.perf_counter()
+    try:
+        from pes_ref.realize.extra import require_realize
+        require_realize()
+        from pes_ref.synthesis import load_design
+        _refuse_others(args)
+        state = load_design(input_file(args.file, "design file"))
+        prepare, write, files = REALIZATIONS[args.as_]
+        job = prepare(state, args)
+        outputs = _outputs(args, files)
+    except (ValueError, TypeError, OSError, ImportError) as exc:
+        return error(exc, FLAGS)
+    try:
+        lines = write(job, state, outputs, args)
+    except (ValueError, OSError) as exc:
+        return error(exc, FLAGS)
+    for line in lines:
+        print(line)
+    print(f"seconds: {time.perf_counter() - start:.3g}")
+    for key, path in outputs.items():
+        print(f"wrote {path} ({files[key][1]})", file=sys.stderr)
+    return EXIT_OK
+
+
+def _figure_lines(figures: dict) -> list:
+    return [f"{key}: {value:.6g}" if isinstance(value, float) else f"{key}: {value}" for key, value in figures.items()]
+
+
+# --------------------------------------------------------------------------- contact
+
+def _prepare_contact(state, args):
+    from pes_ref.realize.contact import realize_contact
+    if (args.level is not None) != (args.rule == "value"):
+        raise ValueError(f"--level E goes with --rule value (the contact level given), got --level {args.level} "
+                         f"and --rule {args.rule}")
+    name = os.path.splitext(os.path.basename(args.file))[0]
+    return realize_contact(state.problem, state.values, args.rule, args.level, name=name,
+                           pin_radius=_value(args.pin_radius), rim=_value(args.rim), thickness=_value(args.thickness))
+
+
+def _write_contact(real, state, outputs: dict, args) -> list:
+    _write(real, state, outputs, args.force)
+    region = real.region
+    lines = [f"rule: {region.rule}", f"level: {region.level:.6g}", f"blocked_share: {region.blocked_share:.6g}"]
+    lines += [f"neighbour: {label}: level {level:.6g}, blocked_share {share:.6g}, changed_share {changed:.6g}"
+              for label, level, share, changed in real.sensitivity]
+    lines += [f"lost: {line}" for line in real.lost]
+    return lines + _figure_lines(_check(real, outputs))
+
+
+def _write(real, state, outputs: dict, force: bool) -> None:
+    """The files as one set: the drawings and meshes made whole in a staging folder inside
+    ``--out`` and moved into place (:func:`pes_ref.core.files.move_into`), then the set's
+    index, ``device.toml``, written last and atomically; a stop part-way leaves no half file."""
+    import shutil
+    import tempfile
+    from pes_ref.core.files import move_into
+    from pes_ref.realize import exports
+    from pes_ref.realize.drawing import parts_figure
+    from pes_ref.realize.evaluation import held_out_positions
+    from pes_ref.realize.regions import VISITED_SEED
+    folder = os.path.dirname(outputs["device"]) or "."
+    os.makedirs(folder, exist_ok=True)
+    staging = tempfile.mkdtemp(prefix=".realize-", dir=folder)
+    try:
+        staged = {key: os.path.join(staging, os.path.basename(path)) for key, path in outputs.items()}
+        exports.write_dxf(staged["dxf"], real.parts.plate, False)
+        exports.write_stl(staged["plate_stl"], exports.plate_mesh(real.parts.plate, real.thickness), False)
+        exports.write_stl(staged["base_stl"], exports.base_mesh(real.parts.plate, real.thickness), False)
+        exports.write_stl(staged["pin_stl"], exports.pin_mesh(real.parts.pin_radius, real.thickness), False)
+        path = held_out_positions(state.problem, state.values, VISITED_SEED, n_particles=1)[:, 0, :]
+        buf = io.BytesIO()
+        parts_figure(real, path).savefig(buf, format="png", dpi=110)
+        exports.write_bytes(staged["png"], buf.getvalue(), False, "drawing")
+        move_into([staged[key] for key in ("dxf", "plate_stl", "base_stl", "pin_stl", "png")], folder)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    header = f"{real.device['description']}\nwritten by pes_ref realize (docs/realize.md)"
+    exports.write_text(outputs["device"], exports.device_text(real.device, header), force, "device")
+
+
+def _check(real, outputs: dict) -> dict:
+    """Every file read back: the device's C-space, the DXF's plate, the meshes."""
+    from pes_ref.devices.device_file import load_device
+    from pes_ref.realize import exports
+    device = load_device(outputs["device"])
+    plate = exports.read_dxf_plate(outputs["dxf"])
+    file_plate = device.parts[1].geometry(device.grid.tolerance)
+    out = {"device_blocked_share": float(device.cspace().blocked.mean()),
+           "plate_area_dxf": float(plate.area), "plate_area_device": float(file_plate.area)}
+    for key in ("plate_stl", "base_stl", "pin_stl"):
+        mesh = exports.read_stl(outputs[key])
+        name = key.split("_")[0]
+        out[f"{name}_watertight"] = bool(mesh.is_watertight)
+        out[f"{name}_volume"] = float(mesh.volume)
+    out["plate_volume_expected"] = float(plate.area * real.thickness)
+    return out
+
+
+# --------------------------------------------------------------------------- heightfield
+
+def _prepare_heightfield(state, args):
+    from pes_ref.core import budget, checks
+    from pes_ref.realize.evaluation import check_kind
+    from pes_ref.realize.heightfield import heightfield
+    check_kind(state.problem)
+    seed = checks.as_nonneg_int("seed", 12345 if args.seed is None else args.seed)
+    n = checks.as_positive_int("n_particles", 200 if args.particles is None else args.particles)
+    budget.check_memory(state.problem.n_steps, n, "simulate", particles="n_particles", fixed_steps=True, runs=3,
+                        length=f"a held-out run of {state.problem.n_steps} steps")
+    base = checks.as_positive_float("base", _value(args.base))
+    return heightfield(state.problem, state.values, _value(args.g)), base, seed, n
+
+
+def _write_heightfield(job, state, outputs: dict, args) -> list:
+    """The plate written, read back, and the rolling-ball check on the heights read back."""
+    import numpy as np
+    from pes_ref.realize import exports
+    from pes_ref.realize.heightfield import HeightField, heightfield_mesh, heights_from_mesh, rolling_paths
+    from pes_ref.synthesis import exit_positions, funnel_paths
+    hf, base, seed, n = job
+    os.makedirs(args.out, exist_ok=True)
+    exports.write_stl(outputs["stl"], heightfield_mesh(hf, base), args.force)
+    mesh = exports.read_stl(outputs["stl"])
+    heights = heights_from_mesh(mesh, hf)
+    energy = HeightField(heights, hf.lower, hf.upper, hf.mass, hf.g).energy()
+    p = state.problem
+    slope = hf.slope()
+    exits = {"design": exit_positions(p, funnel_paths(p, state.values, n, seed).traj),
+             "rolling": exit_positions(p, rolling_paths(p, energy, seed, n)),
+             "sloped": exit_positions(p, rolling_paths(p, energy, seed, n, g=hf.g))}
+    both = np.isfinite(exits["rolling"]) & np.isfinite(exits["sloped"])
+    figures = {"g": hf.g, "height_range": float(np.ptp(hf.heights)), "max_slope": float(slope.max()),
+               "slope_share_over_0.1": float(np.mean(slope > 0.1)), "watertight": bool(mesh.is_watertight),
+               "volume": float(mesh.volume), "height_error": float(np.max(np.abs(heights - hf.heights))),
+               "seed": seed, "particles": n,
+               "in_band_fraction": float(np.mean(p.in_band(exits["design"]))),
+               "rolling_in_band_fraction": float(np.mean(p.in_band(exits["rolling"]))),
+               "sloped_in_band_fraction": float(np.mean(p.in_band(exits["sloped"]))),
+               "slope_exit_shift": float(np.mean(np.abs(exits["sloped"] - exits["rolling"])[both]))
+               if both.any() else float("nan")}
+    return _figure_lines(figures)
+
+
+#: The realizations: --as NAME -> (prepare(state, args) -> job, write(job, state, outputs, args) -> lines, files).
+REALIZATIONS = {"contact": (_prepare_contact, _write_contact, CONTACT_FILES),
+                "heightfield": (_prepare_heightfield, _write_heightfield, HEIGHTFIELD_FILES)}

@@ -1,0 +1,17 @@
+"""Realization: a designed surface becomes parts you can make, checked by simulating those parts.
+
+``python -m pes_ref realize DESIGN.npz --as contact|heightfield --out DIR`` and
+``python -m pes_ref evaluate DESIGN.npz --realized DIR/device.toml`` (``docs/realize.md``).
+Modules, one idea each:
+
+- :mod:`.extra`       the optional extra ``realize`` and its pip line
+- :mod:`.regions`     the blocked region of a design: the contact level, chosen by a stated
+                      rule (:data:`~pes_ref.realize.regions.CONTACT_RULES`), as polygons
+- :mod:`.followers`   blocked polygons into two parts, per topology: a pin in a plate (a
+                      plane) (:data:`~pes_ref.realize.followers.FOLLOWERS`)
+- :mod:`.contact`     a contact realization: parts, the device file's tables, what is lost
+- :mod:`.exports`     writing and reading back device.toml, DXF (ezdxf) and STL (trimesh)
+- :mod:`.evaluation`  the design's own held-out evaluation on a realized device
+- :mod:`.heightfield` a plate whose top is the energy, and a ball rolling on it
+- :mod:`.drawing`     the parts at three positions
+"""

@@ -1,0 +1,109 @@
+"""A contact realization: a design's blocked region as rigid parts, and what the parts keep and lose.
+
+:func:`realize_contact` chooses the blocked region (:func:`pes_ref.realize.regions.contact_region`,
+by a stated rule), turns it into the two parts of the topology's follower
+(:data:`pes_ref.realize.followers.FOLLOWERS`) and writes their device file's tables:
+
+- ``[energy]``: eq. (1) of the distance to the parts' C-space obstacle, with the design's
+  contact parameters (``contact_v``, ``contact_r_c``, ``contact_r_min`` of the problem: a
+  realizable design's own eq. (1)), and the design's springs (its scene's per-axis spring);
+- ``[dynamics]``: the design scene's masses, damping and walls;
+- ``[start]``: the design's start row, at q0 = 0.
+
+What the parts cannot have is listed in :attr:`ContactRealization.lost`, in words: the
+energies below the contact level (flat on the device beyond ``r_c`` of an obstacle), and the
+area the pin's disc cannot keep (:attr:`pes_ref.realize.followers.Parts.lost_share`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pes_ref.core import checks
+from pes_ref.realize.evaluation import check_kind
+from pes_ref.realize.followers import FOLLOWERS, Parts
+from pes_ref.realize.regions import Region, contact_region
+
+__all__ = ["ContactRealization", "realize_contact", "CONTACT_DEFAULTS"]
+
+#: The defaults of the contact realization's settings (C-space length units): the pin's
+#: radius, the plate's rim beyond its cut-out, the plate's (and pin's) thickness in the STL.
+CONTACT_DEFAULTS = {"pin_radius": 0.02, "rim": 0.1, "thickness": 0.1}
+
+
+@dataclass(frozen=True)
+class ContactRealization:
+    """A design realized by contact: its region, its parts, the device file's tables and what is lost.
+
+    ``sensitivity`` holds, for each level beside the chosen one, ``(label, level,
+    blocked_share, changed_share)``: the share of the grid blocked at that level and the share
+    whose side differs from the chosen level's.
+    """
+
+    region: Region
+    parts: Parts
+    device: dict
+    lost: tuple
+    sensitivity: tuple
+    thickness: float
+
+
+def _springs(scene) -> list:
+    spring = scene.spring
+    if spring is None:
+        return []
+    k = np.broadcast_to(spring.k, (2,)) if np.ndim(spring.k) <= 1 else None
+    c = np.broadcast_to(spring.center, (2,)) if np.ndim(spring.center) <= 1 else None
+    if k is None or c is None:
+        raise checks.InputError("values", "a spring that differs per particle cannot be built into a part")
+    return [{"axis": d, "k": float(k[d]), "center": float(c[d])} for d in range(2) if k[d] > 0]
+
+
+def realize_contact(problem, values, rule: str | None = None, level: float | None = None, *, name: str = "design",
+                    pin_radius: float = CONTACT_DEFAULTS["pin_radius"], rim: float = CONTACT_DEFAULTS["rim"],
+                    thickness: float = CONTACT_DEFAULTS["thickness"]) -> ContactRealization:
+    """Realize design ``values`` of ``problem`` by contact (module docstring)."""
+    check_kind(problem)
+    thickness = checks.as_positive_float("thickness", thickness)
+    region = contact_region(problem, values, rule, level)
+    follower = FOLLOWERS.get(tuple(region.periodic))
+    if follower is None:
+        raise checks.InputError("as", f"no contact follower realizes a surface with periodic axes "
+                                      f"{list(region.periodic)} yet (a plane only)")
+    scene = problem.scene(values)
+    walled = np.zeros((2, 2), dtype=bool) if scene.walls is None else np.asarray(scene.walls.edges, dtype=bool)
+    open_edges = [(d, side) for d in range(2) for side in range(2) if not region.periodic[d] and not walled[d, side]]
+    parts = follower(region, pin_radius, rim, open_edges)
+    damping = np.broadcast_to(scene.damping if scene.damping is not None else 0.0, (2,))
+    mass = np.broadcast_to(scene.mass, (2,))
+    dynamics = {"mass": [float(m) for m in mass], "damping": [float(d) for d in damping]}
+    if scene.walls is not None:
+        dynamics["walls"] = {"k": float(scene.walls.k), "margin": float(scene.walls.margin),
+                             "edges": [[bool(e) for e in row] for row in np.asarray(scene.walls.edges)]}
+    device = {
+        "format": 1,
+        "name": f"{name}_contact",
+        "description": f"{name} realized by contact: a pin in a plate (rule {region.rule!r}, level "
+                       f"{region.level:.6g})",
+        "part": parts.device_parts(),
+        "cspace": {"lower": [float(x) for x in problem.lower], "upper": [float(x) for x in problem.upper],
+                   "shape": [int(n) for n in problem.shape()]},
+        "energy": {"v": float(problem.contact_v), "r_c": float(problem.contact_r_c),
+                   "r_min": float(problem.contact_r_min), "springs": _springs(scene)},
+        "dynamics": dynamics,
+        "start": {"q": [0.0, float(problem.upper[1] - problem.start_depth)]},
+    }
+    free = region.phi >= 0
+    below = region.energy[free]
+    lost = []
+    if region.rule != "level-set" and below.size and float(np.ptp(below)) > 0:   # a level set's surface is eq. (1)
+        lost.append(f"the energies below the contact level ({float(below.min()):.4g} .. {float(below.max()):.4g} "
+                    f"over {free.mean():.1%} of the grid) are flat on the device beyond r_c = "
+                    f"{problem.contact_r_c:g} of the plate")
+    lost.append(f"{parts.lost_share:.2%} of the domain changes side (blocked slivers thinner than the pin's "
+                f"diameter {2 * parts.pin_radius:g}, sharp free corners)")
+    blocked = region.phi < 0
+    sensitivity = tuple((label, float(e), float(np.mean(phi < 0)), float(np.mean((phi < 0) != blocked)))
+                        for label, e, phi in region.neighbours)
+    return ContactRealization(region, parts, device, tuple(lost), sensitivity, thickness)

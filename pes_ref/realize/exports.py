@@ -1,0 +1,117 @@
+"""Writing a realization's files and reading them back (``docs/realize.md``).
+
+- ``device.toml``: the device-file format (``docs/devices.md``, written with tomli-w), so
+  that every device tool (``analyze``, :func:`pes_ref.load_device`) applies to it;
+- ``plate.dxf``: the plate's outline and cut-outs as closed LWPOLYLINEs on layer ``CUT``
+  (ezdxf), in the C-space's length unit (``$INSUNITS`` 0, unitless), for laser cutting;
+- ``plate.stl``, ``base.stl``, ``pin.stl``: the plate's pieces extruded to its thickness, the
+  slab they stand on (it holds the islands a cut-out leaves), and the pin as a cylinder of
+  the same height (trimesh; the plate's faces triangulated by shapely's constrained
+  Delaunay triangulation), for 3D printing.
+
+Every file is written atomically (:func:`pes_ref.core.files.atomic_file`). The readers
+(:func:`read_dxf_plate`, :func:`read_stl`) rebuild what a check needs from the files alone.
+"""
+from __future__ import annotations
+
+import io
+
+import numpy as np
+
+from pes_ref.core.files import atomic_file
+
+__all__ = ["device_text", "write_bytes", "write_text", "write_dxf", "read_dxf_plate", "plate_mesh", "base_mesh", "pin_mesh", "write_stl",
+           "read_stl", "DXF_LAYER"]
+
+#: The DXF layer of the cutting lines.
+DXF_LAYER = "CUT"
+
+
+def device_text(data: dict, header: str) -> str:
+    """The device file's text of ``data`` (a parsed device file's tables), after ``header`` comment lines."""
+    import tomli_w
+    lines = "".join(f"# {line}\n" for line in header.splitlines())
+    return lines + tomli_w.dumps(data)
+
+
+def write_bytes(path, data: bytes, overwrite: bool, what: str) -> None:
+    """``data`` into ``path`` atomically (an existing file kept unless ``overwrite``)."""
+    with atomic_file(path, overwrite=overwrite, what=what) as fh:
+        fh.write(data)
+
+
+def write_text(path, text: str, overwrite: bool, what: str) -> None:
+    write_bytes(path, text.encode("utf-8"), overwrite, what)
+
+
+def write_dxf(path, plate, overwrite: bool) -> None:
+    """The plate's rings (outlines and holes) as closed polylines on :data:`DXF_LAYER`."""
+    import ezdxf
+    doc = ezdxf.new("R2010")
+    doc.header["$INSUNITS"] = 0
+    doc.layers.add(DXF_LAYER)
+    msp = doc.modelspace()
+    for poly in getattr(plate, "geoms", [plate]):
+        for ring in [poly.exterior, *poly.interiors]:
+            msp.add_lwpolyline(np.asarray(ring.coords)[:-1, :2].tolist(), close=True,
+                               dxfattribs={"layer": DXF_LAYER})
+    buf = io.StringIO()
+    doc.write(buf)
+    write_text(path, buf.getvalue(), overwrite, "DXF")
+
+
+def read_dxf_plate(path):
+    """The plate rebuilt from a DXF file: its closed polylines on :data:`DXF_LAYER`, each ring
+    inside an odd number of others a hole (even-odd), as one shapely geometry."""
+    import ezdxf
+    import shapely
+    doc = ezdxf.readfile(path)
+    rings = [shapely.Polygon(np.asarray(e.get_points("xy"))) for e in doc.modelspace().query("LWPOLYLINE")
+             if e.dxf.layer == DXF_LAYER and e.closed]
+    out = shapely.Polygon()
+    for ring in rings:
+        out = shapely.symmetric_difference(out, ring)
+    return shapely.normalize(out)
+
+
+def _triangulated(poly):
+    import shapely
+    tris = shapely.constrained_delaunay_triangles(poly)
+    corners = np.array([np.asarray(t.exterior.coords)[:3] for t in tris.geoms])
+    vertices, faces = np.unique(corners.reshape(-1, 2), axis=0, return_inverse=True)
+    return vertices, faces.reshape(-1, 3)
+
+
+def plate_mesh(plate, thickness: float):
+    """The plate's pieces extruded from z = 0 to ``thickness``: separate watertight bodies, one mesh."""
+    import trimesh
+    return trimesh.util.concatenate([trimesh.creation.extrude_triangulation(*_triangulated(p), thickness)
+                                     for p in getattr(plate, "geoms", [plate])])
+
+
+def base_mesh(plate, thickness: float):
+    """The base that holds the plate's pieces (islands among them): a slab the plate's bounding
+    box wide, from z = -thickness to 0."""
+    import shapely
+    import trimesh
+    base = trimesh.creation.extrude_triangulation(*_triangulated(shapely.box(*plate.bounds)), thickness)
+    base.apply_translation([0.0, 0.0, -thickness])
+    return base
+
+
+def pin_mesh(radius: float, height: float):
+    """The pin: a cylinder of ``radius`` and ``height`` standing on z = 0 at the origin."""
+    import trimesh
+    mesh = trimesh.creation.cylinder(radius=radius, height=height, sections=64)
+    mesh.apply_translation([0.0, 0.0, height / 2])
+    return mesh
+
+
+def write_stl(path, mesh, overwrite: bool) -> None:
+    write_bytes(path, mesh.export(file_type="stl"), overwrite, "STL")
+
+
+def read_stl(path):
+    """The mesh of an STL file (trimesh, vertices merged)."""
+    import trimesh
+    return trimesh.load_mesh(path, file_type="stl")

@@ -1,0 +1,38 @@
+"""The optional extra ``realize``: shapely >= 2.1 (the parts' geometry and their triangulation),
+contourpy (the blocked region's contour), ezdxf (DXF) and trimesh (STL).
+
+:func:`require_realize` imports them or raises
+:class:`pes_ref.devices.geometry.MissingExtraError` with the pip line, which the command line
+prints as its one error line.
+"""
+from __future__ import annotations
+
+import importlib
+
+from pes_ref.devices.geometry import MissingExtraError, require_shapely
+
+__all__ = ["PIP_LINE", "require_realize"]
+
+#: The pip line that installs what realization needs.
+PIP_LINE = "pip install 'pes_ref[realize]'"
+#: The modules of the extra beyond shapely, and what each is for.
+_MODULES = (("contourpy", "contours"), ("ezdxf", "DXF files"), ("trimesh", "STL files"))
+
+
+def require_realize() -> dict:
+    """The modules ``{"shapely": ..., "ezdxf": ..., "trimesh": ...}``, or
+    :class:`~pes_ref.devices.geometry.MissingExtraError` naming the missing one and the pip line."""
+    try:
+        out = {"shapely": require_shapely()}
+    except MissingExtraError:
+        raise MissingExtraError(f"realization needs shapely >= 2 (the optional extra 'realize'): {PIP_LINE}") from None
+    if not hasattr(out["shapely"], "constrained_delaunay_triangles"):
+        raise MissingExtraError(f"realization needs shapely >= 2.1 (its triangulation), found "
+                                f"{out['shapely'].__version__}: {PIP_LINE}")
+    for name, what in _MODULES:
+        try:
+            out[name] = importlib.import_module(name)
+        except ImportError:
+            raise MissingExtraError(f"realization needs {name} for its {what} (the optional extra 'realize'): "
+                                    f"{PIP_LINE}") from None
+    return out

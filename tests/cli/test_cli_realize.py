@@ -1,0 +1,116 @@
+"""``python -m pes_ref realize`` and ``evaluate --realized``: files written, read back and checked."""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from pes_ref.cli import EXIT_ERROR, EXIT_OK, main
+from pes_ref.synthesis import new_design, save_design
+
+GRID = 41
+FILES = ("device.toml", "plate.dxf", "plate.stl", "base.stl", "pin.stl", "parts.png")
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def figures(out: str) -> dict:
+    return dict(line.split(": ", 1) for line in out.splitlines() if ": " in line)
+
+
+@pytest.fixture(scope="module")
+def design(tmp_path_factory):
+    """A funnel design file whose grid is two V walls (energy 0.2 beyond a ramp)."""
+    state = new_design("funnel", grid=GRID, n_steps=300)
+    p = state.problem
+    q0 = np.linspace(p.lower[0], p.upper[0], GRID)[:, None]
+    q1 = np.linspace(p.lower[1], p.upper[1], GRID)[None, :]
+    state.values = 0.2 * np.clip((np.abs(q0) - (0.25 + 0.4 * q1)) / 0.1, 0.0, 1.0) * p.mask((GRID, GRID))
+    path = tmp_path_factory.mktemp("design") / "vee.npz"
+    save_design(path, state)
+    return path
+
+
+def test_realize_writes_every_file_and_checks_each_read_back(capsys, design, tmp_path):
+    out_dir = tmp_path / "parts"
+    code, out, err = run(capsys, "realize", str(design), "--as", "contact", "--rule", "value", "--level", "0.1",
+                         "--out", str(out_dir))
+    assert code == EXIT_OK, err
+    assert sorted(p.name for p in out_dir.iterdir()) == sorted(FILES)
+    got = figures(out)
+    assert got["rule"] == "value" and float(got["level"]) == 0.1
+    assert abs(float(got["device_blocked_share"]) - float(got["blocked_share"])) < 0.02
+    assert float(got["plate_area_dxf"]) == pytest.approx(float(got["plate_area_device"]), rel=1e-9)
+    assert got["plate_watertight"] == got["base_watertight"] == got["pin_watertight"] == "True"
+    assert float(got["plate_volume"]) == pytest.approx(float(got["plate_volume_expected"]), rel=1e-6)
+    assert out.count("neighbour: ") == 2 and out.count("lost: ") == 2
+    assert (out_dir / "parts.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    code, out, err = run(capsys, "analyze", str(out_dir / "device.toml"), "--drive", "1", "--load", "-1")
+    assert code == EXIT_OK, err                                     # every device tool applies to it
+
+    code, out, err = run(capsys, "evaluate", str(design), "--realized", str(out_dir / "device.toml"),
+                         "--particles", "30")
+    assert code == EXIT_OK, err
+    got = figures(out)
+    for name in ("in_band_fraction", "exit_spread", "exited_fraction", "dt", "n_steps"):
+        assert name in got and f"realized_{name}" in got
+    assert float(got["realized_dt"]) <= float(got["dt"])
+
+
+def test_realize_as_heightfield_writes_the_plate_and_checks_the_rolling_ball(capsys, design, tmp_path):
+    code, out, err = run(capsys, "realize", str(design), "--as", "heightfield", "--out", str(tmp_path / "hf"),
+                         "--g", "2", "--particles", "40", "--seed", "9191")
+    assert code == EXIT_OK, err
+    assert [p.name for p in (tmp_path / "hf").iterdir()] == ["heightfield.stl"]
+    got = figures(out)
+    assert got["watertight"] == "True" and float(got["height_error"]) < 1e-6
+    assert float(got["height_range"]) == pytest.approx(0.2 / 2.0, rel=1e-12)      # the design's range / (m g)
+    assert float(got["max_slope"]) > 0 and got["seed"] == "9191" and got["particles"] == "40"
+    for name in ("in_band_fraction", "rolling_in_band_fraction", "sloped_in_band_fraction"):
+        assert 0.0 <= float(got[name]) <= 1.0
+
+
+def test_existing_files_are_kept_unless_forced(capsys, design, tmp_path):
+    out_dir = tmp_path / "parts"
+    out_dir.mkdir()
+    (out_dir / "plate.dxf").write_text("a user's drawing")
+    argv = ["realize", str(design), "--as", "contact", "--rule", "value", "--level", "0.1", "--out", str(out_dir)]
+    code, out, err = run(capsys, *argv)
+    assert code == EXIT_ERROR and out == "" and "plate.dxf exists already" in err
+    assert [p.name for p in out_dir.iterdir()] == ["plate.dxf"] and (out_dir / "plate.dxf").read_text() == "a user's drawing"
+    code, out, err = run(capsys, *argv, "--force")
+    assert code == EXIT_OK and (out_dir / "plate.dxf").read_text().startswith("  0\nSECTION")
+
+
+def test_a_write_that_fails_part_way_leaves_no_file_of_the_set(capsys, monkeypatch, design, tmp_path):
+    from pes_ref.realize import exports
+    real_write = exports.write_stl
+
+    def fail_on_the_base(path, mesh, overwrite):
+        if str(path).endswith("base.stl"):
+            raise OSError(28, "No space left on device", str(path))
+        real_write(path, mesh, overwrite)
+
+    monkeypatch.setattr(exports, "write_stl", fail_on_the_base)
+    out_dir = tmp_path / "parts"
+    out_dir.mkdir()
+    (out_dir / "notes.txt").write_text("a user's notes")
+    code, out, err = run(capsys, "realize", str(design), "--as", "contact", "--rule", "value", "--level", "0.1",
+                         "--out", str(out_dir))
+    assert code == EXIT_ERROR and err.count("\n") == 1 and "No space left on device" in err
+    assert [p.name for p in out_dir.iterdir()] == ["notes.txt"]        # no staging folder, no part of the set
+
+
+@pytest.mark.parametrize("module", ["ezdxf", "trimesh", "contourpy"])
+def test_without_the_extra_the_command_prints_the_pip_line(capsys, monkeypatch, design, tmp_path, module):
+    monkeypatch.setitem(sys.modules, module, None)           # import MODULE -> ImportError
+    code, out, err = run(capsys, "realize", str(design), "--as", "contact", "--out", str(tmp_path / "p"))
+    assert code == EXIT_ERROR and out == ""
+    assert err.count("\n") == 1 and "pip install 'pes_ref[realize]'" in err and module in err
+    assert not (tmp_path / "p").exists()

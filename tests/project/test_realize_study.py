@@ -1,0 +1,21 @@
+"""validation/experiments/realize_study.py (``make realize-study``): its smoke size runs the
+design, realize and evaluate --realized commands and writes its table."""
+import csv
+
+from _helpers import ROOT, load_script
+
+study = load_script(ROOT / "validation" / "experiments" / "realize_study.py")
+
+
+def test_the_smoke_study_writes_a_row_per_held_out_seed(tmp_path, capsys):
+    name = "realizable, V start, linger 1"
+    assert study.main(["--smoke", "--out", str(tmp_path), "--only", name]) == 0
+    out = capsys.readouterr().out
+    assert out.count(f"| {name} |") == 2
+    with open(tmp_path / "realize_study.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [int(r["seed"]) for r in rows] == list(study.HELD_OUT)
+    for r in rows:
+        assert r["rule"] == "level-set"
+        assert 0.0 <= float(r["realized_in_band_fraction"]) <= 1.0
+        assert float(r["realized_dt"]) <= 0.05                     # the smoke preset's dt, or the rule's

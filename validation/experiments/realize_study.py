@@ -1,0 +1,168 @@
+"""The table of docs/realize.md ("Measured"): funnel designs realized by contact and re-simulated.
+
+``make realize-study`` runs it (``python validation/experiments/realize_study.py``). For each
+variant it runs the project's own commands in-process: ``design funnel ...`` (or, for the
+V start alone, the starting shape saved as a design file with no iteration), ``realize DESIGN
+--as contact --out DIR``, and ``evaluate DESIGN --realized DIR/device.toml --seed S`` for the
+held-out seeds 12345 and 9191 (for :data:`SENSITIVITY`, also at the contact level's neighbours);
+the variants of :data:`HEIGHTFIELD` are also realized as a heightfield and checked with the
+rolling ball (``realize --as heightfield --seed S``); it prints one row per variant and seed (the design's in-band
+and exited fractions beside the realized device's, the realized step, each command's wall
+time) and writes them to ``OUT/realize_study.csv``. ``--smoke`` uses the design command's
+tiny preset (seconds; for the tests).
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import csv
+import io
+import os
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+DEFAULT_OUT = ROOT / "validation" / "out" / "realize_study"
+HELD_OUT = (12345, 9191)
+REALIZABLE = ["--set", "realizable=true"]
+#: name -> the design command's options (None: the V start alone, saved with no iteration).
+VARIANTS = {
+    "default funnel (visited rule)": [],
+    "realizable, strips": REALIZABLE,
+    "realizable, strips, linger 1": REALIZABLE + ["--set", "linger=1"],
+    "realizable, strips, linger 20": REALIZABLE + ["--set", "linger=20"],
+    "realizable, V start alone": None,
+    "realizable, V start, linger 1": REALIZABLE + ["--set", "linger=1", "--set", "init_shape=vee"],
+    "realizable, V start, linger 20": REALIZABLE + ["--set", "linger=20", "--set", "init_shape=vee"],
+}
+#: The variants whose contact level's neighbours (the realize command's ``neighbour:`` lines) are
+#: realized and evaluated too (``--rule value --level E``): how sensitive the result is to the level.
+SENSITIVITY = ("default funnel (visited rule)",)
+#: The variants also realized as a heightfield (``realize --as heightfield --seed S``): the rolling-ball check.
+HEIGHTFIELD = ("default funnel (visited rule)", "realizable, V start, linger 20")
+HEIGHTFIELD_FIGURES = ("max_slope", "slope_share_over_0.1", "in_band_fraction", "rolling_in_band_fraction",
+                       "sloped_in_band_fraction", "slope_exit_shift")
+FIGURES = ("in_band_fraction", "exited_fraction")
+
+
+def _cli(argv: list) -> tuple:
+    """Run ``python -m pes_ref ARGV`` in-process: (stdout, seconds); a failure raises."""
+    from pes_ref.cli import main
+    out, err = io.StringIO(), io.StringIO()
+    start = time.perf_counter()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    if code != 0:
+        raise SystemExit(f"pes_ref {' '.join(argv)} failed ({code}): {err.getvalue().strip()}")
+    return out.getvalue(), time.perf_counter() - start
+
+
+def _figures(text: str) -> dict:
+    return dict(line.split(": ", 1) for line in text.splitlines() if ": " in line)
+
+
+def _v_start(path: Path, smoke: bool) -> float:
+    """The V start of a realizable funnel saved as a design file with no iteration."""
+    from pes_ref.synthesis import new_design, save_design
+    from pes_ref.sweep.options import SMOKE
+    start = time.perf_counter()
+    params = {"realizable": True, "linger": 1.0, "init_shape": "vee"}
+    if smoke:
+        params.update(SMOKE["funnel"][0])
+    state = new_design("funnel", **params)
+    state.status = "done"
+    save_design(path, state, overwrite=True)
+    return time.perf_counter() - start
+
+
+#: The heightfield rows of the last :func:`run`.
+HEIGHTFIELD_ROWS: list = []
+
+
+def run(out: Path, smoke: bool, names=None) -> list:
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for i, (name, options) in enumerate(VARIANTS.items()):
+        if names and name not in names:
+            continue
+        design = out / f"design{i}.npz"
+        if options is None:
+            t_design = _v_start(design, smoke)
+        else:
+            _, t_design = _cli(["design", "funnel", *options, *(["--smoke"] if smoke else []), "--quiet",
+                                "--force", "--out", str(design)])
+        parts = out / f"parts{i}"
+        text, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force"])
+        rows += _evaluated(name, design, parts, text, t_design, t_realize)
+        if name in HEIGHTFIELD:
+            for seed in HELD_OUT:
+                more, t_hf = _cli(["realize", str(design), "--as", "heightfield", "--seed", str(seed),
+                                   "--out", str(out / f"plate{i}"), "--force"])
+                got = _figures(more)
+                HEIGHTFIELD_ROWS.append({"variant": name, "seed": seed, **{k: got[k] for k in HEIGHTFIELD_FIGURES},
+                                         "realize_s": f"{t_hf:.1f}"})
+        if name not in SENSITIVITY:
+            continue
+        for k, line in enumerate(line for line in text.splitlines() if line.startswith("neighbour: ")):
+            label, level = line.split(": ")[1], line.split("level ")[1].split(",")[0]
+            other = out / f"parts{i}_{k}"
+            more, t_more = _cli(["realize", str(design), "--as", "contact", "--rule", "value", "--level", level,
+                                 "--out", str(other), "--force"])
+            rows += _evaluated(f"{name}, {label} (level {level})", design, other, more, t_design, t_more)
+    return rows
+
+
+def _evaluated(name, design, parts, realize_text, t_design, t_realize) -> list:
+    realized = _figures(realize_text)
+    rows = []
+    for seed in HELD_OUT:
+        text, t_eval = _cli(["evaluate", str(design), "--realized", str(parts / "device.toml"), "--seed", str(seed)])
+        got = _figures(text)
+        row = {"variant": name, "seed": seed, "rule": realized["rule"], "blocked_share": realized["blocked_share"],
+               "iterations": got["iterations"]}
+        for f in FIGURES:
+            row[f] = got[f]
+            row[f"realized_{f}"] = got[f"realized_{f}"]
+        row.update({"realized_dt": got["realized_dt"], "design_s": f"{t_design:.1f}", "realize_s": f"{t_realize:.1f}",
+                    "evaluate_s": f"{t_eval:.1f}"})
+        rows.append(row)
+    return rows
+
+
+def table(rows: list) -> str:
+    head = ["variant", "seed", "rule", "blocked", "in band", "realized", "exited", "realized exited",
+            "realized dt", "design s", "realize s", "evaluate s"]
+    keys = ["variant", "seed", "rule", "blocked_share", "in_band_fraction", "realized_in_band_fraction",
+            "exited_fraction", "realized_exited_fraction", "realized_dt", "design_s", "realize_s", "evaluate_s"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(str(r[k]) for k in keys) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder")
+    p.add_argument("--smoke", action="store_true", help="the design command's tiny preset (seconds)")
+    p.add_argument("--only", action="append", default=None, metavar="VARIANT", help="run only this variant")
+    args = p.parse_args(argv)
+    HEIGHTFIELD_ROWS.clear()
+    rows = run(args.out, args.smoke, args.only)
+    print(table(rows))
+    if HEIGHTFIELD_ROWS:
+        keys = list(HEIGHTFIELD_ROWS[0])
+        print("\n| " + " | ".join(keys) + " |\n|" + "---|" * len(keys))
+        print("\n".join("| " + " | ".join(str(r[k]) for k in keys) + " |" for r in HEIGHTFIELD_ROWS))
+        with open(args.out / "realize_study_heightfield.csv", "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=keys)
+            writer.writeheader()
+            writer.writerows(HEIGHTFIELD_ROWS)
+    with open(args.out / "realize_study.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    print(f"wrote {os.path.join(args.out, 'realize_study.csv')}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
