@@ -11,14 +11,13 @@ another version is refused.
 """
 from __future__ import annotations
 
-import math
 import os
-import tomllib
 from importlib import resources
 
 import numpy as np
 
 from pes_ref.core import checks
+from pes_ref.core.keyfile import KeyFileError, KeyReader, parse_toml, read_text, show as _show
 from pes_ref.core.terms import Walls
 from pes_ref.devices import geometry as g
 from pes_ref.devices.cspace import SIDES, GridSpring
@@ -51,28 +50,18 @@ ANALYSES = {
 }
 
 
-class DeviceFileError(ValueError):
+class DeviceFileError(KeyFileError):
     """A device file that cannot be used; the message names the file and the key."""
 
 
-class _Reader:
+class _Reader(KeyReader):
     """Checks values and raises :class:`DeviceFileError` naming ``path`` and the key."""
 
-    def __init__(self, path: str):
-        self.path = path
-
-    def fail(self, key: str, message: str):
-        raise DeviceFileError(f"{self.path}: {key}: {message}")
+    error = DeviceFileError
+    noun = "a device file"
 
     def table(self, value, key: str, allowed) -> dict:
-        if not isinstance(value, dict):
-            self.fail(key, f"expected a table, got {_show(value)}")
-        for k in value:
-            if k not in allowed:
-                where = f"{key}.{k}" if key else k
-                self.fail(where, f"unknown key; {'[' + key + ']' if key else 'a device file'} has "
-                                 f"{', '.join(allowed)}")
-        return value
+        return self.check_keys(value, key, allowed)
 
     def require(self, table: dict, key: str, where: str):
         if key not in table:
@@ -80,23 +69,12 @@ class _Reader:
         return table[key]
 
     def number(self, value, key: str, *, positive=False, nonneg=False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            self.fail(key, f"expected a finite number, got {_show(value)}")
-        if positive and not value > 0:
-            self.fail(key, f"expected a number > 0, got {_show(value)}")
-        if nonneg and not value >= 0:
-            self.fail(key, f"expected a number >= 0, got {_show(value)}")
-        return float(value)
+        return super().number(value, key, above=0 if positive else None, least=0 if nonneg else None)
 
     def pair(self, value, key: str, **kw) -> np.ndarray:
         if not isinstance(value, list) or len(value) != 2:
             self.fail(key, f"expected a list of two numbers, got {_show(value)}")
         return np.array([self.number(v, f"{key}[{i}]", **kw) for i, v in enumerate(value)])
-
-    def integer(self, value, key: str, least: int) -> int:
-        if isinstance(value, bool) or not isinstance(value, int) or value < least:
-            self.fail(key, f"expected an integer >= {least}, got {_show(value)}")
-        return int(value)
 
     def string(self, value, key: str, choices=None) -> str:
         if not isinstance(value, str):
@@ -105,22 +83,12 @@ class _Reader:
             self.fail(key, f"expected one of {', '.join(repr(c) for c in choices)}, got {value!r}")
         return value
 
-    def boolean(self, value, key: str) -> bool:
-        if not isinstance(value, bool):
-            self.fail(key, f"expected true or false, got {_show(value)}")
-        return value
-
     def build(self, key: str, make, *args):
         """``make(*args)``, with a library refusal reworded to name the file's key."""
         try:
             return make(*args)
         except (ValueError, TypeError) as exc:
             self.fail(key, " ".join(str(exc).split()))
-
-
-def _show(value) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
 
 
 # --------------------------------------------------------------------------- the sections
@@ -311,19 +279,7 @@ def load_device(path) -> Device:
         shapely 2 is not installed.
     """
     path = os.fspath(path)
-    try:
-        with open(path, "rb") as fh:
-            text = fh.read().decode("utf-8")
-    except FileNotFoundError:
-        raise DeviceFileError(f"device file {path} does not exist") from None
-    except IsADirectoryError:
-        raise DeviceFileError(f"device file {path} is a folder, not a file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DeviceFileError(f"{path}: cannot read the device file ({exc})") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DeviceFileError(f"{path}: not valid TOML: {exc}") from None
+    data = parse_toml(read_text(path, DeviceFileError, "device file"), path, DeviceFileError)
     g.require_shapely()
     return parse_device(data, path)
 

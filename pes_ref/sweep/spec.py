@@ -34,10 +34,10 @@ import hashlib
 import itertools
 import json
 import os
-import tomllib
 from dataclasses import dataclass
 
 from pes_ref.core.backends import check_backend
+from pes_ref.core.keyfile import KeyFileError, KeyReader, parse_toml, read_text
 from pes_ref.synthesis import PROBLEMS, ProblemFileError, load_problem, problem_text, with_sets
 from pes_ref.sweep.options import (DESIGN_OPTIONS, design_inputs, has_type, scene_parameters, type_name,
                                    typed_sets)
@@ -49,7 +49,7 @@ TOP_LEVEL_KEYS = ("description", "kind", "problem", "seeds", "eval_seeds", "eval
                   "variants")
 
 
-class SweepFileError(ValueError):
+class SweepFileError(KeyFileError):
     """A sweep file that cannot be run; the message names the file and the key."""
 
 
@@ -98,6 +98,10 @@ class Sweep:
         return os.path.splitext(os.path.basename(self.path))[0]
 
 
+class _Reader(KeyReader):
+    error = SweepFileError
+
+
 def load_sweep(path) -> Sweep:
     """Read and check the sweep file at ``path``.
 
@@ -108,22 +112,12 @@ def load_sweep(path) -> Sweep:
         type, or a run whose options the design refuses; one line naming the key.
     """
     path = os.fspath(path)
-    try:
-        with open(path, "rb") as fh:
-            text = fh.read().decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SweepFileError(f"{path}: cannot read the sweep file ({exc})") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepFileError(f"{path}: not valid TOML: {exc}") from None
-    return parse_sweep(data, path)
+    return parse_sweep(parse_toml(read_text(path, SweepFileError, "sweep file"), path, SweepFileError), path)
 
 
 def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
     """Check the parsed TOML ``data`` of a sweep file and expand it into its runs."""
-    def fail(key, message):
-        raise SweepFileError(f"{path}: {key}: {message}")
+    fail = _Reader(path).fail
 
     for key in data:
         if key not in TOP_LEVEL_KEYS:

@@ -9,13 +9,14 @@ number >= 0, got -1``). The converters are looked up by the key's type in :data:
 """
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
-__all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES", "show"]
+from pes_ref.core.keyfile import KeyFileError, KeyReader, show
+
+__all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES"]
 
 
-class ProblemFileError(ValueError):
+class ProblemFileError(KeyFileError):
     """A problem file (or problem data) that cannot be used; the message names the file and the key."""
 
 
@@ -38,30 +39,16 @@ class Key(NamedTuple):
     choices: tuple = ()
 
 
-def show(value) -> str:
-    """A short repr of a bad value for a message."""
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-class Reader:
+class Reader(KeyReader):
     """Checks the values of one file and raises :class:`ProblemFileError` naming ``path`` and the key."""
 
-    def __init__(self, path: str):
-        self.path = path
-
-    def fail(self, key: str, message: str):
-        raise ProblemFileError(f"{self.path}: {key}: {message}")
+    error = ProblemFileError
+    noun = "a problem file"
 
     def table(self, value, where: str, keys: dict, *, also=()) -> dict:
         """The table ``value`` at ``where`` checked against ``keys``: every key converted by
         its type, defaults filled in. ``also`` names further keys the caller reads itself."""
-        if not isinstance(value, dict):
-            self.fail(where, f"expected a table, got {show(value)}")
-        allowed = tuple(keys) + tuple(also)
-        for name in value:
-            if name not in allowed:
-                self.fail(self.at(where, name), f"unknown key; {self.section(where)} has {', '.join(allowed)}")
+        self.check_keys(value, where, tuple(keys) + tuple(also))
         out = {}
         for name, key in keys.items():
             if name in value:
@@ -82,25 +69,7 @@ class Reader:
             return f"{where}[{name}]"
         return f"{where}.{name}" if where else name
 
-    @staticmethod
-    def section(where: str) -> str:
-        return f"[{where}]" if where else "a problem file"
-
-    # ------------------------------------------------------------------ scalars
-    def number(self, value, where: str, *, least=None, above=None) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            self.fail(where, f"expected a finite number, got {show(value)}")
-        if least is not None and not value >= least:
-            self.fail(where, f"expected a number >= {least:g}, got {show(value)}")
-        if above is not None and not value > above:
-            self.fail(where, f"expected a number > {above:g}, got {show(value)}")
-        return float(value)
-
-    def integer(self, value, where: str, least: int) -> int:
-        if isinstance(value, bool) or not isinstance(value, int) or value < least:
-            self.fail(where, f"expected an integer >= {least}, got {show(value)}")
-        return int(value)
-
+    # ------------------------------------------------------------------ compounds
     def pair(self, value, where: str, item) -> tuple:
         if not isinstance(value, list) or len(value) != 2:
             self.fail(where, f"expected a list of two values, got {show(value)}")

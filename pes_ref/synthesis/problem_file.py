@@ -32,7 +32,8 @@ from pes_ref.core.stability import check_stable
 from pes_ref.core.steppers import INTEGRATORS, MODES
 from pes_ref.core.terms import Spring, Walls
 from pes_ref.synthesis.design_problem import FORCES, DesignProblem, Force, Scenario, Starts
-from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader, show
+from pes_ref.core.keyfile import parse_toml, read_text, show
+from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
 from pes_ref.synthesis.plans import Plan
 from pes_ref.synthesis.success import SUCCESS_TESTS
@@ -102,21 +103,12 @@ def load_problem(path) -> DesignProblem:
         For a missing or unreadable file, bad TOML, or any bad key or value: one line naming the key.
     """
     path = os.fspath(path)
-    try:
-        with open(path, "rb") as fh:
-            text = fh.read().decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ProblemFileError(f"{path}: cannot read the problem file ({exc})") from None
-    return problem_from_text(text, path)
+    return problem_from_text(read_text(path, ProblemFileError, "problem file"), path)
 
 
 def problem_from_text(text: str, path: str = "<problem>") -> DesignProblem:
     """The problem of a problem file's ``text`` (``path`` names it in messages)."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ProblemFileError(f"{path}: not valid TOML: {exc}") from None
-    return parse_problem(data, path, text)
+    return parse_problem(parse_toml(text, path, ProblemFileError), path, text)
 
 
 def shipped_problem(name: str) -> str:

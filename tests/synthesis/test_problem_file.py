@@ -127,8 +127,13 @@ def test_a_missing_key_is_refused_naming_it(missing, key):
 def test_bad_toml_and_unreadable_files_are_one_line(tmp_path):
     with pytest.raises(ProblemFileError, match="not valid TOML"):
         problem_from_text("surface = [", "x.toml")
-    with pytest.raises(ProblemFileError, match="cannot read the problem file"):
+    with pytest.raises(ProblemFileError, match="^problem file .*nothing.toml does not exist$"):
         load_problem(tmp_path / "nothing.toml")
+    with pytest.raises(ProblemFileError, match="is a folder, not a file"):
+        load_problem(tmp_path)
+    (tmp_path / "latin1.toml").write_bytes(b"name = '\xff'\n")
+    with pytest.raises(ProblemFileError, match="latin1.toml: cannot read the problem file"):
+        load_problem(tmp_path / "latin1.toml")
 
 
 # --------------------------------------------------------------------------- the design gradient
