@@ -16,6 +16,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
+from pes_ref.devices.plots import CSPACE_COLORS, display_grid, domain_limits  # noqa: E402
+
 __all__ = ["DEFAULT_OUT", "parser", "save", "design_state", "design_work", "energy_image", "draw_paths",
            "cspace_image", "cspace_legend", "draw_parts", "value_colors", "draw_phase", "CSPACE_COLORS", "plt"]
 
@@ -25,8 +27,6 @@ DEFAULT_OUT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "out")
 DPI = 150
 #: Under --smoke only a coarse PNG is written (no PDF): rendering is most of a smoke run's time.
 SMOKE_DPI = 50
-#: Colours of the C-space categories: free, blocked; the boundary is drawn as a line.
-CSPACE_COLORS = {"free": "#f7f7f7", "blocked": "#4d4d4d", "boundary": "#d62728"}
 
 plt.rcParams.update({"font.size": 9, "axes.titlesize": 10, "figure.dpi": DPI})
 
@@ -94,35 +94,12 @@ def design_work(state) -> str:
     return f"{state.iteration} iterations{polish}"
 
 
-def _display_grid(surface, values):
-    """Values and imshow extent putting each value at its node (cells centred on nodes); on a
-    periodic axis the first node is repeated after the last so the image fills [lower, upper]."""
-    values = np.asarray(values)
-    h = surface.spacing
-    lo = surface.lower - h / 2
-    hi = lo + h * np.array(values.shape)
-    for d in range(2):
-        if surface.periodic[d]:
-            values = np.concatenate([values, np.take(values, [0], axis=d)], axis=d)
-            hi[d] += h[d]
-    return values, [lo[0], hi[0], lo[1], hi[1]]
-
-
-def _clip_to_domain(ax, surface):
-    """Axis limits: the period on a periodic axis, the node span plus half a cell otherwise."""
-    h = surface.spacing
-    lims = [(surface.lower[d], surface.upper[d]) if surface.periodic[d]
-            else (surface.lower[d] - h[d] / 2, surface.upper[d] + h[d] / 2) for d in range(2)]
-    ax.set_xlim(*lims[0])
-    ax.set_ylim(*lims[1])
-
-
 def energy_image(ax, surface, label: str, values=None, cbar: bool = True, **kw):
     """Draw grid values (default ``surface.values``) over q0 (x) and q1 (y) with a colour bar."""
-    values, extent = _display_grid(surface, surface.values if values is None else values)
+    values, extent = display_grid(surface, surface.values if values is None else values)
     kw.setdefault("cmap", "viridis")
     im = ax.imshow(values.T, origin="lower", extent=extent, aspect="auto", interpolation="nearest", **kw)
-    _clip_to_domain(ax, surface)
+    domain_limits(ax, surface)
     if cbar:
         ax.figure.colorbar(im, ax=ax, label=label, shrink=0.9)
     return im
@@ -135,10 +112,10 @@ def cspace_image(ax, surface, blocked, distance, periodic_note: str = ""):
     from matplotlib.lines import Line2D
 
     cmap = ListedColormap([CSPACE_COLORS["free"], CSPACE_COLORS["blocked"]])
-    values, extent = _display_grid(surface, np.asarray(blocked, dtype=float))
+    values, extent = display_grid(surface, np.asarray(blocked, dtype=float))
     ax.imshow(values.T, origin="lower", extent=extent, aspect="auto", cmap=cmap, vmin=0, vmax=1,
               interpolation="nearest")
-    _clip_to_domain(ax, surface)
+    domain_limits(ax, surface)
     ax.contour(surface.nodes(0), surface.nodes(1), distance.T, levels=[0.0], colors=CSPACE_COLORS["boundary"],
                linewidths=1.0)
     handles = [Patch(facecolor=CSPACE_COLORS["free"], edgecolor="k", label="free"),

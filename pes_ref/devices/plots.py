@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["geometry_path", "draw_geometry", "draw_device", "cspace_image", "drive_figure"]
+__all__ = ["geometry_path", "draw_geometry", "draw_device", "cspace_image", "drive_figure", "display_grid",
+           "domain_limits", "CSPACE_COLORS"]
 
 #: Colours of the C-space: free, blocked, boundary.
 CSPACE_COLORS = {"free": "#f7f7f7", "blocked": "#4d4d4d", "boundary": "#d62728"}
@@ -51,7 +52,7 @@ def draw_device(ax, device, q, labels=("part 0", "part 1"), colors=PART_COLORS):
     ax.autoscale_view()
 
 
-def _display_grid(surface, values):
+def display_grid(surface, values):
     """Values and imshow extent putting each value at its node; on a periodic axis the
     first node is repeated after the last so the image fills [lower, upper]."""
     values = np.asarray(values)
@@ -74,7 +75,7 @@ def cspace_image(ax, surface, blocked, segments=None):
     from matplotlib.patches import Patch
 
     cmap = ListedColormap([CSPACE_COLORS["free"], CSPACE_COLORS["blocked"]])
-    values, extent = _display_grid(surface, np.asarray(blocked, dtype=float))
+    values, extent = display_grid(surface, np.asarray(blocked, dtype=float))
     ax.imshow(values.T, origin="lower", extent=extent, aspect="auto", cmap=cmap, vmin=0, vmax=1,
               interpolation="nearest")
     handles = [Patch(facecolor=CSPACE_COLORS["free"], edgecolor="k", label="free"),
@@ -87,12 +88,17 @@ def cspace_image(ax, surface, blocked, segments=None):
                 seg[:, :, d] -= shift[:, None] * surface.length[d]
         ax.add_collection(LineCollection(seg, colors=CSPACE_COLORS["boundary"], linewidths=1.0))
         handles.append(Line2D([], [], color=CSPACE_COLORS["boundary"], label="boundary (contact)"))
+    domain_limits(ax, surface)
+    return handles
+
+
+def domain_limits(ax, surface):
+    """Axis limits: the period on a periodic axis, the node span plus half a cell otherwise."""
+    h = surface.spacing
     lims = [(surface.lower[d], surface.upper[d]) if surface.periodic[d]
-            else (surface.lower[d] - surface.spacing[d] / 2, surface.upper[d] + surface.spacing[d] / 2)
-            for d in range(2)]
+            else (surface.lower[d] - h[d] / 2, surface.upper[d] + h[d] / 2) for d in range(2)]
     ax.set_xlim(*lims[0])
     ax.set_ylim(*lims[1])
-    return handles
 
 
 def _wrapped_path(surface, x):
