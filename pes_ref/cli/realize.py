@@ -213,14 +213,14 @@ def _check(real, outputs: dict) -> dict:
 def _prepare_heightfield(state, args):
     from pes_ref.core import budget, checks
     from pes_ref.realize.evaluation import check_kind
-    from pes_ref.realize.heightfield import heightfield
+    from pes_ref.realize.heightfield import check_base, heightfield
     check_kind(state.problem)
     seed = checks.as_nonneg_int("seed", 12345 if args.seed is None else args.seed)
     n = checks.as_positive_int("n_particles", 200 if args.particles is None else args.particles)
     budget.check_memory(state.problem.n_steps, n, "simulate", particles="n_particles", fixed_steps=True, runs=3,
                         length=f"a held-out run of {state.problem.n_steps} steps")
-    base = checks.as_positive_float("base", _value(args.base))
-    return heightfield(state.problem, state.values, _value(args.g)), base, seed, n
+    hf = heightfield(state.problem, state.values, _value(args.g))
+    return hf, check_base(hf, _value(args.base)), seed, n
 
 
 def _write_heightfield(job, state, outputs: dict, args) -> list:
@@ -230,8 +230,9 @@ def _write_heightfield(job, state, outputs: dict, args) -> list:
     from pes_ref.realize.heightfield import HeightField, heightfield_mesh, heights_from_mesh, rolling_paths
     from pes_ref.synthesis import exit_positions, funnel_paths
     hf, base, seed, n = job
+    mesh = heightfield_mesh(hf, base)
     os.makedirs(args.out, exist_ok=True)
-    exports.write_stl(outputs["stl"], heightfield_mesh(hf, base), args.force)
+    exports.write_stl(outputs["stl"], mesh, args.force)
     mesh = exports.read_stl(outputs["stl"])
     heights = heights_from_mesh(mesh, hf)
     energy = HeightField(heights, hf.lower, hf.upper, hf.mass, hf.g).energy()

@@ -66,6 +66,20 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     """Realize design ``values`` of ``problem`` by contact (module docstring)."""
     check_kind(problem)
     thickness = checks.as_positive_float("thickness", thickness)
+    pin_radius = checks.as_positive_float("pin_radius", pin_radius)
+    rim = checks.as_positive_float("rim", rim)
+    sides = np.asarray(problem.scene(values).surface.length, dtype=float)
+    # a pin as wide as the domain has no room to move; a rim past the domain's size only
+    # grows the plate (and the grid its C-space is checked on) for nothing
+    if not 2 * pin_radius < sides.min():
+        raise checks.InputError("pin_radius", f"pin_radius must be below half the design's shortest side "
+                                              f"({sides.min() / 2:g}), got {pin_radius:g}")
+    if not rim <= sides.max():
+        raise checks.InputError("rim", f"rim must be at most the design's longest side ({sides.max():g}), "
+                                       f"got {rim:g}")
+    if not thickness * 2 < float(np.finfo(np.float32).max):      # STL stores float32 coordinates
+        raise checks.InputError("thickness", f"thickness must be below {float(np.finfo(np.float32).max) / 2:g} (an STL file "
+                                             f"stores float32), got {thickness:g}")
     region = contact_region(problem, values, rule, level)
     follower = FOLLOWERS.get(tuple(region.periodic))
     if follower is None:

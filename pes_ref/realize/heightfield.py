@@ -32,7 +32,7 @@ from pes_ref.core.integrator import Trajectory, step_coefficients
 from pes_ref.core.scene import simulate
 from pes_ref.core.surface import spacing as grid_spacing
 
-__all__ = ["ROLLING", "HeightField", "heightfield", "heightfield_mesh", "heights_from_mesh", "rolling_paths",
+__all__ = ["ROLLING", "HeightField", "heightfield", "check_base", "heightfield_mesh", "heights_from_mesh", "rolling_paths",
            "HEIGHTFIELD_DEFAULTS"]
 
 #: A solid ball's effective mass over its mass when it rolls without slipping: 1 + 2/5.
@@ -80,15 +80,28 @@ def heightfield(problem, values, g: float = HEIGHTFIELD_DEFAULTS["g"]) -> Height
         raise checks.InputError("as", "a heightfield realizes a plane (no periodic axis); this design's surface wraps")
     e = np.asarray(problem.surface_values(values), dtype=np.float64)
     m = _scalar_mass(problem.scene(values))
-    return HeightField((e - e.min()) / (m * g), np.asarray(problem.lower, dtype=np.float64),
+    heights = (e - e.min()) / (m * g)
+    top, f32 = float(heights.max()), np.finfo(np.float32)
+    if e.max() > e.min() and not float(f32.tiny) < top < float(f32.max) / 2:     # the STL stores float32 heights
+        raise checks.InputError("g", f"g = {g:g} makes the plate's heights span {top:g}, which an STL file "
+                                     f"(float32) cannot hold; use a g nearer 1 in the design's units")
+    return HeightField(heights, np.asarray(problem.lower, dtype=np.float64),
                        np.asarray(problem.upper, dtype=np.float64), m, g)
+
+
+def check_base(hf: HeightField, base: float) -> float:
+    """``base`` (> 0) checked to leave the plate within an STL file's float32 range."""
+    base = checks.as_positive_float("base", base)
+    if not base + float(hf.heights.max()) < float(np.finfo(np.float32).max) / 2:
+        raise checks.InputError("base", f"base must leave the plate within an STL file's float32 range, got {base:g}")
+    return base
 
 
 def heightfield_mesh(hf: HeightField, base: float):
     """A watertight plate: the heights on the grid's nodes as its top (two triangles per
     cell), a flat bottom ``base`` below height 0, and four side walls."""
     import trimesh
-    base = checks.as_positive_float("base", base)
+    base = check_base(hf, base)
     n0, n1 = hf.heights.shape
     q0 = np.linspace(hf.lower[0], hf.upper[0], n0)
     q1 = np.linspace(hf.lower[1], hf.upper[1], n1)
