@@ -34,7 +34,7 @@ FULL_TURN_RTOL = 1e-6
 
 TOP_KEYS = ("format", "name", "description", "part", "cspace", "geometry", "energy", "dynamics", "start",
             "analysis")
-PART_KEYS = ("name", "motion", "pivot", "direction", "shapes")
+PART_KEYS = ("name", "motion", "pivot", "direction", "radius", "shapes")
 SHAPE_KINDS = ("polygon", "circle", "rectangle")
 CSPACE_KEYS = ("lower", "upper", "shape")
 GEOMETRY_KEYS = ("tolerance",)
@@ -126,20 +126,38 @@ def _shape(r: _Reader, value, key: str):
     return r.build(where, g.Rectangle, lower, upper, cuts)
 
 
+def _rotation(r: _Reader, value, key: str):
+    return g.Rotation(r.pair(r.require(value, "pivot", f"{key}.pivot"), f"{key}.pivot"))
+
+
+def _translation(r: _Reader, value, key: str):
+    d = r.pair(r.require(value, "direction", f"{key}.direction"), f"{key}.direction")
+    if not np.hypot(*d) > 0:
+        r.fail(f"{key}.direction", f"expected a non-zero direction, got {d.tolist()}")
+    return g.Translation(d)
+
+
+def _drum(r: _Reader, value, key: str):
+    return g.Drum(r.number(r.require(value, "radius", f"{key}.radius"), f"{key}.radius", positive=True))
+
+
+#: The part motions (``motion = NAME``): their key, what a part of that motion is called
+#: (for refusals), and the reader of the key.
+MOTIONS = {
+    "rotation": ("pivot", "a rotating part", _rotation),
+    "translation": ("direction", "a translating part", _translation),
+    "drum": ("radius", "a drum", _drum),
+}
+
+
 def _part(r: _Reader, value, key: str) -> g.Part:
     r.table(value, key, PART_KEYS)
-    motion = r.string(r.require(value, "motion", f"{key}.motion"), f"{key}.motion", ("rotation", "translation"))
-    if motion == "rotation":
-        if "direction" in value:
-            r.fail(f"{key}.direction", "a rotating part has a pivot, not a direction")
-        m = g.Rotation(r.pair(r.require(value, "pivot", f"{key}.pivot"), f"{key}.pivot"))
-    else:
-        if "pivot" in value:
-            r.fail(f"{key}.pivot", "a translating part has a direction, not a pivot")
-        d = r.pair(r.require(value, "direction", f"{key}.direction"), f"{key}.direction")
-        if not np.hypot(*d) > 0:
-            r.fail(f"{key}.direction", f"expected a non-zero direction, got {d.tolist()}")
-        m = g.Translation(d)
+    motion = r.string(r.require(value, "motion", f"{key}.motion"), f"{key}.motion", tuple(MOTIONS))
+    own, noun, read = MOTIONS[motion]
+    for other, *_ in MOTIONS.values():
+        if other != own and other in value:
+            r.fail(f"{key}.{other}", f"{noun} has a {own}, not a {other}")
+    m = read(r, value, key)
     if "name" in value:
         r.string(value["name"], f"{key}.name")
     shapes = r.require(value, "shapes", f"{key}.shapes")

@@ -3,8 +3,9 @@
 A :class:`Part` is the union of its shapes (:class:`Polygon`, :class:`Circle`,
 :class:`Rectangle`, each optionally with shapes cut from it, ``minus``), which may be
 several disjoint pieces (a crank's pin and its locking disc), plus one motion relative
-to the frame: a :class:`Translation` along a direction or a :class:`Rotation` about a
-pivot. Two parts and their coordinates (q0, q1) are a point of a 2D configuration space
+to the frame: a :class:`Translation` along a direction, a :class:`Rotation` about a
+pivot, or a :class:`Drum`: a part drawn on a drum's surface unrolled, which turning the
+drum moves along the circumference (the drum cam of a pin moving along the drum's axis). Two parts and their coordinates (q0, q1) are a point of a 2D configuration space
 (paper, section "Synthesis of higher kinematic pair devices via configuration spaces");
 the point is *blocked* where the posed parts' interiors overlap (touching is free).
 
@@ -19,9 +20,9 @@ its edge is within ``tolerance`` (a length) of the true circle everywhere: n sid
 ``cos(pi / n) >= (r - tol) / (r + tol)``, vertices at radius ``2 r / (1 + cos(pi / n))``.
 The C-space boundary then moves by at most ``tolerance`` divided by the contact's
 separation per unit of q (1 for a translation along the contact normal, the lever arm
-for a rotation). :class:`~pes_ref.devices.cspace.CSpaceGrid` chooses the tolerance
-from its grid (:func:`default_tolerance`): the error stays below h/20 wherever that lever
-is at least the smallest circle's radius.
+for a rotation, the drum's radius for a drum). :class:`~pes_ref.devices.cspace.CSpaceGrid`
+chooses the tolerance from its grid (:func:`default_tolerance`): the error stays below h/20
+wherever that lever is at least the smallest circle's radius (a drum's lever is its radius).
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ import numpy as np
 from pes_ref.core import checks
 
 __all__ = ["MissingExtraError", "require_shapely", "Polygon", "Circle", "Rectangle", "regular_polygon",
-           "Translation", "Rotation", "Part", "pose", "posed_geometries", "interiors_overlap", "overlap",
+           "Translation", "Rotation", "Drum", "MOTIONS", "Part", "pose", "posed_geometries", "interiors_overlap", "overlap",
            "default_tolerance", "circle_sides", "SHAPES"]
 
 #: The pip line that installs what this module needs.
@@ -210,6 +211,47 @@ class Rotation:
         return self.pivot + np.stack((c * rel[:, 0] - s * rel[:, 1], s * rel[:, 0] + c * rel[:, 1]), axis=1)
 
 
+@dataclass(frozen=True)
+class Drum:
+    """A part drawn on the surface of a drum of ``radius`` (a length), unrolled: x along the
+    drum's axis, y the arc length round it, one turn ``2 pi radius`` long. Turning the drum by
+    q (radians) moves the drawing by ``-radius q`` along y, so a point fixed at (x, 0) in the
+    frame (a follower's pin on the line y = 0) sits at ``(x, radius q)`` of the drawing, as a pin
+    at (q0, q1) sits in a plate sliding along -y. The drawing repeats every turn: a pose holds
+    the copies of the drawing, a turn apart, that cover y in ``[-2 pi radius, 2 pi radius]``
+    at every q (:meth:`tiled`), so a follower within a turn of y = 0 meets all of them."""
+
+    radius: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", checks.as_positive_float("radius", self.radius))
+
+    @property
+    def circumference(self) -> float:
+        return 2.0 * np.pi * self.radius
+
+    def apply(self, xy: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Points ``xy`` (P, 2) moved by the angles ``q`` (P,): ``y - radius (q mod 2 pi)``."""
+        shift = -self.radius * np.mod(q, 2.0 * np.pi)
+        return xy + np.stack((np.zeros_like(shift), shift), axis=1)
+
+    def tiled(self, geom):
+        """The drawing ``geom`` and its copies a turn apart along y, enough that every pose
+        (a shift in ``(-2 pi radius, 0]``) covers y in ``[-2 pi radius, 2 pi radius]``."""
+        shapely = require_shapely()
+        period = self.circumference
+        _, y0, _, y1 = geom.bounds
+        first = int(np.floor((-period - y1) / period))
+        last = int(np.ceil((2.0 * period - y0) / period))
+        copies = [shapely.transform(geom, lambda xy, k=k: xy + np.array([0.0, k * period]))
+                  for k in range(first, last + 1)]
+        return shapely.normalize(shapely.union_all(copies))
+
+
+#: The motions a part can have.
+MOTIONS = (Translation, Rotation, Drum)
+
+
 @dataclass(frozen=True, eq=False)
 class Part:
     """Shapes with one degree of freedom relative to the frame.
@@ -218,7 +260,7 @@ class Part:
     ----------
     shapes : shape or sequence of shapes
         The part at coordinate q = 0 is their union (disjoint pieces allowed).
-    motion : Translation or Rotation
+    motion : Translation, Rotation or Drum
     """
 
     shapes: tuple
@@ -232,19 +274,20 @@ class Part:
             if not isinstance(s, SHAPES):
                 raise checks.InputTypeError("shapes", f"shapes must be Polygon, Circle or Rectangle objects, "
                                                       f"got {type(s).__name__}")
-        if not isinstance(self.motion, (Translation, Rotation)):
-            raise checks.InputTypeError("motion", f"motion must be a Translation or a Rotation, got {self.motion!r}")
+        if not isinstance(self.motion, MOTIONS):
+            raise checks.InputTypeError("motion", f"motion must be a Translation, a Rotation or a Drum, "
+                                                  f"got {self.motion!r}")
         object.__setattr__(self, "shapes", shapes)
         object.__setattr__(self, "_cache", {})
 
     @property
     def periodic(self) -> bool:
-        """True for a rotation (its coordinate is an angle)."""
-        return isinstance(self.motion, Rotation)
+        """True for a rotation or a drum (its coordinate is an angle)."""
+        return isinstance(self.motion, (Rotation, Drum))
 
     @property
     def period(self):
-        """2 pi for a rotation, None for a translation."""
+        """2 pi for a rotation or a drum, None for a translation."""
         return 2.0 * np.pi if self.periodic else None
 
     @property
@@ -269,18 +312,32 @@ class Part:
             self._cache[tolerance] = shapely.normalize(geom)
         return self._cache[tolerance]
 
+    def posable(self, tolerance: float):
+        """What :func:`pose` moves: :meth:`geometry`, tiled a turn apart for a drum (:meth:`Drum.tiled`)."""
+        key = ("posable", tolerance)
+        if key not in self._cache:
+            geom = self.geometry(tolerance)
+            self._cache[key] = self.motion.tiled(geom) if isinstance(self.motion, Drum) else geom
+        return self._cache[key]
+
 
 def default_tolerance(parts, spacing) -> float:
     """The circles' tolerance for a grid of ``spacing`` (2,): ``min_d h_d l_d / 20`` with
-    ``l_d`` 1 for a translation and the smallest circle radius of the device for a rotation
-    (the arc a point at that radius sweeps in one grid step); without circles it does not
-    matter, and 1e-3 of the parts' size is returned."""
+    ``l_d`` 1 for a translation, the smallest circle radius of the device for a rotation
+    (the arc a point at that radius sweeps in one grid step) and the drum's radius for a drum
+    (the arc its surface moves in one grid step); without circles it does not matter, and
+    1e-3 of the parts' size is returned."""
     radii = [c.radius for p in parts for c in p.circles]
     h = checks.as_float_array("spacing", spacing, shape=(2,), positive=True)
     if not radii:
         return 1e-3
-    lever = [min(radii) if p.periodic else 1.0 for p in parts]
+    lever = [_LEVERS[type(p.motion)](p.motion, min(radii)) for p in parts]
     return float(min(h[d] * lever[d] for d in range(2)) / 20.0)
+
+
+#: The lever of each motion (:func:`default_tolerance`): motion, smallest circle radius -> length per unit q.
+_LEVERS = {Translation: lambda motion, radius: 1.0, Rotation: lambda motion, radius: radius,
+           Drum: lambda motion, radius: motion.radius}
 
 
 def pose(part: Part, q, tolerance: float) -> np.ndarray:
@@ -290,7 +347,7 @@ def pose(part: Part, q, tolerance: float) -> np.ndarray:
     ----------
     part : Part
     q : array_like, shape (K,)
-        Translation distances or rotation angles (radians).
+        Translation distances or rotation angles (radians; a drum's too).
     tolerance : float
         The circles' tolerance (:meth:`Part.geometry`).
 
@@ -300,7 +357,7 @@ def pose(part: Part, q, tolerance: float) -> np.ndarray:
     """
     shapely = require_shapely()
     q = checks.as_float_array("q", q, ndim=1)
-    geom = part.geometry(tolerance)
+    geom = part.posable(tolerance)
     if q.size == 0:
         return np.empty(0, dtype=object)
     nc = shapely.get_num_coordinates(geom)

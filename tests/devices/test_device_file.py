@@ -120,7 +120,9 @@ BAD = [
     ("format", DELETE, "format: missing"),
     ("colour", "red", "colour: unknown key"),
     ("part", [], "part: expected exactly two [[part]] tables"),
-    ("part[0].motion", "screw", "part[0].motion: expected one of 'rotation', 'translation', got 'screw'"),
+    ("part[0].motion", "screw", "part[0].motion: expected one of 'rotation', 'translation', 'drum', got 'screw'"),
+    ("part[1].motion", "drum", "part[1].direction: a drum has a radius, not a direction"),
+    ("part[1].radius", 0.5, "part[1].radius: a translating part has a direction, not a radius"),
     ("part[0].direction", DELETE, "part[0].direction: missing"),
     ("part[0].direction", [0.0, 0.0], "part[0].direction: expected a non-zero direction"),
     ("part[0].pivot", [0.0, 0.0], "part[0].pivot: a translating part has a direction, not a pivot"),
@@ -171,6 +173,41 @@ def test_a_bad_key_or_value_is_refused_in_one_line_naming_it(key, value, message
     text = str(err.value)
     assert text.startswith("bad.toml: ") and "\n" not in text
     assert message in text, text
+
+
+def _drum(**keys):
+    """FULL with part 1 a drum of radius 0.5 (its other keys replaced by ``keys``)."""
+    data = _edit("part[1]", {"motion": "drum", "radius": 0.5, "shapes": tomllib.loads(FULL)["part"][1]["shapes"]})
+    data["part"][1].update(keys)
+    data["dynamics"]["walls"]["edges"][1] = [False, False]
+    return data
+
+
+def test_a_drum_is_read_and_a_full_turn_of_it_is_periodic():
+    data = _drum()
+    data["cspace"]["lower"][1], data["cspace"]["upper"][1] = 0.0, 2 * np.pi * (1 + 1e-7)
+    device = F.parse_device(data, "drum.toml")
+    assert device.parts[1].motion.radius == 0.5 and device.periodic == (False, True)
+    assert device.upper[1] == 2 * np.pi
+
+
+@pytest.mark.parametrize("keys, message", [
+    ({"radius": -1.0}, "part[1].radius: expected a number > 0, got -1"),
+    ({"radius": "big"}, "part[1].radius: expected a finite number, got 'big'"),
+    ({"radius": float("inf")}, "part[1].radius: expected a finite number, got inf"),
+    ({"pivot": [0.0, 0.0]}, "part[1].pivot: a drum has a radius, not a pivot"),
+])
+def test_a_bad_drum_is_refused_in_one_line_naming_its_key(keys, message):
+    with pytest.raises(F.DeviceFileError) as err:
+        F.parse_device(_drum(**keys), "bad.toml")
+    assert message in str(err.value) and "\n" not in str(err.value), str(err.value)
+
+
+def test_a_drum_without_its_radius_is_refused():
+    data = _drum()
+    del data["part"][1]["radius"]
+    with pytest.raises(F.DeviceFileError, match=r"part\[1\].radius: missing"):
+        F.parse_device(data, "bad.toml")
 
 
 def test_a_periodic_axis_with_a_wall_is_refused():
