@@ -1,13 +1,15 @@
 """The ``realize`` command of ``python -m pes_ref``: ``realize DESIGN.npz --as contact --out DIR
-[--rule level-set|visited|value] [--level E] [--pin-radius R] [--rim W] [--thickness T] [--force]``.
+[--rule level-set|visited|value] [--level E] [--pin-radius R] [--rim W] [--thickness T]
+[--drum-radius R] [--force]``.
 
 It turns a saved design into parts (:mod:`pes_ref.realize`, ``docs/realize.md``), writes
-``DIR/device.toml``, ``DIR/plate.dxf``, ``DIR/plate.stl``, ``DIR/base.stl``, ``DIR/pin.stl`` and
-``DIR/parts.png`` (each checked before anything is computed, an existing one kept unless
-``--force``; the set made whole in a staging folder, ``device.toml`` written last), then reads every file back and prints one ``name: value`` line
-per figure of the check: the blocked share of the C-space the device file's parts give
-against the design's, the plate's area from the DXF against the device file's, and the STL
-meshes' watertightness and volume.
+``DIR/device.toml`` and the follower's files (:data:`CONTACT_FILES`: a plane's
+``plate.dxf``, ``plate.stl``, ``base.stl``; a cylinder's ``drum.dxf``, ``drum.stl``; both
+``pin.stl`` and ``parts.png``; each checked before anything is written, an existing one kept
+unless ``--force``; the set made whole in a staging folder, ``device.toml`` written last),
+then reads every file back and prints one ``name: value`` line per figure of the check: the
+blocked share of the C-space the device file's parts give against the design's, the part's
+area from the DXF against the device file's, and the STL meshes' watertightness and volume.
 """
 from __future__ import annotations
 
@@ -20,14 +22,21 @@ from pes_ref.cli.common import EXIT_OK, LazyDefault, add_command, error, input_f
 
 #: The files each realization writes into ``--out``, and what each is (for refusals).
 HEIGHTFIELD_FILES = {"stl": ("heightfield.stl", "STL")}
-CONTACT_FILES = {"device": ("device.toml", "device"), "dxf": ("plate.dxf", "DXF"), "plate_stl": ("plate.stl", "STL"),
-                 "base_stl": ("base.stl", "STL"), "pin_stl": ("pin.stl", "STL"), "png": ("parts.png", "drawing")}
+#: A contact realization's files, per follower (:data:`pes_ref.realize.followers.FOLLOWERS`' names).
+CONTACT_FILES = {
+    "pin-in-plate": {"device": ("device.toml", "device"), "dxf": ("plate.dxf", "DXF"),
+                     "plate_stl": ("plate.stl", "STL"), "base_stl": ("base.stl", "STL"), "pin_stl": ("pin.stl", "STL"),
+                     "png": ("parts.png", "drawing")},
+    "drum-cam": {"device": ("device.toml", "device"), "dxf": ("drum.dxf", "DXF"), "drum_stl": ("drum.stl", "STL"),
+                 "pin_stl": ("pin.stl", "STL"), "png": ("parts.png", "drawing")},
+}
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
+         "drum_radius": "--drum-radius",
          "as": "--as", "rule": "--rule", "g": "--g", "base": "--base", "seed": "--seed", "n_particles": "--particles"}
 #: Each realization's own options (``dest``, flag): given with the other, they are refused.
 OPTIONS = {"contact": (("rule", "--rule"), ("level", "--level"), ("pin_radius", "--pin-radius"), ("rim", "--rim"),
-                       ("thickness", "--thickness")),
+                       ("thickness", "--thickness"), ("drum_radius", "--drum-radius")),
            "heightfield": (("g", "--g"), ("base", "--base"), ("seed", "--seed"), ("particles", "--particles"))}
 
 
@@ -44,15 +53,19 @@ def _hf_default(key: str) -> LazyDefault:
 def add_parser(sub) -> None:
     p = add_command(sub, "realize", help="turn a saved design into parts: a device file, DXF, STL and a drawing",
         description="Realize a saved design by contact (--as contact): its blocked region (the design energy above "
-                    "a contact level chosen by --rule) becomes a plate with cut-outs and a pin (a plane design). Writes "
+                    "a contact level chosen by --rule) becomes a plate with cut-outs and a pin (a plane design), or "
+                    "the walls of a drum cam of radius --drum-radius and a pin moving along the drum's axis (a "
+                    "cylinder design, the oscillator). Writes "
                     "DIR/device.toml (the device-file format: analyze and evaluate --realized read it), "
-                    "DIR/plate.dxf, DIR/plate.stl, DIR/base.stl (the slab the plate's pieces stand on), DIR/pin.stl and DIR/parts.png, reads them back and prints "
+                    "DIR/plate.dxf, DIR/plate.stl, DIR/base.stl (the slab the plate's pieces stand on), or DIR/drum.dxf "
+                    "(the walls unrolled) and DIR/drum.stl, then DIR/pin.stl and DIR/parts.png, reads them back and prints "
                     "the check: blocked shares, the plate's area from the DXF, the meshes' watertightness. "
                     "--as heightfield writes DIR/heightfield.stl, a plate whose top is h = E / (m g), reads it back "
                     "and runs the held-out particles as rolling balls on it (7/5 the mass; with and without the "
                     "slope's shortening of the force): max_slope and the in-band fractions. "
                     "Needs the optional extra 'realize' (pip install 'pes_ref[realize]'). docs/realize.md.",
         examples=["realize funnel.npz --as contact --out funnel_parts",
+                  "realize osc.npz --as contact --drum-radius 1 --out osc_drum",
                   "realize funnel.npz --as contact --rule value --level 0.05 --out parts --force",
                   "realize funnel.npz --as heightfield --out funnel_plate"])
     p.add_argument("file", metavar="DESIGN.npz", help="a design file written by 'design'")
@@ -70,6 +83,8 @@ def add_parser(sub) -> None:
                    help="the plate's rim beyond its cut-out (C-space length)")
     p.add_argument("--thickness", type=float, default=_default("thickness"), metavar="T",
                    help="the plate's and the pin's height in the STL files (C-space length)")
+    p.add_argument("--drum-radius", type=float, default=_default("drum_radius"), metavar="R",
+                   help="a cylinder design's drum radius (C-space length; the unrolled groove's arc length is R q1)")
     p.add_argument("--g", type=float, default=_hf_default("g"), metavar="G",
                    help="heightfield: gravity, length / time^2 in the design's units (h = E / (m g))")
     p.add_argument("--base", type=float, default=_hf_default("base"), metavar="B",
@@ -116,8 +131,9 @@ def _run_realize(args) -> int:
         from pes_ref.synthesis import load_design
         _refuse_others(args)
         state = load_design(input_file(args.file, "design file"))
-        prepare, write, files = REALIZATIONS[args.as_]
+        prepare, write, files_of = REALIZATIONS[args.as_]
         job = prepare(state, args)
+        files = files_of(job)
         outputs = _outputs(args, files)
     except (ValueError, TypeError, OSError, ImportError) as exc:
         return error(exc, FLAGS)
@@ -145,8 +161,10 @@ def _prepare_contact(state, args):
         raise ValueError(f"--level E goes with --rule value (the contact level given), got --level {args.level} "
                          f"and --rule {args.rule}")
     name = os.path.splitext(os.path.basename(args.file))[0]
+    drum_radius = None if isinstance(args.drum_radius, LazyDefault) else args.drum_radius
     return realize_contact(state.problem, state.values, args.rule, args.level, name=name,
-                           pin_radius=_value(args.pin_radius), rim=_value(args.rim), thickness=_value(args.thickness))
+                           pin_radius=_value(args.pin_radius), rim=_value(args.rim), thickness=_value(args.thickness),
+                           drum_radius=drum_radius)
 
 
 def _write_contact(real, state, outputs: dict, args) -> list:
@@ -176,35 +194,68 @@ def _write(real, state, outputs: dict, force: bool) -> None:
     try:
         staged = {key: os.path.join(staging, os.path.basename(path)) for key, path in outputs.items()}
         exports.write_dxf(staged["dxf"], real.parts.plate, False)
-        exports.write_stl(staged["plate_stl"], exports.plate_mesh(real.parts.plate, real.thickness), False)
-        exports.write_stl(staged["base_stl"], exports.base_mesh(real.parts.plate, real.thickness), False)
-        exports.write_stl(staged["pin_stl"], exports.pin_mesh(real.parts.pin_radius, real.thickness), False)
+        for key, mesh in MESHES[real.parts.follower][0](real).items():
+            exports.write_stl(staged[key], mesh, False)
         path = held_out_positions(state.problem, state.values, VISITED_SEED, n_particles=1)[:, 0, :]
         buf = io.BytesIO()
         parts_figure(real, path).savefig(buf, format="png", dpi=110)
         exports.write_bytes(staged["png"], buf.getvalue(), False, "drawing")
-        move_into([staged[key] for key in ("dxf", "plate_stl", "base_stl", "pin_stl", "png")], folder)
+        move_into([staged[key] for key in outputs if key != "device"], folder)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     header = f"{real.device['description']}\nwritten by pes_ref realize (docs/realize.md)"
     exports.write_text(outputs["device"], exports.device_text(real.device, header), force, "device")
 
 
+def _plate_meshes(real) -> dict:
+    from pes_ref.realize import exports
+    plate, t = real.parts.plate, real.thickness
+    return {"plate_stl": exports.plate_mesh(plate, t), "base_stl": exports.base_mesh(plate, t),
+            "pin_stl": exports.pin_mesh(real.parts.pin_radius, t)}
+
+
+def _drum_meshes(real) -> dict:
+    from pes_ref.realize import exports
+    parts, t = real.parts, real.thickness
+    return {"drum_stl": exports.drum_mesh(parts.plate, parts.y_scale, t, _drum_cell(real)),
+            "pin_stl": exports.pin_mesh(parts.pin_radius, t)}
+
+
+def _drum_cell(real) -> float:
+    """The drum STL's node spacing: a quarter of the design grid's finer spacing on the drum's surface."""
+    return float(min(real.region.spacing * [1.0, real.parts.y_scale])) / 4.0
+
+
+#: Per follower: its meshes (realization -> {output key: mesh}) and the volume the first
+#: mesh should have, from the part read back from the DXF (realization, part -> (name, volume)).
+MESHES = {
+    "pin-in-plate": (_plate_meshes, lambda real, part: ("plate_volume_expected", float(part.area * real.thickness))),
+    "drum-cam": (_drum_meshes, lambda real, part: ("drum_volume_expected", _drum_volume(real, part))),
+}
+
+
+def _drum_volume(real, part) -> float:
+    from pes_ref.realize import exports
+    return exports.drum_volume(part, real.parts.y_scale, real.thickness)
+
+
 def _check(real, outputs: dict) -> dict:
-    """Every file read back: the device's C-space, the DXF's plate, the meshes."""
+    """Every file read back: the device's C-space, the DXF's part, the meshes."""
     from pes_ref.devices.device_file import load_device
     from pes_ref.realize import exports
     device = load_device(outputs["device"])
-    plate = exports.read_dxf_plate(outputs["dxf"])
-    file_plate = device.parts[1].geometry(device.grid.tolerance)
+    part = exports.read_dxf_plate(outputs["dxf"])
+    file_part = device.parts[1].geometry(device.grid.tolerance)
+    name = real.parts.part_name
     out = {"device_blocked_share": float(device.cspace().blocked.mean()),
-           "plate_area_dxf": float(plate.area), "plate_area_device": float(file_plate.area)}
-    for key in ("plate_stl", "base_stl", "pin_stl"):
-        mesh = exports.read_stl(outputs[key])
-        name = key.split("_")[0]
-        out[f"{name}_watertight"] = bool(mesh.is_watertight)
-        out[f"{name}_volume"] = float(mesh.volume)
-    out["plate_volume_expected"] = float(plate.area * real.thickness)
+           f"{name}_area_dxf": float(part.area), f"{name}_area_device": float(file_part.area)}
+    for key in outputs:
+        if key.endswith("_stl"):
+            mesh = exports.read_stl(outputs[key])
+            out[f"{key[:-4]}_watertight"] = bool(mesh.is_watertight)
+            out[f"{key[:-4]}_volume"] = float(mesh.volume)
+    expected, volume = MESHES[real.parts.follower][1](real, part)
+    out[expected] = volume
     return out
 
 
@@ -254,6 +305,7 @@ def _write_heightfield(job, state, outputs: dict, args) -> list:
     return _figure_lines(figures)
 
 
-#: The realizations: --as NAME -> (prepare(state, args) -> job, write(job, state, outputs, args) -> lines, files).
-REALIZATIONS = {"contact": (_prepare_contact, _write_contact, CONTACT_FILES),
-                "heightfield": (_prepare_heightfield, _write_heightfield, HEIGHTFIELD_FILES)}
+#: The realizations: --as NAME -> (prepare(state, args) -> job, write(job, state, outputs, args) -> lines,
+#: files(job) -> the files it writes).
+REALIZATIONS = {"contact": (_prepare_contact, _write_contact, lambda real: CONTACT_FILES[real.parts.follower]),
+                "heightfield": (_prepare_heightfield, _write_heightfield, lambda job: HEIGHTFIELD_FILES)}

@@ -4,11 +4,13 @@
 by a stated rule), turns it into the two parts of the topology's follower
 (:data:`pes_ref.realize.followers.FOLLOWERS`) and writes their device file's tables:
 
-- ``[energy]``: eq. (1) of the distance to the parts' C-space obstacle, with the design's
-  contact parameters (``contact_v``, ``contact_r_c``, ``contact_r_min`` of the problem: a
-  realizable design's own eq. (1)), and the design's springs (its scene's per-axis spring);
+- ``[energy]``: eq. (1) of the distance to the parts' C-space obstacle, with the design
+  kind's contact parameters (:func:`pes_ref.realize.evaluation.contact_parameters`: the
+  funnel's ``contact_v``, ``contact_r_c``, ``contact_r_min``, a realizable design's own
+  eq. (1); the oscillator's from its grid), and the design's springs (its scene's per-axis
+  spring);
 - ``[dynamics]``: the design scene's masses, damping and walls;
-- ``[start]``: the design's start row, at q0 = 0.
+- ``[start]``: the design kind's start row (:func:`pes_ref.realize.evaluation.start_row`).
 
 What the parts cannot have is listed in :attr:`ContactRealization.lost`, in words: the
 energies below the contact level (flat on the device beyond ``r_c`` of an obstacle), and the
@@ -21,15 +23,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.realize.evaluation import check_kind
-from pes_ref.realize.followers import FOLLOWERS, Parts
+from pes_ref.realize.evaluation import check_kind, contact_parameters, start_row
+from pes_ref.realize.followers import DRUM_RADIUS, FOLLOWERS, Parts
 from pes_ref.realize.regions import Region, contact_region
 
 __all__ = ["ContactRealization", "realize_contact", "CONTACT_DEFAULTS"]
 
 #: The defaults of the contact realization's settings (C-space length units): the pin's
-#: radius, the plate's rim beyond its cut-out, the plate's (and pin's) thickness in the STL.
-CONTACT_DEFAULTS = {"pin_radius": 0.02, "rim": 0.1, "thickness": 0.1}
+#: radius, the plate's rim beyond its cut-out (a drum's walls' beyond the drawn box at its
+#: ends), the plate's (and pin's, and a drum's walls') thickness in the STL, and a drum cam's
+#: radius (:data:`pes_ref.realize.followers.DRUM_RADIUS`).
+CONTACT_DEFAULTS = {"pin_radius": 0.02, "rim": 0.1, "thickness": 0.1, "drum_radius": DRUM_RADIUS}
 
 
 @dataclass(frozen=True)
@@ -62,8 +66,10 @@ def _springs(scene) -> list:
 
 def realize_contact(problem, values, rule: str | None = None, level: float | None = None, *, name: str = "design",
                     pin_radius: float = CONTACT_DEFAULTS["pin_radius"], rim: float = CONTACT_DEFAULTS["rim"],
-                    thickness: float = CONTACT_DEFAULTS["thickness"]) -> ContactRealization:
-    """Realize design ``values`` of ``problem`` by contact (module docstring)."""
+                    thickness: float = CONTACT_DEFAULTS["thickness"], drum_radius: float | None = None
+                    ) -> ContactRealization:
+    """Realize design ``values`` of ``problem`` by contact (module docstring); ``drum_radius``
+    (a cylinder's drum cam only) defaults to :data:`pes_ref.realize.followers.DRUM_RADIUS`."""
     check_kind(problem)
     thickness = checks.as_positive_float("thickness", thickness)
     pin_radius = checks.as_positive_float("pin_radius", pin_radius)
@@ -77,6 +83,11 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     if not rim <= sides.max():
         raise checks.InputError("rim", f"rim must be at most the design's longest side ({sides.max():g}), "
                                        f"got {rim:g}")
+    if drum_radius is not None:
+        drum_radius = checks.as_positive_float("drum_radius", drum_radius)
+        if not drum_radius < float(np.finfo(np.float32).max) / 32:     # the drum's STL stores float32
+            raise checks.InputError("drum_radius", f"drum_radius must be below {float(np.finfo(np.float32).max) / 32:g} "
+                                                   f"(an STL file stores float32), got {drum_radius:g}")
     if not thickness * 2 < float(np.finfo(np.float32).max):      # STL stores float32 coordinates
         raise checks.InputError("thickness", f"thickness must be below {float(np.finfo(np.float32).max) / 2:g} (an STL file "
                                              f"stores float32), got {thickness:g}")
@@ -84,11 +95,13 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     follower = FOLLOWERS.get(tuple(region.periodic))
     if follower is None:
         raise checks.InputError("as", f"no contact follower realizes a surface with periodic axes "
-                                      f"{list(region.periodic)} yet (a plane only)")
+                                      f"{list(region.periodic)} (a plane: a pin in a plate; a cylinder wrapping "
+                                      f"q1: a drum cam)")
     scene = problem.scene(values)
     walled = np.zeros((2, 2), dtype=bool) if scene.walls is None else np.asarray(scene.walls.edges, dtype=bool)
     open_edges = [(d, side) for d in range(2) for side in range(2) if not region.periodic[d] and not walled[d, side]]
-    parts = follower(region, pin_radius, rim, open_edges)
+    parts = follower(region, pin_radius, rim, open_edges, drum_radius)
+    v, r_c, r_min = contact_parameters(problem, region.energy)
     damping = np.broadcast_to(scene.damping if scene.damping is not None else 0.0, (2,))
     mass = np.broadcast_to(scene.mass, (2,))
     dynamics = {"mass": [float(m) for m in mass], "damping": [float(d) for d in damping]}
@@ -98,15 +111,14 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     device = {
         "format": 1,
         "name": f"{name}_contact",
-        "description": f"{name} realized by contact: a pin in a plate (rule {region.rule!r}, level "
+        "description": f"{name} realized by contact: a pin and a {parts.part_name} (rule {region.rule!r}, level "
                        f"{region.level:.6g})",
         "part": parts.device_parts(),
         "cspace": {"lower": [float(x) for x in problem.lower], "upper": [float(x) for x in problem.upper],
                    "shape": [int(n) for n in problem.shape()]},
-        "energy": {"v": float(problem.contact_v), "r_c": float(problem.contact_r_c),
-                   "r_min": float(problem.contact_r_min), "springs": _springs(scene)},
+        "energy": {"v": float(v), "r_c": float(r_c), "r_min": float(r_min), "springs": _springs(scene)},
         "dynamics": dynamics,
-        "start": {"q": [0.0, float(problem.upper[1] - problem.start_depth)]},
+        "start": {"q": start_row(problem)},
     }
     free = region.phi >= 0
     below = region.energy[free]
@@ -114,7 +126,7 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     if region.rule != "level-set" and below.size and float(np.ptp(below)) > 0:   # a level set's surface is eq. (1)
         lost.append(f"the energies below the contact level ({float(below.min()):.4g} .. {float(below.max()):.4g} "
                     f"over {free.mean():.1%} of the grid) are flat on the device beyond r_c = "
-                    f"{problem.contact_r_c:g} of the plate")
+                    f"{r_c:g} of the {parts.part_name}")
     lost.append(f"{parts.lost_share:.2%} of the domain changes side (blocked slivers thinner than the pin's "
                 f"diameter {2 * parts.pin_radius:g}, sharp free corners)")
     blocked = region.phi < 0

@@ -1,4 +1,5 @@
-"""Drawing a realization: the design's surface with its blocked region, and the parts at three positions."""
+"""Drawing a realization: the design's surface with its blocked region, and the parts at three
+positions (a plate, or a drum's walls unrolled, in the part's own frame)."""
 from __future__ import annotations
 
 import numpy as np
@@ -13,8 +14,9 @@ POSITIONS = (0.0, 0.35, 1.0)
 
 def parts_figure(realization, path):
     """A two-panel Agg figure: the design's surface with the contact level's contour, and the
-    plate with the pin at :data:`POSITIONS` along ``path`` ((T+1, 2) states of one held-out
-    particle; the pin is drawn where the particle is, at most at its exit)."""
+    plate (or drum) with the pin at :data:`POSITIONS` along ``path`` ((T+1, 2) states of one
+    held-out particle; the pin is drawn where the particle is, up to where it leaves the grid's
+    domain along a non-periodic axis)."""
     from matplotlib.figure import Figure
     region, parts = realization.region, realization.parts
     fig = Figure(figsize=(10, 4.6))
@@ -30,20 +32,25 @@ def parts_figure(realization, path):
     ax0.set_ylabel("q1")
     draw_geometry(ax1, parts.plate, facecolor="#fdae6b", alpha=0.9)
     path = np.asarray(path, dtype=np.float64)
-    below = np.nonzero(path[:, 1] <= lo[1])[0]
-    end = int(below[0]) if below.size else path.shape[0] - 1
-    ax1.plot(path[:end + 1, 0], path[:end + 1, 1], color="0.4", lw=0.8)
+    bounded = ~np.asarray(region.periodic)
+    out = np.nonzero(np.any(((path <= lo) | (path >= hi)) & bounded, axis=1))[0]
+    end = int(out[0]) if out.size else path.shape[0] - 1
+    drawn = parts.in_frame(path[:end + 1])
+    if parts.y_period is not None:             # no line across the drum's seam
+        drawn[1:][np.abs(np.diff(drawn[:, 1])) > parts.y_period / 2] = np.nan
+    ax1.plot(drawn[:, 0], drawn[:, 1], color="0.4", lw=0.8)
     for share in POSITIONS:
-        q = path[int(round(share * end))]
-        ax1.add_patch(_circle(q, parts.pin_radius))
-        ax1.annotate(f"({q[0]:.2f}, {q[1]:.2f})", q, xytext=(4, 4), textcoords="offset points", fontsize=7)
+        k = int(round(share * end))
+        q, at = path[k], parts.in_frame(path[k])
+        ax1.add_patch(_circle(at, parts.pin_radius))
+        ax1.annotate(f"({q[0]:.2f}, {q[1]:.2f})", at, xytext=(4, 4), textcoords="offset points", fontsize=7)
     b0, b1 = parts.plate.bounds[:2], parts.plate.bounds[2:]
     ax1.set_xlim(b0[0], b1[0])
     ax1.set_ylim(b0[1], b1[1])
     ax1.set_aspect("equal")
-    ax1.set_title(f"plate and pin (r = {parts.pin_radius:g}) at three positions")
-    ax1.set_xlabel("x (plate frame)")
-    ax1.set_ylabel("y")
+    ax1.set_title(f"{parts.part_name} and pin (r = {parts.pin_radius:g}) at three positions (q0, q1)")
+    ax1.set_xlabel(f"x ({parts.part_name} frame)")
+    ax1.set_ylabel("y" if parts.y_period is None else "y: arc length round the drum")
     fig.tight_layout()
     return fig
 

@@ -7,7 +7,10 @@
 - ``plate.stl``, ``base.stl``, ``pin.stl``: the plate's pieces extruded to its thickness, the
   slab they stand on (it holds the islands a cut-out leaves), and the pin as a cylinder of
   the same height (trimesh; the plate's faces triangulated by shapely's constrained
-  Delaunay triangulation), for 3D printing.
+  Delaunay triangulation), for 3D printing;
+- ``drum.dxf``, ``drum.stl``: a drum cam's walls on its surface unrolled (the same DXF: a
+  template to cut and wrap round the drum), and the drum as one solid, its walls standing
+  proud of a cylinder (:func:`drum_mesh`).
 
 Every file is written atomically (:func:`pes_ref.core.files.atomic_file`). The readers
 (:func:`read_dxf_plate`, :func:`read_stl`) rebuild what a check needs from the files alone.
@@ -20,7 +23,7 @@ import numpy as np
 
 from pes_ref.core.files import atomic_file
 
-__all__ = ["device_text", "write_bytes", "write_text", "write_dxf", "read_dxf_plate", "plate_mesh", "base_mesh", "pin_mesh", "write_stl",
+__all__ = ["device_text", "write_bytes", "write_text", "write_dxf", "read_dxf_plate", "plate_mesh", "base_mesh", "pin_mesh", "drum_mesh", "drum_volume", "write_stl",
            "read_stl", "DXF_LAYER"]
 
 #: The DXF layer of the cutting lines.
@@ -105,6 +108,43 @@ def pin_mesh(radius: float, height: float):
     mesh = trimesh.creation.cylinder(radius=radius, height=height, sections=64)
     mesh.apply_translation([0.0, 0.0, height / 2])
     return mesh
+
+
+def drum_mesh(walls, radius: float, thickness: float, cell: float):
+    """A drum cam as one watertight solid: a cylinder of ``radius`` about the x axis, as long as
+    the ``walls`` (the unrolled drawing: x along the axis, y = the arc length ``radius * angle``
+    in ``[0, 2 pi radius]``), with the walls standing ``thickness`` proud of it. Its surface is
+    sampled on nodes about ``cell`` apart along x and round the drum (a tube of quads, closed by
+    a fan at each end): radius + thickness at a node inside the walls, radius elsewhere, so a
+    wall's side rises across one cell (the DXF holds the exact outline)."""
+    import shapely
+    import trimesh
+    from pes_ref.devices.geometry import Drum
+    x0, _, x1, _ = walls.bounds
+    nx = int(np.ceil((x1 - x0) / cell)) + 1
+    nu = max(8, int(np.ceil(2.0 * np.pi * radius / cell)))
+    x = np.linspace(x0, x1, nx)
+    theta = 2.0 * np.pi * np.arange(nu) / nu
+    X, T = np.meshgrid(x, theta, indexing="ij")
+    inside = shapely.contains_xy(Drum(radius).tiled(walls), X, radius * T)
+    rho = radius + thickness * inside
+    tube = np.stack([X.ravel(), (rho * np.cos(T)).ravel(), (rho * np.sin(T)).ravel()], axis=1)
+    idx = np.arange(nx * nu).reshape(nx, nu)
+    nxt = np.roll(idx, -1, axis=1)
+    a, b, c, d = idx[:-1].ravel(), idx[1:].ravel(), nxt[1:].ravel(), nxt[:-1].ravel()
+    ends = np.array([[x0, 0.0, 0.0], [x1, 0.0, 0.0]])
+    e0, e1 = nx * nu, nx * nu + 1
+    faces = [np.stack([a, c, b], 1), np.stack([a, d, c], 1),                            # the tube, outward
+             np.stack([np.full(nu, e0), nxt[0], idx[0]], 1), np.stack([np.full(nu, e1), idx[-1], nxt[-1]], 1)]  # ends
+    return trimesh.Trimesh(np.concatenate([tube, ends]), np.concatenate(faces), process=True)
+
+
+def drum_volume(walls, radius: float, thickness: float) -> float:
+    """The volume of the exact drum :func:`drum_mesh` samples: the cylinder ``pi R^2 L`` (L the
+    walls' length along x) and the walls, each unit of their unrolled area a shell
+    ``thickness (1 + thickness / (2 R))`` thick."""
+    x0, _, x1, _ = walls.bounds
+    return float(np.pi * radius ** 2 * (x1 - x0) + walls.area * thickness * (1.0 + thickness / (2.0 * radius)))
 
 
 def write_stl(path, mesh, overwrite: bool) -> None:

@@ -10,7 +10,14 @@ drawn box less the free region grown by r (the pin's cut-out). What is blocked t
 pin's diameter, and a sharp free corner, cannot be kept; :attr:`Parts.lost_share` is the
 share of the grid's area that changes side.
 
-A cylinder (a drum cam) is refused for now: a groove at one drum radius is not built yet.
+A cylinder (q0 a translation, q1 an angle) becomes a **drum cam** (:func:`drum_cam`): a drum
+of a stated radius R (part 1, ``motion = "drum"``, ``docs/devices.md``) turns by q1; a pin of
+radius r (part 0) slides along the drum's axis by q0. On the drum's surface unrolled (x along
+its axis, y the arc length round it, one turn ``2 pi R`` long) the pin's centre sits at
+(q0, R q1), so the design's region in (q0, q1) is drawn at (q0, R q1) and the drum's walls
+(the material standing proud of its surface, between which the groove runs) are that region
+shrunk by r, as the plate is. The closing by the pin's disc is round on the unrolled surface,
+so in (q0, q1) it is an ellipse r wide in q0 and r / R in q1.
 """
 from __future__ import annotations
 
@@ -19,9 +26,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
+from pes_ref.devices.geometry import Drum
 from pes_ref.realize.regions import Region, region_polygons
 
-__all__ = ["Parts", "pin_in_plate", "FOLLOWERS", "plate_outline_tolerance"]
+__all__ = ["Parts", "pin_in_plate", "drum_cam", "FOLLOWERS", "plate_outline_tolerance", "DRUM_RADIUS"]
+
+#: The drum cam's default radius (C-space length): at R = 1 the unrolled surface's arc length is
+#: the angle q1 itself, so the pin's disc is as round in (q0, q1) as on the drum and the C-space
+#: distance of eq. (1) is the distance on the drum's surface.
+DRUM_RADIUS = 1.0
 
 
 @dataclass(frozen=True)
@@ -35,15 +48,23 @@ class Parts:
     pin_radius : float
         The pin's radius (C-space length).
     plate : shapely (Multi)Polygon
-        The plate at q1 = 0, in the plate's frame (= C-space coordinates).
+        Part 1 at q1 = 0 in its own frame: the plate (= C-space coordinates), or the drum's
+        walls unrolled (x = q0, y = R q1 in ``[0, 2 pi R]``).
     blocked : shapely geometry
-        The design's blocked region, drawn past the grid's edges.
+        The design's blocked region, drawn past the grid's edges (in part 1's frame).
     realized_blocked : shapely geometry
-        What the parts block: the plate grown by the pin's radius.
+        What the parts block: the plate grown by the pin's radius (in part 1's frame).
     box : (lower, upper)
-        The box the region is drawn in.
+        The box the region is drawn in (in part 1's frame).
     lost_share : float
         The area that changes side (blocked <-> free) inside the grid's domain, over its area.
+    motion : dict
+        Part 1's motion keys in the device file.
+    part_name : str
+        Part 1's name.
+    y_scale, y_period : float, float or None
+        Where the pin's centre (q0, q1) sits in part 1's frame: ``(q0, y_scale q1)``, taken
+        modulo ``y_period`` on a drum.
     """
 
     follower: str
@@ -53,15 +74,26 @@ class Parts:
     realized_blocked: object
     box: tuple
     lost_share: float
+    motion: dict
+    part_name: str = "plate"
+    y_scale: float = 1.0
+    y_period: float | None = None
 
     def device_parts(self) -> list:
         """The two ``[[part]]`` tables of the device file."""
         return [
             {"name": "pin", "motion": "translation", "direction": [1.0, 0.0],
              "shapes": [{"circle": {"center": [0.0, 0.0], "radius": self.pin_radius}}]},
-            {"name": "plate", "motion": "translation", "direction": [0.0, -1.0],
-             "shapes": [_shape_table(p) for p in _pieces(self.plate)]},
+            {"name": self.part_name, **self.motion, "shapes": [_shape_table(p) for p in _pieces(self.plate)]},
         ]
+
+    def in_frame(self, q) -> np.ndarray:
+        """Where the pin's centre at C-space points ``q`` (..., 2) sits in part 1's frame."""
+        q = np.asarray(q, dtype=np.float64)
+        y = self.y_scale * q[..., 1]
+        if self.y_period is not None:
+            y = np.mod(y, self.y_period)
+        return np.stack([q[..., 0], y], axis=-1)
 
 
 def _pieces(geom) -> list:
@@ -105,7 +137,25 @@ def _through_rim(shapely, free, lo, hi, edge: tuple, depth: float):
     return shapely.union_all(boxes)
 
 
-def pin_in_plate(region: Region, pin_radius: float, rim: float, open_edges=()) -> Parts:
+def _material(shapely, blocked, lo, hi, frame, r: float, tol: float, open_edges, rim: float):
+    """The part's material: ``frame`` less the free part of the box ``(lo, hi)`` (and the ways
+    out through its ``open_edges``) grown by ``r``; pieces smaller than ``tol^2`` dropped."""
+    box = shapely.box(lo[0], lo[1], hi[0], hi[1])
+    free = shapely.difference(box, blocked)
+    depth = 2.0 * (r + rim)
+    ways_out = [_through_rim(shapely, free, lo, hi, tuple(edge), depth) for edge in open_edges]
+    cutout = shapely.buffer(shapely.union_all([free] + ways_out), r, quad_segs=16)
+    material = shapely.normalize(shapely.make_valid(shapely.difference(frame, cutout)))
+    return shapely.union_all([p for p in _pieces(material) if p.geom_type == "Polygon" and p.area > tol * tol])
+
+
+def _lost_share(shapely, blocked, grown, domain) -> float:
+    """The share of ``domain``'s area on another side in ``grown`` than in ``blocked``."""
+    changed = shapely.symmetric_difference(shapely.intersection(blocked, domain), shapely.intersection(grown, domain))
+    return float(changed.area / domain.area)
+
+
+def pin_in_plate(region: Region, pin_radius: float, rim: float, open_edges=(), drum_radius=None) -> Parts:
     """A pin of radius ``pin_radius`` in a plate ``rim`` wide beyond its cut-out (module docstring).
 
     ``open_edges`` lists the ``(axis, side)`` edges through which the design's particles leave
@@ -116,6 +166,9 @@ def pin_in_plate(region: Region, pin_radius: float, rim: float, open_edges=()) -
     if any(region.periodic):
         raise checks.InputError("as", "a pin in a plate realizes a plane (no periodic axis); this design's "
                                       "surface wraps")
+    if drum_radius is not None:
+        raise checks.InputError("drum_radius", "drum_radius goes with a cylinder design (a drum cam); this design "
+                                               "is a plane (a pin in a plate)")
     r = checks.as_positive_float("pin_radius", pin_radius)
     rim = checks.as_positive_float("rim", rim)
     h = float(np.max(region.spacing))
@@ -124,18 +177,45 @@ def pin_in_plate(region: Region, pin_radius: float, rim: float, open_edges=()) -
     tol = plate_outline_tolerance(region)
     blocked = shapely.simplify(blocked, tol, preserve_topology=True)
     box = shapely.box(lo[0], lo[1], hi[0], hi[1])
-    free = shapely.difference(box, blocked)
-    depth = 2.0 * (r + rim)
-    ways_out = [_through_rim(shapely, free, lo, hi, tuple(edge), depth) for edge in open_edges]
-    cutout = shapely.buffer(shapely.union_all([free] + ways_out), r, quad_segs=16)
     frame = shapely.buffer(box, r + rim, join_style="mitre")
-    plate = shapely.normalize(shapely.make_valid(shapely.difference(frame, cutout)))
-    plate = shapely.union_all([p for p in _pieces(plate) if p.geom_type == "Polygon" and p.area > tol * tol])
+    plate = _material(shapely, blocked, lo, hi, frame, r, tol, open_edges, rim)
     grown = shapely.intersection(shapely.buffer(plate, r, quad_segs=16), box)
     domain = shapely.box(region.lower[0], region.lower[1], region.upper[0], region.upper[1])
-    changed = shapely.symmetric_difference(shapely.intersection(blocked, domain), shapely.intersection(grown, domain))
-    return Parts("pin-in-plate", r, plate, blocked, grown, (lo, hi), float(changed.area / domain.area))
+    return Parts("pin-in-plate", r, plate, blocked, grown, (lo, hi), _lost_share(shapely, blocked, grown, domain),
+                 {"motion": "translation", "direction": [0.0, -1.0]})
 
 
-#: The follower of each topology (periodic axes -> builder(region, pin_radius, rim, open_edges) -> Parts).
-FOLLOWERS = {(False, False): pin_in_plate}
+def drum_cam(region: Region, pin_radius: float, rim: float, open_edges=(), drum_radius=None) -> Parts:
+    """A pin of radius ``pin_radius`` in the groove of a drum of radius ``drum_radius`` (default
+    :data:`DRUM_RADIUS`), whose walls run ``rim`` beyond the drawn box at the drum's ends
+    (module docstring). ``open_edges`` as for :func:`pin_in_plate` (the drum's ends only)."""
+    from pes_ref.realize.extra import require_realize
+    shapely = require_realize()["shapely"]
+    if tuple(region.periodic) != (False, True):
+        raise checks.InputError("as", f"a drum cam realizes a cylinder whose q1 (the drum's angle) wraps and q0 (the "
+                                      f"pin's slide) does not; this design's periodic axes are {list(region.periodic)}")
+    radius = checks.as_positive_float("drum_radius", DRUM_RADIUS if drum_radius is None else drum_radius)
+    r = checks.as_positive_float("pin_radius", pin_radius)
+    rim = checks.as_positive_float("rim", rim)
+    turn = 2.0 * np.pi * radius
+    h = region.spacing * np.array([1.0, radius])                     # the grid's spacings on the drum's surface
+    margin = r + 3.0 * float(np.max(h))
+    blocked, (lo, hi) = region_polygons(region.phi, region.lower, region.upper, region.periodic,
+                                        max(margin, margin / radius))
+    unroll = np.array([1.0, radius])
+    blocked = shapely.transform(blocked, lambda xy: xy * unroll)
+    lo, hi = lo * unroll, hi * unroll
+    tol = float(np.min(h)) / 20.0
+    blocked = shapely.simplify(blocked, tol, preserve_topology=True)
+    frame = shapely.box(lo[0] - r - rim, 0.0, hi[0] + r + rim, turn)
+    walls = _material(shapely, blocked, lo, hi, frame, r, tol, [e for e in open_edges if e[0] == 0], rim)
+    box = shapely.box(lo[0], lo[1], hi[0], hi[1])
+    grown = shapely.intersection(shapely.buffer(Drum(radius).tiled(walls), r, quad_segs=16), box)
+    domain = shapely.box(region.lower[0], 0.0, region.upper[0], turn)
+    return Parts("drum-cam", r, walls, blocked, grown, (lo, hi), _lost_share(shapely, blocked, grown, domain),
+                 {"motion": "drum", "radius": radius}, "drum", radius, turn)
+
+
+#: The follower of each topology: periodic axes -> builder(region, pin_radius, rim, open_edges,
+#: drum_radius) -> Parts.
+FOLLOWERS = {(False, False): pin_in_plate, (False, True): drum_cam}

@@ -24,7 +24,7 @@ from pes_ref.synthesis.problems import FunnelProblem, OscillatorProblem, exit_po
 from pes_ref.synthesis.success import passes_all
 
 __all__ = ["Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
-           "phase_space", "cycle_figures", "q1_advance", "evaluate", "evaluate_seeds", "CYCLE_TOLERANCE", "CYCLE_DRIFT",
+           "phase_space", "cycle_figures", "q1_advance", "evaluate", "evaluate_seeds", "held_out_steps", "CYCLE_TOLERANCE", "CYCLE_DRIFT",
            "ANALYSIS_PERIODS"]
 
 #: Oscillator cycle test: a held-out particle "reaches the cycle" when, over the analysis window
@@ -200,11 +200,16 @@ def evaluate_seeds(problem, values, seeds, n_particles: int | None = None) -> di
     evaluate_kind, default_n = _EVALUATIONS[problem.kind]
     default_n = getattr(problem, "eval_particles", default_n)
     n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
-    steps = _HELD_OUT_STEPS[problem.kind](problem)
+    steps = held_out_steps(problem)
     # one population: each seed's runs on the design and on the flat surface
     budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True,
                         length=f"a held-out run of {steps} steps", runs=2 * len(seeds))
     return evaluate_kind(problem, values, seeds, n)
+
+
+def held_out_steps(problem) -> int:
+    """The steps of ``problem``'s longest held-out run (at its own ``dt``)."""
+    return int(_HELD_OUT_STEPS[problem.kind](problem))
 
 
 def _surfaces(problem, values) -> tuple:
