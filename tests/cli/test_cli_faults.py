@@ -340,7 +340,7 @@ FAULTS = [
     Fault("evaluate-realized-other-grid", "evaluate design.npz --realized dev.toml",
           ("--realized dev.toml: the device's grid (21 x 21", "is not the design's (12 x 12")),
     Fault("evaluate-realized-problem-design", "evaluate problem.npz --realized dev.toml",
-          ("realization covers funnel designs", "'problem' design")),
+          ("realization covers funnel, oscillator designs", "'problem' design")),
     # ------------------------------------------------------------------ realize
     Fault("realize-missing", "realize nothing.npz --as contact --out parts", ("design file nothing.npz does not exist",)),
     Fault("realize-folder", "realize sub --as contact --out parts", ("design file sub is a folder",)),
@@ -375,7 +375,7 @@ FAULTS = [
           ("'level-set' needs a design made realizable", "realizable=true")),
     Fault("realize-bad-rule", "realize design.npz --as contact --out newparts --rule guess", ("--rule", "'guess'")),
     Fault("realize-problem-design", "realize problem.npz --as contact --out newparts",
-          ("realization covers funnel designs", "'problem' design")),
+          ("realization covers funnel, oscillator designs", "'problem' design")),
     Fault("realize-heightfield-g-negative", "realize design.npz --as heightfield --out newparts --g -1",
           ("--g must be > 0", "-1")),
     Fault("realize-heightfield-base-zero", "realize design.npz --as heightfield --out newparts --base 0",
@@ -397,8 +397,18 @@ FAULTS = [
     Fault("realize-heightfield-existing", "realize design.npz --as heightfield --out sub2",
           ("STL file", "sub2/heightfield.stl", "exists already")),
     Fault("realize-heightfield-problem-design", "realize problem.npz --as heightfield --out newparts",
-          ("realization covers funnel designs", "'problem' design")),
+          ("realization covers funnel, oscillator designs", "'problem' design")),
     Fault("realize-unknown-option", "realize design.npz --as contact --out newparts --bogus", ("--bogus",)),
+    Fault("realize-drum-radius-on-a-plane", "realize design.npz --as contact --out newparts --drum-radius 1",
+          ("--drum-radius goes with a cylinder design", "a plane")),
+    Fault("realize-drum-radius-negative", "realize osc.npz --as contact --out newparts --drum-radius -1",
+          ("--drum-radius must be > 0", "-1")),
+    Fault("realize-drum-radius-beyond-float32", "realize osc.npz --as contact --out newparts --drum-radius 1e308",
+          ("--drum-radius must be below", "1e+308")),
+    Fault("realize-drum-radius-heightfield", "realize osc.npz --as heightfield --out newparts --drum-radius 2",
+          ("--drum-radius goes with --as contact, not --as heightfield",)),
+    Fault("realize-heightfield-of-a-cylinder", "realize osc.npz --as heightfield --out newparts",
+          ("a heightfield realizes a plane", "wraps")),
     # ------------------------------------------------------------------ bench
     Fault("bench-out-no-folder", "bench --quick --out nodir/b.json", ("nodir", "does not exist")),
     Fault("bench-out-under-a-file", "bench --quick --out text.npz/b.json", ("text.npz", "not a folder")),
@@ -511,6 +521,7 @@ def assets(tmp_path_factory):
     shutil.copy(VECTORS / BAD_CASE["case"], folder / "bad.case.npz")
     write_result(run_case(load_case(CASE)), folder / "result.npz")
     assert cli.main(["design", "funnel", "--smoke", "--quiet", "--out", str(folder / "design.npz")]) == 0
+    assert cli.main(["design", "oscillator", "--smoke", "--quiet", "--out", str(folder / "osc.npz")]) == 0
     for name, text in PROBLEM_FILES.items():
         (folder / name).write_text(text)
     assert cli.main(["design", str(folder / "good.toml"), "--quiet", "--out", str(folder / "problem.npz")]) == 0

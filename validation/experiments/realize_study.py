@@ -10,6 +10,14 @@ rolling ball (``realize --as heightfield --seed S``); it prints one row per vari
 and exited fractions beside the realized device's, the realized step, each command's wall
 time) and writes them to ``OUT/realize_study.csv``. ``--smoke`` uses the design command's
 tiny preset (seconds; for the tests).
+
+``--oscillator`` (``make realize-oscillator``) runs the oscillator instead: ``design
+oscillator --seed 0`` (its default backend), ``realize --as contact`` (a drum cam, the
+``visited`` rule) and at the rule's neighbouring levels, ``evaluate --realized`` on the held-out
+seeds; each row holds the design's captured fraction beside the drum cam's, the flat surface's
+(``evaluate DESIGN``), the blocked share and the step. Then :func:`walls` says what in the design
+is not a wall: the share of the energy range and of the force the design's particles feel below
+the contact level, and what the particles do on the drum cam (``OUT/realize_oscillator.csv``).
 """
 from __future__ import annotations
 
@@ -129,6 +137,88 @@ def _evaluated(name, design, parts, realize_text, t_design, t_realize) -> list:
     return rows
 
 
+#: The oscillator's columns: (header, row key).
+OSC_COLUMNS = (("level", "variant"), ("seed", "seed"), ("blocked", "blocked_share"),
+               ("device blocked", "device_blocked_share"), ("captured", "captured_fraction"),
+               ("realized", "realized_captured_fraction"), ("realized sweep", "realized_sweep_captured_fraction"),
+               ("realized grid", "realized_grid_captured_fraction"), ("flat", "flat_captured_fraction"),
+               ("realized dt", "realized_dt"), ("design s", "design_s"), ("realize s", "realize_s"),
+               ("evaluate s", "evaluate_s"))
+
+
+def run_oscillator(out: Path, smoke: bool) -> tuple:
+    """The oscillator's rows (one per contact level and held-out seed) and :func:`walls`' figures."""
+    out.mkdir(parents=True, exist_ok=True)
+    design = out / "oscillator.npz"
+    _, t_design = _cli(["design", "oscillator", "--seed", "0", *(["--smoke"] if smoke else []), "--quiet",
+                        "--force", "--out", str(design)])
+    flat = {seed: _figures(_cli(["evaluate", str(design), "--seed", str(seed)])[0])["flat_captured_fraction"]
+            for seed in HELD_OUT}
+    parts = out / "drum"
+    text, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force"])
+    runs = [("visited (quantile 0.99)", parts, text, t_realize)]
+    for k, line in enumerate(line for line in text.splitlines() if line.startswith("neighbour: ")):
+        label, level = line.split(": ")[1], line.split("level ")[1].split(",")[0]
+        other = out / f"drum_{k}"
+        more, t_more = _cli(["realize", str(design), "--as", "contact", "--rule", "value", "--level", level,
+                             "--out", str(other), "--force"])
+        runs.append((f"{label} ({level})", other, more, t_more))
+    rows = []
+    for name, folder, realize_text, t_real in runs:
+        realized = _figures(realize_text)
+        for seed in HELD_OUT:
+            got, t_eval = _cli(["evaluate", str(design), "--realized", str(folder / "device.toml"), "--seed", str(seed)])
+            got = _figures(got)
+            row = {"variant": name, "seed": seed, "level": realized["level"],
+                   "blocked_share": realized["blocked_share"], "device_blocked_share": realized["device_blocked_share"],
+                   "flat_captured_fraction": flat[seed]}
+            for key in ("captured_fraction", "sweep_captured_fraction", "grid_captured_fraction"):
+                row[key], row[f"realized_{key}"] = got[key], got[f"realized_{key}"]
+            row.update({"realized_dt": got["realized_dt"], "design_s": f"{t_design:.1f}",
+                        "realize_s": f"{t_real:.1f}", "evaluate_s": f"{t_eval:.1f}"})
+            rows.append(row)
+    return rows, walls(design, parts / "device.toml", float(_figures(text)["level"]))
+
+
+def walls(design: Path, device_file: Path, level: float) -> dict:
+    """What in the oscillator's design is not a wall, at contact ``level``: the share of its energy
+    range and of its grid below the level; over every state of the ``visited`` rule's paths,
+    the share of the force ``|grad E|`` the particles feel where the energy is below the level
+    (flat on the drum cam beyond r_c of a wall); and on the drum cam, held-out seed 12345's
+    torque sweep: the share that ends still swinging at 0.8 .. 1.2 of the target amplitude, the
+    median amplitude and q1 advance per period of the particles not captured, beside q1's
+    free run ``tau / damping1`` per unit time (median over the torques)."""
+    import numpy as np
+    from pes_ref.core.surface import Surface
+    from pes_ref.devices.device_file import load_device
+    from pes_ref.realize.evaluation import held_out_positions, realized_problem
+    from pes_ref.realize.regions import VISITED_SEED
+    from pes_ref.synthesis import load_design
+    from pes_ref.synthesis.analysis import cycle_figures, oscillator_torque_sweep, q1_advance
+    state = load_design(design)
+    problem, values = state.problem, state.values
+    energy = np.asarray(problem.surface_values(values), dtype=np.float64)
+    surface = Surface(energy, problem.lower, problem.upper, problem.periodic)
+    x = held_out_positions(problem, values, VISITED_SEED).reshape(-1, 2)
+    e = surface.energy(x)
+    force = np.hypot(*np.moveaxis(surface.slope(x), -1, 0))
+    run = realized_problem(problem, load_device(device_file))
+    sweep = oscillator_torque_sweep(run.problem, run.values, 50, seed=HELD_OUT[0])
+    amp, _, _, captured = cycle_figures(run.problem, sweep.traj)
+    advance = q1_advance(run.problem, sweep.traj)
+    free_run = np.median(sweep.torques) / problem.damping1 * problem.period
+    lost = ~captured
+    return {"energy_range_below_level": float((level - energy.min()) / np.ptp(energy)),
+            "grid_below_level": float(np.mean(energy < level)),
+            "force_share_below_level": float(force[e < level].sum() / force.sum()),
+            "realized_swinging_0.8_1.2": float(np.mean(np.abs(amp - problem.amplitude) < 0.2 * problem.amplitude)),
+            "realized_lost_amplitude_median": float(np.median(amp[lost])) if lost.any() else float("nan"),
+            "realized_lost_q1_advance_median": float(np.median(advance[lost])) if lost.any() else float("nan"),
+            "free_run_q1_advance_median": float(free_run),
+            "realized_captured_torques": (f"{sweep.torques[captured].min():.3g} .. {sweep.torques[captured].max():.3g}"
+                                          if captured.any() else "none")}
+
+
 def table(rows: list) -> str:
     head = ["variant", "seed", "rule", "blocked", "in band", "realized", "exited", "realized exited",
             "realized dt", "design s", "realize s", "evaluate s"]
@@ -144,7 +234,10 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder")
     p.add_argument("--smoke", action="store_true", help="the design command's tiny preset (seconds)")
     p.add_argument("--only", action="append", default=None, metavar="VARIANT", help="run only this variant")
+    p.add_argument("--oscillator", action="store_true", help="the oscillator realized as a drum cam instead")
     args = p.parse_args(argv)
+    if args.oscillator:
+        return _main_oscillator(args)
     HEIGHTFIELD_ROWS.clear()
     rows = run(args.out, args.smoke, args.only)
     print(table(rows))
@@ -161,6 +254,19 @@ def main(argv=None) -> int:
         writer.writeheader()
         writer.writerows(rows)
     print(f"wrote {os.path.join(args.out, 'realize_study.csv')}")
+    return 0
+
+
+def _main_oscillator(args) -> int:
+    rows, figures = run_oscillator(args.out, args.smoke)
+    print("| " + " | ".join(h for h, _ in OSC_COLUMNS) + " |\n|" + "---|" * len(OSC_COLUMNS))
+    print("\n".join("| " + " | ".join(str(r[k]) for _, k in OSC_COLUMNS) + " |" for r in rows))
+    print("\n".join(f"{k}: {v:.4g}" if isinstance(v, float) else f"{k}: {v}" for k, v in figures.items()))
+    with open(args.out / "realize_oscillator.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    print(f"wrote {os.path.join(args.out, 'realize_oscillator.csv')}")
     return 0
 
 
