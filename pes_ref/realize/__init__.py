@@ -8,10 +8,13 @@ Modules, one idea each:
 - :mod:`.regions`     the blocked region of a design: the contact level, chosen by a stated
                       rule (:data:`~pes_ref.realize.regions.CONTACT_RULES`), as polygons
 - :mod:`.followers`   blocked polygons into two parts, per topology: a pin in a plate (a
-                      plane) (:data:`~pes_ref.realize.followers.FOLLOWERS`)
+                      plane), a pin in a drum cam's groove (a cylinder)
+                      (:data:`~pes_ref.realize.followers.FOLLOWERS`)
 - :mod:`.contact`     a contact realization: parts, the device file's tables, what is lost
 - :mod:`.exports`     writing and reading back device.toml, DXF (ezdxf) and STL (trimesh)
-- :mod:`.evaluation`  the design's own held-out evaluation on a realized device
+- :mod:`.evaluation`  what each design kind needs to be realized
+                      (:data:`~pes_ref.realize.evaluation.REALIZABLE_KINDS`), and its own
+                      held-out evaluation on a realized device
 - :mod:`.heightfield` a plate whose top is the energy, and a ball rolling on it
 - :mod:`.drawing`     the parts at three positions
 """

@@ -114,3 +114,38 @@ def test_without_the_extra_the_command_prints_the_pip_line(capsys, monkeypatch, 
     assert code == EXIT_ERROR and out == ""
     assert err.count("\n") == 1 and "pip install 'pes_ref[realize]'" in err and module in err
     assert not (tmp_path / "p").exists()
+
+
+@pytest.fixture(scope="module")
+def oscillator_design(tmp_path_factory):
+    """A small oscillator design file: walls 0.5 high beyond |q0| = 1.8 and a bump round (0, pi)."""
+    state = new_design("oscillator", grid0=16, grid1=16, eval_periods=5)
+    p = state.problem
+    q0 = np.linspace(p.lower[0], p.upper[0], 16)[:, None]
+    q1 = (np.arange(16) * 2 * np.pi / 16)[None, :]
+    state.values = 0.5 * np.maximum(np.clip((np.abs(q0) - 1.6) / 0.4, 0.0, 1.0),
+                                    np.exp(-(q0 ** 2 + (q1 - np.pi) ** 2) / 0.3))
+    path = tmp_path_factory.mktemp("osc") / "osc.npz"
+    save_design(path, state)
+    return path
+
+
+def test_a_cylinder_design_becomes_a_drum_cam_and_its_own_evaluation_runs_on_it(capsys, oscillator_design, tmp_path):
+    out_dir = tmp_path / "drum"
+    code, out, err = run(capsys, "realize", str(oscillator_design), "--as", "contact", "--rule", "value", "--level",
+                         "0.25", "--drum-radius", "2", "--out", str(out_dir))
+    assert code == EXIT_OK, err
+    assert sorted(p.name for p in out_dir.iterdir()) == sorted(("device.toml", "drum.dxf", "drum.stl", "pin.stl",
+                                                                "parts.png"))
+    got = figures(out)
+    assert abs(float(got["device_blocked_share"]) - float(got["blocked_share"])) < 0.03
+    assert float(got["drum_area_dxf"]) == pytest.approx(float(got["drum_area_device"]), rel=1e-9)
+    assert got["drum_watertight"] == got["pin_watertight"] == "True"
+    assert float(got["drum_volume"]) == pytest.approx(float(got["drum_volume_expected"]), rel=0.01)
+    assert 'motion = "drum"' in (out_dir / "device.toml").read_text()
+    code, out, err = run(capsys, "evaluate", str(oscillator_design), "--realized", str(out_dir / "device.toml"),
+                         "--particles", "5")
+    assert code == EXIT_OK, err
+    got = figures(out)
+    assert 0.0 <= float(got["realized_captured_fraction"]) <= 1.0 and "realized_q1_advance_median" in got
+    assert float(got["realized_dt"]) <= float(got["dt"])

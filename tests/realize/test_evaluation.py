@@ -4,6 +4,7 @@ from __future__ import annotations
 import copy
 import math
 import tomllib
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from pes_ref.devices.device_file import parse_device
 from pes_ref.realize import exports
 from pes_ref.realize.contact import realize_contact
 from pes_ref.realize.evaluation import evaluate_realized, realized_problem
-from pes_ref.synthesis.problems import FunnelProblem, OscillatorProblem
+from pes_ref.synthesis.problems import FunnelProblem
 
 GRID = 41
 
@@ -64,6 +65,6 @@ def test_a_device_on_another_grid_is_refused(problem, device_data):
 
 
 def test_a_kind_no_realization_covers_is_refused(device_data):
-    osc = OscillatorProblem()
-    with pytest.raises(ValueError, match="this design is a 'oscillator' design"):
-        realized_problem(osc, _device(device_data))
+    other = SimpleNamespace(kind="catapult")
+    with pytest.raises(ValueError, match="realization covers funnel, oscillator designs; this design is a 'catapult'"):
+        realized_problem(other, _device(device_data))
