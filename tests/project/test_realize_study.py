@@ -19,3 +19,17 @@ def test_the_smoke_study_writes_a_row_per_held_out_seed(tmp_path, capsys):
         assert r["rule"] == "level-set"
         assert 0.0 <= float(r["realized_in_band_fraction"]) <= 1.0
         assert float(r["realized_dt"]) <= 0.05                     # the smoke preset's dt, or the rule's
+
+
+def test_the_smoke_oscillator_study_writes_a_row_per_level_and_seed_and_says_what_is_not_a_wall(tmp_path, capsys):
+    assert study.main(["--oscillator", "--smoke", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    with open(tmp_path / "realize_oscillator.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 3 * len(study.HELD_OUT)                      # the visited level and its two neighbours
+    for r in rows:
+        assert 0.0 <= float(r["realized_captured_fraction"]) <= 1.0
+        assert float(r["realized_dt"]) <= 0.05
+    figures = dict(line.split(": ", 1) for line in out.splitlines() if ": " in line and not line.startswith("|"))
+    assert 0.0 < float(figures["force_share_below_level"]) <= 1.0
+    assert 0.0 < float(figures["grid_below_level"]) < 1.0
