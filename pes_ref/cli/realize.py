@@ -66,7 +66,6 @@ def add_parser(sub) -> None:
                     "Needs the optional extra 'realize' (pip install 'pes_ref[realize]'). docs/realize.md.",
         examples=["realize funnel.npz --as contact --out funnel_parts",
                   "realize osc.npz --as contact --drum-radius 1 --out osc_drum",
-                  "realize funnel.npz --as contact --rule value --level 0.05 --out parts --force",
                   "realize funnel.npz --as heightfield --out funnel_plate"])
     p.add_argument("file", metavar="DESIGN.npz", help="a design file written by 'design'")
     p.add_argument("--as", dest="as_", choices=tuple(REALIZATIONS), required=True,
@@ -217,13 +216,13 @@ def _plate_meshes(real) -> dict:
 def _drum_meshes(real) -> dict:
     from pes_ref.realize import exports
     parts, t = real.parts, real.thickness
-    return {"drum_stl": exports.drum_mesh(parts.plate, parts.y_scale, t, _drum_cell(real)),
+    return {"drum_stl": exports.drum_mesh(parts.plate, parts.motion["radius"], t, _drum_cell(real)),
             "pin_stl": exports.pin_mesh(parts.pin_radius, t)}
 
 
 def _drum_cell(real) -> float:
     """The drum STL's node spacing: a quarter of the design grid's finer spacing on the drum's surface."""
-    return float(min(real.region.spacing * [1.0, real.parts.y_scale])) / 4.0
+    return float(min(real.region.spacing * [1.0, real.parts.motion["radius"]])) / 4.0
 
 
 #: Per follower: its meshes (realization -> {output key: mesh}) and the volume the first
@@ -236,7 +235,7 @@ MESHES = {
 
 def _drum_volume(real, part) -> float:
     from pes_ref.realize import exports
-    return exports.drum_volume(part, real.parts.y_scale, real.thickness)
+    return exports.drum_volume(part, real.parts.motion["radius"], real.thickness)
 
 
 def _check(real, outputs: dict) -> dict:

@@ -85,7 +85,8 @@ SETUP = {
     "pes_ref evaluate": ("design funnel --smoke --quiet --out funnel.npz",
                          "design oscillator --smoke --quiet --out osc.npz",
                          "realize funnel.npz --as contact --out funnel_parts"),
-    "pes_ref realize": ("design funnel --smoke --quiet --out funnel.npz",),
+    "pes_ref realize": ("design funnel --smoke --quiet --out funnel.npz",
+                        "design oscillator --smoke --quiet --out osc.npz"),
 }
 
 
