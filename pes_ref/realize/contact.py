@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.realize.evaluation import check_kind
+from pes_ref.realize.evaluation import check_kind, contact_parameters, start_point
 from pes_ref.realize.followers import FOLLOWERS, Parts
 from pes_ref.realize.regions import Region, contact_region
 
@@ -65,6 +65,7 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
                     thickness: float = CONTACT_DEFAULTS["thickness"]) -> ContactRealization:
     """Realize design ``values`` of ``problem`` by contact (module docstring)."""
     check_kind(problem)
+    v, r_c, r_min = contact_parameters(problem)
     thickness = checks.as_positive_float("thickness", thickness)
     pin_radius = checks.as_positive_float("pin_radius", pin_radius)
     rim = checks.as_positive_float("rim", rim)
@@ -103,10 +104,9 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
         "part": parts.device_parts(),
         "cspace": {"lower": [float(x) for x in problem.lower], "upper": [float(x) for x in problem.upper],
                    "shape": [int(n) for n in problem.shape()]},
-        "energy": {"v": float(problem.contact_v), "r_c": float(problem.contact_r_c),
-                   "r_min": float(problem.contact_r_min), "springs": _springs(scene)},
+        "energy": {"v": v, "r_c": r_c, "r_min": r_min, "springs": _springs(scene)},
         "dynamics": dynamics,
-        "start": {"q": [0.0, float(problem.upper[1] - problem.start_depth)]},
+        "start": {"q": start_point(problem)},
     }
     free = region.phi >= 0
     below = region.energy[free]
@@ -114,7 +114,7 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     if region.rule != "level-set" and below.size and float(np.ptp(below)) > 0:   # a level set's surface is eq. (1)
         lost.append(f"the energies below the contact level ({float(below.min()):.4g} .. {float(below.max()):.4g} "
                     f"over {free.mean():.1%} of the grid) are flat on the device beyond r_c = "
-                    f"{problem.contact_r_c:g} of the plate")
+                    f"{r_c:g} of the plate")
     lost.append(f"{parts.lost_share:.2%} of the domain changes side (blocked slivers thinner than the pin's "
                 f"diameter {2 * parts.pin_radius:g}, sharp free corners)")
     blocked = region.phi < 0

@@ -1,8 +1,10 @@
 """The design's own held-out evaluation on a realized device (``evaluate DESIGN.npz --realized DEVICE.toml``).
 
 The realized device is rebuilt from its file (:func:`pes_ref.devices.device_file.load_device`):
-its C-space from the exported parts, eq. (1) of the distance to it and its kept springs give
-the surface; everything else is the design's (its forces, noise, damping, masses and walls,
+its C-space from the exported parts and eq. (1) of the distance to it give the surface, and
+its kept springs (``[energy] springs``) act as the scene's linear springs (:func:`device_spring`;
+the device analyses bake them into the grid, where a stiff spring's force becomes a staircase
+of the grid's cells); everything else is the design's (its forces, noise, damping, masses and walls,
 its held-out starts and its figures). The realized surface's barriers are stiffer than the
 design's smooth slopes, so the run takes the step the stability rule allows
 (:func:`pes_ref.core.stability.check_stable`, ``docs/spec.md`` section 10):
@@ -26,10 +28,8 @@ from pes_ref.core import checks
 from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.synthesis.analysis import evaluate, funnel_paths
 
-__all__ = ["RealizedRun", "realized_problem", "plain_problem", "evaluate_realized", "held_out_positions", "REALIZABLE_KINDS"]
-
-#: The design kinds a device can stand in for: their surface is one grid the device replaces.
-REALIZABLE_KINDS = ("funnel",)
+__all__ = ["RealizedRun", "realized_problem", "evaluate_realized", "held_out_positions",
+           "Realizable", "REALIZABLE", "check_kind", "contact_parameters", "start_point", "device_spring"]
 
 
 class RealizedRun(NamedTuple):
@@ -42,11 +42,89 @@ class RealizedRun(NamedTuple):
     n_steps: int
 
 
-def check_kind(problem) -> None:
-    """Refuse a design whose kind no realization covers yet (one line naming the kind)."""
-    if problem.kind not in REALIZABLE_KINDS:
-        raise checks.InputError("realized", f"realization covers {', '.join(REALIZABLE_KINDS)} designs (a plane); "
-                                            f"this design is a {problem.kind!r} design")
+class Realizable(NamedTuple):
+    """What a realization needs of one kind of design (:data:`REALIZABLE`).
+
+    - ``positions(problem, values, seed, n)``: every state (T+1, n, 2) of ``n`` of the design's
+      own particles drawn from ``default_rng(seed)`` (the ``visited`` rule, the drawings);
+    - ``start(problem)``: where a device's analysis starts (the device file's ``[start] q``);
+    - ``contact(problem)``: eq. (1)'s ``(v, r_c, r_min)``, the parts' barrier;
+    - ``at_step(problem, dt)``: the problem run at step ``dt``, its durations and the noise's
+      diffusion per unit time kept;
+    - ``with_spring(problem, spring)``: the problem with its scene's spring the device's
+      (a :class:`pes_ref.core.terms.Spring`, or None for none).
+    """
+
+    positions: object
+    start: object
+    contact: object
+    at_step: object
+    with_spring: object
+
+
+def _funnel_at_step(problem, dt: float):
+    n_steps = int(math.ceil(problem.n_steps * problem.dt / dt))
+    return dataclasses.replace(problem, dt=dt, n_steps=n_steps, noise=problem.noise * math.sqrt(problem.dt / dt))
+
+
+def _funnel_with_spring(problem, spring):
+    if spring is not None:
+        raise checks.InputError("realized", "the device has springs ([energy] springs); a funnel's scene has none "
+                                            "for them to replace")
+    return problem
+
+
+def _problem_contact(problem) -> tuple:
+    if problem.contact is None:
+        raise checks.InputError("surface.contact", f"{problem.path} states no [surface.contact]: eq. (1)'s v, r_c "
+                                                   f"and r_min the parts are built with (docs/problems.md)")
+    return problem.contact.v, problem.contact.r_c, problem.contact.r_min
+
+
+def _problem_start(problem) -> list:
+    starts = problem.starts
+    if starts.box is not None:
+        return [float(0.5 * (lo + hi)) for lo, hi in zip(*starts.box)]
+    return [float(x) for x in starts.points[0]]
+
+
+def _problem_at_step(problem, dt: float):
+    from pes_ref.synthesis.problem_file import at_step
+    return at_step(problem, dt)
+
+
+#: The kinds of design a device can stand in for (their surface is one grid the device
+#: replaces): kind -> :class:`Realizable`.
+REALIZABLE = {
+    "funnel": Realizable(
+        positions=lambda problem, values, seed, n: funnel_paths(problem, values, n, seed).traj.x,
+        start=lambda problem: [0.0, float(problem.upper[1] - problem.start_depth)],
+        contact=lambda problem: (problem.contact_v, problem.contact_r_c, problem.contact_r_min),
+        at_step=_funnel_at_step, with_spring=_funnel_with_spring),
+    "problem": Realizable(
+        positions=lambda problem, values, seed, n: problem.run(values, seed, n).traj.x,
+        start=_problem_start, contact=_problem_contact, at_step=_problem_at_step,
+        with_spring=lambda problem, spring: problem.with_spring(spring)),
+}
+
+
+def check_kind(problem) -> Realizable:
+    """The realization's entry for ``problem``'s kind; a kind none covers is refused (one line naming it)."""
+    entry = REALIZABLE.get(problem.kind)
+    if entry is None:
+        raise checks.InputError("realized", f"realization covers {', '.join(REALIZABLE)} designs; this design is a "
+                                            f"{problem.kind!r} design")
+    return entry
+
+
+def contact_parameters(problem) -> tuple:
+    """Eq. (1)'s ``(v, r_c, r_min)`` of ``problem``'s parts."""
+    return tuple(float(x) for x in check_kind(problem).contact(problem))
+
+
+def start_point(problem) -> list:
+    """Where an analysis of ``problem``'s device starts."""
+    return check_kind(problem).start(problem)
 
 
 def realized_problem(problem, device) -> RealizedRun:
@@ -60,21 +138,34 @@ def realized_problem(problem, device) -> RealizedRun:
                                             f"{list(map(float, device.lower))} .. {list(map(float, device.upper))}) "
                                             f"is not the design's ({shape[0]} x {shape[1]} on "
                                             f"{list(map(float, problem.lower))} .. {list(map(float, problem.upper))})")
-    values = np.asarray(device.surface().values, dtype=np.float64)
-    plain = plain_problem(problem)
+    values = np.asarray(device.cspace().surface(device.v, device.r_c, (), device.r_min).values, dtype=np.float64)
+    entry = check_kind(problem)
+    spring = device_spring(device)
+    plain = entry.with_spring(problem.plain(), spring)
     lim = stability_limit(plain.scene(values), "rule")
     if lim.ratio <= 1.0:
         return RealizedRun(plain, values, plain.dt, plain.n_steps)
     dt = SAFETY * lim.limit
-    n_steps = int(math.ceil(plain.n_steps * plain.dt / dt))
-    noise = plain.noise * math.sqrt(plain.dt / dt)
-    return RealizedRun(dataclasses.replace(plain, dt=dt, n_steps=n_steps, noise=noise), values, dt, n_steps)
+    slow = entry.with_spring(entry.at_step(problem, dt).plain(), spring)
+    return RealizedRun(slow, values, dt, slow.n_steps)
 
 
-def plain_problem(problem):
-    """``problem`` with its grid values the surface's energies (a realizable problem's level
-    set turned off): what runs a realized surface."""
-    return dataclasses.replace(problem, realizable=False) if getattr(problem, "realizable", False) else problem
+def device_spring(device):
+    """The device file's springs (``[energy] springs``) as the scene's linear spring per axis:
+    the sum of an axis's springs is one spring (``k = sum k_i``, ``center = sum k_i c_i / k``);
+    None without any. A one-sided spring (``side`` above or below) is refused: a scene's
+    spring acts both ways."""
+    from pes_ref.core.terms import Spring
+    if not device.springs:
+        return None
+    k, moment = np.zeros(2), np.zeros(2)
+    for i, s in enumerate(device.springs):
+        if s.side != "both":
+            raise checks.InputError("realized", f"the device's spring {i} acts on one side only (side = {s.side!r}); "
+                                                f"the design's run has springs that act both ways")
+        k[s.axis] += s.k
+        moment[s.axis] += s.k * s.center
+    return Spring(k, np.divide(moment, k, out=np.zeros(2), where=k > 0))
 
 
 def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: int | None = None) -> dict:
@@ -91,5 +182,4 @@ def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: i
 
 def held_out_positions(problem, values, seed: int, n_particles: int = 200) -> np.ndarray:
     """Every state (T+1, N, 2) of ``n_particles`` paths of design ``values`` from ``default_rng(seed)``."""
-    check_kind(problem)
-    return funnel_paths(problem, values, n_particles, seed).traj.x
+    return check_kind(problem).positions(problem, values, seed, n_particles)

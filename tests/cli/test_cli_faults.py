@@ -335,7 +335,7 @@ FAULTS = [
     Fault("evaluate-realized-other-grid", "evaluate design.npz --realized dev.toml",
           ("--realized dev.toml: the device's grid (21 x 21", "is not the design's (12 x 12")),
     Fault("evaluate-realized-problem-design", "evaluate problem.npz --realized dev.toml",
-          ("realization covers funnel designs", "'problem' design")),
+          ("--realized dev.toml: the device's grid (21 x 21", "is not the design's (8 x 8")),
     # ------------------------------------------------------------------ realize
     Fault("realize-missing", "realize nothing.npz --as contact --out parts", ("design file nothing.npz does not exist",)),
     Fault("realize-folder", "realize sub --as contact --out parts", ("design file sub is a folder",)),
@@ -369,8 +369,8 @@ FAULTS = [
     Fault("realize-level-set-of-a-plain-design", "realize design.npz --as contact --out newparts --rule level-set",
           ("'level-set' needs a design made realizable", "realizable=true")),
     Fault("realize-bad-rule", "realize design.npz --as contact --out newparts --rule guess", ("--rule", "'guess'")),
-    Fault("realize-problem-design", "realize problem.npz --as contact --out newparts",
-          ("realization covers funnel designs", "'problem' design")),
+    Fault("realize-problem-design-without-contact", "realize problem.npz --as contact --out newparts",
+          ("states no [surface.contact]", "v, r_c and r_min")),
     Fault("realize-heightfield-g-negative", "realize design.npz --as heightfield --out newparts --g -1",
           ("--g must be > 0", "-1")),
     Fault("realize-heightfield-base-zero", "realize design.npz --as heightfield --out newparts --base 0",
@@ -392,7 +392,7 @@ FAULTS = [
     Fault("realize-heightfield-existing", "realize design.npz --as heightfield --out sub2",
           ("STL file", "sub2/heightfield.stl", "exists already")),
     Fault("realize-heightfield-problem-design", "realize problem.npz --as heightfield --out newparts",
-          ("realization covers funnel designs", "'problem' design")),
+          ("--as heightfield checks funnel designs", "'problem' design")),
     Fault("realize-unknown-option", "realize design.npz --as contact --out newparts --bogus", ("--bogus",)),
     # ------------------------------------------------------------------ bench
     Fault("bench-out-no-folder", "bench --quick --out nodir/b.json", ("nodir", "does not exist")),
