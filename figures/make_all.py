@@ -7,7 +7,8 @@ Steps, each printed with its elapsed time as it starts, while it runs and when i
    figures/out/cache/KIND.npz``), and the oscillator by gradient descent alone
    (``--plan overshoot``), which Fig. 12 draws beside the default, and the latch from its
    shipped problem file (``design latch``, Fig. 13), and the funnel designed realizable
-   (``--set realizable=true``, Fig. 14); their own progress lines are passed through. A design is reused from the cache only
+   (``--set realizable=true``, Fig. 14) and the latch made of contact (``design latch_contact``,
+   Fig. 15); their own progress lines are passed through. A design is reused from the cache only
    when its inputs are unchanged: the sidecar ``KIND.json`` holds a key hashing every
    source file of the ``pes_ref`` package, the command line, and the Python and NumPy
    versions, plus the SHA-256 of the design file; a file whose run did not finish
@@ -52,6 +53,7 @@ FIGURES = (
     ("fig12_torque_capture", "oscillator"),
     ("fig13_latch", "latch"),
     ("fig14_realized_funnel", "funnel_realizable"),
+    ("fig15_realized_latch", "latch_contact"),
     ("fig01_ratchet", None),
     ("fig02_dartgun", None),
     ("fig03_dartgun_cspace", None),
@@ -62,6 +64,7 @@ DESIGNS = {
     "oscillator": ["design", "oscillator"],
     "oscillator_overshoot": ["design", "oscillator", "--plan", "overshoot"],
     "latch": ["design", "latch"],
+    "latch_contact": ["design", "latch_contact"],
     "funnel": ["design", "funnel"],
     "funnel_realizable": ["design", "funnel", "--set", "realizable=true", "--set", "linger=20",
                           "--set", "init_shape=vee"],

@@ -55,7 +55,7 @@ PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-fina
 OSCILLATOR_PLAN_NAMES = ("gait", "overshoot", "eq6")
 #: The problem files shipped with the package, by name: :data:`pes_ref.synthesis.problem_file.SHIPPED_PROBLEMS`
 #: (tested equal; written out for the same reason as :data:`SET_NAMES`).
-SHIPPED_NAMES = ("funnel", "latch")
+SHIPPED_NAMES = ("funnel", "latch", "latch_contact")
 
 
 def add_parser(sub) -> None:

@@ -262,9 +262,8 @@ def _check(real, outputs: dict) -> dict:
 
 def _prepare_heightfield(state, args):
     from pes_ref.core import budget, checks
-    from pes_ref.realize.evaluation import check_kind
-    from pes_ref.realize.heightfield import check_base, heightfield
-    check_kind(state.problem)
+    from pes_ref.realize.heightfield import check_base, check_heightfield_kind, heightfield
+    check_heightfield_kind(state.problem)
     seed = checks.as_nonneg_int("seed", 12345 if args.seed is None else args.seed)
     n = checks.as_positive_int("n_particles", 200 if args.particles is None else args.particles)
     budget.check_memory(state.problem.n_steps, n, "simulate", particles="n_particles", fixed_steps=True, runs=3,

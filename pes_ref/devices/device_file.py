@@ -23,7 +23,7 @@ from pes_ref.devices import geometry as g
 from pes_ref.devices.cspace import SIDES, GridSpring
 from pes_ref.devices.device import Device
 
-__all__ = ["FORMAT", "DeviceFileError", "load_device", "parse_device", "shipped_device", "SHIPPED", "ANALYSES"]
+__all__ = ["FORMAT", "DeviceFileError", "load_device", "parse_device", "shipped_device", "SHIPPED", "ANALYSES", "read_shapes"]
 
 #: The device-file format this module reads.
 FORMAT = 1
@@ -167,6 +167,17 @@ def _part(r: _Reader, value, key: str) -> g.Part:
     part = r.build(f"{key}.shapes", g.Part, built, m)
     r.build(f"{key}.shapes", part.geometry, 1e-3)        # a part the cuts leave empty is refused here
     return part
+
+
+def read_shapes(value, where: str, path: str, error: type) -> tuple:
+    """A non-empty list of shape tables (a part's ``shapes``, ``docs/devices.md``) at key ``where``
+    of another file that draws shapes (a problem file's ``surface.contact.blocked``): a refusal
+    raises ``error`` naming ``path`` and the key."""
+    r = _Reader(path)
+    r.error = error
+    if not isinstance(value, list) or not value:
+        r.fail(where, f"expected a non-empty list of shapes, got {_show(value)}")
+    return tuple(_shape(r, s, f"{where}[{i}]") for i, s in enumerate(value))
 
 
 def _cspace(r: _Reader, value, parts):

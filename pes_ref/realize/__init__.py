@@ -13,7 +13,7 @@ Modules, one idea each:
 - :mod:`.contact`     a contact realization: parts, the device file's tables, what is lost
 - :mod:`.exports`     writing and reading back device.toml, DXF (ezdxf) and STL (trimesh)
 - :mod:`.evaluation`  what each design kind needs to be realized
-                      (:data:`~pes_ref.realize.evaluation.REALIZABLE_KINDS`), and its own
+                      (:data:`~pes_ref.realize.evaluation.REALIZABLE`), and its own
                       held-out evaluation on a realized device
 - :mod:`.heightfield` a plate whose top is the energy, and a ball rolling on it
 - :mod:`.drawing`     the parts at three positions

@@ -7,10 +7,10 @@ by a stated rule), turns it into the two parts of the topology's follower
 - ``[energy]``: eq. (1) of the distance to the parts' C-space obstacle, with the design
   kind's contact parameters (:func:`pes_ref.realize.evaluation.contact_parameters`: the
   funnel's ``contact_v``, ``contact_r_c``, ``contact_r_min``, a realizable design's own
-  eq. (1); the oscillator's from its grid), and the design's springs (its scene's per-axis
-  spring);
+  eq. (1); a problem file's ``[surface.contact]``; the oscillator's from its grid), and the
+  design's springs (its scene's per-axis spring);
 - ``[dynamics]``: the design scene's masses, damping and walls;
-- ``[start]``: the design kind's start row (:func:`pes_ref.realize.evaluation.start_row`).
+- ``[start]``: the design kind's start point (:func:`pes_ref.realize.evaluation.start_point`).
 
 What the parts cannot have is listed in :attr:`ContactRealization.lost`, in words: the
 energies below the contact level (flat on the device beyond ``r_c`` of an obstacle), and the
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.realize.evaluation import check_kind, contact_parameters, start_row
+from pes_ref.realize.evaluation import check_kind, contact_parameters, start_point
 from pes_ref.realize.followers import DRUM_RADIUS, FOLLOWERS, Parts
 from pes_ref.realize.regions import Region, contact_region
 
@@ -71,6 +71,7 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     """Realize design ``values`` of ``problem`` by contact (module docstring); ``drum_radius``
     (a cylinder's drum cam only) defaults to :data:`pes_ref.realize.followers.DRUM_RADIUS`."""
     check_kind(problem)
+    v, r_c, r_min = contact_parameters(problem, problem.surface_values(values))
     thickness = checks.as_positive_float("thickness", thickness)
     pin_radius = checks.as_positive_float("pin_radius", pin_radius)
     rim = checks.as_positive_float("rim", rim)
@@ -101,7 +102,6 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     walled = np.zeros((2, 2), dtype=bool) if scene.walls is None else np.asarray(scene.walls.edges, dtype=bool)
     open_edges = [(d, side) for d in range(2) for side in range(2) if not region.periodic[d] and not walled[d, side]]
     parts = follower(region, pin_radius, rim, open_edges, drum_radius)
-    v, r_c, r_min = contact_parameters(problem, region.energy)
     damping = np.broadcast_to(scene.damping if scene.damping is not None else 0.0, (2,))
     mass = np.broadcast_to(scene.mass, (2,))
     dynamics = {"mass": [float(m) for m in mass], "damping": [float(d) for d in damping]}
@@ -116,9 +116,9 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
         "part": parts.device_parts(),
         "cspace": {"lower": [float(x) for x in problem.lower], "upper": [float(x) for x in problem.upper],
                    "shape": [int(n) for n in problem.shape()]},
-        "energy": {"v": float(v), "r_c": float(r_c), "r_min": float(r_min), "springs": _springs(scene)},
+        "energy": {"v": v, "r_c": r_c, "r_min": r_min, "springs": _springs(scene)},
         "dynamics": dynamics,
-        "start": {"q": start_row(problem)},
+        "start": {"q": start_point(problem)},
     }
     free = region.phi >= 0
     below = region.energy[free]

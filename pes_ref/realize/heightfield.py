@@ -33,13 +33,22 @@ from pes_ref.core.scene import simulate
 from pes_ref.core.surface import spacing as grid_spacing
 
 __all__ = ["ROLLING", "HeightField", "heightfield", "check_base", "heightfield_mesh", "heights_from_mesh", "rolling_paths",
-           "HEIGHTFIELD_DEFAULTS"]
+           "HEIGHTFIELD_DEFAULTS", "HEIGHTFIELD_KINDS", "check_heightfield_kind"]
 
 #: A solid ball's effective mass over its mass when it rolls without slipping: 1 + 2/5.
 ROLLING = 7.0 / 5.0
 #: The defaults of a heightfield realization: gravity (length / time^2 in the design's units)
 #: and the plate's thickness below its lowest point (length).
 HEIGHTFIELD_DEFAULTS = {"g": 9.81, "base": 0.05}
+#: The kinds of design the rolling-ball check covers: its figures are the funnel's exits.
+HEIGHTFIELD_KINDS = ("funnel",)
+
+
+def check_heightfield_kind(problem) -> None:
+    """Refuse a design the rolling-ball check does not cover (one line naming its kind)."""
+    if problem.kind not in HEIGHTFIELD_KINDS:
+        raise checks.InputError("as", f"--as heightfield checks {', '.join(HEIGHTFIELD_KINDS)} designs (a plane, "
+                                      f"judged by its exits); this design is a {problem.kind!r} design")
 
 
 @dataclass(frozen=True)
@@ -137,8 +146,7 @@ def rolling_paths(problem, energy, seed: int, n_particles: int, g: float | None 
     """Held-out funnel particles as rolling balls on grid ``energy``: the design's batch from
     ``default_rng(seed)`` with every mass :data:`ROLLING` times the design's; with ``g`` the
     surface's force is also scaled by ``1 / (1 + |grad h|^2)``, ``h = E / (m g)`` (module docstring)."""
-    from pes_ref.realize.evaluation import plain_problem
-    batch = plain_problem(problem).batch(np.asarray(energy, dtype=np.float64), np.random.default_rng(seed),
+    batch = problem.plain().batch(np.asarray(energy, dtype=np.float64), np.random.default_rng(seed),
                                          n_particles)
     m = _scalar_mass(batch.scene)
     scene = dataclasses.replace(batch.scene, mass=ROLLING * m)

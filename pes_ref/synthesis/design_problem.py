@@ -19,15 +19,17 @@ starts (box axes in order, then the velocities), then each force in the file's o
 """
 from __future__ import annotations
 
+import copy
 from typing import ClassVar, NamedTuple
 
 import numpy as np
 
 from pes_ref.core.effects import Constant, Noise, PerParticle, Window, step_times
 from pes_ref.core.scene import Scene, simulate
-from pes_ref.core.surface import Surface
+from pes_ref.core.surface import Surface, spacing as grid_spacing
 from pes_ref.synthesis.file_keys import Key
 from pes_ref.synthesis.objective_terms import Domain, TermSum
+from pes_ref.synthesis.problem_contact import signed_distance
 from pes_ref.synthesis.problems import Batch, _Problem
 from pes_ref.synthesis.success import passes_all
 
@@ -124,7 +126,7 @@ class DesignProblem(_Problem):
     def __init__(self, *, data: dict, path: str, text: str | None, name: str, description: str, lower, upper,
                  periodic, grid_shape, interpolation, holds, scene_keys: dict, n_steps: int, starts: Starts,
                  forces: tuple, terms: tuple, term_names: tuple, grid_terms: tuple, tests: tuple, scenarios: tuple,
-                 eval_particles: int, plan, init_scale: float):
+                 eval_particles: int, plan, init_scale: float, contact=None):
         self.data, self.path, self.source_text = data, path, text
         self.name, self.description = name, description
         self.lower, self.upper, self.periodic = tuple(lower), tuple(upper), tuple(periodic)
@@ -135,6 +137,8 @@ class DesignProblem(_Problem):
         self.objective = TermSum(self.terms)
         self.tests, self.scenarios = tuple(tests), tuple(scenarios)
         self.eval_particles, self.plan, self.init_scale = eval_particles, plan, init_scale
+        self.contact = contact
+        self.level_set = None if contact is None else contact.level_set()
 
     def __eq__(self, other):
         return isinstance(other, DesignProblem) and self.data == other.data
@@ -182,10 +186,37 @@ class DesignProblem(_Problem):
             held |= ((q0 >= lower[0]) & (q0 <= upper[0]))[:, None] & ((q1 >= lower[1]) & (q1 <= upper[1]))[None, :]
         return (~held).astype(np.float64)
 
+    def initial_values(self, rng, shape: tuple) -> np.ndarray:
+        """Small random values (std ``init_scale``); a realizable design's: the level set of the
+        shapes ``[surface.contact] blocked`` (:mod:`pes_ref.synthesis.problem_contact`)."""
+        if self.level_set is None:
+            return super().initial_values(rng, shape)
+        spacing = grid_spacing(np.asarray(self.lower, dtype=np.float64), np.asarray(self.upper, dtype=np.float64),
+                               shape, np.asarray(self.periodic))
+        d = signed_distance(self.contact.blocked, self.nodes(shape, 0), self.nodes(shape, 1), self.lower, self.upper,
+                            self.periodic, spacing)
+        return self.level_set.from_distance(d) * self.mask(shape)
+
+    def plain(self) -> "DesignProblem":
+        """This problem with its grid values the surface's energies (a realizable design's level
+        set turned off): what runs a surface given as energies, such as a realized device's."""
+        if self.level_set is None:
+            return self
+        out = copy.copy(self)
+        out.level_set = None
+        return out
+
+    def with_spring(self, spring) -> "DesignProblem":
+        """This problem with ``spring`` (a :class:`pes_ref.core.terms.Spring`, or None) for its
+        scene's ``[dynamics] spring``: a realized device's springs."""
+        out = copy.copy(self)
+        out.scene_keys = {**self.scene_keys, "spring": spring}
+        return out
+
     # ------------------------------------------------------------------ runs
     def scene(self, values, effects=(), n_steps: int | None = None) -> Scene:
-        """The design's scene on grid ``values`` with the given effects."""
-        return Scene(Surface(values, self.lower, self.upper, self.periodic, self.interpolation),
+        """The design's scene on grid ``values`` (a realizable design's: eq. (1) of their shape) with the given effects."""
+        return Scene(Surface(self.surface_values(values), self.lower, self.upper, self.periodic, self.interpolation),
                      n_steps=self.n_steps if n_steps is None else n_steps, effects=tuple(effects), **self.scene_keys)
 
     def times(self, n_steps: int | None = None) -> np.ndarray:

@@ -175,6 +175,12 @@ def _object(r, v, w, k):
     return v
 
 
+def _shapes(r, v, w, k):
+    """A non-empty list of shape tables, as a device file's part draws them (``docs/devices.md``)."""
+    from pes_ref.devices.device_file import read_shapes      # the layer below; shapely is needed only here
+    return read_shapes(v, w, r.path, r.error)
+
+
 #: Key type -> converter ``(reader, value, where, key) -> value``.
 TYPES = {
     "number": _number,
@@ -198,4 +204,5 @@ TYPES = {
     "box": _box,
     "velocity": _velocity,
     "object": _object,
+    "shapes": _shapes,
 }

@@ -28,6 +28,7 @@ from pes_ref.core import budget
 from pes_ref.core.checks import InputError
 
 from pes_ref.core.interpolations import INTERPOLATIONS
+from pes_ref.core.surface import spacing as grid_spacing
 from pes_ref.core.stability import check_stable
 from pes_ref.core.steppers import INTEGRATORS, MODES
 from pes_ref.core.terms import Spring, Walls
@@ -36,15 +37,16 @@ from pes_ref.core.keyfile import parse_toml, read_text, show
 from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
 from pes_ref.synthesis.plans import Plan
+from pes_ref.synthesis.problem_contact import Contact
 from pes_ref.synthesis.success import SUCCESS_TESTS
 
 __all__ = ["FORMAT", "load_problem", "parse_problem", "problem_from_text", "problem_text", "with_sets",
-           "parse_set", "shipped_problem", "SHIPPED_PROBLEMS", "ProblemFileError", "SECTIONS"]
+           "parse_set", "shipped_problem", "at_step", "SHIPPED_PROBLEMS", "ProblemFileError", "SECTIONS"]
 
 #: The problem-file format this module reads.
 FORMAT = 1
 #: The problem files shipped in the package (``pes_ref/synthesis/data/NAME.toml``).
-SHIPPED_PROBLEMS = ("funnel", "latch")
+SHIPPED_PROBLEMS = ("funnel", "latch", "latch_contact")
 
 TOP_KEYS = {"format": Key("count"), "name": Key("text", None), "description": Key("text", "")}
 #: The sections of a problem file, after the top-level keys.
@@ -53,6 +55,12 @@ SURFACE_KEYS = {
     "lower": Key("point", unit="length"), "upper": Key("point", unit="length"),
     "periodic": Key("bool_pair", (False, False)), "shape": Key("grid_pair", unit="nodes"),
     "interpolation": Key("choice", "bilinear", choices=tuple(INTERPOLATIONS)),
+}
+#: ``[surface.contact]``: eq. (1) of blocked space, and a design made of it (``docs/realize.md``).
+CONTACT_KEYS = {
+    "v": Key("positive", unit="energy length^2"), "r_c": Key("positive", unit="length"),
+    "r_min": Key("positive", None, unit="length"), "realizable": Key("bool", False),
+    "blocked": Key("shapes", None, unit="length"),
 }
 HOLD_KEYS = {"lower": Key("point", unit="length"), "upper": Key("point", unit="length")}
 DYNAMICS_KEYS = {
@@ -151,7 +159,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         r.fail("format", f"this pes_ref reads problem files of format {FORMAT}, got {top['format']}")
     name = top["name"] or (os.path.splitext(os.path.basename(path))[0] if not path.startswith("<") else "problem")
 
-    surface = r.table(_section(r, data, "surface"), "surface", SURFACE_KEYS, also=("hold",))
+    surface = r.table(_section(r, data, "surface"), "surface", SURFACE_KEYS, also=("hold", "contact"))
     for d in range(2):
         if not surface["upper"][d] > surface["lower"][d]:
             r.fail(f"surface.upper[{d}]", f"expected upper > lower, got lower {surface['lower'][d]:g}, "
@@ -159,6 +167,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     holds = _list(r, _section(r, data, "surface").get("hold", []), "surface.hold")
     holds = tuple(r.box(h, f"surface.hold[{i}]") for i, h in enumerate(holds))
     domain = Domain(surface["lower"], surface["upper"], surface["periodic"])
+    contact = _contact(r, _section(r, data, "surface").get("contact"), surface)
 
     scene_keys, n_steps = _dynamics(r, _section(r, data, "dynamics"), domain)
     duration = n_steps * scene_keys["dt"]
@@ -204,9 +213,34 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         forces=forces, terms=[t for _, t in state], term_names=[n for n, _ in state] + [
             n for n, t in zip(names, terms) if is_grid_term(t)],
         grid_terms=grid_terms, tests=tests, scenarios=tuple(scenarios), eval_particles=ev["particles"], plan=plan,
-        init_scale=init_scale)
+        init_scale=init_scale, contact=contact)
     _check_scene(r, problem)
     return problem
+
+
+def _contact(r: Reader, table, surface: dict) -> Contact | None:
+    """``[surface.contact]`` (None: the file has none)."""
+    if table is None:
+        return None
+    keys = r.table(table, "surface.contact", CONTACT_KEYS)
+    r_min = keys["r_min"]
+    if r_min is None:
+        from pes_ref.devices.cspace import default_r_min      # the device files' rule, one home
+        r_min = default_r_min(grid_spacing(np.asarray(surface["lower"], dtype=np.float64),
+                                           np.asarray(surface["upper"], dtype=np.float64), surface["shape"],
+                                           np.asarray(surface["periodic"])))
+        if not r_min < keys["r_c"]:
+            r.fail("surface.contact.r_c", f"expected r_c above r_min's default, half the finer grid spacing "
+                                          f"({r_min:g}), got {keys['r_c']:g}")
+    elif not r_min < keys["r_c"]:
+        r.fail("surface.contact.r_min", f"expected r_min < r_c = {keys['r_c']:g}, got {r_min:g}")
+    if keys["realizable"] and keys["blocked"] is None:
+        r.fail("surface.contact.blocked", "missing: a realizable design starts from blocked shapes (a level set's "
+                                          "walls grow only from walls)")
+    if not keys["realizable"] and keys["blocked"] is not None:
+        r.fail("surface.contact.blocked", "is the starting shape of a realizable design; set "
+                                          "surface.contact.realizable = true, or leave blocked out")
+    return Contact(keys["v"], keys["r_c"], float(r_min), keys["realizable"], keys["blocked"] or ())
 
 
 def _section(r: Reader, data: dict, name: str) -> dict:
@@ -390,6 +424,24 @@ def with_sets(problem: DesignProblem, sets: dict) -> DesignProblem:
         if not isinstance(node, dict):
             raise ProblemFileError(f"{problem.path}: {dotted}: expected a key of a table, not an entry of a list")
         node[parts[-1]] = value
+    return parse_problem(data, problem.path)
+
+
+def at_step(problem: DesignProblem, dt: float) -> DesignProblem:
+    """``problem`` run at step ``dt``: the same durations (a file's ``n_steps`` raised to cover its
+    duration: ``ceil(n_steps dt0 / dt)``) and the noise's per-step std times ``sqrt(dt0 / dt)``
+    (the same diffusion per unit time), checked again."""
+    data = _tables(problem.data)
+    dt0 = problem.dt
+    dynamics = data["dynamics"]
+    dynamics["dt"] = float(dt)
+    if "n_steps" in dynamics:
+        dynamics["n_steps"] = _steps(dynamics["n_steps"] * dt0, dt)
+    scale = math.sqrt(dt0 / dt)
+    schedules = [data.get("forces", [])] + [sc.get("forces", []) for sc in data.get("evaluate", {}).get("scenario", [])]
+    for force in (f for schedule in schedules for f in schedule if f.get("kind") == "noise"):
+        std = force["std"]
+        force["std"] = [x * scale for x in std] if isinstance(std, list) else std * scale
     return parse_problem(data, problem.path)
 
 

@@ -86,6 +86,11 @@ class _Problem:
         """The flat starting surface: zeros."""
         return np.zeros(self.shape() if shape is None else shape)
 
+    def plain(self):
+        """This problem with its grid values the surface's energies (a realizable design's level
+        set turned off): what runs a surface given as energies, such as a realized device's."""
+        return self
+
 
 @dataclass(frozen=True)
 class FunnelProblem(_Problem):
@@ -157,6 +162,9 @@ class FunnelProblem(_Problem):
         checks.as_nonneg_float("init_strip", self.init_strip)
         if self.realizable:
             object.__setattr__(self, "level_set", LevelSet(self.contact_v, self.contact_r_c, self.contact_r_min))
+
+    def plain(self) -> "FunnelProblem":
+        return dataclasses.replace(self, realizable=False) if self.realizable else self
 
     # ------------------------------------------------------------------ geometry
     @property

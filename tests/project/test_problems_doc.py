@@ -32,7 +32,8 @@ def _kinds(heading: str, marker: str) -> dict:
 
 @pytest.mark.parametrize("heading, keys", [
     ("top level", pf.TOP_KEYS),
-    ("[surface]", {**pf.SURFACE_KEYS, "hold": None}),
+    ("[surface]", {**pf.SURFACE_KEYS, "hold": None, "contact": None}),
+    ("[surface.contact]", pf.CONTACT_KEYS),
     ("[dynamics]", {**pf.DYNAMICS_KEYS, "spring": None, "walls": None}),
     ("[starts]", pf.STARTS_KEYS),
     ("[[forces]]", {**pf.FORCE_KEYS, **{k: None for keys, _ in FORCES.values() for k in keys}}),

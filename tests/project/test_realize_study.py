@@ -5,6 +5,7 @@ import csv
 from _helpers import ROOT, load_script
 
 study = load_script(ROOT / "validation" / "experiments" / "realize_study.py")
+latch = load_script(ROOT / "validation" / "experiments" / "realize_latch.py")
 
 
 def test_the_smoke_study_writes_a_row_per_held_out_seed(tmp_path, capsys):
@@ -33,3 +34,15 @@ def test_the_smoke_oscillator_study_writes_a_row_per_level_and_seed_and_says_wha
     figures = dict(line.split(": ", 1) for line in out.splitlines() if ": " in line and not line.startswith("|"))
     assert 0.0 < float(figures["force_share_below_level"]) <= 1.0
     assert 0.0 < float(figures["grid_below_level"]) < 1.0
+
+
+def test_the_latch_study_writes_a_row_per_held_out_seed(tmp_path, capsys):
+    name = "latch_contact, starting shapes alone"
+    assert latch.main(["--smoke", "--out", str(tmp_path), "--only", name]) == 0
+    assert capsys.readouterr().out.count(f"| {name} |") == 2
+    with open(tmp_path / "realize_latch.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [int(r["seed"]) for r in rows] == list(latch.HELD_OUT)
+    for r in rows:
+        assert r["rule"] == "level-set" and r["iterations"] == "0"
+        assert 0.0 <= float(r["realized_success_fraction"]) <= 1.0

@@ -14,8 +14,8 @@ from pes_ref.devices.cspace import apf_energy, spring_grid
 from pes_ref.devices.device_file import parse_device
 from pes_ref.realize import exports
 from pes_ref.realize.contact import realize_contact
-from pes_ref.realize.evaluation import (REALIZABLE_KINDS, contact_parameters, evaluate_realized, held_out_positions,
-                                        realized_problem, start_row)
+from pes_ref.realize.evaluation import (REALIZABLE, contact_parameters, evaluate_realized, held_out_positions,
+                                        realized_problem, start_point)
 from pes_ref.realize.followers import drum_cam
 from pes_ref.synthesis.problems import OscillatorProblem
 
@@ -96,8 +96,8 @@ def test_a_drum_cam_needs_a_cylinder(realized):
 
 
 def test_the_oscillator_s_entry(problem):
-    assert "oscillator" in REALIZABLE_KINDS
-    assert start_row(problem) == [problem.amplitude * (1 + problem.kick), 0.0]
+    assert "oscillator" in REALIZABLE
+    assert start_point(problem) == [problem.amplitude * (1 + problem.kick), 0.0]
     energy = _values(problem)
     v, r_c, r_min = contact_parameters(problem, energy)
     h = np.array([5.0 / (GRID - 1), 2 * np.pi / GRID])
@@ -114,6 +114,7 @@ def test_the_realized_grid_is_eq1_alone_as_the_design_s_scene_adds_its_spring(pr
     run = realized_problem(problem, device)
     springs = spring_grid(device.springs, device.lower, device.upper, device.shape, device.periodic)
     np.testing.assert_allclose(device.surface().values - run.values, springs, atol=1e-12)
+    assert run.problem.spring_k == problem.spring_k                  # the device's spring, as the scene's
 
 
 def test_the_oscillator_s_evaluation_runs_on_its_drum_cam(problem, realized):
@@ -133,3 +134,10 @@ def test_a_stiff_drum_cam_runs_at_the_rule_s_step_for_the_design_s_duration(prob
     assert run.problem.steps_for(run.problem.eval_periods) * run.dt >= problem.eval_periods * problem.period
     with pytest.raises(ValueError, match="stability limit"):
         check_stable(problem.scene(run.values))
+
+
+def test_a_device_whose_springs_are_not_an_oscillator_s_is_refused(problem, realized):
+    other = copy.deepcopy(realized.device)
+    other["energy"]["springs"] = [{"axis": 1, "k": 1.0, "center": 0.0}]
+    with pytest.raises(ValueError, match="not an oscillator's: one spring along q0 centred on 0"):
+        realized_problem(problem, _device(other))

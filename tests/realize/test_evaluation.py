@@ -66,5 +66,5 @@ def test_a_device_on_another_grid_is_refused(problem, device_data):
 
 def test_a_kind_no_realization_covers_is_refused(device_data):
     other = SimpleNamespace(kind="catapult")
-    with pytest.raises(ValueError, match="realization covers funnel, oscillator designs; this design is a 'catapult'"):
+    with pytest.raises(ValueError, match="realization covers funnel, oscillator, problem designs; this design is a 'catapult'"):
         realized_problem(other, _device(device_data))

@@ -103,6 +103,19 @@ BAD = [
     ({"train.optimizer": "sgd"}, "train.optimizer", "'rmsprop'"),
     ({"train.stages": [[5, 4]]}, "train.stages", "start at iteration 0"),
     ({"train.lr": "fast"}, "train.lr", "finite number"),
+    ({"surface.contact": {"v": 1e-3}}, "surface.contact.r_c", "missing"),
+    ({"surface.contact": {"v": 1e-3, "r_c": 0.3, "colour": 1}}, "surface.contact.colour", "unknown key"),
+    ({"surface.contact": {"v": 0.0, "r_c": 0.3}}, "surface.contact.v", "> 0"),
+    ({"surface.contact": {"v": 1e-3, "r_c": 0.3, "r_min": 0.4}}, "surface.contact.r_min", "r_min < r_c"),
+    ({"surface.contact": {"v": 1e-3, "r_c": 0.01}}, "surface.contact.r_c", "r_min's default"),
+    ({"surface.contact": {"v": 1e-3, "r_c": 0.3, "realizable": True}}, "surface.contact.blocked", "missing"),
+    ({"surface.contact": {"v": 1e-3, "r_c": 0.3, "blocked": [{"polygon": [[0, 0], [1, 0], [0, 1]]}]}},
+     "surface.contact.blocked", "realizable = true"),
+    ({"surface.contact": {"v": 1e-3, "r_c": 0.3, "realizable": True, "blocked": []}}, "surface.contact.blocked",
+     "non-empty list of shapes"),
+    ({"surface.contact": {"v": 1e-3, "r_c": 0.3, "realizable": True,
+                          "blocked": [{"circle": {"center": [0, 0], "radius": -1}}]}},
+     "surface.contact.blocked[0].circle.radius", "> 0"),
 ]
 
 
@@ -214,6 +227,69 @@ radius = 0.3
         fd[idx] = (up - down) / (2 * FD_EPS)
     assert np.count_nonzero(fd) == values.size
     assert relative_error(step.grad, fd) < FD_RTOL
+
+
+# --------------------------------------------------------------------------- realizable problems
+
+#: A realizable gather: a level set that starts from a disc at (-0.2, 0.1) and a box (docs/problems.md).
+CONTACT = {"v": 2e-3, "r_c": 0.4, "r_min": 0.1, "realizable": True,
+           "blocked": [{"circle": {"center": [-0.2, 0.1], "radius": 0.35}},
+                       {"rectangle": {"lower": [0.6, -1.2], "upper": [1.2, -0.5]}}]}
+
+
+def test_a_realizable_problem_starts_from_its_shapes_and_its_surface_is_eq1_of_them():
+    problem = gather(**{"surface.contact": CONTACT, "surface.shape": [21, 21]})
+    values = problem.initial_values(np.random.default_rng(0), problem.shape())
+    q = np.linspace(-1.0, 1.0, 21)
+    disc = np.hypot(q[:, None] + 0.2, q[None, :] - 0.1) - 0.35
+    out = [np.maximum.reduce([lo - x, x - hi]) for x, lo, hi in ((q[:, None], 0.6, 1.2), (q[None, :], -1.2, -0.5))]
+    box = np.hypot(np.maximum(out[0], 0), np.maximum(out[1], 0)) + np.minimum(np.maximum(out[0], out[1]), 0)
+    # the starting values are the shapes' signed distance less r_c, capped at 0 (the disc's polygon within h/20)
+    expected = np.minimum(np.minimum(disc, box), 0.4) - 0.4
+    assert np.max(np.abs(values - expected)) < 0.1 / 20 + 1e-12
+    energy = problem.scene(values).surface.values
+    from pes_ref.devices.cspace import apf_energy
+    exact = apf_energy(problem.level_set.forward(values, problem.lower, problem.upper, problem.periodic).distance,
+                       2e-3, 0.4, 0.1)
+    np.testing.assert_array_equal(energy, exact)
+    assert problem.plain().scene(values).surface.values is not None
+    np.testing.assert_array_equal(problem.plain().scene(exact).surface.values, exact)
+
+
+@pytest.mark.parametrize("periodic", [[False, False], [False, True], [True, True]])
+def test_a_realizable_problem_s_design_gradient_matches_central_differences(periodic):
+    sets = {"surface.contact": CONTACT, "surface.shape": [9, 9], "surface.periodic": periodic}
+    if any(periodic):
+        sets["dynamics.walls.edges"] = [[not periodic[0]] * 2, [not periodic[1]] * 2]
+    problem = gather(**sets)
+    values = problem.initial_values(np.random.default_rng(0), problem.shape())
+    values = values + 1e-3 * np.random.default_rng(1).standard_normal(values.shape)
+    step = synthesis.design_gradient(problem, values, seed=1, iteration=0, n_particles=4)
+
+    def loss(v):
+        return synthesis.design_gradient(problem, v, seed=1, iteration=0, n_particles=4).loss
+
+    checked = 0
+    for idx in np.ndindex(values.shape):
+        e = np.zeros_like(values)
+        e[idx] = 1e-7
+        up, down, base = loss(values + e), loss(values - e), step.loss
+        right, left = (up - base) / 1e-7, (base - down) / 1e-7
+        if abs(right - left) > 1e-3 * max(abs(right), abs(left), 1e-3):
+            continue                                                # a kink of the level set: not compared
+        central = (up - down) / 2e-7
+        assert step.grad[idx] == pytest.approx(central, rel=1e-4, abs=1e-6 * max(abs(central), 1e-2)), idx
+        checked += abs(central) > 1e-6
+    assert checked >= 5
+
+
+def test_at_step_keeps_durations_and_the_noise_s_diffusion():
+    from pes_ref.synthesis.problem_file import at_step
+    problem = gather(**{"dynamics.duration": 2.0})
+    slow = at_step(problem, 0.02)
+    assert slow.dt == 0.02 and slow.n_steps == 100 and problem.n_steps == 40
+    noise = [f for f in slow.forces if f.kind == "noise"][0]
+    np.testing.assert_allclose(noise.keys["std"], 0.1 * np.sqrt(0.05 / 0.02), rtol=1e-15)
 
 
 # --------------------------------------------------------------------------- design files and resuming

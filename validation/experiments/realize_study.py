@@ -120,7 +120,9 @@ def run(out: Path, smoke: bool, names=None) -> list:
     return rows
 
 
-def _evaluated(name, design, parts, realize_text, t_design, t_realize) -> list:
+def _evaluated(name, design, parts, realize_text, t_design, t_realize, figures=FIGURES) -> list:
+    """One row per held-out seed: ``evaluate DESIGN --realized PARTS/device.toml``'s ``figures``
+    beside their ``realized_`` ones, the realized step and each command's seconds."""
     realized = _figures(realize_text)
     rows = []
     for seed in HELD_OUT:
@@ -128,7 +130,7 @@ def _evaluated(name, design, parts, realize_text, t_design, t_realize) -> list:
         got = _figures(text)
         row = {"variant": name, "seed": seed, "rule": realized["rule"], "blocked_share": realized["blocked_share"],
                "iterations": got["iterations"]}
-        for f in FIGURES:
+        for f in figures:
             row[f] = got[f]
             row[f"realized_{f}"] = got[f"realized_{f}"]
         row.update({"realized_dt": got["realized_dt"], "design_s": f"{t_design:.1f}", "realize_s": f"{t_realize:.1f}",
@@ -219,14 +221,27 @@ def walls(design: Path, device_file: Path, level: float) -> dict:
                                           if captured.any() else "none")}
 
 
+def markdown(head: list, keys: list, rows: list) -> str:
+    """The rows as a Markdown table: columns ``head``, cells ``row[key]``."""
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(str(r[k]) for k in keys) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def write_csv(path, rows: list) -> None:
+    """The rows as a CSV file with a header line (the first row's keys)."""
+    with open(path, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def table(rows: list) -> str:
     head = ["variant", "seed", "rule", "blocked", "in band", "realized", "exited", "realized exited",
             "realized dt", "design s", "realize s", "evaluate s"]
     keys = ["variant", "seed", "rule", "blocked_share", "in_band_fraction", "realized_in_band_fraction",
             "exited_fraction", "realized_exited_fraction", "realized_dt", "design_s", "realize_s", "evaluate_s"]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    lines += ["| " + " | ".join(str(r[k]) for k in keys) + " |" for r in rows]
-    return "\n".join(lines)
+    return markdown(head, keys, rows)
 
 
 def main(argv=None) -> int:
@@ -243,29 +258,18 @@ def main(argv=None) -> int:
     print(table(rows))
     if HEIGHTFIELD_ROWS:
         keys = list(HEIGHTFIELD_ROWS[0])
-        print("\n| " + " | ".join(keys) + " |\n|" + "---|" * len(keys))
-        print("\n".join("| " + " | ".join(str(r[k]) for k in keys) + " |" for r in HEIGHTFIELD_ROWS))
-        with open(args.out / "realize_study_heightfield.csv", "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=keys)
-            writer.writeheader()
-            writer.writerows(HEIGHTFIELD_ROWS)
-    with open(args.out / "realize_study.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+        print("\n" + markdown(keys, keys, HEIGHTFIELD_ROWS))
+        write_csv(args.out / "realize_study_heightfield.csv", HEIGHTFIELD_ROWS)
+    write_csv(args.out / "realize_study.csv", rows)
     print(f"wrote {os.path.join(args.out, 'realize_study.csv')}")
     return 0
 
 
 def _main_oscillator(args) -> int:
     rows, figures = run_oscillator(args.out, args.smoke)
-    print("| " + " | ".join(h for h, _ in OSC_COLUMNS) + " |\n|" + "---|" * len(OSC_COLUMNS))
-    print("\n".join("| " + " | ".join(str(r[k]) for _, k in OSC_COLUMNS) + " |" for r in rows))
+    print(markdown([h for h, _ in OSC_COLUMNS], [k for _, k in OSC_COLUMNS], rows))
     print("\n".join(f"{k}: {v:.4g}" if isinstance(v, float) else f"{k}: {v}" for k, v in figures.items()))
-    with open(args.out / "realize_oscillator.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(args.out / "realize_oscillator.csv", rows)
     print(f"wrote {os.path.join(args.out, 'realize_oscillator.csv')}")
     return 0
 
