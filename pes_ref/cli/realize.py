@@ -106,6 +106,12 @@ def _outputs(args, files: dict) -> dict:
     return out
 
 
+def _contact_files(state) -> dict:
+    """The files of the follower that realizes the design's topology (known before anything is computed)."""
+    from pes_ref.realize.followers import follower_for
+    return CONTACT_FILES[follower_for(state.problem.periodic).name]
+
+
 def _value(option):
     """An option's value: the library's default where it was not given."""
     return option.value() if isinstance(option, LazyDefault) else option
@@ -131,9 +137,9 @@ def _run_realize(args) -> int:
         _refuse_others(args)
         state = load_design(input_file(args.file, "design file"))
         prepare, write, files_of = REALIZATIONS[args.as_]
-        job = prepare(state, args)
-        files = files_of(job)
+        files = files_of(state)
         outputs = _outputs(args, files)
+        job = prepare(state, args)
     except (ValueError, TypeError, OSError, ImportError) as exc:
         return error(exc, FLAGS)
     try:
@@ -304,6 +310,6 @@ def _write_heightfield(job, state, outputs: dict, args) -> list:
 
 
 #: The realizations: --as NAME -> (prepare(state, args) -> job, write(job, state, outputs, args) -> lines,
-#: files(job) -> the files it writes).
-REALIZATIONS = {"contact": (_prepare_contact, _write_contact, lambda real: CONTACT_FILES[real.parts.follower]),
-                "heightfield": (_prepare_heightfield, _write_heightfield, lambda job: HEIGHTFIELD_FILES)}
+#: files(state) -> the files it writes, known before anything is computed).
+REALIZATIONS = {"contact": (_prepare_contact, _write_contact, _contact_files),
+                "heightfield": (_prepare_heightfield, _write_heightfield, lambda state: HEIGHTFIELD_FILES)}

@@ -24,7 +24,7 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.realize.evaluation import check_kind, contact_parameters, start_point
-from pes_ref.realize.followers import DRUM_RADIUS, FOLLOWERS, Parts
+from pes_ref.realize.followers import DRUM_CAM, DRUM_RADIUS, Parts, follower_for
 from pes_ref.realize.regions import Region, contact_region
 
 __all__ = ["ContactRealization", "realize_contact", "CONTACT_DEFAULTS"]
@@ -92,16 +92,15 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     if not thickness * 2 < float(np.finfo(np.float32).max):      # STL stores float32 coordinates
         raise checks.InputError("thickness", f"thickness must be below {float(np.finfo(np.float32).max) / 2:g} (an STL file "
                                              f"stores float32), got {thickness:g}")
+    follower = follower_for(problem.periodic)
+    if drum_radius is not None and follower.name != DRUM_CAM:
+        raise checks.InputError("drum_radius", f"drum_radius goes with a cylinder design (a drum cam); this design "
+                                               f"is a plane (a {follower.name})")
     region = contact_region(problem, values, rule, level)
-    follower = FOLLOWERS.get(tuple(region.periodic))
-    if follower is None:
-        raise checks.InputError("as", f"no contact follower realizes a surface with periodic axes "
-                                      f"{list(region.periodic)} (a plane: a pin in a plate; a cylinder wrapping "
-                                      f"q1: a drum cam)")
     scene = problem.scene(values)
     walled = np.zeros((2, 2), dtype=bool) if scene.walls is None else np.asarray(scene.walls.edges, dtype=bool)
     open_edges = [(d, side) for d in range(2) for side in range(2) if not region.periodic[d] and not walled[d, side]]
-    parts = follower(region, pin_radius, rim, open_edges, drum_radius)
+    parts = follower.build(region, pin_radius, rim, open_edges, drum_radius)
     damping = np.broadcast_to(scene.damping if scene.damping is not None else 0.0, (2,))
     mass = np.broadcast_to(scene.mass, (2,))
     dynamics = {"mass": [float(m) for m in mass], "damping": [float(d) for d in damping]}

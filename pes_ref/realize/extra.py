@@ -1,13 +1,14 @@
 """The optional extra ``realize``: shapely >= 2.1 (the parts' geometry and their triangulation),
 contourpy (the blocked region's contour), ezdxf (DXF) and trimesh (STL).
 
-:func:`require_realize` imports them or raises
-:class:`pes_ref.devices.geometry.MissingExtraError` with the pip line, which the command line
-prints as its one error line.
+:func:`require_realize` imports shapely and finds the others without importing them (each is
+imported where it is used; importing ezdxf and trimesh takes longer than refusing a bad
+option), or raises :class:`pes_ref.devices.geometry.MissingExtraError` with the pip line,
+which the command line prints as its one error line.
 """
 from __future__ import annotations
 
-import importlib
+import importlib.util
 
 from pes_ref.devices.geometry import MissingExtraError, require_shapely
 
@@ -20,7 +21,7 @@ _MODULES = (("contourpy", "contours"), ("ezdxf", "DXF files"), ("trimesh", "STL 
 
 
 def require_realize() -> dict:
-    """The modules ``{"shapely": ..., "ezdxf": ..., "trimesh": ...}``, or
+    """``{"shapely": the module}`` once every module of the extra is found, or
     :class:`~pes_ref.devices.geometry.MissingExtraError` naming the missing one and the pip line."""
     try:
         out = {"shapely": require_shapely()}
@@ -30,9 +31,7 @@ def require_realize() -> dict:
         raise MissingExtraError(f"realization needs shapely >= 2.1 (its triangulation), found "
                                 f"{out['shapely'].__version__}: {PIP_LINE}")
     for name, what in _MODULES:
-        try:
-            out[name] = importlib.import_module(name)
-        except ImportError:
+        if importlib.util.find_spec(name) is None:
             raise MissingExtraError(f"realization needs {name} for its {what} (the optional extra 'realize'): "
-                                    f"{PIP_LINE}") from None
+                                    f"{PIP_LINE}")
     return out

@@ -22,6 +22,7 @@ so in (q0, q1) it is an ellipse r wide in q0 and r / R in q1.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,12 +30,23 @@ from pes_ref.core import checks
 from pes_ref.devices.geometry import Drum
 from pes_ref.realize.regions import Region, region_polygons
 
-__all__ = ["Parts", "pin_in_plate", "drum_cam", "FOLLOWERS", "plate_outline_tolerance", "DRUM_RADIUS"]
+__all__ = ["Parts", "Follower", "pin_in_plate", "drum_cam", "FOLLOWERS", "follower_for", "plate_outline_tolerance",
+           "DRUM_RADIUS", "PIN_IN_PLATE", "DRUM_CAM"]
 
 #: The drum cam's default radius (C-space length): at R = 1 the unrolled surface's arc length is
 #: the angle q1 itself, so the pin's disc is as round in (q0, q1) as on the drum and the C-space
 #: distance of eq. (1) is the distance on the drum's surface.
 DRUM_RADIUS = 1.0
+#: The followers' names (:attr:`Parts.follower`; the realize command's files are keyed by them).
+PIN_IN_PLATE, DRUM_CAM = "pin-in-plate", "drum-cam"
+
+
+class Follower(NamedTuple):
+    """A contact follower: its ``name`` and ``build(region, pin_radius, rim, open_edges,
+    drum_radius) -> Parts``."""
+
+    name: str
+    build: object
 
 
 @dataclass(frozen=True)
@@ -160,15 +172,13 @@ def pin_in_plate(region: Region, pin_radius: float, rim: float, open_edges=(), d
 
     ``open_edges`` lists the ``(axis, side)`` edges through which the design's particles leave
     the domain (no wall there): the free region along them runs on out through the rim, as the
-    design's surface runs on beyond its edge."""
+    design's surface runs on beyond its edge. ``drum_radius`` is a drum cam's (:class:`Follower`'s
+    common signature); :func:`pes_ref.realize.contact.realize_contact` refuses it for a plane."""
     from pes_ref.realize.extra import require_realize
     shapely = require_realize()["shapely"]
     if any(region.periodic):
         raise checks.InputError("as", "a pin in a plate realizes a plane (no periodic axis); this design's "
                                       "surface wraps")
-    if drum_radius is not None:
-        raise checks.InputError("drum_radius", "drum_radius goes with a cylinder design (a drum cam); this design "
-                                               "is a plane (a pin in a plate)")
     r = checks.as_positive_float("pin_radius", pin_radius)
     rim = checks.as_positive_float("rim", rim)
     h = float(np.max(region.spacing))
@@ -181,7 +191,7 @@ def pin_in_plate(region: Region, pin_radius: float, rim: float, open_edges=(), d
     plate = _material(shapely, blocked, lo, hi, frame, r, tol, open_edges, rim)
     grown = shapely.intersection(shapely.buffer(plate, r, quad_segs=16), box)
     domain = shapely.box(region.lower[0], region.lower[1], region.upper[0], region.upper[1])
-    return Parts("pin-in-plate", r, plate, blocked, grown, (lo, hi), _lost_share(shapely, blocked, grown, domain),
+    return Parts(PIN_IN_PLATE, r, plate, blocked, grown, (lo, hi), _lost_share(shapely, blocked, grown, domain),
                  {"motion": "translation", "direction": [0.0, -1.0]})
 
 
@@ -212,10 +222,20 @@ def drum_cam(region: Region, pin_radius: float, rim: float, open_edges=(), drum_
     box = shapely.box(lo[0], lo[1], hi[0], hi[1])
     grown = shapely.intersection(shapely.buffer(Drum(radius).tiled(walls), r, quad_segs=16), box)
     domain = shapely.box(region.lower[0], 0.0, region.upper[0], turn)
-    return Parts("drum-cam", r, walls, blocked, grown, (lo, hi), _lost_share(shapely, blocked, grown, domain),
+    return Parts(DRUM_CAM, r, walls, blocked, grown, (lo, hi), _lost_share(shapely, blocked, grown, domain),
                  {"motion": "drum", "radius": radius}, "drum", radius, turn)
 
 
-#: The follower of each topology: periodic axes -> builder(region, pin_radius, rim, open_edges,
-#: drum_radius) -> Parts.
-FOLLOWERS = {(False, False): pin_in_plate, (False, True): drum_cam}
+#: The follower of each topology: periodic axes -> :class:`Follower`.
+FOLLOWERS = {(False, False): Follower(PIN_IN_PLATE, pin_in_plate), (False, True): Follower(DRUM_CAM, drum_cam)}
+
+
+def follower_for(periodic) -> Follower:
+    """The follower that realizes a surface with periodic axes ``periodic`` (one line naming
+    ``as`` if none does)."""
+    follower = FOLLOWERS.get(tuple(bool(p) for p in periodic))
+    if follower is None:
+        raise checks.InputError("as", f"no contact follower realizes a surface with periodic axes "
+                                      f"{[bool(p) for p in periodic]} (a plane: a pin in a plate; a cylinder "
+                                      f"wrapping q1: a drum cam)")
+    return follower

@@ -88,6 +88,18 @@ def test_existing_files_are_kept_unless_forced(capsys, design, tmp_path):
     assert code == EXIT_OK and (out_dir / "plate.dxf").read_text().startswith("  0\nSECTION")
 
 
+@pytest.mark.parametrize("argv", [["--out", "parts"], ["--out", "newparts", "--drum-radius", "2"]])
+def test_outputs_and_options_are_refused_before_anything_is_computed(capsys, monkeypatch, design, tmp_path, argv):
+    from pes_ref.realize import contact
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "device.toml").write_text("a user's device")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(contact, "contact_region", lambda *a, **k: pytest.fail("the region was computed"))
+    code, out, err = run(capsys, "realize", str(design), "--as", "contact", *argv)
+    assert code == EXIT_ERROR and out == "" and err.count("\n") == 1
+    assert ("device.toml exists already" in err) if len(argv) == 2 else ("--drum-radius goes with a cylinder" in err)
+
+
 def test_a_write_that_fails_part_way_leaves_no_file_of_the_set(capsys, monkeypatch, design, tmp_path):
     from pes_ref.realize import exports
     real_write = exports.write_stl
