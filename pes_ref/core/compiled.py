@@ -37,8 +37,8 @@ from types import SimpleNamespace
 import numpy as np
 from numba import njit
 
-from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, quasistatic_velocities,
-                                     reports_nonfinite, step_coefficients, trajectory_arrays)
+from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, finish_quasistatic_adjoint,
+                                     quasistatic_velocities, reports_nonfinite, step_coefficients, trajectory_arrays)
 from pes_ref.core.progress import blocks as step_blocks
 from pes_ref.core.steppers import STEPPERS as NUMPY_STEPPERS, Stepper, StepParams
 from pes_ref.core.terms import spring_axes
@@ -110,6 +110,19 @@ def _locate(q0, q1, g, per0, per1, clips):
 
 
 @njit(inline="always", **_JIT)
+def _spring_d(q0, q1, i, sc, wraps, swrap0, swrap1, shalf, slen):
+    """Particle ``i``'s spring displacement ``q - center`` (the minimum image on a wrapped axis)."""
+    d0 = q0 - sc[i, 0]
+    d1 = q1 - sc[i, 1]
+    if wraps:
+        if swrap0:
+            d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
+        if swrap1:
+            d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
+    return d0, d1
+
+
+@njit(inline="always", **_JIT)
 def _force(q0, q1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
            won, wk, wlo, whi):
     """``F(q)`` of particle ``i`` (N, 2 row): the grid's ``(A + f D) s`` from its table row,
@@ -124,13 +137,7 @@ def _force(q0, q1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, 
     F0 = (table[row, 2] * f1 + table[row, 0]) * s0
     F1 = (table[row, 3] * f0 + table[row, 1]) * s1
     if son:
-        d0 = q0 - sc[i, 0]
-        d1 = q1 - sc[i, 1]
-        if wraps:
-            if swrap0:
-                d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
-            if swrap1:
-                d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
+        d0, d1 = _spring_d(q0, q1, i, sc, wraps, swrap0, swrap1, shalf, slen)
         F0 = F0 - sk[i, 0] * d0
         F1 = F1 - sk[i, 1] * d1
     if won:
@@ -168,13 +175,7 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, cross, offsets, gtab
         xb0 = xb0 - b0
         xb1 = xb1 - b1
         if want_k:
-            d0 = q0 - sc[i, 0]
-            d1 = q1 - sc[i, 1]
-            if wraps:
-                if swrap0:
-                    d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
-                if swrap1:
-                    d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
+            d0, d1 = _spring_d(q0, q1, i, sc, wraps, swrap0, swrap1, shalf, slen)
             gk[i, 0] = gk[i, 0] - d0 * w0
             gk[i, 1] = gk[i, 1] - d1 * w1
         if want_c:
@@ -666,13 +667,7 @@ def adjoint_quasistatic(field, traj: Trajectory, mobility, gx, want: frozenset, 
         adj.kernels.quasistatic_adjoint_steps(x, f, gx_, has_gx, T - after, T - done, mu, xbar, mubar is not None,
                                               np.zeros(2) if mubar is None else mubar, gforce is not None,
                                               _or3(gforce), *adj.terms())
-    out = {"x0": xbar}
-    out.update(adj.result())
-    if gforce is not None:
-        out["force"] = gforce
-    if mubar is not None:
-        out["mobility"] = mubar
-    return out
+    return finish_quasistatic_adjoint(adj, xbar, gforce, mubar)
 
 
 def _or(a):

@@ -49,7 +49,8 @@ from pes_ref.core.progress import reporting
 
 __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
            "adjoint_quasistatic", "NonFiniteError", "check_finite", "reports_nonfinite", "step_coefficients",
-           "trajectory_arrays", "quasistatic_velocities", "start_dynamic", "finish_dynamic_adjoint"]
+           "trajectory_arrays", "quasistatic_velocities", "start_dynamic", "finish_dynamic_adjoint",
+           "finish_quasistatic_adjoint"]
 
 
 class NonFiniteError(FloatingPointError):
@@ -389,6 +390,13 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
         vjp(n, fbar, xbar)
         if gx is not None:
             add(xbar, gx[n], xbar)
+    return finish_quasistatic_adjoint(adj, xbar, gforce, mubar)
+
+
+def finish_quasistatic_adjoint(adj, xbar, gforce, mubar) -> dict:
+    """The gradients a quasistatic adjoint returns (shared by :func:`adjoint_quasistatic` and the
+    compiled loops): ``x0``, the terms' (``adj.result()``), and ``force`` and ``mobility`` when
+    asked for (not None)."""
     out = {"x0": xbar}
     out.update(adj.result())
     if gforce is not None:
