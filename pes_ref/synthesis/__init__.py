@@ -33,7 +33,7 @@ from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 from pes_ref.synthesis.exits import FunnelExit, exit_steps
 from pes_ref.synthesis.problems import (FUNNEL_OBJECTIVES, IN_BAND_SHARE, OSCILLATOR_COSTS, PROBLEMS, Batch,
                                         FunnelProblem, OscillatorProblem, PhaseThenCycle, exit_positions)
-from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS,
+from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, DEFAULT_PLANS, default_plan, DEFAULT_POLISH, OSCILLATOR_PLANS,
                                      OSCILLATOR_POLISH, Plan, PolishPlan)
 from pes_ref.synthesis.resampling import resample
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, TermSum
@@ -61,7 +61,7 @@ __all__ = [
     "FunnelExit", "exit_steps",
     "FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
     "IN_BAND_SHARE", "exit_positions", "FUNNEL_OBJECTIVES",
-    "Plan", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
+    "Plan", "PolishPlan", "default_plan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
     "DEFAULT_OSCILLATOR_PLAN",
     "resample",
     "DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",

@@ -26,10 +26,17 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 ``polish_fitness``  (G,) float64, the best fitness at those counts
 ``backend``         the loops that ran it, ``"numba"`` or ``"numpy"`` (version 3;
                     :data:`pes_ref.core.backends.BACKENDS`): a run resumes on its own
+``valid_iters``     (V,) int64, the iterations after which the grid was validated (version 4;
+                    :mod:`pes_ref.synthesis.validation`)
+``valid_success``   (V,) float64, the validation success there
+``best_iteration``  int, the best validation's iteration (-1: none yet)
+``best_success``    float, its success (NaN: none yet)
+``best_values``     the best validated grid ((0,) without one)
 ==================  =====================================================================
 
-Version 1 files (before the polish stage) are read as gradient-only runs, and version 1
-and 2 files (before the compiled loops) as runs of the ``"numpy"`` backend.
+Version 1 files (before the polish stage) are read as gradient-only runs, version 1
+and 2 files (before the compiled loops) as runs of the ``"numpy"`` backend, and version 1-3
+files (before validation) as runs with no validation made.
 
 The members are stored uncompressed. The file is written by the package's one atomic
 ``.npz`` writer (:func:`write_npz`): a crash never leaves half a design, and the writer,
@@ -53,6 +60,7 @@ from pes_ref.synthesis.problem_file import ProblemFileError, problem_from_text, 
 
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.design_state import STAGES, DesignState
+from pes_ref.synthesis.validation import Best
 
 __all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "check_same_problem",
            "first_difference", "is_design_file", "DesignFileError",
@@ -60,13 +68,15 @@ __all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "c
            "FORMAT", "VERSION", "READABLE_VERSIONS"]
 
 FORMAT = "pes_ref.design"
-VERSION = 3
+VERSION = 4
 #: The versions this package reads.
-READABLE_VERSIONS = (1, 2, 3)
+READABLE_VERSIONS = (1, 2, 3, 4)
 _REQUIRED = ("format", "version", "kind", "problem", "plan", "seed", "iteration", "values", "loss", "metric",
              "status", "elapsed")
 #: Keys a version-2 file has beyond version 1's.
 _REQUIRED_V2 = ("method", "stage", "polish", "base_values", "evaluations", "polish_evals", "polish_fitness")
+#: Keys a version-4 file has beyond version 3's.
+_REQUIRED_V4 = ("valid_iters", "valid_success", "best_iteration", "best_success", "best_values")
 
 
 class DesignFileError(ValueError):
@@ -107,6 +117,11 @@ def design_arrays(state: DesignState) -> dict:
         "polish_evals": np.asarray(state.polish_history["evaluations"], dtype=np.int64).reshape(-1),
         "polish_fitness": np.asarray(state.polish_history["fitness"], dtype=np.float64).reshape(-1),
         "backend": np.array(state.backend),
+        "valid_iters": np.asarray(state.validation["iteration"], dtype=np.int64).reshape(-1),
+        "valid_success": np.asarray(state.validation["success"], dtype=np.float64).reshape(-1),
+        "best_iteration": np.array(-1 if state.best is None else state.best.iteration, dtype=np.int64),
+        "best_success": np.array(np.nan if state.best is None else state.best.success, dtype=np.float64),
+        "best_values": np.zeros(0) if state.best is None else np.asarray(state.best.values, dtype=np.float64),
     }
     for k, v in state.optimizer.state_dict().items():
         arrays["opt_" + k] = v
@@ -139,7 +154,8 @@ def load_design(path) -> DesignState:
     if version not in READABLE_VERSIONS:
         raise DesignFileError(f"{path} is a design file of version {version}; this pes_ref reads versions "
                               f"{', '.join(map(str, READABLE_VERSIONS))}")
-    missing = [k for k in _REQUIRED_V2 if k not in data] if version >= 2 else []
+    missing = [k for k in (_REQUIRED_V2 if version >= 2 else ()) + (_REQUIRED_V4 if version >= 4 else ())
+               if k not in data]
     if missing:
         raise DesignFileError(f"{path} is a damaged design file: missing keys {missing}")
     kind = str(data["kind"])
@@ -175,7 +191,21 @@ def load_design(path) -> DesignState:
             raise DesignFileError(f"{path} is a damaged design file: backend {backend!r}, expected one of "
                                   f"{sorted(BACKENDS)}")
         state.backend = backend
+    if version >= 4:
+        _read_validation(path, data, state)
     return state
+
+
+def _read_validation(path, data: dict, state: DesignState) -> None:
+    """The version-4 fields: the validations made and the best grid."""
+    iters, success = data["valid_iters"], data["valid_success"]
+    if iters.shape != success.shape:
+        raise DesignFileError(f"{path} is a damaged design file: validation history lengths {iters.shape}, "
+                              f"{success.shape}")
+    state.validation = {"iteration": [int(i) for i in iters], "success": success.tolist()}
+    best = int(data["best_iteration"])
+    if best >= 0:
+        state.best = Best(best, float(data["best_success"]), np.array(data["best_values"], dtype=np.float64))
 
 
 def _read_polish(path, data: dict, state: DesignState) -> None:

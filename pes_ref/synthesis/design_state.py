@@ -17,6 +17,7 @@ from pes_ref.core import backends, checks
 from pes_ref.synthesis.plans import DEFAULT_PLANS, DEFAULT_POLISH, Plan, PolishPlan
 from pes_ref.synthesis.problems import PROBLEMS
 from pes_ref.synthesis.refusals import check_run_memory, check_stable_design
+from pes_ref.synthesis.validation import Best
 
 __all__ = ["DesignState", "new_design", "STOPPED", "STAGES"]
 
@@ -48,6 +49,10 @@ class DesignState:
     ``backend`` names the loops that run it (:data:`pes_ref.core.backends.BACKENDS`): the
     gradients, hence the design, depend on it in their last bits, so a run keeps its own
     (the same backend reproduces a design bit for bit).
+
+    ``validation`` maps ``"iteration"`` and ``"success"`` to the iterations after which a plan
+    that validates judged the grid and the validation success there; ``best`` is the best of
+    them so far (:class:`pes_ref.synthesis.validation.Best`, None before the first).
     """
 
     problem: object
@@ -65,6 +70,8 @@ class DesignState:
     evaluations: int = 0
     polish_history: dict = dataclasses.field(default_factory=lambda: {"evaluations": [], "fitness": []})
     backend: str = "numpy"
+    validation: dict = dataclasses.field(default_factory=lambda: {"iteration": [], "success": []})
+    best: Best | None = None
 
     @property
     def kind(self) -> str:

@@ -17,7 +17,7 @@ from typing import NamedTuple
 from pes_ref.core import checks
 from pes_ref.synthesis.optimizers import make_optimizer
 
-__all__ = ["Plan", "Stage", "PolishPlan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
+__all__ = ["Plan", "Stage", "PolishPlan", "default_plan", "coarse_to_fine", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
            "DEFAULT_OSCILLATOR_PLAN", "POLISH_METHODS"]
 
 
@@ -64,6 +64,14 @@ class Plan:
         Particles per iteration.
     scale_lr_by_grid : bool
         Whether a stage's learning rate is scaled by the grid ratio (above).
+    validate_every : int
+        0 (off), or every this many iterations (and at the run's last) the design, resampled
+        to the problem's grid, is judged on ``validation_particles`` fixed validation particles
+        (:mod:`pes_ref.synthesis.validation`) by the problem's success share; the run keeps
+        the best such grid and ends on it.
+    validation_particles : int
+    target : float or None
+        With validation: stop once a validation reaches this success share (None: never early).
     """
 
     iterations: int = 300
@@ -75,6 +83,9 @@ class Plan:
     stages: tuple = ((0, 0),)
     n_particles: int = 64
     scale_lr_by_grid: bool = True
+    validate_every: int = 0
+    validation_particles: int = 200
+    target: float | None = None
 
     def __post_init__(self):
         checks.as_positive_int("iterations", self.iterations)
@@ -87,6 +98,10 @@ class Plan:
         checks.as_positive_int("n_particles", self.n_particles)
         if not isinstance(self.scale_lr_by_grid, bool):
             raise TypeError(f"scale_lr_by_grid must be a bool, got {self.scale_lr_by_grid!r}")
+        checks.as_nonneg_int("validate_every", self.validate_every)
+        checks.as_positive_int("validation_particles", self.validation_particles)
+        if self.target is not None and not 0.0 < checks.as_finite_float("target", self.target) <= 1.0:
+            raise checks.InputError("target", f"target must be in (0, 1], got {self.target!r}")
         stages = tuple(tuple(int(x) for x in st) + (0,) * (3 - len(st)) for st in self.stages)
         if any(len(st) != 3 or min(st) < 0 for st in stages):
             raise checks.InputError("stages", f"stages must be (start_iteration, grid[, n_steps]) tuples >= 0, "
@@ -124,6 +139,10 @@ class Plan:
         if not self.scale_lr_by_grid:
             return lr
         return lr * (self.grid_at(0, problem)[0] / self.grid_at(iteration, problem)[0])
+
+    def validates_at(self, iteration: int, total: int) -> bool:
+        """Whether the design after ``iteration`` iterations (of ``total``) is validated."""
+        return self.validate_every > 0 and (iteration % self.validate_every == 0 or iteration == total)
 
     def make_optimizer(self):
         return make_optimizer(self.optimizer, lr=self.lr, clip=self.clip)
@@ -240,3 +259,27 @@ DEFAULT_PLANS = {
 }
 #: The polish stage of each kind's default (None: the gradient stage alone).
 DEFAULT_POLISH = {"funnel": None, "oscillator": OSCILLATOR_POLISH[DEFAULT_OSCILLATOR_PLAN]}
+
+
+#: The grids (nodes along axis 0) of :func:`coarse_to_fine`'s stages below the final grid: each
+#: about twice the last, so a stage refines the one before by resampling (5, 9, 17, ...).
+COARSE_GRIDS = (5, 9, 17)
+#: The plan of a problem file without ``[train]`` (issue 30; its measured comparison is in
+#: docs/problems.md, "The default plan"): :func:`coarse_to_fine` stages, RMSprop from ``lr`` to
+#: ``lr_final`` over the run, and validation every ``validate_every`` iterations with an early
+#: stop at ``target``.
+DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.0005, "n_particles": 64,
+                     "validate_every": 10, "validation_particles": 200, "target": 0.97}
+
+
+def coarse_to_fine(n0: int, iterations: int) -> tuple:
+    """Stages of equal shares of ``iterations`` on the :data:`COARSE_GRIDS` below ``n0`` nodes,
+    then the final grid: ``((0, 5), (75, 9), (150, 17), (225, 0))`` for 300 iterations on a grid of 40."""
+    grids = [g for g in COARSE_GRIDS if g < n0] + [0]
+    return tuple((iterations * i // len(grids), g) for i, g in enumerate(grids))
+
+
+def default_plan(shape) -> Plan:
+    """The plan of a problem file without ``[train]``, on a final grid of ``shape`` (:data:`DEFAULT_FILE_PLAN`)."""
+    its = DEFAULT_FILE_PLAN["iterations"]
+    return Plan(**DEFAULT_FILE_PLAN, decay_iterations=its, stages=coarse_to_fine(shape[0], its))

@@ -36,7 +36,7 @@ from pes_ref.synthesis.design_problem import FORCES, DesignProblem, Force, Scena
 from pes_ref.core.keyfile import parse_toml, read_text, show
 from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
-from pes_ref.synthesis.plans import Plan
+from pes_ref.synthesis.plans import Plan, default_plan
 from pes_ref.synthesis.problem_contact import Contact
 from pes_ref.synthesis.success import SUCCESS_TESTS
 
@@ -205,7 +205,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     if len({s.name for s in scenarios}) != len(scenarios):
         r.fail("evaluate.scenario", f"two scenarios have the same name: {[s.name for s in scenarios]}")
 
-    plan, init_scale = _train(r, data.get("train", {}), surface["shape"])
+    plan, init_scale = _train(r, data.get("train"), surface["shape"])
     problem = DesignProblem(
         data=data, path=path, text=text, name=name, description=top["description"], lower=surface["lower"],
         upper=surface["upper"], periodic=surface["periodic"], grid_shape=surface["shape"],
@@ -357,6 +357,10 @@ def _tests(r: Reader, value, where: str, domain: Domain, duration: float, dt: fl
 
 
 def _train(r: Reader, table, shape) -> tuple:
+    """The plan and initial grid's scale: ``[train]``'s, or without the table the default plan
+    (:func:`pes_ref.synthesis.plans.default_plan`) and ``init_scale``."""
+    if table is None:
+        return default_plan(shape), TRAIN_KEYS["init_scale"].default
     t = r.table(table, "train", TRAIN_KEYS)
     its = t["iterations"]
     stages = t["stages"]

@@ -26,7 +26,7 @@ from pes_ref.core.scene import value_and_grad
 from pes_ref.core.signals import StopFlag
 from pes_ref.core.stability import UnstableStepError
 from pes_ref.synthesis.design_state import DesignState
-from pes_ref.synthesis.resampling import resample
+from pes_ref.synthesis.validation import Best, on_grid, validation_success
 
 __all__ = ["GradientStep", "run_design", "design_gradient"]
 
@@ -74,13 +74,29 @@ def design_gradient(problem, values, seed: int = 0, iteration: int = 0, n_partic
 def _values_on_stage_grid(state: DesignState, shape: tuple) -> np.ndarray:
     """The run's values on its stage's grid ``shape``: at a change of stage resampled bilinearly,
     zeroed where the problem holds them, and the optimizer's moments reset (coarse-to-fine)."""
-    problem, values = state.problem, state.values
+    values = state.values
     if values.shape != shape:
-        values = resample(values, problem.lower, problem.upper, problem.periodic, shape)
-        values = values * problem.mask(shape)
+        values = on_grid(state.problem, values, shape)
         state.values = values
         state.optimizer.reset()
     return values
+
+
+def _validate(state: DesignState) -> None:
+    """Judge the run's grid on its validation particles (:mod:`pes_ref.synthesis.validation`):
+    one more entry of ``state.validation``, and ``state.best`` if it is the best so far (the
+    first of equals)."""
+    success, final = validation_success(state.problem, state.values, state.seed, state.plan.validation_particles,
+                                        state.backend)
+    state.validation["iteration"].append(state.iteration)
+    state.validation["success"].append(success)
+    if state.best is None or success > state.best.success:
+        state.best = Best(state.iteration, success, final)
+
+
+def _reached_target(state: DesignState) -> bool:
+    """The plan's early stop: a validation has reached its target."""
+    return state.plan.target is not None and state.best is not None and state.best.success >= state.plan.target
 
 
 def run_design(state: DesignState, iterations: int | None = None, *, callback: Callable | None = None,
@@ -104,6 +120,12 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     (``"unstable: ..."``, docs/spec.md section 10), stops the run and rolls it back one
     iteration, to the last grid whose run was finite and stable; resuming it repeats that
     iteration, so change the plan (a smaller ``lr``, ``clip``) first.
+
+    A plan that validates (``validate_every``, :mod:`pes_ref.synthesis.validation`) judges the
+    grid every that many iterations and after the last, keeps the best (``state.best``), stops
+    early once one reaches the plan's ``target``, and a run that is done ends on the best grid
+    (``state.values``); resuming a done run for more iterations continues from that grid. The
+    validations are part of the state a design file holds, so a stopped run resumes bit-exactly.
     """
     total = state.plan.iterations if iterations is None else checks.as_nonneg_int("iterations", iterations)
     problem, plan = state.problem, state.plan
@@ -136,9 +158,12 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             state.iteration -= 1
             for h in state.history.values():
                 del h[state.iteration:]
+            kept = sum(i <= state.iteration for i in state.validation["iteration"])
+            for h in state.validation.values():
+                del h[kept:]
 
     with StopFlag() as flag:
-        while state.iteration < total:
+        while state.iteration < total and not _reached_target(state):
             if flag.stop:
                 state.status = "interrupted"
                 break
@@ -171,6 +196,8 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             state.history["loss"].append(loss)
             state.history["metric"].append(metric)
             state.iteration = k + 1
+            if plan.validates_at(state.iteration, total):
+                _validate(state)
             now = time.perf_counter()
             clock.tick(k, now - t_k)
             if callback is not None and now - last_report >= progress_every:
@@ -181,6 +208,8 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
                 last_ckpt = now
         else:
             state.status = "done"
+    if state.status == "done" and state.best is not None:
+        state.values = state.best.values        # the run delivers its best validated grid
     state.elapsed += time.perf_counter() - t_start
     if callback is not None and reported[0] != state.iteration:      # once at the end, unless just shown
         report(time.perf_counter())

@@ -1,0 +1,47 @@
+"""The candidate plans measured for issue 30 item 3: a mechanism name -> a finished DesignState.
+
+``baseline``: the problem's own plan (the file's [train] or today's default).
+``p,KEY=VALUE,...``: a Plan built here: lr, lrf (lr_final), it (iterations), n (particles),
+st (stages: ``c4`` = 5 -> 9 -> 17 -> final at equal shares; ``c25`` = today's 25 then final at 80%),
+opt (rmsprop/adam), clip, val (validate_every), vn (validation particles), tgt (target).
+"""
+from pes_ref import synthesis
+from pes_ref.synthesis.plans import Plan
+from pes_ref.synthesis.stages import run_stages
+
+
+def baseline(problem, seed):
+    return run_stages(synthesis.new_design(problem, seed=seed))
+
+
+def _stages(spec, problem, its):
+    n0 = problem.grid_shape[0]
+    if spec.startswith("c") and spec[1:].isdigit() and int(spec[1:]) < 10:
+        grids = [g for g in (5, 9, 17, 33, 65, 129) if g < n0][: int(spec[1:]) - 1] + [0]
+        return tuple((its * i // len(grids), g) for i, g in enumerate(grids))
+    if spec == "c25":
+        return ((0, min(25, n0)), (int(0.8 * its), 0)) if n0 > 25 else ((0, 0),)
+    raise ValueError(spec)
+
+
+def planned(spec):
+    kv = dict(item.split("=") for item in spec.split(",")[1:])
+
+    def run(problem, seed):
+        its = int(kv.get("it", 300))
+        lr = float(kv.get("lr", 0.002))
+        plan = Plan(iterations=its, lr=lr, lr_final=float(kv.get("lrf", lr)), decay_iterations=its,
+                    optimizer=kv.get("opt", "rmsprop"), clip=float(kv["clip"]) if "clip" in kv else None,
+                    stages=_stages(kv.get("st", "c25"), problem, its), n_particles=int(kv.get("n", 64)),
+                    validate_every=int(kv.get("val", 0)), validation_particles=int(kv.get("vn", 200)),
+                    target=float(kv["tgt"]) if "tgt" in kv else None)
+        return run_stages(synthesis.new_design(problem, seed=seed, plan=plan))
+    return run
+
+
+class _Mechanisms(dict):
+    def __missing__(self, key):
+        return planned(key)
+
+
+MECHANISMS = _Mechanisms(baseline=baseline)

@@ -1,0 +1,34 @@
+"""Issue 30 item 3: design a problem file with a named plan, evaluate it on held-out seeds 12345 and 9191.
+
+    python validation/experiments/engine/run.py PROBLEM.toml MECHANISM SEED [SEED ...]
+
+prints one JSON line per seed: problem, mechanism, seed, held-out successes, flat, wall seconds.
+"""
+import json
+import sys
+import time
+
+from pes_ref import synthesis
+from pes_ref.synthesis import problem_file
+
+HELD_OUT = (12345, 9191)
+
+
+def main():
+    path, mech, *seeds = sys.argv[1:]
+    problem = synthesis.load_problem(path)
+    import mechanisms
+    for seed in map(int, seeds):
+        t0 = time.perf_counter()
+        state = mechanisms.MECHANISMS[mech](problem, seed)
+        wall = time.perf_counter() - t0
+        res = list(synthesis.evaluate_seeds(state.problem, state.values, HELD_OUT).values())
+        print(json.dumps({"problem": problem.name, "mechanism": mech, "seed": seed,
+                          "success": [r["success_fraction"] for r in res],
+                          "flat": res[0].get("flat_success_fraction"), "iterations": state.iteration,
+                          "status": state.status, "wall_s": round(wall, 1)}), flush=True)
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, __file__.rsplit("/", 1)[0])
+    main()
