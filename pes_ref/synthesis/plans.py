@@ -268,7 +268,7 @@ COARSE_GRIDS = (5, 9, 17)
 #: docs/problems.md, "The default plan"): :func:`coarse_to_fine` stages, RMSprop from ``lr`` to
 #: ``lr_final`` over the run, and validation every ``validate_every`` iterations with an early
 #: stop at ``target``.
-DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.0005, "n_particles": 64,
+DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.005, "n_particles": 64,
                      "validate_every": 10, "validation_particles": 200, "target": 0.97}
 
 

@@ -89,6 +89,8 @@ TRAIN_KEYS = {
     "lr_final": Key("positive", None), "decay_iterations": Key("count", None), "clip": Key("positive", None),
     "stages": Key("stages", None), "scale_lr_by_grid": Key("bool", True),
     "init_scale": Key("nonneg", 1e-3, unit="energy"),
+    "validate_every": Key("count", None), "validation_particles": Key("count", 200, unit="particles"),
+    "target": Key("positive", None),
 }
 #: Without ``train.stages``: a coarse grid of this many nodes along axis 0 (if the final grid is
 #: finer) for the first :data:`COARSE_SHARE` of the iterations, then the final grid.
@@ -371,7 +373,9 @@ def _train(r: Reader, table, shape) -> tuple:
     decay = its if t["decay_iterations"] is None else t["decay_iterations"]
     try:
         plan = Plan(iterations=its, optimizer=t["optimizer"], lr=t["lr"], lr_final=lr_final, decay_iterations=decay,
-                    clip=t["clip"], stages=stages, n_particles=t["particles"], scale_lr_by_grid=t["scale_lr_by_grid"])
+                    clip=t["clip"], stages=stages, n_particles=t["particles"], scale_lr_by_grid=t["scale_lr_by_grid"],
+                    validate_every=t["validate_every"] or 0, validation_particles=t["validation_particles"],
+                    target=t["target"])
     except (ValueError, TypeError) as exc:
         r.fail(f"train.{getattr(exc, 'key', None) or 'stages'}", " ".join(str(exc).split()))
     return plan, t["init_scale"]

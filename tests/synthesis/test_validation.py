@@ -6,6 +6,7 @@ import os
 import signal
 
 import numpy as np
+import pytest
 
 import _helpers
 from pes_ref import synthesis
@@ -92,3 +93,11 @@ def test_a_file_without_train_gets_the_default_plan():
     assert problem.plan == synthesis.default_plan(problem.grid_shape)
     assert problem.plan.validate_every > 0 and problem.plan.target is not None
     assert with_sets(problem, {"train.iterations": 5}).plan.validate_every == 0     # a [train] table: as before
+
+
+def test_train_states_validation_and_refuses_a_target_above_one():
+    p = with_sets(GATHER, {"train.validate_every": 2, "train.target": 0.9})
+    assert (p.plan.validate_every, p.plan.validation_particles, p.plan.target) == (2, 200, 0.9)
+    assert GATHER.plan.validate_every == 0 and GATHER.plan.target is None          # off unless asked for
+    with pytest.raises(synthesis.ProblemFileError, match="train.target"):
+        with_sets(GATHER, {"train.target": 1.5})

@@ -3,7 +3,7 @@
 ``baseline``: the problem's own plan (the file's [train] or today's default).
 ``p,KEY=VALUE,...``: a Plan built here: lr, lrf (lr_final), it (iterations), n (particles),
 st (stages: ``c4`` = 5 -> 9 -> 17 -> final at equal shares; ``c25`` = today's 25 then final at 80%),
-opt (rmsprop/adam), clip, val (validate_every), vn (validation particles), tgt (target).
+opt (rmsprop/adam), clip, val (validate_every), vn (validation particles), tgt (target), sg (0: no lr scaling by grid).
 """
 from pes_ref import synthesis
 from pes_ref.synthesis.plans import Plan
@@ -34,7 +34,7 @@ def planned(spec):
                     optimizer=kv.get("opt", "rmsprop"), clip=float(kv["clip"]) if "clip" in kv else None,
                     stages=_stages(kv.get("st", "c25"), problem, its), n_particles=int(kv.get("n", 64)),
                     validate_every=int(kv.get("val", 0)), validation_particles=int(kv.get("vn", 200)),
-                    target=float(kv["tgt"]) if "tgt" in kv else None)
+                    target=float(kv["tgt"]) if "tgt" in kv else None, scale_lr_by_grid=kv.get("sg", "1") == "1")
         return run_stages(synthesis.new_design(problem, seed=seed, plan=plan))
     return run
 

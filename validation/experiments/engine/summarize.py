@@ -1,6 +1,7 @@
 """Summarize logs/results.jsonl: per (problem, mechanism): seeds with both held-out >= 0.9, mean min, mean wall."""
 import json, sys, collections
 rows = [json.loads(l) for l in open(sys.argv[1] if len(sys.argv) > 1 else "logs/results.jsonl")]
+rows = [r for r in rows if r["status"] == "done"]      # runs I stopped (SIGTERM) are not results
 g = collections.OrderedDict()
 for r in rows:
     g.setdefault((r["mechanism"], r["problem"]), {})[r["seed"]] = r
