@@ -158,6 +158,8 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             state.iteration -= 1
             for h in state.history.values():
                 del h[state.iteration:]
+            # the validation of the grid rolled back from goes with it; a best kept from it stays
+            # (its validation particles ran finite and stable)
             kept = sum(i <= state.iteration for i in state.validation["iteration"])
             for h in state.validation.values():
                 del h[kept:]
