@@ -299,6 +299,10 @@ def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int) ->
     out = {"success_fraction": float(np.mean(every))}
     for (name, test), ok in zip(problem.tests, each):
         out[f"success_{name}"] = float(np.mean(ok[applies(test, ok.shape[0])]))      # a group's test: its share
+    for name, criterion in problem.shares:
+        share = criterion.share(held.traj.x, held.traj.v, held.times)
+        out[f"share_{name}"] = share
+        out[f"share_{name}_met"] = float(criterion.low <= share <= criterion.high)
     values_of_terms = problem.objective.values(held.traj.x, held.traj.v, held.times)
     values_of_terms += [term.grid_value_and_grad(values)[0] for term in problem.grid_terms]
     for name, value in zip(problem.term_names, values_of_terms):

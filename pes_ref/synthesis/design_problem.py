@@ -157,7 +157,7 @@ class DesignProblem(_Problem):
     def __init__(self, *, data: dict, path: str, text: str | None, name: str, description: str, lower, upper,
                  periodic, grid_shape, interpolation, holds, scene_keys: dict, n_steps: int, starts: Starts,
                  forces: tuple, terms: tuple, term_names: tuple, grid_terms: tuple, tests: tuple, scenarios: tuple,
-                 eval_particles: int, plan, init_scale: float, contact=None):
+                 eval_particles: int, plan, init_scale: float, contact=None, shares: tuple = ()):
         self.data, self.path, self.source_text = data, path, text
         self.name, self.description = name, description
         self.lower, self.upper, self.periodic = tuple(lower), tuple(upper), tuple(periodic)
@@ -166,7 +166,7 @@ class DesignProblem(_Problem):
         self.starts, self.forces = starts, tuple(forces)
         self.terms, self.term_names, self.grid_terms = tuple(terms), tuple(term_names), tuple(grid_terms)
         self.objective = TermSum(self.terms)
-        self.tests, self.scenarios = tuple(tests), tuple(scenarios)
+        self.tests, self.scenarios, self.shares = tuple(tests), tuple(scenarios), tuple(shares)
         self.eval_particles, self.plan, self.init_scale = eval_particles, plan, init_scale
         self.contact = contact
         self.level_set = None if contact is None else contact.level_set()

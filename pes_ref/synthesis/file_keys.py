@@ -159,6 +159,21 @@ def _fraction(r, v, w):
     return x
 
 
+def _table(r, v, w, k):
+    """A table (its keys read by the caller)."""
+    if not isinstance(v, dict):
+        r.fail(w, f"expected a table, got {show(v)}")
+    return v
+
+
+def _share(r, v, w):
+    """A share of particles: a number in [0, 1]."""
+    x = r.number(v, w, least=0.0)
+    if not x <= 1.0:
+        r.fail(w, f"expected a share, a number >= 0 and <= 1, got {show(v)}")
+    return x
+
+
 def _tables(r, v, w, k):
     """A non-empty list of tables (their keys read by the caller)."""
     if not isinstance(v, list) or not v or not all(isinstance(t, dict) for t in v):
@@ -226,6 +241,8 @@ TYPES = {
     "stages": _stages,
     "box": _box,
     "tables": _tables,
+    "table": _table,
+    "share": lambda r, v, w, k: _share(r, v, w),
     "fraction": lambda r, v, w, k: _fraction(r, v, w),
     "velocity": _velocity,
     "object": _object,

@@ -39,7 +39,7 @@ from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
 from pes_ref.synthesis.plans import Plan
 from pes_ref.synthesis.problem_contact import Contact
-from pes_ref.synthesis.success import SUCCESS_TESTS, GroupTest
+from pes_ref.synthesis.success import SUCCESS_TESTS, GroupTest, ShareCriterion
 from pes_ref.synthesis.surrogates import DEFAULT_MARGIN, derived_terms, has_cost
 
 __all__ = ["FORMAT", "load_problem", "parse_problem", "problem_from_text", "problem_text", "with_sets",
@@ -88,6 +88,8 @@ TEST_KEYS = {"kind": Key("choice", choices=tuple(SUCCESS_TESTS)), "name": Key("t
              "group": Key("text", None)}
 EVALUATE_KEYS = {"particles": Key("count", 200, unit="particles"),
                  "margin": Key("fraction", DEFAULT_MARGIN)}
+#: ``[[evaluate.share]]``: a population criterion, the share of particles passing a test in a range.
+SHARE_KEYS = {"name": Key("text", "share"), "test": Key("table"), "min": Key("share", 0.0), "max": Key("share", 1.0)}
 SCENARIO_KEYS = {"name": Key("text"), "duration": Key("positive", None, unit="time")}
 TRAIN_KEYS = {
     "iterations": Key("count", 300), "particles": Key("count", 64, unit="particles"),
@@ -181,8 +183,17 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     forces = _forces(r, data.get("forces", []), "forces", duration)
 
     evaluate = _section(r, data, "evaluate")
-    ev = r.table(evaluate, "evaluate", EVALUATE_KEYS, also=("success", "scenario"))
+    ev = r.table(evaluate, "evaluate", EVALUATE_KEYS, also=("success", "scenario", "share"))
     tests = _tests(r, evaluate.get("success"), "evaluate.success", domain, duration, scene_keys["dt"], starts)
+    shares = []
+    for i, entry in enumerate(_list(r, evaluate.get("share", []), "evaluate.share")):
+        at = f"evaluate.share[{i}]"
+        keys = r.table(entry, at, SHARE_KEYS)
+        if not keys["max"] >= keys["min"]:
+            r.fail(f"{at}.max", f"expected max >= min, got min {keys['min']:g}, max {keys['max']:g}")
+        test = _test(r, keys["test"], f"{at}.test", domain, duration, scene_keys["dt"], starts)[1]
+        shares.append((keys["name"], ShareCriterion(test, keys["min"], keys["max"])))
+    shares = tuple(zip(_unique([n for n, _ in shares]), (c for _, c in shares)))
 
     entries = _list(r, data["objective"], "objective", required=True) if "objective" in data else []
     terms, names = [], []
@@ -205,7 +216,8 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
                 r.fail(f"evaluate.success[{i}].object", f"test {test_name!r} has no cost(x, v, t, margin) for the "
                                                         f"objective derived from the tests; give it one, or "
                                                         f"give [[objective]] terms")
-        state = derived_terms(tests, ev["margin"])
+        state = derived_terms(tests, ev["margin"]) + derived_terms(
+            [(f"share_{n}", c) for n, c in shares if c.low > 0.0], ev["margin"])
     scenarios = []
     for i, sc in enumerate(_list(r, evaluate.get("scenario", []), "evaluate.scenario")):
         where = f"evaluate.scenario[{i}]"
@@ -225,7 +237,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         interpolation=surface["interpolation"], holds=holds, scene_keys=scene_keys, n_steps=n_steps, starts=starts,
         forces=forces, terms=[t for _, t in state], term_names=[n for n, _ in state] + [
             n for n, t in zip(names, terms) if is_grid_term(t)],
-        grid_terms=grid_terms, tests=tests, scenarios=tuple(scenarios), eval_particles=ev["particles"], plan=plan,
+        grid_terms=grid_terms, tests=tests, shares=shares, scenarios=tuple(scenarios), eval_particles=ev["particles"], plan=plan,
         init_scale=init_scale, contact=contact)
     _check_scene(r, problem)
     return problem
@@ -372,27 +384,29 @@ def _tests(r: Reader, value, where: str, domain: Domain, duration: float, dt: fl
     """The tests ``(name, test)`` of a list of test tables; a test with ``group`` judges that start
     group's particles only (:class:`pes_ref.synthesis.success.GroupTest`)."""
     entries = _list(r, value, where, required=True)
-    groups = [g.name for g in starts.groups]
-    out = []
-    for i, entry in enumerate(entries):
-        at = f"{where}[{i}]"
-        kind = _kind(r, entry, at, TEST_KEYS)
-        cls = SUCCESS_TESTS[kind]
-        keys = r.table(entry, at, cls.KEYS, also=TEST_KEYS)
-        common = r.table({k: v for k, v in entry.items() if k in TEST_KEYS}, at, TEST_KEYS)
-        _check_times(r, keys, at, duration, dt)
-        children = getattr(cls, "CHILDREN", None)
-        if children is not None:        # tests made of tests (any_of): each read as a test of this list
-            keys[children] = [t for _, t in _tests(r, keys[children], f"{at}.{children}", domain, duration, dt,
-                                                   starts)]
-        test = _build(r, at, cls.from_keys, keys, domain, duration)
-        if common["group"] is not None:
-            if common["group"] not in groups:
-                r.fail(f"{at}.group", f"no start group {common['group']!r}; the groups ([[starts.group]]) are "
-                                      f"{', '.join(repr(g) for g in groups) or 'none'}")
-            test = GroupTest(test, common["group"], functools.partial(starts.members, groups.index(common["group"])))
-        out.append((common["name"] or kind, test))
+    out = [_test(r, entry, f"{where}[{i}]", domain, duration, dt, starts) for i, entry in enumerate(entries)]
     return tuple(zip(_unique([n for n, _ in out]), (t for _, t in out)))
+
+
+def _test(r: Reader, entry: dict, at: str, domain: Domain, duration: float, dt: float, starts: Starts) -> tuple:
+    """One test table at ``at``: ``(name, test)``."""
+    groups = [g.name for g in starts.groups]
+    kind = _kind(r, entry, at, TEST_KEYS)
+    cls = SUCCESS_TESTS[kind]
+    keys = r.table(entry, at, cls.KEYS, also=TEST_KEYS)
+    common = r.table({k: v for k, v in entry.items() if k in TEST_KEYS}, at, TEST_KEYS)
+    _check_times(r, keys, at, duration, dt)
+    children = getattr(cls, "CHILDREN", None)
+    if children is not None:        # tests made of tests (any_of): each read as a test of this list
+        keys[children] = [t for _, t in _tests(r, keys[children], f"{at}.{children}", domain, duration, dt,
+                                               starts)]
+    test = _build(r, at, cls.from_keys, keys, domain, duration)
+    if common["group"] is not None:
+        if common["group"] not in groups:
+            r.fail(f"{at}.group", f"no start group {common['group']!r}; the groups ([[starts.group]]) are "
+                                  f"{', '.join(repr(g) for g in groups) or 'none'}")
+        test = GroupTest(test, common["group"], functools.partial(starts.members, groups.index(common["group"])))
+    return common["name"] or kind, test
 
 
 def _train(r: Reader, table, shape) -> tuple:

@@ -29,7 +29,8 @@ from pes_ref.synthesis.objective_terms import (EDGES, Domain, Exit, StayIn, exce
                                                window_steps)
 
 __all__ = ["SUCCESS_TESTS", "FinalPositionTest", "PositionAtTest", "StayInTest", "WithinTest", "ExitTest",
-           "CrossTest", "SpeedAtTest", "AnyOfTest", "CustomTest", "GroupTest", "passes_all", "applies"]
+           "CrossTest", "SpeedAtTest", "AnyOfTest", "CustomTest", "GroupTest", "ShareCriterion", "passes_all",
+           "applies"]
 
 _WINDOW = {"from": Key("nonneg", 0.0, unit="time"), "to": Key("nonneg", math.inf, unit="time")}
 
@@ -437,6 +438,35 @@ class GroupTest:
         c, gx, gv = self.test.cost(x, v, t, margin)
         return (np.where(mine, c, 0.0), None if gx is None else np.where(mine[:, None], gx, 0.0),
                 None if gv is None else np.where(mine[:, None], gv, 0.0))
+
+
+@dataclass(frozen=True)
+class ShareCriterion:
+    """A population criterion (``[[evaluate.share]]``): the share of the particles ``test``
+    judges that pass it lies in ``[low, high]`` (the share leaving by each of a splitter's exits).
+
+    Its surrogate charges what raises a share below ``low``: the surrogates of the particles
+    failing ``test`` that are cheapest to mend, as many as the share lacks; a share above
+    ``high`` is judged, not charged (a splitter's exits bound each other from below)."""
+
+    test: object
+    low: float
+    high: float
+
+    def share(self, x, v, t) -> float:
+        ok = self.test.passes(x, v, t)
+        return float(np.mean(ok[applies(self.test, x.shape[1])]))
+
+    def cost(self, x, v, t, margin: float):
+        c, gx, gv = self.test.cost(x, v, t, margin)
+        judged = applies(self.test, x.shape[1])
+        lacking = math.ceil(self.low * np.count_nonzero(judged) - 1e-9) - np.count_nonzero(judged & (c == 0.0))
+        failing = np.flatnonzero(judged & (c > 0.0))
+        keep = np.zeros(x.shape[1], dtype=bool)
+        if lacking > 0:
+            keep[failing[np.argsort(c[failing], kind="stable")[:lacking]]] = True
+        return (np.where(keep, c, 0.0), None if gx is None else np.where(keep[:, None], gx, 0.0),
+                None if gv is None else np.where(keep[:, None], gv, 0.0))
 
 
 #: The kinds of success test: ``[[evaluate.success]] kind = ...`` -> its class.

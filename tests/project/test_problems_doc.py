@@ -37,7 +37,7 @@ def _kinds(heading: str, marker: str) -> dict:
     ("[dynamics]", {**pf.DYNAMICS_KEYS, "spring": None, "walls": None}),
     ("[starts]", {**pf.STARTS_KEYS, "group": None}),
     ("[[forces]]", {**pf.FORCE_KEYS, **{k: None for keys, _ in FORCES.values() for k in keys}}),
-    ("[evaluate]", {**pf.EVALUATE_KEYS, "success": None, "scenario": None}),
+    ("[evaluate]", {**pf.EVALUATE_KEYS, "success": None, "scenario": None, "share": None}),
     ("[train]", pf.TRAIN_KEYS),
 ])
 def test_every_key_is_documented(heading, keys):
@@ -48,7 +48,7 @@ def test_the_nested_keys_are_documented():
     dynamics = _section("[dynamics]")
     for key in (*pf.SPRING_KEYS, *pf.WALL_KEYS):
         assert f"`{key}`" in dynamics
-    for key in (*pf.GROUP_KEYS, *pf.TEST_KEYS):
+    for key in (*pf.GROUP_KEYS, *pf.TEST_KEYS, *pf.SHARE_KEYS):
         assert f"`{key}`" in _section("[starts]") + _section("[evaluate]")
     for key in (*pf.HOLD_KEYS, *pf.SCENARIO_KEYS):
         assert f"`{key}`" in TEXT

@@ -1,9 +1,11 @@
 """Problem files without ``[[objective]]`` are designed on their success tests' surrogates
 (pes_ref.synthesis.surrogates), and the format's start groups, disc, segment, any-of and custom
-tests: read, refused in one line when bad, and the design gradient of the derived objective
+tests and the population criterion ([[evaluate.share]]): read, refused in one line when bad, and the design gradient of the derived objective
 against central differences on every grid value, on a plane, a cylinder and a torus."""
 import numpy as np
 import pytest
+
+from _helpers import check_state_derivatives
 
 from pes_ref import synthesis
 from pes_ref.oracle.compare import relative_error
@@ -127,3 +129,64 @@ def test_a_bad_key_of_the_new_tables_is_refused_in_one_line_naming_it(changes, k
 def test_a_file_of_format_1_without_the_new_keys_reads_as_before():
     problem = problem_from_text(open(synthesis.shipped_problem("latch")).read(), "latch.toml")
     assert problem.term_names == ("latched", "out") and not problem.starts.groups
+
+
+#: A splitter: from the top's centre, out by either side edge, at least 40% by each.
+SPLITTER = {
+    "format": 1, "name": "splitter",
+    "surface": {"lower": [-1.0, -1.0], "upper": [1.0, 1.0], "shape": [5, 5]},
+    "dynamics": {"dt": 0.05, "duration": 2.0, "damping": 1.0},
+    "starts": {"box": {"lower": [-0.2, 0.5], "upper": [0.2, 0.5]}},
+    "forces": [{"kind": "noise", "std": 0.3}],
+    "evaluate": {"particles": 40, "success": [{"kind": "any_of", "tests": [
+        {"kind": "exit", "edge": "q0_lower", "center": 0.0, "halfwidth": 1.0},
+        {"kind": "exit", "edge": "q0_upper", "center": 0.0, "halfwidth": 1.0}]}],
+        "share": [{"name": "left", "min": 0.4, "test": {"kind": "exit", "edge": "q0_lower", "center": 0.0,
+                                                          "halfwidth": 1.0}},
+                  {"name": "right", "min": 0.4, "max": 0.6, "test": {"kind": "exit", "edge": "q0_upper",
+                                                                       "center": 0.0, "halfwidth": 1.0}}]},
+}
+
+
+def test_a_share_criterion_is_reported_and_its_lower_bound_charged():
+    problem = parse_problem(SPLITTER, "splitter.toml")
+    assert problem.term_names == ("surrogate_any_of", "surrogate_share_left", "surrogate_share_right")
+    tilt = np.outer(np.linspace(1.0, -1.0, 5), np.ones(5))           # downhill to the right: all go right
+    figures = synthesis.evaluate(problem, tilt, seed=2)
+    assert figures["share_left"] < 0.4 and figures["share_left_met"] == 0.0
+    assert figures["share_right"] > 0.6 and figures["share_right_met"] == 0.0
+    flat = synthesis.evaluate(problem, problem.flat_values(), seed=2)
+    assert set(flat) >= {"share_left", "share_left_met", "share_right", "share_right_met"}
+
+
+def test_a_share_s_surrogate_charges_the_cheapest_failing_particles_it_lacks():
+    from pes_ref.synthesis.success import ShareCriterion
+    problem = parse_problem(SPLITTER, "splitter.toml")
+    left = next(c for n, c in problem.shares if n == "left")
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-0.5, 0.5, (4, 10, 2))
+    x[-1, :3, 0] = -1.5                                    # three of ten out by the left edge
+    v, t = np.zeros_like(x), np.arange(4) * 0.1
+    c_all, _, _ = left.test.cost(x, v, t, 0.25)
+    c, _, _ = left.cost(x, v, t, 0.25)
+    failing = np.flatnonzero(c_all > 0)
+    cheapest = failing[np.argsort(c_all[failing])[:1]]     # 0.4 of 10 is 4: one lacking
+    assert np.flatnonzero(c).tolist() == cheapest.tolist() and c[cheapest] == c_all[cheapest]
+    assert not ShareCriterion(left.test, 0.3, 1.0).cost(x, v, t, 0.25)[0].any()
+    check_state_derivatives(Surrogate(left, 0.25, "s"), x, v, t)
+
+
+@pytest.mark.parametrize("share, key, words", [
+    ({"min": 0.6, "max": 0.4, "test": {"kind": "within", "center": [0, 0], "radius": 0.1}}, "evaluate.share[0].max",
+     "max >= min"),
+    ({"min": 1.5, "test": {"kind": "within", "center": [0, 0], "radius": 0.1}}, "evaluate.share[0].min", "<= 1"),
+    ({"min": 0.5}, "evaluate.share[0].test", "missing"),
+    ({"min": 0.5, "test": {"kind": "within", "center": [0, 0]}}, "evaluate.share[0].test.radius", "missing"),
+    ({"min": 0.5, "test": 3}, "evaluate.share[0].test", "expected a table"),
+])
+def test_a_bad_share_is_refused_in_one_line_naming_it(share, key, words):
+    data = {**SPLITTER, "evaluate": {**SPLITTER["evaluate"], "share": [share]}}
+    with pytest.raises(ProblemFileError) as err:
+        parse_problem(data, "splitter.toml")
+    message = str(err.value)
+    assert message.startswith(f"splitter.toml: {key}: ") and words in message and "\n" not in message, message
