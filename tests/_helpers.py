@@ -5,7 +5,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+
+from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL
+from pes_ref.testing.finite_differences import central_gradient
 from pes_ref.testing.kinks import distance_to_kinks
 
 #: A dot-product test whose VJP side is below this carries no information.
@@ -116,3 +120,35 @@ def gather_problem(*, name: str | None = "gather", walls: bool = False, noise: b
          "[evaluate]", f"particles = {eval_particles}",
          "[[evaluate.success]]", 'kind = "final_position"', "target = [0.3, -0.2]", f"radius = {radius}",
          "[train]", f"iterations = {iterations}", f"particles = {train_particles}"]) + "\n"
+
+
+class _Band:
+    """A user's own success test for the problem-file tests: q0 ends in [0, 0.5]."""
+
+    def passes(self, x, v, t):
+        return (x[-1, :, 0] >= 0.0) & (x[-1, :, 0] <= 0.5)
+
+
+class _BandWithCost(_Band):
+    def cost(self, x, v, t, margin):
+        e = x[-1, :, 0] - np.clip(x[-1, :, 0], 0.0, 0.5)
+        gx = np.zeros_like(x)
+        gx[-1, :, 0] = 2 * e
+        return e * e, gx, None
+
+
+BAND_TEST = _BandWithCost()
+BAND_TEST_WITHOUT_COST = _Band()
+
+
+def check_state_derivatives(objective, x, v, t):
+    """``objective.value_and_grad(x, v, t)``'s derivatives against central differences, entry
+    by entry (within FD_RTOL); returns the value."""
+    value, gx, gv = objective.value_and_grad(x, v, t)
+    gx = np.zeros_like(x) if gx is None else gx
+    gv = np.zeros_like(v) if gv is None else gv
+    fx = central_gradient(lambda z: objective.value_and_grad(z, v, t)[0], x)
+    fv = central_gradient(lambda z: objective.value_and_grad(x, z, t)[0], v)
+    assert relative_error(gx, fx) < FD_RTOL, (gx, fx)
+    assert relative_error(gv, fv) < FD_RTOL, (gv, fv)
+    return value

@@ -11,7 +11,8 @@ Modules, one idea each, in import order:
 - :mod:`.resampling`  bilinear resampling of a grid between coarse-to-fine stages
 - :mod:`.file_keys`   the keys of a problem file: types, defaults, units, and their reader
 - :mod:`.objective_terms` the objective terms of a problem file (registry kind -> class)
-- :mod:`.success`     the per-particle success tests of a problem file (registry kind -> class)
+- :mod:`.success`     the per-particle success tests of a problem file (registry kind -> class), each with its surrogate
+- :mod:`.surrogates`  the objective a problem without ``[[objective]]`` derives from its success tests
 - :mod:`.design_problem` a design problem stated by a problem file (:class:`DesignProblem`)
 - :mod:`.refusals`    what a design run refuses before it starts (unstable scene, memory)
 - :mod:`.design_state` a design run's state (:class:`DesignState`) and :func:`new_design`

@@ -21,7 +21,7 @@ from pes_ref.core.population import simulate_batch
 from pes_ref.core.scene import simulate
 from pes_ref.synthesis.design_problem import DesignProblem
 from pes_ref.synthesis.problems import FunnelProblem, OscillatorProblem, exit_positions
-from pes_ref.synthesis.success import passes_all
+from pes_ref.synthesis.success import applies, passes_all
 
 __all__ = ["Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
            "phase_space", "cycle_figures", "q1_advance", "evaluate", "evaluate_seeds", "held_out_steps", "CYCLE_TOLERANCE", "CYCLE_DRIFT",
@@ -297,8 +297,12 @@ def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int) ->
     held = problem.run(values, seed, n)
     every, each = passes_all([test for _, test in problem.tests], held.traj.x, held.traj.v, held.times)
     out = {"success_fraction": float(np.mean(every))}
-    for (name, _), ok in zip(problem.tests, each):
-        out[f"success_{name}"] = float(np.mean(ok))
+    for (name, test), ok in zip(problem.tests, each):
+        out[f"success_{name}"] = float(np.mean(ok[applies(test, ok.shape[0])]))      # a group's test: its share
+    for name, criterion in problem.shares:
+        share = criterion.share(held.traj.x, held.traj.v, held.times)
+        out[f"share_{name}"] = share
+        out[f"share_{name}_met"] = float(criterion.low <= share <= criterion.high)
     values_of_terms = problem.objective.values(held.traj.x, held.traj.v, held.times)
     values_of_terms += [term.grid_value_and_grad(values)[0] for term in problem.grid_terms]
     for name, value in zip(problem.term_names, values_of_terms):

@@ -33,7 +33,7 @@ from pes_ref.synthesis.problem_contact import signed_distance
 from pes_ref.synthesis.problems import Batch, _Problem
 from pes_ref.synthesis.success import passes_all
 
-__all__ = ["DesignProblem", "Starts", "Force", "Scenario", "FORCES", "HeldOut"]
+__all__ = ["DesignProblem", "Starts", "StartGroup", "Force", "Scenario", "FORCES", "HeldOut"]
 
 
 def _uniform(rng, lower, upper, n: int) -> np.ndarray:
@@ -47,19 +47,50 @@ def _uniform(rng, lower, upper, n: int) -> np.ndarray:
 
 class Starts(NamedTuple):
     """Where particles start: uniform in ``box`` (lower, upper), or particle ``i`` at
-    ``points[i % len(points)]``; velocities uniform in ``velocity`` (lower, upper)."""
+    ``points[i % len(points)]``; velocities uniform in ``velocity`` (lower, upper). Or in start
+    ``groups``, each a :class:`StartGroup`: a batch's particles in consecutive blocks, one per
+    group, sized by the groups' shares (:meth:`counts`)."""
 
     box: tuple | None
     points: tuple | None
     velocity: tuple
+    groups: tuple = ()
 
     def sample(self, rng, n: int):
-        """``(x0, v0)``, each (n, 2)."""
+        """``(x0, v0)``, each (n, 2): a group's draws (its box's axes, then its velocities) after the group's before it."""
+        if self.groups:
+            parts = [g.starts.sample(rng, k) for g, k in zip(self.groups, self.counts(n))]
+            return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
         if self.box is not None:
             x0 = _uniform(rng, *self.box, n)
         else:
             x0 = np.array([self.points[i % len(self.points)] for i in range(n)], dtype=np.float64).reshape(n, 2)
         return x0, _uniform(rng, *self.velocity, n)
+
+    def counts(self, n: int) -> list:
+        """Each group's particles of ``n``: ``n share / sum(shares)`` rounded down, the rest one
+        each to the groups with the largest remainders (the first on a tie)."""
+        shares = np.array([g.share for g in self.groups], dtype=np.float64)
+        exact = n * shares / shares.sum()
+        counts = np.floor(exact).astype(int)
+        for i in np.argsort(-(exact - counts), kind="stable")[: n - int(counts.sum())]:
+            counts[i] += 1
+        return [int(c) for c in counts]
+
+    def members(self, group: int, n: int) -> np.ndarray:
+        """The (n,) mask of group ``group``'s particles in a batch of ``n``."""
+        ends = np.cumsum([0] + self.counts(n))
+        out = np.zeros(n, dtype=bool)
+        out[ends[group]:ends[group + 1]] = True
+        return out
+
+
+class StartGroup(NamedTuple):
+    """One start group (``[[starts.group]]``): its ``name``, ``share`` of a batch and :class:`Starts`."""
+
+    name: str
+    share: float
+    starts: Starts
 
 
 #: The kinds of force (``[[forces]] kind = ...``): their keys, and the effect each draws for n particles.
@@ -126,7 +157,7 @@ class DesignProblem(_Problem):
     def __init__(self, *, data: dict, path: str, text: str | None, name: str, description: str, lower, upper,
                  periodic, grid_shape, interpolation, holds, scene_keys: dict, n_steps: int, starts: Starts,
                  forces: tuple, terms: tuple, term_names: tuple, grid_terms: tuple, tests: tuple, scenarios: tuple,
-                 eval_particles: int, plan, init_scale: float, contact=None):
+                 eval_particles: int, plan, init_scale: float, contact=None, shares: tuple = ()):
         self.data, self.path, self.source_text = data, path, text
         self.name, self.description = name, description
         self.lower, self.upper, self.periodic = tuple(lower), tuple(upper), tuple(periodic)
@@ -135,7 +166,7 @@ class DesignProblem(_Problem):
         self.starts, self.forces = starts, tuple(forces)
         self.terms, self.term_names, self.grid_terms = tuple(terms), tuple(term_names), tuple(grid_terms)
         self.objective = TermSum(self.terms)
-        self.tests, self.scenarios = tuple(tests), tuple(scenarios)
+        self.tests, self.scenarios, self.shares = tuple(tests), tuple(scenarios), tuple(shares)
         self.eval_particles, self.plan, self.init_scale = eval_particles, plan, init_scale
         self.contact = contact
         self.level_set = None if contact is None else contact.level_set()

@@ -151,6 +151,36 @@ def _stages(r, v, w, k):
     return tuple(out)
 
 
+def _fraction(r, v, w):
+    """A number in [0, 1)."""
+    x = r.number(v, w, least=0.0)
+    if not x < 1.0:
+        r.fail(w, f"expected a number >= 0 and < 1, got {show(v)}")
+    return x
+
+
+def _table(r, v, w, k):
+    """A table (its keys read by the caller)."""
+    if not isinstance(v, dict):
+        r.fail(w, f"expected a table, got {show(v)}")
+    return v
+
+
+def _share(r, v, w):
+    """A share of particles: a number in [0, 1]."""
+    x = r.number(v, w, least=0.0)
+    if not x <= 1.0:
+        r.fail(w, f"expected a share, a number >= 0 and <= 1, got {show(v)}")
+    return x
+
+
+def _tables(r, v, w, k):
+    """A non-empty list of tables (their keys read by the caller)."""
+    if not isinstance(v, list) or not v or not all(isinstance(t, dict) for t in v):
+        r.fail(w, f"expected a non-empty list of tables, got {show(v)}")
+    return v
+
+
 def _box(r, v, w, k):
     return r.box(v, w)
 
@@ -172,6 +202,14 @@ def _object(r, v, w, k):
         return v
     if not callable(getattr(v, "value_and_grad", None)):
         r.fail(w, f"expected 'module:object' or an object with value_and_grad(x, v, t), got {show(v)}")
+    return v
+
+
+def _test_object(r, v, w, k):
+    """A custom success test's ``"module:object"``, or (in code) the object itself; what it must
+    have is checked by the test (:class:`pes_ref.synthesis.success.CustomTest`)."""
+    if isinstance(v, str):
+        return _object(r, v, w, k)
     return v
 
 
@@ -202,7 +240,12 @@ TYPES = {
     "points": _points,
     "stages": _stages,
     "box": _box,
+    "tables": _tables,
+    "table": _table,
+    "share": lambda r, v, w, k: _share(r, v, w),
+    "fraction": lambda r, v, w, k: _fraction(r, v, w),
     "velocity": _velocity,
     "object": _object,
+    "test_object": _test_object,
     "shapes": _shapes,
 }

@@ -15,6 +15,7 @@ TOML text a design file embeds (the file's own text when nothing was changed).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import math
 import os
@@ -32,13 +33,14 @@ from pes_ref.core.surface import spacing as grid_spacing
 from pes_ref.core.stability import check_stable
 from pes_ref.core.steppers import INTEGRATORS, MODES
 from pes_ref.core.terms import Spring, Walls
-from pes_ref.synthesis.design_problem import FORCES, DesignProblem, Force, Scenario, Starts
+from pes_ref.synthesis.design_problem import FORCES, DesignProblem, Force, Scenario, StartGroup, Starts
 from pes_ref.core.keyfile import parse_toml, read_text, show
 from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
 from pes_ref.synthesis.plans import Plan, default_plan
 from pes_ref.synthesis.problem_contact import Contact
-from pes_ref.synthesis.success import SUCCESS_TESTS
+from pes_ref.synthesis.success import SUCCESS_TESTS, GroupTest, ShareCriterion
+from pes_ref.synthesis.surrogates import DEFAULT_MARGIN, derived_terms, has_cost
 
 __all__ = ["FORMAT", "load_problem", "parse_problem", "problem_from_text", "problem_text", "with_sets",
            "parse_set", "shipped_problem", "at_step", "SHIPPED_PROBLEMS", "ProblemFileError", "SECTIONS"]
@@ -75,13 +77,19 @@ WALL_KEYS = {"k": Key("positive", unit="force/length"), "margin": Key("nonneg", 
              "edges": Key("edges", None)}
 STARTS_KEYS = {"box": Key("box", None, unit="length"), "points": Key("points", None, unit="length"),
                "velocity": Key("velocity", ((0.0, 0.0), (0.0, 0.0)), unit="length/time")}
+#: ``[[starts.group]]``: a group's name and share of a batch beside the starts' own keys.
+GROUP_KEYS = {"name": Key("text"), "share": Key("positive", 1.0)}
 #: Keys every ``[[forces]]`` entry may have beside its kind's own (:data:`pes_ref.synthesis.design_problem.FORCES`).
 FORCE_KEYS = {"kind": Key("choice", choices=tuple(FORCES)), "name": Key("text", ""),
               "from": Key("nonneg", None, unit="time"), "to": Key("positive", None, unit="time")}
 #: Keys every ``[[objective]]`` term and ``[[evaluate.success]]`` test may have beside its kind's own.
 TERM_KEYS = {"kind": Key("choice", choices=tuple(OBJECTIVE_TERMS)), "name": Key("text", None)}
-TEST_KEYS = {"kind": Key("choice", choices=tuple(SUCCESS_TESTS)), "name": Key("text", None)}
-EVALUATE_KEYS = {"particles": Key("count", 200, unit="particles")}
+TEST_KEYS = {"kind": Key("choice", choices=tuple(SUCCESS_TESTS)), "name": Key("text", None),
+             "group": Key("text", None)}
+EVALUATE_KEYS = {"particles": Key("count", 200, unit="particles"),
+                 "margin": Key("fraction", DEFAULT_MARGIN)}
+#: ``[[evaluate.share]]``: a population criterion, the share of particles passing a test in a range.
+SHARE_KEYS = {"name": Key("text", "share"), "test": Key("table"), "min": Key("share", 0.0), "max": Key("share", 1.0)}
 SCENARIO_KEYS = {"name": Key("text"), "duration": Key("positive", None, unit="time")}
 TRAIN_KEYS = {
     "iterations": Key("count", 300), "particles": Key("count", 64, unit="particles"),
@@ -176,7 +184,20 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     starts = _starts(r, _section(r, data, "starts"))
     forces = _forces(r, data.get("forces", []), "forces", duration)
 
-    entries = _list(r, data.get("objective"), "objective", required=True)
+    evaluate = _section(r, data, "evaluate")
+    ev = r.table(evaluate, "evaluate", EVALUATE_KEYS, also=("success", "scenario", "share"))
+    tests = _tests(r, evaluate.get("success"), "evaluate.success", domain, duration, scene_keys["dt"], starts)
+    shares = []
+    for i, entry in enumerate(_list(r, evaluate.get("share", []), "evaluate.share")):
+        at = f"evaluate.share[{i}]"
+        keys = r.table(entry, at, SHARE_KEYS)
+        if not keys["max"] >= keys["min"]:
+            r.fail(f"{at}.max", f"expected max >= min, got min {keys['min']:g}, max {keys['max']:g}")
+        test = _test(r, keys["test"], f"{at}.test", domain, duration, scene_keys["dt"], starts)[1]
+        shares.append((keys["name"], ShareCriterion(test, keys["min"], keys["max"])))
+    shares = tuple(zip(_unique([n for n, _ in shares]), (c for _, c in shares)))
+
+    entries = _list(r, data["objective"], "objective", required=True) if "objective" in data else []
     terms, names = [], []
     for i, entry in enumerate(entries):
         where = f"objective[{i}]"
@@ -191,10 +212,14 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     grid_terms = [t for t in terms if is_grid_term(t)]
     state = [(n, t) for n, t in zip(names, terms) if not is_grid_term(t)]
     state = [(n, dataclasses.replace(t, name=n) if isinstance(t, CustomTerm) else t) for n, t in state]
-
-    evaluate = _section(r, data, "evaluate")
-    ev = r.table(evaluate, "evaluate", EVALUATE_KEYS, also=("success", "scenario"))
-    tests = _tests(r, evaluate.get("success"), "evaluate.success", domain, duration, scene_keys["dt"])
+    if "objective" not in data:           # designed on what success means: each test's surrogate
+        for i, (test_name, test) in enumerate(tests):
+            if not has_cost(test):
+                r.fail(f"evaluate.success[{i}].object", f"test {test_name!r} has no cost(x, v, t, margin) for the "
+                                                        f"objective derived from the tests; give it one, or "
+                                                        f"give [[objective]] terms")
+        state = derived_terms(tests, ev["margin"]) + derived_terms(
+            [(f"share_{n}", c) for n, c in shares if c.low > 0.0], ev["margin"])
     scenarios = []
     for i, sc in enumerate(_list(r, evaluate.get("scenario", []), "evaluate.scenario")):
         where = f"evaluate.scenario[{i}]"
@@ -202,7 +227,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         sc_steps = n_steps if keys["duration"] is None else _steps(keys["duration"], scene_keys["dt"])
         sc_duration = sc_steps * scene_keys["dt"]
         sc_forces = forces if "forces" not in sc else _forces(r, sc["forces"], f"{where}.forces", sc_duration)
-        sc_tests = _tests(r, sc.get("success"), f"{where}.success", domain, sc_duration, scene_keys["dt"])
+        sc_tests = _tests(r, sc.get("success"), f"{where}.success", domain, sc_duration, scene_keys["dt"], starts)
         scenarios.append(Scenario(keys["name"], sc_steps, sc_forces, sc_tests))
     if len({s.name for s in scenarios}) != len(scenarios):
         r.fail("evaluate.scenario", f"two scenarios have the same name: {[s.name for s in scenarios]}")
@@ -214,7 +239,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         interpolation=surface["interpolation"], holds=holds, scene_keys=scene_keys, n_steps=n_steps, starts=starts,
         forces=forces, terms=[t for _, t in state], term_names=[n for n, _ in state] + [
             n for n, t in zip(names, terms) if is_grid_term(t)],
-        grid_terms=grid_terms, tests=tests, scenarios=tuple(scenarios), eval_particles=ev["particles"], plan=plan,
+        grid_terms=grid_terms, tests=tests, shares=shares, scenarios=tuple(scenarios), eval_particles=ev["particles"], plan=plan,
         init_scale=init_scale, contact=contact)
     _check_scene(r, problem)
     return problem
@@ -322,10 +347,22 @@ def _dynamics(r: Reader, table: dict, domain: Domain):
     return keys, n_steps
 
 
-def _starts(r: Reader, table: dict) -> Starts:
-    s = r.table(table, "starts", STARTS_KEYS)
+def _starts(r: Reader, table: dict, where: str = "starts", groups: bool = True) -> Starts:
+    s = r.table(table, where, STARTS_KEYS, also=("group",) if groups else ())
+    if groups and "group" in table:
+        if s["box"] is not None or s["points"] is not None:
+            r.fail(f"{where}.group", "give either start groups or the starts' box or points, not both")
+        out = []
+        for i, entry in enumerate(_list(r, table["group"], f"{where}.group", required=True)):
+            at = f"{where}.group[{i}]"
+            keys = r.table(entry, at, GROUP_KEYS, also=tuple(STARTS_KEYS))
+            out.append(StartGroup(keys["name"], keys["share"],
+                                  _starts(r, {k: v for k, v in entry.items() if k not in GROUP_KEYS}, at, False)))
+        if len({g.name for g in out}) != len(out):
+            r.fail(f"{where}.group", f"two groups have the same name: {[g.name for g in out]}")
+        return Starts(None, None, s["velocity"], tuple(out))
     if (s["box"] is None) == (s["points"] is None):
-        r.fail("starts.box", "give exactly one of box and points")
+        r.fail(f"{where}.box", "give exactly one of box and points" + (" (or start groups)" if groups else ""))
     return Starts(s["box"], s["points"], s["velocity"])
 
 
@@ -344,18 +381,34 @@ def _forces(r: Reader, value, where: str, duration: float) -> tuple:
     return tuple(out)
 
 
-def _tests(r: Reader, value, where: str, domain: Domain, duration: float, dt: float) -> tuple:
+def _tests(r: Reader, value, where: str, domain: Domain, duration: float, dt: float, starts: Starts,
+           key: str = "success") -> tuple:
+    """The tests ``(name, test)`` of a list of test tables; a test with ``group`` judges that start
+    group's particles only (:class:`pes_ref.synthesis.success.GroupTest`)."""
     entries = _list(r, value, where, required=True)
-    out = []
-    for i, entry in enumerate(entries):
-        at = f"{where}[{i}]"
-        kind = _kind(r, entry, at, TEST_KEYS)
-        cls = SUCCESS_TESTS[kind]
-        keys = r.table(entry, at, cls.KEYS, also=TEST_KEYS)
-        _check_times(r, keys, at, duration, dt)
-        name = r.value(entry["name"], f"{at}.name", TEST_KEYS["name"]) if "name" in entry else kind
-        out.append((name, _build(r, at, cls.from_keys, keys, domain, duration)))
+    out = [_test(r, entry, f"{where}[{i}]", domain, duration, dt, starts) for i, entry in enumerate(entries)]
     return tuple(zip(_unique([n for n, _ in out]), (t for _, t in out)))
+
+
+def _test(r: Reader, entry: dict, at: str, domain: Domain, duration: float, dt: float, starts: Starts) -> tuple:
+    """One test table at ``at``: ``(name, test)``."""
+    groups = [g.name for g in starts.groups]
+    kind = _kind(r, entry, at, TEST_KEYS)
+    cls = SUCCESS_TESTS[kind]
+    keys = r.table(entry, at, cls.KEYS, also=TEST_KEYS)
+    common = r.table({k: v for k, v in entry.items() if k in TEST_KEYS}, at, TEST_KEYS)
+    _check_times(r, keys, at, duration, dt)
+    children = getattr(cls, "CHILDREN", None)
+    if children is not None:        # tests made of tests (any_of): each read as a test of this list
+        keys[children] = [t for _, t in _tests(r, keys[children], f"{at}.{children}", domain, duration, dt,
+                                               starts)]
+    test = _build(r, at, cls.from_keys, keys, domain, duration)
+    if common["group"] is not None:
+        if common["group"] not in groups:
+            r.fail(f"{at}.group", f"no start group {common['group']!r}; the groups ([[starts.group]]) are "
+                                  f"{', '.join(repr(g) for g in groups) or 'none'}")
+        test = GroupTest(test, common["group"], functools.partial(starts.members, groups.index(common["group"])))
+    return common["name"] or kind, test
 
 
 def _train(r: Reader, table, shape) -> tuple:
@@ -471,8 +524,9 @@ def problem_text(problem: DesignProblem) -> str:
         return problem.source_text
     import tomli_w
     data = {k: v for k, v in problem.data.items() if k != "objective"}
-    data["objective"] = []
-    for i, term in enumerate(problem.data["objective"]):
+    if "objective" in problem.data:
+        data["objective"] = []
+    for i, term in enumerate(problem.data.get("objective", [])):
         term = dict(term)
         if "object" in term and not isinstance(term["object"], str):
             term["object"] = _object_name(term["object"], f"{problem.path}: objective[{i}]")

@@ -7,25 +7,62 @@ passing each test. :data:`SUCCESS_TESTS` maps a kind to its class (dispatch by d
 kinds mirror the objective terms of :mod:`pes_ref.synthesis.objective_terms`, each with a
 tolerance where the term has a target. Differences along a periodic axis are taken the short
 way round, times at the nearest state, as there.
+
+Beside each test's ``passes`` is its smooth surrogate, ``cost(x, v, t, margin) -> (c, gx,
+gv)``: ``c`` (N,) is zero for a particle that passes with room to spare (``margin``, a
+fraction of the test's tolerance: its radius, half-width or half-size) and grows with the
+squared distance, in tolerances, from passing; ``gx``, ``gv`` (either None) are the
+derivatives of ``sum(c)``, each particle's only in its own column. A problem file without
+``[[objective]]`` is designed on the sum of its tests' surrogates
+(:mod:`pes_ref.synthesis.surrogates`).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Callable, ClassVar
 
 import numpy as np
 
 from pes_ref.synthesis.file_keys import Key
-from pes_ref.synthesis.objective_terms import EDGES, Domain, Exit, StayIn, step_at, window_steps
+from pes_ref.synthesis.objective_terms import (EDGES, Domain, Exit, StayIn, excess, import_object, step_at,
+                                               window_steps)
 
-__all__ = ["SUCCESS_TESTS", "FinalPositionTest", "PositionAtTest", "StayInTest", "ExitTest", "SpeedAtTest",
-           "passes_all"]
+__all__ = ["SUCCESS_TESTS", "FinalPositionTest", "PositionAtTest", "StayInTest", "WithinTest", "ExitTest",
+           "CrossTest", "SpeedAtTest", "AnyOfTest", "CustomTest", "GroupTest", "ShareCriterion", "passes_all",
+           "applies"]
+
+_WINDOW = {"from": Key("nonneg", 0.0, unit="time"), "to": Key("nonneg", math.inf, unit="time")}
 
 
 def _near(x: np.ndarray, target, radius: float, domain: Domain) -> np.ndarray:
     d = domain.wrap(x - np.asarray(target))
     return np.sqrt(np.sum(d * d, axis=-1)) <= radius
+
+
+def _disc_cost(states: np.ndarray, center, radius: float, margin: float, domain: Domain):
+    """``((e / radius)^2, its derivative)`` per state, ``e`` how far a state lies outside the
+    disc of radius ``radius (1 - margin)`` about ``center``."""
+    d = domain.wrap(states - np.asarray(center))
+    r = np.sqrt(np.sum(d * d, axis=-1))
+    e = np.maximum(r - radius * (1.0 - margin), 0.0)
+    return (e / radius) ** 2, (2.0 * e / radius ** 2 / np.where(r > 0.0, r, 1.0))[..., None] * d
+
+
+def _at_states(x: np.ndarray, n, c: np.ndarray, g: np.ndarray, mean: bool = False):
+    """A cost over the states ``x[n]`` (one state, or a window's: averaged) as ``(c, gx, None)``."""
+    gx = np.zeros_like(x)
+    if mean:
+        k = c.shape[0]
+        gx[n] = g / k
+        return c.mean(axis=0), gx, None
+    gx[n] = g
+    return c, gx, None
+
+
+def _none(x: np.ndarray):
+    """Every particle fails (a time after the run's end)."""
+    return np.zeros(x.shape[1], dtype=bool)
 
 
 @dataclass(frozen=True)
@@ -44,6 +81,10 @@ class FinalPositionTest:
 
     def passes(self, x, v, t):
         return _near(x[-1], self.target, self.radius, self.domain)
+
+    def cost(self, x, v, t, margin: float):
+        c, g = _disc_cost(x[-1], self.target, self.radius, margin, self.domain)
+        return _at_states(x, -1, c, g)
 
 
 @dataclass(frozen=True)
@@ -65,8 +106,15 @@ class PositionAtTest:
     def passes(self, x, v, t):
         n = step_at(t, self.time)
         if n is None:
-            return np.zeros(x.shape[1], dtype=bool)
+            return _none(x)
         return _near(x[n], self.target, self.radius, self.domain)
+
+    def cost(self, x, v, t, margin: float):
+        n = step_at(t, self.time)
+        if n is None:
+            return np.zeros(x.shape[1]), None, None
+        c, g = _disc_cost(x[n], self.target, self.radius, margin, self.domain)
+        return _at_states(x, n, c, g)
 
 
 @dataclass(frozen=True)
@@ -74,8 +122,7 @@ class StayInTest:
     """Every state from ``from`` to ``to`` lies in the box ``[lower, upper]`` (faces included)."""
 
     KIND: ClassVar[str] = "stay_in"
-    KEYS: ClassVar[dict] = {"lower": Key("point", unit="length"), "upper": Key("point", unit="length"),
-                            "from": Key("nonneg", 0.0, unit="time"), "to": Key("nonneg", math.inf, unit="time")}
+    KEYS: ClassVar[dict] = {"lower": Key("point", unit="length"), "upper": Key("point", unit="length"), **_WINDOW}
     box: StayIn
 
     @classmethod
@@ -85,8 +132,51 @@ class StayInTest:
     def passes(self, x, v, t):
         states = x[window_steps(t, self.box.start, self.box.end)]
         if states.shape[0] == 0:
-            return np.zeros(x.shape[1], dtype=bool)
+            return _none(x)
         return np.all(self.box.offsets(states) == 0.0, axis=(0, 2))
+
+    def cost(self, x, v, t, margin: float):
+        """The mean over the window of the squared distance from the box shrunk by ``margin`` of
+        its half-size on each axis, in half-sizes (the larger axis's)."""
+        w = window_steps(t, self.box.start, self.box.end)
+        if x[w].shape[0] == 0:
+            return np.zeros(x.shape[1]), None, None
+        lower, upper = np.asarray(self.box.lower), np.asarray(self.box.upper)
+        half = 0.5 * (upper - lower)
+        scale = float(half.max()) or 1.0
+        e = excess(self.box.domain.wrap(x[w] - 0.5 * (lower + upper)), half * (1.0 - margin))
+        return _at_states(x, w, np.sum(e * e, axis=-1) / scale ** 2, 2.0 * e / scale ** 2, mean=True)
+
+
+@dataclass(frozen=True)
+class WithinTest:
+    """Every state from ``from`` to ``to`` lies within ``radius`` of ``center`` (a disc)."""
+
+    KIND: ClassVar[str] = "within"
+    KEYS: ClassVar[dict] = {"center": Key("point", unit="length"), "radius": Key("positive", unit="length"),
+                            **_WINDOW}
+    center: tuple
+    radius: float
+    start: float
+    end: float
+    domain: Domain
+
+    @classmethod
+    def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        return cls(keys["center"], keys["radius"], keys["from"], keys["to"], domain)
+
+    def passes(self, x, v, t):
+        states = x[window_steps(t, self.start, self.end)]
+        if states.shape[0] == 0:
+            return _none(x)
+        return np.all(_near(states, self.center, self.radius, self.domain), axis=0)
+
+    def cost(self, x, v, t, margin: float):
+        w = window_steps(t, self.start, self.end)
+        if x[w].shape[0] == 0:
+            return np.zeros(x.shape[1]), None, None
+        c, g = _disc_cost(x[w], self.center, self.radius, margin, self.domain)
+        return _at_states(x, w, c, g, mean=True)
 
 
 @dataclass(frozen=True)
@@ -98,8 +188,7 @@ class ExitTest:
     KIND: ClassVar[str] = "exit"
     KEYS: ClassVar[dict] = {"edge": Key("choice", choices=tuple(EDGES)), "center": Key("number", unit="length"),
                             "halfwidth": Key("positive", unit="length"),
-                            "min_speed": Key("nonneg", 0.0, unit="length/time"),
-                            "from": Key("nonneg", 0.0, unit="time"), "to": Key("nonneg", math.inf, unit="time")}
+                            "min_speed": Key("nonneg", 0.0, unit="length/time"), **_WINDOW}
     edge: Exit
     min_speed: float
     start: float
@@ -119,6 +208,103 @@ class ExitTest:
         return (exited & (np.abs(along) < self.edge.halfwidth) & (when >= self.start) & (when <= self.end)
                 & (np.abs(v[step, particle, axis]) >= self.min_speed))
 
+    def cost(self, x, v, t, margin: float):
+        """At the exit step (the last state for a particle that never leaves): the position along
+        the edge outside ``center +- halfwidth (1 - margin)``, how far short of the edge a particle
+        that never leaves ends, both in half-widths, and the speed towards the edge below
+        ``min_speed (1 + margin)``, in ``min_speed``; squared. The window ``from``-``to`` is judged,
+        not charged."""
+        step, exited = self.edge.steps(x)
+        axis, side, level = self.edge.domain.edge(self.edge.edge)
+        hw = self.edge.halfwidth
+        particle = np.arange(x.shape[1])
+        along = excess(self.edge.domain.wrap_axis(x[step, particle, 1 - axis] - self.edge.center, 1 - axis),
+                       hw * (1.0 - margin))
+        toward = 1.0 if side == "upper" else -1.0
+        short = np.where(exited, 0.0, np.maximum(toward * (level - x[step, particle, axis]), 0.0))
+        gx = np.zeros_like(x)
+        gx[step, particle, 1 - axis] = 2.0 * along / hw ** 2
+        gx[step, particle, axis] = -2.0 * toward * short / hw ** 2
+        c = (along * along + short * short) / hw ** 2
+        gv = None
+        if self.min_speed > 0.0:
+            slow = np.maximum(self.min_speed * (1.0 + margin) - toward * v[step, particle, axis], 0.0)
+            c = c + (slow / self.min_speed) ** 2
+            gv = np.zeros_like(v)
+            gv[step, particle, axis] = -2.0 * toward * slow / self.min_speed ** 2
+        return c, gx, gv
+
+
+@dataclass(frozen=True)
+class CrossTest:
+    """The path crosses the segment from ``a`` to ``b`` between ``from`` and ``to``: some step's
+    straight move from one state to the next meets it (on a periodic axis the states are taken
+    in the domain, the segment where it is stated)."""
+
+    KIND: ClassVar[str] = "cross"
+    KEYS: ClassVar[dict] = {"a": Key("point", unit="length"), "b": Key("point", unit="length"), **_WINDOW}
+    a: tuple
+    b: tuple
+    start: float
+    end: float
+    domain: Domain
+
+    def __post_init__(self):
+        if self.a == self.b:
+            raise ValueError(f"a and b are the same point {list(self.a)}: a segment has two ends")
+
+    @classmethod
+    def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        return cls(keys["a"], keys["b"], keys["from"], keys["to"], domain)
+
+    def _states(self, x, t):
+        w = window_steps(t, self.start, self.end)
+        lower = np.asarray(self.domain.lower)
+        length = np.asarray(self.domain.upper) - lower
+        p = np.where(self.domain.periodic, lower + np.mod(x[w] - lower, length), x[w])
+        return w, p, x[w][1:] - x[w][:-1]
+
+    def _along(self, p, r, margin: float):
+        """Where each move ``p -> p + r`` meets the segment's line, as a fraction ``u`` of the
+        segment, and whether it does within the move and the segment shrunk by ``margin / 2`` at each end."""
+        a, s = np.asarray(self.a), np.asarray(self.b) - np.asarray(self.a)
+        q = a - p
+        cross = r[..., 0] * s[1] - r[..., 1] * s[0]
+        safe = np.where(cross != 0.0, cross, 1.0)
+        tau = (q[..., 0] * s[1] - q[..., 1] * s[0]) / safe
+        u = (q[..., 0] * r[..., 1] - q[..., 1] * r[..., 0]) / safe
+        lo = 0.5 * margin
+        return (cross != 0.0) & (tau >= 0.0) & (tau <= 1.0) & (u >= lo) & (u <= 1.0 - lo)
+
+    def passes(self, x, v, t):
+        _, p, r = self._states(x, t)
+        if r.shape[0] == 0:
+            return _none(x)
+        return np.any(self._along(p[:-1], r, 0.0), axis=0)
+
+    def cost(self, x, v, t, margin: float):
+        """Zero for a path across the segment shrunk by ``margin / 2`` of its length at each end;
+        otherwise the squared distance, in half-lengths, from that shorter segment at the
+        window's state closest to it."""
+        w, p, r = self._states(x, t)
+        if p.shape[0] == 0:
+            return np.zeros(x.shape[1]), None, None
+        crossed = np.any(self._along(p[:-1], r, margin), axis=0) if r.shape[0] else np.zeros(x.shape[1], bool)
+        a, s = np.asarray(self.a), np.asarray(self.b) - np.asarray(self.a)
+        half = 0.5 * float(np.hypot(*s))
+        lo = 0.5 * margin
+        u = np.clip(np.sum((p - a) * s, axis=-1) / float(s @ s), lo, 1.0 - lo)
+        d = p - (a + u[..., None] * s)
+        dist2 = np.sum(d * d, axis=-1)
+        n = np.argmin(dist2, axis=0)
+        particle = np.arange(x.shape[1])
+        keep = ~crossed
+        c = np.where(keep, dist2[n, particle], 0.0) / half ** 2
+        gx = np.zeros_like(x)
+        first = w.start
+        gx[first + n, particle] = np.where(keep[:, None], 2.0 * d[n, particle], 0.0) / half ** 2
+        return c, gx, None
+
 
 @dataclass(frozen=True)
 class SpeedAtTest:
@@ -133,6 +319,10 @@ class SpeedAtTest:
     low: float
     high: float
 
+    def __post_init__(self):
+        if not self.high >= self.low:
+            raise ValueError(f"expected max >= min, got min {self.low:g}, max {self.high:g}")
+
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         return cls(keys["time"], keys["axis"], keys["min"], keys["max"])
@@ -140,13 +330,154 @@ class SpeedAtTest:
     def passes(self, x, v, t):
         n = step_at(t, self.time)
         if n is None:
-            return np.zeros(x.shape[1], dtype=bool)
+            return _none(x)
         speed = v[n, :, self.axis]
         return (speed >= self.low) & (speed <= self.high)
 
+    def _scale(self) -> float:
+        """The test's tolerance: half the range, or a one-sided bound's size (1 for a bound of 0)."""
+        if math.isfinite(self.low) and math.isfinite(self.high):
+            return 0.5 * (self.high - self.low) or 1.0
+        bound = self.low if math.isfinite(self.low) else self.high
+        return abs(bound) if math.isfinite(bound) and bound != 0.0 else 1.0
+
+    def cost(self, x, v, t, margin: float):
+        n = step_at(t, self.time)
+        if n is None:
+            return np.zeros(x.shape[1]), None, None
+        scale = self._scale()
+        s = v[n, :, self.axis]
+        below = np.maximum(self.low + margin * scale - s, 0.0)
+        above = np.maximum(s - (self.high - margin * scale), 0.0)
+        gv = np.zeros_like(v)
+        gv[n, :, self.axis] = 2.0 * (above - below) / scale ** 2
+        return (below * below + above * above) / scale ** 2, None, gv
+
+
+@dataclass(frozen=True)
+class AnyOfTest:
+    """Passes when any one of ``tests`` passes (a splitter's exits); its surrogate is each
+    particle's cheapest alternative."""
+
+    KIND: ClassVar[str] = "any_of"
+    KEYS: ClassVar[dict] = {"tests": Key("tables")}
+    #: The key whose entries are success tests themselves (read by the problem file's reader).
+    CHILDREN: ClassVar[str] = "tests"
+    tests: tuple
+
+    @classmethod
+    def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        return cls(tuple(keys["tests"]))
+
+    def passes(self, x, v, t):
+        return np.logical_or.reduce([test.passes(x, v, t) for test in self.tests])
+
+    def cost(self, x, v, t, margin: float):
+        costs = [test.cost(x, v, t, margin) for test in self.tests]
+        c = np.stack([k[0] for k in costs])
+        best = np.argmin(c, axis=0)
+        particle = np.arange(x.shape[1])
+        gx = gv = None
+        for i, (_, tx, tv) in enumerate(costs):
+            chosen = best == i
+            if tx is not None:
+                gx = (np.zeros_like(x) if gx is None else gx) + np.where(chosen[:, None], tx, 0.0)
+            if tv is not None:
+                gv = (np.zeros_like(v) if gv is None else gv) + np.where(chosen[:, None], tv, 0.0)
+        return c[best, particle], gx, gv
+
+
+@dataclass(frozen=True)
+class CustomTest:
+    """A user's own test: ``object.passes(x, v, t) -> (N,) bool`` and, for a design without
+    ``[[objective]]``, ``object.cost(x, v, t, margin) -> (c, gx, gv)`` (this module's surrogate
+    protocol). In a file ``object`` is ``"module:object"``; in code, the object itself."""
+
+    KIND: ClassVar[str] = "custom"
+    KEYS: ClassVar[dict] = {"object": Key("test_object")}
+    obj: object
+
+    def __post_init__(self):
+        if isinstance(self.obj, type) or not callable(getattr(self.obj, "passes", None)):
+            raise TypeError(f"a custom test is an object with passes(x, v, t), got {self.obj!r}")
+
+    @classmethod
+    def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        obj = keys["object"]
+        return cls(import_object(obj) if isinstance(obj, str) else obj)
+
+    @property
+    def has_cost(self) -> bool:
+        return callable(getattr(self.obj, "cost", None))
+
+    def passes(self, x, v, t):
+        ok = np.asarray(self.obj.passes(x, v, t))
+        if ok.shape != (x.shape[1],):
+            raise ValueError(f"a custom test's passes returned shape {ok.shape}, expected ({x.shape[1]},)")
+        return ok.astype(bool)
+
+    def cost(self, x, v, t, margin: float):
+        c, gx, gv = self.obj.cost(x, v, t, margin)
+        return np.asarray(c, dtype=np.float64), gx, gv
+
+
+@dataclass(frozen=True)
+class GroupTest:
+    """``test`` for the particles of one start group (``group = "NAME"``); the others pass it.
+    ``members(n)`` is the (n,) mask of the group's particles in a batch of ``n``."""
+
+    test: object
+    group: str
+    members: Callable
+
+    def passes(self, x, v, t):
+        return ~self.members(x.shape[1]) | self.test.passes(x, v, t)
+
+    def cost(self, x, v, t, margin: float):
+        mine = self.members(x.shape[1])
+        c, gx, gv = self.test.cost(x, v, t, margin)
+        return (np.where(mine, c, 0.0), None if gx is None else np.where(mine[:, None], gx, 0.0),
+                None if gv is None else np.where(mine[:, None], gv, 0.0))
+
+
+@dataclass(frozen=True)
+class ShareCriterion:
+    """A population criterion (``[[evaluate.share]]``): the share of the particles ``test``
+    judges that pass it lies in ``[low, high]`` (the share leaving by each of a splitter's exits).
+
+    Its surrogate charges what raises a share below ``low``: the surrogates of the particles
+    failing ``test`` that are cheapest to mend, as many as the share lacks; a share above
+    ``high`` is judged, not charged (a splitter's exits bound each other from below)."""
+
+    test: object
+    low: float
+    high: float
+
+    def share(self, x, v, t) -> float:
+        ok = self.test.passes(x, v, t)
+        return float(np.mean(ok[applies(self.test, x.shape[1])]))
+
+    def cost(self, x, v, t, margin: float):
+        c, gx, gv = self.test.cost(x, v, t, margin)
+        judged = applies(self.test, x.shape[1])
+        lacking = math.ceil(self.low * np.count_nonzero(judged) - 1e-9) - np.count_nonzero(judged & (c == 0.0))
+        failing = np.flatnonzero(judged & (c > 0.0))
+        keep = np.zeros(x.shape[1], dtype=bool)
+        if lacking > 0:
+            keep[failing[np.argsort(c[failing], kind="stable")[:lacking]]] = True
+        return (np.where(keep, c, 0.0), None if gx is None else np.where(keep[:, None], gx, 0.0),
+                None if gv is None else np.where(keep[:, None], gv, 0.0))
+
 
 #: The kinds of success test: ``[[evaluate.success]] kind = ...`` -> its class.
-SUCCESS_TESTS = {cls.KIND: cls for cls in (FinalPositionTest, PositionAtTest, StayInTest, ExitTest, SpeedAtTest)}
+SUCCESS_TESTS = {cls.KIND: cls for cls in (FinalPositionTest, PositionAtTest, StayInTest, WithinTest, ExitTest,
+                                           CrossTest, SpeedAtTest, AnyOfTest, CustomTest)}
+
+
+def applies(test, n: int) -> np.ndarray:
+    """The (n,) mask of the particles ``test`` judges: a start group's, or all."""
+    members = getattr(test, "members", None)
+    return np.ones(n, dtype=bool) if members is None else members(n)
 
 
 def passes_all(tests, x, v, t) -> tuple:

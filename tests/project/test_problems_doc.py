@@ -35,9 +35,9 @@ def _kinds(heading: str, marker: str) -> dict:
     ("[surface]", {**pf.SURFACE_KEYS, "hold": None, "contact": None}),
     ("[surface.contact]", pf.CONTACT_KEYS),
     ("[dynamics]", {**pf.DYNAMICS_KEYS, "spring": None, "walls": None}),
-    ("[starts]", pf.STARTS_KEYS),
+    ("[starts]", {**pf.STARTS_KEYS, "group": None}),
     ("[[forces]]", {**pf.FORCE_KEYS, **{k: None for keys, _ in FORCES.values() for k in keys}}),
-    ("[evaluate]", {**pf.EVALUATE_KEYS, "success": None, "scenario": None}),
+    ("[evaluate]", {**pf.EVALUATE_KEYS, "success": None, "scenario": None, "share": None}),
     ("[train]", pf.TRAIN_KEYS),
 ])
 def test_every_key_is_documented(heading, keys):
@@ -48,6 +48,8 @@ def test_the_nested_keys_are_documented():
     dynamics = _section("[dynamics]")
     for key in (*pf.SPRING_KEYS, *pf.WALL_KEYS):
         assert f"`{key}`" in dynamics
+    for key in (*pf.GROUP_KEYS, *pf.TEST_KEYS, *pf.SHARE_KEYS):
+        assert f"`{key}`" in _section("[starts]") + _section("[evaluate]")
     for key in (*pf.HOLD_KEYS, *pf.SCENARIO_KEYS):
         assert f"`{key}`" in TEXT
 

@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 from hypothesis import given
 
+from _helpers import check_state_derivatives
+
 from pes_ref.core.objectives import Oscillator
 from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL, TRAJ_RTOL
@@ -47,15 +49,7 @@ def test_every_state_term_kind_has_a_fixed_case():
     assert set(FIXED) == {k for k, cls in OBJECTIVE_TERMS.items() if not hasattr(cls, "grid_value_and_grad")}
 
 
-def _check_derivatives(term, x, v, t):
-    value, gx, gv = term.value_and_grad(x, v, t)
-    gx = np.zeros_like(x) if gx is None else gx
-    gv = np.zeros_like(v) if gv is None else gv
-    fx = central_gradient(lambda z: term.value_and_grad(z, v, t)[0], x)
-    fv = central_gradient(lambda z: term.value_and_grad(x, z, t)[0], v)
-    assert relative_error(gx, fx) < FD_RTOL, (gx, fx)
-    assert relative_error(gv, fv) < FD_RTOL, (gv, fv)
-    return value
+_check_derivatives = check_state_derivatives
 
 
 @pytest.mark.parametrize("kind", sorted(FIXED))

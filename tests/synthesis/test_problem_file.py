@@ -10,7 +10,8 @@ import pytest
 import _helpers
 from pes_ref import synthesis
 from pes_ref.oracle.compare import relative_error
-from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL
+from pes_ref.testing.finite_differences import central_gradient
+from pes_ref.oracle.tolerances import FD_RTOL
 from pes_ref.synthesis import (DesignFileError, Plan, ProblemFileError, check_same_problem, load_design, load_problem,
                                parse_problem, problem_from_text, problem_text, save_design, shipped_problem, with_sets)
 
@@ -39,9 +40,14 @@ def test_the_funnel_file_is_the_built_in_funnel_bit_for_bit():
     assert b["flat_success_fraction"] == a["flat_in_band_fraction"]
 
 
-@pytest.mark.parametrize("name", synthesis.SHIPPED_PROBLEMS)
-def test_shipped_problems_read_and_design_at_smoke_size(name):
-    problem = load_problem(shipped_problem(name))
+#: The example problem files (examples/problems/): problems the package does not ship, as a user writes them.
+EXAMPLES = sorted(str(p) for p in (_helpers.ROOT / "examples" / "problems").glob("*.toml"))
+
+
+@pytest.mark.parametrize("path", [shipped_problem(n) for n in synthesis.SHIPPED_PROBLEMS] + EXAMPLES,
+                         ids=lambda p: p.rsplit("/", 1)[-1])
+def test_shipped_problems_and_examples_read_and_design_at_smoke_size(path):
+    problem = load_problem(path)
     small = with_sets(problem, {"surface.shape": list(problem.shape(8))})
     state = synthesis.run_design(synthesis.new_design(small, plan=Plan(iterations=2, n_particles=4)))
     assert state.status == "done" and state.values.shape == small.shape()
@@ -127,7 +133,7 @@ def test_a_bad_key_is_refused_in_one_line_naming_it(sets, key, words):
     assert message.startswith(f"gather.toml: {key}: ") and words in message and "\n" not in message, message
 
 
-@pytest.mark.parametrize("missing, key", [("surface", "surface"), ("objective", "objective"),
+@pytest.mark.parametrize("missing, key", [("surface", "surface"),
                                           ("evaluate.success", "evaluate.success"), ("dynamics.dt", "dynamics.dt"),
                                           ("objective.0.target", "objective[0].target"),
                                           ("forces.0.kind", "forces[0].kind")])
@@ -218,13 +224,8 @@ radius = 0.3
     rng = np.random.default_rng(4)
     values = 0.2 * rng.standard_normal(problem.shape())
     step = synthesis.design_gradient(problem, values, seed=1, iteration=0, n_particles=3)
-    fd = np.zeros_like(values)
-    for idx in np.ndindex(values.shape):
-        e = np.zeros_like(values)
-        e[idx] = FD_EPS
-        up = synthesis.design_gradient(problem, values + e, seed=1, iteration=0, n_particles=3).loss
-        down = synthesis.design_gradient(problem, values - e, seed=1, iteration=0, n_particles=3).loss
-        fd[idx] = (up - down) / (2 * FD_EPS)
+    fd = central_gradient(lambda v: synthesis.design_gradient(problem, v, seed=1, iteration=0, n_particles=3).loss,
+                          values)
     assert np.count_nonzero(fd) == values.size
     assert relative_error(step.grad, fd) < FD_RTOL
 
@@ -359,3 +360,7 @@ def test_starts_and_forces_draw_from_the_generator_in_order():
     sched = a.scene.schedule(6)
     np.testing.assert_array_equal(sched[0, :, 0], rng.uniform(1.0, 2.0, 6))     # on before t = 1
     assert not sched[20:].any()                                                  # off from t = 1 (step 20)
+
+
+def test_the_example_problems_are_there():
+    assert {p.rsplit("/", 1)[-1] for p in EXAMPLES} >= {"nest.toml", "offcentre_funnel.toml", "sorter.toml"}

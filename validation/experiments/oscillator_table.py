@@ -152,8 +152,9 @@ def cpu_name() -> str:
     return f"{model} ({widest})"
 
 
-def rewrite(text: str, block: list) -> str:
-    """``text`` with the lines between :data:`BEGIN` and :data:`END` replaced by ``block``.
+def rewrite(text: str, block: list, begin_marker: str = BEGIN, end_marker: str = END) -> str:
+    """``text`` with the lines between ``begin_marker`` and ``end_marker`` (this table's
+    :data:`BEGIN` and :data:`END`) replaced by ``block``.
 
     Raises
     ------
@@ -161,13 +162,13 @@ def rewrite(text: str, block: list) -> str:
         If either marker line is missing, appears twice, or they are out of order.
     """
     lines = text.split("\n")
-    found = {m: [i for i, line in enumerate(lines) if line.strip() == m] for m in (BEGIN, END)}
+    found = {m: [i for i, line in enumerate(lines) if line.strip() == m] for m in (begin_marker, end_marker)}
     for marker, at in found.items():
         if len(at) != 1:
             raise ValueError(f"expected the line {marker!r} once, found it {len(at)} times")
-    begin, end = found[BEGIN][0], found[END][0]
+    begin, end = found[begin_marker][0], found[end_marker][0]
     if end < begin:
-        raise ValueError(f"the line {END!r} comes before {BEGIN!r}")
+        raise ValueError(f"the line {end_marker!r} comes before {begin_marker!r}")
     return "\n".join(lines[:begin + 1] + block + lines[end:])
 
 

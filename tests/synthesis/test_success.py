@@ -1,0 +1,188 @@
+"""pes_ref.synthesis.success: each success test's verdict by hand, and its surrogate (``cost``):
+zero for a particle that passes with room to spare, positive for one that fails, and its
+derivative against central differences entry by entry on fixed cases (every kind, in a start
+group and in an any-of), and on random cases of every topology away from its kinks."""
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+
+from _helpers import check_state_derivatives
+
+from pes_ref.synthesis.objective_terms import Domain, Exit, StayIn
+from pes_ref.synthesis.success import (SUCCESS_TESTS, AnyOfTest, CrossTest, CustomTest, ExitTest, FinalPositionTest,
+                                       GroupTest, PositionAtTest, SpeedAtTest, StayInTest, WithinTest, applies,
+                                       passes_all)
+from pes_ref.synthesis.surrogates import Surrogate
+from pes_ref.testing import strategies as pst
+
+PLANE = Domain((-1.0, -1.0), (1.0, 1.0), (False, False))
+CYLINDER = Domain((-1.0, 0.0), (1.0, 2.0), (False, True))
+T = np.arange(6) * 0.5
+RNG = np.random.default_rng(11)
+X = RNG.uniform(-0.9, 0.9, (6, 4, 2))
+V = RNG.normal(0.0, 1.0, (6, 4, 2))
+MARGIN = 0.25
+
+
+class Band:
+    """A user's own test: q0 ends in [0, 0.5], with its surrogate."""
+
+    def passes(self, x, v, t):
+        return (x[-1, :, 0] >= 0.0) & (x[-1, :, 0] <= 0.5)
+
+    def cost(self, x, v, t, margin):
+        e = x[-1, :, 0] - np.clip(x[-1, :, 0], 0.0, 0.5)
+        gx = np.zeros_like(x)
+        gx[-1, :, 0] = 2 * e
+        return e * e, gx, None
+
+
+def _members(n):
+    return np.arange(n) >= 1
+
+
+#: One of each kind on fixed parameters, and the compound ones, on trajectories away from their kinks.
+FIXED = {
+    "final_position": FinalPositionTest((0.3, 1.9), 0.5, CYLINDER),
+    "position_at": PositionAtTest(1.0, (0.1, -0.2), 0.4, PLANE),
+    "stay_in": StayInTest(StayIn((-0.2, -0.3), (0.4, 0.25), 0.5, 2.0, 1.0, PLANE)),
+    "within": WithinTest((0.2, 0.1), 0.5, 1.0, 2.5, PLANE),
+    "exit": ExitTest(Exit("q1_lower", 0.1, 0.3, 1.0, Domain((-1.0, 0.0), (1.0, 2.0), (False, False))), 0.8, 0.0,
+                     math.inf),
+    "cross": CrossTest((0.5, -0.2), (0.5, 0.3), 0.5, math.inf, PLANE),
+    "speed_at": SpeedAtTest(1.5, 1, -0.2, 0.3),
+    "any_of": AnyOfTest((FinalPositionTest((0.5, 0.5), 0.2, PLANE), FinalPositionTest((-0.5, -0.5), 0.2, PLANE))),
+    "custom": CustomTest(Band()),
+}
+
+
+def _case(kind):
+    x, v = X.copy(), V.copy()
+    if kind == "exit":                      # q1 falls through 0 at different steps; one particle never leaves
+        x[:, :, 1] = np.array([[1.5, 0.7, 0.9, 1.2], [0.8, 0.3, 0.6, 1.1], [0.2, -0.2, 0.4, 1.0],
+                               [-0.3, -0.5, 0.3, 0.9], [-0.6, -0.8, 0.2, 0.8], [-0.9, -0.9, -0.1, 0.7]])
+    return x, v
+
+
+def _check(test, x, v, t, margin=MARGIN):
+    return check_state_derivatives(Surrogate(test, margin, "s"), x, v, t)
+
+
+def test_every_kind_has_a_fixed_case():
+    assert set(FIXED) == set(SUCCESS_TESTS)
+
+
+@pytest.mark.parametrize("kind", sorted(FIXED))
+@pytest.mark.parametrize("grouped", [False, True])
+def test_surrogate_derivative_matches_central_differences_entrywise(kind, grouped):
+    test = GroupTest(FIXED[kind], "g", _members) if grouped else FIXED[kind]
+    x, v = _case(kind)
+    value = _check(test, x, v, T)
+    assert value > 0, "the fixed case has a failing particle, so the check sees a derivative"
+
+
+@pytest.mark.parametrize("kind", sorted(FIXED))
+def test_a_surrogate_is_zero_exactly_where_particles_pass_with_room_to_spare(kind):
+    test = FIXED[kind]
+    x, v = _case(kind)
+    c, _, _ = test.cost(x, v, T, MARGIN)
+    assert c.shape == (x.shape[1],) and np.all(c >= 0)
+    # a particle with zero cost passes (with margin 0 the surrogate is zero exactly on passing ones,
+    # except for the tests whose surrogate does not charge a window: exit's and cross's time)
+    ok = test.passes(x, v, T)
+    assert np.all(ok[c == 0.0]), (c, ok)
+    c0, _, _ = test.cost(x, v, T, 0.0)
+    assert np.all(c0[~ok] > 0.0), (c0, ok)
+
+
+def test_verdicts_by_hand():
+    t = np.array([0.0, 1.0, 2.0])
+    x = np.array([[[0.0, 0.0], [0.0, 0.0]], [[0.5, 0.0], [0.0, 0.9]], [[0.55, 0.05], [0.0, -0.9]]])
+    v = np.zeros_like(x)
+    within = WithinTest((0.5, 0.0), 0.1, 1.0, math.inf, PLANE)
+    assert within.passes(x, v, t).tolist() == [True, False]
+    # the second particle's move from (0, 0.9) to (0, -0.9) crosses the segment y = 0 for -0.2 < q0 < 0.2
+    cross = CrossTest((-0.2, 0.0), (0.2, 0.0), 0.0, math.inf, PLANE)
+    assert cross.passes(x, v, t).tolist() == [False, True]
+    assert CrossTest((-0.2, 0.0), (0.2, 0.0), 0.0, 0.5, PLANE).passes(x, v, t).tolist() == [False, False]
+    both = AnyOfTest((within, cross))
+    assert both.passes(x, v, t).tolist() == [True, True]
+    assert GroupTest(within, "g", lambda n: np.array([False, True])).passes(x, v, t).tolist() == [True, False]
+    assert applies(GroupTest(within, "g", lambda n: np.array([False, True])), 2).tolist() == [False, True]
+    assert applies(within, 2).tolist() == [True, True]
+    every, each = passes_all([within, cross], x, v, t)
+    assert every.tolist() == [False, False] and [e.tolist() for e in each] == [[True, False], [False, True]]
+
+
+def test_a_disc_test_wraps_the_short_way_round():
+    t = np.array([0.0])
+    x = np.array([[[0.0, 1.95]]])            # 0.1 from (0, 0.05) across the cylinder's seam
+    assert WithinTest((0.0, 0.05), 0.15, 0.0, math.inf, CYLINDER).passes(x, np.zeros_like(x), t).tolist() == [True]
+
+
+def test_the_surrogate_of_an_any_of_is_the_cheapest_alternative():
+    test = FIXED["any_of"]
+    x, v = _case("any_of")
+    c, _, _ = test.cost(x, v, T, MARGIN)
+    each = np.stack([t.cost(x, v, T, MARGIN)[0] for t in test.tests])
+    assert np.array_equal(c, each.min(axis=0))
+
+
+def test_a_custom_test_must_have_passes():
+    with pytest.raises(TypeError, match="passes"):
+        CustomTest(Band)                    # the class, not an object
+    with pytest.raises(TypeError, match="passes"):
+        CustomTest(object())
+
+
+def test_a_segment_needs_two_ends():
+    with pytest.raises(ValueError, match="same point"):
+        CrossTest((0.1, 0.2), (0.1, 0.2), 0.0, math.inf, PLANE)
+
+
+@st.composite
+def smooth_cases(draw):
+    """A disc, box or speed test on a random domain of any topology, with states away from the
+    surrogate's kinks (its shrunk disc's rim, its shrunk box's faces, its speed bounds)."""
+    periodic = draw(pst.topologies())
+    rng = np.random.default_rng(draw(pst.seeds()))
+    lower = rng.uniform(-2.0, 0.0, 2)
+    length = rng.uniform(1.0, 3.0, 2)
+    domain = Domain(tuple(lower), tuple(lower + length), tuple(periodic))
+    n_states, n = int(rng.integers(2, 7)), int(rng.integers(1, 4))
+    t = 0.1 * np.arange(n_states)
+    shape = (n_states, n, 2)
+    laps = np.where(periodic, rng.integers(-1, 2, shape), 0) * length
+    center = lower + rng.uniform(0, 1, 2) * length
+    kind = draw(st.sampled_from(["final_position", "position_at", "within", "stay_in", "speed_at"]))
+    margin = float(rng.uniform(0.0, 0.5))
+    v = rng.normal(0.0, 1.0, shape)
+    if kind == "stay_in":
+        half = rng.uniform(0.05, 0.4, 2) * length
+        start, end = sorted(rng.uniform(0.0, t[-1], 2))
+        test = StayInTest(StayIn(tuple(center - half), tuple(center + half), float(start), float(end), 1.0, domain))
+        x = center + pst._away(rng.uniform(-0.45, 0.45, shape) * length, half * (1 - margin)) + laps
+    elif kind == "speed_at":
+        low, high = sorted(rng.normal(0.0, 1.0, 2))
+        test = SpeedAtTest(float(t[rng.integers(n_states)]), int(rng.integers(2)), float(low), float(high))
+        scale = test._scale()
+        v = np.where(np.abs(v - (low + margin * scale)) < 1e-3, v + 2e-3, v)
+        v = np.where(np.abs(v - (high - margin * scale)) < 1e-3, v + 2e-3, v)
+        x = center + rng.uniform(-0.45, 0.45, shape) * length
+    else:
+        radius = float(rng.uniform(0.05, 0.4) * length.min())
+        test = {"final_position": lambda: FinalPositionTest(tuple(center), radius, domain),
+                "position_at": lambda: PositionAtTest(float(t[rng.integers(n_states)]), tuple(center), radius, domain),
+                "within": lambda: WithinTest(tuple(center), radius, float(t[0]), float(t[-1]), domain)}[kind]()
+        r = pst._away(rng.uniform(0.0, 0.45 * length.min(), (n_states, n)), radius * (1 - margin))
+        angle = rng.uniform(0, 2 * np.pi, (n_states, n))
+        x = center + np.stack([r * np.cos(angle), r * np.sin(angle)], axis=-1) + laps
+    return test, x, v, t, margin
+
+
+@given(smooth_cases())
+def test_surrogate_derivative_matches_central_differences_on_random_cases(case):
+    test, x, v, t, margin = case
+    _check(test, x, v, t, margin)
