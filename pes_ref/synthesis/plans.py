@@ -65,7 +65,7 @@ class Plan:
     scale_lr_by_grid : bool
         Whether a stage's learning rate is scaled by the grid ratio (above).
     validate_every : int
-        0 (off), or every this many iterations (and at the run's last) the design, resampled
+        0 (off), or before the first iteration, every this many and after the run's last, the design, resampled
         to the problem's grid, is judged on ``validation_particles`` fixed validation particles
         (:mod:`pes_ref.synthesis.validation`) by the problem's success share; the run keeps
         the best such grid and ends on it.
@@ -268,7 +268,7 @@ COARSE_GRIDS = (5, 9, 17)
 #: docs/problems.md, "The default plan"): :func:`coarse_to_fine` stages, RMSprop from ``lr`` to
 #: ``lr_final`` over the run, and validation every ``validate_every`` iterations with an early
 #: stop at ``target``.
-DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.005, "n_particles": 64,
+DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.005, "n_particles": 128,
                      "validate_every": 10, "validation_particles": 200, "target": 0.97}
 
 
@@ -279,7 +279,11 @@ def coarse_to_fine(n0: int, iterations: int) -> tuple:
     return tuple((iterations * i // len(grids), g) for i, g in enumerate(grids))
 
 
-def default_plan(shape) -> Plan:
-    """The plan of a problem file without ``[train]``, on a final grid of ``shape`` (:data:`DEFAULT_FILE_PLAN`)."""
+def default_plan(shape, coarse: bool = True) -> Plan:
+    """The plan of a problem file without ``[train]``, on a final grid of ``shape`` (:data:`DEFAULT_FILE_PLAN`).
+
+    ``coarse=False`` (a design that starts from drawn shapes, a realizable contact's ``blocked``)
+    designs on the final grid throughout: a coarse grid would not hold the shapes it starts from."""
     its = DEFAULT_FILE_PLAN["iterations"]
-    return Plan(**DEFAULT_FILE_PLAN, decay_iterations=its, stages=coarse_to_fine(shape[0], its))
+    stages = coarse_to_fine(shape[0], its) if coarse else ((0, 0),)
+    return Plan(**DEFAULT_FILE_PLAN, decay_iterations=its, stages=stages)

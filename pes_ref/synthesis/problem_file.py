@@ -232,7 +232,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     if len({s.name for s in scenarios}) != len(scenarios):
         r.fail("evaluate.scenario", f"two scenarios have the same name: {[s.name for s in scenarios]}")
 
-    plan, init_scale = _train(r, data.get("train"), surface["shape"])
+    plan, init_scale = _train(r, data.get("train"), surface["shape"], contact is None or not contact.realizable)
     problem = DesignProblem(
         data=data, path=path, text=text, name=name, description=top["description"], lower=surface["lower"],
         upper=surface["upper"], periodic=surface["periodic"], grid_shape=surface["shape"],
@@ -411,11 +411,12 @@ def _test(r: Reader, entry: dict, at: str, domain: Domain, duration: float, dt: 
     return common["name"] or kind, test
 
 
-def _train(r: Reader, table, shape) -> tuple:
+def _train(r: Reader, table, shape, coarse: bool) -> tuple:
     """The plan and initial grid's scale: ``[train]``'s, or without the table the default plan
-    (:func:`pes_ref.synthesis.plans.default_plan`) and ``init_scale``."""
+    (:func:`pes_ref.synthesis.plans.default_plan`; ``coarse``: it may start on coarse grids, False
+    for a design that starts from drawn shapes) and ``init_scale``."""
     if table is None:
-        return default_plan(shape), TRAIN_KEYS["init_scale"].default
+        return default_plan(shape, coarse), TRAIN_KEYS["init_scale"].default
     t = r.table(table, "train", TRAIN_KEYS)
     its = t["iterations"]
     stages = t["stages"]

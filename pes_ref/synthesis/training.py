@@ -122,7 +122,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     iteration, so change the plan (a smaller ``lr``, ``clip``) first.
 
     A plan that validates (``validate_every``, :mod:`pes_ref.synthesis.validation`) judges the
-    grid every that many iterations and after the last, keeps the best (``state.best``), stops
+    grid before the first iteration, every that many and after the last, keeps the best (``state.best``), stops
     early once one reaches the plan's ``target``, and a run that is done ends on the best grid
     (``state.values``); resuming a done run for more iterations continues from that grid. The
     validations are part of the state a design file holds, so a stopped run resumes bit-exactly.
@@ -164,6 +164,8 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             for h in state.validation.values():
                 del h[kept:]
 
+    if plan.validate_every and state.iteration == 0 and not state.validation["iteration"]:
+        _validate(state)            # the start too: a run never ends below it (drawn shapes may already pass)
     with StopFlag() as flag:
         while state.iteration < total and not _reached_target(state):
             if flag.stop:

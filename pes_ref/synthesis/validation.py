@@ -1,7 +1,7 @@
 """Validation of a design run: a grid judged by the problem's success on fixed particles, and the best kept.
 
 A plan with ``validate_every > 0`` (:class:`pes_ref.synthesis.plans.Plan`) judges the run's
-grid every that many iterations: the grid resampled to the problem's own (what the run would
+grid before its first iteration and every that many iterations: the grid resampled to the problem's own (what the run would
 deliver, whatever its stage's grid), run on ``validation_particles`` particles drawn by the
 training sampler from ``numpy.random.default_rng([seed, VALIDATION_STREAM])`` and scored by
 the problem's ``batch_metric`` (the share passing every success test). The particles are the

@@ -24,7 +24,7 @@ def _run(plan=PLAN, seed=0, iterations=None):
 
 def test_the_run_ends_on_its_best_validated_grid():
     st = _run()
-    assert st.status == "done" and st.validation["iteration"] == [3, 6, 9, 12]
+    assert st.status == "done" and st.validation["iteration"] == [0, 3, 6, 9, 12]
     best = int(np.argmax(st.validation["success"]))          # the first of equals
     assert st.best.iteration == st.validation["iteration"][best]
     assert st.best.success == max(st.validation["success"])
@@ -42,10 +42,27 @@ def test_validation_particles_are_their_own_stream():
 
 def test_the_target_stops_the_run_early():
     full = _run()
-    reached = full.validation["success"][0]                  # the first validation's success
-    early = _run(Plan(**{**PLAN.__dict__, "target": reached}))
-    assert early.status == "done" and early.iteration == 3 and early.validation["iteration"] == [3]
-    assert synthesis.run_design(early).iteration == 3        # reached: no more iterations
+    target = max(full.validation["success"])
+    first = full.validation["iteration"][full.validation["success"].index(target)]
+    early = _run(Plan(**{**PLAN.__dict__, "target": target}))
+    assert early.status == "done" and early.iteration == first
+    assert early.validation["iteration"] == [i for i in full.validation["iteration"] if i <= first]
+    assert synthesis.run_design(early).iteration == first     # reached: no more iterations
+
+
+def test_a_start_at_the_target_is_not_designed_at_all():
+    easy = with_sets(GATHER, {"evaluate.success.0.radius": 5.0})        # every particle passes from the start
+    st = synthesis.run_design(synthesis.new_design(easy, plan=Plan(**{**PLAN.__dict__, "target": 0.97})))
+    assert st.status == "done" and st.iteration == 0 and st.validation == {"iteration": [0], "success": [1.0]}
+    np.testing.assert_array_equal(st.values, st.best.values)
+
+
+def test_a_drawn_start_is_designed_on_its_own_grid():
+    assert synthesis.default_plan((40, 40), coarse=False).stages == ((0, 0, 0),)
+    assert synthesis.default_plan((40, 40)).stages == ((0, 5, 0), (75, 9, 0), (150, 17, 0), (225, 0, 0))
+    contact = synthesis.load_problem(synthesis.shipped_problem("latch_contact"))
+    data = {k: v for k, v in contact.data.items() if k != "train"}
+    assert synthesis.parse_problem(data, "latch_contact.toml").plan.stages == ((0, 0, 0),)
 
 
 def test_the_same_seed_gives_the_same_run():
@@ -62,7 +79,7 @@ def test_an_interrupted_run_resumes_bit_exactly(tmp_path):
             os.kill(os.getpid(), signal.SIGINT)
 
     part = synthesis.run_design(synthesis.new_design(GATHER, plan=PLAN), callback=interrupt, progress_every=0.0)
-    assert part.status == "interrupted" and part.iteration == 5 and part.validation["iteration"] == [3]
+    assert part.status == "interrupted" and part.iteration == 5 and part.validation["iteration"] == [0, 3]
     save_design(tmp_path / "part.npz", part)
     resumed = synthesis.run_design(load_design(tmp_path / "part.npz"))
     np.testing.assert_array_equal(resumed.values, whole.values)
@@ -72,10 +89,10 @@ def test_an_interrupted_run_resumes_bit_exactly(tmp_path):
 
 def test_a_run_done_early_ends_on_its_best_and_goes_on_from_it():
     short = _run(iterations=7)                               # the last iteration is validated too
-    assert short.status == "done" and short.validation["iteration"] == [3, 6, 7]
+    assert short.status == "done" and short.validation["iteration"] == [0, 3, 6, 7]
     np.testing.assert_array_equal(short.values, short.best.values)
     more = synthesis.run_design(short, 9)
-    assert more.validation["iteration"] == [3, 6, 7, 9]
+    assert more.validation["iteration"] == [0, 3, 6, 7, 9]
 
 
 def test_a_design_file_holds_the_validations(tmp_path):
