@@ -148,6 +148,7 @@ def main(argv=None) -> int:
     os.makedirs(args.out, exist_ok=True)
     write_csv(Path(args.out) / "results.csv", rows)
     words = (["--smoke"] if args.smoke else []) + ([f"--problems {args.problems}"] if args.problems else []) + \
+        ([f"--backends {','.join(args.backends)}"] if args.backends else []) + \
         ([f"--seeds {','.join(map(str, args.seeds))}"] if tuple(args.seeds) != DESIGN_SEEDS else [])
     cmd = " ".join(["python validation/experiments/design_study.py", *words]) if words else "make design-study"
     block = ["", _table.where_made(cmd, (load0, os.getloadavg()[0]), args.workers), ""] + table(rows, args.held_out) + [""]
