@@ -20,9 +20,21 @@ class KeyFileError(ValueError):
 
 
 def show(value) -> str:
-    """A short repr of a bad value for a message (at most 60 characters)."""
-    text = repr(value)
+    """A bad value for a message, as the file spells it (TOML: ``true``, ``[1, 2]``,
+    ``{ k = 1 }``; anything else by its repr), at most 60 characters."""
+    text = _toml(value)
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _toml(value) -> str:
+    """``value`` in TOML's spelling where it differs from Python's (booleans, tables, lists of them)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }" if value else "{}"
+    return repr(value)
 
 
 def read_text(path, error: type, what: str) -> str:

@@ -80,7 +80,7 @@ class _Reader(KeyReader):
         if not isinstance(value, str):
             self.fail(key, f"expected a string, got {_show(value)}")
         if choices is not None and value not in choices:
-            self.fail(key, f"expected one of {', '.join(repr(c) for c in choices)}, got {value!r}")
+            self.fail(key, f"expected one of {', '.join(repr(c) for c in choices)}, got {_show(value)}")
         return value
 
     def build(self, key: str, make, *args):

@@ -13,6 +13,7 @@ import dataclasses
 from typing import Mapping, NamedTuple
 
 from pes_ref.core.checks import InputError
+from pes_ref.core.keyfile import show
 from pes_ref.synthesis import DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS, OSCILLATOR_POLISH, PROBLEMS, Plan
 
 __all__ = ["SMOKE", "SMOKE_GRID", "smoke_sets", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets",
@@ -105,7 +106,7 @@ def typed_sets(values: Mapping, kind: str) -> dict:
             raise ValueError(f"{kind} scenes have no parameter {name!r}; expected one of {sorted(fields)}")
         want = type(fields[name].default)
         if not has_type(value, want):
-            raise ValueError(f"{name} must be {type_name(want)}, got {value!r}")
+            raise ValueError(f"{name} must be {type_name(want)}, got {show(value)}")
         out[name] = float(value) if want is float else value
     return out
 
