@@ -100,6 +100,16 @@ class KeyReader:
             self.fail(where, f"expected an integer >= {least}, got {show(value)}")
         return int(value)
 
+    def ordered(self, lower, upper, where: str, *, strict: bool = False) -> None:
+        """Refuse corners ``lower``, ``upper`` of a box at ``where`` unless ``upper >= lower`` on
+        every axis (``>`` if ``strict``), naming the axis: ``WHERE.upper[1]: expected upper >=
+        lower, got lower 0.5, upper 0.2``."""
+        relation = ">" if strict else ">="
+        for d, (lo, hi) in enumerate(zip(lower, upper)):
+            if not (hi > lo or (hi == lo and not strict)):
+                self.fail(f"{where}.upper[{d}]" if where else f"upper[{d}]",
+                          f"expected upper {relation} lower, got lower {lo:g}, upper {hi:g}")
+
     def boolean(self, value, where: str) -> bool:
         if not isinstance(value, bool):
             self.fail(where, f"expected true or false, got {show(value)}")

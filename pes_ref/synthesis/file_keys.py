@@ -78,10 +78,7 @@ class Reader(KeyReader):
     def box(self, value, where: str) -> tuple:
         """``{ lower = [a, b], upper = [c, d] }`` with upper >= lower: ``(lower, upper)``."""
         t = self.table(value, where, {"lower": Key("point"), "upper": Key("point")})
-        for d in range(2):
-            if not t["upper"][d] >= t["lower"][d]:
-                self.fail(f"{where}.upper", f"expected upper >= lower on both axes, got lower "
-                                            f"{list(t['lower'])}, upper {list(t['upper'])}")
+        self.ordered(t["lower"], t["upper"], where)
         return t["lower"], t["upper"]
 
 

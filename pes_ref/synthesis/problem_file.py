@@ -160,10 +160,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     name = top["name"] or (os.path.splitext(os.path.basename(path))[0] if not path.startswith("<") else "problem")
 
     surface = r.table(_section(r, data, "surface"), "surface", SURFACE_KEYS, also=("hold", "contact"))
-    for d in range(2):
-        if not surface["upper"][d] > surface["lower"][d]:
-            r.fail(f"surface.upper[{d}]", f"expected upper > lower, got lower {surface['lower'][d]:g}, "
-                                          f"upper {surface['upper'][d]:g}")
+    r.ordered(surface["lower"], surface["upper"], "surface", strict=True)
     holds = _list(r, _section(r, data, "surface").get("hold", []), "surface.hold")
     holds = tuple(r.box(h, f"surface.hold[{i}]") for i, h in enumerate(holds))
     domain = Domain(surface["lower"], surface["upper"], surface["periodic"])
@@ -182,6 +179,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         cls = OBJECTIVE_TERMS[kind]
         keys = r.table(entry, where, cls.KEYS, also=TERM_KEYS)
         _check_times(r, keys, where, duration, scene_keys["dt"])
+        _check_box(r, keys, where)
         term = _build(r, where, cls.from_keys, keys, domain, duration)
         names.append(r.value(entry["name"], f"{where}.name", TERM_KEYS["name"]) if "name" in entry else kind)
         terms.append(term)
@@ -298,6 +296,12 @@ def _check_times(r: Reader, keys: dict, where: str, duration: float, dt: float) 
         r.fail(f"{where}.to", f"expected to >= from, got from {keys['from']:g}, to {keys['to']:g}")
 
 
+def _check_box(r: Reader, keys: dict, where: str) -> None:
+    """An entry with corners ``lower`` and ``upper`` (``stay_in``, ``per_particle``) states a box: upper >= lower."""
+    if "lower" in keys and "upper" in keys:
+        r.ordered(keys["lower"], keys["upper"], where)
+
+
 def _dynamics(r: Reader, table: dict, domain: Domain):
     d = r.table(table, "dynamics", DYNAMICS_KEYS, also=("spring", "walls"))
     if (d["duration"] is None) == (d["n_steps"] is None):
@@ -336,6 +340,7 @@ def _forces(r: Reader, value, where: str, duration: float) -> tuple:
         common = r.table({k: v for k, v in entry.items() if k not in own}, at, FORCE_KEYS, also=own)
         keys = r.table({k: v for k, v in entry.items() if k not in FORCE_KEYS}, at, own, also=FORCE_KEYS)
         _check_times(r, common, at, duration, 0.0)
+        _check_box(r, keys, at)
         if common["to"] is not None and not common["to"] > (common["from"] or 0.0):
             r.fail(f"{at}.to", f"expected to > from, got from {common['from'] or 0.0:g}, to {common['to']:g}")
         out.append(Force(kind, keys, common["name"], common["from"], common["to"]))
@@ -351,6 +356,7 @@ def _tests(r: Reader, value, where: str, domain: Domain, duration: float, dt: fl
         cls = SUCCESS_TESTS[kind]
         keys = r.table(entry, at, cls.KEYS, also=TEST_KEYS)
         _check_times(r, keys, at, duration, dt)
+        _check_box(r, keys, at)
         name = r.value(entry["name"], f"{at}.name", TEST_KEYS["name"]) if "name" in entry else kind
         out.append((name, _build(r, at, cls.from_keys, keys, domain, duration)))
     return tuple(zip(_unique([n for n, _ in out]), (t for _, t in out)))
