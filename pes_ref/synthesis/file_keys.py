@@ -9,11 +9,14 @@ number >= 0, got -1``). The converters are looked up by the key's type in :data:
 """
 from __future__ import annotations
 
+import importlib
+import os
+import sys
 from typing import NamedTuple
 
 from pes_ref.core.keyfile import KeyFileError, KeyReader, show
 
-__all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES"]
+__all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES", "import_object"]
 
 
 class ProblemFileError(KeyFileError):
@@ -44,6 +47,12 @@ class Reader(KeyReader):
 
     error = ProblemFileError
     noun = "a problem file"
+
+    @property
+    def folder(self) -> str | None:
+        """The folder of the file read (None for data built in code, ``"<...>"``): where its
+        ``custom`` modules are looked for first."""
+        return None if self.path.startswith("<") else os.path.dirname(os.path.abspath(self.path))
 
     def table(self, value, where: str, keys: dict, *, also=()) -> dict:
         """The table ``value`` at ``where`` checked against ``keys``: every key converted by
@@ -160,16 +169,46 @@ def _velocity(r, v, w, k):
     return p, p
 
 
+def import_object(spec: str, folder: str | None = None):
+    """The object named ``"module:name"`` (``name`` may be dotted), imported; ``folder`` (a
+    problem file's) is searched first, and is on ``sys.path`` for this import only."""
+    module, _, name = spec.partition(":")
+    if folder is not None:
+        sys.path.insert(0, folder)
+    try:
+        obj = importlib.import_module(module)
+    finally:
+        if folder is not None:
+            sys.path.remove(folder)
+    for part in name.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
 def _object(r, v, w, k):
-    """``"module:object"``, or (in a problem built in code) the object itself."""
+    """An object with ``value_and_grad(x, v, t)``: named ``"module:object"`` (imported, from the
+    file's folder first: a module beside the problem file), or (in a problem built in code) itself."""
     if isinstance(v, str):
         module, sep, name = v.partition(":")
         if not (sep and module and name):
             r.fail(w, f"expected 'module:object' (an importable module and a name in it), got {show(v)}")
-        return v
-    if not callable(getattr(v, "value_and_grad", None)):
-        r.fail(w, f"expected 'module:object' or an object with value_and_grad(x, v, t), got {show(v)}")
-    return v
+        try:
+            obj = import_object(v, r.folder)
+        except ImportError as exc:
+            r.fail(w, f"cannot import it: {exc}")
+        except AttributeError as exc:
+            r.fail(w, f"not found: {exc}")
+        except Exception as exc:                      # the user's module failed while it was imported
+            r.fail(w, f"importing {v!r} raised {type(exc).__name__}: {exc}")
+    else:
+        obj = v
+    what = repr(v) if isinstance(v, str) else show(v)
+    if isinstance(obj, type):
+        r.fail(w, f"{what} is a class; expected an object with value_and_grad(x, v, t), such as an instance of it")
+    if not callable(getattr(obj, "value_and_grad", None)):
+        kind = type(obj).__name__
+        r.fail(w, f"{what} ({'an' if kind[0] in 'aeiou' else 'a'} {kind}) has no value_and_grad(x, v, t)")
+    return obj
 
 
 def _shapes(r, v, w, k):

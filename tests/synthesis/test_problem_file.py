@@ -2,6 +2,7 @@
 the built-in funnel bit for bit, every bad key is refused in one line naming it, the design
 gradient of a problem's terms matches central differences, and a design file holds its problem."""
 import re
+import sys
 import tomllib
 
 import numpy as np
@@ -103,6 +104,13 @@ BAD = [
      "cannot import"),
     ({"objective": [{"kind": "custom", "object": "nocolon"}]}, "objective[0].object", "'module:object'"),
     ({"objective": [{"kind": "custom", "object": "_helpers:NOTHING"}]}, "objective[0].object", "not found"),
+    ({"objective": [{"kind": "custom", "object": "_helpers:GatherAt"}]}, "objective[0].object",
+     "'_helpers:GatherAt' is a class; expected an object with value_and_grad(x, v, t)"),
+    ({"objective": [{"kind": "custom", "object": "_helpers:gather_problem"}]}, "objective[0].object",
+     "'_helpers:gather_problem' (a function) has no value_and_grad(x, v, t)"),
+    ({"objective": [{"kind": "custom", "object": _helpers.GatherAt}]}, "objective[0].object",
+     "is a class; expected an object with value_and_grad(x, v, t)"),
+    ({"objective": [{"kind": "custom", "object": 3}]}, "objective[0].object", "3 (an int) has no value_and_grad"),
     ({"surface.periodic": [True, False], "dynamics.walls.edges": [[False, False], [True, True]],
       "objective": [{"kind": "exit", "edge": "q0_lower", "center": 0.0}]}, "objective[0]", "periodic axis"),
     ({"objective": [{"kind": "final_position", "target": [0, 0], "colour": 1}]}, "objective[0].colour",
@@ -342,6 +350,45 @@ def test_a_problem_built_in_code_with_its_own_objective_object(tmp_path):
     state = synthesis.new_design(parse_problem(data, "<code>"), seed=0)
     save_design(tmp_path / "y.npz", state)
     assert 'object = "_helpers:GATHER"' in problem_text(load_design(tmp_path / "y.npz").problem)
+
+
+class _Fails:
+    """A user's own objective with a bug in it."""
+
+    def __init__(self, exc):
+        self.exc = exc
+
+    def value_and_grad(self, x, v, t):
+        raise self.exc
+
+
+@pytest.mark.parametrize("exc, said", [(ValueError("boom"), "boom"),
+                                       (ZeroDivisionError("division by zero"), "ZeroDivisionError: division by zero")])
+def test_a_custom_term_s_own_failure_names_the_term(exc, said):
+    data = tomllib.loads(GATHER)
+    data["objective"].append({"kind": "custom", "object": _Fails(exc), "name": "spread"})
+    problem = parse_problem(data, "<code>")
+    with pytest.raises(ValueError) as err:
+        synthesis.design_gradient(problem, problem.flat_values(), seed=0, iteration=0, n_particles=2)
+    assert str(err.value) == f"objective[1] (custom 'spread', a _Fails): {said}"
+
+
+def test_a_custom_object_is_imported_from_the_problem_file_s_folder(tmp_path):
+    module = "problem_folder_objective"                 # a name nothing else imports
+    (tmp_path / f"{module}.py").write_text("import numpy as np\n\n\nclass Gather:\n"
+                                           "    def value_and_grad(self, x, v, t):\n"
+                                           "        gx = np.zeros_like(x)\n        gx[-1] = 2 * x[-1]\n"
+                                           "        return float(np.sum(x[-1] ** 2)), gx, None\n\n\n"
+                                           "GATHER = Gather()\n")
+    (tmp_path / "p.toml").write_text(GATHER.replace('kind = "final_position"\ntarget = [0.3, -0.2]\n[evaluate]',
+                                                    f'kind = "custom"\nobject = "{module}:GATHER"\n[evaluate]'))
+    path = list(sys.path)
+    try:
+        problem = load_problem(tmp_path / "p.toml")
+        assert type(problem.terms[0].obj).__module__ == module
+        assert sys.path == path                  # searched for the import only
+    finally:
+        sys.modules.pop(module, None)
 
 
 def test_with_sets_changes_dotted_keys_and_refuses_what_is_not_there():
