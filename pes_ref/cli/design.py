@@ -236,7 +236,7 @@ def _run_design(args) -> int:
             out = args.out if args.out is not None else f"{problem.name if problem is not None else kind}.npz"
             may_overwrite = args.force
         output_file(out, "design", force=may_overwrite)
-    except (OSError, ValueError, TypeError) as exc:
+    except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, said with its pip line
         return error(exc, flags)
 
     from pes_ref.core.progress import figure_text, progress_line

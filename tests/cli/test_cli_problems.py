@@ -86,6 +86,14 @@ def test_a_shipped_problem_by_its_name(name, tmp_path, capsys):
     assert state.iteration == 6 and max(state.values.shape) <= 12
 
 
+def test_without_the_extra_a_contact_problem_is_refused_with_the_pip_line(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "shapely", None)          # import shapely -> ImportError
+    code, out, err = run(capsys, "design", "latch_contact", "--smoke", "--out", tmp_path / "lc.npz")
+    assert code == EXIT_ERROR and out == "" and err.count("\n") == 1, err
+    assert err.startswith("error: ") and "the optional extra 'devices'" in err and "pip install 'pes_ref[devices]'" in err
+    assert "internal error" not in err and not os.listdir(tmp_path)
+
+
 def test_the_default_out_is_named_after_the_problem(gather, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert run(capsys, "design", gather, "--iterations", 1, "--quiet")[0] == EXIT_OK
