@@ -189,14 +189,14 @@ def _run_design(args) -> int:
         flags = _flags(kind)
         from pes_ref.sweep.options import design_inputs, parse_sets   # shared with sweeps
         if problem is not None:
-            from pes_ref.synthesis.problem_file import parse_set, with_sets
+            from pes_ref.synthesis.problem_file import parse_set
             sets = dict(parse_set(item) for item in args.set)
         else:
             sets = parse_sets(args.set, synthesis.PROBLEMS[kind])
         inputs = design_inputs(kind, vars(args), sets, problem)
         sets, plan_over, base_plan = inputs.sets, inputs.plan_overrides, inputs.base_plan
         if problem is not None:
-            problem = with_sets(problem, sets)
+            problem = inputs.problem                        # its keys changed by --set (and --smoke)
         executor = _pool(args.workers, inputs, kind)
         if state is not None:
             if args.kind is None and problem != state.problem:

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 from pes_ref.core.backends import check_backend
 from pes_ref.core.keyfile import KeyFileError, KeyReader, parse_toml, read_text, show
-from pes_ref.synthesis import PROBLEMS, ProblemFileError, load_problem, problem_text, with_sets
+from pes_ref.synthesis import PROBLEMS, ProblemFileError, load_problem, problem_text
 from pes_ref.sweep.options import (DESIGN_OPTIONS, design_inputs, has_type, scene_parameters, type_name,
                                    typed_sets)
 
@@ -170,8 +170,7 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
                     inputs = design_inputs(kind, options, typed_sets(sets, kind))
                     PROBLEMS[kind](**inputs.sets)
                 else:
-                    inputs = design_inputs(kind, options, sets, problem)
-                    with_sets(problem, inputs.sets)
+                    inputs = design_inputs(kind, options, sets, problem)      # checks the problem with its sets
                 inputs.plan()
                 if options.get("backend") is not None:
                     check_backend(options["backend"])

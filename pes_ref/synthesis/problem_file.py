@@ -41,7 +41,8 @@ from pes_ref.synthesis.problem_contact import Contact
 from pes_ref.synthesis.success import SUCCESS_TESTS
 
 __all__ = ["FORMAT", "load_problem", "parse_problem", "problem_from_text", "problem_text", "with_sets",
-           "parse_set", "shipped_problem", "at_step", "SHIPPED_PROBLEMS", "ProblemFileError", "SECTIONS"]
+           "parse_set", "shipped_problem", "at_step", "plan_for", "default_stages", "SHIPPED_PROBLEMS", "ProblemFileError",
+           "SECTIONS"]
 
 #: The problem-file format this module reads.
 FORMAT = 1
@@ -367,10 +368,7 @@ def _tests(r: Reader, value, where: str, domain: Domain, duration: float, dt: fl
 def _train(r: Reader, table, shape) -> tuple:
     t = r.table(table, "train", TRAIN_KEYS)
     its = t["iterations"]
-    stages = t["stages"]
-    if stages is None:
-        coarse = min(COARSE_GRID, shape[0])
-        stages = ((0, 0),) if coarse == shape[0] else ((0, coarse), (max(1, int(COARSE_SHARE * its)), 0))
+    stages = t["stages"] if t["stages"] is not None else default_stages(shape, its)
     lr_final = t["lr"] if t["lr_final"] is None else t["lr_final"]
     decay = its if t["decay_iterations"] is None else t["decay_iterations"]
     try:
@@ -379,6 +377,23 @@ def _train(r: Reader, table, shape) -> tuple:
     except (ValueError, TypeError) as exc:
         r.fail(f"train.{getattr(exc, 'key', None) or 'stages'}", " ".join(str(exc).split()))
     return plan, t["init_scale"]
+
+
+def default_stages(shape, iterations: int) -> tuple:
+    """The stages of a file without ``train.stages``, for a run of ``iterations``: a grid of
+    :data:`COARSE_GRID` nodes along axis 0 (if ``shape`` is finer) for :data:`COARSE_SHARE` of
+    them, then the final grid."""
+    coarse = min(COARSE_GRID, shape[0])
+    return ((0, 0),) if coarse == shape[0] else ((0, coarse), (max(1, int(COARSE_SHARE * iterations)), 0))
+
+
+def plan_for(problem: DesignProblem, iterations: int | None = None) -> Plan:
+    """The plan of ``problem``'s ``[train]`` for a run of ``iterations`` (None: the file's own
+    count): a file without ``train.stages`` has the default stages of that count, whether it comes
+    from the file or from the command line."""
+    if iterations is None or "stages" in problem.data.get("train", {}):
+        return problem.plan
+    return dataclasses.replace(problem.plan, stages=default_stages(problem.grid_shape, iterations))
 
 
 def _check_scene(r: Reader, problem: DesignProblem) -> None:

@@ -86,6 +86,16 @@ def test_a_shipped_problem_by_its_name(name, tmp_path, capsys):
     assert state.iteration == 6 and max(state.values.shape) <= 12
 
 
+def test_set_train_keys_change_the_plan_the_design_runs(gather, tmp_path, capsys):
+    out = tmp_path / "g.npz"
+    code, stdout, err = run(capsys, "design", gather, "--set", "train.iterations=3", "--set", "train.particles=5",
+                            "--out", out, "--quiet")
+    assert code == EXIT_OK and stdout.startswith(f"wrote {out}: gather, iteration 3/3 (done)"), (stdout, err)
+    state = load_design(out)
+    assert (state.plan.iterations, state.plan.n_particles) == (3, 5) == (state.problem.plan.iterations,
+                                                                        state.problem.plan.n_particles)
+
+
 def test_without_the_extra_a_contact_problem_is_refused_with_the_pip_line(tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "shapely", None)          # import shapely -> ImportError
     code, out, err = run(capsys, "design", "latch_contact", "--smoke", "--out", tmp_path / "lc.npz")
