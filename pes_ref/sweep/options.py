@@ -17,7 +17,7 @@ from pes_ref.core.keyfile import show
 from pes_ref.synthesis import (DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS, OSCILLATOR_POLISH, PROBLEMS, Plan,
                                plan_for, with_sets)
 
-__all__ = ["SMOKE", "SMOKE_GRID", "smoke_sets", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets",
+__all__ = ["SMOKE", "SMOKE_GRID", "smoke_sets", "smoke_scene", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets",
            "parse_stages", "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
 
 #: The ``--smoke`` preset: problem overrides per kind, and the plan's (iterations, particles, stages).
@@ -154,6 +154,11 @@ def smoke_sets(problem) -> dict:
     return {"surface.shape": list(problem.shape(min(SMOKE_GRID, problem.shape()[0])))}
 
 
+def smoke_scene(kind: str, problem=None) -> dict:
+    """The problem overrides of the ``--smoke`` preset of a ``kind`` run (of the problem file ``problem``)."""
+    return smoke_sets(problem) if kind == "problem" else dict(SMOKE[kind][0])
+
+
 def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None, problem=None) -> DesignInputs:
     """Resolve design ``options`` and problem overrides ``sets`` for a ``kind`` run (for kind
     ``"problem"``, of the problem file ``problem``: ``sets`` are its dotted keys).
@@ -186,8 +191,8 @@ def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None, prob
         base_polish = OSCILLATOR_POLISH[name]
         sets = {**plan_sets, **sets}
     if options.get("smoke"):
-        preset, (its, parts, stages) = SMOKE[kind]
-        sets = {**(smoke_sets(problem) if kind == "problem" else preset), **sets}
+        its, parts, stages = SMOKE[kind][1]
+        sets = {**smoke_scene(kind, problem), **sets}
 
         preset_plan = {"iterations": its, "n_particles": parts, "stages": stages}
         plan_over = {**{k: v for k, v in preset_plan.items() if _SMOKE_TRAIN_KEYS[k] not in sets}, **plan_over}
