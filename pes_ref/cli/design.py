@@ -224,7 +224,7 @@ def _run_design(args) -> int:
             problem = inputs.problem                        # its keys changed by --set (and --smoke)
         executor = _pool(args.workers, inputs, kind)
         if state is not None:
-            if args.kind is None and problem != state.problem:
+            if args.kind is None and problem is not None and problem != state.problem:   # a file's, changed by --set
                 difference = synthesis.first_difference(state.problem.data, problem.data)
                 raise ValueError(f"--set: a resumed design keeps its problem; {difference}".replace(" there,", ","))
             if problem is not None:
@@ -261,7 +261,7 @@ def _run_design(args) -> int:
             out = args.out if args.out is not None else f"{problem.name if problem is not None else kind}.npz"
             may_overwrite = args.force
         output_file(out, "design", force=may_overwrite)
-    except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, said with its pip line
+    except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, with its pip line
         return error(exc, flags)
 
     from pes_ref.core.progress import figure_text, progress_line

@@ -17,8 +17,8 @@ from pes_ref.core.keyfile import show
 from pes_ref.synthesis import (DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS, OSCILLATOR_POLISH, PROBLEMS, Plan,
                                plan_for, with_sets)
 
-__all__ = ["SMOKE", "SMOKE_GRID", "smoke_sets", "smoke_scene", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets",
-           "parse_stages", "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
+__all__ = ["SMOKE", "SMOKE_GRID", "smoke_sets", "smoke_scene", "DESIGN_OPTIONS", "DesignInputs", "design_inputs",
+           "parse_sets", "parse_stages", "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
 
 #: The ``--smoke`` preset: problem overrides per kind, and the plan's (iterations, particles, stages).
 #: A problem file keeps its dynamics and schedule (its phases), on a grid of at most

@@ -93,6 +93,12 @@ def test_bad_input_gets_one_error_line(funnel_file, tmp_path, capsys, argv, mess
     assert not (tmp_path / "o.npz").exists() and not (tmp_path / "x.npz").exists()
 
 
+def test_resume_alone_continues_a_built_in_design(funnel_file, capsys):
+    code, out, err = run(capsys, "design", "--resume", funnel_file, "--iterations", 7, "--quiet")
+    assert code == EXIT_OK, err
+    assert load_design(funnel_file).iteration == 7 and out.startswith(f"wrote {funnel_file}: funnel, iteration 7/7")
+
+
 def test_smoke_resumes_only_a_design_of_its_size(tmp_path, capsys):
     path = tmp_path / "g16.npz"
     assert run(capsys, "design", "funnel", "--smoke", "--set", "grid=16", "--iterations", 1, "--out", path,
