@@ -22,6 +22,8 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
+import operator
 import os
 import sys
 import time
@@ -173,6 +175,27 @@ def error_stopped(state) -> int:
     return EXIT_FAIL
 
 
+def _check_smoke_size(state, kind: str, given, resume: str) -> None:
+    """``--smoke`` with ``--resume`` continues a design of the smoke size (to the preset's plan): a
+    resumed design keeps its scene, so one of another size is refused naming ``--smoke``, whose
+    size it is (not the problem file's or ``--set``'s); a key the user sets (``given``) is left
+    to the usual checks, as is a design of another kind."""
+    if state.kind != kind:
+        return                                  # another kind of design: refused as such below
+    from pes_ref.core.keyfile import show
+    from pes_ref.sweep.options import smoke_scene
+    for name, value in smoke_scene(kind, state.problem).items():
+        if name in given:
+            continue
+        if kind == "problem":
+            there = functools.reduce(operator.getitem, name.split("."), state.problem.data)
+        else:
+            there = getattr(state.problem, name)
+        if there != value:
+            raise ValueError(f"--smoke resumes only a design of its size: {resume} has {name} = {show(there)}, "
+                             f"--smoke's is {show(value)}; leave --smoke out to resume it")
+
+
 def _run_design(args) -> int:
     from pes_ref import synthesis
     from pes_ref.synthesis import check_same_scene, load_design, save_design
@@ -189,17 +212,19 @@ def _run_design(args) -> int:
         flags = _flags(kind)
         from pes_ref.sweep.options import design_inputs, parse_sets   # shared with sweeps
         if problem is not None:
-            from pes_ref.synthesis.problem_file import parse_set, with_sets
+            from pes_ref.synthesis.problem_file import parse_set
             sets = dict(parse_set(item) for item in args.set)
         else:
             sets = parse_sets(args.set, synthesis.PROBLEMS[kind])
+        if state is not None and args.smoke:
+            _check_smoke_size(state, kind, given=sets, resume=args.resume)
         inputs = design_inputs(kind, vars(args), sets, problem)
         sets, plan_over, base_plan = inputs.sets, inputs.plan_overrides, inputs.base_plan
         if problem is not None:
-            problem = with_sets(problem, sets)
+            problem = inputs.problem                        # its keys changed by --set (and --smoke)
         executor = _pool(args.workers, inputs, kind)
         if state is not None:
-            if args.kind is None and problem != state.problem:
+            if args.kind is None and problem is not None and problem != state.problem:   # a file's, changed by --set
                 difference = synthesis.first_difference(state.problem.data, problem.data)
                 raise ValueError(f"--set: a resumed design keeps its problem; {difference}".replace(" there,", ","))
             if problem is not None:
@@ -236,7 +261,7 @@ def _run_design(args) -> int:
             out = args.out if args.out is not None else f"{problem.name if problem is not None else kind}.npz"
             may_overwrite = args.force
         output_file(out, "design", force=may_overwrite)
-    except (OSError, ValueError, TypeError) as exc:
+    except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, with its pip line
         return error(exc, flags)
 
     from pes_ref.core.progress import figure_text, progress_line

@@ -114,7 +114,9 @@ BAD = [
     ({"evaluate": {"success": [{"kind": "custom", "object": "_helpers:BAND_TEST_WITHOUT_COST"}]}},
      "evaluate.success[0].object", "no cost"),
     ({"evaluate": {"success": [{"kind": "custom", "object": "_helpers:gather_problem"}]}},
-     "evaluate.success[0]", "passes"),
+     "evaluate.success[0].object", "has no passes(x, v, t)"),
+    ({"evaluate": {"success": [{"kind": "custom", "object": "_helpers:_Band"}]}},
+     "evaluate.success[0].object", "is a class"),
 ]
 
 
