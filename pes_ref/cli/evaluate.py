@@ -32,8 +32,7 @@ def add_parser(sub) -> None:
                     "green where a particle passed and red where it did not, one panel per test (docs/synthesis.md, "
                     "\"Command line\"). An output file that exists is refused, before anything is computed, "
                     "unless --force.",
-        examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191',
-                  'evaluate funnel.npz --json funnel.json --plot plots',
+        examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191 --json osc.json --plot plots',
                   'evaluate funnel.npz --realized funnel_parts/device.toml'])
     p.add_argument("file", metavar="FILE.npz", help="a design file written by 'design'")
     p.add_argument("--seed", type=int, default=12345, help="held-out seed (default 12345; training uses others)")
