@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import math
 import os
-import shutil
 import sys
 from itertools import islice
 from typing import Callable, Iterable
@@ -232,6 +231,22 @@ def progress_line(p: Progress) -> str:
                        f"left {clock_time(p.seconds_left)}"])
 
 
+def _columns(stream) -> int:
+    """The width of the terminal ``stream`` writes to: ``COLUMNS`` if set (as
+    :func:`shutil.get_terminal_size` reads it), else the stream's own terminal (not
+    stdout's: ``design ... > log`` keeps stderr at the terminal), else 80."""
+    try:
+        columns = int(os.environ.get("COLUMNS", 0))
+    except ValueError:
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(stream.fileno()).columns
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+    return columns if columns > 0 else 80
+
+
 class ProgressWriter:
     """How a command shows its progress lines (:func:`progress_line`) on stderr.
 
@@ -279,8 +294,7 @@ class ProgressWriter:
             back = "\r\x1b[K"
         out.write(back + line)
         out.flush()
-        width = max(shutil.get_terminal_size((80, 24)).columns, 1)
-        self._rows = max(1, math.ceil(len(line) / width))
+        self._rows = max(1, math.ceil(len(line) / _columns(out)))
 
     def note(self, text: str) -> None:
         """``text`` on a line of its own that stays, after the line in place (if any)."""
