@@ -74,14 +74,15 @@ def _run_evaluate(args) -> int:
     except (OSError, ValueError, TypeError, ImportError, NonFiniteError) as exc:
         return error(exc, FLAGS)
     lines = _lines(state, figures)
-    if args.realized is not None:
-        lines.append(("seconds", time.perf_counter() - start))
     for name, value in lines:
         print(f"{name}: {value:.6g}" if isinstance(value, float) else f"{name}: {value}")
+    if args.realized is not None:
+        print(f"seconds: {time.perf_counter() - start:.3g}")
     try:
         if "json" in outputs:
-            _write(outputs["json"], _json(state, args, lines), args.force, "JSON")
+            _write(outputs["json"], _json(args, lines), args.force, "JSON")
         if picture is not None:
+            os.makedirs(args.plot, exist_ok=True)
             _write(outputs["plot"], picture, args.force, "plot")
     except OSError as exc:
         return error(exc)
@@ -112,7 +113,7 @@ def _lines(state, figures: dict) -> list:
 _HEADER = ("kind", "problem", "method", "stage", "iterations", "evaluations", "status")
 
 
-def _json(state, args, lines: list) -> bytes:
+def _json(args, lines: list) -> bytes:
     """The JSON of ``--json``: the design file, the header facts, the held-out seed and
     particles, and every figure by name; a NaN or infinite figure is null (JSON has no NaN)."""
     facts = dict(lines)
@@ -152,7 +153,7 @@ def _picture(state, args) -> bytes:
     from pes_ref.synthesis.analysis import held_out_panels
     from pes_ref.synthesis.plots import paths_figure
     panels = held_out_panels(state.problem, state.values, seed=args.seed, n_particles=args.particles)
-    name = state.problem.name if state.kind == "problem" else state.kind
+    name = getattr(state.problem, "name", state.kind)             # a problem file's problem by its name
     title = (f"{os.path.basename(args.file)}: {name}, {state.method} to iteration {state.iteration}; "
              f"held-out seed {args.seed}")
     buf = io.BytesIO()
@@ -162,8 +163,6 @@ def _picture(state, args) -> bytes:
 
 def _write(path: str, data: bytes, force: bool, what: str) -> None:
     from pes_ref.core.files import atomic_file
-    if what == "plot":
-        os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
     with atomic_file(path, overwrite=force, what=what) as fh:
         fh.write(data)
 
