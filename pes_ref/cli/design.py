@@ -264,18 +264,19 @@ def _run_design(args) -> int:
     except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, with its pip line
         return error(exc, flags)
 
-    from pes_ref.core.progress import figure_text, progress_line
+    from pes_ref.core.progress import ProgressWriter, figure_text
 
     shown = []                          # the stages shown so far
+    lines = ProgressWriter()            # in place at a terminal, plain lines elsewhere
 
     def progress(p):
         if args.quiet:
             return
         if shown and p.stage != shown[-1] and p.figure("steps") is not None:   # a new gradient stage
-            print(f"{p.label}: now {p.stage}: grid {figure_text(p.figure('grid'))}, {p.figure('steps')} "
-                  f"steps per run (its loss is not comparable with {shown[-1]}'s)", file=sys.stderr)
+            lines.note(f"{p.label}: now {p.stage}: grid {figure_text(p.figure('grid'))}, {p.figure('steps')} "
+                       f"steps per run (its loss is not comparable with {shown[-1]}'s)")
         shown.append(p.stage)
-        print(progress_line(p), file=sys.stderr, flush=True)
+        lines.show(p)
 
     def checkpoint(s):
         save_design(out, s, overwrite=True)
@@ -290,18 +291,21 @@ def _run_design(args) -> int:
             raise PermissionError(f"cannot write {out}: the file is not writable")
         state = synthesis.run_stages(state, state.plan.iterations, executor=executor, tasks=args.workers,
                                      callback=progress, progress_every=args.progress, checkpoint=checkpoint)
+        lines.end()                     # the last progress line stays, whole, before anything else is printed
         if fresh and state.iteration == 0 and state.status.startswith(synthesis.STOPPED):
             if created:
                 os.remove(out)                                 # never leave a file that holds no iteration
             return error_stopped(state)
         save_design(out, state, overwrite=True)
     except Exception as exc:
+        lines.end()
         if fresh and created and state.iteration == start and os.path.lexists(out):
             os.unlink(out)              # our own claim, and nothing done: leave no file that means nothing
         if not isinstance(exc, (OSError, ValueError)):
             raise
         return error(exc, flags)
     finally:
+        lines.end()                     # (a second Ctrl-C's abort too)
         if executor is not None:
             executor.shutdown()
     name = getattr(state.problem, "name", kind)

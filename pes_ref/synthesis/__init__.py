@@ -23,6 +23,8 @@ Modules, one idea each, in import order:
 - :mod:`.escapement`  the hand-drawn escapement surface, a reference for the oscillator
 - :mod:`.problem_file` problem files: reading, checking, changing keys, writing
 - :mod:`.design_file` design runs in ``.npz`` files
+- :mod:`.plots`       held-out paths drawn on a design's surface (``evaluate --plot``; imported when
+                      it draws, with matplotlib, never here)
 
 
 The names below are the public synthesis API (with :class:`Progress`, what the loops'

@@ -429,6 +429,10 @@ class GroupTest:
     group: str
     members: Callable
 
+    @property
+    def KIND(self) -> str:                   # noqa: N802 (the kind of the test it judges with)
+        return self.test.KIND
+
     def passes(self, x, v, t):
         return ~self.members(x.shape[1]) | self.test.passes(x, v, t)
 
