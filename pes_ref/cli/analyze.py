@@ -254,12 +254,14 @@ class _Progress:
     :data:`PERIOD` seconds; the time left is the elapsed time scaled by the share still to do."""
 
     def __init__(self, label: str, clock=time.monotonic):
+        from pes_ref.core.progress import ProgressWriter
         self.label, self.clock = label, clock
+        self.lines = ProgressWriter()   # in place at a terminal; ``end`` it before printing anything else
         self.start = self.last = clock()
         self.phase, self.phase_start = None, self.start
 
     def __call__(self, phase: str, done, total) -> None:
-        from pes_ref.core.progress import Progress, progress_line
+        from pes_ref.core.progress import Progress
         now = self.clock()
         if phase != self.phase:
             self.phase, self.phase_start = phase, now
@@ -271,8 +273,7 @@ class _Progress:
         percent = round(100 * share)
         rate = percent / elapsed if elapsed > 0 else 0.0
         left = elapsed * (1.0 - share) / share if share > 0 else float("inf")
-        print(progress_line(Progress(self.label, phase, percent, 100, "percent", rate, now - self.start, left)),
-              file=sys.stderr, flush=True)
+        self.lines.show(Progress(self.label, phase, percent, 100, "percent", rate, now - self.start, left))
 
 
 def _pair(option: str, text: str, cast=float) -> tuple:
@@ -348,8 +349,11 @@ def _run_file(args) -> int:
             device = device.replace(shape=shape)
         check_drive(device, axis, load, args.mode, cycles, start, threshold)      # before anything is computed
         progress = _Progress(os.path.basename(path))
-        device.cspace(progress)
-        result = drive(device, axis, load, args.mode, cycles, start, threshold, progress)
+        try:
+            device.cspace(progress)
+            result = drive(device, axis, load, args.mode, cycles, start, threshold, progress)
+        finally:
+            progress.lines.end()        # the last progress line stays, whole, before anything else is printed
     except (ValueError, TypeError, OSError, ImportError) as exc:
         return error(exc, DRIVE_FLAGS)
     for line in result.as_lines():

@@ -22,6 +22,8 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
+import operator
 import os
 import sys
 import time
@@ -173,6 +175,27 @@ def error_stopped(state) -> int:
     return EXIT_FAIL
 
 
+def _check_smoke_size(state, kind: str, given, resume: str) -> None:
+    """``--smoke`` with ``--resume`` continues a design of the smoke size (to the preset's plan): a
+    resumed design keeps its scene, so one of another size is refused naming ``--smoke``, whose
+    size it is (not the problem file's or ``--set``'s); a key the user sets (``given``) is left
+    to the usual checks, as is a design of another kind."""
+    if state.kind != kind:
+        return                                  # another kind of design: refused as such below
+    from pes_ref.core.keyfile import show
+    from pes_ref.sweep.options import smoke_scene
+    for name, value in smoke_scene(kind, state.problem).items():
+        if name in given:
+            continue
+        if kind == "problem":
+            there = functools.reduce(operator.getitem, name.split("."), state.problem.data)
+        else:
+            there = getattr(state.problem, name)
+        if there != value:
+            raise ValueError(f"--smoke resumes only a design of its size: {resume} has {name} = {show(there)}, "
+                             f"--smoke's is {show(value)}; leave --smoke out to resume it")
+
+
 def _run_design(args) -> int:
     from pes_ref import synthesis
     from pes_ref.synthesis import check_same_scene, load_design, save_design
@@ -189,17 +212,19 @@ def _run_design(args) -> int:
         flags = _flags(kind)
         from pes_ref.sweep.options import design_inputs, parse_sets   # shared with sweeps
         if problem is not None:
-            from pes_ref.synthesis.problem_file import parse_set, with_sets
+            from pes_ref.synthesis.problem_file import parse_set
             sets = dict(parse_set(item) for item in args.set)
         else:
             sets = parse_sets(args.set, synthesis.PROBLEMS[kind])
+        if state is not None and args.smoke:
+            _check_smoke_size(state, kind, given=sets, resume=args.resume)
         inputs = design_inputs(kind, vars(args), sets, problem)
         sets, plan_over, base_plan = inputs.sets, inputs.plan_overrides, inputs.base_plan
         if problem is not None:
-            problem = with_sets(problem, sets)
+            problem = inputs.problem                        # its keys changed by --set (and --smoke)
         executor = _pool(args.workers, inputs, kind)
         if state is not None:
-            if args.kind is None and problem != state.problem:
+            if args.kind is None and problem is not None and problem != state.problem:   # a file's, changed by --set
                 difference = synthesis.first_difference(state.problem.data, problem.data)
                 raise ValueError(f"--set: a resumed design keeps its problem; {difference}".replace(" there,", ","))
             if problem is not None:
@@ -236,21 +261,22 @@ def _run_design(args) -> int:
             out = args.out if args.out is not None else f"{problem.name if problem is not None else kind}.npz"
             may_overwrite = args.force
         output_file(out, "design", force=may_overwrite)
-    except (OSError, ValueError, TypeError) as exc:
+    except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, with its pip line
         return error(exc, flags)
 
-    from pes_ref.core.progress import figure_text, progress_line
+    from pes_ref.core.progress import ProgressWriter, figure_text
 
     shown = []                          # the stages shown so far
+    lines = ProgressWriter()            # in place at a terminal, plain lines elsewhere
 
     def progress(p):
         if args.quiet:
             return
         if shown and p.stage != shown[-1] and p.figure("steps") is not None:   # a new gradient stage
-            print(f"{p.label}: now {p.stage}: grid {figure_text(p.figure('grid'))}, {p.figure('steps')} "
-                  f"steps per run (its loss is not comparable with {shown[-1]}'s)", file=sys.stderr)
+            lines.note(f"{p.label}: now {p.stage}: grid {figure_text(p.figure('grid'))}, {p.figure('steps')} "
+                       f"steps per run (its loss is not comparable with {shown[-1]}'s)")
         shown.append(p.stage)
-        print(progress_line(p), file=sys.stderr, flush=True)
+        lines.show(p)
 
     def checkpoint(s):
         save_design(out, s, overwrite=True)
@@ -265,18 +291,21 @@ def _run_design(args) -> int:
             raise PermissionError(f"cannot write {out}: the file is not writable")
         state = synthesis.run_stages(state, state.plan.iterations, executor=executor, tasks=args.workers,
                                      callback=progress, progress_every=args.progress, checkpoint=checkpoint)
+        lines.end()                     # the last progress line stays, whole, before anything else is printed
         if fresh and state.iteration == 0 and state.status.startswith(synthesis.STOPPED):
             if created:
                 os.remove(out)                                 # never leave a file that holds no iteration
             return error_stopped(state)
         save_design(out, state, overwrite=True)
     except Exception as exc:
+        lines.end()
         if fresh and created and state.iteration == start and os.path.lexists(out):
             os.unlink(out)              # our own claim, and nothing done: leave no file that means nothing
         if not isinstance(exc, (OSError, ValueError)):
             raise
         return error(exc, flags)
     finally:
+        lines.end()                     # (a second Ctrl-C's abort too)
         if executor is not None:
             executor.shutdown()
     name = getattr(state.problem, "name", kind)

@@ -1,10 +1,15 @@
 """The ``evaluate`` command of ``python -m pes_ref``: ``evaluate FILE.npz [--seed S]
-[--particles N]`` prints one ``name: value`` line per figure of a saved design."""
+[--particles N]`` prints one ``name: value`` line per figure of a saved design; ``--json``
+writes the same lines as JSON, ``--plot`` draws the held-out paths on the surface."""
 from __future__ import annotations
 
+import json
+import math
+import os
+import sys
 import time
 
-from pes_ref.cli.common import EXIT_OK, add_command, error, input_file
+from pes_ref.cli.common import EXIT_OK, add_command, error, input_file, output_file, output_folder
 
 
 def add_parser(sub) -> None:
@@ -20,8 +25,14 @@ def add_parser(sub) -> None:
                     "[[evaluate.success]] test), success_NAME per test, objective_NAME per objective term, "
                     "scenario_NAME_success_fraction per [[evaluate.scenario]], flat_success_fraction. The "
                     "header lines name the design's kind (and problem), method (gradient, or gradient+polish), "
-                    "the stage it reached, its iterations and polish evaluations.",
-        examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191',
+                    "the stage it reached, its iterations and polish evaluations. --json FILE writes the same "
+                    "header facts and figures (with the seed and the particles) as one JSON object; a figure that "
+                    "is NaN (nothing to measure, e.g. amplitude_error when no particle is captured) is written as "
+                    "null, so the file is valid JSON. --plot DIR draws the held-out paths on the design's surface, "
+                    "green where a particle passed and red where it did not, one panel per test (docs/synthesis.md, "
+                    "\"Command line\"). An output file that exists is refused, before anything is computed, "
+                    "unless --force.",
+        examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191 --json osc.json --plot plots',
                   'evaluate funnel.npz --realized funnel_parts/device.toml'])
     p.add_argument("file", metavar="FILE.npz", help="a design file written by 'design'")
     p.add_argument("--seed", type=int, default=12345, help="held-out seed (default 12345; training uses others)")
@@ -32,6 +43,15 @@ def add_parser(sub) -> None:
     p.add_argument("--particles", type=int, default=None, metavar="N",
                    help="held-out particles (funnel default 200; oscillator torque sweep default 50; a problem "
                         "file's: its [evaluate] particles)")
+    p.add_argument("--json", default=None, metavar="FILE",
+                   help="also write the header facts (kind, problem, method, stage, iterations, evaluations, status, "
+                        "seed, particles) and every figure to FILE as one JSON object; NaN is written as null")
+    p.add_argument("--plot", default=None, metavar="DIR",
+                   help="also draw the held-out paths on the design's surface into DIR/NAME_paths.png (NAME: the "
+                        "design file's, DIR made if missing): green passed, red failed; funnel: exit in the band; "
+                        "oscillator: captured (torque sweep, grid of starts); a problem file's: one panel per "
+                        "success test and one for all of them")
+    p.add_argument("--force", action="store_true", help="overwrite output files that exist (default: refuse)")
     p.set_defaults(func=_run_evaluate)
 
 
@@ -45,30 +65,106 @@ def _run_evaluate(args) -> int:
     start = time.perf_counter()
     try:
         state = load_design(input_file(args.file, "design file"))
+        outputs = _outputs(args)                   # refused before anything is computed
         if args.realized is not None:
             figures = _realized(state, args)
         else:
             figures = evaluate(state.problem, state.values, seed=args.seed, n_particles=args.particles)
+        picture = _picture(state, args) if "plot" in outputs else None
     except (OSError, ValueError, TypeError, ImportError, NonFiniteError) as exc:
         return error(exc, FLAGS)
-    print(f"kind: {state.kind}")
-    if state.kind == "problem":
-        print(f"problem: {state.problem.name}")
-
-    print(f"method: {state.method}")
-    print(f"stage: {state.stage}")
-    print(f"iterations: {state.iteration}")
-    print(f"evaluations: {state.evaluations}")
-    print(f"status: {state.status}")
-    for name, value in figures.items():
-        if isinstance(value, tuple):
-            print(f"{name}: {value[0]:.6g}")
-            print(f"realized_{name}: {value[1]:.6g}")
-        else:
-            print(f"{name}: {value:.6g}")
+    lines = _lines(state, figures)
+    for name, value in lines:
+        print(f"{name}: {value:.6g}" if isinstance(value, float) else f"{name}: {value}")
     if args.realized is not None:
         print(f"seconds: {time.perf_counter() - start:.3g}")
+    try:
+        if "json" in outputs:
+            _write(outputs["json"], _json(args, lines), args.force, "JSON")
+        if picture is not None:
+            os.makedirs(args.plot, exist_ok=True)
+            _write(outputs["plot"], picture, args.force, "plot")
+    except OSError as exc:
+        return error(exc)
+    for key, label in (("json", "figures"), ("plot", "held-out paths")):
+        if key in outputs:
+            print(f"wrote {outputs[key]} ({label})", file=sys.stderr)
     return EXIT_OK
+
+
+def _lines(state, figures: dict) -> list:
+    """The ``(name, value)`` of every line, in order: the header facts, then the figures (a
+    realized figure's ``realized_`` line after its own). The printed lines and the JSON
+    both come from this list."""
+    lines = [("kind", state.kind)]
+    if state.kind == "problem":
+        lines.append(("problem", state.problem.name))
+    lines += [("method", state.method), ("stage", state.stage), ("iterations", state.iteration),
+              ("evaluations", state.evaluations), ("status", state.status)]
+    for name, value in figures.items():
+        if isinstance(value, tuple):
+            lines += [(name, float(value[0])), (f"realized_{name}", float(value[1]))]
+        else:
+            lines.append((name, float(value)))
+    return lines
+
+
+#: The header facts of ``evaluate --json`` (beside them: ``seed``, ``particles`` and the ``figures``).
+_HEADER = ("kind", "problem", "method", "stage", "iterations", "evaluations", "status")
+
+
+def _json(args, lines: list) -> bytes:
+    """The JSON of ``--json``: the design file, the header facts, the held-out seed and
+    particles, and every figure by name; a NaN or infinite figure is null (JSON has no NaN)."""
+    facts = dict(lines)
+    figures = {name: (value if math.isfinite(value) else None) for name, value in lines
+               if isinstance(value, float)}
+    data = {"design": args.file, **{key: facts.get(key) for key in _HEADER}, "seed": args.seed,
+            "particles": int(facts["particles"]), "realized": args.realized, "figures": figures}
+    return (json.dumps(data, indent=2, allow_nan=False) + "\n").encode()
+
+
+def _outputs(args) -> dict:
+    """Every output path, checked before anything is computed (the refusal names the flag)."""
+    out = {}
+    try:
+        if args.json is not None:
+            out["json"] = output_file(args.json, "JSON", force=args.force)
+    except OSError as exc:
+        raise type(exc)(f"--json {args.json}: {exc}") from None
+    try:
+        if args.plot is not None:
+            output_folder(args.plot)                # made, if it does not exist, when the plot is written
+            name = os.path.join(args.plot, f"{_stem(args.file)}_paths.png")
+            out["plot"] = output_file(name, "plot", force=args.force) if os.path.isdir(args.plot) else name
+    except OSError as exc:
+        raise type(exc)(f"--plot {args.plot}: {exc}") from None
+    return out
+
+
+def _stem(path: str) -> str:
+    name = os.path.basename(path)
+    return name[:-4] if name.endswith(".npz") else name
+
+
+def _picture(state, args) -> bytes:
+    """The PNG of ``--plot``: the held-out panels of the design (:func:`pes_ref.synthesis.analysis.held_out_panels`)."""
+    import io
+    from pes_ref.synthesis.analysis import held_out_panels
+    from pes_ref.synthesis.plots import paths_figure
+    panels = held_out_panels(state.problem, state.values, seed=args.seed, n_particles=args.particles)
+    name = getattr(state.problem, "name", state.kind)             # a problem file's problem by its name
+    title = (f"{os.path.basename(args.file)}: {name}, {state.method} to iteration {state.iteration}; "
+             f"held-out seed {args.seed}")
+    buf = io.BytesIO()
+    paths_figure(state.problem, state.values, panels, title).savefig(buf, format="png", dpi=100)
+    return buf.getvalue()
+
+
+def _write(path: str, data: bytes, force: bool, what: str) -> None:
+    from pes_ref.core.files import atomic_file
+    with atomic_file(path, overwrite=force, what=what) as fh:
+        fh.write(data)
 
 
 def _realized(state, args) -> dict:

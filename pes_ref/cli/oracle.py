@@ -7,11 +7,10 @@ refused."""
 from __future__ import annotations
 
 import os
-import sys
 import time
 import zipfile
 
-from pes_ref.core.progress import Clock, Progress, clock_time, progress_line
+from pes_ref.core.progress import Clock, Progress, ProgressWriter, clock_time
 from pes_ref.oracle.conformance import LATEST
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, input_file, output_file
 
@@ -72,9 +71,11 @@ class ProgressLines:
     timed is scaled from the one timed (the model's estimate until then).
     """
 
-    def __init__(self, label: str, estimate, period: float = PERIOD, clock=time.monotonic, after: float = LONG_RUN):
+    def __init__(self, label: str, estimate, period: float = PERIOD, clock=time.monotonic, after: float = LONG_RUN,
+                 lines: ProgressWriter | None = None):
         from pes_ref.core import budget
         self.label, self.period, self.clock, self.after = label, period, clock, after
+        self.lines = ProgressWriter() if lines is None else lines      # in place at a terminal
         self.start = self.last = clock()
         self.run = estimate
         forward = budget.estimate_seconds(estimate.n_steps, estimate.n_particles, "simulate")
@@ -88,8 +89,8 @@ class ProgressLines:
             self._header(estimate.seconds)
 
     def _header(self, seconds: float) -> None:
-        print(f"{self.label}: T = {self.run.n_steps}, N = {self.run.n_particles}: about {clock_time(seconds)} "
-              f"({self.run.gib:.2g} GiB); forward, then the adjoint", file=sys.stderr, flush=True)
+        self.lines.note(f"{self.label}: T = {self.run.n_steps}, N = {self.run.n_particles}: about "
+                        f"{clock_time(seconds)} ({self.run.gib:.2g} GiB); forward, then the adjoint")
 
     def __call__(self, phase: str, done: int, total: int) -> None:
         now = self.clock()
@@ -110,13 +111,12 @@ class ProgressLines:
             return
         self.last = now
         i = self.pace.index(position)
-        print(progress_line(Progress(self.label, phase, done, total, "steps", self.pace.rate(i), elapsed, left)),
-              file=sys.stderr, flush=True)
+        self.lines.show(Progress(self.label, phase, done, total, "steps", self.pace.rate(i), elapsed, left))
 
 
-def _monitor(label: str):
-    """The oracle's ``monitor``: the :class:`ProgressLines` of each run."""
-    return lambda estimate: ProgressLines(label, estimate, period=PERIOD, after=LONG_RUN)
+def _monitor(label: str, lines: ProgressWriter):
+    """The oracle's ``monitor``: the :class:`ProgressLines` of each run, shown by ``lines``."""
+    return lambda estimate: ProgressLines(label, estimate, period=PERIOD, after=LONG_RUN, lines=lines)
 
 
 def _result_name(case_path: str, out_dir: str) -> str:
@@ -200,8 +200,12 @@ def _run_oracle(args) -> int:
     for case_path, result_path in pairs:
         try:
             _check_files(case_path, result_path, args.force)
-            result = oracle.run_case(oracle.load_case(case_path), allow_unstable=args.allow_unstable,
-                                     monitor=_monitor(case_path), backend=args.backend)
+            lines = ProgressWriter()
+            try:
+                result = oracle.run_case(oracle.load_case(case_path), allow_unstable=args.allow_unstable,
+                                         monitor=_monitor(case_path, lines), backend=args.backend)
+            finally:
+                lines.end()             # the last progress line stays, whole, before anything else is printed
             oracle.write_result(result, result_path, overwrite=args.force, compress=args.compress)
         except (oracle.CaseError, oracle.ResultExistsError, OSError, ValueError, TypeError) as exc:
             status = error(f"{case_path}: {exc}" if len(pairs) > 1 else exc)

@@ -61,11 +61,13 @@ def _run_sweep(args) -> int:
         return error(exc)
     out = args.out if args.out is not None else os.path.join(DEFAULT_OUT_ROOT, sweep.name)
 
-    from pes_ref.core.progress import clock_time, progress_line
+    from pes_ref.core.progress import ProgressWriter, clock_time
+
+    lines = ProgressWriter()            # in place at a terminal, plain lines elsewhere
 
     def progress(p):
         if not args.quiet:
-            print(progress_line(p), file=sys.stderr, flush=True)
+            lines.show(p)
 
     try:
         with open_client(args.scheduler, args.workers) as client:
@@ -75,7 +77,10 @@ def _run_sweep(args) -> int:
                   f"results in {out}", file=sys.stderr, flush=True)
             report = run_sweep(sweep, out, client, progress=progress, progress_every=args.progress)
     except (OSError, ValueError) as exc:
+        lines.end()
         return error(exc)
+    finally:
+        lines.end()                     # the last progress line stays, whole, before the table
     print(_table(sweep, report.rows))
     counts = report.counts
     print(f"{len(report.rows)} runs: {counts.get('ok', 0)} ok, {counts.get('failed', 0)} failed, "

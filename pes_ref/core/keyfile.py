@@ -20,9 +20,21 @@ class KeyFileError(ValueError):
 
 
 def show(value) -> str:
-    """A short repr of a bad value for a message (at most 60 characters)."""
-    text = repr(value)
+    """A bad value for a message, as the file spells it (TOML: ``true``, ``[1, 2]``,
+    ``{ k = 1 }``; anything else by its repr), at most 60 characters."""
+    text = _toml(value)
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _toml(value) -> str:
+    """``value`` in TOML's spelling where it differs from Python's (booleans, tables, lists of them)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }" if value else "{}"
+    return repr(value)
 
 
 def read_text(path, error: type, what: str) -> str:
@@ -87,6 +99,16 @@ class KeyReader:
         if isinstance(value, bool) or not isinstance(value, int) or value < least:
             self.fail(where, f"expected an integer >= {least}, got {show(value)}")
         return int(value)
+
+    def ordered(self, lower, upper, where: str, *, strict: bool = False) -> None:
+        """Refuse corners ``lower``, ``upper`` of a box at ``where`` unless ``upper >= lower`` on
+        every axis (``>`` if ``strict``), naming the axis: ``WHERE.upper[1]: expected upper >=
+        lower, got lower 0.5, upper 0.2``."""
+        relation = ">" if strict else ">="
+        for d, (lo, hi) in enumerate(zip(lower, upper)):
+            if not (hi > lo or (hi == lo and not strict)):
+                self.fail(f"{where}.upper[{d}]" if where else f"upper[{d}]",
+                          f"expected upper {relation} lower, got lower {lo:g}, upper {hi:g}")
 
     def boolean(self, value, where: str) -> bool:
         if not isinstance(value, bool):

@@ -11,6 +11,8 @@ estimates the time left, and the one line a command prints.
   still to run.
 - :func:`progress_line` and :func:`clock_time`: a :class:`Progress` as one line of text,
   and a duration as ``m:ss``, for every command.
+- :class:`ProgressWriter`: how a command shows those lines on stderr: at a terminal one
+  line rewritten in place, elsewhere (a pipe, a file, a log) plain lines.
 
 The time-stepping loops (the forward run and its adjoint) report through a cheaper
 hook: an optional callback ``progress(phase, done, total)`` (``phase`` is ``"forward"``
@@ -23,14 +25,24 @@ into :class:`Progress` (the ``oracle`` command's ``ProgressLines``).
 """
 from __future__ import annotations
 
+import math
+import os
+import sys
 from itertools import islice
 from typing import Callable, Iterable
 
-__all__ = ["EVERY", "reporting", "blocks", "Progress", "Clock", "progress_line", "figure_text", "clock_time"]
+__all__ = ["EVERY", "WARMUP", "reporting", "blocks", "Progress", "Clock", "progress_line", "figure_text",
+           "clock_time", "ProgressWriter"]
 
 #: Steps between two calls of a progress callback (a callback that reads a clock reads it
 #: this rarely; at ~10 us a step that is every few milliseconds).
 EVERY = 256
+#: Ticks at the start of each segment of a :class:`Clock` that are not timed: the first
+#: iteration of a design stage (or a polish generation, a sweep's first runs, an oracle
+#: run's first block of steps) carries one-off costs, compiling the loops, imports,
+#: allocating, that made the time left read 11-27 minutes at iteration 1 of runs that took
+#: 7-19 seconds.
+WARMUP = 1
 
 
 def reporting(steps: Iterable, progress: Callable | None, phase: str, total: int) -> Iterable:
@@ -125,8 +137,10 @@ class Clock:
     still to run.
 
     A segment that has run is timed by its own units; one yet to run, by the seconds
-    per cost unit of the latest segment timed, times its own cost. Before anything is
-    timed the time left is unknown (``inf``).
+    per cost unit of the latest segment timed, times its own cost. The first ``warmup``
+    ticks of a segment that finish units (and the ticks before them) are its warm-up and
+    are not timed: they carry one-off costs (:data:`WARMUP`). Before anything is timed
+    the time left is unknown (``inf``, shown as ``left ?``) and the rate 0 (``? it/s``).
 
     Parameters
     ----------
@@ -134,12 +148,15 @@ class Clock:
         The parts of the loop in order, each starting where the previous one ends: units
         ``[start, end)``, each costing ``cost`` (default 1; any unit, only the ratios
         between segments count, e.g. a design stage's steps per training run).
+    warmup : int
+        Ticks of each segment not timed (default :data:`WARMUP`).
     """
 
-    def __init__(self, segments):
+    def __init__(self, segments, warmup: int = WARMUP):
         self.segments = [(s[0], s[1], s[2] if len(s) > 2 else 1.0) for s in segments]
         self._seconds = [0.0] * len(self.segments)
         self._units = [0] * len(self.segments)
+        self._warm = [max(int(warmup), 0)] * len(self.segments)   # warm-up ticks still to come, per segment
         self._per_cost = None           # seconds per cost unit of the latest segment timed
 
     def index(self, position: int) -> int:
@@ -149,6 +166,10 @@ class Clock:
     def tick(self, position: int, seconds: float, units: int = 1) -> None:
         """``units`` units from ``position`` on (in one segment) took ``seconds``."""
         i = self.index(position)
+        if self._warm[i]:               # the segment's warm-up: not timed
+            if units > 0:
+                self._warm[i] -= 1
+            return
         self._seconds[i] += seconds
         self._units[i] += units
         if self._seconds[i] > 0 and self._units[i] > 0:
@@ -195,6 +216,8 @@ def figure_text(value) -> str:
 
 
 def _rate(rate: float) -> str:
+    if not rate > 0:                                    # not measured yet (a clock's warm-up)
+        return "?"
     return f"{rate:.0f}" if rate >= 100 else f"{rate:.3g}"
 
 
@@ -206,3 +229,82 @@ def progress_line(p: Progress) -> str:
     return " | ".join([head, f"{p.unit} {p.done}/{p.total}", *(f"{name} {figure_text(v)}" for name, v in p.figures),
                        f"{_rate(p.rate)} {p.unit}/s", f"elapsed {clock_time(p.elapsed)}",
                        f"left {clock_time(p.seconds_left)}"])
+
+
+def _columns(stream) -> int:
+    """The width of the terminal ``stream`` writes to: ``COLUMNS`` if set (as
+    :func:`shutil.get_terminal_size` reads it), else the stream's own terminal (not
+    stdout's: ``design ... > log`` keeps stderr at the terminal), else 80."""
+    try:
+        columns = int(os.environ.get("COLUMNS", 0))
+    except ValueError:
+        columns = 0
+    if columns <= 0:
+        try:
+            columns = os.get_terminal_size(stream.fileno()).columns
+        except (AttributeError, ValueError, OSError):
+            columns = 0
+    return columns if columns > 0 else 80
+
+
+class ProgressWriter:
+    """How a command shows its progress lines (:func:`progress_line`) on stderr.
+
+    At a terminal (``stream.isatty()``, and ``TERM`` not ``dumb``) each line replaces the
+    one before in place: a carriage return, the cursor moved up over the rows a line
+    wider than the terminal wrapped onto, the old text cleared (to the end of the line, or
+    of the screen after a wrapped line), then the new line, without a newline. Anywhere
+    else (a pipe, a file, a CI log) each is a plain line, as before. :meth:`note` prints a
+    line of its own that stays (a change of stage), :meth:`end` ends the line in place
+    with a newline; a command calls it before it prints anything else, so that its last
+    progress line stays on the screen, whole.
+
+    Parameters
+    ----------
+    stream : file or None
+        Where to write; None: ``sys.stderr`` as it is at each write (the command line's
+        watched stream, a test's captured one).
+    """
+
+    def __init__(self, stream=None):
+        self.stream = stream
+        self._rows = 0                  # the rows the line shown in place takes (0: none shown)
+
+    def _out(self):
+        return sys.stderr if self.stream is None else self.stream
+
+    @staticmethod
+    def in_place(stream) -> bool:
+        """Whether lines on ``stream`` are rewritten in place: it is a terminal that can."""
+        try:
+            return bool(stream.isatty()) and os.environ.get("TERM") != "dumb"
+        except (AttributeError, ValueError, OSError):      # no isatty, or a closed stream
+            return False
+
+    def show(self, p) -> None:
+        """Show ``p`` (a :class:`Progress`, or a line of text) in place of the last line."""
+        line = p if isinstance(p, str) else progress_line(p)
+        out = self._out()
+        if not self.in_place(out):
+            print(line, file=out, flush=True)
+            return
+        if self._rows > 1:              # back over the rows the wrapped line took, and clear them all
+            back = f"\r\x1b[{self._rows - 1}A\x1b[J"
+        else:
+            back = "\r\x1b[K"
+        out.write(back + line)
+        out.flush()
+        self._rows = max(1, math.ceil(len(line) / _columns(out)))
+
+    def note(self, text: str) -> None:
+        """``text`` on a line of its own that stays, after the line in place (if any)."""
+        self.end()
+        print(text, file=self._out(), flush=True)
+
+    def end(self) -> None:
+        """End the line shown in place with a newline (nothing if none is shown)."""
+        if self._rows:
+            self._rows = 0
+            out = self._out()
+            out.write("\n")
+            out.flush()

@@ -80,7 +80,7 @@ class _Reader(KeyReader):
         if not isinstance(value, str):
             self.fail(key, f"expected a string, got {_show(value)}")
         if choices is not None and value not in choices:
-            self.fail(key, f"expected one of {', '.join(repr(c) for c in choices)}, got {value!r}")
+            self.fail(key, f"expected one of {', '.join(repr(c) for c in choices)}, got {_show(value)}")
         return value
 
     def build(self, key: str, make, *args):
@@ -188,9 +188,8 @@ def _cspace(r: _Reader, value, parts):
     if not isinstance(shape, list) or len(shape) != 2:
         r.fail("cspace.shape", f"expected two integers >= 2, got {_show(shape)}")
     shape = tuple(r.integer(n, f"cspace.shape[{i}]", 2) for i, n in enumerate(shape))
+    r.ordered(lower, upper, "cspace", strict=True)
     for d in range(2):
-        if not upper[d] > lower[d]:
-            r.fail(f"cspace.upper[{d}]", f"expected upper > lower, got lower {lower[d]:g}, upper {upper[d]:g}")
         span = upper[d] - lower[d]
         if parts[d].periodic and abs(span - 2 * np.pi) <= FULL_TURN_RTOL * 2 * np.pi:
             upper[d] = lower[d] + 2 * np.pi         # a full turn: the axis is periodic

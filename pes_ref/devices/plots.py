@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["geometry_path", "draw_geometry", "draw_device", "cspace_image", "drive_figure", "display_grid",
-           "domain_limits", "CSPACE_COLORS"]
+           "wrapped_path", "domain_limits", "CSPACE_COLORS"]
 
 #: Colours of the C-space: free, blocked, boundary.
 CSPACE_COLORS = {"free": "#f7f7f7", "blocked": "#4d4d4d", "boundary": "#d62728"}
@@ -101,7 +101,7 @@ def domain_limits(ax, surface):
     ax.set_ylim(*lims[1])
 
 
-def _wrapped_path(surface, x):
+def wrapped_path(surface, x):
     """Positions (T, 2) wrapped onto the domain, NaN where a periodic axis wraps (breaks the line)."""
     xw = surface.wrap(np.asarray(x, dtype=float))
     jump = np.zeros(xw.shape[0], dtype=bool)
@@ -122,7 +122,7 @@ def drive_figure(device, result, title: str = ""):
     surface = device.surface()
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
     handles = cspace_image(ax0, surface, cs.blocked, cs.segments)
-    p = _wrapped_path(surface, result.path)
+    p = wrapped_path(surface, result.path)
     (line,) = ax0.plot(p[:, 0], p[:, 1], color="#1f77b4", lw=1.4, label="path")
     (s,) = ax0.plot(*surface.wrap(result.path[0]), "o", color="#2ca02c", ms=5, label="start")
     (e,) = ax0.plot(*surface.wrap(result.path[-1]), "x" if result.jammed else "s", color="#ff7f0e", ms=7, mew=2,

@@ -13,10 +13,12 @@ import dataclasses
 from typing import Mapping, NamedTuple
 
 from pes_ref.core.checks import InputError
-from pes_ref.synthesis import DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS, OSCILLATOR_POLISH, PROBLEMS, Plan
+from pes_ref.core.keyfile import show
+from pes_ref.synthesis import (DEFAULT_PLANS, DEFAULT_POLISH, OSCILLATOR_PLANS, OSCILLATOR_POLISH, PROBLEMS, Plan,
+                               plan_for, with_sets)
 
-__all__ = ["SMOKE", "SMOKE_GRID", "smoke_sets", "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "parse_sets",
-           "parse_stages", "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
+__all__ = ["SMOKE", "SMOKE_GRID", "smoke_sets", "smoke_scene", "DESIGN_OPTIONS", "DesignInputs", "design_inputs",
+           "parse_sets", "parse_stages", "plan_overrides", "typed_sets", "scene_parameters", "has_type", "type_name"]
 
 #: The ``--smoke`` preset: problem overrides per kind, and the plan's (iterations, particles, stages).
 #: A problem file keeps its dynamics and schedule (its phases), on a grid of at most
@@ -27,6 +29,9 @@ SMOKE = {
     "problem": ({}, (6, 8, ((0, 0),))),
 }
 SMOKE_GRID = 12
+#: The plan fields of the ``--smoke`` preset and the problem-file key that sets each: a key set
+#: explicitly (``--set train.iterations=20``) wins over the preset.
+_SMOKE_TRAIN_KEYS = {"iterations": "train.iterations", "n_particles": "train.particles", "stages": "train.stages"}
 #: The ``--smoke`` preset of the polish plan (used when the run has a polish stage).
 SMOKE_POLISH = {"funnel": {}, "oscillator": {"evaluations": 20, "n_particles": 6, "popsize": 8}}
 #: The polish options and the polish plan's fields they set.
@@ -44,13 +49,15 @@ _PLAN_FIELDS = {"iterations": "iterations", "lr": "lr", "lr_final": "lr_final", 
 
 
 class DesignInputs(NamedTuple):
-    """What a run's options resolve to: problem overrides, plan overrides and the plan they apply to."""
+    """What a run's options resolve to: problem overrides, plan overrides and the plan they apply
+    to; for a problem file, also the problem with the overrides (``problem``)."""
 
     sets: dict
     plan_overrides: dict
     base_plan: Plan
     base_polish: object = None
     polish_overrides: dict = {}
+    problem: object = None
 
     def plan(self) -> Plan:
         """The run's plan: :attr:`base_plan` with :attr:`plan_overrides`."""
@@ -105,7 +112,7 @@ def typed_sets(values: Mapping, kind: str) -> dict:
             raise ValueError(f"{kind} scenes have no parameter {name!r}; expected one of {sorted(fields)}")
         want = type(fields[name].default)
         if not has_type(value, want):
-            raise ValueError(f"{name} must be {type_name(want)}, got {value!r}")
+            raise ValueError(f"{name} must be {type_name(want)}, got {show(value)}")
         out[name] = float(value) if want is float else value
     return out
 
@@ -147,13 +154,20 @@ def smoke_sets(problem) -> dict:
     return {"surface.shape": list(problem.shape(min(SMOKE_GRID, problem.shape()[0])))}
 
 
+def smoke_scene(kind: str, problem=None) -> dict:
+    """The problem overrides of the ``--smoke`` preset of a ``kind`` run (of the problem file ``problem``)."""
+    return smoke_sets(problem) if kind == "problem" else dict(SMOKE[kind][0])
+
+
 def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None, problem=None) -> DesignInputs:
     """Resolve design ``options`` and problem overrides ``sets`` for a ``kind`` run (for kind
     ``"problem"``, of the problem file ``problem``: ``sets`` are its dotted keys).
 
     The order is the design command's: the kind's default plan (a problem file's own
-    ``[train]``), or the named oscillator ``plan`` (its problem overrides, plan and polish);
-    then the ``smoke`` preset; then the explicit options and ``sets``, which win over both.
+    ``[train]``, with the ``train.*`` keys of ``sets``), or the named oscillator ``plan`` (its
+    problem overrides, plan and polish); then the ``smoke`` preset; then the explicit options and
+    ``sets``, which win over both. A problem file without ``train.stages`` has the default stages
+    of the run's iteration count (:func:`pes_ref.synthesis.plan_for`).
 
     Raises
     ------
@@ -163,7 +177,7 @@ def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None, prob
     sets = dict(sets or {})
     plan_over = plan_overrides(options)
     if kind == "problem":
-        base_plan, base_polish = problem.plan, None
+        base_plan, base_polish = None, None                 # the plan of the problem with the sets, below
     else:
         base_plan, base_polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind]
     polish_over = {field: options[name] for name, field in POLISH_OPTIONS.items() if options.get(name) is not None}
@@ -177,13 +191,17 @@ def design_inputs(kind: str, options: Mapping, sets: Mapping | None = None, prob
         base_polish = OSCILLATOR_POLISH[name]
         sets = {**plan_sets, **sets}
     if options.get("smoke"):
-        preset, (its, parts, stages) = SMOKE[kind]
-        sets = {**(smoke_sets(problem) if kind == "problem" else preset), **sets}
+        its, parts, stages = SMOKE[kind][1]
+        sets = {**smoke_scene(kind, problem), **sets}
 
-        plan_over = {"iterations": its, "n_particles": parts, "stages": stages, **plan_over}
+        preset_plan = {"iterations": its, "n_particles": parts, "stages": stages}
+        plan_over = {**{k: v for k, v in preset_plan.items() if _SMOKE_TRAIN_KEYS[k] not in sets}, **plan_over}
         if base_polish is not None:
             polish_over = {**SMOKE_POLISH[kind], **polish_over}
     if base_polish is None and polish_over:
         given = [name for name in POLISH_OPTIONS if options.get(name) is not None]
         raise InputError(given[0], f"{', '.join(given)}: this {kind} run has no polish stage")
-    return DesignInputs(sets, plan_over, base_plan, base_polish, polish_over)
+    if kind == "problem":
+        problem = with_sets(problem, sets)
+        base_plan = plan_for(problem, plan_over.get("iterations"))
+    return DesignInputs(sets, plan_over, base_plan, base_polish, polish_over, problem)

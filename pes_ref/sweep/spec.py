@@ -37,8 +37,8 @@ import os
 from dataclasses import dataclass
 
 from pes_ref.core.backends import check_backend
-from pes_ref.core.keyfile import KeyFileError, KeyReader, parse_toml, read_text
-from pes_ref.synthesis import PROBLEMS, ProblemFileError, load_problem, problem_text, with_sets
+from pes_ref.core.keyfile import KeyFileError, KeyReader, parse_toml, read_text, show
+from pes_ref.synthesis import PROBLEMS, ProblemFileError, load_problem, problem_text
 from pes_ref.sweep.options import (DESIGN_OPTIONS, design_inputs, has_type, scene_parameters, type_name,
                                    typed_sets)
 
@@ -131,24 +131,24 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
     else:
         kind = data.get("kind")
         if kind not in PROBLEMS:
-            fail("kind", f"expected one of {sorted(PROBLEMS)}, got {kind!r}" if "kind" in data
+            fail("kind", f"expected one of {sorted(PROBLEMS)}, got {show(kind)}" if "kind" in data
                  else "missing (kind = \"funnel\" or \"oscillator\", or problem = \"FILE.toml\")")
     description = data.get("description", "")
     if not isinstance(description, str):
-        fail("description", f"expected a string, got {description!r}")
+        fail("description", f"expected a string, got {show(description)}")
     seeds = _seed_list(data.get("seeds", [0]), "seeds", fail)
     if "eval_seeds" not in data:
         fail("eval_seeds", "missing (the held-out seeds every run is evaluated on, e.g. eval_seeds = [12345])")
     eval_seeds = _seed_list(data["eval_seeds"], "eval_seeds", fail)
     eval_particles = data.get("eval_particles")
     if eval_particles is not None and not (_is_int(eval_particles) and eval_particles > 0):
-        fail("eval_particles", f"expected an integer > 0, got {eval_particles!r}")
+        fail("eval_particles", f"expected an integer > 0, got {show(eval_particles)}")
 
     base = _options(_table(data.get("base", {}), "base", fail), "base", kind, fail)
     grid = _table(data.get("grid", {}), "grid", fail)
     for name, values in grid.items():
         if not isinstance(values, list) or not values:
-            fail(f"grid.{name}", f"expected a non-empty list of values, got {values!r}")
+            fail(f"grid.{name}", f"expected a non-empty list of values, got {show(values)}")
         for i, value in enumerate(values):
             _options({name: value}, f"grid.{name}[{i}]", kind, fail)
     variants = _variants(data.get("variants", []), kind, fail)
@@ -170,8 +170,7 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
                     inputs = design_inputs(kind, options, typed_sets(sets, kind))
                     PROBLEMS[kind](**inputs.sets)
                 else:
-                    inputs = design_inputs(kind, options, sets, problem)
-                    with_sets(problem, inputs.sets)
+                    inputs = design_inputs(kind, options, sets, problem)      # checks the problem with its sets
                 inputs.plan()
                 if options.get("backend") is not None:
                     check_backend(options["backend"])
@@ -198,7 +197,7 @@ def _is_int(value) -> bool:
 def _problem(value, path: str, fail):
     """The problem file ``value`` names, relative to the sweep file's folder."""
     if not isinstance(value, str):
-        fail("problem", f"expected the path of a problem file, got {value!r}")
+        fail("problem", f"expected the path of a problem file, got {show(value)}")
     where = os.path.join(os.path.dirname(os.path.abspath(path)), value)
     try:
         return load_problem(where)
@@ -208,18 +207,18 @@ def _problem(value, path: str, fail):
 
 def _seed_list(values, key, fail) -> tuple:
     if not isinstance(values, list) or not values:
-        fail(key, f"expected a non-empty list of integers >= 0, got {values!r}")
+        fail(key, f"expected a non-empty list of integers >= 0, got {show(values)}")
     for i, seed in enumerate(values):
         if not (_is_int(seed) and seed >= 0):
-            fail(f"{key}[{i}]", f"expected an integer >= 0, got {seed!r}")
+            fail(f"{key}[{i}]", f"expected an integer >= 0, got {show(seed)}")
     if len(set(values)) != len(values):
-        fail(key, f"repeated seeds in {values!r}")
+        fail(key, f"repeated seeds in {show(values)}")
     return tuple(values)
 
 
 def _table(value, key, fail) -> dict:
     if not isinstance(value, dict):
-        fail(key, f"expected a table ([{key}]), got {value!r}")
+        fail(key, f"expected a table ([{key}]), got {show(value)}")
     return value
 
 
@@ -236,7 +235,7 @@ def _options(table: dict, key: str, kind: str, fail) -> dict:
             want = DESIGN_OPTIONS[name]
             wants = want if isinstance(want, tuple) else (want,)
             if not any(has_type(value, w) for w in wants):
-                fail(where, f"expected {type_name(want)}, got {value!r}")
+                fail(where, f"expected {type_name(want)}, got {show(value)}")
         elif name in scene:
             try:
                 typed_sets({name: value}, kind)
@@ -253,22 +252,22 @@ def _options(table: dict, key: str, kind: str, fail) -> dict:
 
 def _variants(value, kind, fail) -> list:
     if not isinstance(value, list):
-        fail("variants", f"expected a list of tables ([[variants]]), got {value!r}")
+        fail("variants", f"expected a list of tables ([[variants]]), got {show(value)}")
     out, names = [], set()
     for i, entry in enumerate(value):
         if not isinstance(entry, dict):
-            fail(f"variants[{i}]", f"expected a table, got {entry!r}")
+            fail(f"variants[{i}]", f"expected a table, got {show(entry)}")
         entry = dict(entry)
         name = entry.pop("name", f"v{i}")
         if not isinstance(name, str) or not name or name in names:
-            fail(f"variants[{i}].name", f"expected a non-empty name of its own, got {name!r}")
+            fail(f"variants[{i}].name", f"expected a non-empty name of its own, got {show(name)}")
         names.add(name)
         out.append((name, _options(entry, f"variants ({name})", kind, fail)))
     return out
 
 
 def _where(variant: str, point: dict) -> str:
-    parts = ([f"variant {variant}"] if variant else []) + [f"{k} = {v!r}" for k, v in point.items()]
+    parts = ([f"variant {variant}"] if variant else []) + [f"{k} = {show(v)}" for k, v in point.items()]
     return "run " + (", ".join(parts) if parts else "[base]")
 
 

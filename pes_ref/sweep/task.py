@@ -18,7 +18,7 @@ import os
 import time
 
 from pes_ref.synthesis import (PROBLEMS, evaluate_seeds, load_design, new_design, problem_from_text, run_stages,
-                               save_design, with_sets)
+                               save_design)
 from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
 
 __all__ = ["run_task", "request_stop", "CHECKPOINT_SECONDS", "STOP_POLL_SECONDS"]
@@ -77,7 +77,7 @@ def _design(payload: dict, out: dict):
     if payload.get("problem_text") is not None:         # a problem file's run
         base = problem_from_text(payload["problem_text"], payload["problem_path"])
         inputs = design_inputs(kind, options, sets, base)
-        problem = with_sets(base, inputs.sets)
+        problem = inputs.problem
     else:
         inputs = design_inputs(kind, options, typed_sets(sets, kind))
         problem = PROBLEMS[kind](**inputs.sets)

@@ -23,6 +23,8 @@ Modules, one idea each, in import order:
 - :mod:`.escapement`  the hand-drawn escapement surface, a reference for the oscillator
 - :mod:`.problem_file` problem files: reading, checking, changing keys, writing
 - :mod:`.design_file` design runs in ``.npz`` files
+- :mod:`.plots`       held-out paths drawn on a design's surface (``evaluate --plot``; imported when
+                      it draws, with matplotlib, never here)
 
 
 The names below are the public synthesis API (with :class:`Progress`, what the loops'
@@ -51,7 +53,7 @@ from pes_ref.synthesis.polish import (PolishParticles, PolishResult, capture_fit
                                       polish_particles)
 from pes_ref.synthesis.stages import run_stages
 from pes_ref.synthesis.escapement import escapement_values
-from pes_ref.synthesis.problem_file import (SHIPPED_PROBLEMS, ProblemFileError, load_problem, parse_problem,
+from pes_ref.synthesis.problem_file import (SHIPPED_PROBLEMS, ProblemFileError, load_problem, parse_problem, plan_for,
                                             problem_from_text, problem_text, shipped_problem, with_sets)
 from pes_ref.synthesis.design_file import (DesignFileError, check_same_problem, check_same_scene, design_arrays,
                                            first_difference, load_design, save_design)
@@ -76,5 +78,6 @@ __all__ = [
     "save_design", "load_design", "design_arrays", "check_same_scene", "check_same_problem", "first_difference",
     "DesignFileError",
     "DesignProblem", "OBJECTIVE_TERMS", "SUCCESS_TESTS", "FORCES", "TermSum", "load_problem", "parse_problem",
-    "problem_from_text", "problem_text", "with_sets", "shipped_problem", "SHIPPED_PROBLEMS", "ProblemFileError",
+    "problem_from_text", "problem_text", "with_sets", "plan_for", "shipped_problem", "SHIPPED_PROBLEMS",
+    "ProblemFileError",
 ]

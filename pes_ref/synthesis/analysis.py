@@ -7,6 +7,8 @@ per-particle amplitude, period and drift over the last :data:`ANALYSIS_PERIODS` 
 gives the figures of ``python -m pes_ref evaluate``, and :func:`evaluate_seeds` those of
 several held-out seeds, their runs (design and flat surface, every seed) as one population
 (:func:`pes_ref.core.population.simulate_batch`: each run's numbers are its own).
+:func:`held_out_panels` gives the same held-out particles' paths, each with whether it
+passed, for ``evaluate --plot`` (:mod:`pes_ref.synthesis.plots`).
 """
 from __future__ import annotations
 
@@ -20,10 +22,10 @@ from pes_ref.core.integrator import Trajectory
 from pes_ref.core.population import simulate_batch
 from pes_ref.core.scene import simulate
 from pes_ref.synthesis.design_problem import DesignProblem
-from pes_ref.synthesis.problems import FunnelProblem, OscillatorProblem, exit_positions
+from pes_ref.synthesis.problems import IN_BAND_SHARE, FunnelProblem, OscillatorProblem, exit_positions
 from pes_ref.synthesis.success import applies, passes_all
 
-__all__ = ["Paths", "TorqueSweep", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
+__all__ = ["Paths", "TorqueSweep", "Panel", "held_out_panels", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
            "phase_space", "cycle_figures", "q1_advance", "evaluate", "evaluate_seeds", "held_out_steps", "CYCLE_TOLERANCE", "CYCLE_DRIFT",
            "ANALYSIS_PERIODS"]
 
@@ -42,6 +44,15 @@ class Paths(NamedTuple):
 
     x0: np.ndarray
     traj: Trajectory
+
+
+class Panel(NamedTuple):
+    """One picture of held-out paths: what passing means here (``title``), the paths
+    (T+1, N, 2) and whether each passed (N,) bool."""
+
+    title: str
+    x: np.ndarray
+    passed: np.ndarray
 
 
 class TorqueSweep(NamedTuple):
@@ -318,6 +329,50 @@ def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int) ->
     return out
 
 
+def held_out_panels(problem, values, seed: int = 12345, n_particles: int | None = None) -> list:
+    """The held-out particles of :func:`evaluate` (the same ones, on the design), as
+    :class:`Panel` s, each path with whether it passed: the funnel's exits in the band or
+    not; the oscillator's torque sweep and grid of starts captured by the cycle or not; a
+    problem file's design, one panel per success test and one for all of them."""
+    values = checks.as_float_array("values", values, ndim=2)
+    seed = checks.as_nonneg_int("seed", seed)
+    panels_of, default_n = _PANELS[problem.kind], _EVALUATIONS[problem.kind][1]
+    default_n = getattr(problem, "eval_particles", default_n)
+    n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
+    budget.check_memory(held_out_steps(problem), n, "simulate", particles="n_particles", fixed_steps=True,
+                        length=f"a held-out run of {held_out_steps(problem)} steps")
+    return panels_of(problem, values, seed, n)
+
+
+def _funnel_panels(problem: FunnelProblem, values, seed: int, n: int) -> list:
+    scene, x0, v0 = _funnel_run(problem, values, n, seed)
+    traj = simulate(scene, x0, v0)
+    band = problem.in_band(exit_positions(problem, traj))
+    return [Panel(f"exit in the band: |q0 - {problem.target:g}| < {IN_BAND_SHARE * problem.width:.3g}", traj.x, band)]
+
+
+def _oscillator_panels(problem: OscillatorProblem, values, seed: int, n: int) -> list:
+    _, x0, scene = _torque_sweep_run(problem, values, n, None, seed)
+    sweep = simulate(scene, x0)
+    x0, scene = _grid_starts_run(problem, values, None, 5)
+    grid = simulate(scene, x0)
+    return [Panel("torque sweep: captured by the cycle", sweep.x, cycle_figures(problem, sweep)[3]),
+            Panel("5 x 5 starts at rest, maximum torque: captured", grid.x, cycle_figures(problem, grid)[3])]
+
+
+def _problem_panels(problem: DesignProblem, values, seed: int, n: int) -> list:
+    held = problem.run(values, seed, n)
+    every, each = passes_all([test for _, test in problem.tests], held.traj.x, held.traj.v, held.times)
+    panels = [Panel("every success test", held.traj.x, every)]
+    for (name, test), ok in zip(problem.tests, each):      # a start group's test: its group's paths
+        mine = applies(test, n)
+        group = f", group {test.group}" if hasattr(test, "group") else ""
+        panels.append(Panel(f"success test {name} ({test.KIND}{group})", held.traj.x[:, mine], ok[mine]))
+    return panels
+
+
+#: Per problem kind: the held-out panels of ``evaluate --plot`` (:func:`held_out_panels`).
+_PANELS = {"funnel": _funnel_panels, "oscillator": _oscillator_panels, "problem": _problem_panels}
 #: Per problem kind: the steps of its longest held-out run (what the memory check counts).
 _HELD_OUT_STEPS = {
     "funnel": lambda problem: problem.n_steps,

@@ -51,6 +51,7 @@ import os
 import numpy as np
 
 from pes_ref.core.backends import BACKENDS
+from pes_ref.core.keyfile import show
 from pes_ref.oracle.case import REQUIRED_KEYS, TRAJECTORY_KEYS
 from pes_ref.oracle.errors import CaseError
 from pes_ref.oracle.npz import read_npz, write_npz
@@ -285,9 +286,9 @@ def first_difference(a, b, where: str = "") -> str | None:
         for key in list(a) + [k for k in b if k not in a]:
             at = f"{where}.{key}" if where else str(key)
             if key not in b:
-                return f"{at} is not given there, {a[key]!r} in the design's problem"
+                return f"{at} is not given there, {show(a[key])} in the design's problem"
             if key not in a:
-                return f"{at} = {b[key]!r} there, not given in the design's problem"
+                return f"{at} = {show(b[key])} there, not given in the design's problem"
             found = first_difference(a[key], b[key], at)
             if found:
                 return found
@@ -295,7 +296,7 @@ def first_difference(a, b, where: str = "") -> str | None:
     if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
         return next((d for i, (x, y) in enumerate(zip(a, b)) if (d := first_difference(x, y, f"{where}[{i}]"))),
                     None)
-    return None if a == b else f"{where} = {b!r} there, {a!r} in the design's problem"
+    return None if a == b else f"{where} = {show(b)} there, {show(a)} in the design's problem"
 
 
 def check_same_problem(state: DesignState, problem) -> None:

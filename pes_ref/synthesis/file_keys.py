@@ -9,11 +9,14 @@ number >= 0, got -1``). The converters are looked up by the key's type in :data:
 """
 from __future__ import annotations
 
+import importlib
+import os
+import sys
 from typing import NamedTuple
 
 from pes_ref.core.keyfile import KeyFileError, KeyReader, show
 
-__all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES"]
+__all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES", "import_object"]
 
 
 class ProblemFileError(KeyFileError):
@@ -44,6 +47,12 @@ class Reader(KeyReader):
 
     error = ProblemFileError
     noun = "a problem file"
+
+    @property
+    def folder(self) -> str | None:
+        """The folder of the file read (None for data built in code, ``"<...>"``): where its
+        ``custom`` modules are looked for first."""
+        return None if self.path.startswith("<") else os.path.dirname(os.path.abspath(self.path))
 
     def table(self, value, where: str, keys: dict, *, also=()) -> dict:
         """The table ``value`` at ``where`` checked against ``keys``: every key converted by
@@ -78,10 +87,7 @@ class Reader(KeyReader):
     def box(self, value, where: str) -> tuple:
         """``{ lower = [a, b], upper = [c, d] }`` with upper >= lower: ``(lower, upper)``."""
         t = self.table(value, where, {"lower": Key("point"), "upper": Key("point")})
-        for d in range(2):
-            if not t["upper"][d] >= t["lower"][d]:
-                self.fail(f"{where}.upper", f"expected upper >= lower on both axes, got lower "
-                                            f"{list(t['lower'])}, upper {list(t['upper'])}")
+        self.ordered(t["lower"], t["upper"], where)
         return t["lower"], t["upper"]
 
 
@@ -193,24 +199,49 @@ def _velocity(r, v, w, k):
     return p, p
 
 
-def _object(r, v, w, k):
-    """``"module:object"``, or (in a problem built in code) the object itself."""
-    if isinstance(v, str):
-        module, sep, name = v.partition(":")
-        if not (sep and module and name):
-            r.fail(w, f"expected 'module:object' (an importable module and a name in it), got {show(v)}")
-        return v
-    if not callable(getattr(v, "value_and_grad", None)):
-        r.fail(w, f"expected 'module:object' or an object with value_and_grad(x, v, t), got {show(v)}")
-    return v
+def import_object(spec: str, folder: str | None = None):
+    """The object named ``"module:name"`` (``name`` may be dotted), imported; ``folder`` (a
+    problem file's) is searched first, and is on ``sys.path`` for this import only."""
+    module, _, name = spec.partition(":")
+    if folder is not None:
+        sys.path.insert(0, folder)
+    try:
+        obj = importlib.import_module(module)
+    finally:
+        if folder is not None:
+            sys.path.remove(folder)
+    for part in name.split("."):
+        obj = getattr(obj, part)
+    return obj
 
 
-def _test_object(r, v, w, k):
-    """A custom success test's ``"module:object"``, or (in code) the object itself; what it must
-    have is checked by the test (:class:`pes_ref.synthesis.success.CustomTest`)."""
-    if isinstance(v, str):
-        return _object(r, v, w, k)
-    return v
+def _object_with(method: str):
+    """The converter of an object with ``method(x, v, t)``: named ``"module:object"`` (imported,
+    from the file's folder first: a module beside the problem file), or (in a problem built in
+    code) itself; a class, or an object without the method, is refused naming the key."""
+    def convert(r, v, w, k):
+        if isinstance(v, str):
+            module, sep, name = v.partition(":")
+            if not (sep and module and name):
+                r.fail(w, f"expected 'module:object' (an importable module and a name in it), got {show(v)}")
+            try:
+                obj = import_object(v, r.folder)
+            except ImportError as exc:
+                r.fail(w, f"cannot import it: {exc}")
+            except AttributeError as exc:
+                r.fail(w, f"not found: {exc}")
+            except Exception as exc:                      # the user's module failed while it was imported
+                r.fail(w, f"importing {v!r} raised {type(exc).__name__}: {exc}")
+        else:
+            obj = v
+        what = repr(v) if isinstance(v, str) else show(v)
+        if isinstance(obj, type):
+            r.fail(w, f"{what} is a class; expected an object with {method}(x, v, t), such as an instance of it")
+        if not callable(getattr(obj, method, None)):
+            kind = type(obj).__name__
+            r.fail(w, f"{what} ({'an' if kind[0] in 'aeiou' else 'a'} {kind}) has no {method}(x, v, t)")
+        return obj
+    return convert
 
 
 def _shapes(r, v, w, k):
@@ -245,7 +276,7 @@ TYPES = {
     "share": lambda r, v, w, k: _share(r, v, w),
     "fraction": lambda r, v, w, k: _fraction(r, v, w),
     "velocity": _velocity,
-    "object": _object,
-    "test_object": _test_object,
+    "object": _object_with("value_and_grad"),
+    "test_object": _object_with("passes"),
     "shapes": _shapes,
 }

@@ -28,7 +28,6 @@ shorter horizon) charges nothing.
 """
 from __future__ import annotations
 
-import importlib
 import math
 from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
@@ -40,7 +39,7 @@ from pes_ref.synthesis.exits import exit_steps
 from pes_ref.synthesis.file_keys import Key
 
 __all__ = ["Domain", "EDGES", "OBJECTIVE_TERMS", "TermSum", "FinalPosition", "PositionAt", "StayIn", "SpeedAt",
-           "Cycle", "Exit", "Regularization", "CustomTerm", "excess", "step_at", "window_steps", "import_object"]
+           "Cycle", "Exit", "Regularization", "CustomTerm", "CustomTermError", "excess", "step_at", "window_steps"]
 
 #: The edges a particle may leave by: name -> (axis crossed, side).
 EDGES = {"q0_lower": (0, "lower"), "q0_upper": (0, "upper"), "q1_lower": (1, "lower"), "q1_upper": (1, "upper")}
@@ -100,15 +99,6 @@ def window_steps(t: np.ndarray, start: float, end: float) -> slice:
         return slice(0, 0)
     last = step_at(t, end)
     return slice(first, np.asarray(t).shape[0] if last is None else last + 1)
-
-
-def import_object(spec: str):
-    """The object named ``"module:name"`` (``name`` may be dotted), imported."""
-    module, _, name = spec.partition(":")
-    obj = importlib.import_module(module)
-    for part in name.split("."):
-        obj = getattr(obj, part)
-    return obj
 
 
 _WEIGHT = {"weight": Key("nonneg", 1.0)}
@@ -300,26 +290,38 @@ class Exit:
         return self.weight * float(np.sum(e * e)), gx, None
 
 
+class CustomTermError(ValueError):
+    """A user's own objective (a ``custom`` term) failed; the message names the term."""
+
+
 @dataclass(frozen=True)
 class CustomTerm:
     """A user's own objective, ``object.value_and_grad(x, v, t) -> (value, gx, gv)``, times
     ``weight``; its shapes are checked on every call (:class:`pes_ref.core.objectives.Custom`).
-    In a file ``object`` is ``"module:object"`` (imported when the file is read); in code, the
-    object itself."""
+    In a file ``object`` is ``"module:object"`` (imported and checked when the file is read,
+    :mod:`.file_keys`); in code, the object itself. Whatever the object raises comes out as one
+    :class:`CustomTermError` naming the term by ``label`` (``objective[1] (custom 'spread',
+    mymod:SPREAD)``), except a FloatingPointError: a non-finite run, which the design stops on."""
 
     KIND: ClassVar[str] = "custom"
     KEYS: ClassVar[dict] = {"object": Key("object"), **_WEIGHT}
     obj: object
     weight: float
     name: str = "custom"
+    label: str = "a custom term"
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        obj = keys["object"]
-        return cls(import_object(obj) if isinstance(obj, str) else obj, keys["weight"])
+        return cls(keys["object"], keys["weight"])
 
     def value_and_grad(self, x, v, t):
-        value, gx, gv = Custom(self.obj.value_and_grad, self.name).value_and_grad(x, v, t)
+        try:
+            value, gx, gv = Custom(self.obj.value_and_grad, self.name).value_and_grad(x, v, t)
+        except FloatingPointError:
+            raise
+        except Exception as exc:
+            said = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
+            raise CustomTermError(f"{self.label}: {said}") from exc
         w = self.weight
         return w * value, None if gx is None else w * gx, None if gv is None else w * gv
 

@@ -279,11 +279,12 @@ def coarse_to_fine(n0: int, iterations: int) -> tuple:
     return tuple((iterations * i // len(grids), g) for i, g in enumerate(grids))
 
 
-def default_plan(shape, coarse: bool = True) -> Plan:
-    """The plan of a problem file without ``[train]``, on a final grid of ``shape`` (:data:`DEFAULT_FILE_PLAN`).
+def default_plan(shape, coarse: bool = True, iterations: int | None = None) -> Plan:
+    """The plan of a problem file without ``[train]``, on a final grid of ``shape`` (:data:`DEFAULT_FILE_PLAN`),
+    its stages shared out over ``iterations`` (None: the plan's 300; ``--iterations``).
 
     ``coarse=False`` (a design that starts from drawn shapes, a realizable contact's ``blocked``)
     designs on the final grid throughout: a coarse grid would not hold the shapes it starts from."""
     its = DEFAULT_FILE_PLAN["iterations"]
-    stages = coarse_to_fine(shape[0], its) if coarse else ((0, 0),)
+    stages = coarse_to_fine(shape[0], iterations or its) if coarse else ((0, 0),)
     return Plan(**DEFAULT_FILE_PLAN, decay_iterations=its, stages=stages)

@@ -43,7 +43,8 @@ from pes_ref.synthesis.success import SUCCESS_TESTS, GroupTest, ShareCriterion
 from pes_ref.synthesis.surrogates import DEFAULT_MARGIN, derived_terms, has_cost
 
 __all__ = ["FORMAT", "load_problem", "parse_problem", "problem_from_text", "problem_text", "with_sets",
-           "parse_set", "shipped_problem", "at_step", "SHIPPED_PROBLEMS", "ProblemFileError", "SECTIONS"]
+           "parse_set", "shipped_problem", "at_step", "plan_for", "default_stages", "SHIPPED_PROBLEMS", "ProblemFileError",
+           "SECTIONS"]
 
 #: The problem-file format this module reads.
 FORMAT = 1
@@ -170,10 +171,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     name = top["name"] or (os.path.splitext(os.path.basename(path))[0] if not path.startswith("<") else "problem")
 
     surface = r.table(_section(r, data, "surface"), "surface", SURFACE_KEYS, also=("hold", "contact"))
-    for d in range(2):
-        if not surface["upper"][d] > surface["lower"][d]:
-            r.fail(f"surface.upper[{d}]", f"expected upper > lower, got lower {surface['lower'][d]:g}, "
-                                          f"upper {surface['upper'][d]:g}")
+    r.ordered(surface["lower"], surface["upper"], "surface", strict=True)
     holds = _list(r, _section(r, data, "surface").get("hold", []), "surface.hold")
     holds = tuple(r.box(h, f"surface.hold[{i}]") for i, h in enumerate(holds))
     domain = Domain(surface["lower"], surface["upper"], surface["periodic"])
@@ -205,13 +203,14 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         cls = OBJECTIVE_TERMS[kind]
         keys = r.table(entry, where, cls.KEYS, also=TERM_KEYS)
         _check_times(r, keys, where, duration, scene_keys["dt"])
+        _check_box(r, keys, where)
         term = _build(r, where, cls.from_keys, keys, domain, duration)
         names.append(r.value(entry["name"], f"{where}.name", TERM_KEYS["name"]) if "name" in entry else kind)
         terms.append(term)
     names = _unique(names)
     grid_terms = [t for t in terms if is_grid_term(t)]
-    state = [(n, t) for n, t in zip(names, terms) if not is_grid_term(t)]
-    state = [(n, dataclasses.replace(t, name=n) if isinstance(t, CustomTerm) else t) for n, t in state]
+    state = [(n, _custom_named(t, n, i, entries[i]["object"]) if isinstance(t, CustomTerm) else t)
+             for i, (n, t) in enumerate(zip(names, terms)) if not is_grid_term(t)]
     if "objective" not in data:           # designed on what success means: each test's surrogate
         for i, (test_name, test) in enumerate(tests):
             if not has_cost(test):
@@ -232,7 +231,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     if len({s.name for s in scenarios}) != len(scenarios):
         r.fail("evaluate.scenario", f"two scenarios have the same name: {[s.name for s in scenarios]}")
 
-    plan, init_scale = _train(r, data.get("train"), surface["shape"], contact is None or not contact.realizable)
+    plan, init_scale = _train(r, data.get("train"), surface["shape"], _coarse(contact))
     problem = DesignProblem(
         data=data, path=path, text=text, name=name, description=top["description"], lower=surface["lower"],
         upper=surface["upper"], periodic=surface["periodic"], grid_shape=surface["shape"],
@@ -243,6 +242,12 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         init_scale=init_scale, contact=contact)
     _check_scene(r, problem)
     return problem
+
+
+def _custom_named(term: CustomTerm, name: str, i: int, obj) -> CustomTerm:
+    """A custom term with its name and its label, ``objective[1] (custom 'spread', mymod:SPREAD)``."""
+    spec = obj if isinstance(obj, str) else f"a {type(obj).__name__}"
+    return dataclasses.replace(term, name=name, label=f"objective[{i}] (custom {name!r}, {spec})")
 
 
 def _contact(r: Reader, table, surface: dict) -> Contact | None:
@@ -301,13 +306,9 @@ def _unique(names: list) -> tuple:
 
 
 def _build(r: Reader, where: str, make, *args):
-    """``make(*args)``, with an import failure or a library refusal reworded to name the key."""
+    """``make(*args)``, with a library refusal reworded to name the key."""
     try:
         return make(*args)
-    except ImportError as exc:
-        r.fail(f"{where}.object", f"cannot import it: {exc}")
-    except AttributeError as exc:
-        r.fail(f"{where}.object", f"not found: {exc}")
     except (ValueError, TypeError) as exc:
         r.fail(where, " ".join(str(exc).split()))
 
@@ -323,6 +324,12 @@ def _check_times(r: Reader, keys: dict, where: str, duration: float, dt: float) 
             r.fail(f"{where}.{name}", f"{keys[name]:g} is after the end of the run ({duration:g}, dynamics)")
     if keys.get("from") is not None and keys.get("to") is not None and not keys["to"] >= keys["from"]:
         r.fail(f"{where}.to", f"expected to >= from, got from {keys['from']:g}, to {keys['to']:g}")
+
+
+def _check_box(r: Reader, keys: dict, where: str) -> None:
+    """An entry with corners ``lower`` and ``upper`` (``stay_in``, ``per_particle``) states a box: upper >= lower."""
+    if "lower" in keys and "upper" in keys:
+        r.ordered(keys["lower"], keys["upper"], where)
 
 
 def _dynamics(r: Reader, table: dict, domain: Domain):
@@ -375,6 +382,7 @@ def _forces(r: Reader, value, where: str, duration: float) -> tuple:
         common = r.table({k: v for k, v in entry.items() if k not in own}, at, FORCE_KEYS, also=own)
         keys = r.table({k: v for k, v in entry.items() if k not in FORCE_KEYS}, at, own, also=FORCE_KEYS)
         _check_times(r, common, at, duration, 0.0)
+        _check_box(r, keys, at)
         if common["to"] is not None and not common["to"] > (common["from"] or 0.0):
             r.fail(f"{at}.to", f"expected to > from, got from {common['from'] or 0.0:g}, to {common['to']:g}")
         out.append(Force(kind, keys, common["name"], common["from"], common["to"]))
@@ -398,6 +406,7 @@ def _test(r: Reader, entry: dict, at: str, domain: Domain, duration: float, dt: 
     keys = r.table(entry, at, cls.KEYS, also=TEST_KEYS)
     common = r.table({k: v for k, v in entry.items() if k in TEST_KEYS}, at, TEST_KEYS)
     _check_times(r, keys, at, duration, dt)
+    _check_box(r, keys, at)
     children = getattr(cls, "CHILDREN", None)
     if children is not None:        # tests made of tests (any_of): each read as a test of this list
         keys[children] = [t for _, t in _tests(r, keys[children], f"{at}.{children}", domain, duration, dt,
@@ -419,10 +428,7 @@ def _train(r: Reader, table, shape, coarse: bool) -> tuple:
         return default_plan(shape, coarse), TRAIN_KEYS["init_scale"].default
     t = r.table(table, "train", TRAIN_KEYS)
     its = t["iterations"]
-    stages = t["stages"]
-    if stages is None:
-        coarse = min(COARSE_GRID, shape[0])
-        stages = ((0, 0),) if coarse == shape[0] else ((0, coarse), (max(1, int(COARSE_SHARE * its)), 0))
+    stages = t["stages"] if t["stages"] is not None else default_stages(shape, its)
     lr_final = t["lr"] if t["lr_final"] is None else t["lr_final"]
     decay = its if t["decay_iterations"] is None else t["decay_iterations"]
     try:
@@ -433,6 +439,32 @@ def _train(r: Reader, table, shape, coarse: bool) -> tuple:
     except (ValueError, TypeError) as exc:
         r.fail(f"train.{getattr(exc, 'key', None) or 'stages'}", " ".join(str(exc).split()))
     return plan, t["init_scale"]
+
+
+def default_stages(shape, iterations: int) -> tuple:
+    """The stages of a file without ``train.stages``, for a run of ``iterations``: a grid of
+    :data:`COARSE_GRID` nodes along axis 0 (if ``shape`` is finer) for :data:`COARSE_SHARE` of
+    them, then the final grid."""
+    coarse = min(COARSE_GRID, shape[0])
+    return ((0, 0),) if coarse == shape[0] else ((0, coarse), (max(1, int(COARSE_SHARE * iterations)), 0))
+
+
+def plan_for(problem: DesignProblem, iterations: int | None = None) -> Plan:
+    """The plan of ``problem``'s ``[train]`` for a run of ``iterations`` (None: the file's own
+    count): a file without ``train.stages`` has the default stages of that count, whether it comes
+    from the file or from the command line; a file without ``[train]``, the default plan's."""
+    if iterations is None or "stages" in problem.data.get("train", {}):
+        return problem.plan
+    if "train" not in problem.data:
+        stages = default_plan(problem.grid_shape, _coarse(problem.contact), iterations).stages
+    else:
+        stages = default_stages(problem.grid_shape, iterations)
+    return dataclasses.replace(problem.plan, stages=stages)
+
+
+def _coarse(contact) -> bool:
+    """Whether the default plan may start on coarse grids: not for a design from drawn shapes (a realizable contact's)."""
+    return contact is None or not contact.realizable
 
 
 def _check_scene(r: Reader, problem: DesignProblem) -> None:
@@ -518,18 +550,22 @@ def _object_name(obj, where: str) -> str:
     return f"{module}:{found[0]}"
 
 
+def _named_objects(value, path: str, where: str = ""):
+    """Problem data with every ``object`` built in code (a custom term's or test's) written as its
+    ``module:name``; ``path`` and ``where`` name the entry in a refusal."""
+    if isinstance(value, dict):
+        return {k: (_object_name(v, f"{path}: {where}") if k == "object" and not isinstance(v, str)
+                    else _named_objects(v, path, f"{where}.{k}" if where else k)) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_named_objects(v, path, f"{where}[{i}]") for i, v in enumerate(value)]
+    return value
+
+
 def problem_text(problem: DesignProblem) -> str:
     """The TOML text of ``problem``: its file's own text if it has one and nothing was changed,
     otherwise written from its data (``custom`` objects built in code by their ``module:name``)."""
     if problem.source_text is not None:
         return problem.source_text
     import tomli_w
-    data = {k: v for k, v in problem.data.items() if k != "objective"}
-    if "objective" in problem.data:
-        data["objective"] = []
-    for i, term in enumerate(problem.data.get("objective", [])):
-        term = dict(term)
-        if "object" in term and not isinstance(term["object"], str):
-            term["object"] = _object_name(term["object"], f"{problem.path}: objective[{i}]")
-        data["objective"].append(term)
+    data = _named_objects(problem.data, problem.path)
     return f"# {problem.name}: written by pes_ref from {problem.path}\n" + tomli_w.dumps(data)

@@ -25,8 +25,7 @@ from typing import Callable, ClassVar
 import numpy as np
 
 from pes_ref.synthesis.file_keys import Key
-from pes_ref.synthesis.objective_terms import (EDGES, Domain, Exit, StayIn, excess, import_object, step_at,
-                                               window_steps)
+from pes_ref.synthesis.objective_terms import EDGES, Domain, Exit, StayIn, excess, step_at, window_steps
 
 __all__ = ["SUCCESS_TESTS", "FinalPositionTest", "PositionAtTest", "StayInTest", "WithinTest", "ExitTest",
            "CrossTest", "SpeedAtTest", "AnyOfTest", "CustomTest", "GroupTest", "ShareCriterion", "passes_all",
@@ -391,7 +390,8 @@ class AnyOfTest:
 class CustomTest:
     """A user's own test: ``object.passes(x, v, t) -> (N,) bool`` and, for a design without
     ``[[objective]]``, ``object.cost(x, v, t, margin) -> (c, gx, gv)`` (this module's surrogate
-    protocol). In a file ``object`` is ``"module:object"``; in code, the object itself."""
+    protocol). In a file ``object`` is ``"module:object"`` (imported and checked when the file is
+    read, :mod:`.file_keys`, from the file's folder first); in code, the object itself."""
 
     KIND: ClassVar[str] = "custom"
     KEYS: ClassVar[dict] = {"object": Key("test_object")}
@@ -403,8 +403,7 @@ class CustomTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        obj = keys["object"]
-        return cls(import_object(obj) if isinstance(obj, str) else obj)
+        return cls(keys["object"])
 
     @property
     def has_cost(self) -> bool:
@@ -429,6 +428,10 @@ class GroupTest:
     test: object
     group: str
     members: Callable
+
+    @property
+    def KIND(self) -> str:                   # noqa: N802 (the kind of the test it judges with)
+        return self.test.KIND
 
     def passes(self, x, v, t):
         return ~self.members(x.shape[1]) | self.test.passes(x, v, t)

@@ -93,6 +93,23 @@ def test_bad_input_gets_one_error_line(funnel_file, tmp_path, capsys, argv, mess
     assert not (tmp_path / "o.npz").exists() and not (tmp_path / "x.npz").exists()
 
 
+def test_resume_alone_continues_a_built_in_design(funnel_file, capsys):
+    code, out, err = run(capsys, "design", "--resume", funnel_file, "--iterations", 7, "--quiet")
+    assert code == EXIT_OK, err
+    assert load_design(funnel_file).iteration == 7 and out.startswith(f"wrote {funnel_file}: funnel, iteration 7/7")
+
+
+def test_smoke_resumes_only_a_design_of_its_size(tmp_path, capsys):
+    path = tmp_path / "g16.npz"
+    assert run(capsys, "design", "funnel", "--smoke", "--set", "grid=16", "--iterations", 1, "--out", path,
+               "--quiet")[0] == EXIT_OK
+    code, out, err = run(capsys, "design", "funnel", "--resume", path, "--smoke", "--quiet")
+    assert (code, out) == (EXIT_ERROR, "")
+    assert err == (f"error: --smoke resumes only a design of its size: {path} has grid = 16, --smoke's is 12; "
+                   f"leave --smoke out to resume it\n")
+    assert load_design(path).iteration == 1
+
+
 def test_evaluate_prints_one_line_per_figure(funnel_file, capsys):
     code, out, err = run(capsys, "evaluate", funnel_file, "--particles", 20)
     assert code == EXIT_OK

@@ -86,6 +86,39 @@ def test_a_shipped_problem_by_its_name(name, tmp_path, capsys):
     assert state.iteration == 6 and max(state.values.shape) <= 12
 
 
+def test_set_train_keys_change_the_plan_the_design_runs(gather, tmp_path, capsys):
+    out = tmp_path / "g.npz"
+    code, stdout, err = run(capsys, "design", gather, "--set", "train.iterations=3", "--set", "train.particles=5",
+                            "--out", out, "--quiet")
+    assert code == EXIT_OK and stdout.startswith(f"wrote {out}: gather, iteration 3/3 (done)"), (stdout, err)
+    state = load_design(out)
+    assert (state.plan.iterations, state.plan.n_particles) == (3, 5) == (state.problem.plan.iterations,
+                                                                        state.problem.plan.n_particles)
+
+
+@pytest.mark.parametrize("with_file", [True, False], ids=["with-the-file", "design-file-alone"])
+def test_smoke_resumes_only_a_design_of_its_size(tmp_path, capsys, with_file):
+    """--smoke on --resume continues a smoke design; any other is refused naming --smoke, not the file."""
+    big = tmp_path / "big.toml"
+    big.write_text(GATHER.replace("shape = [8, 8]", "shape = [16, 16]"))
+    out = tmp_path / "b.npz"
+    assert run(capsys, "design", big, "--iterations", 1, "--out", out, "--quiet")[0] == EXIT_OK
+    before = out.read_bytes()
+    code, stdout, err = run(capsys, "design", *([big] if with_file else []), "--resume", out, "--smoke", "--quiet")
+    assert (code, stdout) == (EXIT_ERROR, "")
+    assert err == (f"error: --smoke resumes only a design of its size: {out} has surface.shape = [16, 16], "
+                   f"--smoke's is [12, 12]; leave --smoke out to resume it\n")
+    assert out.read_bytes() == before
+
+
+def test_without_the_extra_a_contact_problem_is_refused_with_the_pip_line(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "shapely", None)          # import shapely -> ImportError
+    code, out, err = run(capsys, "design", "latch_contact", "--smoke", "--out", tmp_path / "lc.npz")
+    assert code == EXIT_ERROR and out == "" and err.count("\n") == 1, err
+    assert err.startswith("error: ") and "the optional extra 'devices'" in err and "pip install 'pes_ref[devices]'" in err
+    assert "internal error" not in err and not os.listdir(tmp_path)
+
+
 def test_the_default_out_is_named_after_the_problem(gather, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert run(capsys, "design", gather, "--iterations", 1, "--quiet")[0] == EXIT_OK

@@ -1,10 +1,12 @@
-"""pes_ref.core.progress: the one progress type, its clock of the time left, and the one
-line every command prints (the hot loops' per-step hook is tested in test_budget.py)."""
+"""pes_ref.core.progress: the one progress type, its clock of the time left, the one
+line every command prints and how it is shown (the hot loops' per-step hook is tested in
+test_budget.py)."""
+import io
 import math
 
 import pytest
 
-from pes_ref.core.progress import Clock, Progress, clock_time, progress_line
+from pes_ref.core.progress import Clock, Progress, ProgressWriter, clock_time, progress_line
 
 
 @pytest.mark.parametrize("seconds, text", [(0, "0:00"), (4.4, "0:04"), (59.6, "1:00"), (61, "1:01"),
@@ -26,8 +28,13 @@ def test_a_line_without_stage_or_figures_and_a_fast_rate():
     assert progress_line(p) == "c.npz | steps 1200/3000 | 2513 steps/s | elapsed 0:01 | left ?"
 
 
+def test_a_line_before_anything_is_timed_says_so():
+    p = Progress("design funnel", "stage 1/1", 1, 6, "it", 0.0, 19.0, math.inf)
+    assert progress_line(p) == "design funnel: stage 1/1 | it 1/6 | ? it/s | elapsed 0:19 | left ?"
+
+
 def test_the_clock_times_each_segment_by_its_own_rate():
-    clock = Clock([(0, 4, 10), (4, 8, 40)])            # a second segment 4x as costly per unit
+    clock = Clock([(0, 4, 10), (4, 8, 40)], warmup=0)  # a second segment 4x as costly per unit
     assert clock.seconds_left(0) == math.inf            # nothing timed yet
     for k in range(2):
         clock.tick(k, 0.010)
@@ -42,8 +49,77 @@ def test_the_clock_times_each_segment_by_its_own_rate():
 
 
 def test_several_units_in_one_tick():
-    clock = Clock([(0, 100)])
+    clock = Clock([(0, 100)], warmup=0)
     clock.tick(0, 2.0, units=10)
     assert clock.rate(0) == pytest.approx(5.0) and clock.seconds_left(10) == pytest.approx(18.0)
     clock.tick(10, 1.0, units=0)                        # time without a unit done slows the rate
     assert clock.rate(0) == pytest.approx(10 / 3)
+
+
+def test_the_first_tick_of_each_segment_is_its_warm_up():
+    """The first iteration of a stage carries one-off costs (compiling, imports): at
+    iteration 1 of a run whose later iterations take 0.1 s the time left is unknown, not
+    the minutes the first iteration's 19 s would make of it."""
+    clock = Clock([(0, 10), (10, 20, 2)])
+    clock.tick(0, 0.5, units=0)                         # time before the first unit: warm-up too
+    clock.tick(0, 19.0)                                 # iteration 1, compiling
+    assert clock.rate(0) == 0.0 and clock.seconds_left(1) == math.inf
+    clock.tick(1, 0.1)
+    assert clock.rate(0) == pytest.approx(10.0)
+    assert clock.seconds_left(2) == pytest.approx(8 * 0.1 + 10 * 2 * 0.1)
+    clock.tick(10, 5.0)                                 # the second segment's warm-up: scaled from the first
+    assert clock.rate(1) == 0.0 and clock.seconds_left(11) == pytest.approx(9 * 0.2)
+    clock.tick(11, 0.3)
+    assert clock.rate(1) == pytest.approx(1 / 0.3) and clock.seconds_left(12) == pytest.approx(8 * 0.3)
+
+
+class _Terminal(io.StringIO):
+    """A stream that says it is a terminal."""
+
+    def isatty(self):
+        return True
+
+
+def _lines(n):
+    return [Progress("design funnel", "stage 1/2", k, 9, "it", 10.0, k, 9 - k) for k in range(1, n + 1)]
+
+
+def test_at_a_terminal_the_line_is_rewritten_in_place(monkeypatch):
+    monkeypatch.setenv("TERM", "xterm")
+    monkeypatch.setenv("COLUMNS", "200")
+    out = _Terminal()
+    w = ProgressWriter(out)
+    one, two, three = _lines(3)
+    w.show(one)
+    w.show(two)
+    w.note("design funnel: now stage 2/2")
+    w.show(three)
+    w.end()
+    w.end()                                             # a second end writes nothing
+    assert out.getvalue() == (f"\r\x1b[K{progress_line(one)}\r\x1b[K{progress_line(two)}\n"
+                              f"design funnel: now stage 2/2\n\r\x1b[K{progress_line(three)}\n")
+
+
+def test_a_line_wider_than_the_terminal_is_cleared_over_all_its_rows(monkeypatch):
+    monkeypatch.setenv("TERM", "xterm")
+    monkeypatch.setenv("COLUMNS", "30")
+    out = _Terminal()
+    w = ProgressWriter(out)
+    one, two = _lines(2)
+    rows = math.ceil(len(progress_line(one)) / 30)
+    assert rows >= 3
+    w.show(one)
+    w.show(two)
+    assert out.getvalue() == f"\r\x1b[K{progress_line(one)}\r\x1b[{rows - 1}A\x1b[J{progress_line(two)}"
+
+
+@pytest.mark.parametrize("stream, term", [(io.StringIO(), "xterm"), (_Terminal(), "dumb")], ids=["pipe", "dumb"])
+def test_elsewhere_each_is_a_plain_line(stream, term, monkeypatch):
+    monkeypatch.setenv("TERM", term)
+    w = ProgressWriter(stream)
+    one, two = _lines(2)
+    w.show(one)
+    w.note("a note")
+    w.show(two)
+    w.end()
+    assert stream.getvalue() == f"{progress_line(one)}\na note\n{progress_line(two)}\n"

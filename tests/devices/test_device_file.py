@@ -156,9 +156,11 @@ BAD = [
     ("dynamics.damping", [1.0], "dynamics.damping: expected a list of two numbers"),
     ("dynamics.dt", -1e-3, "dynamics.dt: expected a number > 0"),
     ("dynamics.walls.edges", [[True], [False, True]], "dynamics.walls.edges: expected [[lower0, upper0]"),
+    ("dynamics.walls.edges", [True, True], "dynamics.walls.edges: expected [[lower0, upper0], [lower1, upper1]] of "
+                                           "true/false, got [true, true]"),
     ("dynamics.walls.edges[0][1]", 1, "dynamics.walls.edges[0][1]: expected true or false, got 1"),
     ("dynamics.walls.k", 0.0, "dynamics.walls.k: expected a number > 0"),
-    ("start.q", [1.0, True], "start.q[1]: expected a finite number, got True"),
+    ("start.q", [1.0, True], "start.q[1]: expected a finite number, got true"),
     ("start.velocity", [0, 0], "start.velocity: unknown key"),
     ("analysis", {"kind": "catapult"}, "analysis.kind: expected one of 'ratchet', 'dartgun', got 'catapult'"),
     ("analysis", {"kind": "ratchet", "pitch": 0.5}, "analysis.settle: missing"),

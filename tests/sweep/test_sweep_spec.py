@@ -103,6 +103,8 @@ def test_option_names_do_not_collide_with_result_columns():
     (BASE + '[base]\nlr = "fast"\n', "base.lr: expected a float"),
     (BASE + '[base]\ngrid = 2.5\n', "base.grid: grid must be an int"),
     (BASE + '[base]\nsmoke = 1\n', "base.smoke: expected a bool"),
+    (BASE + '[base]\nlr = true\n', "base.lr: expected a float, got true"),
+    ('kind = "funnel"\neval_seeds = [true]\n', "eval_seeds[0]: expected an integer >= 0, got true"),
     (BASE + '[base]\nseed = 3\n', "base.seed: give the run seeds as the top-level list"),
     (BASE + '[grid]\nlr = 0.1\n', "grid.lr: expected a non-empty list"),
     (BASE + '[grid]\nlr = []\n', "grid.lr: expected a non-empty list"),

@@ -12,6 +12,7 @@ from pes_ref.oracle.compare import relative_error
 from pes_ref.testing.finite_differences import central_gradient
 from pes_ref.oracle.tolerances import FD_RTOL
 from pes_ref.synthesis import ProblemFileError, parse_problem, problem_from_text, problem_text
+from pes_ref.synthesis.analysis import held_out_panels
 from pes_ref.synthesis.success import GroupTest
 from pes_ref.synthesis.surrogates import Surrogate
 
@@ -114,7 +115,9 @@ BAD = [
     ({"evaluate": {"success": [{"kind": "custom", "object": "_helpers:BAND_TEST_WITHOUT_COST"}]}},
      "evaluate.success[0].object", "no cost"),
     ({"evaluate": {"success": [{"kind": "custom", "object": "_helpers:gather_problem"}]}},
-     "evaluate.success[0]", "passes"),
+     "evaluate.success[0].object", "has no passes(x, v, t)"),
+    ({"evaluate": {"success": [{"kind": "custom", "object": "_helpers:_Band"}]}},
+     "evaluate.success[0].object", "is a class"),
 ]
 
 
@@ -190,3 +193,12 @@ def test_a_bad_share_is_refused_in_one_line_naming_it(share, key, words):
         parse_problem(data, "splitter.toml")
     message = str(err.value)
     assert message.startswith(f"splitter.toml: {key}: ") and words in message and "\n" not in message, message
+
+
+def test_a_group_test_s_panel_draws_its_group_s_paths():
+    problem = _sorter()
+    panels = held_out_panels(problem, problem.flat_values(), seed=3)
+    assert [p.title for p in panels] == ["every success test", "success test up (within, group left)",
+                                         "success test down (stay_in, group right)", "success test either (any_of)"]
+    assert [p.x.shape[1] for p in panels] == [9, 3, 6, 9]
+    assert all(p.passed.shape == (p.x.shape[1],) for p in panels)

@@ -2,6 +2,7 @@
 the built-in funnel bit for bit, every bad key is refused in one line naming it, the design
 gradient of a problem's terms matches central differences, and a design file holds its problem."""
 import re
+import sys
 import tomllib
 
 import numpy as np
@@ -75,6 +76,12 @@ BAD = [
     ({"surface.periodic": ["no", False]}, "surface.periodic[0]", "true or false"),
     ({"surface.interpolation": "cubic"}, "surface.interpolation", "'bilinear'"),
     ({"surface.hold": [{"lower": [0, 0]}]}, "surface.hold[0].upper", "missing"),
+    ({"surface.hold": [{"lower": [0, 0], "upper": [-0.5, 0.5]}]}, "surface.hold[0].upper[0]",
+     "expected upper >= lower, got lower 0, upper -0.5"),
+    ({"starts.box": {"lower": [0, 0.5], "upper": [0.5, 0.2]}}, "starts.box.upper[1]",
+     "expected upper >= lower, got lower 0.5, upper 0.2"),
+    ({"starts.velocity": {"lower": [1, 0], "upper": [0, 0]}}, "starts.velocity.upper[0]",
+     "expected upper >= lower, got lower 1, upper 0"),
     ({"dynamics.dt": -0.1}, "dynamics.dt", "> 0"),
     ({"dynamics.dt": 1.0}, "dynamics.dt", "stab"),
     ({"dynamics.n_steps": 40}, "dynamics.duration", "exactly one"),
@@ -90,8 +97,12 @@ BAD = [
     ({"forces.0.force": [1.0, 0.0]}, "forces[0].force", "unknown key"),
     ({"forces.0.from": 1.0, "forces.0.to": 0.5}, "forces[0].to", "to >= from"),
     ({"forces.0.from": 9.0}, "forces[0].from", "after the end of the run"),
+    ({"forces": [{"kind": "per_particle", "lower": [1, 0], "upper": [0.5, 0]}]}, "forces[0].upper[0]",
+     "expected upper >= lower, got lower 1, upper 0.5"),
     ({"objective.0.kind": "happiness"}, "objective[0].kind", "'final_position'"),
     ({"objective.0.weight": -1.0}, "objective[0].weight", ">= 0"),
+    ({"objective": [{"kind": "stay_in", "lower": [0, 0.5], "upper": [0.3, 0.2]}]}, "objective[0].upper[1]",
+     "expected upper >= lower, got lower 0.5, upper 0.2"),
     ({"objective.0.target": [0.3]}, "objective[0].target", "two values"),
     ({"objective.0.kind": "position_at", "objective.0.time": 3.0}, "objective[0].time", "after the end"),
     ({"objective": [{"kind": "exit", "edge": "q2_lower", "center": 0.0}]}, "objective[0].edge", "'q0_lower'"),
@@ -99,12 +110,23 @@ BAD = [
      "cannot import"),
     ({"objective": [{"kind": "custom", "object": "nocolon"}]}, "objective[0].object", "'module:object'"),
     ({"objective": [{"kind": "custom", "object": "_helpers:NOTHING"}]}, "objective[0].object", "not found"),
+    ({"objective": [{"kind": "custom", "object": "_helpers:GatherAt"}]}, "objective[0].object",
+     "'_helpers:GatherAt' is a class; expected an object with value_and_grad(x, v, t)"),
+    ({"objective": [{"kind": "custom", "object": "_helpers:gather_problem"}]}, "objective[0].object",
+     "'_helpers:gather_problem' (a function) has no value_and_grad(x, v, t)"),
+    ({"objective": [{"kind": "custom", "object": _helpers.GatherAt}]}, "objective[0].object",
+     "is a class; expected an object with value_and_grad(x, v, t)"),
+    ({"objective": [{"kind": "custom", "object": 3}]}, "objective[0].object", "3 (an int) has no value_and_grad"),
     ({"surface.periodic": [True, False], "dynamics.walls.edges": [[False, False], [True, True]],
       "objective": [{"kind": "exit", "edge": "q0_lower", "center": 0.0}]}, "objective[0]", "periodic axis"),
     ({"objective": [{"kind": "final_position", "target": [0, 0], "colour": 1}]}, "objective[0].colour",
      "unknown key"),
     ({"evaluate.particles": 0}, "evaluate.particles", ">= 1"),
     ({"evaluate.success.0.radius": 0.0}, "evaluate.success[0].radius", "> 0"),
+    ({"evaluate.success": [{"kind": "stay_in", "lower": [0.4, 0], "upper": [0.2, 0.1]}]},
+     "evaluate.success[0].upper[0]", "expected upper >= lower, got lower 0.4, upper 0.2"),
+    ({"evaluate.scenario": [{"name": "x", "success": [{"kind": "stay_in", "lower": [0, 0], "upper": [1, -1]}]}]},
+     "evaluate.scenario[0].success[0].upper[1]", "expected upper >= lower, got lower 0, upper -1"),
     ({"evaluate.scenario": [{"name": "x", "success": []}]}, "evaluate.scenario[0].success", "list of tables"),
     ({"train.optimizer": "sgd"}, "train.optimizer", "'rmsprop'"),
     ({"train.stages": [[5, 4]]}, "train.stages", "start at iteration 0"),
@@ -329,6 +351,45 @@ def test_a_problem_built_in_code_with_its_own_objective_object(tmp_path):
     state = synthesis.new_design(parse_problem(data, "<code>"), seed=0)
     save_design(tmp_path / "y.npz", state)
     assert 'object = "_helpers:GATHER"' in problem_text(load_design(tmp_path / "y.npz").problem)
+
+
+class _Fails:
+    """A user's own objective with a bug in it."""
+
+    def __init__(self, exc):
+        self.exc = exc
+
+    def value_and_grad(self, x, v, t):
+        raise self.exc
+
+
+@pytest.mark.parametrize("exc, said", [(ValueError("boom"), "boom"),
+                                       (ZeroDivisionError("division by zero"), "ZeroDivisionError: division by zero")])
+def test_a_custom_term_s_own_failure_names_the_term(exc, said):
+    data = tomllib.loads(GATHER)
+    data["objective"].append({"kind": "custom", "object": _Fails(exc), "name": "spread"})
+    problem = parse_problem(data, "<code>")
+    with pytest.raises(ValueError) as err:
+        synthesis.design_gradient(problem, problem.flat_values(), seed=0, iteration=0, n_particles=2)
+    assert str(err.value) == f"objective[1] (custom 'spread', a _Fails): {said}"
+
+
+def test_a_custom_object_is_imported_from_the_problem_file_s_folder(tmp_path):
+    module = "problem_folder_objective"                 # a name nothing else imports
+    (tmp_path / f"{module}.py").write_text("import numpy as np\n\n\nclass Gather:\n"
+                                           "    def value_and_grad(self, x, v, t):\n"
+                                           "        gx = np.zeros_like(x)\n        gx[-1] = 2 * x[-1]\n"
+                                           "        return float(np.sum(x[-1] ** 2)), gx, None\n\n\n"
+                                           "GATHER = Gather()\n")
+    (tmp_path / "p.toml").write_text(GATHER.replace('kind = "final_position"\ntarget = [0.3, -0.2]\n[evaluate]',
+                                                    f'kind = "custom"\nobject = "{module}:GATHER"\n[evaluate]'))
+    path = list(sys.path)
+    try:
+        problem = load_problem(tmp_path / "p.toml")
+        assert type(problem.terms[0].obj).__module__ == module
+        assert sys.path == path                  # searched for the import only
+    finally:
+        sys.modules.pop(module, None)
 
 
 def test_with_sets_changes_dotted_keys_and_refuses_what_is_not_there():

@@ -118,3 +118,10 @@ def test_train_states_validation_and_refuses_a_target_above_one():
     assert GATHER.plan.validate_every == 0 and GATHER.plan.target is None          # off unless asked for
     with pytest.raises(synthesis.ProblemFileError, match="train.target"):
         with_sets(GATHER, {"train.target": 1.5})
+
+
+def test_iterations_from_the_command_line_share_out_the_default_stages():
+    problem = synthesis.parse_problem({k: v for k, v in GATHER.data.items() if k != "train"}, "gather.toml")
+    assert problem.plan.stages == ((0, 5, 0), (150, 0, 0))                  # an 8-node grid: 5, then 8
+    assert synthesis.plan_for(problem, 600).stages == ((0, 5, 0), (300, 0, 0))
+    assert synthesis.plan_for(problem, 600).validate_every == problem.plan.validate_every
