@@ -110,6 +110,8 @@ def test_verdicts_by_hand():
     both = AnyOfTest((within, cross))
     assert both.passes(x, v, t).tolist() == [True, True]
     assert GroupTest(within, "g", lambda n: np.array([False, True])).passes(x, v, t).tolist() == [True, False]
+    # a particle outside the group passes the group's test whatever it does
+    assert GroupTest(within, "g", lambda n: np.array([True, False])).passes(x, v, t).tolist() == [True, True]
     assert applies(GroupTest(within, "g", lambda n: np.array([False, True])), 2).tolist() == [False, True]
     assert applies(within, 2).tolist() == [True, True]
     every, each = passes_all([within, cross], x, v, t)
