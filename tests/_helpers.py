@@ -152,3 +152,16 @@ def check_state_derivatives(objective, x, v, t):
     assert relative_error(gx, fx) < FD_RTOL, (gx, fx)
     assert relative_error(gv, fv) < FD_RTOL, (gv, fv)
     return value
+
+
+class _Raises:
+    """A user's own success test that fails in both of its methods."""
+
+    def passes(self, x, v, t):
+        raise RuntimeError("boom")
+
+    def cost(self, x, v, t, margin):
+        raise ValueError("bang")
+
+
+RAISES_TEST = _Raises()

@@ -39,7 +39,7 @@ from pes_ref.synthesis.exits import exit_steps
 from pes_ref.synthesis.file_keys import Key
 
 __all__ = ["Domain", "EDGES", "OBJECTIVE_TERMS", "TermSum", "FinalPosition", "PositionAt", "StayIn", "SpeedAt",
-           "Cycle", "Exit", "Regularization", "CustomTerm", "CustomTermError", "excess", "step_at", "window_steps"]
+           "Cycle", "Exit", "Regularization", "CustomTerm", "CustomTermError", "call_user", "excess", "step_at", "window_steps"]
 
 #: The edges a particle may leave by: name -> (axis crossed, side).
 EDGES = {"q0_lower": (0, "lower"), "q0_upper": (0, "upper"), "q1_lower": (1, "lower"), "q1_upper": (1, "upper")}
@@ -291,7 +291,20 @@ class Exit:
 
 
 class CustomTermError(ValueError):
-    """A user's own objective (a ``custom`` term) failed; the message names the term."""
+    """A user's own object (a ``custom`` term or success test) failed; the message names it."""
+
+
+def call_user(label: str, fn, *args):
+    """``fn(*args)`` of a user's own object, whatever it raises reworded as one
+    :class:`CustomTermError` that starts with ``label``; a FloatingPointError (a non-finite run,
+    which a design stops on) passes as it is."""
+    try:
+        return fn(*args)
+    except FloatingPointError:
+        raise
+    except Exception as exc:
+        said = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
+        raise CustomTermError(f"{label}: {said}") from exc
 
 
 @dataclass(frozen=True)
@@ -315,13 +328,7 @@ class CustomTerm:
         return cls(keys["object"], keys["weight"])
 
     def value_and_grad(self, x, v, t):
-        try:
-            value, gx, gv = Custom(self.obj.value_and_grad, self.name).value_and_grad(x, v, t)
-        except FloatingPointError:
-            raise
-        except Exception as exc:
-            said = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
-            raise CustomTermError(f"{self.label}: {said}") from exc
+        value, gx, gv = call_user(self.label, Custom(self.obj.value_and_grad, self.name).value_and_grad, x, v, t)
         w = self.weight
         return w * value, None if gx is None else w * gx, None if gv is None else w * gv
 

@@ -412,6 +412,10 @@ def _test(r: Reader, entry: dict, at: str, domain: Domain, duration: float, dt: 
         keys[children] = [t for _, t in _tests(r, keys[children], f"{at}.{children}", domain, duration, dt,
                                                starts)]
     test = _build(r, at, cls.from_keys, keys, domain, duration)
+    if hasattr(test, "label"):          # a custom test: named by its place when its object fails
+        obj = entry["object"]
+        spec = obj if isinstance(obj, str) else f"a {type(obj).__name__}"
+        test = dataclasses.replace(test, label=f"{at} (custom {common['name'] or kind!r}, {spec})")
     if common["group"] is not None:
         if common["group"] not in groups:
             r.fail(f"{at}.group", f"no start group {common['group']!r}; the groups ([[starts.group]]) are "

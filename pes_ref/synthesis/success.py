@@ -25,7 +25,8 @@ from typing import Callable, ClassVar
 import numpy as np
 
 from pes_ref.synthesis.file_keys import Key
-from pes_ref.synthesis.objective_terms import EDGES, Domain, Exit, StayIn, excess, step_at, window_steps
+from pes_ref.synthesis.objective_terms import (EDGES, CustomTermError, Domain, Exit, StayIn, call_user, excess,
+                                               step_at, window_steps)
 
 __all__ = ["SUCCESS_TESTS", "FinalPositionTest", "PositionAtTest", "StayInTest", "WithinTest", "ExitTest",
            "CrossTest", "SpeedAtTest", "AnyOfTest", "CustomTest", "GroupTest", "ShareCriterion", "passes_all",
@@ -396,6 +397,8 @@ class CustomTest:
     KIND: ClassVar[str] = "custom"
     KEYS: ClassVar[dict] = {"object": Key("test_object")}
     obj: object
+    #: What names the test when its object fails (``evaluate.success[0] (custom 'band', mymod:BAND)``).
+    label: str = "a custom test"
 
     def __post_init__(self):
         if isinstance(self.obj, type) or not callable(getattr(self.obj, "passes", None)):
@@ -410,13 +413,13 @@ class CustomTest:
         return callable(getattr(self.obj, "cost", None))
 
     def passes(self, x, v, t):
-        ok = np.asarray(self.obj.passes(x, v, t))
+        ok = np.asarray(call_user(self.label, self.obj.passes, x, v, t))
         if ok.shape != (x.shape[1],):
-            raise ValueError(f"a custom test's passes returned shape {ok.shape}, expected ({x.shape[1]},)")
+            raise CustomTermError(f"{self.label}: passes returned shape {ok.shape}, expected ({x.shape[1]},)")
         return ok.astype(bool)
 
     def cost(self, x, v, t, margin: float):
-        c, gx, gv = self.obj.cost(x, v, t, margin)
+        c, gx, gv = call_user(self.label, self.obj.cost, x, v, t, margin)
         return np.asarray(c, dtype=np.float64), gx, gv
 
 

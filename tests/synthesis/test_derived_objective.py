@@ -202,3 +202,16 @@ def test_a_group_test_s_panel_draws_its_group_s_paths():
                                          "success test down (stay_in, group right)", "success test either (any_of)"]
     assert [p.x.shape[1] for p in panels] == [9, 3, 6, 9]
     assert all(p.passed.shape == (p.x.shape[1],) for p in panels)
+
+
+def test_a_custom_test_s_own_failure_names_the_test():
+    from pes_ref.synthesis.objective_terms import CustomTermError
+    data = {**SORTER, "evaluate": {"particles": 4, "success": [
+        {"name": "mine", "kind": "custom", "object": "_helpers:RAISES_TEST"}]}}
+    problem = parse_problem(data, "c.toml")
+    with pytest.raises(CustomTermError, match=r"^evaluate\.success\[0\] \(custom 'mine', _helpers:RAISES_TEST\): "
+                                              r"RuntimeError: boom$"):
+        synthesis.evaluate(problem, problem.flat_values(), seed=1)
+    with pytest.raises(CustomTermError, match=r"^evaluate\.success\[0\] \(custom 'mine', _helpers:RAISES_TEST\): "
+                                              r"bang$"):
+        synthesis.design_gradient(problem, problem.flat_values(), n_particles=4)
