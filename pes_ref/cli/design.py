@@ -21,9 +21,6 @@
 """
 from __future__ import annotations
 
-import dataclasses
-import functools
-import operator
 import os
 import sys
 import time
@@ -31,7 +28,7 @@ import time
 from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error, input_file, output_file
 
 #: The names ``--set`` takes, per kind: the fields of each problem of
-#: :data:`pes_ref.synthesis.PROBLEMS` (tested equal), written out for the help text because
+#: :data:`pes_ref.synthesis.KINDS` that has one (tested equal), written out for the help text because
 #: ``python -m pes_ref --help`` builds every command's parser, and building a parser imports
 #: nothing from the layers below the command line (tests/cli/test_oracle_startup.py).
 SET_NAMES = {
@@ -51,7 +48,9 @@ SET_NAMES = {
 PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-final", "clip": "--clip",
               "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed",
               "plan": "--plan", "evaluations": "--evaluations", "polish_particles": "--polish-particles",
-              "backend": "--backend"}
+              "backend": "--backend", "smoke": "--smoke", "set": "--set"}
+#: What a problem file's design names in its errors where a built-in kind names its ``--set`` fields.
+_FILE_FLAGS = {"problem": {"n_steps": "dynamics.duration / dt", "grid": "surface.shape"}}
 #: ``--plan`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_PLANS` (tested equal;
 #: written out for the same reason as :data:`SET_NAMES`).
 OSCILLATOR_PLAN_NAMES = ("gait", "overshoot", "eq6")
@@ -126,30 +125,28 @@ def add_parser(sub) -> None:
     p.set_defaults(func=_run_design)
 
 
-def _flags(kind: str) -> dict:
+def _flags(kind: str | None) -> dict:
     """Every name an error of a ``kind`` design may carry, and the option that sets it (a
     problem file's errors name its own keys; its steps come from its dynamics)."""
-    if kind == "problem":
-        return {"n_steps": "dynamics.duration / dt", "grid": "surface.shape", **PLAN_FLAGS}
-
-    return {**{name: f"--set {name}" for name in SET_NAMES.get(kind, ())}, **PLAN_FLAGS}
+    return {**{name: f"--set {name}" for name in SET_NAMES.get(kind, ())}, **_FILE_FLAGS.get(kind, {}), **PLAN_FLAGS}
 
 
-
-def _problem_argument(arg: str):
-    """``(kind, problem)`` of the positional argument: a built-in kind and None, or
-    ``"problem"`` and the problem file read (a path; or a shipped problem by its name, with
-    or without ``.toml``, when no such path exists)."""
+def _base_problem(arg: str | None, state):
+    """The problem the positional argument names: a built-in kind's default problem, or the
+    problem file read (a path; or a shipped problem by its name, with or without ``.toml``,
+    when no such path exists); without one, the resumed design's own problem."""
+    from pes_ref.synthesis import kind_named, load_problem, shipped_problem
+    if arg is None:
+        return state.problem
     if arg in SET_NAMES:
-        return arg, None
-    from pes_ref.synthesis.problem_file import load_problem, shipped_problem
+        return kind_named(arg).default_problem()
     stem = arg[:-5] if arg.endswith(".toml") else arg
     if not os.path.exists(arg) and os.sep not in arg and stem in SHIPPED_NAMES:
-        return "problem", load_problem(shipped_problem(stem))
+        return load_problem(shipped_problem(stem))
     if not arg.endswith(".toml") and not os.path.exists(arg):
         raise ValueError(f"design {arg!r}: expected funnel, oscillator, a problem file PATH.toml, or a shipped "
                          f"problem ({', '.join(SHIPPED_NAMES)})")
-    return "problem", load_problem(input_file(arg, "problem file"))
+    return load_problem(input_file(arg, "problem file"))
 
 
 def _pool(workers: int, inputs, kind: str):
@@ -175,90 +172,27 @@ def error_stopped(state) -> int:
     return EXIT_FAIL
 
 
-def _check_smoke_size(state, kind: str, given, resume: str) -> None:
-    """``--smoke`` with ``--resume`` continues a design of the smoke size (to the preset's plan): a
-    resumed design keeps its scene, so one of another size is refused naming ``--smoke``, whose
-    size it is (not the problem file's or ``--set``'s); a key the user sets (``given``) is left
-    to the usual checks, as is a design of another kind."""
-    if state.kind != kind:
-        return                                  # another kind of design: refused as such below
-    from pes_ref.core.keyfile import show
-    from pes_ref.sweep.options import smoke_scene
-    for name, value in smoke_scene(kind, state.problem).items():
-        if name in given:
-            continue
-        if kind == "problem":
-            there = functools.reduce(operator.getitem, name.split("."), state.problem.data)
-        else:
-            there = getattr(state.problem, name)
-        if there != value:
-            raise ValueError(f"--smoke resumes only a design of its size: {resume} has {name} = {show(there)}, "
-                             f"--smoke's is {show(value)}; leave --smoke out to resume it")
-
-
 def _run_design(args) -> int:
     from pes_ref import synthesis
-    from pes_ref.synthesis import check_same_scene, load_design, save_design
+    from pes_ref.synthesis import design_inputs, kind_of, load_design, run_to_file, start_design
     flags = _flags(args.kind)
     try:
         if not args.progress >= 0:
             raise ValueError(f"--progress must be a number of seconds >= 0, got {args.progress}")
         if args.kind is None and args.resume is None:
             raise ValueError("give what to design (funnel, oscillator or PROBLEM.toml), or --resume FILE.npz")
-        kind, problem = (None, None) if args.kind is None else _problem_argument(args.kind)
         state = None if args.resume is None else load_design(input_file(args.resume, "design file"))
-        if kind is None:                                    # --resume alone: the design's own problem
-            kind, problem = state.kind, state.problem if state.kind == "problem" else None
-        flags = _flags(kind)
-        from pes_ref.sweep.options import design_inputs, parse_sets   # shared with sweeps
-        if problem is not None:
-            from pes_ref.synthesis.problem_file import parse_set
-            sets = dict(parse_set(item) for item in args.set)
-        else:
-            sets = parse_sets(args.set, synthesis.PROBLEMS[kind])
-        if state is not None and args.smoke:
-            _check_smoke_size(state, kind, given=sets, resume=args.resume)
-        inputs = design_inputs(kind, vars(args), sets, problem)
-        sets, plan_over, base_plan = inputs.sets, inputs.plan_overrides, inputs.base_plan
-        if problem is not None:
-            problem = inputs.problem                        # its keys changed by --set (and --smoke)
-        executor = _pool(args.workers, inputs, kind)
-        if state is not None:
-            if args.kind is None and problem is not None and problem != state.problem:   # a file's, changed by --set
-                difference = synthesis.first_difference(state.problem.data, problem.data)
-                raise ValueError(f"--set: a resumed design keeps its problem; {difference}".replace(" there,", ","))
-            if problem is not None:
-                synthesis.check_same_problem(state, problem)
-
-            else:
-                check_same_scene(state, kind, sets)
-            if args.seed is not None and args.seed != state.seed:
-                raise ValueError(f"--seed {args.seed} differs from the resumed run's seed {state.seed}")
-            if "optimizer" in plan_over and plan_over["optimizer"] != state.plan.optimizer:
-                raise ValueError(f"--optimizer {plan_over['optimizer']} differs from the resumed run's "
-                                 f"{state.plan.optimizer}")
-            if args.backend is not None and args.backend != state.backend:
-                raise ValueError(f"--backend {args.backend} differs from the resumed run's {state.backend}")
-            from pes_ref.core.backends import check_backend
-            check_backend(state.backend)
-            state.plan = dataclasses.replace(state.plan, **plan_over)
-            synthesis.check_stable_design(state)
-            synthesis.check_design_memory(state)
-            if state.polish is not None:
-                from pes_ref.synthesis.stages import set_polish
-                set_polish(state, dataclasses.replace(state.polish, **inputs.polish_overrides))
+        base = _base_problem(args.kind, state)
+        kind = kind_of(base)
+        flags = _flags(kind.name)
+        inputs = design_inputs(base, vars(args), kind.parse_sets(args.set))
+        executor = _pool(args.workers, inputs, kind.name)
+        state = start_design(inputs, seed=args.seed, backend=args.backend, resume=state, where=args.resume)
+        if args.resume is not None:
             out = args.out if args.out is not None else args.resume
             may_overwrite = args.force or os.path.abspath(out) == os.path.abspath(args.resume)
         else:
-            plan = dataclasses.replace(base_plan, **plan_over)
-            polish = inputs.polish()
-            seed = 0 if args.seed is None else args.seed
-            if problem is not None:
-                state = synthesis.new_design(problem, seed=seed, plan=plan, backend=args.backend)
-            else:
-                state = synthesis.new_design(kind, seed=seed, plan=plan, polish=polish, backend=args.backend,
-                                             **sets)
-            out = args.out if args.out is not None else f"{problem.name if problem is not None else kind}.npz"
+            out = args.out if args.out is not None else f"{getattr(inputs.problem, 'name', kind.name)}.npz"
             may_overwrite = args.force
         output_file(out, "design", force=may_overwrite)
     except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, with its pip line
@@ -278,29 +212,16 @@ def _run_design(args) -> int:
         shown.append(p.stage)
         lines.show(p)
 
-    def checkpoint(s):
-        save_design(out, s, overwrite=True)
-
     start, t0 = state.iteration, time.perf_counter()
     fresh = args.resume is None
-    created = not os.path.exists(out)
     try:
-        if created or not fresh:
-            save_design(out, state, overwrite=may_overwrite)   # claims the file before the long run
-        elif not os.access(out, os.W_OK):                      # --force over a file kept until there is a result
-            raise PermissionError(f"cannot write {out}: the file is not writable")
-        state = synthesis.run_stages(state, state.plan.iterations, executor=executor, tasks=args.workers,
-                                     callback=progress, progress_every=args.progress, checkpoint=checkpoint)
+        state = run_to_file(state, out, fresh=fresh, overwrite=may_overwrite, executor=executor, tasks=args.workers,
+                            callback=progress, progress_every=args.progress)
         lines.end()                     # the last progress line stays, whole, before anything else is printed
         if fresh and state.iteration == 0 and state.status.startswith(synthesis.STOPPED):
-            if created:
-                os.remove(out)                                 # never leave a file that holds no iteration
             return error_stopped(state)
-        save_design(out, state, overwrite=True)
     except Exception as exc:
         lines.end()
-        if fresh and created and state.iteration == start and os.path.lexists(out):
-            os.unlink(out)              # our own claim, and nothing done: leave no file that means nothing
         if not isinstance(exc, (OSError, ValueError)):
             raise
         return error(exc, flags)
@@ -308,7 +229,7 @@ def _run_design(args) -> int:
         lines.end()                     # (a second Ctrl-C's abort too)
         if executor is not None:
             executor.shutdown()
-    name = getattr(state.problem, "name", kind)
+    name = getattr(state.problem, "name", kind.name)
     print(_summary(name, state.problem.metric_name, out, state, state.iteration - start, time.perf_counter() - t0))
     if state.status.startswith(synthesis.STOPPED):
         print(f"error: the run stopped; its last good state (iteration {state.iteration}) is saved: {state.status}",
@@ -316,7 +237,7 @@ def _run_design(args) -> int:
         return EXIT_FAIL
     if state.status == "interrupted":
         again = " (the polish starts again from its beginning)" if state.stage == "polish" else ""
-        what = "" if problem is not None else f" {kind}"
+        what = "" if kind.default_problem is None else f" {kind.name}"     # a file's design names its file
         print(f"interrupted; saved; continue with: python -m pes_ref design{what} --resume {out}{again}",
               file=sys.stderr)
 

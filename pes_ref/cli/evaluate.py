@@ -97,7 +97,7 @@ def _lines(state, figures: dict) -> list:
     realized figure's ``realized_`` line after its own). The printed lines and the JSON
     both come from this list."""
     lines = [("kind", state.kind)]
-    if state.kind == "problem":
+    if hasattr(state.problem, "name"):                  # a problem file's design: its problem's name
         lines.append(("problem", state.problem.name))
     lines += [("method", state.method), ("stage", state.stage), ("iterations", state.iteration),
               ("evaluations", state.evaluations), ("status", state.status)]
@@ -148,9 +148,9 @@ def _stem(path: str) -> str:
 
 
 def _picture(state, args) -> bytes:
-    """The PNG of ``--plot``: the held-out panels of the design (:func:`pes_ref.synthesis.analysis.held_out_panels`)."""
+    """The PNG of ``--plot``: the held-out panels of the design (:func:`pes_ref.synthesis.kinds.held_out_panels`)."""
     import io
-    from pes_ref.synthesis.analysis import held_out_panels
+    from pes_ref.synthesis import held_out_panels
     from pes_ref.synthesis.plots import paths_figure
     panels = held_out_panels(state.problem, state.values, seed=args.seed, n_particles=args.particles)
     name = getattr(state.problem, "name", state.kind)             # a problem file's problem by its name
@@ -171,8 +171,7 @@ def _realized(state, args) -> dict:
     """The design's figures beside the realized device's (:func:`pes_ref.realize.evaluation.evaluate_realized`)."""
     from pes_ref.core import checks
     from pes_ref.devices.device_file import load_device
-    from pes_ref.realize.evaluation import check_kind, evaluate_realized
-    check_kind(state.problem)
+    from pes_ref.realize.evaluation import evaluate_realized
     device = load_device(input_file(args.realized, "device file"))
     try:
         return evaluate_realized(state.problem, state.values, device, seed=args.seed, n_particles=args.particles)

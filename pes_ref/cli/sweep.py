@@ -104,8 +104,8 @@ def _cell(value) -> str:
 
 def _table(sweep, rows) -> str:
     """One line per run: swept options, seed, status, the headline figure, wall time, worker, error."""
-    from pes_ref.sweep.results import HEADLINE
-    headline = HEADLINE[sweep.kind]
+    from pes_ref.synthesis import kind_named
+    headline = kind_named(sweep.kind).headline
     cols = [*sweep.swept, "seed", "status", headline, "wall_s", "worker"]
     lines = [[c for c in cols] + ["error"]]
     for row in rows:

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.realize.evaluation import check_kind, contact_parameters, start_point
+from pes_ref.realize.evaluation import contact_parameters, start_point
 from pes_ref.realize.followers import DRUM_CAM, DRUM_RADIUS, Parts, follower_for
 from pes_ref.realize.regions import Region, contact_region
 
@@ -70,7 +70,6 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
                     ) -> ContactRealization:
     """Realize design ``values`` of ``problem`` by contact (module docstring); ``drum_radius``
     (a cylinder's drum cam only) defaults to :data:`pes_ref.realize.followers.DRUM_RADIUS`."""
-    check_kind(problem)
     v, r_c, r_min = contact_parameters(problem, problem.surface_values(values))
     thickness = checks.as_positive_float("thickness", thickness)
     pin_radius = checks.as_positive_float("pin_radius", pin_radius)

@@ -24,12 +24,10 @@ import os
 from pes_ref.core.files import atomic_file
 
 __all__ = ["new_row", "record", "is_finished", "read_results", "write_results", "columns", "figure_names",
-           "plot_summary", "CSV_NAME", "PLOT_NAME", "HEADLINE"]
+           "plot_summary", "CSV_NAME", "PLOT_NAME"]
 
 CSV_NAME = "results.csv"
 PLOT_NAME = "summary.png"
-#: The figure the command's closing table shows, per kind.
-HEADLINE = {"funnel": "in_band_fraction", "oscillator": "captured_fraction", "problem": "success_fraction"}
 #: ``evaluate`` output that is a setting, not a figure (written as ``eval_particles``).
 _NOT_FIGURES = ("particles",)
 _TAIL = ("wall_s", "worker", "attempts", "from_iteration", "iterations_done", "error", "design_file", "eval_seeds",

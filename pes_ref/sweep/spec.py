@@ -20,7 +20,7 @@ A sweep file (read with :mod:`tomllib`)::
     name = "big_batch"
     particles = 128
 
-An *option* is a design option (:data:`pes_ref.sweep.options.DESIGN_OPTIONS`, the flags
+An *option* is a design option (:data:`pes_ref.synthesis.runs.DESIGN_OPTIONS`, the flags
 of ``python -m pes_ref design`` without the dashes, ``-`` as ``_``) or a scene parameter
 of the kind (what ``--set NAME=VALUE`` sets; for a problem file, any of its keys by its
 dotted name, quoted: ``"dynamics.dt" = 0.005``). The runs are every variant (or one run of
@@ -38,9 +38,8 @@ from dataclasses import dataclass
 
 from pes_ref.core.backends import check_backend
 from pes_ref.core.keyfile import KeyFileError, KeyReader, parse_toml, read_text, show
-from pes_ref.synthesis import PROBLEMS, ProblemFileError, load_problem, problem_text
-from pes_ref.sweep.options import (DESIGN_OPTIONS, design_inputs, has_type, scene_parameters, type_name,
-                                   typed_sets)
+from pes_ref.synthesis import DESIGN_OPTIONS, ProblemFileError, load_problem, problem_text
+from pes_ref.sweep.options import BUILT_IN_KINDS, has_type, run_inputs, scene_parameters, type_name, typed_sets
 
 __all__ = ["Sweep", "Run", "SweepFileError", "load_sweep", "parse_sweep", "TOP_LEVEL_KEYS"]
 
@@ -130,8 +129,8 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
         kind = "problem"
     else:
         kind = data.get("kind")
-        if kind not in PROBLEMS:
-            fail("kind", f"expected one of {sorted(PROBLEMS)}, got {show(kind)}" if "kind" in data
+        if kind not in BUILT_IN_KINDS:
+            fail("kind", f"expected one of {sorted(BUILT_IN_KINDS)}, got {show(kind)}" if "kind" in data
                  else "missing (kind = \"funnel\" or \"oscillator\", or problem = \"FILE.toml\")")
     description = data.get("description", "")
     if not isinstance(description, str):
@@ -165,12 +164,7 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
             options = {**base, **voptions, **point}
             where = _where(vname, point)
             try:
-                sets = {k: v for k, v in options.items() if k not in DESIGN_OPTIONS}
-                if problem is None:
-                    inputs = design_inputs(kind, options, typed_sets(sets, kind))
-                    PROBLEMS[kind](**inputs.sets)
-                else:
-                    inputs = design_inputs(kind, options, sets, problem)      # checks the problem with its sets
+                inputs = run_inputs(kind, options, problem)          # checks the problem with its sets
                 inputs.plan()
                 if options.get("backend") is not None:
                     check_backend(options["backend"])

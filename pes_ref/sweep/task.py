@@ -17,9 +17,8 @@ from __future__ import annotations
 import os
 import time
 
-from pes_ref.synthesis import (PROBLEMS, evaluate_seeds, load_design, new_design, problem_from_text, run_stages,
-                               save_design)
-from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
+from pes_ref.synthesis import evaluate_seeds, load_design, problem_from_text, run_stages, save_design, start_design
+from pes_ref.sweep.options import run_inputs
 
 __all__ = ["run_task", "request_stop", "CHECKPOINT_SECONDS", "STOP_POLL_SECONDS"]
 
@@ -73,23 +72,13 @@ def _design(payload: dict, out: dict):
     if token in _STOP_REQUESTS:                        # the sweep stopped before this run began
         out.update(status="interrupted", error="not started: the sweep was stopped")
         return None
-    sets = {k: v for k, v in options.items() if k not in DESIGN_OPTIONS}
-    if payload.get("problem_text") is not None:         # a problem file's run
-        base = problem_from_text(payload["problem_text"], payload["problem_path"])
-        inputs = design_inputs(kind, options, sets, base)
-        problem = inputs.problem
-    else:
-        inputs = design_inputs(kind, options, typed_sets(sets, kind))
-        problem = PROBLEMS[kind](**inputs.sets)
+    text = payload.get("problem_text")
+    base = None if text is None else problem_from_text(text, payload["problem_path"])   # a problem file's run
+    inputs = run_inputs(kind, options, base)
     plan = inputs.plan()
-    backend = options.get("backend")
-    state = _resume(path, problem, plan, payload["seed"], backend)
-    if state is None:
-        if kind == "problem":
-            state = new_design(problem, seed=payload["seed"], plan=plan, backend=backend)
-        else:
-            state = new_design(kind, seed=payload["seed"], plan=plan, polish=inputs.polish(), backend=backend,
-                               **inputs.sets)
+    saved = load_design(path) if os.path.exists(path) else None       # this run's checkpoint, if any
+    state = start_design(inputs, seed=payload["seed"], backend=options.get("backend"), resume=saved, where=path,
+                         exact=True)
 
     out["from_iteration"] = state.iteration
     if state.iteration >= plan.iterations and state.status == "done":
@@ -118,24 +107,6 @@ def _design(payload: dict, out: dict):
     if state.status != "done":
         out.update(status="failed", error=state.status)
         return None
-    return state
-
-
-def _resume(path: str, problem, plan, seed: int, backend: str | None = None):
-    """The saved state of this run at ``path``, or None when there is none.
-
-    Raises
-    ------
-    ValueError
-        If ``path`` holds a design of another run (another scene, plan, seed or backend,
-        when the run names one).
-    """
-    if not os.path.exists(path):
-        return None
-    state = load_design(path)
-    if state.problem != problem or state.plan != plan or state.seed != seed or \
-            backend not in (None, state.backend):
-        raise ValueError(f"{path} holds another run's design (scene, plan, seed or backend differ); move it away")
     return state
 
 

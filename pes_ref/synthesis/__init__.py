@@ -15,14 +15,17 @@ Modules, one idea each, in import order:
 - :mod:`.surrogates`  the objective a problem without ``[[objective]]`` derives from its success tests
 - :mod:`.design_problem` a design problem stated by a problem file (:class:`DesignProblem`)
 - :mod:`.refusals`    what a design run refuses before it starts (unstable scene, memory)
+- :mod:`.kinds`       the kinds of design as one interface (:data:`KINDS`) and :func:`evaluate` for every kind
 - :mod:`.design_state` a design run's state (:class:`DesignState`) and :func:`new_design`
 - :mod:`.training`    the loop of a run's gradient stage (:func:`run_design`)
-- :mod:`.analysis`    held-out particles, cycle figures and :func:`evaluate`
+- :mod:`.analysis`    held-out particles, cycle figures, each kind's figures and panels
 - :mod:`.polish`      the polish stage: CMA-ES on a smooth correction, capture-test fitness
 - :mod:`.stages`      a run's stages one after the other (:func:`run_stages`)
 - :mod:`.escapement`  the hand-drawn escapement surface, a reference for the oscillator
 - :mod:`.problem_file` problem files: reading, checking, changing keys, writing
 - :mod:`.design_file` design runs in ``.npz`` files
+- :mod:`.runs`        a run from what a user names: options resolved (:func:`design_inputs`), started or
+                      resumed (:func:`start_design`)
 - :mod:`.plots`       held-out paths drawn on a design's surface (``evaluate --plot``; imported when
                       it draws, with matplotlib, never here)
 
@@ -34,19 +37,21 @@ from pes_ref.core.progress import Progress
 from pes_ref.synthesis.optimizers import Adam, RMSprop, make_optimizer
 from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 from pes_ref.synthesis.exits import FunnelExit, exit_steps
-from pes_ref.synthesis.problems import (FUNNEL_OBJECTIVES, IN_BAND_SHARE, OSCILLATOR_COSTS, PROBLEMS, Batch,
+from pes_ref.synthesis.problems import (FUNNEL_OBJECTIVES, IN_BAND_SHARE, OSCILLATOR_COSTS, Batch,
                                         FunnelProblem, OscillatorProblem, PhaseThenCycle, exit_positions)
-from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, DEFAULT_PLANS, default_plan, DEFAULT_POLISH, OSCILLATOR_PLANS,
-                                     OSCILLATOR_POLISH, Plan, PolishPlan)
+from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, FUNNEL_PLAN, OSCILLATOR_PLANS, OSCILLATOR_POLISH, Plan,
+                                     PolishPlan, default_plan)
 from pes_ref.synthesis.resampling import resample
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, TermSum
 from pes_ref.synthesis.success import SUCCESS_TESTS
 from pes_ref.synthesis.design_problem import FORCES, DesignProblem
 from pes_ref.synthesis.refusals import check_design_memory, check_stable_design
+from pes_ref.synthesis.kinds import (KINDS, DesignKind, Realizable, evaluate, evaluate_seeds, held_out_panels,
+                                     held_out_steps, kind_named, kind_of)
 from pes_ref.synthesis.design_state import STOPPED, DesignState, new_design
 from pes_ref.synthesis.training import GradientStep, design_gradient, run_design
 from pes_ref.synthesis.analysis import (ANALYSIS_PERIODS, CYCLE_DRIFT, CYCLE_TOLERANCE, Paths, TorqueSweep,
-                                        cycle_figures, evaluate, evaluate_seeds, funnel_paths,
+                                        cycle_figures, funnel_paths,
                                         oscillator_grid_starts,
                                         oscillator_torque_sweep, phase_space, q1_advance)
 from pes_ref.synthesis.polish import (PolishParticles, PolishResult, capture_fitness, legendre_fourier_basis, polish,
@@ -55,16 +60,17 @@ from pes_ref.synthesis.stages import run_stages
 from pes_ref.synthesis.escapement import escapement_values
 from pes_ref.synthesis.problem_file import (SHIPPED_PROBLEMS, ProblemFileError, load_problem, parse_problem, plan_for,
                                             problem_from_text, problem_text, shipped_problem, with_sets)
-from pes_ref.synthesis.design_file import (DesignFileError, check_same_problem, check_same_scene, design_arrays,
-                                           first_difference, load_design, save_design)
+from pes_ref.synthesis.design_file import DesignFileError, design_arrays, first_difference, load_design, save_design
+from pes_ref.synthesis.runs import (DESIGN_OPTIONS, DesignInputs, check_resume, design_inputs, run_to_file,
+                                    start_design)
 
 __all__ = [
     "Adam", "RMSprop", "make_optimizer",
     "GaitShooting", "GaitStarts", "sample_gait_starts",
     "FunnelExit", "exit_steps",
-    "FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
+    "FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "OSCILLATOR_COSTS",
     "IN_BAND_SHARE", "exit_positions", "FUNNEL_OBJECTIVES",
-    "Plan", "PolishPlan", "default_plan", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
+    "Plan", "PolishPlan", "default_plan", "FUNNEL_PLAN", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
     "DEFAULT_OSCILLATOR_PLAN",
     "resample",
     "DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",
@@ -75,7 +81,9 @@ __all__ = [
     "legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "PolishResult", "polish",
     "run_stages",
     "escapement_values",
-    "save_design", "load_design", "design_arrays", "check_same_scene", "check_same_problem", "first_difference",
+    "KINDS", "DesignKind", "Realizable", "kind_of", "kind_named", "held_out_steps", "held_out_panels",
+    "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "start_design", "check_resume", "run_to_file",
+    "save_design", "load_design", "design_arrays", "first_difference",
     "DesignFileError",
     "DesignProblem", "OBJECTIVE_TERMS", "SUCCESS_TESTS", "FORCES", "TermSum", "load_problem", "parse_problem",
     "problem_from_text", "problem_text", "with_sets", "plan_for", "shipped_problem", "SHIPPED_PROBLEMS",

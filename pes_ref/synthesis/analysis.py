@@ -1,14 +1,15 @@
-"""Held-out analysis of a design: paths, torque sweeps, phase space, cycle figures, :func:`evaluate`.
+"""Held-out analysis of each kind of design: paths, torque sweeps, phase space, cycle figures, figures, panels.
 
 Held-out particles come from seeds training never uses. The funnel's figures are where its
 particles exit (:func:`pes_ref.synthesis.problems.exit_positions`); the oscillator's are
 per-particle amplitude, period and drift over the last :data:`ANALYSIS_PERIODS` periods
-(:func:`cycle_figures`), and whether a particle reaches the target cycle. :func:`evaluate`
-gives the figures of ``python -m pes_ref evaluate``, and :func:`evaluate_seeds` those of
-several held-out seeds, their runs (design and flat surface, every seed) as one population
-(:func:`pes_ref.core.population.simulate_batch`: each run's numbers are its own).
-:func:`held_out_panels` gives the same held-out particles' paths, each with whether it
-passed, for ``evaluate --plot`` (:mod:`pes_ref.synthesis.plots`).
+(:func:`cycle_figures`), and whether a particle reaches the target cycle; a problem file's,
+its success tests. ``evaluate_KIND`` gives one kind's figures of several held-out seeds, their
+runs (design and flat surface, every seed) as one population
+(:func:`pes_ref.core.population.simulate_batch`: each run's numbers are its own), and
+``KIND_panels`` the same held-out particles' paths, each with whether it passed, for
+``evaluate --plot`` (:mod:`pes_ref.synthesis.plots`). :mod:`pes_ref.synthesis.kinds` holds
+them as each kind's entry, and its :func:`~pes_ref.synthesis.kinds.evaluate` serves every kind.
 """
 from __future__ import annotations
 
@@ -17,7 +18,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pes_ref.core import budget, checks
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.population import simulate_batch
 from pes_ref.core.scene import simulate
@@ -25,8 +25,9 @@ from pes_ref.synthesis.design_problem import DesignProblem
 from pes_ref.synthesis.problems import IN_BAND_SHARE, FunnelProblem, OscillatorProblem, exit_positions
 from pes_ref.synthesis.success import applies, passes_all
 
-__all__ = ["Paths", "TorqueSweep", "Panel", "held_out_panels", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
-           "phase_space", "cycle_figures", "q1_advance", "evaluate", "evaluate_seeds", "held_out_steps", "CYCLE_TOLERANCE", "CYCLE_DRIFT",
+__all__ = ["Paths", "TorqueSweep", "Panel", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
+           "phase_space", "cycle_figures", "q1_advance", "evaluate_funnel", "evaluate_oscillator", "evaluate_problem",
+           "funnel_panels", "oscillator_panels", "problem_panels", "CYCLE_TOLERANCE", "CYCLE_DRIFT",
            "ANALYSIS_PERIODS"]
 
 #: Oscillator cycle test: a held-out particle "reaches the cycle" when, over the analysis window
@@ -184,45 +185,6 @@ def q1_advance(problem: OscillatorProblem, traj: Trajectory) -> np.ndarray:
     return -(q1[-1] - q1[-ANALYSIS_PERIODS * per - 1]) / ANALYSIS_PERIODS
 
 
-def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None) -> dict:
-    """The figures of ``python -m pes_ref evaluate``: name -> float.
-
-    Funnel (``n_particles`` default 200, held-out seed ``seed``): ``in_band_fraction``,
-    ``exit_spread`` (std of exit q0), ``exited_fraction``, and the same three on the flat
-    starting surface (``flat_*``). Oscillator (``n_particles`` default 50 for the torque
-    sweep, plus the 5 x 5 grid of starts): ``captured_fraction`` (both sets together),
-    ``sweep_captured_fraction``, ``grid_captured_fraction``, ``amplitude_error`` and
-    ``period_error`` (relative, worst over the captured particles; NaN if none), their
-    medians ``amplitude_error_median`` and ``period_error_median``, ``q1_advance_min``,
-    ``q1_advance_median`` and ``q1_advance_max`` (:func:`q1_advance` over the captured
-    particles of the sweep, rad per period; NaN if none) beside ``gait_advance`` (the
-    problem's ``gait_delta``), and ``flat_captured_fraction``.
-    """
-    seed = checks.as_nonneg_int("seed", seed)
-    return evaluate_seeds(problem, values, (seed,), n_particles)[seed]
-
-
-def evaluate_seeds(problem, values, seeds, n_particles: int | None = None) -> dict:
-    """:func:`evaluate` on each held-out seed of ``seeds``: seed -> figures, each the same
-    numbers as ``evaluate(problem, values, seed, n_particles)``; the runs of every seed (and
-    of the flat surface) are one population (:func:`pes_ref.core.population.simulate_batch`)."""
-    values = checks.as_float_array("values", values, ndim=2)
-    seeds = tuple(dict.fromkeys(checks.as_nonneg_int("seed", s) for s in seeds))
-    evaluate_kind, default_n = _EVALUATIONS[problem.kind]
-    default_n = getattr(problem, "eval_particles", default_n)
-    n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
-    steps = held_out_steps(problem)
-    # one population: each seed's runs on the design and on the flat surface
-    budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True,
-                        length=f"a held-out run of {steps} steps", runs=2 * len(seeds))
-    return evaluate_kind(problem, values, seeds, n)
-
-
-def held_out_steps(problem) -> int:
-    """The steps of ``problem``'s longest held-out run (at its own ``dt``)."""
-    return int(_HELD_OUT_STEPS[problem.kind](problem))
-
-
 def _surfaces(problem, values) -> tuple:
     """The design's surface and the flat starting one, with the prefix of their figures."""
     return ("", values), ("flat_", problem.flat_values(values.shape))
@@ -235,7 +197,7 @@ def _population(runs: dict) -> dict:
     return dict(zip(runs, trajectories))
 
 
-def _evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int) -> dict:
+def evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int) -> dict:
     runs = {(prefix, seed): _funnel_run(problem, vals, n, seed)
             for prefix, vals in _surfaces(problem, values) for seed in seeds}
     paths = _population(runs)
@@ -252,7 +214,7 @@ def _evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int) -> di
     return figures
 
 
-def _evaluate_oscillator(problem: OscillatorProblem, values, seeds: tuple, n: int) -> dict:
+def evaluate_oscillator(problem: OscillatorProblem, values, seeds: tuple, n: int) -> dict:
     """The torque sweep of each seed and the 5 x 5 grid (the same for every seed), on the
     design and on the flat surface, as one population."""
     runs = {}
@@ -300,7 +262,7 @@ def _reduce(reduce, x: np.ndarray) -> float:
     return float(reduce(x)) if x.size else float("nan")
 
 
-def _evaluate_problem(problem: DesignProblem, values, seeds: tuple, n: int) -> dict:
+def evaluate_problem(problem: DesignProblem, values, seeds: tuple, n: int) -> dict:
     return {seed: _evaluate_problem_seed(problem, values, seed, n) for seed in seeds}
 
 
@@ -329,29 +291,14 @@ def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int) ->
     return out
 
 
-def held_out_panels(problem, values, seed: int = 12345, n_particles: int | None = None) -> list:
-    """The held-out particles of :func:`evaluate` (the same ones, on the design), as
-    :class:`Panel` s, each path with whether it passed: the funnel's exits in the band or
-    not; the oscillator's torque sweep and grid of starts captured by the cycle or not; a
-    problem file's design, one panel per success test and one for all of them."""
-    values = checks.as_float_array("values", values, ndim=2)
-    seed = checks.as_nonneg_int("seed", seed)
-    panels_of, default_n = _PANELS[problem.kind], _EVALUATIONS[problem.kind][1]
-    default_n = getattr(problem, "eval_particles", default_n)
-    n = default_n if n_particles is None else checks.as_positive_int("n_particles", n_particles)
-    budget.check_memory(held_out_steps(problem), n, "simulate", particles="n_particles", fixed_steps=True,
-                        length=f"a held-out run of {held_out_steps(problem)} steps")
-    return panels_of(problem, values, seed, n)
-
-
-def _funnel_panels(problem: FunnelProblem, values, seed: int, n: int) -> list:
+def funnel_panels(problem: FunnelProblem, values, seed: int, n: int) -> list:
     scene, x0, v0 = _funnel_run(problem, values, n, seed)
     traj = simulate(scene, x0, v0)
     band = problem.in_band(exit_positions(problem, traj))
     return [Panel(f"exit in the band: |q0 - {problem.target:g}| < {IN_BAND_SHARE * problem.width:.3g}", traj.x, band)]
 
 
-def _oscillator_panels(problem: OscillatorProblem, values, seed: int, n: int) -> list:
+def oscillator_panels(problem: OscillatorProblem, values, seed: int, n: int) -> list:
     _, x0, scene = _torque_sweep_run(problem, values, n, None, seed)
     sweep = simulate(scene, x0)
     x0, scene = _grid_starts_run(problem, values, None, 5)
@@ -360,7 +307,7 @@ def _oscillator_panels(problem: OscillatorProblem, values, seed: int, n: int) ->
             Panel("5 x 5 starts at rest, maximum torque: captured", grid.x, cycle_figures(problem, grid)[3])]
 
 
-def _problem_panels(problem: DesignProblem, values, seed: int, n: int) -> list:
+def problem_panels(problem: DesignProblem, values, seed: int, n: int) -> list:
     held = problem.run(values, seed, n)
     every, each = passes_all([test for _, test in problem.tests], held.traj.x, held.traj.v, held.times)
     panels = [Panel("every success test", held.traj.x, every)]
@@ -369,17 +316,3 @@ def _problem_panels(problem: DesignProblem, values, seed: int, n: int) -> list:
         group = f", group {test.group}" if hasattr(test, "group") else ""
         panels.append(Panel(f"success test {name} ({test.KIND}{group})", held.traj.x[:, mine], ok[mine]))
     return panels
-
-
-#: Per problem kind: the held-out panels of ``evaluate --plot`` (:func:`held_out_panels`).
-_PANELS = {"funnel": _funnel_panels, "oscillator": _oscillator_panels, "problem": _problem_panels}
-#: Per problem kind: the steps of its longest held-out run (what the memory check counts).
-_HELD_OUT_STEPS = {
-    "funnel": lambda problem: problem.n_steps,
-    "oscillator": lambda problem: problem.steps_for(problem.eval_periods),
-    "problem": lambda problem: max([problem.n_steps] + [s.n_steps for s in problem.scenarios]),
-}
-#: Per problem kind: the evaluation and its default ``n_particles`` (a problem file's: its ``[evaluate]``).
-
-_EVALUATIONS = {"funnel": (_evaluate_funnel, 200), "oscillator": (_evaluate_oscillator, 50),
-                "problem": (_evaluate_problem, None)}

@@ -57,14 +57,12 @@ from pes_ref.oracle.errors import CaseError
 from pes_ref.oracle.npz import read_npz, write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
 from pes_ref.synthesis.plans import Plan, PolishPlan
-from pes_ref.synthesis.problem_file import ProblemFileError, problem_from_text, problem_text
-
-from pes_ref.synthesis.problems import PROBLEMS
+from pes_ref.synthesis.problem_file import ProblemFileError
+from pes_ref.synthesis.kinds import KINDS, kind_of
 from pes_ref.synthesis.design_state import STAGES, DesignState
 from pes_ref.synthesis.validation import Best
 
-__all__ = ["save_design", "load_design", "design_arrays", "check_same_scene", "check_same_problem",
-           "first_difference", "is_design_file", "DesignFileError",
+__all__ = ["save_design", "load_design", "design_arrays", "first_difference", "is_design_file", "DesignFileError",
 
            "FORMAT", "VERSION", "READABLE_VERSIONS"]
 
@@ -104,7 +102,7 @@ def design_arrays(state: DesignState) -> dict:
     arrays = {
         "format": np.array(FORMAT), "version": np.array(VERSION, dtype=np.int64),
         "kind": np.array(state.kind),
-        "problem": np.array(_PROBLEM_TEXT[state.kind][0](state.problem)),
+        "problem": np.array(kind_of(state.problem).to_text(state.problem)),
         "plan": np.array(json.dumps(_fields(state.plan), sort_keys=True)),
         "seed": np.array(state.seed, dtype=np.int64), "iteration": np.array(state.iteration, dtype=np.int64),
         "values": np.asarray(state.values, dtype=np.float64),
@@ -160,10 +158,10 @@ def load_design(path) -> DesignState:
     if missing:
         raise DesignFileError(f"{path} is a damaged design file: missing keys {missing}")
     kind = str(data["kind"])
-    if kind not in _PROBLEM_TEXT:
-        raise DesignFileError(f"{path} has unknown design kind {kind!r}; expected one of {sorted(_PROBLEM_TEXT)}")
+    if kind not in KINDS:
+        raise DesignFileError(f"{path} has unknown design kind {kind!r}; expected one of {sorted(KINDS)}")
     try:
-        problem = _PROBLEM_TEXT[kind][1](str(data["problem"]), path)
+        problem = KINDS[kind].from_text(str(data["problem"]), path)
     except ProblemFileError as exc:              # its problem file's text: one line naming the key
         raise DesignFileError(str(exc)) from None
     except (TypeError, KeyError, ValueError) as exc:
@@ -260,25 +258,6 @@ def is_design_file(path) -> bool:
         return False
 
 
-def _a(word: str) -> str:
-    return ("an " if word[:1] in "aeiou" else "a ") + word
-
-
-def _dataclass_text(problem) -> str:
-    return json.dumps(_fields(problem), sort_keys=True)
-
-
-def _dataclass_from_text(kind: str):
-    return lambda text, path: PROBLEMS[kind](**json.loads(text))
-
-
-#: How a design file holds each kind's problem: kind -> (problem -> text, (text, path) -> problem).
-_PROBLEM_TEXT = {
-    **{kind: (_dataclass_text, _dataclass_from_text(kind)) for kind in PROBLEMS},
-    "problem": (problem_text, lambda text, path: problem_from_text(text, f"{path} (its problem)")),
-}
-
-
 def first_difference(a, b, where: str = "") -> str | None:
     """Where the plain data ``b`` first differs from ``a`` (a design's problem): its dotted key
     and both values (None: equal)."""
@@ -297,34 +276,3 @@ def first_difference(a, b, where: str = "") -> str | None:
         return next((d for i, (x, y) in enumerate(zip(a, b)) if (d := first_difference(x, y, f"{where}[{i}]"))),
                     None)
     return None if a == b else f"{where} = {show(b)} there, {show(a)} in the design's problem"
-
-
-def check_same_problem(state: DesignState, problem) -> None:
-    """Refuse to resume ``state`` with a problem (a problem file read again) other than its own.
-
-    Raises :class:`DesignFileError` naming the first key that differs.
-    """
-    if state.kind != "problem":
-        raise DesignFileError(f"the resume file is {_a(state.kind)} design, not a problem file's design "
-                              f"(another scene)")
-    difference = first_difference(state.problem.data, problem.data)
-    if difference is not None:
-        raise DesignFileError(f"the problem file {problem.path} differs from the one the design was made with: "
-                              f"{difference}; resume without the file (design --resume FILE.npz) or start a new "
-                              f"design")
-
-
-def check_same_scene(state: DesignState, kind: str, overrides: dict | None = None) -> None:
-    """Refuse to resume ``state`` as a ``kind`` run with problem ``overrides`` it does not have.
-
-    Raises :class:`DesignFileError` naming the first difference.
-    """
-    if state.kind != kind:
-        raise DesignFileError(f"the resume file is {_a(state.kind)} design, not {_a(kind)} design (another scene)")
-    have = _fields(state.problem)
-    for name, value in (overrides or {}).items():
-        if name not in have:
-            raise DesignFileError(f"{kind} scenes have no parameter {name!r}")
-        if have[name] != value:
-            raise DesignFileError(f"the resume file is from another scene: {name} = {have[name]!r} there, "
-                                  f"{value!r} asked for")

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import backends, checks
-from pes_ref.synthesis.plans import DEFAULT_PLANS, DEFAULT_POLISH, Plan, PolishPlan
-from pes_ref.synthesis.problems import PROBLEMS
+from pes_ref.synthesis.kinds import kind_named
+from pes_ref.synthesis.plans import Plan, PolishPlan
 from pes_ref.synthesis.refusals import check_run_memory, check_stable_design
 from pes_ref.synthesis.validation import Best
 
@@ -90,14 +90,16 @@ class DesignState:
 
 def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
                backend: str | None = None, **params) -> DesignState:
-    """A fresh run of ``kind`` ("funnel" or "oscillator") with problem overrides ``params``,
-    or of a problem object ``kind`` (a :class:`~pes_ref.synthesis.design_problem.DesignProblem`,
-    from a problem file or built in code).
+    """A fresh run of a problem ``kind`` (a problem object: a
+    :class:`~pes_ref.synthesis.design_problem.DesignProblem` from a problem file or built in code,
+    a :class:`~pes_ref.synthesis.problems.FunnelProblem` or
+    :class:`~pes_ref.synthesis.problems.OscillatorProblem`), or of a built-in kind by its name
+    (``"funnel"``, ``"oscillator"``) with problem overrides ``params``.
 
-    Without ``plan`` the run has the kind's default plan (a problem object's own, its
-    ``[train]`` section) and, unless ``polish`` is given, its default polish stage
-    (:data:`pes_ref.synthesis.plans.DEFAULT_POLISH`); with a ``plan`` it has the ``polish``
-    given (None: the gradient stage alone). ``backend`` (None:
+    Without ``plan`` the run has its kind's default plan (a problem file's own: its ``[train]``
+    section, or the default plan of a file without one) and, unless ``polish`` is given, its
+    default polish stage (:attr:`pes_ref.synthesis.kinds.DesignKind.default_polish`); with a
+    ``plan`` it has the ``polish`` given (None: the gradient stage alone). ``backend`` (None:
     :func:`pes_ref.core.backends.default_backend`) runs it.
     """
     seed = checks.as_nonneg_int("seed", seed)
@@ -105,16 +107,18 @@ def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan
     if polish is not None and not isinstance(polish, PolishPlan):
         raise TypeError(f"polish must be a PolishPlan or None, got {type(polish).__name__}")
     if isinstance(kind, str):
-        kind = checks.as_choice("kind", kind, set(PROBLEMS))
-        problem = PROBLEMS[kind](**params)
-        if plan is None:
-            plan, polish = DEFAULT_PLANS[kind], DEFAULT_POLISH[kind] if polish is None else polish
+        entry = kind_named(kind)
+        if entry.default_problem is None:
+            raise TypeError(f"a {kind!r} design starts from its problem object (a problem file read with "
+                            f"pes_ref.synthesis.load_problem), not from its kind's name")
+        problem = entry.with_sets(entry.default_problem(), params)
     else:
-        problem = kind
+        problem, entry = kind, kind_named(getattr(kind, "kind", None))
         if params:
-            raise TypeError(f"problem overrides {sorted(params)} are for the built-in kinds; change a problem "
-                            f"object's keys with pes_ref.synthesis.with_sets")
-        plan = problem.plan if plan is None else plan
+            raise TypeError(f"problem overrides {sorted(params)} are for a kind named by its name; change a "
+                            f"problem object's parameters with its kind's with_sets (pes_ref.synthesis.KINDS)")
+    if plan is None:
+        plan, polish = entry.default_plan(problem), entry.default_polish if polish is None else polish
     check_run_memory(problem, plan, polish)         # before the first grid is made
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     values = problem.initial_values(rng, plan.grid_at(0, problem))

@@ -4,10 +4,10 @@ A :class:`Plan` holds the gradient stage: the optimizer, its learning-rate sched
 coarse-to-fine grid and horizon stages, and the particles per iteration; it does not depend
 on the run's total length, so a run stopped early and resumed follows the same schedule. A
 :class:`PolishPlan` holds the optional gradient-free stage that follows it
-(:mod:`pes_ref.synthesis.polish`). :data:`DEFAULT_PLANS` and :data:`DEFAULT_POLISH` are the
-defaults of ``python -m pes_ref design``; :data:`OSCILLATOR_PLANS` (problem overrides
-and plan) and :data:`OSCILLATOR_POLISH` the oscillator's named training plans of
-``design oscillator --plan NAME``. Measured in ``docs/synthesis.md``, "Results".
+(:mod:`pes_ref.synthesis.polish`). :data:`OSCILLATOR_PLANS` (problem overrides and plan)
+and :data:`OSCILLATOR_POLISH` are the oscillator's named training plans of ``design oscillator
+--plan NAME``, :func:`default_plan` the plan of a problem file without ``[train]``; each kind's
+default is its entry in :data:`pes_ref.synthesis.kinds.KINDS`. Measured in ``docs/synthesis.md``, "Results".
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from typing import NamedTuple
 from pes_ref.core import checks
 from pes_ref.synthesis.optimizers import make_optimizer
 
-__all__ = ["Plan", "Stage", "PolishPlan", "default_plan", "coarse_to_fine", "DEFAULT_PLANS", "DEFAULT_POLISH", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
+__all__ = ["Plan", "Stage", "PolishPlan", "default_plan", "coarse_to_fine", "FUNNEL_PLAN", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
            "DEFAULT_OSCILLATOR_PLAN", "POLISH_METHODS"]
 
 
@@ -251,14 +251,9 @@ OSCILLATOR_POLISH = {"gait": PolishPlan(), "overshoot": None, "eq6": None}
 #: The named plan ``design oscillator`` uses without ``--plan`` (the problem's field defaults match it).
 DEFAULT_OSCILLATOR_PLAN = "gait"
 
-#: The defaults of ``python -m pes_ref design`` (measured in docs/synthesis.md, "Results").
-DEFAULT_PLANS = {
-    "funnel": Plan(iterations=500, lr=0.002, lr_final=0.0005, decay_iterations=400,
-                   stages=((0, 25), (400, 0)), n_particles=64),
-    "oscillator": OSCILLATOR_PLANS[DEFAULT_OSCILLATOR_PLAN][1],
-}
-#: The polish stage of each kind's default (None: the gradient stage alone).
-DEFAULT_POLISH = {"funnel": None, "oscillator": OSCILLATOR_POLISH[DEFAULT_OSCILLATOR_PLAN]}
+#: The funnel's default plan (measured in docs/synthesis.md, "Results").
+FUNNEL_PLAN = Plan(iterations=500, lr=0.002, lr_final=0.0005, decay_iterations=400, stages=((0, 25), (400, 0)),
+                   n_particles=64)
 
 
 #: The grids (nodes along axis 0) of :func:`coarse_to_fine`'s stages below the final grid: each

@@ -1,8 +1,8 @@
 """The paper's two design problems: the funnel (Figs. 6-7) and the oscillator (Figs. 8-11).
 
 A *problem* is a frozen dataclass holding the physics of one scene (domain, forces,
-damping, objective, particle sampler) at a final grid resolution; :data:`PROBLEMS` names
-them by kind. Each problem draws a training batch (:meth:`batch`) from a generator it is
+damping, objective, particle sampler) at a final grid resolution; :data:`pes_ref.synthesis.kinds.KINDS`
+holds them as kinds of design. Each problem draws a training batch (:meth:`batch`) from a generator it is
 given, with the objective that scores it (the oscillator's gait cost depends on the batch's
 starts), and scores a batch's trajectory with its design metric (:meth:`batch_metric`): the
 funnel's share of the batch that exits within :data:`IN_BAND_SHARE` of the domain width
@@ -31,7 +31,7 @@ from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 from pes_ref.synthesis.level_set import LevelSet
 from pes_ref.synthesis.resampling import resample, resample_vjp
 
-__all__ = ["FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "PROBLEMS", "OSCILLATOR_COSTS",
+__all__ = ["FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "OSCILLATOR_COSTS",
            "IN_BAND_SHARE", "exit_positions", "FUNNEL_OBJECTIVES"]
 
 #: A funnel particle is "in band" when its exit |q0 - target| is below this share of the width.
@@ -474,8 +474,6 @@ class PhaseThenCycle:
         return value, gx, gv
 
 
-#: The design problems by kind.
-PROBLEMS = {"funnel": FunnelProblem, "oscillator": OscillatorProblem}
 #: The oscillator's training costs by name (``OscillatorProblem.cost``): the paper's eq. (6), its
 #: phase-free form (``OscillatorCycle``) and eq. (6) then the phase-free form (:class:`PhaseThenCycle`).
 _COST_BUILDERS = {

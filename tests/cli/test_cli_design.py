@@ -7,7 +7,7 @@ import pytest
 
 from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main
 from pes_ref.cli.design import OSCILLATOR_PLAN_NAMES, SET_NAMES
-from pes_ref.synthesis import OSCILLATOR_PLANS, PROBLEMS, load_design
+from pes_ref.synthesis import KINDS, OSCILLATOR_PLANS, load_design
 
 
 def run(capsys, *argv):
@@ -17,7 +17,8 @@ def run(capsys, *argv):
 
 
 def test_set_names_are_the_problem_fields():
-    assert SET_NAMES == {kind: tuple(f.name for f in dataclasses.fields(cls)) for kind, cls in PROBLEMS.items()}
+    assert SET_NAMES == {name: tuple(f.name for f in dataclasses.fields(kind.default_problem))
+                         for name, kind in KINDS.items() if kind.default_problem is not None}
 
 
 @pytest.fixture
@@ -105,7 +106,7 @@ def test_smoke_resumes_only_a_design_of_its_size(tmp_path, capsys):
                "--quiet")[0] == EXIT_OK
     code, out, err = run(capsys, "design", "funnel", "--resume", path, "--smoke", "--quiet")
     assert (code, out) == (EXIT_ERROR, "")
-    assert err == (f"error: --smoke resumes only a design of its size: {path} has grid = 16, --smoke's is 12; "
+    assert err == ("error: --smoke resumes only a design of its size: the design has grid = 16, --smoke's is 12; "
                    f"leave --smoke out to resume it\n")
     assert load_design(path).iteration == 1
 
@@ -185,23 +186,22 @@ def test_a_run_that_stops_exits_1_with_its_last_good_state(tmp_path, capsys):
 
 def test_a_run_that_fails_before_its_first_iteration_leaves_no_file(tmp_path, capsys, monkeypatch):
     """The file claimed before the run is removed when nothing was done in it."""
-    from pes_ref import synthesis
+    from pes_ref.synthesis import runs
 
     def fail(*args, **kwargs):
         raise ValueError("n_steps must fit in memory")
-    monkeypatch.setattr(synthesis, "run_stages", fail)
+    monkeypatch.setattr(runs, "run_stages", fail)
     code, out, err = run(capsys, "design", "funnel", "--smoke", "--out", tmp_path / "d.npz", "--quiet")
     assert code == EXIT_ERROR and err == "error: n_steps must fit in memory\n"
     assert not os.listdir(tmp_path)
 
 
 def test_a_failed_resume_keeps_the_file(funnel_file, capsys, monkeypatch):
-    from pes_ref import synthesis
-    before = funnel_file.read_bytes()
+    from pes_ref.synthesis import runs
 
     def fail(*args, **kwargs):
         raise ValueError("boom")
-    monkeypatch.setattr(synthesis, "run_stages", fail)
+    monkeypatch.setattr(runs, "run_stages", fail)
     code, *_ = run(capsys, "design", "funnel", "--smoke", "--resume", funnel_file, "--iterations", 9, "--quiet")
     assert code == EXIT_ERROR and funnel_file.exists()
     assert load_design(funnel_file).iteration == 6

@@ -9,7 +9,7 @@ from matplotlib.image import imread
 import pes_ref.synthesis
 from pes_ref.cli import EXIT_ERROR, EXIT_OK, main
 from pes_ref.synthesis import load_design
-from pes_ref.synthesis.analysis import held_out_panels
+from pes_ref.synthesis import held_out_panels
 
 #: The design of each kind, as ``design`` makes it (the oscillator without its polish: quicker).
 DESIGNS = {"funnel": ["funnel", "--smoke"], "oscillator": ["oscillator", "--smoke", "--plan", "eq6"],

@@ -106,8 +106,8 @@ def test_smoke_resumes_only_a_design_of_its_size(tmp_path, capsys, with_file):
     before = out.read_bytes()
     code, stdout, err = run(capsys, "design", *([big] if with_file else []), "--resume", out, "--smoke", "--quiet")
     assert (code, stdout) == (EXIT_ERROR, "")
-    assert err == (f"error: --smoke resumes only a design of its size: {out} has surface.shape = [16, 16], "
-                   f"--smoke's is [12, 12]; leave --smoke out to resume it\n")
+    assert err == ("error: --smoke resumes only a design of its size: the design has surface.shape = [16, 16], "
+                   "--smoke's is [12, 12]; leave --smoke out to resume it\n")
     assert out.read_bytes() == before
 
 

@@ -9,9 +9,8 @@ from __future__ import annotations
 import pytest
 from _helpers import ROOT, load_script, run_script
 
-from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
+from pes_ref.sweep.options import run_inputs
 from pes_ref.sweep.spec import load_sweep
-from pes_ref.synthesis import PROBLEMS
 
 EXPERIMENTS = ROOT / "validation" / "experiments"
 study = load_script(EXPERIMENTS / "funnel_objective.py")
@@ -19,9 +18,8 @@ study = load_script(EXPERIMENTS / "funnel_objective.py")
 
 def _problem(options):
     """A run's problem and plan, resolved as the sweep's task resolves them."""
-    sets = {k: v for k, v in options.items() if k not in DESIGN_OPTIONS}
-    inputs = design_inputs("funnel", options, typed_sets(sets, "funnel"))
-    return PROBLEMS["funnel"](**inputs.sets), inputs.plan()
+    inputs = run_inputs("funnel", options)
+    return inputs.problem, inputs.plan()
 
 
 def test_the_variants_are_the_settings_they_name():

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pes_ref.sweep.options import DESIGN_OPTIONS, design_inputs, typed_sets
+from pes_ref.sweep.options import run_inputs
 from pes_ref.sweep.spec import load_sweep
 from pes_ref.synthesis import new_design, run_design
 
@@ -29,8 +29,7 @@ def test_the_sweep_file_holds_the_plans_the_script_leaves_to_it():
 @pytest.mark.parametrize("run", SWEEP.runs, ids=lambda r: r.variant)
 def test_variant_trains_the_scripts_plan(run):
     options = {**run.options, "iterations": STOP, "stages": [list(s) for s in TINY_STAGES]}
-    sets = typed_sets({k: v for k, v in options.items() if k not in DESIGN_OPTIONS}, "oscillator")
-    inputs = design_inputs("oscillator", options, sets)
+    inputs = run_inputs("oscillator", options)
     state = run_design(new_design("oscillator", seed=run.seed, plan=inputs.plan(), **inputs.sets))
     # the script's plan, on the same tiny stages, stopped at STOP with its lr schedule (decay over 3000) kept
     setting = dataclasses.replace(plans.PLANS[run.variant], stages=TINY_STAGES)

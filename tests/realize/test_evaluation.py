@@ -4,7 +4,6 @@ from __future__ import annotations
 import copy
 import math
 import tomllib
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -62,9 +61,3 @@ def test_a_device_on_another_grid_is_refused(problem, device_data):
     other["cspace"]["shape"] = [GRID + 2, GRID + 2]
     with pytest.raises(ValueError, match="is not the design's"):
         realized_problem(problem, _device(other))
-
-
-def test_a_kind_no_realization_covers_is_refused(device_data):
-    other = SimpleNamespace(kind="catapult")
-    with pytest.raises(ValueError, match="realization covers funnel, oscillator, problem designs; this design is a 'catapult'"):
-        realized_problem(other, _device(device_data))

@@ -14,7 +14,7 @@ from pes_ref.cli import build_parser
 from pes_ref.sweep import options as opt
 from pes_ref.sweep.results import _TAIL
 from pes_ref.sweep.spec import TOP_LEVEL_KEYS, SweepFileError, load_sweep, parse_sweep
-from pes_ref.synthesis import PROBLEMS
+from pes_ref.synthesis import KINDS, DESIGN_OPTIONS, OscillatorProblem, design_inputs
 
 ROOT = Path(__file__).resolve().parents[2]
 EXPERIMENTS = ROOT / "validation" / "experiments"
@@ -67,27 +67,26 @@ def test_options_mean_what_the_design_flags_mean():
     """design_inputs is what `design` uses: the same flags give the same plan and overrides."""
     args = build_parser().parse_args(["design", "oscillator", "--smoke", "--plan", "eq6", "--lr", "0.003",
                                       "--stages", "0:8:40,3:0", "--set", "kick=0.3"])
-    from pes_ref.sweep.options import design_inputs, parse_sets
-    cli = design_inputs("oscillator", vars(args), parse_sets(args.set, PROBLEMS["oscillator"]))
-    swept = design_inputs("oscillator", {"smoke": True, "plan": "eq6", "lr": 0.003,
-                                         "stages": [[0, 8, 40], [3, 0]]}, opt.typed_sets({"kick": 0.3}, "oscillator"))
-    assert cli.plan() == swept.plan() and cli.sets == swept.sets
+    cli = design_inputs(OscillatorProblem(), vars(args), KINDS["oscillator"].parse_sets(args.set))
+    swept = opt.run_inputs("oscillator", {"smoke": True, "plan": "eq6", "lr": 0.003,
+                                          "stages": [[0, 8, 40], [3, 0]], "kick": 0.3})
+    assert cli.plan() == swept.plan() and cli.sets == swept.sets and cli.problem == swept.problem
     assert swept.plan().lr == 0.003 and swept.plan().iterations == 6 and swept.sets["target_scale"] == 1.0
 
 
 def test_design_options_are_the_design_commands_flags():
     sub = build_parser()._subparsers._group_actions[0].choices["design"]
     flags = {a.dest for a in sub._actions if not isinstance(a, argparse._HelpAction)}
-    assert set(opt.DESIGN_OPTIONS) <= flags
+    assert set(DESIGN_OPTIONS) <= flags
 
 
 def test_option_names_do_not_collide_with_result_columns():
     """A run's options and the table's own columns share one CSV header."""
     own = {"run", "variant", "seed", "status", *_TAIL}
-    for kind in PROBLEMS:
-        names = set(opt.DESIGN_OPTIONS) | set(opt.scene_parameters(kind))
+    for kind in opt.BUILT_IN_KINDS:
+        names = set(DESIGN_OPTIONS) | set(opt.scene_parameters(kind))
         assert not names & own
-        assert not set(opt.DESIGN_OPTIONS) & set(opt.scene_parameters(kind))
+        assert not set(DESIGN_OPTIONS) & set(opt.scene_parameters(kind))
 
 
 @pytest.mark.parametrize("text, where", [

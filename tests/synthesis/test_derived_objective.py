@@ -12,7 +12,7 @@ from pes_ref.oracle.compare import relative_error
 from pes_ref.testing.finite_differences import central_gradient
 from pes_ref.oracle.tolerances import FD_RTOL
 from pes_ref.synthesis import ProblemFileError, parse_problem, problem_from_text, problem_text
-from pes_ref.synthesis.analysis import held_out_panels
+from pes_ref.synthesis import held_out_panels
 from pes_ref.synthesis.success import GroupTest
 from pes_ref.synthesis.surrogates import Surrogate
 

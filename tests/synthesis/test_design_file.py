@@ -7,7 +7,7 @@ import pytest
 import pes_ref as pr
 from pes_ref import synthesis
 from pes_ref.synthesis import Plan, design_file
-from pes_ref.synthesis.design_file import DesignFileError, check_same_scene, load_design, save_design
+from pes_ref.synthesis.design_file import DesignFileError, load_design, save_design
 
 TINY = dict(grid=9, n_steps=50, dt=0.05)
 
@@ -157,15 +157,6 @@ def test_a_newer_version_is_refused(tmp_path):
 def test_missing_file():
     with pytest.raises(FileNotFoundError, match="nowhere.npz"):
         load_design("nowhere.npz")
-
-
-def test_resume_from_another_scene_is_refused():
-    st = tiny()
-    with pytest.raises(DesignFileError, match="funnel design, not an oscillator design"):
-        check_same_scene(st, "oscillator")
-    with pytest.raises(DesignFileError, match="n_steps = 50 there, 80 asked"):
-        check_same_scene(st, "funnel", {"n_steps": 80})
-    check_same_scene(st, "funnel", {"n_steps": 50})       # the same scene: accepted
 
 
 def test_a_stopped_run_saves_its_last_good_state(tmp_path):

@@ -221,8 +221,8 @@ def test_oscillator_defaults_are_the_default_named_plan():
     sets, plan = synthesis.OSCILLATOR_PLANS[synthesis.DEFAULT_OSCILLATOR_PLAN]
     problem = synthesis.OscillatorProblem()
     assert {k: getattr(problem, k) for k in sets} == sets
-    assert synthesis.DEFAULT_PLANS["oscillator"] == plan
-    assert synthesis.DEFAULT_POLISH["oscillator"] == synthesis.OSCILLATOR_POLISH["gait"] == synthesis.PolishPlan()
+    assert synthesis.KINDS["oscillator"].default_plan(problem) == plan
+    assert synthesis.KINDS["oscillator"].default_polish == synthesis.OSCILLATOR_POLISH["gait"] == synthesis.PolishPlan()
     assert synthesis.DEFAULT_OSCILLATOR_PLAN == "gait" and problem.cost == "gait"
     st = synthesis.new_design("oscillator")
     assert st.plan == plan and st.polish == synthesis.PolishPlan() and st.method == "gradient+polish"
@@ -343,7 +343,7 @@ def test_a_plain_run_is_one_stage(monkeypatch):
 def test_the_seeds_evaluated_together_give_each_seeds_own_figures(kind, kw):
     """evaluate_seeds runs every seed's held-out particles (and the flat surface's) as one
     population: the figures are evaluate's for each seed, number for number."""
-    problem = synthesis.PROBLEMS[kind](**kw)
+    problem = synthesis.new_design(kind, **kw).problem
     values = 0.05 * np.random.default_rng(0).standard_normal(problem.shape())
     together = synthesis.evaluate_seeds(problem, values, (12345, 9191, 12345), n_particles=7)
     assert list(together) == [12345, 9191]

@@ -119,7 +119,7 @@ def test_gait_batch_carries_the_cost_of_its_own_starts():
 
 def test_the_gait_plan_keeps_its_learning_rate_across_the_grid_change():
     problem = synthesis.OscillatorProblem()
-    plan = synthesis.DEFAULT_PLANS["oscillator"]
+    plan = synthesis.KINDS["oscillator"].default_plan(problem)
     assert plan.grid_at(1499, problem) == (16, 16) and plan.grid_at(1500, problem) == (32, 32)
     assert plan.lr_at(0, problem) == 1e-2 and plan.lr_at(2999, problem) == pytest.approx(1e-4)
     ratio = plan.lr_at(1500, problem) / plan.lr_at(1499, problem)

@@ -67,10 +67,10 @@ def default_plan_problem(path: str, smoke: bool):
 
 def design_and_evaluate(path: str, seed: int, backend: str, held_out: tuple, smoke: bool) -> dict:
     """One design of ``path`` on the default plan, and its figures on each held-out seed."""
-    from pes_ref.synthesis import evaluate_seeds, new_design, run_stages
+    from pes_ref.synthesis import design_inputs, evaluate_seeds, run_stages, start_design
     problem = default_plan_problem(path, smoke)
     wall, cpu = time.perf_counter(), time.process_time()
-    state = run_stages(new_design(problem, seed=seed, backend=backend))
+    state = run_stages(start_design(design_inputs(problem, {}), seed=seed, backend=backend))
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     figures = evaluate_seeds(problem, state.values, held_out)
     row = {"problem": problem.name, "file": os.path.relpath(path, ROOT), "backend": backend, "seed": seed,

@@ -52,13 +52,11 @@ def design_and_evaluate(seed: int, backend: str, held_out: tuple, out: str, smok
     """One default design (or its smoke preset) on ``backend``, saved to ``out/oscSEED-BACKEND.npz``,
     and its figures on each held-out seed: what ``design oscillator --seed SEED --backend BACKEND``
     then ``evaluate --seed H`` print."""
-    from pes_ref.sweep.options import design_inputs
-    from pes_ref.synthesis import evaluate_seeds, new_design, run_stages, save_design
+    from pes_ref.synthesis import OscillatorProblem, design_inputs, evaluate_seeds, run_stages, save_design, start_design
 
-    inputs = design_inputs("oscillator", {"smoke": smoke})
+    inputs = design_inputs(OscillatorProblem(), {"smoke": smoke})
     wall, cpu = time.perf_counter(), time.process_time()
-    state = new_design("oscillator", seed=seed, plan=inputs.plan(), polish=inputs.polish(), backend=backend,
-                       **inputs.sets)
+    state = start_design(inputs, seed=seed, backend=backend)
     state = run_stages(state, state.plan.iterations)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     path = os.path.join(out, f"osc{seed}-{backend}.npz")

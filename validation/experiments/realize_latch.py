@@ -40,9 +40,9 @@ FIGURES = ("success_fraction", "scenario_long_hold_success_fraction", "scenario_
 
 def _starting_shapes(path: Path) -> float:
     """latch_contact's starting shapes saved as a design file with no iteration."""
-    from pes_ref.synthesis import new_design, save_design, shipped_problem, load_problem
+    from pes_ref.synthesis import design_inputs, load_problem, save_design, shipped_problem, start_design
     start = time.perf_counter()
-    state = new_design(load_problem(shipped_problem("latch_contact")))
+    state = start_design(design_inputs(load_problem(shipped_problem("latch_contact")), {}))
     state.status = "done"
     save_design(path, state, overwrite=True)
     return time.perf_counter() - start

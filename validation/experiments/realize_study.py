@@ -71,13 +71,12 @@ def _figures(text: str) -> dict:
 
 def _v_start(path: Path, smoke: bool) -> float:
     """The V start of a realizable funnel saved as a design file with no iteration."""
-    from pes_ref.synthesis import new_design, save_design
-    from pes_ref.sweep.options import SMOKE
+    from pes_ref.synthesis import KINDS, FunnelProblem, design_inputs, save_design, start_design
     start = time.perf_counter()
     params = {"realizable": True, "linger": 1.0, "init_shape": "vee"}
     if smoke:
-        params.update(SMOKE["funnel"][0])
-    state = new_design("funnel", **params)
+        params.update(KINDS["funnel"].smoke.scene(None))
+    state = start_design(design_inputs(FunnelProblem(), {}, params))
     state.status = "done"
     save_design(path, state, overwrite=True)
     return time.perf_counter() - start
