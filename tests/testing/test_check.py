@@ -21,11 +21,15 @@ ORACLE = f"{sys.executable} -m pes_ref oracle"
 SUBSET = ["plane-dynamic", "on-node", "quadratic-quasistatic-arrays", "mass-zero", "dt-string"]
 
 
-def _broken_modes() -> dict:
+def _broken_module():
     spec = importlib.util.spec_from_file_location("broken_programs", BROKEN)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return module.MODES
+    return module
+
+
+def _broken_modes() -> dict:
+    return _broken_module().MODES
 
 
 def _check(*args, timeout=600):
@@ -121,6 +125,13 @@ CLASSES = {
     # the kinks
     "wall-onset-split": (["wall-onset-dynamic"], "grad_x0: relative error"),
     "outside-edge-derivative": (["grid-edge-plane"], "grad_values: relative error"),
+    # the valid cases v4 added (V4_FAMILIES)
+    "float32-cell-index": (["near-edge-plane-dynamic", "near-edge-cylinder-q0-dynamic",
+                            "near-edge-cylinder-q1-quasistatic", "near-edge-torus-dynamic"], "v: relative error"),
+    "single-wall-room-rule": (["wide-margin-dynamic", "wide-margin-quasistatic"],
+                              "no result written (exit 2): error: <case>: case key 'wall_margin'"),
+    "bool-flags-only": (["integer-flags-int8", "integer-flags-uint8"],
+                        "no result written (exit 2): error: <case>: case key 'periodic'"),
     # refusals
     "accept-invalid": (["mass-zero"], "mass: accepted an invalid case (exit 0)"),
     "truncated-n-steps": (["n-steps-float-fraction"], "n_steps: accepted an invalid case (exit 0)"),
@@ -133,6 +144,11 @@ CLASSES = {
 NOT_WRONG = {"ok", "reference", "first-refusal-only", "hang"}
 #: Classes that only strict mode catches (docs/spec.md section 11).
 STRICT_ONLY = {"error-kinds-swapped"}
+#: Classes caught by the vectors v4 added: the family of vectors each fails on, every one,
+#: and what its every verdict says.
+V4_FAMILIES = {"float32-cell-index": ("near-edge", "relative error"),
+               "single-wall-room-rule": ("wide-margin", "case key 'wall_margin'"),
+               "bool-flags-only": ("integer-flags", "case key 'periodic'")}
 
 
 def _broken(mode: str, ids, **kw) -> chk.CheckReport:
@@ -168,6 +184,16 @@ def test_a_broken_program_fails_named_by_its_key(mode, verdicts):
     lines = [o.line() for o in verdicts[mode].outcomes]
     failed = [line for line in lines if line.startswith("FAIL")]
     assert failed and failed[0].startswith(f"FAIL  {ids[0]}  {expect}"), lines
+
+
+@pytest.mark.parametrize("mode", sorted(V4_FAMILIES))
+def test_a_case_v4_added_fails_its_broken_program_on_every_vector_of_its_family(mode, verdicts):
+    family, says = V4_FAMILIES[mode]
+    ids = [e["id"] for e in load_manifest()["vectors"] if e["id"].startswith(family + "-")]
+    assert sorted(CLASSES[mode][0]) == sorted(ids) and not verdicts[mode].settings["strict"]
+    assert [o.case_id for o in verdicts[mode].outcomes] == CLASSES[mode][0]
+    for outcome in verdicts[mode].outcomes:
+        assert not outcome.ok and says in outcome.detail, outcome.line()
 
 
 def test_the_readable_reference_passes_where_the_broken_ones_fail(verdicts):
@@ -264,3 +290,7 @@ def test_the_vectors_are_listed():
     assert proc.returncode == 0 and len(lines) == len(load_manifest()["vectors"])
     assert lines[0].startswith("plane-dynamic ") and any(line.split()[:3] == ["mass-zero", "invalid", "(mass)"]
                                                          for line in lines)
+    listed = [line.split()[:3] for line in lines]            # id, kind, flags: v4's families among them
+    for family, flag in (("wide-margin", "wide-margin"), ("integer-flags", "dtype"), ("near-edge", "near-edge")):
+        rows = [row for row in listed if row[0].startswith(family + "-")]
+        assert len(rows) >= 2 and all(row[1:] == ["valid", flag] for row in rows), family
