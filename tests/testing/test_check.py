@@ -5,13 +5,16 @@ import json
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from pes_ref.oracle.case import run_case
+from pes_ref.oracle.case import CaseError, run_case, validate_case
+from pes_ref.oracle.compare import compare_results, passes
 from pes_ref.testing import check as chk
+from pes_ref.testing import draws
 from pes_ref.testing.conformance import load_manifest, names_key
 
 PROGRAMS = Path(__file__).parent / "check_programs"
@@ -232,6 +235,69 @@ def test_broken_programs_fail_on_random_cases_too():
     report = chk.check(f"{sys.executable} {BROKEN} perturb {{pairs}}", vectors=False, random=5)
     failed = [o for o in report.outcomes if not o.ok]
     assert len(failed) >= 4 and all(o.array == "energy" for o in failed)   # all-zero energy: unharmed
+
+
+@pytest.fixture(scope="module")
+def random_cases() -> list:
+    return chk.draw_cases(30, seed=3)
+
+
+@pytest.mark.parametrize("mode", sorted(V4_FAMILIES))
+def test_the_broken_programs_of_v4_fail_on_random_cases_too(mode, random_cases):
+    """``check --random 30 --seed 3`` reaches each case v4 added (draws.CHECK_ODDS): each
+    program, run here in-process, refuses or gets wrong some of its cases, and only such."""
+    broken = _broken_module()
+    how = broken.MODES[mode][1]
+
+    def run(case):
+        with ExitStack() as stack:
+            if "patch" in how:
+                stack.enter_context(broken._patched(*how["patch"]))
+            if "rule" in how:
+                validate_case(case)
+                how["rule"](case)
+            return (broken._reference_run if how.get("run") == "reference" else run_case)(case)
+    failed = []
+    for case_id, case, _ in random_cases:
+        try:
+            got = run(case)
+        except CaseError as exc:
+            failed.append(exc.key)
+            continue
+        errors = compare_results(got, run_case(case))
+        if not all(passes(k, e) for k, e in errors.items()):
+            failed.append("result")
+    expect = {"float32-cell-index": "result", "single-wall-room-rule": "wall_margin", "bool-flags-only": "periodic"}
+    assert failed and set(failed) == {expect[mode]}, failed
+
+
+def test_the_random_draws_reach_the_rare_inputs_at_their_odds():
+    """Over 400 draws of check's distribution: a wide margin on about half the scenes whose
+    walls leave an axis with one wall, near-edge positions in about a quarter of the cases
+    (where a coordinate is snapped, float32 misses the cell some of the time), flags as
+    int8 or uint8 in about half."""
+    single = wide = near = float32_misses = 0
+    dtypes = []
+    for attempt in range(400):
+        d = draws.GeneratorDraws(np.random.default_rng([7, attempt]))
+        scene, x0, v0 = draws.scene_case(d, max_particles=4, near_edge=draws.CHECK_ODDS["near_edge"],
+                                         wide_margin=draws.CHECK_ODDS["wide_margin"])
+        dtypes.append(draws.flag_dtype(d, draws.CHECK_ODDS["integer_flags"]).name)
+        s = scene.surface
+        if scene.walls is not None:
+            edges, L, w = np.asarray(scene.walls.edges), s.length, scene.walls.margin
+            single += any(edges[a].sum() == 1 for a in range(2))
+            wide += any(edges[a].sum() == 1 and 2 * w >= L[a] for a in range(2))
+        u = (x0 - s.lower) / s.spacing
+        off = np.abs(u - np.round(u))
+        snapped = (off >= draws.NEAR_EDGE[0] * 0.99) & (off <= draws.NEAR_EDGE[1] * 1.01)
+        near += bool(snapped.any())
+        float32_misses += bool(np.any(np.floor(u.astype(np.float32)) != np.floor(u)))
+    assert abs(wide / single - draws.CHECK_ODDS["wide_margin"]) < 0.12, (wide, single)
+    assert abs(near / 400 - draws.CHECK_ODDS["near_edge"]) < 0.06 and float32_misses >= near / 3, near
+    counts = {name: dtypes.count(name) / 400 for name in ("bool", "int8", "uint8")}
+    odds = draws.CHECK_ODDS["integer_flags"]
+    assert abs(counts["int8"] - odds / 2) < 0.06 and abs(counts["uint8"] - odds / 2) < 0.06, counts
 
 
 def test_a_failing_case_is_kept_with_a_script_that_reproduces_it(tmp_path):
