@@ -276,6 +276,7 @@ def test_the_random_draws_reach_the_rare_inputs_at_their_odds():
     walls leave an axis with one wall, near-edge positions in about a quarter of the cases
     (where a coordinate is snapped, float32 misses the cell some of the time), flags as
     int8 or uint8 in about half."""
+    assert draws.CHECK_ODDS == {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5}   # docs/spec.md 13.1
     single = wide = near = float32_misses = 0
     dtypes = []
     for attempt in range(400):
