@@ -86,7 +86,7 @@ def _list(version: str) -> int:
     for e in load_manifest(version)["vectors"]:
         what = e["kind"] + (f" ({e['key'] or 'no key'})" if e["kind"] == "invalid" else "")
         flags = ",".join(e.get("flags", ())) or "-"
-        print(f"{e['id']:40s} {what:26s} {flags:10s} {e['comment']}")
+        print(f"{e['id']:40s} {what:26s} {flags:12s} {e['comment']}")
     return EXIT_OK
 
 

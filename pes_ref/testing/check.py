@@ -13,7 +13,9 @@ of docs/spec.md sections 11 and 13:
   ``{refusals}``, its record does);
 - **fresh random cases** (``--random N --seed S``): drawn by :mod:`pes_ref.testing.draws`
   from a :class:`numpy.random.Generator` seeded with ``[S, attempt]`` (no hypothesis
-  needed), every topology, mode, effect, objective and broadcast shape; pes_ref runs each
+  needed), every topology, mode, effect, objective and broadcast shape, and at the odds
+  :data:`pes_ref.testing.draws.CHECK_ODDS` a single wall's margin past half its axis,
+  positions snapped near cell edges and flags stored as 0/1 integers; pes_ref runs each
   and so does the program. Only well-conditioned cases are kept: a perturbation of
   ``x0`` by :data:`PROBE` (relative) must grow by at most :data:`CONDITION_BOUND`
   anywhere in the trajectory, so that two correct programs, which may differ by an ulp
@@ -200,8 +202,10 @@ def draw_cases(n: int, seed: int, *, bound: float = CONDITION_BOUND, max_draws: 
     """``n`` fresh valid cases, each with conditioning <= ``bound``.
 
     Attempt ``i`` draws one case from :mod:`pes_ref.testing.draws` with
-    ``numpy.random.default_rng([seed, i])``, so the cases are the same for the same seed
-    on any machine, and one attempt does not depend on another. Returns a list of
+    ``numpy.random.default_rng([seed, i])``, with the odds of
+    :data:`~pes_ref.testing.draws.CHECK_ODDS` (wide margins of a single wall, near-edge
+    positions, flags as int8 or uint8), so the cases are the same for the same seed on any
+    machine, and one attempt does not depend on another. Returns a list of
     ``(case_id, case dict, condition)``.
     """
     if seed < 0:
@@ -212,9 +216,12 @@ def draw_cases(n: int, seed: int, *, bound: float = CONDITION_BOUND, max_draws: 
         if len(kept) == n:
             break
         d = draws.GeneratorDraws(np.random.default_rng([seed, attempt]))
-        scene, x0, v0 = draws.scene_case(d, max_particles=4)
+        scene, x0, v0 = draws.scene_case(d, max_particles=4, near_edge=draws.CHECK_ODDS["near_edge"],
+                                         wide_margin=draws.CHECK_ODDS["wide_margin"])
         obj, reg = draws.objective(d, scene, x0.shape[0])
         case = case_from_scene(scene, x0, v0, obj, regularization=reg)
+        flags = draws.flag_dtype(d, draws.CHECK_ODDS["integer_flags"])
+        case.update({k: case[k].astype(flags) for k in ("periodic", "walls") if k in case})
         with np.errstate(all="ignore"):
             try:
                 cond = condition_number(case)

@@ -20,6 +20,13 @@ Every draw is small, cheap and numerically tame: grids of 2..12 nodes per axis, 
 handful of particles, short runs, bounded grid values, and a time step (or mobility)
 safely inside the explicit stability limit of the stiffest term (see
 :func:`pes_ref.testing.energy.max_frequency`).
+
+Three valid inputs that a uniform draw almost never reaches are drawn with odds of their
+own, which ``pes_ref check --random`` sets (:data:`CHECK_ODDS`) and the hypothesis
+strategies leave at 0 unless asked: a wall margin of 0.5 to 1.25 times the length of an
+axis that has one wall (``scene(wide_margin=)``), positions snapped 1e-8 to 2.5e-8 cells
+below or above cell edges (``state(near_edge=)``), and flags stored as 0/1 integers
+(:func:`flag_dtype`).
 """
 from __future__ import annotations
 
@@ -34,8 +41,8 @@ from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
 from pes_ref.testing.energy import max_frequency
 
-__all__ = ["Draws", "GeneratorDraws", "TOPOLOGIES", "SEED_MAX", "OBJECTIVE_KINDS", "surface", "state", "scene",
-           "scene_case", "objective"]
+__all__ = ["Draws", "GeneratorDraws", "TOPOLOGIES", "SEED_MAX", "OBJECTIVE_KINDS", "CHECK_ODDS", "NEAR_EDGE",
+           "surface", "state", "scene", "scene_case", "objective", "flag_dtype"]
 
 #: The four topologies as ``periodic`` pairs: plane, the two cylinders, torus.
 TOPOLOGIES = ((False, False), (True, False), (False, True), (True, True))
@@ -43,6 +50,17 @@ TOPOLOGIES = ((False, False), (True, False), (False, True), (True, True))
 SEED_MAX = 2**32 - 1
 #: The objectives :func:`objective` draws among.
 OBJECTIVE_KINDS = ("funnel_final", "funnel_every_step", "oscillator", "quadratic")
+#: The odds ``pes_ref check --random`` draws the rarely reached inputs with (docs/spec.md
+#: 13.1): ``wide_margin``, of a scene whose walls leave an axis with one wall, a margin of
+#: 0.5 to 1.25 times that axis's length (:func:`scene`); ``near_edge``, of a case, positions
+#: snapped near cell edges (:func:`state`); ``integer_flags``, of a case, ``periodic`` and
+#: ``walls`` stored as int8 or uint8 (:func:`flag_dtype`).
+CHECK_ODDS = {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5}
+#: How far, in cells, :func:`state` snaps a coordinate from a cell edge: at least 100 times
+#: the perturbation by which ``check`` measures a case's conditioning (so that it does not
+#: cross the edge), and below half a float32 ulp of every ``u >= 1`` (2**-25), so that a
+#: ``u`` rounded to float32 lands on the edge.
+NEAR_EDGE = (1e-8, 2.5e-8)
 
 
 class Draws(Protocol):
@@ -100,6 +118,23 @@ def _given(value, drawn):
     return drawn() if value is None else value
 
 
+def _chance(d: Draws, odds: float) -> bool:
+    """True with probability ``odds``; odds of 0 or 1 draw nothing (so a distribution
+    without the option draws what it drew before). Under hypothesis it shrinks to False."""
+    if odds <= 0.0 or odds >= 1.0:
+        return odds >= 1.0
+    return d.real(0.0, 1.0) >= 1.0 - odds
+
+
+def flag_dtype(d: Draws, integer_flags: float = 0.0) -> np.dtype:
+    """The dtype a case stores its flags (``periodic``, ``walls``) in: with probability
+    ``integer_flags`` int8 or uint8 (half each; docs/spec.md 8.4 accepts 0/1 integers),
+    else bool."""
+    if _chance(d, integer_flags):
+        return np.dtype(d.choice((np.int8, np.uint8)))
+    return np.dtype(bool)
+
+
 def surface(d: Draws, topology=None, *, min_nodes: int = 2, max_nodes: int = 12, constant: bool = False,
             min_amplitude: float = 0.0, max_amplitude: float = 2.0) -> Surface:
     """A valid :class:`pes_ref.Surface` on a small grid.
@@ -142,7 +177,7 @@ _surface = surface   # (scene's parameter of that name shadows it)
 
 
 def state(d: Draws, surface: Surface, n_particles: int, *, margin: float = 0.1, max_speed: float = 1.0,
-          max_periods: int = 2):
+          max_periods: int = 2, near_edge: float = 0.0):
     """Initial positions and velocities ``(x0, v0)``, each of shape (N, 2).
 
     Parameters
@@ -159,16 +194,44 @@ def state(d: Draws, surface: Surface, n_particles: int, *, margin: float = 0.1, 
     max_periods : int
         On a periodic axis each particle is moved by a whole number of periods in
         ``[-max_periods, max_periods]``: states hold unwrapped coordinates (docs/spec.md 2.1).
+    near_edge : float
+        The probability that positions are snapped near cell edges: then each coordinate
+        on an axis with an interior cell edge (every edge of a periodic axis, the seam
+        too; the edges between the first and last node of another) is, with probability
+        1/2, moved to :data:`NEAR_EDGE` cells below or above one (half each), where the
+        cell ``floor`` picks from the float64 ``u`` is the one a float32 ``u`` misses
+        (docs/spec.md 2.3).
     """
     rng = np.random.default_rng(d.seed())
     L = surface.length
     x0 = rng.uniform(surface.lower - margin * L, surface.upper + margin * L, size=(n_particles, 2))
+    if _chance(d, near_edge):
+        x0 = _near_edges(x0, surface, rng)
     if max_periods:
         for axis in range(2):
             if surface.periodic[axis]:
                 x0[:, axis] += L[axis] * rng.integers(-max_periods, max_periods + 1, size=n_particles)
     v0 = rng.uniform(-max_speed, max_speed, size=(n_particles, 2))
     return x0, v0
+
+
+def _near_edges(x0: np.ndarray, surface: Surface, rng: np.random.Generator) -> np.ndarray:
+    """``x0`` with each coordinate, with probability 1/2, snapped :data:`NEAR_EDGE` cells
+    below or above an interior cell edge of its axis (axes of 2 nodes that are not
+    periodic have none)."""
+    x0 = x0.copy()
+    h = surface.spacing
+    for axis in range(2):
+        n = surface.values.shape[axis]
+        edges = np.arange(n) if surface.periodic[axis] else np.arange(1, n - 1)
+        if edges.size == 0:
+            continue
+        for i in range(x0.shape[0]):
+            if rng.integers(2):
+                k = float(rng.choice(edges))
+                offset = rng.uniform(*NEAR_EDGE) * (1.0 if rng.integers(2) else -1.0)
+                x0[i, axis] = surface.lower[axis] + (k + offset) * h[axis]
+    return x0
 
 
 def _per_particle_shape(d: Draws, n_particles: int, *, allow_scalar=True):
@@ -181,7 +244,8 @@ def scene(d: Draws, n_particles: int = 1, *, topology=None, mode=None, damped=No
           spring=None, walls=None, effects=None, noise=None, per_particle_mass=None,
           n_steps=None, min_steps: int = 0, max_steps: int = 12, min_nodes: int = 2, max_nodes: int = 12,
           min_amplitude: float = 0.0, max_amplitude: float = 2.0,
-          dt_range=(0.01, 0.2), max_omega_dt: float = 0.5, omega_dt=None, surface=None) -> Scene:
+          dt_range=(0.01, 0.2), max_omega_dt: float = 0.5, omega_dt=None, surface=None,
+          wide_margin: float = 0.0) -> Scene:
     """A full valid :class:`pes_ref.Scene` for N particles.
 
     Any subset of the effects may be drawn: a spring (stiffness and centre shaped
@@ -228,6 +292,12 @@ def scene(d: Draws, n_particles: int = 1, *, topology=None, mode=None, damped=No
         ``omega_max dt``.
     surface : Surface, optional
         Use this surface instead of drawing one.
+    wide_margin : float
+        The probability that a scene whose walls leave an axis with one wall gets a wall
+        margin of 0.5 to 1.25 times that axis's length (valid: the room rule binds two
+        walls of one axis only, docs/spec.md 8.6); an axis with both walls whose room
+        that margin takes keeps its lower wall alone. Otherwise the margin is 0 to 0.25
+        times the shortest non-periodic side.
     """
     N = int(n_particles)
     mode = _given(mode, lambda: d.choice(MODES))
@@ -272,6 +342,12 @@ def scene(d: Draws, n_particles: int = 1, *, topology=None, mode=None, damped=No
             edges[axis, side] = True
         k_w = d.real(1.0, 20.0)
         margin = d.real(0.0, 0.25) * float(min(L[axis] for axis in free))
+        single = [axis for axis in free if edges[axis].sum() == 1]
+        if single and _chance(d, wide_margin):
+            margin = d.real(0.5, 1.25) * float(L[d.choice(single)])
+            for axis in free:
+                if edges[axis].all() and 2.0 * margin >= L[axis]:
+                    edges[axis, 1] = False
         walls_obj = Walls(k_w, margin, edges)
 
     # -- time grid
@@ -358,7 +434,7 @@ def _below_seam(scene: Scene, x0: np.ndarray, v0: np.ndarray, rng: np.random.Gen
 
 
 def scene_case(d: Draws, *, min_particles: int = 1, max_particles: int = 3, max_speed: float = 1.0,
-               max_periods: int = 2, **scene_kw):
+               max_periods: int = 2, near_edge: float = 0.0, **scene_kw):
     """A scene with an initial state: ``(scene, x0, v0)``.
 
     Parameters
@@ -370,6 +446,8 @@ def scene_case(d: Draws, *, min_particles: int = 1, max_particles: int = 3, max_
     max_periods : int
         Periodic coordinates start up to this many whole periods away from the domain
         (see :func:`state`; 0 keeps them near it, which also keeps rounding small).
+    near_edge : float
+        The probability that positions are snapped near cell edges (see :func:`state`).
     **scene_kw
         Passed to :func:`scene` (``topology``, ``mode``, ``damped``, ``smooth_only``,
         ``spring``, ``walls``, ``effects``, ``noise``, ``n_steps``, ``max_steps``, ...).
@@ -383,7 +461,7 @@ def scene_case(d: Draws, *, min_particles: int = 1, max_particles: int = 3, max_
     """
     N = d.integer(min_particles, max_particles)
     sc = d.nested(scene, N, **scene_kw)
-    x0, v0 = d.nested(state, sc.surface, N, max_speed=max_speed, max_periods=max_periods)
+    x0, v0 = d.nested(state, sc.surface, N, max_speed=max_speed, max_periods=max_periods, near_edge=near_edge)
     if scene_kw.get("smooth_only"):
         x0, v0 = _below_seam(sc, x0, v0, np.random.default_rng(d.seed()))
     if sc.mode == "quasistatic":

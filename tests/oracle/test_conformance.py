@@ -101,8 +101,8 @@ def test_manifest_lists_exactly_the_files():
         assert e["key"] in oracle.CASE_KEYS or e["key"] == "gravity" or (e["key"] is None and conf.is_file_vector(e))
         assert e["error"] in ("ValueError", "TypeError") and "result" not in e
     for e in VALID:
-        assert ("one_sided" in e) == ("kink" in e["flags"])      # every kink vector of v3 binds its gradients
-    assert MANIFEST["version"] == LATEST == generate.VERSION == "v3"
+        assert ("one_sided" in e) == ("kink" in e["flags"])      # from v3 on every kink vector binds its gradients
+    assert MANIFEST["version"] == LATEST == generate.VERSION == "v4"
     assert MANIFEST["tolerances"]["TRAJ_RTOL"] == TRAJ_RTOL and MANIFEST["tolerances"]["GRAD_RTOL"] == GRAD_RTOL
 
 
@@ -407,12 +407,13 @@ def test_cli_conformance_check_fails_on_a_changed_vector(tmp_path, capsys, monke
     assert capsys.readouterr().err.startswith("error: ")
 
 
-# =========================================================================== v1 and v2, frozen
+# =========================================================================== v1, v2 and v3, frozen
 
 #: The sha256 of each frozen set's files (name and bytes, in name order). A frozen set
 #: never changes: a new version is a new folder.
 FROZEN = {"v1": "f40a3b79b4f55d59995ef03fb99494bdd6596e88423451901815c15a6d152e52",
-          "v2": "453e832da6d6c2c11e97406691958a603e0e157f4f9689c6a532ead1dd353c51"}
+          "v2": "453e832da6d6c2c11e97406691958a603e0e157f4f9689c6a532ead1dd353c51",
+          "v3": "105caf716c63c858089e0d11ca5d08523ed301f0ae2da5f47397dd55680bd3a1"}
 
 
 def _digest(version: str) -> str:
@@ -427,11 +428,20 @@ def test_a_frozen_set_stays_byte_for_byte(version):
     assert _digest(version) == FROZEN[version]
 
 
-def test_v3_holds_every_vector_of_v2_unchanged():
-    v2 = vectors_dir("v2")
-    for e in conf.load_manifest("v2")["vectors"]:
-        for name in [e["case"]] + ([e["result"]] if "result" in e else []):
-            assert (VECTORS / name).read_bytes() == (v2 / name).read_bytes(), name
+@pytest.mark.parametrize("older", ["v2", "v3"])
+def test_the_newest_set_holds_every_vector_of_the_older_ones_unchanged(older):
+    """Every case, result and one-sided file of v2 and of v3 is in the newest set byte for
+    byte (with its manifest entry, but for its number), in the same order."""
+    entries = conf.load_manifest(older)["vectors"]
+    for e in entries:
+        for name in _files(e):
+            assert (VECTORS / name).read_bytes() == (vectors_dir(older) / name).read_bytes(), name
+    if older == "v3":
+        newest = {e["id"]: e for e in ENTRIES}
+        for e in entries:
+            assert dict(newest[e["id"]], tc_id=None) == dict(e, tc_id=None), e["id"]
+    ids = [e["id"] for e in entries]
+    assert [vid for vid in ALL_IDS if vid in set(ids)] == ids
 
 def test_v1_stays_shipped_and_readable_as_it_was():
     """v1 is frozen: still shipped, readable, its manifest unchanged (its old generator
@@ -492,6 +502,51 @@ def test_v3_sits_on_each_point_the_spec_fixes():
     assert by_id["n-steps-float-fraction"]["key"] == "n_steps" and _case("n-steps-float-fraction")["n_steps"] == 10.5
     assert [e["id"] for e in INVALID if "nonfinite" in e["flags"]] == ["overflow-dynamic", "overflow-quasistatic"]
     assert sum("t0" in case and case["t0"] != 0 for _, case, _ in conf.iter_vectors(LATEST)) >= 6
+
+
+def _u(case: dict) -> np.ndarray:
+    """Each particle's ``u = (q - lower) / h`` (docs/spec.md 2.3), (N, 2)."""
+    return (case["x0"] - case["lower"]) / _spacing(case)
+
+
+def test_v4_holds_the_cases_the_spec_accepts_and_v3_lacked():
+    """v4's three families: a single wall of an axis with wall_margin >= L/2 in both modes;
+    periodic and walls as int8 and uint8 0/1 arrays; particles 1e-9 below and above
+    interior cell edges on a plane, cylinders and a torus, where a float32 u picks
+    another cell. Each is valid, so the reference runs it."""
+    family = {name: [e for e in VALID if e["id"].startswith(name + "-")]
+              for name in ("wide-margin", "integer-flags", "near-edge")}
+    wide_modes = set()
+    for e in family["wide-margin"]:
+        c = _case(e["id"])
+        L, w = c["upper"] - c["lower"], float(c["wall_margin"])
+        single = [d for d in range(2) if c["walls"][d].sum() == 1 and 2 * w >= L[d]]
+        assert single and e["flags"] == ["wide-margin"], e["id"]
+        assert all(2 * w < L[d] for d in range(2) if c["walls"][d].all())
+        wide_modes.add(str(c["mode"]))
+    assert wide_modes == {"dynamic", "quasistatic"}
+    dtypes = set()
+    for e in family["integer-flags"]:
+        c = _case(e["id"])
+        assert c["periodic"].dtype == c["walls"].dtype and c["periodic"].dtype.kind in "iu", e["id"]
+        assert {0, 1} <= set(c["periodic"].tolist()) and {0, 1} <= set(c["walls"].ravel().tolist())
+        dtypes.add(c["periodic"].dtype.name)
+    assert dtypes == {"int8", "uint8"}
+    topologies, sides = set(), set()
+    for e in family["near-edge"]:
+        c = _case(e["id"])
+        u = _u(c)
+        near = np.abs(u - np.round(u)) < 1e-8
+        n = np.array(c["values"].shape)
+        interior = c["periodic"] | ((np.round(u) > 0) & (np.round(u) < n - 1))
+        assert np.all(near.any(axis=1)) and np.all(interior[near]) and e["flags"] == ["near-edge"], e["id"]
+        assert np.any(np.floor(u.astype(np.float32)) != np.floor(u)), e["id"]     # float32 picks another cell
+        sides |= {("below", d) for d in range(2) if np.any(near[:, d] & (u[:, d] < np.round(u[:, d])))}
+        sides |= {("above", d) for d in range(2) if np.any(near[:, d] & (u[:, d] > np.round(u[:, d])))}
+        topologies.add(tuple(bool(p) for p in c["periodic"]))
+    assert topologies == {(False, False), (True, False), (False, True), (True, True)}
+    assert sides == {(side, d) for side in ("below", "above") for d in range(2)}
+    assert MANIFEST["flags"]["wide-margin"] and MANIFEST["flags"]["near-edge"]
 
 
 def test_v2_pins_the_stability_rule():

@@ -5,13 +5,16 @@ import json
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from pes_ref.oracle.case import run_case
+from pes_ref.oracle.case import CaseError, run_case, validate_case
+from pes_ref.oracle.compare import compare_results, passes
 from pes_ref.testing import check as chk
+from pes_ref.testing import draws
 from pes_ref.testing.conformance import load_manifest, names_key
 
 PROGRAMS = Path(__file__).parent / "check_programs"
@@ -21,11 +24,15 @@ ORACLE = f"{sys.executable} -m pes_ref oracle"
 SUBSET = ["plane-dynamic", "on-node", "quadratic-quasistatic-arrays", "mass-zero", "dt-string"]
 
 
-def _broken_modes() -> dict:
+def _broken_module():
     spec = importlib.util.spec_from_file_location("broken_programs", BROKEN)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return module.MODES
+    return module
+
+
+def _broken_modes() -> dict:
+    return _broken_module().MODES
 
 
 def _check(*args, timeout=600):
@@ -121,6 +128,13 @@ CLASSES = {
     # the kinks
     "wall-onset-split": (["wall-onset-dynamic"], "grad_x0: relative error"),
     "outside-edge-derivative": (["grid-edge-plane"], "grad_values: relative error"),
+    # the valid cases v4 added (V4_FAMILIES)
+    "float32-cell-index": (["near-edge-plane-dynamic", "near-edge-cylinder-q0-dynamic",
+                            "near-edge-cylinder-q1-quasistatic", "near-edge-torus-dynamic"], "v: relative error"),
+    "single-wall-room-rule": (["wide-margin-dynamic", "wide-margin-quasistatic"],
+                              "no result written (exit 2): error: <case>: case key 'wall_margin'"),
+    "bool-flags-only": (["integer-flags-int8", "integer-flags-uint8"],
+                        "no result written (exit 2): error: <case>: case key 'periodic'"),
     # refusals
     "accept-invalid": (["mass-zero"], "mass: accepted an invalid case (exit 0)"),
     "truncated-n-steps": (["n-steps-float-fraction"], "n_steps: accepted an invalid case (exit 0)"),
@@ -133,6 +147,11 @@ CLASSES = {
 NOT_WRONG = {"ok", "reference", "first-refusal-only", "hang"}
 #: Classes that only strict mode catches (docs/spec.md section 11).
 STRICT_ONLY = {"error-kinds-swapped"}
+#: Classes caught by the vectors v4 added: the family of vectors each fails on, every one,
+#: and what its every verdict says.
+V4_FAMILIES = {"float32-cell-index": ("near-edge", "relative error"),
+               "single-wall-room-rule": ("wide-margin", "case key 'wall_margin'"),
+               "bool-flags-only": ("integer-flags", "case key 'periodic'")}
 
 
 def _broken(mode: str, ids, **kw) -> chk.CheckReport:
@@ -168,6 +187,16 @@ def test_a_broken_program_fails_named_by_its_key(mode, verdicts):
     lines = [o.line() for o in verdicts[mode].outcomes]
     failed = [line for line in lines if line.startswith("FAIL")]
     assert failed and failed[0].startswith(f"FAIL  {ids[0]}  {expect}"), lines
+
+
+@pytest.mark.parametrize("mode", sorted(V4_FAMILIES))
+def test_a_case_v4_added_fails_its_broken_program_on_every_vector_of_its_family(mode, verdicts):
+    family, says = V4_FAMILIES[mode]
+    ids = [e["id"] for e in load_manifest()["vectors"] if e["id"].startswith(family + "-")]
+    assert sorted(CLASSES[mode][0]) == sorted(ids) and not verdicts[mode].settings["strict"]
+    assert [o.case_id for o in verdicts[mode].outcomes] == CLASSES[mode][0]
+    for outcome in verdicts[mode].outcomes:
+        assert not outcome.ok and says in outcome.detail, outcome.line()
 
 
 def test_the_readable_reference_passes_where_the_broken_ones_fail(verdicts):
@@ -208,6 +237,71 @@ def test_broken_programs_fail_on_random_cases_too():
     assert len(failed) >= 4 and all(o.array == "energy" for o in failed)   # all-zero energy: unharmed
 
 
+@pytest.fixture(scope="module")
+def random_cases() -> list:
+    """``check --random 30 --seed 3``'s cases, each with the reference's result."""
+    return [(case, run_case(case)) for _, case, _ in chk.draw_cases(30, seed=3)]
+
+
+@pytest.mark.parametrize("mode", sorted(V4_FAMILIES))
+def test_the_broken_programs_of_v4_fail_on_random_cases_too(mode, random_cases):
+    """``check --random 30 --seed 3`` reaches each case v4 added (draws.CHECK_ODDS): each
+    program, run here in-process, refuses or gets wrong some of its cases, and only such."""
+    broken = _broken_module()
+    how = broken.MODES[mode][1]
+
+    def run(case):
+        with ExitStack() as stack:
+            if "patch" in how:
+                stack.enter_context(broken._patched(*how["patch"]))
+            if "rule" in how:
+                validate_case(case)
+                how["rule"](case)
+            return (broken._reference_run if how.get("run") == "reference" else run_case)(case)
+    failed = []
+    for case, want in random_cases:
+        try:
+            got = run(case)
+        except CaseError as exc:
+            failed.append(exc.key)
+            continue
+        errors = compare_results(got, want)
+        if not all(passes(k, e) for k, e in errors.items()):
+            failed.append("result")
+    expect = {"float32-cell-index": "result", "single-wall-room-rule": "wall_margin", "bool-flags-only": "periodic"}
+    assert failed and set(failed) == {expect[mode]}, failed
+
+
+def test_the_random_draws_reach_the_rare_inputs_at_their_odds():
+    """Over 400 draws of check's distribution: a wide margin on about half the scenes whose
+    walls leave an axis with one wall, near-edge positions in about a quarter of the cases
+    (where a coordinate is snapped, float32 misses the cell some of the time), flags as
+    int8 or uint8 in about half."""
+    assert draws.CHECK_ODDS == {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5}   # docs/spec.md 13.1
+    single = wide = near = float32_misses = 0
+    dtypes = []
+    for attempt in range(400):
+        d = draws.GeneratorDraws(np.random.default_rng([7, attempt]))
+        scene, x0, v0 = draws.scene_case(d, max_particles=4, near_edge=draws.CHECK_ODDS["near_edge"],
+                                         wide_margin=draws.CHECK_ODDS["wide_margin"])
+        dtypes.append(draws.flag_dtype(d, draws.CHECK_ODDS["integer_flags"]).name)
+        s = scene.surface
+        if scene.walls is not None:
+            edges, L, w = np.asarray(scene.walls.edges), s.length, scene.walls.margin
+            single += any(edges[a].sum() == 1 for a in range(2))
+            wide += any(edges[a].sum() == 1 and 2 * w >= L[a] for a in range(2))
+        u = (x0 - s.lower) / s.spacing
+        off = np.abs(u - np.round(u))
+        snapped = (off >= draws.NEAR_EDGE[0] * 0.99) & (off <= draws.NEAR_EDGE[1] * 1.01)
+        near += bool(snapped.any())
+        float32_misses += bool(np.any(np.floor(u.astype(np.float32)) != np.floor(u)))
+    assert abs(wide / single - draws.CHECK_ODDS["wide_margin"]) < 0.12, (wide, single)
+    assert abs(near / 400 - draws.CHECK_ODDS["near_edge"]) < 0.06 and float32_misses >= near / 3, near
+    counts = {name: dtypes.count(name) / 400 for name in ("bool", "int8", "uint8")}
+    odds = draws.CHECK_ODDS["integer_flags"]
+    assert abs(counts["int8"] - odds / 2) < 0.06 and abs(counts["uint8"] - odds / 2) < 0.06, counts
+
+
 def test_a_failing_case_is_kept_with_a_script_that_reproduces_it(tmp_path):
     keep = tmp_path / "keep"
     report = chk.check(f"{sys.executable} {BROKEN} perturb {{pairs}}", only=["plane-dynamic", "mass-zero"],
@@ -236,7 +330,7 @@ def test_random_cases_are_deterministic_and_well_conditioned():
     assert [x[0] for x in a] == [x[0] for x in b]
     for (_, ca, cond), (_, cb, _) in zip(a, b):
         assert cond <= chk.CONDITION_BOUND
-        assert ca.keys() == cb.keys() and all(np.array_equal(ca[k], cb[k]) for k in ca)
+        assert ca.keys() == cb.keys() and all(np.array_equal(ca[k], cb[k]) and ca[k].dtype == cb[k].dtype for k in ca)
     modes = {str(c["mode"]) for _, c, _ in chk.draw_cases(40, seed=1)}
     assert modes == {"dynamic", "quasistatic"}
 
@@ -264,3 +358,7 @@ def test_the_vectors_are_listed():
     assert proc.returncode == 0 and len(lines) == len(load_manifest()["vectors"])
     assert lines[0].startswith("plane-dynamic ") and any(line.split()[:3] == ["mass-zero", "invalid", "(mass)"]
                                                          for line in lines)
+    listed = [line.split()[:3] for line in lines]            # id, kind, flags: v4's families among them
+    for family, flag in (("wide-margin", "wide-margin"), ("integer-flags", "dtype"), ("near-edge", "near-edge")):
+        rows = [row for row in listed if row[0].startswith(family + "-")]
+        assert len(rows) >= 2 and all(row[1:] == ["valid", flag] for row in rows), family

@@ -42,15 +42,18 @@ __all__ = ["VERSION", "Vector", "build_vectors", "write_vectors", "compare_dirs"
 #: module path of the layout it was written in, ``pes_ref.conformance.generate``.)
 GENERATOR = "pes_ref.oracle.conformance.generate"
 
-#: The vector set this module writes. v3 (spec v3) keeps every vector of v2 (the same
-#: cases and results) and binds the gradients of kink vectors to their one-sided values
-#: (docs/spec.md 7.3); it adds the points the spec fixes that no vector sat on (a wall's
-#: onset, the closed grid edge of each non-periodic axis, the spring's minimum-image
-#: seam, the oscillator's root at 0 in the middle of a run), the container refusals of
-#: section 8.1, a run that is stable by section 10 but overflows (section 12.1), a
-#: non-integral ``n_steps``, spacings that float32 does not hold exactly, and more cases
-#: with ``t0 != 0`` and time windows. (v2 added the stability rule of section 10 to v1.)
-VERSION = "v3"
+#: The vector set this module writes. v4 (spec v4) keeps every vector of v3 (the same
+#: cases and results, the same one-sided files) and adds three families of valid cases
+#: the spec accepts that no v3 vector held: a single wall of an axis with a margin of at
+#: least half the axis's length (``wide-margin-*``: docs/spec.md 8.6, the room rule binds
+#: two walls of one axis only), ``periodic`` and ``walls`` as int8 and uint8 arrays of 0
+#: and 1 (``integer-flags-*``: 8.4), and particles 1e-9 below and above interior cell
+#: edges on every kind of axis (``near-edge-*``: 2.3, the cell ``floor`` picks from the
+#: float64 ``u``, which a float32 ``u`` rounds onto the edge). (v3 bound the gradients of
+#: kink vectors to their one-sided values and added the points the spec fixes that no
+#: vector sat on, the container refusals and runs that overflow; v2 added the stability
+#: rule of section 10 to v1.)
+VERSION = "v4"
 _SEED = 20210921
 
 # name -> (shape, lower, upper, periodic); every spacing is 0.25
@@ -540,12 +543,88 @@ def _cross_curvature(case: dict) -> float:
     return float(np.max(np.abs(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1])) / (h[0] * h[1]))
 
 
+def _wide_margin_vectors():
+    """A single wall of an axis whose margin is at least half the axis's length: valid,
+    since the room rule of docs/spec.md 8.6 binds only two walls of one axis."""
+    def wide_exactly_half(r):
+        # q0 (L = 1) has its lower wall alone, at a = lower + L/2; q1 (L = 1.5) has both walls, 2 w < 1.5
+        return _case(r, "plane", n=3, n_steps=24, objective="quadratic", wall_k=np.float64(40.0),
+                     wall_margin=np.float64(0.5), walls=np.array([[True, False], [True, True]]))
+    yield _valid("wide-margin-dynamic", "plane, the lower wall of q0 alone with wall_margin = L0/2 (the room rule "
+                 "would refuse it for two walls), both walls of q1 with room between them (2 w < L1)",
+                 wide_exactly_half, flags=["wide-margin"])
+
+    def wide_past_the_far_edge(r):
+        # the upper wall of q0 (L = 1) at b = upper - 1.25 L, below the lower edge: every particle is in it
+        return _case(r, "cylinder-q1", n=3, mode="quasistatic", n_steps=24, objective="funnel-every",
+                     wall_k=np.float64(40.0), wall_margin=np.float64(1.25),
+                     walls=np.array([[False, True], [False, False]]))
+    yield _valid("wide-margin-quasistatic", "cylinder q1, quasistatic, the upper wall of q0 alone with "
+                 "wall_margin = 1.25 L0: its onset lies past the far edge, and it pushes every particle out of "
+                 "the grid", wide_past_the_far_edge, flags=["wide-margin"])
+
+
+def _integer_flag_vectors():
+    """``periodic`` and ``walls`` as integer arrays of 0 and 1 (docs/spec.md 8.4), each dtype
+    on a topology with a 0 and a 1 in both keys."""
+    def int8_flags(r):
+        return _case(r, "cylinder-q0", n=2, n_steps=24, objective="oscillator", periodic=np.array([1, 0], np.int8),
+                     wall_k=np.float64(40.0), wall_margin=np.float64(0.1),
+                     walls=np.array([[0, 0], [1, 1]], np.int8), v0=np.array([[2.5, 0.8], [-2.0, -0.9]]))
+    yield _valid("integer-flags-int8", "cylinder q0, periodic and walls as int8 0/1 arrays: both walls of q1, "
+                 "particles cross the seam of q0", int8_flags, flags=["dtype"])
+
+    def uint8_flags(r):
+        return _case(r, "cylinder-q1", n=2, mode="quasistatic", n_steps=24, objective="quadratic",
+                     periodic=np.array([0, 1], np.uint8), wall_k=np.float64(40.0), wall_margin=np.float64(0.15),
+                     walls=np.array([[1, 0], [0, 0]], np.uint8), x0=np.array([[-0.45, 0.3], [0.2, 1.7]]))
+    yield _valid("integer-flags-uint8", "cylinder q1, quasistatic, periodic and walls as uint8 0/1 arrays: the "
+                 "lower wall of q0, a particle starting inside it", uint8_flags, flags=["dtype"])
+
+
+#: How far the near-edge states sit from their cell edge: in a spacing of 0.25, u is 4e-9
+#: from an integer, which float64 resolves and float32 (half an ulp: 2**-25, about 3e-8,
+#: or more at u >= 1) rounds onto the edge.
+_NEAR = 1e-9
+
+
+def _near_edge_vectors():
+    """Particles 1e-9 below and above interior cell edges (docs/spec.md 2.3: the cell is
+    the one ``floor`` picks from the float64 ``u``), on each topology, on periodic axes
+    also on the seam and whole periods away."""
+    e = _NEAR
+
+    def near(topology, x0, **kw):
+        def build(r):
+            case = _case(r, topology, n=len(x0), n_steps=24, **kw)
+            case["x0"] = np.array(x0)
+            return case
+        return build
+    yield _valid("near-edge-plane-dynamic", "plane, particles 1e-9 below and above the interior edges q0 = 0.5 "
+                 "and q1 = 1.0",
+                 near("plane", [[0.5 - e, 0.6], [0.5 + e, 0.85], [0.4, 1.0 - e], [0.65, 1.0 + e]],
+                      objective="quadratic"), flags=["near-edge"])
+    yield _valid("near-edge-cylinder-q0-dynamic", "cylinder q0, particles 1e-9 below and above edges of the "
+                 "periodic q0 (0.5, the seam at 2, and whole periods away) and of q1 (0)",
+                 near("cylinder-q0", [[0.5 - e, 0.1], [2.5 + e, -0.2], [2.0 - e, -e], [-1.5 - e, e]],
+                      objective="funnel-every", damping=np.float64(0.2)), flags=["near-edge"])
+    yield _valid("near-edge-cylinder-q1-quasistatic", "cylinder q1, quasistatic, particles 1e-9 below and above "
+                 "edges of q0 (0 and 0.25) and of the periodic q1 (1.5, and 3.75 one period away)",
+                 near("cylinder-q1", [[-e, 0.7], [0.25 + e, 1.3], [0.1, 1.5 - e], [-0.3, 3.75 + e]],
+                      mode="quasistatic", objective="funnel-every"), flags=["near-edge"])
+    yield _valid("near-edge-torus-dynamic", "torus, particles 1e-9 below and above edges of both axes, the "
+                 "seams of q0 at 1 and of q1 at 4 (two periods away) among them",
+                 near("torus", [[0.75 - e, 1.25 + e], [0.25 + e, 0.5 - e], [1.0 - e, 0.3], [0.6, 4.0 - e]],
+                      objective="oscillator"), flags=["near-edge"])
+
+
 def valid_vectors() -> list:
     """All valid vectors, in manifest order."""
     out = []
     for group in (_topology_vectors, _spring_wall_vectors, _force_vectors, _mass_damping_vectors,
                   _objective_vectors, _grid_vectors, _edge_vectors, _limit_vectors,
-                  _kink_vectors, _time_vectors, _spacing_vectors):
+                  _kink_vectors, _time_vectors, _spacing_vectors, _wide_margin_vectors, _integer_flag_vectors,
+                  _near_edge_vectors):
         out.extend(group())
     return out
 
@@ -793,7 +872,11 @@ def manifest_header() -> dict:
         "flags": {
             "kink": "a state sits exactly on a kink of docs/spec.md 7.3 (node, seam, clip edge, wall onset)",
             "zero-root": "the oscillator's root argument is exactly 0 at some step (its derivative is 0 there)",
-            "dtype": "integer inputs, read as float64",
+            "dtype": "integer inputs: numbers read as float64, flags (periodic, walls) of 0 and 1",
+            "wide-margin": "a single wall of an axis with wall_margin >= half the axis's length, valid: the room "
+                           "rule binds only two walls of one axis (docs/spec.md 8.6)",
+            "near-edge": "a state 1e-9 below or above an interior cell edge, off it: looked up in the cell floor "
+                         "picks from the float64 u (docs/spec.md 2.3), where a float32 u rounds onto the edge",
             "file": "the case file itself breaks docs/spec.md 8.1: written byte for byte, it has no case dict",
             "nonfinite": "valid by sections 8 and 10, refused when run: its numbers leave the finite range (12.1)",
         },
@@ -824,7 +907,7 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
     Parameters
     ----------
     directory : path, optional
-        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v3``.
+        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v4``.
         Created if missing; vector files of this naming scheme that are no longer
         part of the set are removed. Every file is made in a hidden folder beside it
         first and moved in once all are made, the manifest last: a run stopped part-way

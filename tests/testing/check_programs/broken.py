@@ -7,8 +7,8 @@ show that ``pes_ref check`` catches every kind of wrong implementation:
 (:mod:`pes_ref.core.reference`) run the way the oracle runs a case, and
 ``first-refusal-only`` the oracle ending a run at its first refusal; every other mode
 (:data:`MODES`) but ``hang`` is one of them with one bug: a changed case before the run, a changed
-result after it, a sub-step of the readable reference replaced by a wrong one, or a
-wrong way of refusing. Pairs are run one after the other, like the oracle does; a
+result after it, a sub-step of the readable reference replaced by a wrong one, a rule of
+its own that refuses a valid case, or a wrong way of refusing. Pairs are run one after the other, like the oracle does; a
 refusal prints ``error: <case path>: <message>`` (``error: <message>`` for one pair).
 """
 import json
@@ -122,6 +122,28 @@ def _outside_edge_derivative(bilinear_force_T):
     return wrong
 
 
+def _float32_cell_index(lookup):
+    """The cell index ``k = floor(u)`` taken from ``u`` rounded to float32 (the fraction
+    ``f = u - k`` still in float64): within half a float32 ulp below an edge, the cell above."""
+    def wrong(terms, q):
+        c = lookup(terms, q)
+        out = []
+        for d in range(2):
+            n = terms.values.shape[d]
+            u = (q[..., d] - terms.lower[d]) / terms.h[d]
+            if terms.periodic[d]:
+                k = np.floor(u.astype(np.float32)).astype(np.float64)
+                f, lo, hi = u - k, np.mod(k, n), np.mod(k + 1, n)
+            else:
+                uc = np.clip(u, 0.0, n - 1.0)
+                k = np.minimum(np.floor(uc.astype(np.float32)).astype(np.float64), n - 2)
+                f, lo, hi = uc - k, k, k + 1
+            out.append((lo.astype(np.intp), hi.astype(np.intp), f))
+        (i0, i1, f0), (j0, j1, f1) = out
+        return c._replace(i0=i0, i1=i1, j0=j0, j1=j1, f0=f0, f1=f1)
+    return wrong
+
+
 # --- cases changed before the run, results after it
 
 def _on_edge_down(case: dict) -> dict:
@@ -164,6 +186,27 @@ def _n_steps_truncated(case: dict) -> dict:
     return {**case, "n_steps": np.int64(np.trunc(n))} if n.dtype.kind == "f" and np.all(np.isfinite(n)) else case
 
 
+def _room_rule_for_one_wall(case: dict) -> None:
+    """The room rule ``2 wall_margin < L`` applied to every axis with a wall, where docs/spec.md
+    8.6 applies it only to an axis with both walls."""
+    if "walls" not in case:
+        return
+    walls = np.asarray(case["walls"]).astype(bool)
+    length = np.asarray(case["upper"], dtype=float) - np.asarray(case["lower"], dtype=float)
+    margin = float(case["wall_margin"])
+    for d in range(2):
+        if walls[d].any() and 2.0 * margin >= length[d]:
+            raise CaseError("wall_margin", f"wall_margin = {margin:g} leaves no room on axis {d} "
+                                           f"(2 wall_margin >= L = {length[d]:g})")
+
+
+def _bool_flags_only(case: dict) -> None:
+    """Flags refused unless their dtype is bool, where docs/spec.md 8.4 accepts 0/1 integers too."""
+    for key in ("periodic", "walls"):
+        if key in case and np.asarray(case[key]).dtype != np.bool_:
+            raise CaseTypeError(key, f"{key} must be a bool array, got dtype {np.asarray(case[key]).dtype}")
+
+
 def _no_regularization_gradient(case, result):
     result["grad_values"] = result["grad_values"] - 2.0 * float(case.get("regularization", 0.0)) * case["values"]
 
@@ -195,8 +238,9 @@ def _nan_in_x(case, result):
 
 #: mode -> (what is wrong, settings). Settings: ``run`` "oracle" (pes_ref's oracle) or
 #: "reference" (the readable one), ``patch`` (name, replacement) of a reference sub-step,
-#: ``before`` a case -> case, ``after`` a (case, result) -> None, ``refuse`` how a refusal
-#: goes wrong, ``skip`` a case -> bool (write nothing, exit 0).
+#: ``before`` a case -> case, ``after`` a (case, result) -> None, ``rule`` a case -> None
+#: that raises a ``CaseError`` (a rule of its own, checked on a case the oracle finds
+#: valid), ``refuse`` how a refusal goes wrong, ``skip`` a case -> bool (write nothing, exit 0).
 MODES = {
     "ok": ("nothing: pes_ref's oracle", {}),
     "reference": ("nothing: the readable reference run as the oracle runs it", {"run": "reference"}),
@@ -235,6 +279,11 @@ MODES = {
                          {"run": "reference", "patch": ("wall_force_T", _split_wall_onset)}),
     "outside-edge-derivative": ("the adjoint's s = 0 on the closed grid edge",
                                 {"run": "reference", "patch": ("bilinear_force_T", _outside_edge_derivative)}),
+    "single-wall-room-rule": ("the room rule 2 wall_margin < L applied to an axis with one wall",
+                              {"rule": _room_rule_for_one_wall}),
+    "bool-flags-only": ("periodic and walls of 0/1 integers refused as a type error", {"rule": _bool_flags_only}),
+    "float32-cell-index": ("the cell index from a float32 u",
+                           {"run": "reference", "patch": ("lookup", _float32_cell_index)}),
     "first-refusal-only": ("nothing wrong, but a run ends at its first refusal", {"stop": True}),
     "hang": ("never answers", {}),
 }
@@ -273,6 +322,9 @@ def run(mode: str, case_path: str, result_path: str, prefix: str, refusals) -> i
             if "skip" in how and "periodic" in case and how["skip"](case):
                 return 0
             case = _before(how, case)
+            if "rule" in how:
+                validate_case(case)
+                how["rule"](case)
             if how.get("refuse") == "open-early":
                 validate_case(case)
                 open(result_path, "wb").close()
