@@ -36,7 +36,9 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 
 Version 1 files (before the polish stage) are read as gradient-only runs, version 1
 and 2 files (before the compiled loops) as runs of the ``"numpy"`` backend, and version 1-3
-files (before validation) as runs with no validation made.
+files (before validation) as runs with no validation made. Version 5 adds no key: its plan may
+hold ``smoothing`` and ``smoothing_draws`` (:class:`~pes_ref.synthesis.plans.Plan`), which a
+version 1-4 file's plan reads as 0 and 4 (no smoothing).
 
 The members are stored uncompressed. The file is written by the package's one atomic
 ``.npz`` writer (:func:`write_npz`): a crash never leaves half a design, and the writer,
@@ -67,9 +69,9 @@ __all__ = ["save_design", "load_design", "design_arrays", "first_difference", "i
            "FORMAT", "VERSION", "READABLE_VERSIONS"]
 
 FORMAT = "pes_ref.design"
-VERSION = 4
+VERSION = 5
 #: The versions this package reads.
-READABLE_VERSIONS = (1, 2, 3, 4)
+READABLE_VERSIONS = (1, 2, 3, 4, 5)
 _REQUIRED = ("format", "version", "kind", "problem", "plan", "seed", "iteration", "values", "loss", "metric",
              "status", "elapsed")
 #: Keys a version-2 file has beyond version 1's.

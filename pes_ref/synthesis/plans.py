@@ -72,6 +72,16 @@ class Plan:
     validation_particles : int
     target : float or None
         With validation: stop once a validation reaches this success share (None: never early).
+    smoothing : float
+        Randomized smoothing (energy; 0: off): an iteration's gradient is the mean of
+        ``smoothing_draws`` design gradients, each on the grid plus ``smoothing`` times a normal
+        draw (zero where the problem holds the grid) with its share of the ``n_particles``: the
+        exact gradient of the mean loss over the perturbed grids, at the same particle budget. A
+        designed surface's gradient turns under a perturbation the size of one step; the mean
+        over nearby grids is the gradient of a smoothed objective (Suh et al., ICML 2022;
+        measured in docs/problems.md, "The default plan").
+    smoothing_draws : int
+        The perturbed grids of an iteration with ``smoothing`` (at most ``n_particles``).
     """
 
     iterations: int = 300
@@ -86,6 +96,8 @@ class Plan:
     validate_every: int = 0
     validation_particles: int = 200
     target: float | None = None
+    smoothing: float = 0.0
+    smoothing_draws: int = 4
 
     def __post_init__(self):
         checks.as_positive_int("iterations", self.iterations)
@@ -102,6 +114,12 @@ class Plan:
         checks.as_positive_int("validation_particles", self.validation_particles)
         if self.target is not None and not 0.0 < checks.as_finite_float("target", self.target) <= 1.0:
             raise checks.InputError("target", f"target must be in (0, 1], got {self.target!r}")
+        checks.as_nonneg_float("smoothing", self.smoothing)
+        checks.as_positive_int("smoothing_draws", self.smoothing_draws)
+        if self.smoothing and self.smoothing_draws > self.n_particles:
+            raise checks.InputError("smoothing_draws", f"smoothing_draws = {self.smoothing_draws} is more than the "
+                                                       f"n_particles = {self.n_particles} shared among them",
+                                    names=("smoothing_draws", "n_particles"))
         stages = tuple(tuple(int(x) for x in st) + (0,) * (3 - len(st)) for st in self.stages)
         if any(len(st) != 3 or min(st) < 0 for st in stages):
             raise checks.InputError("stages", f"stages must be (start_iteration, grid[, n_steps]) tuples >= 0, "
@@ -262,7 +280,7 @@ COARSE_GRIDS = (5, 9, 17)
 #: The plan of a problem file without ``[train]`` (issue 30; its measured comparison is in
 #: docs/problems.md, "The default plan"): :func:`coarse_to_fine` stages, RMSprop from ``lr`` to
 #: ``lr_final`` over the run, and validation every ``validate_every`` iterations with an early
-#: stop at ``target``.
+#: stop at ``target`` (no randomized smoothing: measured there, it did not pay for its time).
 DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.005, "n_particles": 128,
                      "validate_every": 10, "validation_particles": 200, "target": 0.97}
 

@@ -100,6 +100,7 @@ TRAIN_KEYS = {
     "init_scale": Key("nonneg", 1e-3, unit="energy"),
     "validate_every": Key("count", None), "validation_particles": Key("count", 200, unit="particles"),
     "target": Key("positive", None),
+    "smoothing": Key("nonneg", 0.0, unit="energy"), "smoothing_draws": Key("count", 4),
 }
 #: Without ``train.stages``: a coarse grid of this many nodes along axis 0 (if the final grid is
 #: finer) for the first :data:`COARSE_SHARE` of the iterations, then the final grid.
@@ -439,7 +440,7 @@ def _train(r: Reader, table, shape, coarse: bool) -> tuple:
         plan = Plan(iterations=its, optimizer=t["optimizer"], lr=t["lr"], lr_final=lr_final, decay_iterations=decay,
                     clip=t["clip"], stages=stages, n_particles=t["particles"], scale_lr_by_grid=t["scale_lr_by_grid"],
                     validate_every=t["validate_every"] or 0, validation_particles=t["validation_particles"],
-                    target=t["target"])
+                    target=t["target"], smoothing=t["smoothing"], smoothing_draws=t["smoothing_draws"])
     except (ValueError, TypeError) as exc:
         r.fail(f"train.{getattr(exc, 'key', None) or 'stages'}", " ".join(str(exc).split()))
     return plan, t["init_scale"]

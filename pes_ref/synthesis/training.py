@@ -26,22 +26,23 @@ from pes_ref.core.scene import value_and_grad
 from pes_ref.core.signals import StopFlag
 from pes_ref.core.stability import UnstableStepError
 from pes_ref.synthesis.design_state import DesignState
+from pes_ref.synthesis.plans import Plan
 from pes_ref.synthesis.validation import Best, on_grid, validation_success
 
 __all__ = ["GradientStep", "run_design", "design_gradient"]
 
 
 def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_steps: int | None = None,
-                backend: str | None = None):
+                backend: str | None = None, draw: int | None = None):
     """Loss, masked design gradient dL/dE and trajectory of iteration ``iteration``.
 
     Returns ``(loss, grad, traj, x0)``; the particles come from ``default_rng([seed, iteration])``
-    and the objective with them (``batch.objective``, plus the batch's ``grid_cost`` of the values
+    (``[seed, iteration, draw]`` for one of a smoothed iteration's draws) and the objective with them (``batch.objective``, plus the batch's ``grid_cost`` of the values
     if it has one); ``n_steps`` overrides the problem's;
     ``backend`` as in :func:`pes_ref.value_and_grad`.
     Raises :class:`pes_ref.NonFiniteError` when the run leaves the finite numbers.
     """
-    rng = np.random.default_rng([seed, iteration])
+    rng = np.random.default_rng([seed, iteration] if draw is None else [seed, iteration, draw])
     batch = problem.batch(values, rng, n_particles, n_steps)
     loss, grads, traj = value_and_grad(batch.scene, batch.x0, batch.v0, batch.objective,
                                        regularization_weight=problem.regularization, wrt=("values",),
@@ -53,6 +54,36 @@ def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_
         if cost_grad is not None:
             grad = grad + cost_grad
     return loss, grad * problem.mask(values.shape), traj, batch.x0
+
+
+#: The key of a smoothed iteration's perturbations: ``default_rng([seed, iteration, SMOOTHING_STREAM])``,
+#: apart from its draws' particles (``[seed, iteration, draw]``, draw < n_particles).
+SMOOTHING_STREAM = 2 ** 32 + 3
+
+
+def smoothed_step(problem, values, seed: int, iteration: int, plan: Plan, backend: str | None = None):
+    """Loss, masked gradient and metric of iteration ``iteration`` of a run on ``plan``: one
+    :func:`design_step`, or with ``plan.smoothing`` the mean over ``plan.smoothing_draws`` grids
+    ``values + smoothing z_j`` (``z_j`` normal, zero where the problem holds the grid), draw ``j``
+    with its share of the particles (:class:`~pes_ref.synthesis.plans.Plan`). Returns
+    ``(loss, grad, metric)``."""
+    n_steps = plan.steps_at(iteration)
+    if not plan.smoothing:
+        loss, grad, traj, _ = design_step(problem, values, seed, iteration, plan.n_particles, n_steps, backend)
+        return loss, grad, problem.batch_metric(traj)
+    k = plan.smoothing_draws
+    z = np.random.default_rng([seed, iteration, SMOOTHING_STREAM]).standard_normal((k,) + values.shape)
+    mask = problem.mask(values.shape)
+    counts = np.full(k, plan.n_particles // k) + (np.arange(k) < plan.n_particles % k)
+    loss, grad, metric = 0.0, np.zeros_like(values), 0.0
+    for j in range(k):
+        loss_j, grad_j, traj, _ = design_step(problem, values + plan.smoothing * z[j] * mask, seed, iteration,
+                                              int(counts[j]), n_steps, backend, draw=j)
+        share = counts[j] / plan.n_particles
+        loss += loss_j / k
+        grad += grad_j / k
+        metric += share * problem.batch_metric(traj)
+    return loss, grad, metric
 
 
 class GradientStep(NamedTuple):
@@ -176,8 +207,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             values = _values_on_stage_grid(state, plan.grid_at(k, problem))
             try:
                 with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-                    loss_k, grad, traj, _ = design_step(problem, values, state.seed, k, plan.n_particles,
-                                                        plan.steps_at(k), state.backend)
+                    loss_k, grad, metric = smoothed_step(problem, values, state.seed, k, plan, state.backend)
             except FloatingPointError as exc:          # NonFiniteError is one
                 roll_back(f"iteration {k}: {exc}")
                 break
@@ -196,7 +226,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
                 state.status = f"non-finite: iteration {k}: the optimizer step is not finite"
                 break
             state.values = new
-            loss, metric = float(loss_k), problem.batch_metric(traj)
+            loss, metric = float(loss_k), float(metric)
             state.history["loss"].append(loss)
             state.history["metric"].append(metric)
             state.iteration = k + 1

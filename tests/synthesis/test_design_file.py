@@ -193,7 +193,7 @@ def test_round_trip_of_a_polished_design_is_exact(tmp_path):
     np.testing.assert_array_equal(back.base_values, st.base_values)
     assert back.evaluations == 9 and back.polish_history == st.polish_history and back.finished
     with np.load(tmp_path / "p.npz") as z:
-        assert int(z["version"]) == design_file.VERSION == 4 and str(z["method"]) == "gradient+polish"
+        assert int(z["version"]) == design_file.VERSION == 5 and str(z["method"]) == "gradient+polish"
 
 
 def test_a_version_1_file_is_read_as_a_gradient_only_run(tmp_path):

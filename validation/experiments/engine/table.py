@@ -23,6 +23,8 @@ LABELS = {
     "p,lr=0.005,st=c4,it=900,val=10,tgt=0.97": "the same, 900 it",
     "p,lr=0.002,st=c4,sg=0,val=10,tgt=0.97": "5/9/17/final, lr 0.002 on every grid, validated, target 0.97",
     "p,lr=0.01,lrf=0.0025,st=c4,val=10,tgt=0.97": "5/9/17/final, lr 0.01 -> 0.0025, validated, target 0.97",
+    "smooth,s=0.005,k=4": "the default plan + randomized smoothing (this harness's draws): 4 grids perturbed by 0.005, 32 particles each",
+    "smooth,s=0.02,k=4": "the default plan + randomized smoothing (this harness's draws): 4 grids perturbed by 0.02, 32 particles each",
 }
 #: examples.jsonl ran after the default changed: its "baseline" is the new default plan, and
 #: the old default is the plan that states it ("p,lr=0.002,st=c25": 25 nodes, then the final grid at 80%).
@@ -31,7 +33,8 @@ EXAMPLES = {"p,lr=0.002,st=c25": LABELS["baseline"],
             "baseline": LABELS["p,lr=0.005,st=c4,val=10,tgt=0.97"],
             "p,lr=0.005,st=c4,it=600,val=10,tgt=0.97": "the same, 600 it",
             "p,lr=0.01,lrf=0.0005,st=c4,val=10,tgt=0.97": "the same, lr 0.01 -> 0.0005",
-            "p,lr=0.005,st=c4,n=128,val=10,tgt=0.97": LABELS["p,lr=0.005,st=c4,n=128,val=10,tgt=0.97"]}
+            "p,lr=0.005,st=c4,n=128,val=10,tgt=0.97": LABELS["p,lr=0.005,st=c4,n=128,val=10,tgt=0.97"],
+            "smooth,s=0.005,k=4": LABELS["smooth,s=0.005,k=4"]}
 if "--examples" in sys.argv:
     LABELS, log, problems = EXAMPLES, "logs/examples.jsonl", ("offcentre_funnel", "nest", "sorter")
     SHOWN = {p: f"{p} (examples)" for p in problems}
