@@ -104,8 +104,9 @@ def add_parser(sub) -> None:
                    help="polish stage only: fitness evaluations (default: the polish plan's)")
     p.add_argument("--polish-particles", type=int, default=None,
                    help="polish stage only: training particles of the fitness (default: the polish plan's)")
-    p.add_argument("--workers", type=int, default=1,
-                   help="processes evaluating the polish's candidates (the result does not depend on it)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="processes evaluating the polish's candidates (default: 2 on a machine with 2 cores or "
+                        "more, 1 under --smoke; the result does not depend on it)")
     p.add_argument("--backend", choices=["numba", "numpy"], default=None,
                    help="the loops that run the design: 'numba' (compiled; the default when the extra 'fast' is "
                         "installed) or 'numpy'; the design file records it and a resumed run keeps its own (the "
@@ -150,6 +151,23 @@ def _problem_argument(arg: str):
         raise ValueError(f"design {arg!r}: expected funnel, oscillator, a problem file PATH.toml, or a shipped "
                          f"problem ({', '.join(SHIPPED_NAMES)})")
     return "problem", load_problem(input_file(arg, "problem file"))
+
+
+#: ``--workers`` of a run with a polish stage when not given (both cores of a 2-core machine):
+#: a generation's 16 candidates split in two halves, one per process.
+DEFAULT_WORKERS = 2
+
+
+def polish_workers(workers, inputs, smoke: bool = False) -> int:
+    """The processes of a run's polish: ``workers`` when given, else :data:`DEFAULT_WORKERS`
+    (at most the machine's cores) for a run with a polish stage, 1 for one without or under
+    ``--smoke`` (its polish is a few generations of a few particles: a pool would cost more
+    than it saves). The design does not depend on it."""
+    if workers is not None:
+        return workers
+    if inputs.base_polish is None or smoke:
+        return 1
+    return max(1, min(DEFAULT_WORKERS, os.cpu_count() or 1))
 
 
 def _pool(workers: int, inputs, kind: str):
@@ -222,7 +240,8 @@ def _run_design(args) -> int:
         sets, plan_over, base_plan = inputs.sets, inputs.plan_overrides, inputs.base_plan
         if problem is not None:
             problem = inputs.problem                        # its keys changed by --set (and --smoke)
-        executor = _pool(args.workers, inputs, kind)
+        workers = polish_workers(args.workers, inputs, args.smoke)
+        executor = _pool(workers, inputs, kind)
         if state is not None:
             if args.kind is None and problem is not None and problem != state.problem:   # a file's, changed by --set
                 difference = synthesis.first_difference(state.problem.data, problem.data)
@@ -289,7 +308,7 @@ def _run_design(args) -> int:
             save_design(out, state, overwrite=may_overwrite)   # claims the file before the long run
         elif not os.access(out, os.W_OK):                      # --force over a file kept until there is a result
             raise PermissionError(f"cannot write {out}: the file is not writable")
-        state = synthesis.run_stages(state, state.plan.iterations, executor=executor, tasks=args.workers,
+        state = synthesis.run_stages(state, state.plan.iterations, executor=executor, tasks=workers,
                                      callback=progress, progress_every=args.progress, checkpoint=checkpoint)
         lines.end()                     # the last progress line stays, whole, before anything else is printed
         if fresh and state.iteration == 0 and state.status.startswith(synthesis.STOPPED):
