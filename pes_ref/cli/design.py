@@ -103,8 +103,9 @@ def add_parser(sub) -> None:
                    help="polish stage only: fitness evaluations (default: the polish plan's)")
     p.add_argument("--polish-particles", type=int, default=None,
                    help="polish stage only: training particles of the fitness (default: the polish plan's)")
-    p.add_argument("--workers", type=int, default=1,
-                   help="processes evaluating the polish's candidates (the result does not depend on it)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="processes evaluating the polish's candidates (default: 2 on a machine with 2 cores or "
+                        "more, 1 under --smoke; the result does not depend on it)")
     p.add_argument("--backend", choices=["numba", "numpy"], default=None,
                    help="the loops that run the design: 'numba' (compiled; the default when the extra 'fast' is "
                         "installed) or 'numpy'; the design file records it and a resumed run keeps its own (the "
@@ -149,6 +150,23 @@ def _base_problem(arg: str | None, state):
     return load_problem(input_file(arg, "problem file"))
 
 
+#: ``--workers`` of a run with a polish stage when not given (both cores of a 2-core machine):
+#: a generation's 16 candidates split in two halves, one per process.
+DEFAULT_WORKERS = 2
+
+
+def polish_workers(workers, inputs, smoke: bool = False) -> int:
+    """The processes of a run's polish: ``workers`` when given, else :data:`DEFAULT_WORKERS`
+    (at most the machine's cores) for a run with a polish stage, 1 for one without or under
+    ``--smoke`` (its polish is a few generations of a few particles: a pool would cost more
+    than it saves). The design does not depend on it."""
+    if workers is not None:
+        return workers
+    if inputs.base_polish is None or smoke:
+        return 1
+    return max(1, min(DEFAULT_WORKERS, os.cpu_count() or 1))
+
+
 def _pool(workers: int, inputs, kind: str):
     """A process pool for the polish's candidates (None for 1 worker); its workers ignore Ctrl-C,
     which the main process turns into a clean stop."""
@@ -186,7 +204,8 @@ def _run_design(args) -> int:
         kind = kind_of(base)
         flags = _flags(kind.name)
         inputs = design_inputs(base, vars(args), kind.parse_sets(args.set))
-        executor = _pool(args.workers, inputs, kind.name)
+        workers = polish_workers(args.workers, inputs, args.smoke)
+        executor = _pool(workers, inputs, kind.name)
         state = start_design(inputs, seed=args.seed, backend=args.backend, resume=state, where=args.resume)
         if args.resume is not None:
             out = args.out if args.out is not None else args.resume
@@ -215,7 +234,7 @@ def _run_design(args) -> int:
     start, t0 = state.iteration, time.perf_counter()
     fresh = args.resume is None
     try:
-        state = run_to_file(state, out, fresh=fresh, overwrite=may_overwrite, executor=executor, tasks=args.workers,
+        state = run_to_file(state, out, fresh=fresh, overwrite=may_overwrite, executor=executor, tasks=workers,
                             callback=progress, progress_every=args.progress)
         lines.end()                     # the last progress line stays, whole, before anything else is printed
         if fresh and state.iteration == 0 and state.status.startswith(synthesis.STOPPED):

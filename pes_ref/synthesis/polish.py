@@ -14,9 +14,18 @@ e.g. a :class:`concurrent.futures.ProcessPoolExecutor` or a Dask client's
 ``get_executor()``) can evaluate a generation in ``tasks`` parts in parallel, with the same
 result as serial.
 
+With validation (the plan's ``validation_particles``), the best candidate so far is judged
+every few generations on fixed validation particles shaped like the held-out sets
+(:func:`validation_particles`) by the share the capture test passes, and the search stops
+once that share reaches the plan's ``validation_target``: the training fitness keeps
+falling after the held-out share has stopped rising, so a budget of evaluations alone
+either stops too early for some seeds or runs long past the point for others.
+
 Seeds: the training particles come from ``default_rng([seed, 2**32 + 1])``, the search's
-own draws from ``default_rng([seed, 2**32 + 2])`` (the gradient stage uses ``[seed, k]``
-and ``[seed, 2**32]``); NumPy's global random state is never touched.
+own draws from ``default_rng([seed, 2**32 + 2])``, the validation particles from
+``default_rng([seed, 2**32 + 3])`` (the gradient stage uses ``[seed, k]`` and
+``[seed, 2**32]``; a held-out seed is a plain integer); NumPy's global random state is never
+touched.
 """
 from __future__ import annotations
 
@@ -33,14 +42,16 @@ from pes_ref.core.population import simulate_batch
 from pes_ref.synthesis.analysis import CYCLE_DRIFT, CYCLE_TOLERANCE, cycle_figures
 from pes_ref.synthesis.plans import PolishPlan
 
-__all__ = ["legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "capture_fitnesses",
-           "Fitness",
-           "PolishStep", "PolishResult", "polish", "PARTICLE_SEED", "SEARCH_SEED", "MARGIN_CAP"]
+__all__ = ["legendre_fourier_basis", "PolishParticles", "polish_particles", "validation_particles",
+           "capture_fitness", "capture_fitnesses", "captured_share", "Fitness",
+           "PolishStep", "PolishResult", "polish", "PARTICLE_SEED", "SEARCH_SEED", "VALIDATION_SEED", "MARGIN_CAP"]
 
 #: Second entry of the seed pair of the polish's training particles, ``default_rng([seed, PARTICLE_SEED])``.
 PARTICLE_SEED = 2 ** 32 + 1
 #: Second entry of the seed pair of the search's own draws.
 SEARCH_SEED = 2 ** 32 + 2
+#: Second entry of the seed pair of the validation particles.
+VALIDATION_SEED = 2 ** 32 + 3
 #: The margin of a particle without a measurable cycle, and the cap of every margin.
 MARGIN_CAP = 3.0
 
@@ -97,6 +108,28 @@ def polish_particles(problem, rng: np.random.Generator, n: int = 96, rest_share:
     k = np.arange(m)
     tau_r[np.floor((k + 1) * rest_max_share) > np.floor(k * rest_max_share)] = problem.torque_max
     return PolishParticles(np.concatenate([xs, xr]), np.concatenate([tau_s, tau_r]))
+
+
+def validation_particles(problem, rng: np.random.Generator, n: int = 150) -> PolishParticles:
+    """Validation particles shaped like the two held-out sets of ``evaluate``, drawn afresh:
+    two thirds start like the torque sweep (stratified torques over the range), one third at
+    rest anywhere in ``[-1.5 A, 1.5 A] x [0, 2 pi)`` with the maximum torque, like the 5 x 5
+    grid (:func:`polish_particles` with that mix)."""
+    return polish_particles(problem, rng, n, rest_share=1 / 3, center_share=0.0, rest_max_share=1.0)
+
+
+def captured_share(problem, values, particles: PolishParticles, periods: float | None = None,
+                   backend: str | None = None) -> float:
+    """The share of ``particles`` the capture test of ``evaluate`` passes on ``values`` after
+    ``periods`` target periods (default ``problem.eval_periods``); 0 for a run that leaves
+    the finite numbers."""
+    periods = problem.eval_periods if periods is None else periods
+    scene = problem.torque_scene(values, particles.torques, periods)
+    with np.errstate(all="ignore"):
+        run = simulate_batch([scene], [particles.x0], backend=backend, return_errors=True)[0]
+    if not isinstance(run, Trajectory):
+        return 0.0
+    return float(np.mean(cycle_figures(problem, run)[3]))
 
 
 def capture_fitness(problem, values, particles: PolishParticles, periods: float | None = None,
@@ -174,12 +207,14 @@ class Fitness:
 
 class PolishStep(NamedTuple):
     """What :func:`polish`'s callback receives after each generation: evaluations so far, the best
-    fitness, the start's fitness and the best coefficients."""
+    fitness, the start's fitness, the best coefficients and the last validation share (NaN
+    before the first)."""
 
     evaluations: int
     fitness: float
     fitness_start: float
     coef: np.ndarray
+    validation: float = float("nan")
 
 
 class PolishResult(NamedTuple):
@@ -188,7 +223,9 @@ class PolishResult(NamedTuple):
     ``coef`` the best coefficients (zeros if nothing beat the start), ``fitness_start`` the
     start's fitness, ``fitness`` the best, ``evaluations`` fitness evaluations made (the start
     included), ``history`` ``(evaluations, best fitness)`` after the start and each
-    generation, ``stopped`` True when ``stop`` ended the search early.
+    generation, ``stopped`` True when ``stop`` ended the search early, ``validation``
+    ``(evaluations, validation share of the best)`` at each validation (empty without),
+    ``reached`` True when a validation reached the plan's ``validation_target``.
     """
 
     coef: np.ndarray
@@ -197,21 +234,37 @@ class PolishResult(NamedTuple):
     evaluations: int
     history: list
     stopped: bool
+    validation: list = []
+    reached: bool = False
 
 
 class _Tracker:
     """The best candidate so far, the evaluation count, and when to stop."""
 
-    def __init__(self, plan: PolishPlan, f0: float, n: int, callback, stop):
-        self.plan, self.callback, self.stop = plan, callback, stop
+    def __init__(self, plan: PolishPlan, f0: float, n: int, callback, stop, validate=None):
+        self.plan, self.callback, self.stop, self.validate = plan, callback, stop, validate
         self.best = (f0, np.zeros(n))
         self.evaluations = 1
         self.history = [(1, f0)]
         self.stopped = False
+        self.validation = []            # (evaluations, share of the best)
+        self.validated = None           # the best's fitness when it was last judged
+        self.reached = False
 
     @property
     def done(self) -> bool:
-        return self.stopped or self.evaluations >= self.plan.evaluations or self.best[0] <= self.plan.target
+        return (self.stopped or self.reached or self.evaluations >= self.plan.evaluations
+                or self.best[0] <= self.plan.target)
+
+    def _validate(self) -> None:
+        """Judge the best so far on the validation particles, unless it was judged already."""
+        if self.validated is not None and self.validated == self.best[0]:
+            return
+        share = self.validate(self.best[1])
+        self.validated = self.best[0]
+        self.validation.append((self.evaluations, share))
+        target = self.plan.validation_target
+        self.reached = target is not None and share >= target
 
     def generation(self, xs, fs) -> None:
         self.evaluations += len(fs)
@@ -219,8 +272,11 @@ class _Tracker:
         if fs[i] < self.best[0]:
             self.best = (float(fs[i]), np.array(xs[i], dtype=np.float64))
         self.history.append((self.evaluations, self.best[0]))
+        if self.validate is not None and (len(self.history) - 1) % self.plan.validate_every == 0:
+            self._validate()
         if self.callback is not None:
-            self.callback(PolishStep(self.evaluations, self.best[0], self.history[0][1], self.best[1]))
+            share = self.validation[-1][1] if self.validation else float("nan")
+            self.callback(PolishStep(self.evaluations, self.best[0], self.history[0][1], self.best[1], share))
         if self.stop is not None and self.stop():
             self.stopped = True
 
@@ -271,8 +327,10 @@ def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, execu
     particles than ``values``. The search stops after the generation that reaches
     ``plan.evaluations`` evaluations (CMA-ES may exceed it by up to ``popsize - 1``;
     candidates are counted, not seconds, so the result does not depend on the machine), when
-    its own stopping rules say so, when the best fitness reaches ``plan.target``, or when
-    ``stop()`` returns True after a generation.
+    its own stopping rules say so, when the best fitness reaches ``plan.target``, when a
+    validation of the best (every ``plan.validate_every`` generations, with
+    ``plan.validation_particles``) reaches ``plan.validation_target``, or when ``stop()``
+    returns True after a generation.
 
     Parameters
     ----------
@@ -306,6 +364,12 @@ def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, execu
                                  plan.rest_share, plan.center_share, plan.center_std, plan.rest_max_share)
     B = legendre_fourier_basis(problem, values.shape, plan.fourier_order, plan.legendre_terms)
     fitness = Fitness(problem, particles, plan.periods, plan.margin_weight, plan.strictness, backend)
+    validate = None
+    if plan.validation_particles:
+        held = validation_particles(problem, np.random.default_rng([seed, VALIDATION_SEED]), plan.validation_particles)
+
+        def validate(coef):
+            return captured_share(problem, values + B @ coef, held, plan.periods, backend)
 
     def evaluate(coefs):
         grids = [values + B @ np.asarray(c, dtype=np.float64) for c in coefs]
@@ -320,11 +384,11 @@ def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, execu
     # thread, waiting for a core another process holds, made each eigendecomposition take
     # ~130 ms (24 s of a design). One thread also keeps the bits apart from the core count.
     with threadpool_limits(limits=1, user_api="blas"):
-        tracker = _Tracker(plan, fitness(values + B @ np.zeros(B.shape[-1])), B.shape[-1], callback, stop)
+        tracker = _Tracker(plan, fitness(values + B @ np.zeros(B.shape[-1])), B.shape[-1], callback, stop, validate)
         if not tracker.done:
             _SEARCHES[plan.method](evaluate, B.shape[-1], plan, np.random.default_rng([seed, SEARCH_SEED]),
                                    tracker)
     f0 = tracker.history[0][1]
     coef = tracker.best[1]
     return values + B @ coef, PolishResult(coef, f0, tracker.best[0], tracker.evaluations, tracker.history,
-                                           tracker.stopped)
+                                           tracker.stopped, tracker.validation, tracker.reached)

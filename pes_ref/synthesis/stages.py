@@ -53,7 +53,8 @@ def _run_polish(state: DesignState, flag: StopFlag, executor, tasks, callback, p
         last["reported"] = step.evaluations
         callback(Progress(f"design {state.kind}", "polish", step.evaluations, plan.evaluations, "evaluations",
                           clock.rate(0), now - t_start, clock.seconds_left(step.evaluations),
-                          (("fitness", step.fitness), ("start", step.fitness_start))))
+                          (("fitness", step.fitness), ("start", step.fitness_start))
+                          + ((("validation", step.validation),) if step.validation == step.validation else ())))
 
     def on_generation(step: PolishStep) -> None:
         state.evaluations = step.evaluations
@@ -75,7 +76,9 @@ def _run_polish(state: DesignState, flag: StopFlag, executor, tasks, callback, p
     state.status = "interrupted" if result.stopped else "done"
     state.elapsed += time.perf_counter() - t_start
     if callback is not None and last.get("reported") != result.evaluations:     # once at the end, unless just shown
-        report(PolishStep(result.evaluations, result.fitness, result.fitness_start, result.coef), time.perf_counter())
+        share = result.validation[-1][1] if result.validation else float("nan")
+        report(PolishStep(result.evaluations, result.fitness, result.fitness_start, result.coef, share),
+               time.perf_counter())
 
 
 def set_polish(state: DesignState, plan) -> None:
@@ -96,7 +99,8 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
 
     ``callback`` receives a :class:`pes_ref.core.progress.Progress` during both stages
     (its stage ``"stage 1/2"`` ... in the gradient stage, ``"polish"`` in the polish, with
-    the ``fitness`` and its ``start`` among the figures), every ``progress_every`` seconds
+    the ``fitness``, its ``start`` and, once judged, the best's ``validation`` share among
+    the figures), every ``progress_every`` seconds
     and at the end of each; ``checkpoint(state)`` is called every ``checkpoint_every``
     seconds. Ctrl-C stops either stage after its current iteration or generation with
     ``status = "interrupted"``; a gradient stage that goes non-finite stops as

@@ -220,3 +220,15 @@ def test_the_progress_line_shows_the_stage_and_a_change_of_stage_says_so(tmp_pat
     changes = [line for line in lines if "now stage" in line]
     assert changes == ["design oscillator: now stage 2/2: grid 8x8, 60 steps per run "
                        "(its loss is not comparable with stage 1/2's)"], err
+
+
+def test_the_polish_uses_both_cores_by_default_and_an_explicit_workers_wins(monkeypatch):
+    from pes_ref.cli.design import DEFAULT_WORKERS, polish_workers
+    from pes_ref.sweep.options import design_inputs
+    osc, funnel = design_inputs("oscillator", {}), design_inputs("funnel", {})
+    monkeypatch.setattr(os, "cpu_count", lambda: 8)
+    assert polish_workers(None, osc) == DEFAULT_WORKERS == 2
+    assert polish_workers(None, osc, smoke=True) == 1 and polish_workers(None, funnel) == 1
+    assert polish_workers(1, osc) == 1 and polish_workers(3, osc) == 3 and polish_workers(3, osc, smoke=True) == 3
+    monkeypatch.setattr(os, "cpu_count", lambda: 1)
+    assert polish_workers(None, osc) == 1

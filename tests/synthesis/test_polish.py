@@ -1,6 +1,7 @@
 """The polish stage: the basis, the training particles, the fitness, the search with
 and without an executor, and a run's stages one after the other (stop, save, resume)."""
 import dataclasses
+import importlib
 import os
 import signal
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
@@ -11,8 +12,10 @@ import pytest
 from pes_ref import synthesis
 from pes_ref.synthesis import Plan, PolishPlan, capture_fitness, legendre_fourier_basis, polish, polish_particles
 from pes_ref.synthesis.design_file import load_design, save_design
-from pes_ref.synthesis.polish import MARGIN_CAP, PARTICLE_SEED
+from pes_ref.synthesis.polish import MARGIN_CAP, PARTICLE_SEED, VALIDATION_SEED, validation_particles
 from pes_ref.synthesis.stages import run_stages, set_polish
+
+polish_module = importlib.import_module("pes_ref.synthesis.polish")   # the module: the package's `polish` is the function
 
 #: A small oscillator on which a polish generation takes a fraction of a second.
 SMALL = dict(grid0=8, grid1=8, eval_periods=4)
@@ -111,10 +114,64 @@ def test_polish_stops_when_asked_and_differential_evolution_runs():
     assert out.shape == values.shape
 
 
+def test_validation_particles_are_shaped_like_the_held_out_sets():
+    problem = synthesis.OscillatorProblem()
+    p = validation_particles(problem, np.random.default_rng([0, VALIDATION_SEED]), 30)
+    sweep, rest = slice(0, 20), slice(20, 30)
+    np.testing.assert_array_equal(p.x0[sweep, 1], 0.0)                          # like the torque sweep
+    assert np.all(np.abs(p.x0[sweep, 0] - 1.2) < 0.3)
+    np.testing.assert_array_equal(np.floor((p.torques[sweep] - 0.5) / 0.5 * 20), np.arange(20))
+    assert np.all(np.abs(p.x0[rest, 0]) <= 1.5) and np.all((p.x0[rest, 1] >= 0) & (p.x0[rest, 1] < 2 * np.pi))
+    assert np.abs(p.x0[rest, 0]).max() > 0.5                                     # anywhere, not near the centre
+    np.testing.assert_array_equal(p.torques[rest], 1.0)                           # the grid's torque
+    training = polish_particles(problem, np.random.default_rng([0, PARTICLE_SEED]), 30)
+    assert not np.isin(p.x0[:, 0], training.x0[:, 0]).any()                       # drawn afresh
+
+
+def test_polish_stops_once_the_validation_share_reaches_the_target(monkeypatch):
+    problem = synthesis.OscillatorProblem(**SMALL)
+    values = synthesis.escapement_values(problem)
+    plan = dataclasses.replace(TINY_POLISH, evaluations=57, validation_particles=5, validate_every=2,
+                               validation_target=0.9)
+    seen, shares = [], iter([0.5, 0.95, 1.0])
+
+    def share(problem_, grid, particles, periods, backend):
+        seen.append(particles)
+        return next(shares)
+
+    monkeypatch.setattr(polish_module, "captured_share", share)
+    out, info = polish(problem, values, 3, plan)
+    # judged after generations 2 and 4; the second reaches 0.9, so the search ends there
+    assert info.reached and not info.stopped and info.evaluations == 1 + 4 * 8
+    assert [e for e, _ in info.validation] == [17, 33] and [v for _, v in info.validation] == [0.5, 0.95]
+    expected = validation_particles(problem, np.random.default_rng([3, VALIDATION_SEED]), 5)
+    np.testing.assert_array_equal(seen[0].x0, expected.x0)
+    np.testing.assert_array_equal(seen[0].torques, expected.torques)
+    # the validation only says when to stop: the search to that point is the search without it
+    unvalidated, plain = polish(problem, values, 3, dataclasses.replace(plan, evaluations=33, validation_particles=0))
+    np.testing.assert_array_equal(out, unvalidated)
+    assert plain.history == info.history and plain.validation == [] and not plain.reached
+    # without a target the search runs its whole budget, validating as it goes
+    shares = iter([0.5, 0.95, 1.0] + [1.0] * 10)
+    _, full = polish(problem, values, 3, dataclasses.replace(plan, validation_target=None))
+    assert full.evaluations == 57 and not full.reached and len(full.validation) >= 3
+
+
+def test_the_validation_share_is_the_capture_test_on_the_validation_particles():
+    problem = synthesis.OscillatorProblem()
+    p = validation_particles(problem, np.random.default_rng(5), 6)
+    escapement = synthesis.escapement_values(problem)
+    assert polish_module.captured_share(problem, problem.flat_values(), p) == 0.0
+    share = polish_module.captured_share(problem, escapement, p)
+    assert share > 0.3 and share * 6 == pytest.approx(round(share * 6))          # whole particles
+
+
 @pytest.mark.parametrize("bad, word", [
     (dict(method="nelder-mead"), "method"), (dict(evaluations=0), "evaluations"), (dict(sigma0=0.0), "sigma0"),
     (dict(rest_share=1.5), "rest_share"), (dict(periods=-1.0), "periods"), (dict(popsize=2.5), "popsize"),
     (dict(strictness=0.0), "strictness"), (dict(rest_max_share=-0.5), "rest_max_share"),
+    (dict(validation_particles=-1), "validation_particles"), (dict(validate_every=0), "validate_every"),
+    (dict(validation_target=1.5), "validation_target"),
 ])
 def test_bad_polish_plans_are_refused(bad, word):
     with pytest.raises((ValueError, TypeError), match=word):
