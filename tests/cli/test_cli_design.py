@@ -224,8 +224,8 @@ def test_the_progress_line_shows_the_stage_and_a_change_of_stage_says_so(tmp_pat
 
 def test_the_polish_uses_both_cores_by_default_and_an_explicit_workers_wins(monkeypatch):
     from pes_ref.cli.design import DEFAULT_WORKERS, polish_workers
-    from pes_ref.sweep.options import design_inputs
-    osc, funnel = design_inputs("oscillator", {}), design_inputs("funnel", {})
+    from pes_ref.synthesis import FunnelProblem, OscillatorProblem, design_inputs
+    osc, funnel = design_inputs(OscillatorProblem(), {}), design_inputs(FunnelProblem(), {})
     monkeypatch.setattr(os, "cpu_count", lambda: 8)
     assert polish_workers(None, osc) == DEFAULT_WORKERS == 2
     assert polish_workers(None, osc, smoke=True) == 1 and polish_workers(None, funnel) == 1
