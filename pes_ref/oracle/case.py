@@ -462,7 +462,7 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
                                                regularization_weight=vc.regularization,
                                                wrt=vc.grad_names, fext=vc.force, progress=progress, backend=backend,
                                                checked=True)       # by validate_case, once
-            e = energy(scene, traj)
+            e = energy(scene, traj, backend=backend)
     except NonFiniteError as exc:             # its message names the step and a stable value
         raise CaseError(blame, str(exc)) from None
     except FloatingPointError as exc:
