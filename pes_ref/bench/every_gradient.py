@@ -28,15 +28,12 @@ from pes_ref.bench.spec import constants, _force
 from pes_ref.core.backends import installed
 from pes_ref.oracle.case import run_case
 
-__all__ = ["case_keys", "jax_every_gradient", "measure", "format_rows", "main", "SIZES", "TARGETS"]
+__all__ = ["case_keys", "jax_every_gradient", "measure", "format_rows", "target", "main", "SIZES"]
 
 #: (N, T): the sizes of issue 33's table; N = 65,536 at T = 100 (as the scaling section's
 #: largest run), so that the oracle's arrays fit in memory.
 SIZES = ((64, 400), (4096, 400), (65536, 100))
 
-#: Issue 33's targets, ratio to JAX: compiled <= 0.5 at N = 64 and < 1 from N = 4096 on;
-#: NumPy < 1 from N = 4096 on.
-TARGETS = {"numba": {64: "<= 0.5", 4096: "< 1", 65536: "< 1"}, "numpy": {4096: "< 1", 65536: "< 1"}}
 
 #: The gradients a funnel case owes (dynamic, no spring), in the order JAX differentiates them.
 GRADS = ("values", "x0", "v0", "force", "mass", "damping")
@@ -108,17 +105,21 @@ def _check(want: dict, got: dict) -> str | None:
     return None if worst is None else f"grad_{worst[0]} differs from the oracle's by {worst[1]:.2e} of its largest entry"
 
 
-def measure(sizes=SIZES, rounds: int = 7, backends=None, seed: int = 0, log=None) -> list:
+def measure(sizes=SIZES, rounds: int = 7, backends=None, seed: int = 0, log=None, grid: int = 200,
+            jax: bool = True) -> list:
     """Per (N, T): the median wall seconds of ``run_case`` on each backend and of JAX, timed in
-    turns (one of each per round, after a warm-up of each), and the ratios. Rows are dicts."""
+    turns (one of each per round, after a warm-up of each), and the ratios. Rows are dicts;
+    ``jax=False`` leaves JAX out (not imported)."""
     backends = [b for b in (backends or ("numpy", "numba")) if installed(b)]
     rows = []
     for n, t in sizes:
-        c = funnel_case(n_particles=n, n_steps=t, seed=seed)
+        c = funnel_case(n_particles=n, n_steps=t, grid=grid, seed=seed)
         case = case_keys(c)
         runs = {b: (lambda b=b: run_case(case, backend=b)) for b in backends}
-        row = dict(n=n, t=t, rounds=rounds, seconds={}, ratio={}, jax=None, skipped=None)
-        if with_jax.available():
+        row = dict(n=n, t=t, grid=grid, rounds=rounds, seconds={}, ratio={}, skipped=None)
+        if not jax:
+            row["skipped"] = "JAX not run (--no-autodiff)"
+        elif with_jax.available():
             jrun = jax_every_gradient(c)
             t0 = time.perf_counter()
             jrun()
@@ -148,21 +149,32 @@ def measure(sizes=SIZES, rounds: int = 7, backends=None, seed: int = 0, log=None
     return rows
 
 
+def target(backend: str, n: int):
+    """``(limit, strict)`` of issue 33 for this backend at N particles, or None."""
+    if backend == "numba" and n == 64:
+        return 0.5, False
+    if n >= 4096 and backend in ("numba", "numpy"):
+        return 1.0, True
+    return None
+
+
 def _verdict(backend: str, n: int, ratio: float) -> str:
     """" (<= 0.5: met)" or the like where issue 33 sets a target for this backend and N."""
-    if backend == "numba" and n == 64:
-        limit, strict = 0.5, False
-    elif n >= 4096 and backend in ("numba", "numpy"):
-        limit, strict = 1.0, True
-    else:
+    goal = target(backend, n)
+    if goal is None:
         return ""
+    limit, strict = goal
     ok = ratio < limit if strict else ratio <= limit
     return f" ({'<' if strict else '<='} {limit:g}: {'met' if ok else 'NOT met'})"
 
 
+HEADER = ("Every gradient a case owes through oracle.run_case vs JAX jit(value_and_grad) of the same inputs, "
+          "funnel (ms, median [min-max] of rounds in turns)")
+
+
 def format_rows(rows: list, header: bool = True) -> str:
     """The rows as text: N, T, each median in ms [min-max], and each backend's ratio to JAX."""
-    lines = ["every gradient through run_case vs JAX jit(value_and_grad), funnel (median ms [min-max])"] if header else []
+    lines = [HEADER] if header else []
     for r in rows:
         parts = [f"N={r['n']:>6} T={r['t']:>4}"]
         for name, s in r["seconds"].items():
