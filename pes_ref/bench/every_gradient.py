@@ -7,8 +7,10 @@ benchmark's :func:`pes_ref.bench.cases.funnel_case` as case keys, its noise real
 ``force``) against JAX's ``jit(value_and_grad)`` over the same inputs, all of them
 differentiated (:func:`jax_every_gradient`), in one process: the runs are interleaved (one
 of each per round), and the median wall time of each is reported with the ratio to JAX's.
-JAX's gradients are first checked against the oracle's (GRAD_RTOL of each gradient's
-largest entry); a mismatch is reported and not timed.
+The ratio is of the medians; beside it the median [min-max] of the ratios round by round
+(each run against JAX's of the same round, so that a drift of a shared machine's speed
+cancels). JAX's gradients are first checked against the oracle's (100 GRAD_RTOL of each
+gradient's largest entry); a mismatch is reported and not timed.
 
 Run: ``python -m pes_ref.bench.every_gradient [--sizes 64,4096,65536] [--rounds R]``; ``make
 bench`` prints the same rows (:func:`measure`, :func:`format_rows`). The targets (issue 33):
@@ -143,6 +145,10 @@ def measure(sizes=SIZES, rounds: int = 7, backends=None, seed: int = 0, log=None
         row["spread"] = {name: (min(ts), max(ts)) for name, ts in times.items()}
         if "jax" in times:
             row["ratio"] = {b: row["seconds"][b] / row["seconds"]["jax"] for b in backends}
+            # round by round (each backend's run beside JAX's of the same round): a drift of the
+            # machine's speed cancels; the median, min and max of these ratios
+            paired = {b: [tb / tj for tb, tj in zip(times[b], times["jax"])] for b in backends}
+            row["paired_ratio"] = {b: (statistics.median(r), min(r), max(r)) for b, r in paired.items()}
         rows.append(row)
         if log:
             log(format_rows([row], header=False))
@@ -182,7 +188,9 @@ def format_rows(rows: list, header: bool = True) -> str:
             parts.append(f"{name} {1e3 * s:.1f} [{1e3 * lo:.1f}-{1e3 * hi:.1f}]")
         line = " | ".join(parts)
         for b, q in r["ratio"].items():
-            line += f"\n    {b}/jax {q:.2f}x{_verdict(b, r['n'], q)}"
+            pm, plo, phi = r["paired_ratio"][b]
+            line += (f"\n    {b}/jax {q:.2f}x{_verdict(b, r['n'], q)}; round by round median {pm:.2f}x "
+                     f"[{plo:.2f}-{phi:.2f}]")
         if r["skipped"]:
             line += f"\n    skipped: {r['skipped']}"
         lines.append(line)
