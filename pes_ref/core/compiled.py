@@ -17,6 +17,13 @@ operands (IEEE double, no fused multiply-add: numba's default ``fastmath=False``
   and the mobility's is summed particle by particle (NumPy's by ``einsum``): the same sums
   in another order, within 1e-13 of their largest entry (``tests/core/test_compiled.py``).
 
+From :data:`PARALLEL_MIN` particles on, the dynamic loops and :func:`energy` run their
+particles in blocks of :data:`BLOCK` on numba's threads (``prange``; :data:`PARALLEL_KERNELS`).
+Each particle's operations are the same in the same order on any thread, so its numbers are
+its own run's, bit for bit; the grid gradient, a sum over particles, is accumulated in
+:data:`LANES` lanes of consecutive blocks, each into its own table gradient, added in lane
+order: the partition is fixed by N, so no number depends on the thread count.
+
 A population (:mod:`pes_ref.core.population`) runs with the grid offset of each particle
 added to its cell (``Field.offsets``). The bicubic grid and the GJF step are not compiled:
 :func:`pes_ref.core.backends.stepper` runs them on NumPy.
