@@ -17,6 +17,9 @@ Measures, on a 200 x 200 surface and in float64:
   each backend against HIPS autograd and JAX where installed, each checked to agree with
   pes_ref's gradient (``GRAD_RTOL``) before it is timed, JAX's compile time apart; and the
   funnel at N = 4096 and N = 65536 against JAX;
+- ``every_gradient``: every gradient a case owes (values, x0, v0, force, mass, damping) through
+  :func:`pes_ref.oracle.case.run_case` on each backend against JAX's ``jit(value_and_grad)``
+  of the same inputs, the funnel at N = 64, 4096 and 65,536 (:mod:`pes_ref.bench.every_gradient`);
 - ``runs``: the default oscillator design (``python -m pes_ref design oscillator``), whole,
   on each backend;
 - ``targets``: the targets of docs/performance.md, each with the measured number and met / not met.
@@ -73,6 +76,8 @@ class Config:
     exponent_n: int = 256
     design: dict = None                 # case name -> keyword arguments of its builder
     large: tuple = ()                   # (N, T) of the funnel gradient at scale, against JAX only
+    every_gradient: tuple = ()          # (N, T) of run_case's every gradient against JAX's
+    every_rounds: int = 7
     autodiff_repeats: int = 3
     jax_repeats: int = 10
     autodiff: bool = True               # False: report autograd and JAX as skipped without importing them
@@ -82,12 +87,12 @@ class Config:
 
 FULL = Config(design={"funnel": dict(n_particles=64, n_steps=400, grid=200),
                       "oscillator": dict(n_particles=64, n_steps=500, grid=(32, 32))},
-              large=((4096, 400), (65536, 100)), runs={})
+              large=((4096, 400), (65536, 100)), every_gradient=((64, 400), (4096, 400), (65536, 100)), runs={})
 QUICK = Config(grid=12, sizes=(1, 4), particle_steps=40, min_steps=5, max_steps=10, repeats=1,
                memory_case=(64, 10), effects_case=(4, 6), exponent_sizes=(1, 4), exponent_steps=(5, 10),
                exponent_n=4, design={"funnel": dict(n_particles=3, n_steps=6, grid=10),
                                      "oscillator": dict(n_particles=3, n_steps=6, grid=(6, 6))},
-               large=((8, 6),), autodiff_repeats=1, jax_repeats=1,
+               large=((8, 6),), every_gradient=((4, 6),), every_rounds=1, autodiff_repeats=1, jax_repeats=1,
                runs=dict(grid0=8, grid1=8, n_steps=60, eval_periods=4, plan=Plan(iterations=6, n_particles=4),
                          polish=PolishPlan(evaluations=20, n_particles=6, popsize=8)))
 
@@ -469,6 +474,14 @@ def design(cfg: Config, log=print) -> list:
     return rows
 
 
+def every_gradient(cfg: Config, log=print) -> list:
+    """Every gradient a case owes through ``run_case``, each backend against JAX (issue 33)."""
+    from pes_ref.bench import every_gradient as every
+    grid = cfg.design["funnel"].get("grid", cfg.grid)
+    return every.measure(cfg.every_gradient, rounds=cfg.every_rounds, backends=installed_backends(),
+                         grid=grid, jax=cfg.autodiff, log=lambda line: log("  " + line.replace("\n", "\n  ")))
+
+
 def runs(cfg: Config, log=print) -> list:
     """The oscillator design made by ``new_design("oscillator", seed=0, **cfg.runs)`` (``{}``:
     the default of ``python -m pes_ref design oscillator``, gradient stage then polish),
@@ -532,6 +545,16 @@ def _compiled_targets(res: dict, add) -> None:
         cyl = {r["effect"]: r["forward"]["min"] for r in rows if r["backend"] == backend}
         v = cyl["cylinder: spring k = (1, 0)"] / cyl["cylinder: spring k = (1, 1)"]
         add(f"{backend}: cylinder spring k = (1, 0) / (1, 1)", v, f"<= {ZERO_AXIS_TARGET:g}", v <= ZERO_AXIS_TARGET)
+    from pes_ref.bench.every_gradient import target
+    for row in res.get("every_gradient", []):
+        for backend in row["seconds"]:
+            goal = target(backend, row["n"])
+            if goal is None:
+                continue
+            limit, strict = goal
+            v = row["ratio"].get(backend)
+            add(f"every gradient, run_case N = {row['n']}: {backend} / JAX", v, f"{'<' if strict else '<='} {limit:g}",
+                None if v is None else (v < limit if strict else v <= limit))
     extra = sum(max(0, len(r["arrays"]) - r["needed"]) for r in res["memory"]["zero_filled"])
     add("trajectory-sized arrays filled, not needed", extra, "0", extra == 0)
 
@@ -613,6 +636,8 @@ def run(cfg: Config = FULL, log=print) -> dict:
     res["exponents"] = exponents(cfg, log)
     log("design gradients ...")
     res["design"] = design(cfg, log)
+    log("every gradient through run_case ...")
+    res["every_gradient"] = every_gradient(cfg, log)
     log("design runs ...")
     res["runs"] = runs(cfg, log)
     res["targets"] = targets(res)
@@ -694,6 +719,9 @@ def format_report(res: dict) -> str:
             L.append(f"    {lib:8s} {_fmt_t(d['steady'], 1e3)}  (rel. err {d['relative_error']:.1e}{extra})")
         if "autograd_over_pes_ref" in r:
             L.append(f"    autograd / numpy = {r['autograd_over_pes_ref']:.1f}")
+    if res.get("every_gradient"):
+        from pes_ref.bench.every_gradient import format_rows
+        L += ["", format_rows(res["every_gradient"])]
     if res.get("runs"):
         L += ["", "Design runs: the oscillator design, gradient stage then polish"
                   + (f" (options {res['runs'][0]['options']})" if res["runs"][0]["options"] else " (the default)")]

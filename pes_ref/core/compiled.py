@@ -17,6 +17,13 @@ operands (IEEE double, no fused multiply-add: numba's default ``fastmath=False``
   and the mobility's is summed particle by particle (NumPy's by ``einsum``): the same sums
   in another order, within 1e-13 of their largest entry (``tests/core/test_compiled.py``).
 
+From :data:`PARALLEL_MIN` particles on, the dynamic loops and :func:`energy` run their
+particles in blocks of :data:`BLOCK` on numba's threads (``prange``; :data:`PARALLEL_KERNELS`).
+Each particle's operations are the same in the same order on any thread, so its numbers are
+its own run's, bit for bit; the grid gradient, a sum over particles, is accumulated in
+:data:`LANES` lanes of consecutive blocks, each into its own table gradient, added in lane
+order: the partition is fixed by N, so no number depends on the thread count.
+
 A population (:mod:`pes_ref.core.population`) runs with the grid offset of each particle
 added to its cell (``Field.offsets``). The bicubic grid and the GJF step are not compiled:
 :func:`pes_ref.core.backends.stepper` runs them on NumPy.
@@ -35,7 +42,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, finish_quasistatic_adjoint,
                                      quasistatic_velocities, reports_nonfinite, step_coefficients, trajectory_arrays)
@@ -276,15 +283,21 @@ def table_grad_to_values(gtab: np.ndarray, h, shape: tuple) -> np.ndarray:
     return out.reshape(-1)
 
 
-def _make_kernels(wraps: bool) -> SimpleNamespace:
+def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
     """The compiled loops, with ``wraps`` a compile-time constant: True where a spring's
     minimum image is computed (a periodic axis where it pulls, or its gradient wanted). A
     loop whose body holds the ``fmod`` call of the image runs ~30% slower even where it is
-    never taken, so the loops without one are compiled without it (numba caches both)."""
+    never taken, so the loops without one are compiled without it (numba caches both).
+
+    ``parallel``: the dynamic loops run their particle blocks (forward) and lanes (adjoint)
+    on numba's threads (``prange``); each particle's operations are the same in the same
+    order, so its numbers are its own run's, bit for bit."""
+    loop = prange if parallel else range
+    jit = dict(_JIT, parallel=parallel)
 
     # ======================================================================= dynamic mode
 
-    @njit(**_JIT)
+    @njit(**jit)
     def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls):
         """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_dynamic`, and
         from ``start = 0`` the initial force ``F_0 = F(X_0) + F_ext[0]`` first (as a step -1
@@ -295,7 +308,7 @@ def _make_kernels(wraps: bool) -> SimpleNamespace:
         g, per0, per1, clips, table, offsets = grid
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
-        for b in range(blocks.size - 1):
+        for b in loop(blocks.size - 1):
             for n in range(start - 1 if start == 0 else start, stop):
                 for i in range(blocks[b], blocks[b + 1]):
                     if n >= 0:
@@ -330,73 +343,78 @@ def _make_kernels(wraps: bool) -> SimpleNamespace:
                     v[n + 1, i, 1] = w1
 
 
-    @njit(**_JIT)
+    @njit(**jit)
     def _dynamic_adjoint_steps(x, v, f, gx, has_gx, gv, has_gv, start, stop, a, inv_1pc, minus_c, damped, dt,
                                xbar, vbar, fbar, want_abar, abar, want_cbar, cbar, want_force, gforce,
-                               grid, cross, gtab, want_values, spring, want_k, gk, want_c, gc, walls):
+                               lanes, blocks, grid, cross, gtabs, want_values, spring, want_k, gk, want_c, gc, walls):
         """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_dynamic`,
         (B4)-(B1) and the objective's direct terms, per particle; down to ``start = 0``, then
-        (B0), the adjoint of the initial force (as a step -1 that is only (B3))."""
+        (B0), the adjoint of the initial force (as a step -1 that is only (B3)). The particles
+        in ``lanes`` of ``blocks`` (lane ``l``: blocks ``lanes[l] .. lanes[l+1] - 1``), each lane
+        with its own table gradient ``gtabs[l]`` (the caller sums them in lane order)."""
         g, per0, per1, clips, _, offsets = grid
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
-        for n in range(stop - 1, start - 2 if start == 0 else start - 1, -1):
-            for i in range(x.shape[1]):
-                xb0, xb1 = xbar[i, 0], xbar[i, 1]
-                vb0, vb1 = vbar[i, 0], vbar[i, 1]
-                if n >= 0:
-                    # (B4) kick^T: P^ = V^_{n+1} / (1 + c); V^_n = -c P^; F^_{n+1} += a P^; a^, c^
-                    if damped:
-                        pb0 = vb0 * inv_1pc[i, 0]
-                        pb1 = vb1 * inv_1pc[i, 1]
-                        vp0 = minus_c[i, 0] * pb0
-                        vp1 = minus_c[i, 1] * pb1
-                    else:
-                        pb0, pb1 = vb0, vb1
-                        vp0 = vp1 = 0.0
-                    fb0 = fbar[i, 0] + a[i, 0] * pb0
-                    fb1 = fbar[i, 1] + a[i, 1] * pb1
-                    if want_abar:
-                        abar[i, 0] = abar[i, 0] + f[n + 1, i, 0] * pb0
-                        abar[i, 1] = abar[i, 1] + f[n + 1, i, 1] * pb1
-                    if want_cbar:
-                        cbar[i, 0] = cbar[i, 0] - (v[n, i, 0] + v[n + 1, i, 0]) * pb0
-                        cbar[i, 1] = cbar[i, 1] - (v[n, i, 1] + v[n + 1, i, 1]) * pb1
-                else:                       # (B0) is (B3) at X_0 with F^_0 = a P^ of step 0's (B1)
-                    fb0, fb1 = fbar[i, 0], fbar[i, 1]
-                    pb0 = pb1 = vp0 = vp1 = 0.0
-                # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}
-                if want_force:
-                    gforce[n + 1, i, 0] = fb0
-                    gforce[n + 1, i, 1] = fb1
-                xb0, xb1 = _vjp(x[n + 1, i, 0], x[n + 1, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, cross,
-                                offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk,
-                                want_c, gc, walls)
-                if n < 0:
-                    xbar[i, 0], xbar[i, 1] = xb0, xb1
-                    continue
-                # (B2) drift^T: P^ += dt X^_{n+1} (as P^ + X^ dt)
-                pb0 = pb0 + xb0 * dt
-                pb1 = pb1 + xb1 * dt
-                # (B1) half_kick^T: V^_n += P^; F^_n = a P^; a^ += F_n P^
-                if damped:
-                    vb0 = vp0 + pb0
-                    vb1 = vp1 + pb1
-                else:
-                    vb0, vb1 = pb0, pb1
-                fbar[i, 0] = a[i, 0] * pb0
-                fbar[i, 1] = a[i, 1] * pb1
-                if want_abar:
-                    abar[i, 0] = abar[i, 0] + f[n, i, 0] * pb0
-                    abar[i, 1] = abar[i, 1] + f[n, i, 1] * pb1
-                if has_gx:
-                    xb0 = xb0 + gx[n, i, 0]
-                    xb1 = xb1 + gx[n, i, 1]
-                if has_gv:
-                    vb0 = vb0 + gv[n, i, 0]
-                    vb1 = vb1 + gv[n, i, 1]
-                xbar[i, 0], xbar[i, 1] = xb0, xb1
-                vbar[i, 0], vbar[i, 1] = vb0, vb1
+        for lane in loop(lanes.size - 1):
+            gtab = gtabs[lane]
+            for blk in range(lanes[lane], lanes[lane + 1]):
+                for n in range(stop - 1, start - 2 if start == 0 else start - 1, -1):
+                    for i in range(blocks[blk], blocks[blk + 1]):
+                        xb0, xb1 = xbar[i, 0], xbar[i, 1]
+                        vb0, vb1 = vbar[i, 0], vbar[i, 1]
+                        if n >= 0:
+                            # (B4) kick^T: P^ = V^_{n+1} / (1 + c); V^_n = -c P^; F^_{n+1} += a P^; a^, c^
+                            if damped:
+                                pb0 = vb0 * inv_1pc[i, 0]
+                                pb1 = vb1 * inv_1pc[i, 1]
+                                vp0 = minus_c[i, 0] * pb0
+                                vp1 = minus_c[i, 1] * pb1
+                            else:
+                                pb0, pb1 = vb0, vb1
+                                vp0 = vp1 = 0.0
+                            fb0 = fbar[i, 0] + a[i, 0] * pb0
+                            fb1 = fbar[i, 1] + a[i, 1] * pb1
+                            if want_abar:
+                                abar[i, 0] = abar[i, 0] + f[n + 1, i, 0] * pb0
+                                abar[i, 1] = abar[i, 1] + f[n + 1, i, 1] * pb1
+                            if want_cbar:
+                                cbar[i, 0] = cbar[i, 0] - (v[n, i, 0] + v[n + 1, i, 0]) * pb0
+                                cbar[i, 1] = cbar[i, 1] - (v[n, i, 1] + v[n + 1, i, 1]) * pb1
+                        else:                       # (B0) is (B3) at X_0 with F^_0 = a P^ of step 0's (B1)
+                            fb0, fb1 = fbar[i, 0], fbar[i, 1]
+                            pb0 = pb1 = vp0 = vp1 = 0.0
+                        # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}
+                        if want_force:
+                            gforce[n + 1, i, 0] = fb0
+                            gforce[n + 1, i, 1] = fb1
+                        xb0, xb1 = _vjp(x[n + 1, i, 0], x[n + 1, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, cross,
+                                        offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk,
+                                        want_c, gc, walls)
+                        if n < 0:
+                            xbar[i, 0], xbar[i, 1] = xb0, xb1
+                            continue
+                        # (B2) drift^T: P^ += dt X^_{n+1} (as P^ + X^ dt)
+                        pb0 = pb0 + xb0 * dt
+                        pb1 = pb1 + xb1 * dt
+                        # (B1) half_kick^T: V^_n += P^; F^_n = a P^; a^ += F_n P^
+                        if damped:
+                            vb0 = vp0 + pb0
+                            vb1 = vp1 + pb1
+                        else:
+                            vb0, vb1 = pb0, pb1
+                        fbar[i, 0] = a[i, 0] * pb0
+                        fbar[i, 1] = a[i, 1] * pb1
+                        if want_abar:
+                            abar[i, 0] = abar[i, 0] + f[n, i, 0] * pb0
+                            abar[i, 1] = abar[i, 1] + f[n, i, 1] * pb1
+                        if has_gx:
+                            xb0 = xb0 + gx[n, i, 0]
+                            xb1 = xb1 + gx[n, i, 1]
+                        if has_gv:
+                            vb0 = vb0 + gv[n, i, 0]
+                            vb1 = vb1 + gv[n, i, 1]
+                        xbar[i, 0], xbar[i, 1] = xb0, xb1
+                        vbar[i, 0], vbar[i, 1] = vb0, vb1
 
 
     # ======================================================================= quasistatic mode
@@ -462,12 +480,147 @@ def _make_kernels(wraps: bool) -> SimpleNamespace:
 
 #: The compiled loops without a spring's minimum image (False) and with it (True).
 KERNELS = {wraps: _make_kernels(wraps) for wraps in (False, True)}
+#: The same on numba's threads (the dynamic loops; the quasistatic ones as in :data:`KERNELS`).
+PARALLEL_KERNELS = {wraps: _make_kernels(wraps, parallel=True) for wraps in (False, True)}
+
+
+# =========================================================================== the energy of a trajectory
+
+def _make_energy(parallel: bool):
+    """The energy kernel of :func:`energy`; ``parallel``: its particle blocks run on numba's
+    threads (each entry is one particle-state's own arithmetic: no number depends on them)."""
+    loop = prange if parallel else range
+
+    @njit(parallel=parallel, **_JIT)
+    def _energy(x, v, m, blocks, g, per0, per1, clips, values, son, sk, sc, swrap0, swrap1, shalf, slen,
+                won, hwk, wlo, whi, out):
+        """``out[n, i]``: :func:`pes_ref.core.scene.energy`'s operations in its order, per
+        particle-state: the bilinear energy of :func:`pes_ref.core.bilinear.grid_energy` at the
+        cell and fractions of :func:`pes_ref.core.grid.locate`, plus the spring's
+        ``0.5 (k0 d0 d0 + k1 d1 d1)`` (the minimum image on every periodic axis, as
+        :func:`pes_ref.core.terms.spring_delta`), plus the walls' ``(0.5 k) (b0 b0 + a0 a0 +
+        (b1 b1 + a1 a1))``, plus ``0.5 (m0 v0 v0 + m1 v1 v1)``."""
+        n1 = values.shape[1]
+        n0 = values.shape[0]
+        for b in loop(blocks.size - 1):
+            for n in range(x.shape[0]):
+                for i in range(blocks[b], blocks[b + 1]):
+                    q0 = x[n, i, 0]
+                    q1 = x[n, i, 1]
+                    cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
+                    i0 = cell // n1
+                    j0 = cell - i0 * n1
+                    i1 = i0 + 1
+                    j1 = j0 + 1
+                    if per0 and i1 == n0:
+                        i1 = 0
+                    if per1 and j1 == n1:
+                        j1 = 0
+                    if i1 >= n0:                 # a non-finite point (cell 0 of a 1-node axis never occurs)
+                        i1 = n0 - 1
+                    if j1 >= n1:
+                        j1 = n1 - 1
+                    u = ((1 - f0) * (1 - f1) * values[i0, j0] + f0 * (1 - f1) * values[i1, j0]
+                         + (1 - f0) * f1 * values[i0, j1] + f0 * f1 * values[i1, j1])
+                    if son:
+                        d0 = q0 - sc[i, 0]
+                        d1 = q1 - sc[i, 1]
+                        if swrap0:
+                            d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
+                        if swrap1:
+                            d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
+                        u = u + 0.5 * (sk[i, 0] * d0 * d0 + sk[i, 1] * d1 * d1)
+                    if won:
+                        b0 = wlo[i, 0] - q0
+                        b0 = b0 if (b0 != b0 or b0 > 0.0) else 0.0
+                        a0 = q0 - whi[i, 0]
+                        a0 = a0 if (a0 != a0 or a0 > 0.0) else 0.0
+                        b1 = wlo[i, 1] - q1
+                        b1 = b1 if (b1 != b1 or b1 > 0.0) else 0.0
+                        a1 = q1 - whi[i, 1]
+                        a1 = a1 if (a1 != a1 or a1 > 0.0) else 0.0
+                        u = u + hwk[i] * ((b0 * b0 + a0 * a0) + (b1 * b1 + a1 * a1))
+                    w0 = v[n, i, 0]
+                    w1 = v[n, i, 1]
+                    out[n, i] = u + 0.5 * (m[i, 0] * w0 * w0 + m[i, 1] * w1 * w1)
+
+    return _energy
+
+
+#: The energy kernel, serial (False) and on numba's threads (True).
+ENERGY = {parallel: _make_energy(parallel) for parallel in (False, True)}
+
+
+def energy(field, x: np.ndarray, v: np.ndarray, mass) -> np.ndarray:
+    """Total energy per state and particle, (T+1, N): :func:`pes_ref.core.scene.energy`'s
+    numbers bit for bit (bilinear grid, one grid), compiled; the particles in blocks of
+    :data:`BLOCK` on numba's threads from :data:`PARALLEL_MIN` particles on."""
+    x, v = _kernel_array(x), _kernel_array(v)
+    T1, N = x.shape[0], x.shape[1]
+    grid = _grid(field, N, _NONE2)
+    g, per0, per1, clips = grid[:4]
+    if field.spring is not None:
+        wrap = [bool(p) for p in field.periodic]
+        length = np.asarray(field.length, dtype=np.float64)
+        spring = (True, _as(field.spring[0], N), _as(field.spring[1], N), wrap[0], wrap[1], 0.5 * length, length.copy())
+    else:
+        spring = _spring(field, N, False, ())
+    if field.walls is not None:
+        k, lo, hi = field.walls
+        walls = (True, np.ascontiguousarray(np.broadcast_to(0.5 * np.asarray(k, dtype=np.float64), (N, 1))[:, 0]),
+                 _as(lo, N), _as(hi, N))
+    else:
+        walls = (False, np.zeros(1), _NONE2, _NONE2)
+    out = np.empty((T1, N))
+    parallel = N >= PARALLEL_MIN
+    ENERGY[parallel](x, v, _as(mass, N), particle_blocks(N) if parallel else np.array([0, N], dtype=np.intp),
+                     g, per0, per1, clips, _kernel_array(field.values), *spring, *walls, out)
+    return out
 
 
 # =========================================================================== the kernels' arguments
 
 _NONE2 = np.zeros((1, 2))
 _NONE3 = np.zeros((1, 1, 2))
+
+#: From this many particles on, the loops run their particles in blocks on numba's threads
+#: (both cores); below it, one block on one thread (a thread pool's start costs more there).
+PARALLEL_MIN = 1024
+#: Particles per block of a threaded loop: a fixed number, so the blocks, and every sum over
+#: them (the grid's and the mobility's gradients), never depend on how many threads run them.
+BLOCK = 256
+
+
+#: Lanes of a threaded adjoint: each sums its own copy of the grid's table gradient (the
+#: copies are added in lane order at the end), so there are few, and as many whatever the
+#: threads.
+LANES = 4
+
+
+def particle_blocks(n: int, width: int | None = None) -> np.ndarray:
+    """The starts of ``n`` particles' blocks of ``width`` (:data:`BLOCK`) and ``n`` last (intp)."""
+    return np.append(np.arange(0, n, width or BLOCK), n).astype(np.intp)
+
+
+def lanes_of(n: int) -> tuple:
+    """``(lanes, blocks)`` of a threaded adjoint of ``n`` particles: the blocks of
+    :func:`particle_blocks` and :data:`LANES` runs of consecutive blocks (fewer if there are
+    fewer blocks), ``lanes[l] .. lanes[l+1] - 1``."""
+    blocks = particle_blocks(n)
+    nb = blocks.size - 1
+    k = min(LANES, nb)
+    return np.array([(l * nb) // k for l in range(k + 1)], dtype=np.intp), blocks
+
+
+def parallel_blocks(field, n: int) -> np.ndarray:
+    """The particle blocks of a threaded forward loop: each of :func:`_blocks`' cut into
+    pieces of at most :data:`BLOCK` particles."""
+    out = [0]
+    bounds = _blocks(field, n)
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        out.extend(range(int(a) + BLOCK, int(b), BLOCK))
+        out.append(int(b))
+    return np.array(out, dtype=np.intp)
 
 
 def _as(a, n: int) -> np.ndarray:
@@ -540,37 +693,51 @@ def _forward_terms(field, n: int):
 
 class _Adjoint:
     """The force's adjoint over stored states: the compiled kernels' arguments (the grid's
-    cross term and table gradient, the spring's gradients) and ``result()``, for
-    :func:`finish_dynamic_adjoint`."""
+    cross term and table gradients, the spring's gradients) and ``result()``, for
+    :func:`finish_dynamic_adjoint`. ``lanes`` particle lanes (:func:`lanes_of`), each with its
+    own table gradient, summed in lane order by ``result()``."""
 
-    def __init__(self, field, xs: np.ndarray, want: frozenset):
+    def __init__(self, field, xs: np.ndarray, want: frozenset, parallel: bool = False):
         n = xs.shape[1]
         self.field, self.xs = field, xs
         self.want_values = "values" in want
         table = cross_table(field.values, field.h)
         self.grid = _grid(field, n, np.empty((table.shape[0], 0)))      # the adjoint reads the cross term
         self.cross = _kernel_array(table)
-        self.gtab = np.zeros((table.shape[0], 4)) if self.want_values else _NONE2
+        self.lanes, self.blocks = lanes_of(n) if parallel else (np.array([0, 1], dtype=np.intp),
+                                                                 np.array([0, n], dtype=np.intp))
+        n_lanes = self.lanes.size - 1
+        self.gtabs = np.zeros((n_lanes, table.shape[0], 4)) if self.want_values else np.zeros((n_lanes, 1, 2))
+        self.gtab = self.gtabs[0] if self.want_values else _NONE2
         has_spring = field.spring is not None
         self.want_k = has_spring and "spring_k" in want
         self.want_c = has_spring and "spring_center" in want
         on = has_spring and bool(spring_axes(field.spring[0]) or self.want_k or self.want_c)
         self.spring = _spring(field, n, on, (0, 1))
-        self.kernels = KERNELS[self.want_k and _wraps(self.spring)]      # the image only for k's gradient
+        wraps = self.want_k and _wraps(self.spring)                  # the image only for k's gradient
+        self.kernels = (PARALLEL_KERNELS if parallel else KERNELS)[wraps]
         self.gk = np.zeros((n, 2)) if self.want_k else _NONE2
         self.gc = np.zeros((n, 2)) if self.want_c else _NONE2
         self.walls = _walls(field, n)
 
     def terms(self) -> tuple:
-        """The trailing arguments of the adjoint kernels."""
+        """The trailing arguments of the quasistatic adjoint kernel (one lane)."""
         return (self.grid, self.cross, self.gtab, self.want_values, self.spring, self.want_k, self.gk,
                 self.want_c, self.gc, self.walls)
+
+    def lane_terms(self) -> tuple:
+        """The trailing arguments of the dynamic adjoint kernel (its lanes)."""
+        return (self.lanes, self.blocks, self.grid, self.cross, self.gtabs, self.want_values, self.spring,
+                self.want_k, self.gk, self.want_c, self.gc, self.walls)
 
     def result(self) -> dict:
         out = {}
         if self.want_values:
+            gtab = self.gtabs[0]
+            for lane in self.gtabs[1:]:          # in lane order: the same sum whatever the threads
+                gtab = gtab + lane
             shape = self.field.values.shape
-            out["values"] = table_grad_to_values(self.gtab, self.field.h, shape[-2:])
+            out["values"] = table_grad_to_values(gtab, self.field.h, shape[-2:])
         if self.want_k:
             out["spring_k"] = self.gk
         if self.want_c:
@@ -593,7 +760,10 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
     damped = c is not None
     inv_1pc = 1.0 / (1.0 + c) if damped else _NONE2
     c = c if damped else _NONE2
-    blocks = _blocks(field, N)
+    parallel = N >= PARALLEL_MIN
+    blocks = parallel_blocks(field, N) if parallel else _blocks(field, N)
+    if parallel:
+        K = PARALLEL_KERNELS[K is KERNELS[True]]
     for start, stop in step_blocks(T, progress, "forward"):         # from step 0: F_0 first
         K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, float(dt), grid, spring,
                         walls)
@@ -609,7 +779,7 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
     the grid's summed in another order)."""
     x, v, f = (_kernel_array(a) for a in traj)
     T, N = x.shape[0] - 1, x.shape[1]
-    adj = _Adjoint(field, x, want)
+    adj = _Adjoint(field, x, want, parallel=N >= PARALLEL_MIN)
     a, c = step_coefficients(dt, mass, damping, N)
     damped = c is not None
     inv_1pc, minus_c = (1.0 / (1.0 + c), -c) if damped else (_NONE2, _NONE2)
@@ -626,7 +796,7 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
     for done, after in step_blocks(T, progress, "adjoint"):
         adj.kernels.dynamic_adjoint_steps(x, v, f, gx_, has_gx, gv_, has_gv, T - after, T - done, a, inv_1pc, minus_c,
                                           damped, float(dt), xbar, vbar, fbar, want_abar, _or(abar), want_cbar,
-                                          _or(cbar), gforce is not None, _or3(gforce), *adj.terms())
+                                          _or(cbar), gforce is not None, _or3(gforce), *adj.lane_terms())
     return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c if damped else None, mass,
                                   want_damping, initial_force=False)      # (B0) was the loop's last
 

@@ -26,11 +26,12 @@ from pes_ref.core import backends, budget, checks
 from pes_ref.core import stability
 from pes_ref.core.effects import all_zero, build_schedule, step_times
 from pes_ref.core.forces import Field, potential_energy
+from pes_ref.core.grid import Locator
 from pes_ref.core.integrator import NonFiniteError, Trajectory
 from pes_ref.core.objectives import regularization
 from pes_ref.core.steppers import INTEGRATORS, MODES, STEPPERS, StepParams, mode_gradients, modes_of
 from pes_ref.core.surface import Surface
-from pes_ref.core.terms import Spring, Walls, wall_bounds
+from pes_ref.core.terms import Spring, Walls, spring_energy, wall_bounds
 
 __all__ = ["Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES", "gradient_names"]
 
@@ -322,21 +323,130 @@ def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy") 
     return _stepper(scene, backend).simulate(scene.field(), x0, v0, fext, _step_params(scene, progress))
 
 
-def energy(scene: Scene, traj: Trajectory) -> np.ndarray:
+#: Particle-states per chunk of :func:`energy` on NumPy: its ~20 temporaries then stay in cache
+#: (the whole trajectory at once costs a pass over memory for each of them).
+ENERGY_CHUNK = 1 << 14
+
+
+def energy(scene: Scene, traj: Trajectory, backend: str = "numpy") -> np.ndarray:
     """Total energy per state and particle, shape (T+1, N) (docs/spec.md section 3.4).
 
-    Kinetic ``sum_d m_d v_d^2 / 2`` plus ``U = U_grid + U_spring + U_wall``.
+    Kinetic ``sum_d m_d v_d^2 / 2`` plus ``U = U_grid + U_spring + U_wall``. On NumPy a
+    chunk of :data:`ENERGY_CHUNK` particle-states at a time; with ``backend="numba"`` (the
+    bilinear grid) the compiled loop :func:`pes_ref.core.compiled.energy`: the same numbers
+    bit for bit.
     """
     x, v = traj.x, traj.v
     T1, N = x.shape[0], x.shape[1]
     fld = scene.field()
-    if fld.spring is not None:
-        # per-particle spring arrays (N, 2) or (N, 1) repeat over the T+1 flattened states
-        k, c = (np.broadcast_to(a, (T1, N, 2)).reshape(-1, 2) for a in fld.spring)
-        fld = fld._replace(spring=(k, c))
-    u = potential_energy(fld, x.reshape(-1, 2)).reshape(T1, N)
+    if backend == "numba" and fld.interpolation == "bilinear":
+        from pes_ref.core import compiled
+        return compiled.energy(fld, x, v, scene.mass)
+    if fld.interpolation == "bilinear" and fld.offsets is None:
+        return _bilinear_energy(fld, x, v, scene.mass)
+    out = np.empty((T1, N))
     m = np.broadcast_to(scene.mass, (N, 2))
-    return u + 0.5 * np.sum(m * v * v, axis=2)
+    step = max(1, ENERGY_CHUNK // max(N, 1))
+    spring = fld.spring
+    for t0 in range(0, T1, step):
+        t1 = min(T1, t0 + step)
+        part = fld
+        if spring is not None:
+            # per-particle spring arrays (N, 2) or (N, 1) repeat over the chunk's flattened states
+            k, c = (np.broadcast_to(a, (t1 - t0, N, 2)).reshape(-1, 2) for a in spring)
+            part = fld._replace(spring=(k, c))
+        u = potential_energy(part, x[t0:t1].reshape(-1, 2)).reshape(t1 - t0, N)
+        vv = v[t0:t1]
+        np.add(u, 0.5 * np.sum(m * vv * vv, axis=2), out=out[t0:t1])
+    return out
+
+
+def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass) -> np.ndarray:
+    """:func:`energy` on the bilinear grid, a chunk of states at a time with the hot loop's
+    lookup (:class:`pes_ref.core.grid.Locator`: the cells and fractions of
+    :func:`pes_ref.core.grid.locate`) and a per-cell table of the four corner values, column by
+    column: the operations of :func:`pes_ref.core.bilinear.grid_energy`,
+    :func:`pes_ref.core.terms.spring_energy`, :func:`pes_ref.core.terms.wall_energy` and the
+    kinetic energy in their order, so the same numbers bit for bit. (A sum over the axis of
+    length 2 is ``0 + a0 + a1``, which is ``a0 + a1`` here: every term is >= +0; a wall that is
+    absent adds +0 and is skipped.)"""
+    T1, N = x.shape[0], x.shape[1]
+    values = fld.values
+    n0, n1 = values.shape
+    corners = np.empty((n0, n1, 4))
+    nxt0 = np.concatenate((values[1:], values[:1]), axis=0)          # row i + 1 (wrapped: unused at a plane's edge)
+    corners[..., 0] = values
+    corners[..., 1] = nxt0
+    corners[..., 2] = np.concatenate((values[:, 1:], values[:, :1]), axis=1)
+    corners[..., 3] = np.concatenate((nxt0[:, 1:], nxt0[:, :1]), axis=1)
+    corners = corners.reshape(-1, 4)
+    loc = Locator(fld.lower, fld.h, (n0, n1), fld.periodic)
+    step = max(1, ENERGY_CHUNK // max(N, 1))
+    buf = loc.buffers((step * N,))
+    locate_into = loc.bind(buf)
+    cell, f = buf["cell"], buf["f"]
+    m = np.broadcast_to(np.asarray(mass, dtype=np.float64), (N, 2))
+    m0, m1 = np.ascontiguousarray(m[:, 0]), np.ascontiguousarray(m[:, 1])
+    walls = []
+    if fld.walls is not None:
+        k, lo, hi = fld.walls
+        hk = 0.5 * np.asarray(k, dtype=np.float64)
+        lo, hi = np.broadcast_to(lo, (N, 2)), np.broadcast_to(hi, (N, 2))
+        walls = [(d, lo[:, d], hi[:, d]) for d in range(2)]
+    out = np.empty((T1, N))
+    mul, add, sub = np.multiply, np.add, np.subtract
+    for t0 in range(0, T1, step):
+        t1 = min(T1, t0 + step)
+        M = (t1 - t0) * N
+        q = x[t0:t1].reshape(M, 2)
+        if M != buf["u"].shape[0]:
+            buf = Locator.head(loc.buffers((step * N,)), M)
+            locate_into = loc.bind(buf)
+            cell, f = buf["cell"], buf["f"]
+        locate_into(q)
+        g = corners.take(cell, axis=0)
+        f0, f1 = f[:, 0], f[:, 1]
+        a, b = 1 - f0, 1 - f1
+        u = a * b
+        mul(u, g[:, 0], u)
+        add(u, mul(mul(f0, b, b), g[:, 1], b), u)          # b = 1 - f1 is not needed after this
+        add(u, mul(mul(a, f1, a), g[:, 2], a), u)
+        add(u, mul(mul(f0, f1), g[:, 3]), u)
+        u = u.reshape(t1 - t0, N)
+        if fld.spring is not None:
+            part = fld._replace(spring=tuple(np.broadcast_to(s_, (t1 - t0, N, 2)).reshape(-1, 2) for s_ in fld.spring))
+            u = u + spring_energy(q, part.spring[0], part.spring[1], fld.length, fld.periodic).reshape(t1 - t0, N)
+        if fld.walls is not None:
+            qc = x[t0:t1]
+            total = None
+            for d, lo_d, hi_d in walls:
+                terms = []
+                if np.any(np.isfinite(lo_d)):
+                    below = np.maximum(sub(lo_d, qc[..., d]), 0.0)
+                    terms.append(mul(below, below, below))
+                else:
+                    terms.append(None)
+                if np.any(np.isfinite(hi_d)):
+                    above = np.maximum(sub(qc[..., d], hi_d), 0.0)
+                    terms.append(mul(above, above, above))
+                else:
+                    terms.append(None)
+                low, high = terms
+                axis = low if high is None else (high if low is None else add(low, high, low))
+                if axis is None:
+                    axis = np.zeros((t1 - t0, N))
+                total = axis if total is None else add(total, axis, total)
+            u = u + mul(hk, total, total) if np.ndim(hk) == 0 else u + hk * total
+        vc = v[t0:t1]
+        v0_, v1_ = vc[..., 0], vc[..., 1]
+        kin = mul(m0, v0_)
+        mul(kin, v0_, kin)
+        k1 = mul(m1, v1_)
+        mul(k1, v1_, k1)
+        add(kin, k1, kin)
+        mul(0.5, kin, kin)
+        add(u, kin, out[t0:t1])
+    return out
 
 
 def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: float = 0.0,

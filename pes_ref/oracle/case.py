@@ -462,7 +462,7 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
                                                regularization_weight=vc.regularization,
                                                wrt=vc.grad_names, fext=vc.force, progress=progress, backend=backend,
                                                checked=True)       # by validate_case, once
-            e = energy(scene, traj)
+            e = energy(scene, traj, backend=backend)
     except NonFiniteError as exc:             # its message names the step and a stable value
         raise CaseError(blame, str(exc)) from None
     except FloatingPointError as exc:
@@ -471,7 +471,17 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
         raise CaseError("n_steps", f"a run of n_steps={scene.n_steps} does not fit in memory") from None
     values = dict(zip(TRAJECTORY_KEYS, (traj.x, traj.v, e, np.float64(loss))))
     values.update(("grad_" + name, grads[name]) for name in vc.grad_names)
-    return {k: np.array(values[k], dtype=np.float64) for k in result_keys(vc.grad_names)}
+    return {k: _own_array(values[k]) for k in result_keys(vc.grad_names)}
+
+
+def _own_array(a) -> np.ndarray:
+    """``a`` as a float64 array of the result's own: the run's fresh arrays as they are (a copy of a
+    trajectory costs a pass over it and its page faults), anything else (a view, a read-only or
+    strided array, a scalar) copied."""
+    if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.base is None and a.flags.writeable \
+            and a.flags.c_contiguous:
+        return a
+    return np.array(a, dtype=np.float64)
 
 
 def write_result(result: Mapping, path, overwrite: bool = False, compress: bool = False) -> None:

@@ -78,6 +78,8 @@ def test_bench_quick_reports_every_backend_and_what_a_scene_does_not_name(tmp_pa
     assert all(len(r["arrays"]) == r["needed"] for r in filled)
     names = {t["target"] for t in res["targets"]}
     assert "trajectory-sized arrays filled, not needed" in names
+    every = res["every_gradient"]                     # run_case's every gradient, each backend (JAX skipped)
+    assert [r["n"] for r in every] == [4] and sorted(every[0]["seconds"]) == sorted(installed)
     assert {f"funnel gradient N = {n}: {b} / JAX steady" for n in (64, 4096, 65536) for b in installed} <= names
     printed = capsys.readouterr().out
     assert "Named with zero coefficients" in printed and "Design runs" in printed

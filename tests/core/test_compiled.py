@@ -26,6 +26,7 @@ from pes_ref.core import backends, steppers
 from pes_ref.core.checks import InputError
 from pes_ref.oracle import case as oracle
 from pes_ref.oracle.conformance import vectors_dir
+from pes_ref.oracle.from_scene import case_from_scene
 from pes_ref.testing import conformance as conf
 from pes_ref.testing import strategies as pst
 
@@ -87,6 +88,7 @@ def test_random_scenes_run_bit_identically(mode, topology, data):
     (fast, loss_f, grads_f), (ref, loss_r, grads_r) = runs["numba"], runs["numpy"]
     for name, a, b in zip("xvf", fast, ref):
         assert a.tobytes() == b.tobytes(), f"{name} differs"
+    assert pr.energy(scene, fast, backend="numba").tobytes() == pr.energy(scene, ref).tobytes(), "energy differs"
     assert loss_f == loss_r
     assert_gradients_agree(grads_f, grads_r)
 
@@ -160,8 +162,64 @@ def test_each_kernel_compiles_once_for_every_scene():
 
 
 def test_the_kernels_cache_their_machine_code_on_disk():
-    for f in (k for ns in compiled.KERNELS.values() for k in vars(ns).values()):
+    kernels = [k for table in (compiled.KERNELS, compiled.PARALLEL_KERNELS) for ns in table.values()
+               for k in vars(ns).values()]
+    for f in kernels + list(compiled.ENERGY.values()):
         assert f._cache.__class__.__name__ == "FunctionCache"
+
+
+@pytest.fixture
+def threaded(monkeypatch):
+    """The threaded loops from 1 particle on, in blocks of 2 (4 lanes of them in the adjoint)."""
+    monkeypatch.setattr(compiled, "PARALLEL_MIN", 1)
+    monkeypatch.setattr(compiled, "BLOCK", 2)
+
+
+def _oracle_scene(periodic, n: int):
+    rng = np.random.default_rng(7)
+    walls = [[not periodic[0]] * 2, [not periodic[1], False]]
+    surf = pr.Surface(rng.uniform(-0.2, 0.2, (7, 6)), (0, 0), (1, 2), periodic)
+    return pr.Scene(surf, dt=0.01, n_steps=30, mass=rng.uniform(0.5, 2.0, (n, 2)), damping=rng.uniform(0, 1, (n, 2)),
+                    spring=pr.Spring(rng.uniform(0.0, 2.0, (n, 2)), rng.uniform(0, 1, (n, 2))),
+                    walls=pr.Walls(20.0, 0.1, walls) if any(map(any, walls)) else None,
+                    effects=(pr.Constant((0.1, -0.2)), pr.Noise((0.3, 0.3), 3))), rng.uniform(0, 1, (n, 2)) * (1, 2)
+
+
+@pytest.mark.parametrize("periodic", [(False, False), (False, True), (True, True)])
+def test_a_threaded_run_gives_each_particle_its_own_run(threaded, periodic):
+    """Each particle's trajectory, energy and gradients (all but the grid's, a sum over the
+    particles) are those of its run alone, bit for bit; the grid's agrees with NumPy's."""
+    n = 9
+    scene, x0 = _oracle_scene(periodic, n)
+    v0 = np.full((n, 2), 0.1)
+    case = case_from_scene(scene, x0, v0, pr.Funnel(target=0.5, when="every_step"))
+    whole = oracle.run_case(case, backend="numba")
+    assert_gradients_agree({"grad_values": whole["grad_values"]},
+                           {"grad_values": oracle.run_case(case, backend="numpy")["grad_values"]})
+    per_particle = [k for k in whole if k not in ("loss", "grad_values")]
+    for i in (0, 4, 8):
+        own = dict(case)
+        for key in ("x0", "v0", "mass", "damping", "spring_k", "spring_center"):
+            own[key] = np.asarray(case[key])[i:i + 1]
+        own["force"] = np.asarray(case["force"])[:, i:i + 1]
+        alone = oracle.run_case(own, backend="numba")
+        for key in per_particle:
+            part = whole[key][:, i:i + 1] if whole[key].ndim == 3 or key == "energy" else whole[key][i:i + 1]
+            assert part.tobytes() == alone[key].tobytes(), (i, key)
+
+
+def test_a_threaded_run_does_not_depend_on_the_thread_count(threaded):
+    scene, x0 = _oracle_scene((False, True), 9)
+    case = case_from_scene(scene, x0, np.zeros((9, 2)), pr.Funnel(target=0.5, when="every_step"))
+    runs = []
+    for threads in (1, numba.config.NUMBA_NUM_THREADS):
+        previous = numba.get_num_threads()
+        numba.set_num_threads(threads)
+        try:
+            runs.append(oracle.run_case(case, backend="numba"))
+        finally:
+            numba.set_num_threads(previous)
+    assert all(runs[0][k].tobytes() == runs[1][k].tobytes() for k in runs[0])
 
 
 def test_the_default_is_the_first_installed_backend(monkeypatch):
