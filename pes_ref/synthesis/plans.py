@@ -118,8 +118,7 @@ class Plan:
         checks.as_positive_int("smoothing_draws", self.smoothing_draws)
         if self.smoothing and self.smoothing_draws > self.n_particles:
             raise checks.InputError("smoothing_draws", f"smoothing_draws = {self.smoothing_draws} is more than the "
-                                                       f"n_particles = {self.n_particles} shared among them",
-                                    names=("smoothing_draws", "n_particles"))
+                                                       f"{self.n_particles} particles per iteration shared among them")
         stages = tuple(tuple(int(x) for x in st) + (0,) * (3 - len(st)) for st in self.stages)
         if any(len(st) != 3 or min(st) < 0 for st in stages):
             raise checks.InputError("stages", f"stages must be (start_iteration, grid[, n_steps]) tuples >= 0, "

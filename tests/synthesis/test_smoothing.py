@@ -80,6 +80,19 @@ def test_bad_smoothing_is_refused_naming_the_key(kw, key):
     assert err.value.key == key
 
 
+@pytest.mark.parametrize("train, message", [
+    ("smoothing = -1", "train.smoothing: expected a number >= 0, got -1"),
+    ("smoothing = 0.01\nsmoothing_draws = 0", "train.smoothing_draws: expected an integer >= 1, got 0"),
+    ("smoothing = 0.01\nsmoothing_draws = 50", "train.smoothing_draws: smoothing_draws = 50 is more than the 6 "
+                                              "particles per iteration"),
+    ("smoothin = 0.01", "train.smoothin: unknown key"),
+])
+def test_a_bad_smoothing_key_in_a_file_is_one_line_naming_it(train, message):
+    with pytest.raises(synthesis.ProblemFileError) as err:
+        problem_from_text(_helpers.gather_problem().replace("[train]", f"[train]\n{train}"), "bad.toml")
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
 def test_train_states_smoothing_and_the_default_plan_does_not_smooth():
     assert synthesis.default_plan((40, 40)).smoothing == 0.0
     stated = problem_from_text(_helpers.gather_problem().replace("[train]", "[train]\nsmoothing = 0.01\n"
