@@ -253,8 +253,9 @@ class GridSpring:
         object.__setattr__(self, "center", checks.as_finite_float("center", self.center))
         object.__setattr__(self, "side", checks.as_choice("side", self.side, set(SIDES)))
 
-    def energy(self, q: np.ndarray, length: float, periodic: bool) -> np.ndarray:
-        """Energy at coordinates q along the spring's axis (any shape)."""
+    def extension(self, q: np.ndarray, length: float, periodic: bool) -> np.ndarray:
+        """The extension ``d`` at coordinates q along the spring's axis (any shape): ``q - center``
+        (the minimum image on a periodic axis), 0 on the side where the spring does not act."""
         d = q - self.center
         if periodic:
             d = np.mod(d + 0.5 * length, length) - 0.5 * length
@@ -262,7 +263,16 @@ class GridSpring:
             d = np.maximum(d, 0.0)
         elif self.side == "below":
             d = np.minimum(d, 0.0)
+        return d
+
+    def energy(self, q: np.ndarray, length: float, periodic: bool) -> np.ndarray:
+        """Energy ``k/2 d^2`` at coordinates q along the spring's axis (any shape)."""
+        d = self.extension(q, length, periodic)
         return 0.5 * self.k * d * d
+
+    def force(self, q: np.ndarray, length: float, periodic: bool) -> np.ndarray:
+        """The force ``-dU/dq = -k d`` at coordinates q along the spring's axis (any shape)."""
+        return -self.k * self.extension(q, length, periodic)
 
 
 def _nodes(lower, upper, shape, periodic, axis):

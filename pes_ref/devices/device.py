@@ -52,6 +52,10 @@ class Device:
     name : str
     analysis : dict
         Settings of the device's own analysis (``analyze ratchet``, ``analyze dartgun``).
+    restitution, friction : float
+        The rigid engine's contact (:mod:`pes_ref.rigid`): the coefficient of restitution in
+        [0, 1] (0: inelastic) and of friction (>= 0; 0: frictionless). The surface model has
+        neither.
     """
 
     parts: tuple
@@ -70,6 +74,8 @@ class Device:
     tolerance: float | None = None
     name: str = ""
     analysis: dict = dataclasses.field(default_factory=dict)
+    restitution: float = 0.0
+    friction: float = 0.0
 
     def __post_init__(self):
         set_ = lambda k, val: object.__setattr__(self, k, val)  # noqa: E731
@@ -105,6 +111,10 @@ class Device:
                 if grid.periodic[d] and self.walls.edges[d].any():
                     raise checks.InputError("walls", f"axis {d} is periodic and cannot have a wall")
         set_("analysis", dict(self.analysis))
+        set_("restitution", checks.as_nonneg_float("restitution", self.restitution))
+        if self.restitution > 1.0:
+            raise checks.InputError("restitution", f"restitution must be in [0, 1], got {self.restitution:g}")
+        set_("friction", checks.as_nonneg_float("friction", self.friction))
         set_("_grid", grid)
         set_("_cache", {})
 

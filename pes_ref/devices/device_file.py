@@ -32,8 +32,8 @@ SHIPPED = ("ratchet", "dartgun")
 #: A rotation axis whose span is within this relative distance of 2 pi is a full turn (made exact).
 FULL_TURN_RTOL = 1e-6
 
-TOP_KEYS = ("format", "name", "description", "part", "cspace", "geometry", "energy", "dynamics", "start",
-            "analysis")
+TOP_KEYS = ("format", "name", "description", "part", "cspace", "geometry", "energy", "dynamics", "rigid",
+            "start", "analysis")
 PART_KEYS = ("name", "motion", "pivot", "direction", "radius", "shapes")
 SHAPE_KINDS = ("polygon", "circle", "rectangle")
 CSPACE_KEYS = ("lower", "upper", "shape")
@@ -43,6 +43,8 @@ SPRING_KEYS = ("axis", "k", "center", "side")
 DYNAMICS_KEYS = ("mass", "damping", "dt", "walls")
 WALL_KEYS = ("k", "margin", "edges")
 START_KEYS = ("q",)
+#: ``[rigid]``: the contact of the rigid engine (``analyze --engine rigid``), each with its default.
+RIGID_KEYS = {"restitution": 0.0, "friction": 0.0}
 #: The device analyses a file may configure (``[analysis] kind``): their keys, each required.
 ANALYSES = {
     "ratchet": ("pitch", "settle"),
@@ -243,6 +245,15 @@ def _dynamics(r: _Reader, value):
     return mass, damping, dt, walls
 
 
+def _rigid(r: _Reader, value) -> tuple:
+    r.table(value, "rigid", tuple(RIGID_KEYS))
+    restitution = r.number(value.get("restitution", RIGID_KEYS["restitution"]), "rigid.restitution", nonneg=True)
+    if restitution > 1.0:
+        r.fail("rigid.restitution", f"expected a number in [0, 1], got {_show(value['restitution'])}")
+    friction = r.number(value.get("friction", RIGID_KEYS["friction"]), "rigid.friction", nonneg=True)
+    return restitution, friction
+
+
 def _analysis(r: _Reader, value) -> dict:
     if not isinstance(value, dict):
         r.fail("analysis", f"expected a table, got {_show(value)}")
@@ -286,9 +297,10 @@ def parse_device(data: dict, path: str = "<device>") -> Device:
         st = r.table(data["start"], "start", START_KEYS)
         start = r.pair(r.require(st, "q", "start.q"), "start.q")
     analysis = _analysis(r, data["analysis"]) if "analysis" in data else {}
+    restitution, friction = _rigid(r, data.get("rigid", {}))
     try:
         return Device(parts, lower, upper, shape, v, r_c, springs, mass, damping, dt, start, r_min, walls,
-                      tolerance, name, analysis)
+                      tolerance, name, analysis, restitution, friction)
     except checks.InputError as exc:
         key = {"walls": "dynamics.walls", "upper": "cspace.upper", "lower": "cspace.lower",
                "shape": "cspace.shape", "periodic": "cspace.upper"}.get(exc.key, exc.key or "device")

@@ -192,7 +192,7 @@ def check_drive(device: Device, axis: int, load: float, mode: str = "quasistatic
 
 
 def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cycles=None, start=None,
-          threshold: float = THRESHOLD, progress=None, chunk: int = 4096) -> DriveResult:
+          threshold: float = THRESHOLD, progress=None, chunk: int = 4096, engine=None) -> DriveResult:
     """Drive ``axis`` of ``device`` with a constant ``load`` and follow the other axis.
 
     Parameters
@@ -215,6 +215,10 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
         ``progress("drive", travelled, requested)`` after each chunk of steps.
     chunk : int
         Steps per chunk.
+    engine : callable, optional
+        ``engine(device, scene, x, v) -> Trajectory`` runs each chunk; default the surface
+        model (:func:`pes_ref.core.scene.simulate` of the device's scene). The rigid engine
+        (:func:`pes_ref.rigid.engine.simulate`) runs the parts in rigid contact instead.
 
     Returns
     -------
@@ -247,7 +251,7 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     steps, reason = 0, "done"
     every = max(1, chunk // PATH_PER_CHUNK)  # states between two drawn ones
     while True:
-        traj = simulate(scene, x, v)
+        traj = simulate(scene, x, v) if engine is None else engine(device, scene, x, v)
         xs = traj.x[:, 0]
         p = sign * (xs[:, axis] - start[axis])
         done = np.nonzero(p >= requested)[0]

@@ -1,0 +1,267 @@
+"""A device's two parts as rigid bodies in pymunk (Chipmunk2D): the rigid engine's model.
+
+Each part of a device file (:class:`pes_ref.devices.geometry.Part`) becomes one pymunk body
+holding the part's own geometry (the same shapely geometry, circles within the same
+tolerance, that the surface model's C-space is computed from), cut into triangles
+(shapely's constrained Delaunay triangulation; pymunk collides convex pieces), and held to
+its one degree of freedom:
+
+- a **translation** slides on a groove joint along its direction; its mass is the axis's
+  mass and it cannot turn (infinite moment);
+- a **rotation** turns on a pivot joint; its moment of inertia is the axis's inertia;
+- a **drum** is unrolled: its drawing, tiled a turn apart (:meth:`pes_ref.devices.geometry.Drum.tiled`),
+  slides along -y by the arc length ``R q`` on a groove joint, with the mass ``I / R^2``
+  that gives the drum's kinetic energy ``I q'^2 / 2``; the body is moved back by a whole
+  turn whenever it leaves the turn ``(-2 pi R, 0]`` (the drawing repeats, so nothing moves)
+  and the turns are counted, so the coordinate stays unwrapped.
+
+Each motion is one entry of :data:`MOTION_BODIES` (motion type -> how its body is made, read
+and pushed), so the engine never asks which motion it has. Contact is frictionless and
+inelastic by default; a device's ``[rigid]`` table states its restitution and friction
+(pymunk multiplies the two shapes' values, so each shape gets the square root).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pes_ref.core import checks
+from pes_ref.devices.geometry import Drum, MissingExtraError, Rotation, Translation, require_shapely
+
+__all__ = ["PIP_LINE", "require_pymunk", "MOTION_BODIES", "RigidParts", "rigid_parts", "SLOP_SHARE", "ITERATIONS"]
+
+#: The pip line that installs the rigid engine.
+PIP_LINE = "pip install 'pes_ref[rigid]'"
+#: pymunk's allowed overlap (its collision slop), as a share of the C-space cell in length
+#: (:attr:`RigidParts.cell`): the contact rests this far inside the wall.
+SLOP_SHARE = 1e-3
+#: The constraint solver's iterations per step (pymunk's default is 10; the pivot and groove
+#: joints and the contacts are solved together).
+ITERATIONS = 20
+
+
+def require_pymunk():
+    """The ``pymunk`` module (version 7), or :class:`pes_ref.devices.geometry.MissingExtraError` with the pip line."""
+    try:
+        import pymunk
+    except ImportError:
+        raise MissingExtraError(f"the rigid engine needs pymunk 7 (the optional extra 'rigid'): {PIP_LINE}") from None
+    if int(pymunk.version.split(".")[0]) != 7:
+        raise MissingExtraError(f"the rigid engine needs pymunk 7, found {pymunk.version}: {PIP_LINE}")
+    return pymunk
+
+
+def _triangles(geom) -> list:
+    """The convex pieces of a (Multi)Polygon: its constrained Delaunay triangles, each three corners."""
+    shapely = require_shapely()
+    tris = shapely.get_parts(shapely.constrained_delaunay_triangles(geom))
+    return [np.asarray(t.exterior.coords)[:3] for t in tris if t.area > 0]
+
+
+# --------------------------------------------------------------------------- one entry per motion
+class _TranslationBody:
+    """A part sliding by q along its unit direction u: the body sits at ``q u``."""
+
+    @staticmethod
+    def lever(motion, geom) -> float:
+        return 1.0
+
+    @staticmethod
+    def make(pymunk, space, motion, inertia: float, geom):
+        u = np.asarray(motion.direction, dtype=float)
+        body = pymunk.Body(float(inertia), math.inf)
+        space.add(body)
+        far = 1e9
+        space.add(pymunk.GrooveJoint(space.static_body, body, tuple(-far * u), tuple(far * u), (0.0, 0.0)))
+        return body, geom, (u,)
+
+    @staticmethod
+    def place(body, data, q: float) -> int:
+        (u,) = data
+        body.position = (q * u[0], q * u[1])
+        return 0
+
+    @staticmethod
+    def set_velocity(body, data, qdot: float) -> None:
+        (u,) = data
+        body.velocity = (qdot * u[0], qdot * u[1])
+
+    @staticmethod
+    def read(body, data, turns: int):
+        (u,) = data
+        p, v = body.position, body.velocity
+        return p.x * u[0] + p.y * u[1], v.x * u[0] + v.y * u[1]
+
+    @staticmethod
+    def push(body, data, force: float) -> None:
+        (u,) = data
+        body.force = (force * u[0], force * u[1])
+
+    @staticmethod
+    def rewrap(space, body, data) -> int:
+        return 0
+
+
+class _RotationBody:
+    """A part turning by q about its pivot: the body sits at the pivot, turned by q."""
+
+    @staticmethod
+    def lever(motion, geom) -> float:
+        return _reach(geom, motion.pivot)
+
+    @staticmethod
+    def make(pymunk, space, motion, inertia: float, geom):
+        shapely = require_shapely()
+        pivot = np.asarray(motion.pivot, dtype=float)
+        reach = _reach(geom, pivot)
+        body = pymunk.Body(float(inertia) / reach ** 2, float(inertia))
+        body.position = tuple(pivot)
+        space.add(body)
+        space.add(pymunk.PivotJoint(space.static_body, body, tuple(pivot)))
+        return body, shapely.transform(geom, lambda xy: xy - pivot), (pivot,)
+
+    @staticmethod
+    def place(body, data, q: float) -> int:
+        body.angle = q
+        return 0
+
+    @staticmethod
+    def set_velocity(body, data, qdot: float) -> None:
+        body.angular_velocity = qdot
+
+    @staticmethod
+    def read(body, data, turns: int):
+        return body.angle, body.angular_velocity
+
+    @staticmethod
+    def push(body, data, torque: float) -> None:
+        body.torque = torque
+
+    @staticmethod
+    def rewrap(space, body, data) -> int:
+        return 0
+
+
+class _DrumBody:
+    """A drum unrolled: its tiled drawing slides along -y by ``R q``; the body is kept within
+    the turn ``(-2 pi R, 0]`` and the whole turns it is moved back by are counted."""
+
+    @staticmethod
+    def lever(motion, geom) -> float:
+        return float(motion.radius)
+
+    @staticmethod
+    def make(pymunk, space, motion, inertia: float, geom):
+        r = float(motion.radius)
+        body = pymunk.Body(float(inertia) / r ** 2, math.inf)
+        space.add(body)
+        far = 1e9
+        space.add(pymunk.GrooveJoint(space.static_body, body, (0.0, -far), (0.0, far), (0.0, 0.0)))
+        return body, motion.tiled(geom), (r, 2.0 * math.pi * r)
+
+    @staticmethod
+    def place(body, data, q: float) -> int:
+        r, period = data
+        turns = math.floor(q / (2.0 * math.pi))
+        body.position = (0.0, -r * (q - 2.0 * math.pi * turns))
+        return turns
+
+    @staticmethod
+    def set_velocity(body, data, qdot: float) -> None:
+        r, _ = data
+        body.velocity = (0.0, -r * qdot)
+
+    @staticmethod
+    def read(body, data, turns: int):
+        r, period = data
+        return turns * 2.0 * math.pi - body.position.y / r, -body.velocity.y / r
+
+    @staticmethod
+    def push(body, data, torque: float) -> None:
+        r, _ = data
+        body.force = (0.0, -torque / r)
+
+    @staticmethod
+    def rewrap(space, body, data) -> int:
+        """Move the body back into ``(-2 pi R, 0]`` by whole turns; returns the turns it moved
+        (the coordinate is ``2 pi turns - y / R``)."""
+        _, period = data
+        y = body.position.y
+        k = math.floor(-y / period)
+        if k == 0:
+            return 0
+        body.position = (body.position.x, y + k * period)
+        space.reindex_shapes_for_body(body)
+        return k
+
+
+#: How each motion's body is made, placed, read and pushed.
+MOTION_BODIES = {Translation: _TranslationBody, Rotation: _RotationBody, Drum: _DrumBody}
+
+
+def _reach(geom, pivot) -> float:
+    """The largest distance of the geometry from ``pivot`` (> 0): a rotating body's radius of gyration's scale."""
+    shapely = require_shapely()
+    xy = shapely.get_coordinates(geom) - np.asarray(pivot, dtype=float)
+    return max(float(np.max(np.hypot(xy[:, 0], xy[:, 1]))), 1e-12)
+
+
+@dataclass(frozen=True, eq=False)
+class RigidParts:
+    """A device's parts as pymunk bodies, one pymunk space per particle (:meth:`space`).
+
+    Attributes
+    ----------
+    device : pes_ref.devices.device.Device
+    restitution, friction : float
+        The contact's (the device's ``[rigid]`` table).
+    cell : float
+        The C-space cell in length: ``min_d h_d l_d`` with ``l_d`` the lever of axis d's
+        motion (1 for a translation, the part's reach for a rotation, R for a drum).
+    levers : ndarray (2,)
+        Length per unit of each coordinate at the parts' far edge.
+    """
+
+    device: object
+    mass: np.ndarray
+    quasistatic: bool
+    restitution: float
+    friction: float
+    cell: float
+    levers: np.ndarray
+
+    def space(self):
+        """A new space holding both parts, and what :meth:`place`, :meth:`read`, :meth:`push`
+        and :meth:`rewrap` need of it."""
+        pymunk = require_pymunk()
+        space = pymunk.Space()
+        space.iterations = ITERATIONS
+        space.collision_slop = SLOP_SHARE * self.cell
+        handles = []
+        e, mu = math.sqrt(self.restitution), math.sqrt(self.friction)
+        for d, part in enumerate(self.device.parts):
+            entry = MOTION_BODIES[type(part.motion)]
+            body, geom, data = entry.make(pymunk, space, part.motion, float(self.mass[d]), self._geometry(d))
+            for tri in _triangles(geom):
+                shape = pymunk.Poly(body, [tuple(p) for p in tri])
+                shape.elasticity, shape.friction = e, mu
+                space.add(shape)
+            handles.append((entry, body, data))
+        return space, handles
+
+    def _geometry(self, d: int):
+        return self.device.parts[d].geometry(self.device.grid.tolerance)
+
+
+def rigid_parts(device, mass, quasistatic: bool = False) -> RigidParts:
+    """The device's parts as rigid bodies with the masses (or inertias) ``mass`` (2,) per axis;
+    ``quasistatic``: the masses are the inverse mobilities (the bodies take the velocity the
+    mobility gives the force, and the contact's impulses take away what the parts forbid)."""
+    require_pymunk()
+    mass = checks.as_float_array("mass", mass, shape=(2,), positive=True)
+    geoms = [p.geometry(device.grid.tolerance) for p in device.parts]
+    levers = np.array([MOTION_BODIES[type(p.motion)].lever(p.motion, g) for p, g in zip(device.parts, geoms)])
+    cell = float(np.min(np.asarray(device.spacing) * levers))
+    return RigidParts(device, mass, bool(quasistatic), float(device.restitution), float(device.friction), cell, levers)

@@ -1,0 +1,190 @@
+"""The rigid engine: a scene's run with the device's parts in rigid contact instead of eq. (1).
+
+:func:`simulate` runs the particles of a scene as the device's two parts in pymunk
+(:mod:`pes_ref.rigid.bodies`), one space per particle. Everything but the contact is the
+scene's and is applied as a generalized force on each axis, held over each step:
+
+- the external force of the scene's effects (pushes and noise: the same draws as the
+  surface model's run, :meth:`pes_ref.core.scene.Scene.schedule`, so a noise force held over
+  a step is the same impulse ``F dt``), or a given schedule ``fext``;
+- the device's springs (``[energy] springs``, :meth:`pes_ref.devices.cspace.GridSpring.force`)
+  and the scene's linear spring, its walls and its damping (``-c q'``).
+
+The scene's surface is not used: the parts' contact replaces eq. (1) of the distance to
+blocked space. The dynamic step is pymunk's (semi-implicit Euler with the contact solved as
+velocity constraints, inelastic and frictionless unless the device's ``[rigid]`` table says
+otherwise) at the scene's ``dt``, cut into substeps so that no point of a part moves more than
+:data:`SUBSTEP_SHARE` of a C-space cell (:attr:`pes_ref.rigid.bodies.RigidParts.cell`) in one:
+the parts cannot pass through each other. The quasistatic step gives each part, in every
+substep, the force that brings it to the velocity the mobility gives the force
+(``q' = mobility F``), and the contact takes away what the parts forbid before the parts move
+(pymunk moves the bodies with the velocities its last contact solve left; the bodies'
+masses are the inverse mobilities).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pes_ref.core import budget, checks
+from pes_ref.core.integrator import Trajectory
+from pes_ref.core.progress import reporting
+from pes_ref.core.terms import spring_add_force, wall_add_force, wall_bounds
+from pes_ref.devices.geometry import interiors_overlap, pose, require_shapely
+from pes_ref.rigid.bodies import rigid_parts
+
+__all__ = ["simulate", "SUBSTEP_SHARE", "MAX_SUBSTEPS", "StartBlockedError"]
+
+#: The largest move of a part's point in one substep, as a share of the C-space cell.
+SUBSTEP_SHARE = 0.5
+#: How far the parts may overlap at a start, as a share of the C-space cell (ten times the
+#: contact's own overlap, :data:`pes_ref.rigid.bodies.SLOP_SHARE`: a run goes on from the
+#: state another ended in).
+START_ALLOWANCE = 1e-2
+#: The most substeps one step is cut into (a faster part is refused: its step is too long).
+MAX_SUBSTEPS = 256
+
+
+class StartBlockedError(checks.InputError):
+    """A particle starts with the parts overlapping (inside blocked space)."""
+
+
+def _axis_lengths(scene) -> np.ndarray:
+    return np.asarray(scene.surface.length, dtype=float)
+
+
+def _forces(device, scene, q, v, lo_hi, out) -> np.ndarray:
+    """The generalized force on every particle (N, 2) but the contact's and the external one."""
+    out.fill(0.0)
+    length = _axis_lengths(scene)
+    periodic = scene.surface.periodic
+    for s in device.springs:
+        out[:, s.axis] += s.force(q[:, s.axis], float(length[s.axis]), bool(periodic[s.axis]))
+    if scene.spring is not None:
+        spring_add_force(q, np.broadcast_to(scene.spring.k, q.shape), np.broadcast_to(scene.spring.center, q.shape),
+                         length, periodic, out)
+    if lo_hi is not None:
+        wall_add_force(q, scene.walls.k, lo_hi[0], lo_hi[1], out)
+    if scene.mode == "dynamic" and scene.damping is not None:
+        out -= np.broadcast_to(scene.damping, q.shape) * v
+    return out
+
+
+def check_start(device, x0, allowance: float) -> None:
+    """Refuse starts where the posed parts overlap by more than ``allowance`` (a length: the
+    contact's own overlap, so that a run can go on from where another stopped)
+    (:class:`StartBlockedError` naming ``x0``)."""
+    shapely = require_shapely()
+    tol = device.grid.tolerance
+    a = shapely.buffer(pose(device.parts[0], x0[:, 0], tol), -allowance)
+    b = pose(device.parts[1], x0[:, 1], tol)
+    bad = np.nonzero(interiors_overlap(a, b))[0]
+    if bad.size:
+        i = int(bad[0])
+        raise StartBlockedError("x0", f"x0[{i}] = ({x0[i, 0]:.6g}, {x0[i, 1]:.6g}) is inside blocked space (the "
+                                      f"parts overlap there; {bad.size} of {x0.shape[0]} starts are): the rigid "
+                                      f"engine needs the parts apart at the start")
+
+
+def simulate(device, scene, x0, v0=None, *, fext="scene", progress=None) -> Trajectory:
+    """Run ``scene``'s particles as ``device``'s parts in rigid contact (module docstring).
+
+    Parameters
+    ----------
+    device : pes_ref.devices.device.Device
+        The parts (and their springs, restitution and friction).
+    scene : pes_ref.core.scene.Scene
+        The step, steps, mode, masses (or mobility), damping, spring, walls and effects; its
+        surface is not used. A mass or damping per particle is refused.
+    x0, v0 : array_like (N, 2)
+        The starts (unwrapped coordinates); ``v0`` zeros if omitted (ignored quasistatically).
+    fext : "scene", None or ndarray (T+1, N, 2)
+        The external force (default: the scene's effects' schedule).
+    progress : callable, optional
+        ``progress(phase, done, total)`` with ``phase = "rigid"``.
+
+    Returns
+    -------
+    Trajectory
+        ``x``, ``v`` (zeros quasistatically) and ``f``: the force other than the contact's
+        acting at each state, (T+1, N, 2).
+    """
+    x0 = checks.as_float_array("x0", x0, ndim=2)
+    if x0.shape[1] != 2:
+        raise checks.InputError("x0", f"x0 must have shape (N, 2), got {x0.shape}")
+    n = x0.shape[0]
+    v0 = np.zeros_like(x0) if v0 is None else checks.as_float_array("v0", v0, shape=x0.shape)
+    quasistatic = scene.mode == "quasistatic"
+    per_axis = (1.0 / np.asarray(scene.mobility, dtype=float)) if quasistatic else np.asarray(scene.mass, dtype=float)
+    if per_axis.size not in (1, 2) or (scene.damping is not None and np.asarray(scene.damping).size > 2):
+        raise checks.InputError("mass", "the rigid engine takes one mass (and damping) per axis, not per particle")
+    mass = np.broadcast_to(per_axis.reshape(-1), (2,)).astype(float)
+    budget.check_memory(scene.n_steps, n, "simulate")
+    if isinstance(fext, str) and fext == "scene":
+        fext = scene.schedule(n)
+    elif fext is not None:
+        fext = checks.as_float_array("fext", fext, shape=(scene.n_steps + 1, n, 2))
+    parts = rigid_parts(device, mass, quasistatic)
+    check_start(device, x0, START_ALLOWANCE * parts.cell)
+    lo_hi = None
+    if scene.walls is not None:
+        lo_hi = wall_bounds(scene.surface.lower, scene.surface.upper, scene.walls.margin,
+                            np.asarray(scene.walls.edges, dtype=bool))
+    return _run(parts, scene, x0, v0, fext, lo_hi, progress)
+
+
+def _run(parts, scene, x0, v0, fext, lo_hi, progress) -> Trajectory:
+    device = parts.device
+    n, steps, dt = x0.shape[0], scene.n_steps, scene.dt
+    quasistatic = parts.quasistatic
+    x = np.empty((steps + 1, n, 2))
+    v = np.zeros((steps + 1, n, 2))
+    f = np.empty((steps + 1, n, 2))
+    worlds = [parts.space() for _ in range(n)]
+    turns = np.zeros((n, 2), dtype=np.int64)
+    for i, (space, handles) in enumerate(worlds):
+        for d, (entry, body, data) in enumerate(handles):
+            turns[i, d] = entry.place(body, data, float(x0[i, d]))
+            entry.set_velocity(body, data, 0.0 if quasistatic else float(v0[i, d]))
+            space.reindex_shapes_for_body(body)
+    x[0] = x0
+    if not quasistatic:
+        v[0] = v0
+    force = np.empty((n, 2))
+    reach = parts.levers / (SUBSTEP_SHARE * parts.cell)
+    mobility = None if not quasistatic else np.asarray(scene.mobility, dtype=float).reshape(-1)
+    for k in reporting(range(steps + 1), progress, "rigid", steps):
+        _forces(device, scene, x[k], v[k], lo_hi, force)
+        if fext is not None:
+            force += fext[k]
+        f[k] = force
+        if k == steps:
+            break
+        qdot = mobility * force if quasistatic else v[k]
+        for i, (space, handles) in enumerate(worlds):
+            move = float(np.sum(np.abs(qdot[i]) * reach)) * dt
+            if not quasistatic:
+                move += float(np.sum(np.abs(force[i]) / parts.mass * reach)) * dt * dt
+            sub = max(1, math.ceil(move))
+            if sub > MAX_SUBSTEPS:
+                raise checks.InputError("dt", f"a part moves {move * SUBSTEP_SHARE:.3g} C-space cells in one step "
+                                              f"of dt = {dt:g} (particle {i}, step {k}); the rigid engine allows "
+                                              f"{MAX_SUBSTEPS * SUBSTEP_SHARE:g}: use a shorter dt")
+            h = dt / sub
+            for _ in range(sub):
+                for d, (entry, body, data) in enumerate(handles):
+                    if quasistatic:       # the force that gives the velocity mobility F in one substep
+                        now = entry.read(body, data, turns[i, d])[1]
+                        entry.push(body, data, float(parts.mass[d] * (qdot[i, d] - now) / h))
+                    else:                 # pymunk clears a body's force after every step
+                        entry.push(body, data, float(force[i, d]))
+                space.step(h)
+            for d, (entry, body, data) in enumerate(handles):
+                turns[i, d] += entry.rewrap(space, body, data)
+                q, qd = entry.read(body, data, turns[i, d])
+                x[k + 1, i, d] = q
+                if not quasistatic:
+                    v[k + 1, i, d] = qd
+    return Trajectory(x, v, f)
+

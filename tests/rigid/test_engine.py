@@ -1,0 +1,91 @@
+"""The rigid engine (pes_ref.rigid): parts in pymunk under the scene's forces, checked against
+closed-form motions and against the parts' own geometry."""
+import numpy as np
+import pytest
+
+from pes_ref.core.effects import Constant
+from pes_ref.devices.device import Device
+from pes_ref.devices.geometry import Circle, Drum, Part, Rectangle, Rotation, Translation
+from pes_ref.rigid import StartBlockedError, simulate
+from pes_ref.rigid.bodies import SLOP_SHARE, rigid_parts
+
+pytest.importorskip("pymunk")
+
+#: A pin (radius 0.05) sliding along x in a plate sliding along -y whose window is [-0.5, 0.5]^2.
+PIN = Part(Circle([0.0, 0.0], 0.05), Translation([1.0, 0.0]))
+PLATE = Part(Rectangle([-1.0, -1.0], [1.0, 1.0], minus=(Rectangle([-0.5, -0.5], [0.5, 0.5]),)), Translation([0.0, -1.0]))
+
+
+def _plate_device(**kw) -> Device:
+    return Device((PIN, PLATE), [-0.6, -0.6], [0.6, 0.6], (49, 49), v=1e-4, r_c=0.05,
+                  mass=kw.pop("mass", (1.0, 2.0)), damping=kw.pop("damping", (0.0, 0.0)), **kw)
+
+
+def test_a_free_part_under_a_constant_force_moves_as_f_t_squared_over_2m():
+    device = _plate_device()
+    scene = device.scene(200, (Constant([0.2, 0.0]),), dt=1e-3)
+    traj = simulate(device, scene, [[0.0, 0.0]])
+    t = 200 * 1e-3
+    # pymunk moves a body with the velocity it had, then pushes it: x_n = F dt^2 n (n - 1) / (2 m)
+    assert traj.x[-1, 0, 0] == pytest.approx(0.2 * t * (t - 1e-3) / 2.0, rel=1e-9)
+    assert traj.v[-1, 0, 0] == pytest.approx(0.2 * t, rel=1e-9)
+    assert abs(traj.x[-1, 0, 1]) < 1e-12
+
+
+@pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
+def test_a_pin_pushed_into_the_window_s_edge_stops_at_it(mode):
+    device = _plate_device(damping=(5.0, 5.0))
+    kw = {"mode": "quasistatic", "dt": 1.0, "mobility": (0.01, 0.01)} if mode == "quasistatic" else {"dt": 2e-3}
+    scene = device.scene(3000, (Constant([1.0, 0.0]),), **kw)
+    traj = simulate(device, scene, [[0.0, 0.1]])
+    slop = 10 * SLOP_SHARE * rigid_parts(device, device.mass).cell
+    # the pin's centre stops a radius from the edge: the pin is the surface model's polygon,
+    # its edges within the circles' tolerance outside the circle (docs/devices.md "Circles")
+    tol = device.grid.tolerance
+    assert 0.45 - 2 * tol - slop <= traj.x[-1, 0, 0] <= 0.45 + slop
+    assert traj.x[-1, 0, 1] == pytest.approx(0.1, abs=1e-9)
+
+
+def test_a_start_inside_the_plate_is_refused_naming_x0():
+    device = _plate_device()
+    scene = device.scene(5, dt=1e-3)
+    with pytest.raises(StartBlockedError, match=r"x0\[1\] = \(0\.52, 0\)"):
+        simulate(device, scene, [[0.0, 0.0], [0.52, 0.0]])
+
+
+def test_the_same_run_twice_is_bit_identical_and_noise_is_the_scene_s_draws():
+    from pes_ref.core.effects import Noise
+    device = _plate_device(damping=(1.0, 1.0))
+    scene = device.scene(300, (Noise([0.5, 0.5], 7),), dt=2e-3)
+    a = simulate(device, scene, np.zeros((3, 2)))
+    b = simulate(device, scene, np.zeros((3, 2)))
+    assert np.array_equal(a.x, b.x) and np.array_equal(a.v, b.v)
+    assert np.array_equal(a.f[:, :, :], scene.schedule(3) - 1.0 * a.v)    # damping + the draws
+    assert np.ptp(a.x[:, :, 0]) > 0
+
+
+def test_a_drum_s_coordinate_stays_unwrapped_over_many_turns():
+    # a drum with one small block far from the pin: the drum turns freely, several turns
+    pin = Part(Circle([0.0, 0.0], 0.05), Translation([1.0, 0.0]))
+    drum = Part(Rectangle([0.5, 0.0], [0.7, 0.2]), Drum(0.5))
+    device = Device((pin, drum), [-0.3, 0.0], [0.3, 2 * np.pi], (25, 64), v=1e-4, r_c=0.05, mass=(1.0, 1.0),
+                    damping=(0.0, 0.0))
+    scene = device.scene(1000, dt=1e-2)
+    traj = simulate(device, scene, [[0.0, 0.0]], [[0.0, 3.0]])
+    q1 = traj.x[:, 0, 1]
+    assert q1[-1] == pytest.approx(3.0 * 10.0, rel=1e-9)         # 30 rad: almost five turns
+    assert np.all(np.diff(q1) > 0)
+
+
+def test_a_rotating_bar_stops_against_a_fixed_block():
+    # a bar turning about the origin meets a block: it stops where its corner touches
+    bar = Part(Rectangle([0.0, -0.05], [1.0, 0.05]), Rotation([0.0, 0.0]))
+    block = Part(Rectangle([0.2, 0.5], [1.2, 0.8]), Translation([0.0, 1.0]))
+    device = Device((bar, block), [-1.0, -0.1], [1.0, 0.1], (64, 16), v=1e-4, r_c=0.05, mass=(0.1, 1e6),
+                    damping=(0.5, 0.0))
+    scene = device.scene(4000, (Constant([0.2, 0.0]),), dt=1e-3)
+    traj = simulate(device, scene, [[0.0, 0.0]])
+    # the bar's upper far corner (1, 0.05) reaches y = 0.5: sin(q + atan(0.05)) = 0.5 / |corner|
+    corner = np.hypot(1.0, 0.05)
+    expected = np.arcsin(0.5 / corner) - np.arctan2(0.05, 1.0)
+    assert traj.x[-1, 0, 0] == pytest.approx(expected, abs=2e-3)
