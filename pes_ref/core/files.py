@@ -76,8 +76,8 @@ def atomic_file(path, *, overwrite: bool = False, what: str = "result"):
         Opened ``"xb"`` in the folder of ``path``; if the block raises, it is removed
         and nothing is published.
 
-    Example
-    -------
+    Examples
+    --------
     >>> with atomic_file("notes.txt", overwrite=True) as fh:   # doctest: +SKIP
     ...     fh.write(b"all or nothing")
     """

@@ -16,8 +16,8 @@ interpolation, and ``dt``, ``n_steps``, ``mode``, ``integrator`` and ``t0``. The
 springs, walls, mass, damping, mobility, effects and the particles (their number too) may
 differ. Gradients are not batched: :func:`pes_ref.value_and_grad` runs one scene.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np, pes_ref as pr
 >>> scenes = [pr.Scene(pr.Surface(np.full((8, 8), c), (0, 0), (1, 1), (True, False)), dt=0.01, n_steps=5)
 ...           for c in (0.0, 1.0)]

@@ -6,8 +6,8 @@ damping, external force effects, per-particle mass); :func:`simulate` and
 the stepper registry (:mod:`pes_ref.core.steppers`), which evaluates nothing that the
 scene does not name.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np, pes_ref as pr
 >>> surf = pr.Surface(np.zeros((8, 8)), lower=(0, 0), upper=(1, 1), periodic=(True, False))
 >>> scene = pr.Scene(surf, dt=0.01, n_steps=10, damping=0.1)

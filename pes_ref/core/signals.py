@@ -44,8 +44,8 @@ class StopFlag:
     steps; a second signal raises :class:`KeyboardInterrupt` at once. The previous
     handlers are given back on exit, so nested flags each see their own signals.
 
-    Example
-    -------
+    Examples
+    --------
     >>> with StopFlag() as flag:              # doctest: +SKIP
     ...     while not flag.stop:
     ...         step()

@@ -12,8 +12,8 @@ This module holds the format (which keys, which kinds of data), the validation o
 case and running it; the ``.npz`` files are read and written by
 :mod:`pes_ref.oracle.npz`, and its errors are those of :mod:`pes_ref.oracle.errors`.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np, tempfile, os
 >>> from pes_ref import oracle
 >>> case = dict(values=np.zeros((5, 7)), lower=[0.0, 0.0], upper=[1.0, 1.5],
@@ -111,8 +111,8 @@ def save_case(path, *, overwrite: bool = False, compress: bool = True, **keys) -
     check a case. Like :func:`write_result`, an existing file is refused
     (:class:`ResultExistsError`) unless ``overwrite``.
 
-    Example
-    -------
+    Examples
+    --------
     >>> save_case("c.npz", values=np.zeros((2, 2)), mode="dynamic", ...)  # doctest: +SKIP
     """
     write_npz(path, keys, overwrite=overwrite, compress=compress, what="case")

@@ -14,14 +14,14 @@ __all__ = ["CaseError", "CaseTypeError"]
 class CaseError(InputError):
     """A case that breaks docs/spec.md section 8.
 
+    The message is ``"case key '<key>': <reason>"``, one line.
+
     Parameters
     ----------
     key : str or None
         The case key at fault (None for a file that is not a readable ``.npz`` at all).
     reason : str
         What is wrong with it.
-
-    The message is ``"case key '<key>': <reason>"``, one line.
     """
 
     def __init__(self, key: str | None, reason: str):

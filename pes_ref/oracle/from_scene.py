@@ -7,8 +7,8 @@ implementation. The scene's external force effects (constant, per-particle, nois
 windows, schedules) are realized into the case's ``force`` array, exactly as
 :func:`pes_ref.simulate` realizes them.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np, pes_ref as pr
 >>> from pes_ref.oracle import case_from_scene, validate_case
 >>> surf = pr.Surface(np.zeros((4, 4)), lower=(0, 0), upper=(1, 1), periodic=(True, False))

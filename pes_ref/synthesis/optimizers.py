@@ -10,8 +10,8 @@ saved to a ``.npz`` design file and resumed bit-exactly. One :meth:`step` takes 
 parameter array ``p`` (any shape, float64) and its gradient ``g`` and returns the updated
 parameters as a new array; ``p`` and ``g`` are never modified.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> opt = RMSprop(lr=0.1)
 >>> p = np.array([1.0, -2.0])

@@ -17,8 +17,8 @@ which arrays bind on a vector (:func:`binding_keys`), the one-sided gradients ac
 a kink (:func:`one_sided_results`, :func:`compare_vector`), and whether a refusal's
 message names the key at fault (:func:`names_key`).
 
-Example
--------
+Examples
+--------
 >>> from pes_ref import oracle
 >>> from pes_ref.testing import conformance
 >>> reports = conformance.check_gradients(oracle.run_case)   # doctest: +SKIP

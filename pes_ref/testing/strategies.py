@@ -16,8 +16,8 @@ safely inside the explicit stability limit of the stiffest term (see
 ``numpy.random.default_rng(seed)`` with the seed drawn by hypothesis (``st.integers``),
 never from NumPy's global random state.
 
-Example
--------
+Examples
+--------
 >>> from hypothesis import given
 >>> from pes_ref.testing import strategies as pst
 >>> @given(pst.scene_cases(mode="dynamic"))
