@@ -101,7 +101,8 @@ def test_building_every_command_imports_no_handler_dependency():
 
 #: Packages that only a command's handler imports, never its parser.
 HANDLER_ONLY = ("pes_ref.synthesis", "pes_ref.devices", "pes_ref.bench", "pes_ref.testing",
-                "pes_ref.oracle.conformance.generate", "scipy", "matplotlib", "hypothesis")
+                "pes_ref.oracle.conformance.generate", "pes_ref.oracle.conformance.families",
+                "pes_ref.oracle.conformance.writer", "pes_ref.oracle.conformance.compare", "scipy", "matplotlib", "hypothesis")
 
 
 def test_main_builds_only_the_command_it_runs(monkeypatch):
