@@ -1,11 +1,16 @@
 """The benchmark (``python -m pes_ref bench``): what accuracy and each effect cost in time.
 
-- :mod:`pes_ref.bench.benchmark`      the benchmark itself and its report
+- :mod:`pes_ref.bench.benchmark`      the measurements
+- :mod:`pes_ref.bench.targets`        the targets, read off the measurements
+- :mod:`pes_ref.bench.report`         the report's tables
+- :mod:`pes_ref.bench.outputs`        the JSON and the scaling plot
 - :mod:`pes_ref.bench.cases`          the benchmark's scenes
 - :mod:`pes_ref.bench.oracle_cli`     what ``python -m pes_ref oracle`` costs around its computation (funnel)
 - :mod:`pes_ref.bench.spec`           the step written for autodiff frameworks
 - :mod:`pes_ref.bench.with_autograd` / :mod:`pes_ref.bench.with_jax`  the optional comparisons
 """
-from pes_ref.bench.benchmark import FULL, QUICK, Config, format_report, run, write_outputs
+from pes_ref.bench.benchmark import FULL, QUICK, Config, run
+from pes_ref.bench.outputs import write_outputs
+from pes_ref.bench.report import format_report
 
 __all__ = ["Config", "FULL", "QUICK", "run", "format_report", "write_outputs"]

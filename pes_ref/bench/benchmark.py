@@ -25,13 +25,13 @@ Measures, on a 200 x 200 surface and in float64:
 - ``targets``: the targets of docs/performance.md, each with the measured number and met / not met.
 
 Every timing is the median of repeated wall-clock runs after one warm-up run, with its
-min and max. Nothing here is a test: it prints numbers and writes them (JSON, with the
-machine, versions and date) and a scaling plot.
+min and max. Nothing here is a test: :mod:`pes_ref.bench.targets` reads the targets off the
+results, :mod:`pes_ref.bench.report` prints them and :mod:`pes_ref.bench.outputs` writes them
+(JSON, with the machine, versions and date) and a scaling plot.
 """
 from __future__ import annotations
 
 import datetime
-import json
 import os
 import platform
 import time
@@ -44,7 +44,6 @@ from pes_ref import __version__
 from pes_ref.bench.cases import CASES, reference_gradient, reference_objective, reference_scene, smooth_surface
 from pes_ref.core import backends
 from pes_ref.core.effects import Constant, Noise, Window
-from pes_ref.core.files import atomic_file
 from pes_ref.core.interpolations import interpolation
 from pes_ref.core.integrator import step_coefficients
 from pes_ref.core.objectives import Funnel
@@ -55,8 +54,9 @@ from pes_ref.core.terms import Spring, Walls
 from pes_ref.synthesis.plans import Plan, PolishPlan
 from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import GRAD_RTOL
+from pes_ref.bench.targets import targets
 
-__all__ = ["Config", "FULL", "QUICK", "run", "format_report", "write_outputs"]
+__all__ = ["Config", "FULL", "QUICK", "run"]
 
 
 @dataclass(frozen=True)
@@ -505,97 +505,7 @@ def runs(cfg: Config, log=print) -> list:
     return out
 
 
-# =========================================================================== targets
-
-#: The speed targets of the compiled loops and the populations (docs/performance.md):
-#: (backend, design gradient, N, largest multiple of JAX's steady-state time, inclusive).
-JAX_TARGETS = (("numba", 64, 0.5, True), ("numpy", 64, 1.8, True), ("numba", 4096, 1.0, False),
-               ("numpy", 4096, 1.0, False), ("numba", 65536, 1.0, False), ("numpy", 65536, 1.0, False))
-#: Seconds of the default oscillator design (``runs`` with no options) per backend.
-RUN_TARGETS = {"numba": 45.0, "numpy": 70.0}
-#: Largest multiple of the bare scene that a term with zero coefficients may cost (minimum
-#: of the repeats), and largest ratio of the cylinder's spring k = (1, 0) to k = (1, 1)
-#: (the zero axis's minimum image skipped).
-NOTHING_TARGET, ZERO_AXIS_TARGET = 1.05, 0.95
-
-
-def _compiled_targets(res: dict, add) -> None:
-    """The targets of the compiled loops, the populations and the scenes that pay only for
-    what they name."""
-    for backend, n, goal, inclusive in JAX_TARGETS:
-        row = next((r for r in res["design"] if r["case"] == "funnel" and r["N"] == n), None)
-        name = f"funnel gradient N = {n}: {backend} / JAX steady"
-        goal_text = f"{'<=' if inclusive else '<'} {goal:g}"
-        if row is None or "over_jax_steady" not in row or backend not in row["over_jax_steady"]:
-            add(name, None, goal_text, None)
-            continue
-        v = row["over_jax_steady"][backend]
-        add(name, v, goal_text, v <= goal if inclusive else v < goal)
-    for run in res.get("runs", []):
-        if not run["options"] and run["backend"] in RUN_TARGETS:
-            goal = RUN_TARGETS[run["backend"]]
-            add(f"default oscillator design on {run['backend']} (s)", run["seconds"], f"<= {goal:g}",
-                run["seconds"] <= goal)
-    rows = res["effects"]["nothing"]
-    for row in rows:
-        if row["effect"] not in ("bare",) and not row["effect"].startswith("cylinder"):
-            v = row["forward_min_over_bare"]
-            add(f"{row['backend']}: {row['effect']} / bare", v, f"<= {NOTHING_TARGET:g}", v <= NOTHING_TARGET)
-    for backend in dict.fromkeys(r["backend"] for r in rows):
-        cyl = {r["effect"]: r["forward"]["min"] for r in rows if r["backend"] == backend}
-        v = cyl["cylinder: spring k = (1, 0)"] / cyl["cylinder: spring k = (1, 1)"]
-        add(f"{backend}: cylinder spring k = (1, 0) / (1, 1)", v, f"<= {ZERO_AXIS_TARGET:g}", v <= ZERO_AXIS_TARGET)
-    from pes_ref.bench.every_gradient import target
-    for row in res.get("every_gradient", []):
-        for backend in row["seconds"]:
-            goal = target(backend, row["n"])
-            if goal is None:
-                continue
-            limit, strict = goal
-            v = row["ratio"].get(backend)
-            add(f"every gradient, run_case N = {row['n']}: {backend} / JAX", v, f"{'<' if strict else '<='} {limit:g}",
-                None if v is None else (v < limit if strict else v <= limit))
-    extra = sum(max(0, len(r["arrays"]) - r["needed"]) for r in res["memory"]["zero_filled"])
-    add("trajectory-sized arrays filled, not needed", extra, "0", extra == 0)
-
-
-def targets(res: dict) -> list:
-    """The targets with the measured numbers: (name, measured, goal, met or None if not
-    measured). Issue 6's are NumPy's loops' (the scaling, memory and effects of NumPy's
-    loops); then :func:`_compiled_targets`."""
-    out = []
-
-    def add(name, value, goal, met):
-        out.append(dict(target=name, measured=value, goal=goal, met=met))
-
-    sc = [r for r in res["scaling"] if r.get("backend", "numpy") == "numpy"]
-    big = [r["adjoint_over_forward"] for r in sc if r["N"] >= 64]
-    if big:
-        add("adjoint / forward, N >= 64 (worst)", max(big), "<= 1.5", max(big) <= 1.5)
-    for r in sc:
-        if r["N"] == 65536 and r["mode"] == "dynamic":
-            add("forward particle-steps/s at N = 65536", r["forward_particle_steps_per_s"], ">= 1e7",
-                r["forward_particle_steps_per_s"] >= 1e7)
-            add("forward+adjoint particle-steps/s at N = 65536", r["forward_adjoint_particle_steps_per_s"], ">= 4e6",
-                r["forward_adjoint_particle_steps_per_s"] >= 4e6)
-        if r["N"] == 1 and r["mode"] == "dynamic":
-            us = r["forward"]["median"] * 1e6
-            add("forward step at N = 1 (us)", us, "< 25", us < 25)
-    eff = res["effects"]["bare_over_hand_loop"]
-    add("bare scene / loop written for it alone", eff, "<= 1.05", eff <= 1.05)
-    mem = res["memory"]["peak_over_trajectory_plus_grid"]
-    add("peak memory / (trajectory + grid)", mem, "<= 1.5", mem <= 1.5)
-    for row in res["design"][:1]:
-        if "autograd_over_pes_ref" in row:
-            v = row["autograd_over_pes_ref"]
-            add("funnel gradient: autograd / pes_ref", v, ">= 20", v >= 20)
-        else:
-            add("funnel gradient: autograd / pes_ref", None, ">= 20", None)
-    _compiled_targets(res, add)
-    return out
-
-
-# =========================================================================== run, report, write
+# =========================================================================== run
 
 def _versions() -> dict:
     import importlib.metadata as md
@@ -644,156 +554,3 @@ def run(cfg: Config = FULL, log=print) -> dict:
     res["machine"]["load_average_end"] = os.getloadavg() if hasattr(os, "getloadavg") else None
     res["seconds"] = time.perf_counter() - t0
     return res
-
-
-def _fmt_t(t: dict, scale: float = 1e6) -> str:
-    """'median [min-max]' in microseconds (default)."""
-    return f"{t['median'] * scale:9.1f} [{t['min'] * scale:.1f}-{t['max'] * scale:.1f}]"
-
-
-def _fmt_v(v) -> str:
-    if v is None:
-        return "n/a"
-    return f"{v:.3g}"
-
-
-def format_report(res: dict) -> str:
-    """The human-readable tables."""
-    L = [f"pes_ref bench  {res['date']}  {res['machine']['cpu']} x{res['machine']['cpu_count']}  "
-         f"load {res['machine']['load_average']}  numpy {res['versions']['numpy']}  "
-         f"numba {res['versions'].get('numba')}", ""]
-    L.append(f"Scaling on a {res['config']['grid']}x{res['config']['grid']} grid: us per step, median [min-max] "
-             f"of {res['config']['repeats']} runs")
-    L.append(f"{'backend':7s} {'mode':11s} {'N':>6s} {'T':>5s} {'forward':>26s} {'adjoint':>26s} {'fwd+adj':>26s} "
-             f"{'fwd p-s/s':>10s} {'f+a p-s/s':>10s} {'adj/fwd':>7s}")
-    for r in res["scaling"]:
-        L.append(f"{r.get('backend', 'numpy'):7s} {r['mode']:11s} {r['N']:6d} {r['T']:5d} "
-                 f"{_fmt_t(r['forward']):>26s} {_fmt_t(r['adjoint']):>26s} "
-                 f"{_fmt_t(r['forward_adjoint']):>26s} {r['forward_particle_steps_per_s']:10.3g} "
-                 f"{r['forward_adjoint_particle_steps_per_s']:10.3g} {r['adjoint_over_forward']:7.2f}")
-    m = res["memory"]
-    L += ["", f"Memory (value_and_grad, N={m['N']}, T={m['T']}): peak {m['peak_bytes'] / 2**20:.1f} MiB, trajectory "
-          f"{m['trajectory_bytes'] / 2**20:.1f} MiB + grid {m['grid_bytes'] / 2**20:.2f} MiB -> "
-          f"ratio {m['peak_over_trajectory_plus_grid']:.2f}"
-          + "".join(f"; {b}: {v:.2f}" for b, v in m.get("by_backend", {}).items() if b != "numpy"),
-          "Arrays of a trajectory's size made filled (zeros, ones, full) per run, and how many must be "
-          "(their entries stay 0):"]
-    for r in m.get("zero_filled", []):
-        flag = "" if len(r["arrays"]) <= r["needed"] else "   <- more than needed"
-        L.append(f"  {r['backend']:6s} {r['mode']:11s} {r['call']:15s} {len(r['arrays'])} ({', '.join(r['arrays']) or '-'})"
-                 f", needed {r['needed']}{flag}")
-    e = res["effects"]
-    header = f"{'effect':28s} {'forward':>26s} {'x bare':>7s} {'fwd+adj':>26s} {'x bare':>7s}"
-
-    def effect_lines(rows, mins=False):
-        for r in rows:
-            a, b = ("forward_min_over_bare", "forward_adjoint_min_over_bare") if mins else \
-                ("forward_over_bare", "forward_adjoint_over_bare")
-            yield (f"{r['effect']:28s} {_fmt_t(r['forward']):>26s} {r[a]:7.2f} "
-                   f"{_fmt_t(r['forward_adjoint']):>26s} {r[b]:7.2f}")
-    L += ["", f"Effects (dynamic, N={e['N']}, T={e['T']}): us per step; loop written for the bare scene alone: "
-          f"{_fmt_t(e['hand_loop_forward'])}; bare / that loop = {e['bare_over_hand_loop']:.3f}",
-          "numpy:", header, *effect_lines(e["rows"])]
-    for backend, rows in e.get("other_backends", {}).items():
-        L += [f"{backend}:", header, *effect_lines(rows)]
-    if e.get("nothing"):
-        L += ["", "Named with zero coefficients (must cost what the bare scene costs), and a cylinder's spring with "
-                  "a zero q1 axis (must cost less than k = (1, 1)): CPU time, x bare from the minima of the repeats"]
-        for backend in dict.fromkeys(r["backend"] for r in e["nothing"]):
-            L += [f"{backend}:", header, *effect_lines([r for r in e["nothing"] if r["backend"] == backend], True)]
-    x = res["exponents"]
-    L += ["", f"Exponents (fwd+adj): time ~ N^{x['N']['exponent']:.2f} (N = {x['N']['sizes']}, T = {x['N']['T']}), "
-          f"~ T^{x['T']['exponent']:.2f} (T = {x['T']['steps']}, N = {x['T']['N']})"]
-    L += ["", "Design gradients (ms, median [min-max]); autodiff versions checked against pes_ref first"]
-    for r in res["design"]:
-        L.append(f"  {r['case']} ({r['grid'][0]}x{r['grid'][1]}, N={r['N']}, T={r['T']}):")
-        for backend, t in r.get("backends", {"numpy": r["pes_ref"]}).items():
-            ratio = r.get("over_jax_steady", {}).get(backend)
-            L.append(f"    {backend:8s} {_fmt_t(t, 1e3)}" + ("" if ratio is None else f"  (/ JAX steady = {ratio:.2f})"))
-        for lib in ("autograd", "jax"):
-            d = r[lib]
-            if d["status"] != "ok":
-                L.append(f"    {lib:8s} {d['status']}: {d.get('reason', '')}{d.get('relative_error', '')}")
-                continue
-            extra = f", compile {d['compile_s']:.2f} s, first call {d['first_call_s']:.2f} s" if lib == "jax" else ""
-            L.append(f"    {lib:8s} {_fmt_t(d['steady'], 1e3)}  (rel. err {d['relative_error']:.1e}{extra})")
-        if "autograd_over_pes_ref" in r:
-            L.append(f"    autograd / numpy = {r['autograd_over_pes_ref']:.1f}")
-    if res.get("every_gradient"):
-        from pes_ref.bench.every_gradient import format_rows
-        L += ["", format_rows(res["every_gradient"])]
-    if res.get("runs"):
-        L += ["", "Design runs: the oscillator design, gradient stage then polish"
-                  + (f" (options {res['runs'][0]['options']})" if res["runs"][0]["options"] else " (the default)")]
-        for r in res["runs"]:
-            L.append(f"  {r['backend']:8s} {r['seconds']:7.1f} s  ({r['cpu_seconds']:.1f} s CPU), {r['status']}")
-    L += ["", "Targets (docs/performance.md)"]
-    for t in res["targets"]:
-        status = {True: "met", False: "NOT met", None: "not measured"}[t["met"]]
-        L.append(f"  {t['target']:52s} {_fmt_v(t['measured']):>10s}  goal {t['goal']:8s} {status}")
-    L.append(f"\n(total {res['seconds']:.0f} s)")
-    return "\n".join(L)
-
-
-def plot_scaling(res: dict, path: str, overwrite: bool = True) -> None:
-    """Time per step against N, forward and forward+adjoint, both modes (log-log)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6, 4.2))
-    for mode, ls in (("dynamic", "-"), ("quasistatic", "--")):
-        rows = [r for r in res["scaling"] if r["mode"] == mode]
-        n = [r["N"] for r in rows]
-        for key, marker, label in (("forward", "o", "forward"), ("forward_adjoint", "s", "forward + adjoint")):
-            med = np.array([r[key]["median"] for r in rows]) * 1e6
-            lo = med - np.array([r[key]["min"] for r in rows]) * 1e6
-            hi = np.array([r[key]["max"] for r in rows]) * 1e6 - med
-            ax.errorbar(n, med, yerr=[lo, hi], ls=ls, marker=marker, ms=4, capsize=2, label=f"{label}, {mode}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("particles N")
-    ax.set_ylabel("time per step (us)")
-    ax.set_title(f"pes_ref on a {res['config']['grid']}x{res['config']['grid']} grid "
-                 f"(median of {res['config']['repeats']}, bars min-max)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    with atomic_file(path, overwrite=overwrite, what="plot") as fh:
-        fig.savefig(fh, format="png", dpi=150)
-    plt.close(fig)
-
-
-def _jsonable(o):
-    """NumPy scalars and arrays as plain Python values for ``json.dump``."""
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(f"not JSON serializable: {type(o).__name__}")
-
-
-def output_paths(json_path: str) -> tuple:
-    """The files :func:`write_outputs` writes for ``json_path``: it, and beside it the plot
-    ``scaling.png`` (or ``<stem>-scaling.png``)."""
-    folder = os.path.dirname(os.path.abspath(json_path))
-    stem = os.path.splitext(os.path.basename(json_path))[0]
-    return json_path, os.path.join(folder, "scaling.png" if stem == "bench" else f"{stem}-scaling.png")
-
-
-def write_outputs(res: dict, json_path: str, overwrite: bool) -> tuple:
-    """Write the JSON and, beside it, ``scaling.png`` (or ``<stem>-scaling.png``), each
-    atomically (:func:`pes_ref.core.files.atomic_file`).
-
-    Refuses (FileExistsError) to replace an existing file unless ``overwrite``: both are
-    checked before anything is written, and each again as it is published."""
-    folder = os.path.dirname(os.path.abspath(json_path))
-    png = output_paths(json_path)[1]
-    for path in (json_path, png):
-        if os.path.exists(path) and not overwrite:
-            raise FileExistsError(f"{path} exists; pass --force to replace it")
-    os.makedirs(folder, exist_ok=True)
-    text = json.dumps(res, indent=1, default=_jsonable)
-    with atomic_file(json_path, overwrite=overwrite, what="benchmark") as fh:
-        fh.write(text.encode("utf-8"))
-    plot_scaling(res, png, overwrite=overwrite)
-    return json_path, png

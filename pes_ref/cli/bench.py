@@ -35,12 +35,12 @@ def add_parser(sub) -> None:
 
 
 def _run_bench(args) -> int:
-    from pes_ref.bench import benchmark as bench
+    from pes_ref.bench import benchmark as bench, outputs, report
     out = args.out or DEFAULT_OUT
     overwrite = args.force or args.out is None
     if args.out is not None:            # refused before the (long) run; the default folder is made if missing
         try:
-            for path, what in zip(bench.output_paths(out), ("results", "plot")):
+            for path, what in zip(outputs.output_paths(out), ("results", "plot")):
                 output_file(path, what, force=args.force)
         except OSError as exc:
             return error(exc)
@@ -50,9 +50,9 @@ def _run_bench(args) -> int:
         cfg = dataclasses.replace(cfg, autodiff=False)
     res = bench.run(cfg)
     print()
-    print(bench.format_report(res))
+    print(report.format_report(res))
     try:
-        json_path, png = bench.write_outputs(res, out, overwrite=overwrite)
+        json_path, png = outputs.write_outputs(res, out, overwrite=overwrite)
     except OSError as exc:
         return error(exc)
     print(f"wrote {json_path} and {png}")
