@@ -387,6 +387,7 @@ class CSpaceGrid:
 
     @property
     def parts(self) -> tuple:
+        """``(part0, part1)``."""
         return (self.part0, self.part1)
 
     @property
