@@ -40,7 +40,8 @@ class Funnel:
         object.__setattr__(self, "when", checks.as_choice("when", self.when, {"final", "every_step"}))
 
     def value_and_grad(self, x, v, t):
-        """Eq. (5) and its ``gx`` (``gv`` is None); the objective protocol of :mod:`pes_ref.core.objectives` (docs/spec.md section 6.1)."""
+        """Eq. (5) and its ``gx`` (``gv`` is None); the objective protocol of
+        :mod:`pes_ref.core.objectives` (docs/spec.md section 6.1)."""
         gx = np.zeros(x.shape)       # fresh zero pages (np.zeros_like would write every zero)
         if self.when == "final":
             e = x[-1, :, 0] - self.target
@@ -68,7 +69,8 @@ class Oscillator:
         object.__setattr__(self, "omega", checks.as_finite_float("omega", self.omega))
 
     def value_and_grad(self, x, v, t):
-        """Eq. (6) with its ``gx`` and ``gv``; the objective protocol of :mod:`pes_ref.core.objectives` (docs/spec.md section 6.2)."""
+        """Eq. (6) with its ``gx`` and ``gv``; the objective protocol of
+        :mod:`pes_ref.core.objectives` (docs/spec.md section 6.2)."""
         n_particles = x.shape[1]
         A, w = self.amplitude, self.omega
         ex = x[:, :, 0] - (A * np.cos(w * t))[:, None]
