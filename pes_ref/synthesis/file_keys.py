@@ -80,6 +80,8 @@ class Reader(KeyReader):
 
     # ------------------------------------------------------------------ compounds
     def pair(self, value, where: str, item) -> tuple:
+        """A list of exactly two values, each checked by ``item(value, where)`` at ``where[0]``, ``where[1]``;
+        a tuple."""
         if not isinstance(value, list) or len(value) != 2:
             self.fail(where, f"expected a list of two values, got {show(value)}")
         return tuple(item(v, self.at(where, i)) for i, v in enumerate(value))
