@@ -253,8 +253,7 @@ class DesignProblem(_Problem):
                      n_steps=self.n_steps if n_steps is None else n_steps, effects=tuple(effects), **self.scene_keys)
 
     def times(self, n_steps: int | None = None) -> np.ndarray:
-        """The step times ``n dt``, n = 0..T (seconds), shape (T+1,); T is ``n_steps`` (the problem's own when
-        None)."""
+        """The step times ``n dt`` (seconds), n = 0..T; T is ``n_steps``, the problem's own if None."""
         return step_times(self.n_steps if n_steps is None else n_steps, self.dt)
 
     def grid_cost(self, values):

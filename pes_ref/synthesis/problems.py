@@ -180,7 +180,7 @@ class FunnelProblem(_Problem):
     periodic = (False, False)
 
     def shape(self, grid: int | None = None) -> tuple:
-        """The grid shape: ``grid`` nodes per axis, or ``(grid, grid)`` for the ``grid`` given (a stage's)."""
+        """The grid shape ``(n, n)``: n the problem's ``grid``, or the ``grid`` given (a stage's)."""
         n = self.grid if grid is None else grid
         return (n, n)
 
