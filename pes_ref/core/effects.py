@@ -85,7 +85,7 @@ class Noise:
         sched += np.random.default_rng(self.seed).standard_normal(sched.shape) * self.std
 
     def is_zero(self) -> bool:
-        """Whether ``std`` is 0 on both axes: then nothing is drawn (the effect protocol of :func:`all_zero`)."""
+        """Whether ``std`` is 0 on both axes (the effect protocol of :func:`all_zero`)."""
         return not self.std.any()
 
 
