@@ -74,6 +74,8 @@ class Reader(KeyReader):
 
     @staticmethod
     def at(where: str, name) -> str:
+        """The path of key or index ``name`` under ``where`` in a message: ``where[i]``, ``where.name``, or
+        ``name`` at the top level (``where`` "")."""
         if isinstance(name, int):
             return f"{where}[{name}]"
         return f"{where}.{name}" if where else name

@@ -118,6 +118,8 @@ class FinalPosition:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["target"], keys["weight"], domain)
 
     def value_and_grad(self, x, v, t):
@@ -139,6 +141,8 @@ class PositionAt:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["time"], keys["target"], keys["weight"], domain)
 
     def value_and_grad(self, x, v, t):
@@ -180,6 +184,8 @@ class StayIn:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["lower"], keys["upper"], keys["from"], keys["to"], keys["weight"], domain)
 
     def offsets(self, x: np.ndarray) -> np.ndarray:
@@ -216,6 +222,8 @@ class SpeedAt:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["time"], keys["axis"], keys["target"], keys["weight"])
 
     def value_and_grad(self, x, v, t):
@@ -245,6 +253,8 @@ class Cycle:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["amplitude"], keys["omega"], keys["axis"], keys["weight"])
 
     def value_and_grad(self, x, v, t):
@@ -282,6 +292,8 @@ class Exit:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["edge"], keys["center"], keys["halfwidth"], keys["weight"], domain)
 
 
@@ -337,6 +349,8 @@ class CustomTerm:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["object"], keys["weight"])
 
     def value_and_grad(self, x, v, t):
@@ -360,6 +374,8 @@ class Regularization:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["R"])
 
     def grid_value_and_grad(self, values):

@@ -77,6 +77,9 @@ class FinalPositionTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["target"], keys["radius"], domain)
 
     def passes(self, x, v, t):
@@ -105,6 +108,9 @@ class PositionAtTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["time"], keys["target"], keys["radius"], domain)
 
     def passes(self, x, v, t):
@@ -137,6 +143,9 @@ class StayInTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(StayIn(keys["lower"], keys["upper"], keys["from"], keys["to"], 1.0, domain))
 
     def passes(self, x, v, t):
@@ -175,6 +184,9 @@ class WithinTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["center"], keys["radius"], keys["from"], keys["to"], domain)
 
     def passes(self, x, v, t):
@@ -214,6 +226,9 @@ class ExitTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(Exit(keys["edge"], keys["center"], keys["halfwidth"], 1.0, domain), keys["min_speed"],
                    keys["from"], keys["to"])
 
@@ -276,6 +291,9 @@ class CrossTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["a"], keys["b"], keys["from"], keys["to"], domain)
 
     def _states(self, x, t):
@@ -348,6 +366,9 @@ class SpeedAtTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["time"], keys["axis"], keys["min"], keys["max"])
 
     def passes(self, x, v, t):
@@ -396,6 +417,9 @@ class AnyOfTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its entry's checked keys, its ``tests`` already built by the reader
+        (:attr:`CHILDREN`); how the problem file's reader builds every test
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(tuple(keys["tests"]))
 
     def passes(self, x, v, t):
@@ -439,6 +463,9 @@ class CustomTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["object"])
 
     @property
