@@ -237,6 +237,8 @@ class Parser(argparse.ArgumentParser):
     pes_ref analyze ratchet --help)``."""
 
     def error(self, message):
+        """Print the usage error as one line naming the (sub)command and its ``--help``, and exit with
+        :data:`EXIT_ERROR`."""
         print(f"error: {self.prog}: {' '.join(message.split())} (see {self.prog} --help)", file=sys.stderr)
         sys.exit(EXIT_ERROR)
 

@@ -164,6 +164,8 @@ class FunnelProblem(_Problem):
             object.__setattr__(self, "level_set", LevelSet(self.contact_v, self.contact_r_c, self.contact_r_min))
 
     def plain(self) -> "FunnelProblem":
+        """This problem with ``realizable`` off (itself when it is off): the grid values are the surface's
+        energies (a realized device's surface)."""
         return dataclasses.replace(self, realizable=False) if self.realizable else self
 
     # ------------------------------------------------------------------ geometry
