@@ -110,7 +110,8 @@ class OscillatorCycle:
         object.__setattr__(self, "settle", checks.as_finite_float("settle", self.settle))
 
     def value_and_grad(self, x, v, t):
-        """The cycle cost with its ``gx`` and ``gv``; the objective protocol of :mod:`pes_ref.core.objectives`."""
+        """The cycle cost with its ``gx`` and ``gv``; the objective protocol of
+        :mod:`pes_ref.core.objectives`."""
         n_particles = x.shape[1]
         A, w = self.amplitude, self.omega
         on = (np.asarray(t) >= self.settle)[:, None]
@@ -151,7 +152,8 @@ class Quadratic:
 
     def value_and_grad(self, x, v, t):
         """The quadratic cost with its ``gx`` (and ``gv``, None when ``wv`` is 0 everywhere), after
-        :meth:`check_shape`; the objective protocol of :mod:`pes_ref.core.objectives` (docs/spec.md section 6.3)."""
+        :meth:`check_shape`; the objective protocol of :mod:`pes_ref.core.objectives` (docs/spec.md
+        section 6.3)."""
         self.check_shape(x.shape)
         dx = x - self.xref
         gx = self.wx * dx
