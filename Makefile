@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all test test-random test-thorough figures validate oscillator-plans oscillator-table funnel-study problems-study design-study realize-study realize-oscillator bench conformance check-example venv clean
+.PHONY: all test test-random test-thorough figures validate oscillator-plans oscillator-table funnel-study problems-study design-study realize-study realize-oscillator bench conformance check-example docs venv clean
 
 all: test
 
@@ -30,6 +30,12 @@ test-random: $(STAMP)
 
 test-thorough: $(STAMP)
 	$(PY) -m pytest -q --hypothesis-profile=thorough
+
+# The documentation site into site/ (mkdocs.yml: the docs/ pages and the API reference that
+# mkdocstrings renders from the docstrings), built strictly: a warning, such as a broken
+# reference, fails it. tests/project/test_docs_site.py builds it too, into a scratch folder.
+docs: $(STAMP)
+	$(PY) -m mkdocs build --strict
 
 # The paper's figures into figures/out/ (PNG + PDF): the two designs by `pes_ref design`
 # (cached in figures/out/cache while pes_ref's sources are unchanged), then one script per

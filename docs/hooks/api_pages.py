@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import pkgutil
 
-from mkdocs.structure.files import File
-
 import pes_ref
 
 #: The API pages, in the order of the layers (docs/architecture.md), highest first.
@@ -51,6 +49,7 @@ def pages() -> dict:
 
 def on_files(files, config):
     """Add the API pages to the site's files (mkdocs' ``on_files`` event)."""
+    from mkdocs.structure.files import File      # here: the test of the docstrings loads this file without mkdocs
     for path, text in pages().items():
         files.append(File.generated(config, path, content=text))
     return files

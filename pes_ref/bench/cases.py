@@ -50,6 +50,8 @@ class DesignCase(NamedTuple):
 
     @property
     def h(self) -> np.ndarray:
+        """Node spacing h, shape (2,): ``(upper - lower) / n`` on a periodic axis, ``/ (n - 1)``
+        otherwise (C-space length)."""
         n = np.array(self.values.shape, dtype=np.float64)
         return (self.upper - self.lower) / np.where(self.periodic, n, n - 1.0)
 

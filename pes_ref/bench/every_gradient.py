@@ -198,6 +198,8 @@ def format_rows(rows: list, header: bool = True) -> str:
 
 
 def main(argv=None) -> int:
+    """Time every gradient against JAX at the sizes asked for and print a row per size and
+    backend; returns the exit status 0."""
     ap = argparse.ArgumentParser(prog="python -m pes_ref.bench.every_gradient", description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default=",".join(str(n) for n, _ in SIZES),
                     help="particle counts (T = 400, and 100 from N = 65536 on)")

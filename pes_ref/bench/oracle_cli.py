@@ -150,6 +150,8 @@ def format_table(medians: dict) -> str:
 
 
 def main(argv=None) -> int:
+    """Time the oracle's process against its floor (``--repeats`` rounds) and print the table;
+    returns the exit status 0."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=15, help="runs of each process (default 15)")
     args = parser.parse_args(argv)

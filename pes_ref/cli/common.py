@@ -208,6 +208,7 @@ class LazyDefault:
     key: str
 
     def value(self):
+        """The default itself: ``module.table[key]``, importing ``module`` now."""
         return getattr(importlib.import_module(self.module), self.table)[self.key]
 
     def __str__(self) -> str:
@@ -236,10 +237,14 @@ class Parser(argparse.ArgumentParser):
     pes_ref analyze ratchet --help)``."""
 
     def error(self, message):
+        """Print the usage error as one line naming the (sub)command and its ``--help``, and exit with
+        :data:`EXIT_ERROR`."""
         print(f"error: {self.prog}: {' '.join(message.split())} (see {self.prog} --help)", file=sys.stderr)
         sys.exit(EXIT_ERROR)
 
     def parse_args(self, args=None, namespace=None):
+        """:meth:`argparse.ArgumentParser.parse_args`, but an unknown argument is refused by the
+        innermost (sub)command it was given to, in that command's one-line :meth:`error`."""
         args, extras = self.parse_known_args(args, namespace)
         if extras:
             self._chosen(args).error(f"unrecognized arguments: {' '.join(extras)}")

@@ -328,6 +328,8 @@ class BicubicForce:
 
     @classmethod
     def from_grid(cls, values, lower, h, periodic, n_particles: int) -> "BicubicForce":
+        """The force for ``n_particles`` from a grid's arrays (``values``, ``lower``, spacing ``h``,
+        ``periodic``) rather than a field: one-off calls (:func:`point_force`)."""
         self = cls.__new__(cls)
         self._setup(values, lower, h, periodic, n_particles)
         return self
@@ -378,6 +380,8 @@ class BicubicAdjoint:
 
     @classmethod
     def from_grid(cls, values, lower, h, periodic, xs, want_values: bool) -> "BicubicAdjoint":
+        """The adjoint over ``xs`` from a grid's arrays (``values``, ``lower``, spacing ``h``,
+        ``periodic``) rather than a field: one-off calls (:func:`point_force_vjp`)."""
         self = cls.__new__(cls)
         self._setup(values, lower, h, periodic, xs, want_values)
         return self

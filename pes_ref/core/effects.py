@@ -32,9 +32,12 @@ class Constant:
         object.__setattr__(self, "force", checks.as_float_array("Constant.force", self.force, shape=(2,)))
 
     def add_to(self, sched: np.ndarray, times: np.ndarray) -> None:
+        """Add the force to every step and particle of ``sched`` (T+1, N, 2) in place; the effect
+        protocol of :func:`build_schedule` (docs/spec.md section 4)."""
         sched += self.force
 
     def is_zero(self) -> bool:
+        """Whether the force is 0 (the effect protocol of :func:`all_zero`)."""
         return not self.force.any()
 
 
@@ -48,6 +51,8 @@ class PerParticle:
         object.__setattr__(self, "force", checks.as_float_array("PerParticle.force", self.force, shape=(None, 2)))
 
     def add_to(self, sched, times) -> None:
+        """Add each particle's force at every step of ``sched`` (T+1, N, 2) in place, refusing a
+        ``force`` not of N rows; the effect protocol of :func:`build_schedule` (docs/spec.md section 4)."""
         if self.force.shape[0] != sched.shape[1]:
             raise ValueError(
                 f"PerParticle.force must have shape ({sched.shape[1]}, 2) for {sched.shape[1]} particles, "
@@ -55,6 +60,7 @@ class PerParticle:
         sched += self.force
 
     def is_zero(self) -> bool:
+        """Whether every particle's force is 0 (the effect protocol of :func:`all_zero`)."""
         return not self.force.any()
 
 
@@ -74,9 +80,12 @@ class Noise:
         object.__setattr__(self, "seed", checks.as_nonneg_int("Noise.seed", self.seed))
 
     def add_to(self, sched, times) -> None:
+        """Add the draws ``default_rng(seed).standard_normal((T+1, N, 2)) * std`` to ``sched`` in place;
+        the effect protocol of :func:`build_schedule` (docs/spec.md section 4)."""
         sched += np.random.default_rng(self.seed).standard_normal(sched.shape) * self.std
 
     def is_zero(self) -> bool:
+        """Whether ``std`` is 0 on both axes (the effect protocol of :func:`all_zero`)."""
         return not self.std.any()
 
 
@@ -97,12 +106,15 @@ class Window:
             raise ValueError(f"Window.t_end must be > t_start, got [{self.t_start}, {self.t_end})")
 
     def add_to(self, sched, times) -> None:
+        """Add the inner effect's force to ``sched`` (T+1, N, 2) at the steps whose ``times`` are in
+        ``[t_start, t_end)``; the effect protocol of :func:`build_schedule` (docs/spec.md section 4)."""
         inner = np.zeros(sched.shape)
         self.effect.add_to(inner, times)
         on = (times >= self.t_start) & (times < self.t_end)
         sched[on] += inner[on]
 
     def is_zero(self) -> bool:
+        """Whether the inner effect is zero (the effect protocol of :func:`all_zero`)."""
         return self.effect.is_zero()
 
 
@@ -118,11 +130,14 @@ class Schedule:
             raise ValueError(f"force must have shape (T+1, N, 2), got {self.force.shape}")
 
     def add_to(self, sched, times) -> None:
+        """Add the stored schedule to ``sched`` in place, refusing one of another shape; the effect
+        protocol of :func:`build_schedule` (docs/spec.md section 4)."""
         if self.force.shape != sched.shape:
             raise ValueError(f"force must have shape {sched.shape} (T+1, N, 2), got {self.force.shape}")
         sched += self.force
 
     def is_zero(self) -> bool:
+        """Whether the stored force is 0 everywhere (the effect protocol of :func:`all_zero`)."""
         return not self.force.any()
 
 

@@ -72,6 +72,7 @@ class KeyReader:
         self.path = path
 
     def fail(self, key: str, message: str):
+        """Raise :attr:`error` with ``"PATH: KEY: message"``, the one line of every refusal."""
         raise self.error(f"{self.path}: {key}: {message}")
 
     def check_keys(self, value, where: str, allowed) -> dict:
@@ -111,6 +112,7 @@ class KeyReader:
                           f"expected upper {relation} lower, got lower {lo:g}, upper {hi:g}")
 
     def boolean(self, value, where: str) -> bool:
+        """A TOML boolean (``true`` or ``false``; not a number)."""
         if not isinstance(value, bool):
             self.fail(where, f"expected true or false, got {show(value)}")
         return value

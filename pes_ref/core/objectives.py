@@ -40,6 +40,8 @@ class Funnel:
         object.__setattr__(self, "when", checks.as_choice("when", self.when, {"final", "every_step"}))
 
     def value_and_grad(self, x, v, t):
+        """Eq. (5) and its ``gx`` (``gv`` is None); the objective protocol of
+        :mod:`pes_ref.core.objectives` (docs/spec.md section 6.1)."""
         gx = np.zeros(x.shape)       # fresh zero pages (np.zeros_like would write every zero)
         if self.when == "final":
             e = x[-1, :, 0] - self.target
@@ -67,6 +69,8 @@ class Oscillator:
         object.__setattr__(self, "omega", checks.as_finite_float("omega", self.omega))
 
     def value_and_grad(self, x, v, t):
+        """Eq. (6) with its ``gx`` and ``gv``; the objective protocol of
+        :mod:`pes_ref.core.objectives` (docs/spec.md section 6.2)."""
         n_particles = x.shape[1]
         A, w = self.amplitude, self.omega
         ex = x[:, :, 0] - (A * np.cos(w * t))[:, None]
@@ -106,6 +110,8 @@ class OscillatorCycle:
         object.__setattr__(self, "settle", checks.as_finite_float("settle", self.settle))
 
     def value_and_grad(self, x, v, t):
+        """The cycle cost with its ``gx`` and ``gv``; the objective protocol of
+        :mod:`pes_ref.core.objectives`."""
         n_particles = x.shape[1]
         A, w = self.amplitude, self.omega
         on = (np.asarray(t) >= self.settle)[:, None]
@@ -145,6 +151,9 @@ class Quadratic:
             checks.as_float_array(name, getattr(self, name), broadcast_to=shape)
 
     def value_and_grad(self, x, v, t):
+        """The quadratic cost with its ``gx`` (and ``gv``, None when ``wv`` is 0 everywhere), after
+        :meth:`check_shape`; the objective protocol of :mod:`pes_ref.core.objectives` (docs/spec.md
+        section 6.3)."""
         self.check_shape(x.shape)
         dx = x - self.xref
         gx = self.wx * dx
@@ -173,6 +182,8 @@ class Custom:
             raise TypeError(f"Custom.fn must be callable, got {self.fn!r}")
 
     def value_and_grad(self, x, v, t):
+        """``fn(x, v, t)``, its value checked finite and ``gx``, ``gv`` checked of the states' shape;
+        the objective protocol of :mod:`pes_ref.core.objectives`."""
         value, gx, gv = self.fn(x, v, t)
         value = checks.as_finite_float(f"{self.name} objective value", value)
         if gx is not None:

@@ -71,6 +71,7 @@ class Surface:
 
     @property
     def shape(self) -> tuple:
+        """The grid's shape (n0, n1)."""
         return self.values.shape
 
     @property
@@ -85,6 +86,7 @@ class Surface:
 
     @property
     def topology(self) -> str:
+        """``"plane"``, ``"cylinder"`` or ``"torus"``: how many axes are periodic."""
         return {0: "plane", 1: "cylinder", 2: "torus"}[sum(self.periodic)]
 
     def nodes(self, axis: int) -> np.ndarray:

@@ -387,6 +387,7 @@ class CSpaceGrid:
 
     @property
     def parts(self) -> tuple:
+        """The two parts, ``(part0, part1)``: part 0 moves with q0, part 1 with q1."""
         return (self.part0, self.part1)
 
     @property

@@ -129,10 +129,12 @@ class Device:
 
     @property
     def periodic(self) -> tuple:
+        """Whether each C-space axis is periodic, 2 bool (the grid's)."""
         return self._grid.periodic
 
     @property
     def spacing(self) -> np.ndarray:
+        """The grid's node spacing h, shape (2,) (C-space length or radians per axis)."""
         return self._grid.spacing
 
     def cspace(self, progress=None) -> CSpace:

@@ -228,6 +228,7 @@ class Drum:
 
     @property
     def circumference(self) -> float:
+        """One turn of the drawing along y, ``2 pi radius`` (a length)."""
         return 2.0 * np.pi * self.radius
 
     def apply(self, xy: np.ndarray, q: np.ndarray) -> np.ndarray:

@@ -44,6 +44,7 @@ def write_bytes(path, data: bytes, overwrite: bool, what: str) -> None:
 
 
 def write_text(path, text: str, overwrite: bool, what: str) -> None:
+    """``text`` into ``path`` as UTF-8, atomically (:func:`write_bytes`)."""
     write_bytes(path, text.encode("utf-8"), overwrite, what)
 
 
@@ -148,6 +149,7 @@ def drum_volume(walls, radius: float, thickness: float) -> float:
 
 
 def write_stl(path, mesh, overwrite: bool) -> None:
+    """A trimesh ``mesh`` into ``path`` as binary STL, atomically (:func:`write_bytes`)."""
     write_bytes(path, mesh.export(file_type="stl"), overwrite, "STL")
 
 

@@ -63,6 +63,7 @@ class HeightField:
 
     @property
     def spacing(self) -> np.ndarray:
+        """Node spacing of the heights' grid, shape (2,) (C-space length); neither axis is periodic."""
         return grid_spacing(self.lower, self.upper, self.heights.shape, np.array([False, False]))
 
     def slope(self) -> np.ndarray:

@@ -79,6 +79,7 @@ class Region:
 
     @property
     def spacing(self) -> np.ndarray:
+        """Node spacing of the surface grid ``phi`` lies on, shape (2,) (C-space length)."""
         return grid_spacing(self.lower, self.upper, self.phi.shape, np.asarray(self.periodic))
 
     @property

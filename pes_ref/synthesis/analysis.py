@@ -198,6 +198,10 @@ def _population(runs: dict) -> dict:
 
 
 def evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int) -> dict:
+    """The funnel's held-out figures: seed -> figures of ``n`` particles per seed, on the design
+    and on the flat surface (``flat_``): the share of particles that exit in the band
+    (:meth:`~pes_ref.synthesis.problems.FunnelProblem.in_band`), that exit at all, and the
+    standard deviation of the exit q0; every run one population."""
     runs = {(prefix, seed): _funnel_run(problem, vals, n, seed)
             for prefix, vals in _surfaces(problem, values) for seed in seeds}
     paths = _population(runs)
@@ -263,6 +267,9 @@ def _reduce(reduce, x: np.ndarray) -> float:
 
 
 def evaluate_problem(problem: DesignProblem, values, seeds: tuple, n: int) -> dict:
+    """A problem file's held-out figures: seed -> figures of ``n`` particles: the success
+    fraction (every test) and each test's, each share criterion and whether it is met, each
+    objective term's value, each scenario's success fraction and the flat surface's."""
     return {seed: _evaluate_problem_seed(problem, values, seed, n) for seed in seeds}
 
 
@@ -292,6 +299,7 @@ def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int) ->
 
 
 def funnel_panels(problem: FunnelProblem, values, seed: int, n: int) -> list:
+    """The held-out funnel paths of ``seed``, each with whether it exits in the band (one :class:`Panel`)."""
     scene, x0, v0 = _funnel_run(problem, values, n, seed)
     traj = simulate(scene, x0, v0)
     band = problem.in_band(exit_positions(problem, traj))
@@ -299,6 +307,8 @@ def funnel_panels(problem: FunnelProblem, values, seed: int, n: int) -> list:
 
 
 def oscillator_panels(problem: OscillatorProblem, values, seed: int, n: int) -> list:
+    """The torque sweep of ``seed`` and the 5 x 5 grid of starts, each path with whether it
+    reaches the target cycle (two :class:`Panel`)."""
     _, x0, scene = _torque_sweep_run(problem, values, n, None, seed)
     sweep = simulate(scene, x0)
     x0, scene = _grid_starts_run(problem, values, None, 5)
@@ -308,6 +318,8 @@ def oscillator_panels(problem: OscillatorProblem, values, seed: int, n: int) -> 
 
 
 def problem_panels(problem: DesignProblem, values, seed: int, n: int) -> list:
+    """The held-out paths of ``seed``: one :class:`Panel` with whether each passes every success
+    test, then one per test (a start group's test: its group's paths only)."""
     held = problem.run(values, seed, n)
     every, each = passes_all([test for _, test in problem.tests], held.traj.x, held.traj.v, held.times)
     panels = [Panel("every success test", held.traj.x, every)]

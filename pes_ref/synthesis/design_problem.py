@@ -182,10 +182,12 @@ class DesignProblem(_Problem):
     # ------------------------------------------------------------------ geometry
     @property
     def domain(self) -> Domain:
+        """The surface's domain (``lower``, ``upper``, ``periodic``) as the objective terms take it."""
         return Domain(self.lower, self.upper, self.periodic)
 
     @property
     def dt(self) -> float:
+        """The time step (seconds), the file's ``[dynamics] dt``."""
         return self.scene_keys["dt"]
 
     @property
@@ -251,6 +253,7 @@ class DesignProblem(_Problem):
                      n_steps=self.n_steps if n_steps is None else n_steps, effects=tuple(effects), **self.scene_keys)
 
     def times(self, n_steps: int | None = None) -> np.ndarray:
+        """The step times ``n dt`` (seconds), n = 0..T; T is ``n_steps``, the problem's own if None."""
         return step_times(self.n_steps if n_steps is None else n_steps, self.dt)
 
     def grid_cost(self, values):

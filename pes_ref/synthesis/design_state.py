@@ -75,6 +75,7 @@ class DesignState:
 
     @property
     def kind(self) -> str:
+        """The problem's kind (``"funnel"``, ``"oscillator"``, ``"problem"``)."""
         return self.problem.kind
 
     @property

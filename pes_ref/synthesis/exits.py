@@ -63,6 +63,8 @@ class FunnelExit:
         object.__setattr__(self, "linger", checks.as_nonneg_float("linger", self.linger))
 
     def value_and_grad(self, x, v, t):
+        """The exit cost and its ``gx`` (``gv`` is None); the objective protocol of
+        :mod:`pes_ref.core.objectives`."""
         step, _ = exit_steps(x, self.level)
         particle = np.arange(x.shape[1])
         e = x[step, particle, 0] - self.target

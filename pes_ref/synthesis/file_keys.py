@@ -74,12 +74,16 @@ class Reader(KeyReader):
 
     @staticmethod
     def at(where: str, name) -> str:
+        """The path of key or index ``name`` under ``where`` in a message: ``where[i]``, ``where.name``, or
+        ``name`` at the top level (``where`` "")."""
         if isinstance(name, int):
             return f"{where}[{name}]"
         return f"{where}.{name}" if where else name
 
     # ------------------------------------------------------------------ compounds
     def pair(self, value, where: str, item) -> tuple:
+        """A list of exactly two values, each checked by ``item(value, where)`` at ``where[0]``, ``where[1]``;
+        a tuple."""
         if not isinstance(value, list) or len(value) != 2:
             self.fail(where, f"expected a list of two values, got {show(value)}")
         return tuple(item(v, self.at(where, i)) for i, v in enumerate(value))

@@ -84,6 +84,8 @@ class GaitShooting:
         return phi, q1ref
 
     def value_and_grad(self, x, v, t):
+        """The mean gait distance with its ``gx`` and ``gv``; the objective protocol of
+        :mod:`pes_ref.core.objectives`; refuses a run of another particle count than ``theta``'s."""
         n_states, n = x.shape[0], x.shape[1]
         if n != self.theta.size:
             raise ValueError(f"the gait cost was built for {self.theta.size} particles, the run has {n}")

@@ -118,9 +118,13 @@ class FinalPosition:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["target"], keys["weight"], domain)
 
     def value_and_grad(self, x, v, t):
+        """The term and its ``gx`` (``gv`` is None); a state term: the objective protocol of
+        :mod:`pes_ref.core.objectives` (this module's docstring)."""
         return _position_cost(x, -1, self.target, self.weight, self.domain)
 
 
@@ -137,9 +141,13 @@ class PositionAt:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["time"], keys["target"], keys["weight"], domain)
 
     def value_and_grad(self, x, v, t):
+        """The term and its ``gx`` (``gv`` is None; 0 and no derivative when ``time`` is after the run's end);
+        a state term: the objective protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
         n = step_at(t, self.time)
         if n is None:
             return 0.0, None, None
@@ -176,6 +184,8 @@ class StayIn:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["lower"], keys["upper"], keys["from"], keys["to"], keys["weight"], domain)
 
     def offsets(self, x: np.ndarray) -> np.ndarray:
@@ -184,6 +194,8 @@ class StayIn:
         return excess(self.domain.wrap(x - 0.5 * (lower + upper)), 0.5 * (upper - lower))
 
     def value_and_grad(self, x, v, t):
+        """The term and its ``gx`` (``gv`` is None; 0 and no derivative when the window holds no state);
+        a state term: the objective protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
         w = window_steps(t, self.start, self.end)
         states = x[w]
         if states.shape[0] == 0:
@@ -210,9 +222,13 @@ class SpeedAt:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["time"], keys["axis"], keys["target"], keys["weight"])
 
     def value_and_grad(self, x, v, t):
+        """The term and its ``gv`` (``gx`` is None; 0 and no derivative when ``time`` is after the run's end);
+        a state term: the objective protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
         n = step_at(t, self.time)
         if n is None:
             return 0.0, None, None
@@ -237,9 +253,13 @@ class Cycle:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["amplitude"], keys["omega"], keys["axis"], keys["weight"])
 
     def value_and_grad(self, x, v, t):
+        """Eq. (6) on ``axis`` times ``weight``, with its ``gx`` and ``gv``; a state term: the objective
+        protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
         # eq. (6) is on axis 0: give the chosen axis that place (a view), and the derivative back
         order = slice(None) if self.axis == 0 else slice(None, None, -1)
         value, gx, gv = Oscillator(self.amplitude, self.omega).value_and_grad(x[..., order], v[..., order], t)
@@ -272,6 +292,8 @@ class Exit:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["edge"], keys["center"], keys["halfwidth"], keys["weight"], domain)
 
 
@@ -281,6 +303,8 @@ class Exit:
         return exit_steps(x, level, axis, side)
 
     def value_and_grad(self, x, v, t):
+        """The term and its ``gx`` (``gv`` is None); a state term: the objective protocol of
+        :mod:`pes_ref.core.objectives` (this module's docstring)."""
         step, _ = self.steps(x)
         along = 1 - EDGES[self.edge][0]
         particle = np.arange(x.shape[1])
@@ -325,9 +349,14 @@ class CustomTerm:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["object"], keys["weight"])
 
     def value_and_grad(self, x, v, t):
+        """The object's ``value_and_grad`` checked as :class:`pes_ref.core.objectives.Custom` checks it, each
+        part times ``weight``; what it raises as one :class:`CustomTermError`; a state term: the objective
+        protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
         value, gx, gv = call_user(self.label, Custom(self.obj.value_and_grad, self.name).value_and_grad, x, v, t)
         w = self.weight
         return w * value, None if gx is None else w * gx, None if gv is None else w * gv
@@ -345,9 +374,13 @@ class Regularization:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
+        problem file's reader builds every term (this module's docstring)."""
         return cls(keys["R"])
 
     def grid_value_and_grad(self, values):
+        """``(R sum_ij G_ij^2, 2 R G)`` of the grid ``values`` (``(0.0, None)`` when R is 0); a grid term
+        (this module's docstring)."""
         return regularization(values, self.R)
 
 
@@ -369,6 +402,8 @@ class TermSum:
         self.terms = tuple(terms)
 
     def value_and_grad(self, x, v, t):
+        """The sum of the terms' values and derivatives (None where every term's is None); the objective
+        protocol of :mod:`pes_ref.core.objectives`."""
         total, gx, gv = 0.0, None, None
         for term in self.terms:
             value, tx, tv = term.value_and_grad(x, v, t)

@@ -129,6 +129,7 @@ class RMSprop(_Optimizer):
         self.rho = _unit_interval("rho", rho)
 
     def hyper(self) -> dict:
+        """The hyper-parameters by name: ``lr``, ``rho``, ``eps`` and ``clip`` (None when off)."""
         return {"lr": self.lr, "rho": self.rho, "eps": self.eps, "clip": self.clip}
 
     def step(self, p, g) -> np.ndarray:
@@ -155,6 +156,8 @@ class Adam(_Optimizer):
         self.beta2 = _unit_interval("beta2", beta2)
 
     def hyper(self) -> dict:
+        """The hyper-parameters by name: ``lr``, ``beta1``, ``beta2``, ``eps`` and ``clip`` (None when
+        off)."""
         return {"lr": self.lr, "beta1": self.beta1, "beta2": self.beta2, "eps": self.eps, "clip": self.clip}
 
     def step(self, p, g) -> np.ndarray:

@@ -131,9 +131,12 @@ class Plan:
         object.__setattr__(self, "stages", stages)
 
     def stage_at(self, iteration: int) -> tuple:
+        """The entry of ``stages`` in force at ``iteration`` (the last one that starts at or before it)."""
         return [st for st in self.stages if st[0] <= iteration][-1]
 
     def grid_at(self, iteration: int, problem) -> tuple:
+        """The grid shape of ``problem`` at ``iteration``: its stage's grid (``problem.shape(grid)``), or
+        the problem's own when the stage's grid is 0."""
         return problem.shape(self.stage_at(iteration)[1] or None)
 
     def steps_at(self, iteration: int):
@@ -162,6 +165,8 @@ class Plan:
         return self.validate_every > 0 and (iteration % self.validate_every == 0 or iteration == total)
 
     def make_optimizer(self):
+        """A fresh optimizer of the plan: ``optimizer`` with ``lr`` and ``clip``
+        (:func:`pes_ref.synthesis.optimizers.make_optimizer`)."""
         return make_optimizer(self.optimizer, lr=self.lr, clip=self.clip)
 
 

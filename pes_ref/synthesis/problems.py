@@ -164,20 +164,25 @@ class FunnelProblem(_Problem):
             object.__setattr__(self, "level_set", LevelSet(self.contact_v, self.contact_r_c, self.contact_r_min))
 
     def plain(self) -> "FunnelProblem":
+        """This problem with ``realizable`` off (itself when it is off): the grid values are the surface's
+        energies (a realized device's surface)."""
         return dataclasses.replace(self, realizable=False) if self.realizable else self
 
     # ------------------------------------------------------------------ geometry
     @property
     def lower(self):
+        """The domain's lower corner ``(-width / 2, 0)`` (C-space length)."""
         return (-self.width / 2, 0.0)
 
     @property
     def upper(self):
+        """The domain's upper corner ``(width / 2, height)`` (C-space length)."""
         return (self.width / 2, self.height)
 
     periodic = (False, False)
 
     def shape(self, grid: int | None = None) -> tuple:
+        """The grid shape ``(n, n)``: n the problem's ``grid``, or the ``grid`` given (a stage's)."""
         n = self.grid if grid is None else grid
         return (n, n)
 
@@ -346,24 +351,31 @@ class OscillatorProblem(_Problem):
 
     @property
     def lower(self):
+        """The domain's lower corner ``(-q0_extent, 0)`` (C-space length, radians)."""
         return (-self.q0_extent, 0.0)
 
     @property
     def upper(self):
+        """The domain's upper corner ``(q0_extent, 2 pi)`` (C-space length, radians)."""
         return (self.q0_extent, 2 * math.pi)
 
     periodic = (False, True)
 
     @property
     def period(self) -> float:
+        """The target period ``2 pi / omega`` (seconds)."""
         return 2 * math.pi / self.omega
 
     def shape(self, grid: int | None = None) -> tuple:
+        """The grid shape ``(grid0, grid1)``, or for a ``grid`` given (a stage's) ``grid`` nodes along
+        axis 0 and axis 1 in the same proportion (at least 4)."""
         if grid is None:
             return (self.grid0, self.grid1)
         return (grid, max(4, round(grid * self.grid1 / self.grid0)))
 
     def scene(self, values, effects=(), n_steps: int | None = None) -> Scene:
+        """The scene on grid ``values`` with ``effects``, ``n_steps`` steps (the problem's own when None):
+        the problem's masses, damping, spring along q0 and walls at the q0 edges."""
         return Scene(Surface(values, self.lower, self.upper, self.periodic), dt=self.dt,
                      n_steps=self.n_steps if n_steps is None else n_steps,
                      mass=self.mass, damping=(self.damping0, self.damping1),
@@ -401,6 +413,8 @@ class OscillatorProblem(_Problem):
         return self.steps_for(self.shooting_periods)
 
     def torque_effect(self, torques) -> PerParticle:
+        """A constant torque ``-torques[i]`` along q1 on particle ``i`` (a
+        :class:`~pes_ref.core.effects.PerParticle` effect)."""
         torques = np.asarray(torques, dtype=np.float64)
         return PerParticle(np.stack([np.zeros_like(torques), -torques], axis=1))
 
@@ -464,6 +478,8 @@ class PhaseThenCycle:
     cycle: OscillatorCycle
 
     def value_and_grad(self, x, v, t):
+        """The two costs summed, with their ``gx`` and ``gv``; the objective protocol of
+        :mod:`pes_ref.core.objectives`."""
         k = int(np.searchsorted(np.asarray(t), self.cycle.settle, side="left"))   # steps with t < settle
         value, gx, gv = self.cycle.value_and_grad(x, v, t)
         if k:

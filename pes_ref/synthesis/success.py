@@ -77,12 +77,19 @@ class FinalPositionTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["target"], keys["radius"], domain)
 
     def passes(self, x, v, t):
+        """Whether each particle's last state lies within ``radius`` of ``target``, (N,) bool; the
+        success-test protocol of :mod:`pes_ref.synthesis.success`."""
         return _near(x[-1], self.target, self.radius, self.domain)
 
     def cost(self, x, v, t, margin: float):
+        """The squared distance of the last state from the disc of radius ``radius (1 - margin)`` about
+        ``target``, in radii; the surrogate protocol of :mod:`pes_ref.synthesis.success`."""
         c, g = _disc_cost(x[-1], self.target, self.radius, margin, self.domain)
         return _at_states(x, -1, c, g)
 
@@ -101,15 +108,24 @@ class PositionAtTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["time"], keys["target"], keys["radius"], domain)
 
     def passes(self, x, v, t):
+        """Whether the state nearest ``time`` lies within ``radius`` of ``target``, (N,) bool (every particle
+        fails when ``time`` is after the run's end); the success-test protocol of
+        :mod:`pes_ref.synthesis.success`."""
         n = step_at(t, self.time)
         if n is None:
             return _none(x)
         return _near(x[n], self.target, self.radius, self.domain)
 
     def cost(self, x, v, t, margin: float):
+        """The squared distance of the state nearest ``time`` from the disc of radius ``radius (1 - margin)``
+        about ``target``, in radii (0 when ``time`` is after the run's end); the surrogate protocol of
+        :mod:`pes_ref.synthesis.success`."""
         n = step_at(t, self.time)
         if n is None:
             return np.zeros(x.shape[1]), None, None
@@ -127,9 +143,14 @@ class StayInTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(StayIn(keys["lower"], keys["upper"], keys["from"], keys["to"], 1.0, domain))
 
     def passes(self, x, v, t):
+        """Whether every state of the window lies in the box, (N,) bool (every particle fails when the
+        window holds no state); the success-test protocol of :mod:`pes_ref.synthesis.success`."""
         states = x[window_steps(t, self.box.start, self.box.end)]
         if states.shape[0] == 0:
             return _none(x)
@@ -163,15 +184,24 @@ class WithinTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["center"], keys["radius"], keys["from"], keys["to"], domain)
 
     def passes(self, x, v, t):
+        """Whether every state of the window lies within ``radius`` of ``center``, (N,) bool (every particle
+        fails when the window holds no state); the success-test protocol of
+        :mod:`pes_ref.synthesis.success`."""
         states = x[window_steps(t, self.start, self.end)]
         if states.shape[0] == 0:
             return _none(x)
         return np.all(_near(states, self.center, self.radius, self.domain), axis=0)
 
     def cost(self, x, v, t, margin: float):
+        """The mean over the window of the squared distance from the disc of radius ``radius (1 - margin)``
+        about ``center``, in radii (0 when the window holds no state); the surrogate protocol of
+        :mod:`pes_ref.synthesis.success`."""
         w = window_steps(t, self.start, self.end)
         if x[w].shape[0] == 0:
             return np.zeros(x.shape[1]), None, None
@@ -196,10 +226,16 @@ class ExitTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(Exit(keys["edge"], keys["center"], keys["halfwidth"], 1.0, domain), keys["min_speed"],
                    keys["from"], keys["to"])
 
     def passes(self, x, v, t):
+        """Whether each particle leaves by the edge within ``halfwidth`` of ``center``, between ``from`` and
+        ``to``, at least ``min_speed`` fast across it, (N,) bool; the success-test protocol of
+        :mod:`pes_ref.synthesis.success`."""
         step, exited = self.edge.steps(x)
         axis = EDGES[self.edge.edge][0]
         particle = np.arange(x.shape[1])
@@ -255,6 +291,9 @@ class CrossTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["a"], keys["b"], keys["from"], keys["to"], domain)
 
     def _states(self, x, t):
@@ -277,6 +316,8 @@ class CrossTest:
         return (cross != 0.0) & (tau >= 0.0) & (tau <= 1.0) & (u >= lo) & (u <= 1.0 - lo)
 
     def passes(self, x, v, t):
+        """Whether some step's move within the window meets the segment, (N,) bool (every particle fails
+        when the window holds no state); the success-test protocol of :mod:`pes_ref.synthesis.success`."""
         _, p, r = self._states(x, t)
         if r.shape[0] == 0:
             return _none(x)
@@ -325,9 +366,15 @@ class SpeedAtTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["time"], keys["axis"], keys["min"], keys["max"])
 
     def passes(self, x, v, t):
+        """Whether the velocity along ``axis`` at the state nearest ``time`` lies in ``[min, max]``, (N,) bool
+        (every particle fails when ``time`` is after the run's end); the success-test protocol of
+        :mod:`pes_ref.synthesis.success`."""
         n = step_at(t, self.time)
         if n is None:
             return _none(x)
@@ -342,6 +389,9 @@ class SpeedAtTest:
         return abs(bound) if math.isfinite(bound) and bound != 0.0 else 1.0
 
     def cost(self, x, v, t, margin: float):
+        """The squared amount by which that velocity lies outside the range narrowed by ``margin`` tolerances,
+        in tolerances (half the range, or a one-sided bound's size); ``gx`` is None, and the cost 0 when
+        ``time`` is after the run's end; the surrogate protocol of :mod:`pes_ref.synthesis.success`."""
         n = step_at(t, self.time)
         if n is None:
             return np.zeros(x.shape[1]), None, None
@@ -367,12 +417,19 @@ class AnyOfTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its entry's checked keys, its ``tests`` already built by the reader
+        (:attr:`CHILDREN`); how the problem file's reader builds every test
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(tuple(keys["tests"]))
 
     def passes(self, x, v, t):
+        """Whether any one of ``tests`` passes, (N,) bool; the success-test protocol of
+        :mod:`pes_ref.synthesis.success`."""
         return np.logical_or.reduce([test.passes(x, v, t) for test in self.tests])
 
     def cost(self, x, v, t, margin: float):
+        """Each particle's cheapest surrogate among ``tests``, with that one's derivatives; the surrogate
+        protocol of :mod:`pes_ref.synthesis.success`."""
         costs = [test.cost(x, v, t, margin) for test in self.tests]
         c = np.stack([k[0] for k in costs])
         best = np.argmin(c, axis=0)
@@ -406,19 +463,29 @@ class CustomTest:
 
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
+        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
+        the problem file's reader builds every test, as it builds the objective terms
+        (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["object"])
 
     @property
     def has_cost(self) -> bool:
+        """Whether the object has a ``cost`` (a surrogate): a design without ``[[objective]]`` needs one."""
         return callable(getattr(self.obj, "cost", None))
 
     def passes(self, x, v, t):
+        """The object's ``passes(x, v, t)`` as (N,) bool, refusing another shape; what it raises as one
+        :class:`~pes_ref.synthesis.objective_terms.CustomTermError`; the success-test protocol of
+        :mod:`pes_ref.synthesis.success`."""
         ok = np.asarray(call_user(self.label, self.obj.passes, x, v, t))
         if ok.shape != (x.shape[1],):
             raise CustomTermError(f"{self.label}: passes returned shape {ok.shape}, expected ({x.shape[1]},)")
         return ok.astype(bool)
 
     def cost(self, x, v, t, margin: float):
+        """The object's ``cost(x, v, t, margin)``, ``c`` as float64; what it raises as one
+        :class:`~pes_ref.synthesis.objective_terms.CustomTermError`; the surrogate protocol of
+        :mod:`pes_ref.synthesis.success`."""
         c, gx, gv = call_user(self.label, self.obj.cost, x, v, t, margin)
         return np.asarray(c, dtype=np.float64), gx, gv
 
@@ -434,12 +501,17 @@ class GroupTest:
 
     @property
     def KIND(self) -> str:                   # noqa: N802 (the kind of the test it judges with)
+        """The kind of ``test``, the test it judges with."""
         return self.test.KIND
 
     def passes(self, x, v, t):
+        """``test``'s verdict for the group's particles, True for the others, (N,) bool; the success-test
+        protocol of :mod:`pes_ref.synthesis.success`."""
         return ~self.members(x.shape[1]) | self.test.passes(x, v, t)
 
     def cost(self, x, v, t, margin: float):
+        """``test``'s surrogate for the group's particles, 0 (and no derivative) for the others; the surrogate
+        protocol of :mod:`pes_ref.synthesis.success`."""
         mine = self.members(x.shape[1])
         c, gx, gv = self.test.cost(x, v, t, margin)
         return (np.where(mine, c, 0.0), None if gx is None else np.where(mine[:, None], gx, 0.0),
@@ -460,10 +532,14 @@ class ShareCriterion:
     high: float
 
     def share(self, x, v, t) -> float:
+        """The share of the particles ``test`` judges that pass it (in [0, 1])."""
         ok = self.test.passes(x, v, t)
         return float(np.mean(ok[applies(self.test, x.shape[1])]))
 
     def cost(self, x, v, t, margin: float):
+        """``test``'s surrogate for the failing particles cheapest to mend, as many as the share lacks of
+        ``low``; 0 (and no derivative) for every other particle; the surrogate protocol of
+        :mod:`pes_ref.synthesis.success`."""
         c, gx, gv = self.test.cost(x, v, t, margin)
         judged = applies(self.test, x.shape[1])
         lacking = math.ceil(self.low * np.count_nonzero(judged) - 1e-9) - np.count_nonzero(judged & (c == 0.0))

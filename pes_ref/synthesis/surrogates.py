@@ -29,6 +29,8 @@ class Surrogate:
     name: str
 
     def value_and_grad(self, x, v, t):
+        """``sum(c)`` of the test's ``cost`` with ``margin``, and its ``gx``, ``gv``; the objective
+        protocol of :mod:`pes_ref.core.objectives`."""
         c, gx, gv = self.test.cost(x, v, t, self.margin)
         return float(np.sum(c)), gx, gv
 

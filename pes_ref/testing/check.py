@@ -131,6 +131,8 @@ class CaseOutcome:
     errors: dict = field(default_factory=dict)
 
     def line(self) -> str:
+        """The case's line of ``pes_ref check``'s output: ``ok    ID``, or ``FAIL  ID`` with the array (an
+        invalid vector: the key) and what happened."""
         if self.ok:
             return f"ok    {self.case_id}"
         if self.kind == "invalid":
@@ -148,17 +150,21 @@ class CheckReport:
 
     @property
     def passed(self) -> int:
+        """The number of cases that passed."""
         return sum(o.ok for o in self.outcomes)
 
     @property
     def failed(self) -> int:
+        """The number of cases that failed."""
         return len(self.outcomes) - self.passed
 
     @property
     def ok(self) -> bool:
+        """Whether every case passed, and at least one ran."""
         return self.failed == 0 and bool(self.outcomes)
 
     def summary(self) -> str:
+        """``"P passed, F failed"``, the last line of ``pes_ref check``."""
         return f"{self.passed} passed, {self.failed} failed"
 
     def to_json(self) -> dict:
@@ -353,6 +359,8 @@ class Program:
         self.timeout = timeout
 
     def command(self, pairs, refusals=None) -> list:
+        """The argv of one run: the template with ``{pairs}`` expanded to ``CASE1 RESULT1 ...``, or
+        ``{case}`` and ``{result}`` to the first pair, and ``{refusals}`` to ``refusals``."""
         out = []
         for a in self.argv:
             if a == "{pairs}":

@@ -66,14 +66,22 @@ NEAR_EDGE = (1e-8, 2.5e-8)
 class Draws(Protocol):
     """A source of draws (hypothesis's ``draw``, or a seeded Generator)."""
 
-    def integer(self, lo: int, hi: int) -> int: ...
-    def real(self, lo: float, hi: float) -> float: ...
-    def flag(self) -> bool: ...
-    def choice(self, options: Sequence): ...
-    def sample(self, options: Sequence, min_size: int, max_size: int) -> list: ...
-    def subset(self, options: Sequence, min_size: int = 1) -> list: ...
-    def seed(self) -> int: ...
-    def nested(self, fn, *args, **kwargs): ...
+    def integer(self, lo: int, hi: int) -> int:
+        """An integer in ``[lo, hi]`` (both included)."""
+    def real(self, lo: float, hi: float) -> float:
+        """A real number in ``[lo, hi]``."""
+    def flag(self) -> bool:
+        """True or False."""
+    def choice(self, options: Sequence):
+        """One of ``options``."""
+    def sample(self, options: Sequence, min_size: int, max_size: int) -> list:
+        """``min_size`` to ``max_size`` entries of ``options``, with repetition."""
+    def subset(self, options: Sequence, min_size: int = 1) -> list:
+        """At least ``min_size`` distinct entries of ``options``."""
+    def seed(self) -> int:
+        """A seed for :func:`numpy.random.default_rng`, in ``[0, SEED_MAX]``."""
+    def nested(self, fn, *args, **kwargs):
+        """``fn(source, *args, **kwargs)`` drawn as one unit (under hypothesis, a nested strategy)."""
 
 
 class GeneratorDraws:
@@ -86,30 +94,38 @@ class GeneratorDraws:
         self.rng = rng
 
     def integer(self, lo: int, hi: int) -> int:
+        """:class:`Draws`' ``integer``: uniform in ``[lo, hi]``."""
         return int(self.rng.integers(lo, hi + 1))
 
     def real(self, lo: float, hi: float) -> float:
+        """:class:`Draws`' ``real``: uniform in ``[lo, hi)``."""
         return float(self.rng.uniform(lo, hi))
 
     def flag(self) -> bool:
+        """:class:`Draws`' ``flag``: True or False with even odds."""
         return bool(self.rng.integers(2))
 
     def choice(self, options: Sequence):
+        """:class:`Draws`' ``choice``: each option with even odds."""
         options = tuple(options)
         return options[int(self.rng.integers(len(options)))]
 
     def sample(self, options: Sequence, min_size: int, max_size: int) -> list:
+        """:class:`Draws`' ``sample``: a uniform size, then each entry by :meth:`choice`."""
         return [self.choice(options) for _ in range(self.integer(min_size, max_size))]
 
     def subset(self, options: Sequence, min_size: int = 1) -> list:
+        """:class:`Draws`' ``subset``: a uniform size, then that many options of a random permutation."""
         options = tuple(options)
         k = self.integer(min_size, len(options))
         return [options[i] for i in self.rng.permutation(len(options))[:k]]
 
     def seed(self) -> int:
+        """:class:`Draws`' ``seed``: uniform in ``[0, SEED_MAX]``."""
         return int(self.rng.integers(0, SEED_MAX, endpoint=True))
 
     def nested(self, fn, *args, **kwargs):
+        """:class:`Draws`' ``nested``: ``fn(self, *args, **kwargs)``."""
         return fn(self, *args, **kwargs)
 
 

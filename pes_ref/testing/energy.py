@@ -203,10 +203,13 @@ class DriftRatio:
 
     @property
     def ratio(self) -> float:
+        """``coarse.max_abs / fine.max_abs`` (NaN for 0/0, inf for x/0)."""
         return _ratio(self.coarse.max_abs, self.fine.max_abs)
 
     @property
     def ensemble_ratio(self) -> float:
+        """The ratio of the particle-mean errors, ``coarse.ensemble_error() / fine.ensemble_error()``
+        (NaN for 0/0, inf for x/0)."""
         return _ratio(self.coarse.ensemble_error(), self.fine.ensemble_error())
 
 

@@ -66,6 +66,7 @@ class ShiftCheck:
 
     @property
     def max_difference(self) -> float:
+        """The largest of :attr:`differences`."""
         return max(self.differences.values())
 
 
