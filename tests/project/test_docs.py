@@ -113,3 +113,38 @@ def test_readme_check_transcripts_count_what_the_code_ships():
         n = n_vectors + int(re.search(r"--random (\d+)", full).group(1))
         assert out.rstrip().splitlines()[-1] == f"{n} passed, 0 failed", cmd
         assert re.search(rf"^{n} cases in 2 processes of the program", out, re.M), cmd
+
+
+# ------------------------------------------------------------------ the docs say what is, not how it came to be
+
+#: Pages another change is rewriting now; they are excluded until rewritten, then removed from this list.
+#: decisions.md records how things came to be, as CHANGELOG.md does, so it may name issues and times.
+HISTORY_EXCLUDED = {"README.md", "docs/realize.md", "docs/devices.md", "docs/architecture.md", "docs/decisions.md"}
+PAGES = sorted(p for p in ROOT.glob("docs/*.md") if str(p.relative_to(ROOT)) not in HISTORY_EXCLUDED)
+#: "issue 15", "issues 4 and 15", "Issue 30": a number a reader cannot follow (the repository has no tracker).
+ISSUE = re.compile(r"\bissues? #?\d+", re.I)
+#: A clock time: "21:31 UTC", "05:35-05:38 UTC".
+CLOCK = re.compile(r"\b\d{1,2}:\d{2}(?:-\d{1,2}:\d{2})? ?UTC\b")
+#: A generated block: between a ``<!-- NAME:begin ... -->`` line and its ``<!-- NAME:end -->``.
+GENERATED = re.compile(r"^<!-- ([\w-]+):begin\b.*?^<!-- \1:end -->$", re.M | re.S)
+
+
+def history_in(text: str) -> list:
+    """``line: text`` for each issue number anywhere and each clock time outside a generated block."""
+    outside = GENERATED.sub(lambda m: "\n" * m.group(0).count("\n"), text)
+    out = [f"{n}: {m.group(0)}" for n, line in enumerate(text.splitlines(), 1) for m in ISSUE.finditer(line)]
+    out += [f"{n}: {m.group(0)}" for n, line in enumerate(outside.splitlines(), 1) for m in CLOCK.finditer(line)]
+    return sorted(out, key=lambda s: int(s.split(":")[0]))
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_page_tells_history(page):
+    """How things came to be lives in CHANGELOG.md and docs/decisions.md; a page says what the code is."""
+    assert history_in(page.read_text()) == []
+
+
+def test_history_is_found():
+    text = ("# Synthesis (issues 4 and 15)\nMeasured at 05:35-05:38 UTC, load 2.\nIssue 30 asked.\n"
+            "<!-- t:begin (make t writes what follows) -->\nregenerated: 2026-11-28 04:54 UTC, commit `26790f3`\n"
+            "<!-- t:end -->\nat 21:31 UTC; see the issue tracker, 15 issues in all.\n")
+    assert history_in(text) == ["1: issues 4", "2: 05:35-05:38 UTC", "3: Issue 30", "7: 21:31 UTC"]

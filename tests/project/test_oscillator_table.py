@@ -62,10 +62,12 @@ def test_a_smoke_run_rewrites_the_table_and_nothing_else(tmp_path):
     block, tail = rest.split(table.END)
     assert (head, tail) == (BEFORE, AFTER)
     lines = block.splitlines()
-    assert lines[0].startswith("Written by `python validation/experiments/oscillator_table.py --smoke ")
-    assert "--seeds 3` on " in lines[0]
-    assert lines[1] == ""
-    rows = [line for line in lines[2:] if not line.startswith("|---")]
+    assert lines[0].startswith("`python validation/experiments/oscillator_table.py --smoke ")
+    assert "--seeds 3` rewrites this table. Conditions: " in lines[0]
+    assert "UTC" not in lines[0] and "commit" not in lines[0]           # no clock time, provenance apart
+    assert lines[1] == "" and re.fullmatch(r"regenerated: \d{4}-\d{2}-\d{2}, commit `[^`]+`", lines[2])
+    assert lines[3] == ""
+    rows = [line for line in lines[4:] if not line.startswith("|---")]
     assert rows[0].startswith("| backend | design seed | held-out seed | captured | sweep | grid |")
     assert [r.split("|")[1:4] for r in rows[1:]] == [[" numpy ", " 3 ", " 12345 "], ["  ", "  ", " 9191 "]]
     state = load_design(out / "osc3-numpy.npz")
@@ -118,3 +120,13 @@ def test_print_only_writes_no_document(tmp_path, capsys):
                        "--doc", str(doc), "--out", str(tmp_path / "designs")]) == 0
     assert doc.read_bytes() == before
     assert "| numpy | 0 | 12345 |" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("page, target", [("synthesis.md", "oscillator-table"), ("problems.md", "design-study")])
+def test_the_docs_blocks_open_with_the_head_the_scripts_write(page, target):
+    """What rewrites the table and its conditions, then one provenance line; no clock time."""
+    text = (ROOT / "docs" / page).read_text()
+    block = text.split(f"<!-- {target}:begin (make {target} writes what follows) -->\n")[1].split(f"<!-- {target}:end -->")[0]
+    head = block.strip("\n").split("\n")[:3]
+    assert head[0].startswith(f"`make {target}` rewrites this table. Conditions: ") and "UTC" not in head[0]
+    assert head[1] == "" and re.fullmatch(r"regenerated: \d{4}-\d{2}-\d{2}, commit `[0-9a-f]{7,}`", head[2])

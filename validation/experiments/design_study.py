@@ -12,9 +12,10 @@ marker lines of docs/problems.md, and nothing else in the file::
     ...
     <!-- design-study:end -->
 
-The table says where it was made (date, commit, CPU, NumPy, load average), and per problem and
-backend how many design seeds reach success >= 0.9 on both held-out seeds, each seed's success
-on the two, the flat surface's and the design's wall time.
+The table says what rewrites it, its conditions (CPU, NumPy, load average) and its provenance
+(``regenerated: DATE, commit HASH``), and per problem and backend how many design seeds reach
+success >= 0.9 on both held-out seeds, each seed's success on the two, the flat surface's and the
+design's wall time.
 
 ``--smoke`` designs each problem at a smoke size (an 8-node grid, 3 iterations; for the tests).
 """
@@ -151,7 +152,7 @@ def main(argv=None) -> int:
         ([f"--backends {','.join(args.backends)}"] if args.backends else []) + \
         ([f"--seeds {','.join(map(str, args.seeds))}"] if tuple(args.seeds) != DESIGN_SEEDS else [])
     cmd = " ".join(["python validation/experiments/design_study.py", *words]) if words else "make design-study"
-    block = ["", _table.where_made(cmd, (load0, os.getloadavg()[0]), args.workers), ""] + table(rows, args.held_out) + [""]
+    block = ["", *_table.where_made(cmd, (load0, os.getloadavg()[0]), args.workers), ""] + table(rows, args.held_out) + [""]
     print("\n".join(block))
     if not args.print_only:
         from pes_ref.core.files import atomic_file

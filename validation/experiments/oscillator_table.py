@@ -11,8 +11,8 @@ of docs/synthesis.md is replaced, and nothing else in the file::
     <!-- oscillator-table:end -->
 
 The design files go to ``--out`` (``validation/out/oscillator_table/oscS-B.npz``, replaced
-on each run). The table says where it was made (date, commit, CPU, NumPy, load average), the
-wall and CPU time of each design, and the SHA-256 of each design's grid values: a design is
+on each run). The table says what rewrites it, its conditions (CPU, NumPy, load average) and
+its provenance (``regenerated: DATE, commit HASH``), the wall and CPU time of each design, and the SHA-256 of each design's grid values: a design is
 bit-identical between two runs only on the same backend, CPU kind and libraries
 (docs/synthesis.md, "Results"), and the hash shows at a glance whether it was.
 
@@ -116,16 +116,18 @@ def _backends(text: str) -> tuple:
     return names
 
 
-def where_made(cmd: str, loads: tuple, workers: int) -> str:
-    """One line: by what, when, from which commit, on what CPU and libraries, at what load."""
+def where_made(cmd: str, loads: tuple, workers: int) -> list:
+    """The block's head: a line naming what rewrites the table and its conditions (CPU, libraries,
+    designs at a time, load), a blank line, then ``regenerated: DATE, commit `HASH```, its provenance."""
     commit = _git("rev-parse", "--short", "HEAD") or "unknown"
     if _git("status", "--porcelain", "--", "pes_ref", "setup.cfg"):
         commit += " with uncommitted changes to pes_ref"
     import cma
-    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    return (f"Written by `{cmd}` on {now} from commit `{commit}`: {cpu_name()}, "
+    today = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
+    return [f"`{cmd}` rewrites this table. Conditions: {cpu_name()}, "
             f"Python {platform.python_version()}, NumPy {np.__version__}, pycma {cma.__version__}; "
-            f"{workers} design(s) at a time, load average {loads[0]:.1f} at the start and {loads[1]:.1f} at the end.")
+            f"{workers} design(s) at a time, load average {loads[0]:.1f} at the start and {loads[1]:.1f} at the end.",
+            "", f"regenerated: {today}, commit `{commit}`"]
 
 
 def _git(*args) -> str:
@@ -223,8 +225,8 @@ def main(argv=None) -> int:
     unfinished = [f"osc{run['seed']}-{run['backend']}: {run['status']}" for run in runs if run["status"] != "done"]
     if unfinished:
         return _error(f"a design did not finish ({'; '.join(unfinished)}); {doc} is unchanged")
-    block = [where_made(command(args.seeds, args.held_out, args.smoke, backends), (start, os.getloadavg()[0]),
-                        min(args.workers, len(jobs))), ""] + table(runs)
+    block = where_made(command(args.seeds, args.held_out, args.smoke, backends), (start, os.getloadavg()[0]),
+                       min(args.workers, len(jobs))) + [""] + table(runs)
     if not args.print_only:
         from pes_ref.core.files import atomic_file
         with atomic_file(doc, overwrite=True, what="document") as fh:

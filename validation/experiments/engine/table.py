@@ -10,7 +10,7 @@ import json
 import sys
 
 LABELS = {
-    "baseline": "before: 300 it, lr 0.002, 25 nodes then the final grid at 80%",
+    "baseline": "one coarse stage: 300 it, lr 0.002, 25 nodes then the final grid at 80%",
     "p,lr=0.002,st=c4": "5/9/17/final, lr 0.002",
     "p,lr=0.005,st=c4": "5/9/17/final, lr 0.005",
     "p,lr=0.01,st=c4": "5/9/17/final, lr 0.01",
