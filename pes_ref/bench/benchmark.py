@@ -475,7 +475,7 @@ def design(cfg: Config, log=print) -> list:
 
 
 def every_gradient(cfg: Config, log=print) -> list:
-    """Every gradient a case owes through ``run_case``, each backend against JAX (issue 33)."""
+    """Every gradient a case owes through ``run_case``, each backend against JAX."""
     from pes_ref.bench import every_gradient as every
     grid = cfg.design["funnel"].get("grid", cfg.grid)
     return every.measure(cfg.every_gradient, rounds=cfg.every_rounds, backends=installed_backends(),

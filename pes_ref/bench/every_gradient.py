@@ -1,4 +1,4 @@
-"""Every gradient a case owes, through :func:`pes_ref.oracle.case.run_case`, against JAX (issue 33).
+"""Every gradient a case owes, through :func:`pes_ref.oracle.case.run_case`, against JAX.
 
 An implementation checked against the oracle asks for every gradient of its case: ``values``,
 ``x0``, ``v0``, ``force``, ``mass`` and ``damping`` (and ``spring_k``, ``spring_center`` where
@@ -13,7 +13,7 @@ cancels). JAX's gradients are first checked against the oracle's (100 GRAD_RTOL 
 gradient's largest entry); a mismatch is reported and not timed.
 
 Run: ``python -m pes_ref.bench.every_gradient [--sizes 64,4096,65536] [--rounds R]``; ``make
-bench`` prints the same rows (:func:`measure`, :func:`format_rows`). The targets (issue 33):
+bench`` prints the same rows (:func:`measure`, :func:`format_rows`). The targets (docs/performance.md):
 compiled <= 0.5x JAX at N = 64 and < 1x at N = 4096 and 65,536; NumPy < 1x at N >= 4096.
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ from pes_ref.oracle.case import run_case
 
 __all__ = ["case_keys", "jax_every_gradient", "measure", "format_rows", "target", "main", "SIZES"]
 
-#: (N, T): the sizes of issue 33's table; N = 65,536 at T = 100 (as the scaling section's
+#: (N, T): the sizes of docs/performance.md's table; N = 65,536 at T = 100 (as the scaling section's
 #: largest run), so that the oracle's arrays fit in memory.
 SIZES = ((64, 400), (4096, 400), (65536, 100))
 
@@ -156,7 +156,7 @@ def measure(sizes=SIZES, rounds: int = 7, backends=None, seed: int = 0, log=None
 
 
 def target(backend: str, n: int):
-    """``(limit, strict)`` of issue 33 for this backend at N particles, or None."""
+    """``(limit, strict)`` of docs/performance.md for this backend at N particles, or None."""
     if backend == "numba" and n == 64:
         return 0.5, False
     if n >= 4096 and backend in ("numba", "numpy"):
@@ -165,7 +165,7 @@ def target(backend: str, n: int):
 
 
 def _verdict(backend: str, n: int, ratio: float) -> str:
-    """" (<= 0.5: met)" or the like where issue 33 sets a target for this backend and N."""
+    """" (<= 0.5: met)" or the like where docs/performance.md sets a target for this backend and N."""
     goal = target(backend, n)
     if goal is None:
         return ""

@@ -57,7 +57,7 @@ def _compiled_targets(res: dict, add) -> None:
 
 def targets(res: dict) -> list:
     """The targets with the measured numbers: (name, measured, goal, met or None if not
-    measured). Issue 6's are NumPy's loops' (the scaling, memory and effects of NumPy's
+    measured). First NumPy's loops' (the scaling, memory and effects of NumPy's
     loops); then :func:`_compiled_targets`."""
     out = []
 

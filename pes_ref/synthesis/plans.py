@@ -302,7 +302,7 @@ FUNNEL_PLAN = Plan(iterations=500, lr=0.002, lr_final=0.0005, decay_iterations=4
 #: The grids (nodes along axis 0) of :func:`coarse_to_fine`'s stages below the final grid: each
 #: about twice the last, so a stage refines the one before by resampling (5, 9, 17, ...).
 COARSE_GRIDS = (5, 9, 17)
-#: The plan of a problem file without ``[train]`` (issue 30; its measured comparison is in
+#: The plan of a problem file without ``[train]`` (its measured comparison is in
 #: docs/problems.md, "The default plan"): :func:`coarse_to_fine` stages, RMSprop from ``lr`` to
 #: ``lr_final`` over the run, and validation every ``validate_every`` iterations with an early
 #: stop at ``target`` (no randomized smoothing: measured there, it did not pay for its time).

@@ -41,7 +41,7 @@ DEFAULT_DOC = ROOT / "docs" / "problems.md"
 DEFAULT_OUT = ROOT / "validation" / "out" / "design_study"
 DESIGN_SEEDS = tuple(range(8))
 HELD_OUT = (12345, 9191)
-#: The bar of issue 30: success on both held-out seeds at least this.
+#: The bar of the design study: success on both held-out seeds at least this.
 BAR = 0.9
 BEGIN = "<!-- design-study:begin (make design-study writes what follows) -->"
 END = "<!-- design-study:end -->"
