@@ -32,15 +32,16 @@ the contact is a sphere of radius :data:`BALL_RADIUS_SHARE` of a grid cell on th
 triangles (two per cell, as the STL's), so its centre follows the surface offset by the
 radius and it touches at a point not under its centre; the full slope and curvature terms;
 sliding friction :data:`SLIDING_FRICTION` (rolling is not imposed: the ball rolls because
-friction holds its contact point). MuJoCo's contact is soft: a time constant
+friction holds its contact point) with :data:`CONDIM` 3 (no rolling resistance, as the
+rolling-ball model has none). MuJoCo's contact is soft: a time constant
 :data:`CONTACT_TIMECONST` (``solref``), far below the design's step.
 
 The plate is padded by :data:`PAD` of its size on every side with its edge heights (the
 design's surface extends as a constant beyond its grid), so a ball that leaves the grid
 (through the exit edge) rolls on before it falls. The paths are sampled at the design's
-steps (a :class:`pes_ref.core.integrator.Trajectory` of the balls' horizontal centre, its
-``f`` the horizontal force applied), so :func:`pes_ref.synthesis.exit_positions` reads
-their exits as the design's.
+steps (a :class:`pes_ref.core.integrator.Trajectory` of the balls' horizontal centres and
+velocities, its ``f`` the schedule's and the walls' force at each state), so
+:func:`pes_ref.synthesis.exit_positions` reads their exits as the design's.
 """
 from __future__ import annotations
 
@@ -50,8 +51,8 @@ from pes_ref.core import checks
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.terms import wall_add_force
 
-__all__ = ["BALL_RADIUS_SHARE", "SLIDING_FRICTION", "CONTACT_TIMECONST", "CONTACT_IMPEDANCE", "CONDIM", "SUBSTEPS", "PAD", "mujoco_paths",
-           "plate_model"]
+__all__ = ["BALL_RADIUS_SHARE", "SLIDING_FRICTION", "CONDIM", "CONTACT_TIMECONST", "CONTACT_IMPEDANCE", "SUBSTEPS",
+           "PAD", "mujoco_paths", "plate_model"]
 
 #: The ball's radius as a share of the grid's finer spacing. A sphere on a heightfield touches
 #: it at the point where the surface's normal passes through its centre, not under the centre,
@@ -79,8 +80,9 @@ CONTACT_TIMECONST = 0.002
 #: and the deficit is 0.05% (docs/realize.md).
 CONTACT_IMPEDANCE = (0.999, 0.9999, 0.001)
 #: MuJoCo's steps per design step (its timestep ``dt / SUBSTEPS``): 20 puts 5e-4 under the
-#: design's dt = 0.01, a quarter of the contact's time constant; halving it changes the
-#: in-band fraction by nothing on the realizable funnel (docs/realize.md).
+#: design's dt = 0.01, a quarter of the contact's time constant. On the realizable funnel
+#: halving it moves the balls' median exit by at most half a design step and the in-band
+#: fraction by at most 3 balls of 200 (docs/realize.md).
 SUBSTEPS = 20
 #: The plate's padding beyond the grid on every side, as a share of the grid's size.
 PAD = 0.1
@@ -110,18 +112,17 @@ def plate_model(hf, n_balls: int, mass: float, radius: float, timestep: float, d
     top = float(padded.max())
     elevation = top if top > 0 else 1.0
     base = max(float(hf.spacing.min()), elevation)          # the hfield's thickness below its lowest point
-    g = hf.g
-    balls = "\n".join(
-        f'<body name="b{i}"><freejoint/><geom type="sphere" size="{float(radius)!r}" mass="{float(mass)!r}" contype="1" '
-        f'conaffinity="0" condim="{CONDIM}" friction="{float(SLIDING_FRICTION)!r} 0 0" '
-        f'solref="{float(CONTACT_TIMECONST)!r} 1" solimp="{_solimp()}"/></body>' for i in range(n_balls))
+    contact = (f'condim="{CONDIM}" friction="{float(SLIDING_FRICTION)!r} 0 0" '
+               f'solref="{float(CONTACT_TIMECONST)!r} 1" solimp="{_solimp()}"')
+    balls = "\n".join(f'<body name="b{i}"><freejoint/><geom type="sphere" size="{float(radius)!r}" '
+                      f'mass="{float(mass)!r}" contype="1" conaffinity="0" {contact}/></body>' for i in range(n_balls))
     xml = f"""<mujoco model="plate">
-  <option timestep="{float(timestep)!r}" gravity="0 0 {float(-g)!r}" integrator="Euler" cone="elliptic"/>
+  <option timestep="{float(timestep)!r}" gravity="0 0 {float(-hf.g)!r}" integrator="Euler" cone="elliptic"/>
   <asset><hfield name="plate" nrow="{padded.shape[1]}" ncol="{padded.shape[0]}"
     size="{float(half[0])!r} {float(half[1])!r} {float(elevation)!r} {float(base)!r}"/></asset>
   <worldbody>
-    <geom name="plate" type="hfield" hfield="plate" pos="{float(centre[0])!r} {float(centre[1])!r} 0" contype="0" conaffinity="1"
-      condim="{CONDIM}" friction="{float(SLIDING_FRICTION)!r} 0 0" solref="{float(CONTACT_TIMECONST)!r} 1" solimp="{_solimp()}"/>
+    <geom name="plate" type="hfield" hfield="plate" pos="{float(centre[0])!r} {float(centre[1])!r} 0"
+      contype="0" conaffinity="1" {contact}/>
     {balls}
   </worldbody>
 </mujoco>"""
@@ -145,9 +146,10 @@ def _surface_height(hf, x: np.ndarray):
     H = hf.heights
     a, b = H[i[:, 0], i[:, 1]], H[i[:, 0] + 1, i[:, 1]]
     c, d = H[i[:, 0], i[:, 1] + 1], H[i[:, 0] + 1, i[:, 1] + 1]
-    z = a * (1 - t[:, 0]) * (1 - t[:, 1]) + b * t[:, 0] * (1 - t[:, 1]) + c * (1 - t[:, 0]) * t[:, 1] + d * t[:, 0] * t[:, 1]
-    g0 = ((b - a) * (1 - t[:, 1]) + (d - c) * t[:, 1]) / h[0]
-    g1 = ((c - a) * (1 - t[:, 0]) + (d - b) * t[:, 0]) / h[1]
+    s0, s1 = t[:, 0], t[:, 1]
+    z = a * (1 - s0) * (1 - s1) + b * s0 * (1 - s1) + c * (1 - s0) * s1 + d * s0 * s1
+    g0 = ((b - a) * (1 - s1) + (d - c) * s1) / h[0]
+    g1 = ((c - a) * (1 - s0) + (d - b) * s0) / h[1]
     return z, np.hypot(g0, g1)
 
 
@@ -157,12 +159,14 @@ def mujoco_paths(problem, hf, seed: int, n_particles: int, n_steps: int | None =
     the design's batch from ``default_rng(seed)`` of ``n_particles``, run for ``n_steps`` of the
     design's ``dt`` (default its own ``n_steps``) with ``substeps`` MuJoCo steps each; the
     balls' radius is ``radius_share`` of the grid's finer spacing. Returns the balls'
-    horizontal centres, velocities and applied forces at the design's steps."""
+    horizontal centres, velocities and the schedule's and walls' force at the design's steps."""
     mujoco = _mujoco()
     seed = checks.as_nonneg_int("seed", seed)
     n = checks.as_positive_int("n_particles", n_particles)
     substeps = checks.as_positive_int("substeps", substeps)
     radius = checks.as_positive_float("radius_share", radius_share) * float(hf.spacing.min())
+    if n_steps is not None:
+        n_steps = checks.as_positive_int("n_steps", n_steps)
     batch = problem.plain().batch(hf.energy(), np.random.default_rng(seed), n, n_steps=n_steps)
     scene = batch.scene
     mass = float(hf.mass)
@@ -186,19 +190,21 @@ def mujoco_paths(problem, hf, seed: int, n_particles: int, n_steps: int | None =
     mujoco.mj_forward(model, data)
 
     x, v, f = (np.empty((T + 1, n, 2)) for _ in range(3))
-    push = np.zeros((n, 2)) if fext is None else fext
     applied = data.xfrc_applied[1:, :2]                      # body 0 is the world
-    wall = np.empty((n, 2))
+
+    def wall_force(q):
+        out = np.zeros((n, 2))
+        if walls is not None:
+            wall_add_force(q, *walls, out)
+        return out
+
     x[0], v[0] = qpos[:, :2], qvel[:, :2]
-    f[0] = 0.0 if fext is None else fext[0]
+    f[0] = wall_force(x[0]) + (0.0 if fext is None else fext[0])
     for k in range(T):
-        held = 0.0 if fext is None else 0.5 * (push[k] + push[k + 1])
+        held = 0.0 if fext is None else 0.5 * (fext[k] + fext[k + 1])
         for _ in range(substeps):
-            wall.fill(0.0)
-            if walls is not None:
-                wall_add_force(qpos[:, :2], *walls, wall)
-            applied[:] = wall + held
+            applied[:] = wall_force(qpos[:, :2]) + held
             mujoco.mj_step(model, data)
         x[k + 1], v[k + 1] = qpos[:, :2], qvel[:, :2]
-        f[k + 1] = applied
+        f[k + 1] = wall_force(x[k + 1]) + (0.0 if fext is None else fext[k + 1])
     return Trajectory(x, v, f)
