@@ -10,6 +10,12 @@ unless ``--force``; the set made whole in a staging folder, ``device.toml`` writ
 then reads every file back and prints one ``name: value`` line per figure of the check: the
 blocked share of the C-space the device file's parts give against the design's, the part's
 area from the DXF against the device file's, and the STL meshes' watertightness and volume.
+
+``realize DESIGN.npz --as heightfield --out DIR [--g G] [--base B] [--seed S] [--particles N]
+[--steps N] [--force]`` writes ``DIR/heightfield.stl``, reads it back and prints the held-out
+figures of the design's particle, the rolling ball and the ball in MuJoCo
+(:func:`pes_ref.realize.heightfield.heightfield_check`; without the extra ``mujoco``, one
+``mujoco: not run: ...`` line with its pip line).
 """
 from __future__ import annotations
 
