@@ -227,7 +227,7 @@ def heightfield_check(problem, values, hf: HeightField, seed: int, n_particles: 
             start = time.perf_counter()
             exits["mujoco_"] = exit_positions(problem, mujoco_ball.mujoco_paths(problem, hf, seed, n, n_steps))
             extra.update({"mujoco_exit_shift": _shift(exits["mujoco_"], exits["rolling_"]),
-                          "mujoco_dt": float(problem.dt / mujoco_ball.SUBSTEPS),
+                          "mujoco_dt": float(problem.dt / mujoco_ball.substeps(problem.dt, hf.g)),
                           "mujoco_radius": float(mujoco_ball.BALL_RADIUS_SHARE * hf.spacing.min()),
                           "mujoco_seconds": time.perf_counter() - start})
         except MissingExtraError as exc:

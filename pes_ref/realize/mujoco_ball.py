@@ -34,7 +34,7 @@ radius and it touches at a point not under its centre; the full slope and curvat
 sliding friction :data:`SLIDING_FRICTION` (rolling is not imposed: the ball rolls because
 friction holds its contact point) with :data:`CONDIM` 3 (no rolling resistance, as the
 rolling-ball model has none). MuJoCo's contact is soft: a time constant
-:data:`CONTACT_TIMECONST` (``solref``), far below the design's step.
+:data:`CONTACT_TIMECONST` (``solref``; :func:`contact_timeconst`), far below the design's step.
 
 The plate is padded by :data:`PAD` of its size on every side with its edge heights (the
 design's surface extends as a constant beyond its grid), so a ball that leaves the grid
@@ -45,14 +45,16 @@ velocities, its ``f`` the schedule's and the walls' force at each state), so
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.terms import wall_add_force
 
-__all__ = ["BALL_RADIUS_SHARE", "SLIDING_FRICTION", "CONDIM", "CONTACT_TIMECONST", "CONTACT_IMPEDANCE", "SUBSTEPS",
-           "PAD", "mujoco_paths", "plate_model"]
+__all__ = ["BALL_RADIUS_SHARE", "SLIDING_FRICTION", "CONDIM", "CONTACT_TIMECONST", "CONTACT_G", "CONTACT_IMPEDANCE",
+           "TIMESTEP_SHARE", "SUBSTEPS", "PAD", "contact_timeconst", "substeps", "mujoco_paths", "plate_model"]
 
 #: The ball's radius as a share of the grid's finer spacing. A sphere on a heightfield touches
 #: it at the point where the surface's normal passes through its centre, not under the centre,
@@ -69,9 +71,15 @@ SLIDING_FRICTION = 1.0
 #: particle and the rolling-ball model lose energy only to the design's damping, so the ball
 #: has no rolling resistance either (a hard ball on a hard plate has little: condim 6 would add it).
 CONDIM = 3
-#: The contact's time constant (s, MuJoCo's ``solref[0]``; damping ratio 1). MuJoCo needs a
-#: timestep at most half of it.
+#: The contact's time constant (s, MuJoCo's ``solref[0]``; damping ratio 1) under gravity
+#: :data:`CONTACT_G`. A ball sinks into the plate by about ``g tc^2`` times a factor of the
+#: impedance, and the plate's drag grows with the sink (:data:`CONTACT_IMPEDANCE`): at g = 98.1
+#: and 0.002 s the balls of a flat plate exit 15 design steps late, at 0.0006 s one. So under a
+#: stronger gravity the time constant shrinks as ``1 / sqrt(g)`` (:func:`contact_timeconst`),
+#: keeping the sink; under a weaker one it stays. MuJoCo needs a timestep at most half of it.
 CONTACT_TIMECONST = 0.002
+#: The gravity (length / time^2) at which :data:`CONTACT_TIMECONST` holds.
+CONTACT_G = 9.81
 #: The contact's impedance (MuJoCo's ``solimp``: d0, d_width, width). MuJoCo's heightfield is
 #: a row of triangular prisms; a ball sunk a depth p into the plate meets the next prism's side
 #: face over its first ``sqrt(2 r p)`` of travel and is pushed back there, a drag at every cell
@@ -79,13 +87,26 @@ CONTACT_TIMECONST = 0.002
 #: on a flat plate rolls 2.5% slower than it should after 3 s; at (0.999, 0.9999) it sinks 4e-8
 #: and the deficit is 0.05% (docs/realize.md).
 CONTACT_IMPEDANCE = (0.999, 0.9999, 0.001)
-#: MuJoCo's steps per design step (its timestep ``dt / SUBSTEPS``): 20 puts 5e-4 under the
-#: design's dt = 0.01, a quarter of the contact's time constant. On the realizable funnel
-#: halving it moves the balls' median exit by at most half a design step and the in-band
-#: fraction by at most 3 balls of 200 (docs/realize.md).
+#: MuJoCo's timestep as a share of the contact's time constant: a quarter, 5e-4 s at g = 9.81.
+#: On the realizable funnel halving it moves the balls' median exit by at most half a design
+#: step and the in-band fraction by at most 3 balls of 200 (docs/realize.md).
+TIMESTEP_SHARE = 0.25
+#: The fewest MuJoCo steps per design step (20: 5e-4 s under the funnel's dt = 0.01).
 SUBSTEPS = 20
 #: The plate's padding beyond the grid on every side, as a share of the grid's size.
 PAD = 0.1
+
+
+def contact_timeconst(g: float) -> float:
+    """The contact's time constant under gravity ``g``: :data:`CONTACT_TIMECONST`, shorter by
+    ``sqrt(CONTACT_G / g)`` when ``g`` is stronger than :data:`CONTACT_G`."""
+    return CONTACT_TIMECONST * math.sqrt(min(1.0, CONTACT_G / g))
+
+
+def substeps(dt: float, g: float) -> int:
+    """MuJoCo's steps per design step of ``dt`` under gravity ``g``: enough for a timestep at
+    most :data:`TIMESTEP_SHARE` of the contact's time constant, and at least :data:`SUBSTEPS`."""
+    return max(SUBSTEPS, math.ceil(dt / (TIMESTEP_SHARE * contact_timeconst(g)) - 1e-9))
 
 
 def _solimp() -> str:
@@ -113,7 +134,7 @@ def plate_model(hf, n_balls: int, mass: float, radius: float, timestep: float, d
     elevation = top if top > 0 else 1.0
     base = max(float(hf.spacing.min()), elevation)          # the hfield's thickness below its lowest point
     contact = (f'condim="{CONDIM}" friction="{float(SLIDING_FRICTION)!r} 0 0" '
-               f'solref="{float(CONTACT_TIMECONST)!r} 1" solimp="{_solimp()}"')
+               f'solref="{contact_timeconst(hf.g)!r} 1" solimp="{_solimp()}"')
     balls = "\n".join(f'<body name="b{i}"><freejoint/><geom type="sphere" size="{float(radius)!r}" '
                       f'mass="{float(mass)!r}" contype="1" conaffinity="0" {contact}/></body>' for i in range(n_balls))
     xml = f"""<mujoco model="plate">
@@ -154,16 +175,16 @@ def _surface_height(hf, x: np.ndarray):
 
 
 def mujoco_paths(problem, hf, seed: int, n_particles: int, n_steps: int | None = None, *,
-                 radius_share: float = BALL_RADIUS_SHARE, substeps: int = SUBSTEPS) -> Trajectory:
+                 radius_share: float = BALL_RADIUS_SHARE, steps_per_step: int | None = None) -> Trajectory:
     """Held-out funnel particles as balls on heightfield ``hf`` in MuJoCo (module docstring):
     the design's batch from ``default_rng(seed)`` of ``n_particles``, run for ``n_steps`` of the
-    design's ``dt`` (default its own ``n_steps``) with ``substeps`` MuJoCo steps each; the
+    design's ``dt`` (default its own ``n_steps``) with ``steps_per_step`` MuJoCo steps each
+    (default :func:`substeps`); the
     balls' radius is ``radius_share`` of the grid's finer spacing. Returns the balls'
     horizontal centres, velocities and the schedule's and walls' force at the design's steps."""
     mujoco = _mujoco()
     seed = checks.as_nonneg_int("seed", seed)
     n = checks.as_positive_int("n_particles", n_particles)
-    substeps = checks.as_positive_int("substeps", substeps)
     radius = checks.as_positive_float("radius_share", radius_share) * float(hf.spacing.min())
     if n_steps is not None:
         n_steps = checks.as_positive_int("n_steps", n_steps)
@@ -171,7 +192,9 @@ def mujoco_paths(problem, hf, seed: int, n_particles: int, n_steps: int | None =
     scene = batch.scene
     mass = float(hf.mass)
     damping = np.broadcast_to(np.zeros(2) if scene.damping is None else scene.damping, (2,))
-    model = plate_model(hf, n, mass, radius, scene.dt / substeps, damping)
+    per_step = substeps(scene.dt, hf.g) if steps_per_step is None else \
+        checks.as_positive_int("steps_per_step", steps_per_step)
+    model = plate_model(hf, n, mass, radius, scene.dt / per_step, damping)
     data = mujoco.MjData(model)
     fext = scene.schedule(n)
     walls = scene.field().walls
@@ -202,7 +225,7 @@ def mujoco_paths(problem, hf, seed: int, n_particles: int, n_steps: int | None =
     f[0] = wall_force(x[0]) + (0.0 if fext is None else fext[0])
     for k in range(T):
         held = 0.0 if fext is None else 0.5 * (fext[k] + fext[k + 1])
-        for _ in range(substeps):
+        for _ in range(per_step):
             applied[:] = wall_force(qpos[:, :2]) + held
             mujoco.mj_step(model, data)
         x[k + 1], v[k + 1] = qpos[:, :2], qvel[:, :2]

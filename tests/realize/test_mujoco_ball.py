@@ -81,7 +81,7 @@ def test_a_longer_horizon_runs_the_same_balls_on(vee):
 def test_the_check_s_figures_and_its_line_without_mujoco(vee, monkeypatch):
     p, values, hf = vee
     got = heightfield_check(p, values, hf, seed=5, n_particles=8, n_steps=120)
-    assert got["steps"] == 120 and got["mujoco_dt"] == pytest.approx(p.dt / mujoco_ball.SUBSTEPS)
+    assert got["steps"] == 120 and got["mujoco_dt"] == pytest.approx(p.dt / 20)
     for prefix in ("", "rolling_", "sloped_", "mujoco_"):
         assert 0.0 <= got[prefix + "in_band_fraction"] <= got[prefix + "exited_fraction"] <= 1.0
     from pes_ref.devices.geometry import MissingExtraError
@@ -126,3 +126,12 @@ def test_a_ball_s_radius_is_a_share_of_the_grid_s_spacing(vee):
     pad = max(1, int(np.ceil(mujoco_ball.PAD * (GRID - 1))))
     data = model.hfield_data.reshape(model.hfield_nrow[0], model.hfield_ncol[0]) * model.hfield_size[0, 2]
     np.testing.assert_allclose(data[pad:-pad, pad:-pad], hf.heights.T, atol=1e-6 * hf.heights.max())
+
+
+def test_a_stronger_gravity_gets_a_stiffer_contact_and_a_shorter_timestep():
+    assert mujoco_ball.contact_timeconst(9.81) == mujoco_ball.CONTACT_TIMECONST
+    assert mujoco_ball.contact_timeconst(2.0) == mujoco_ball.CONTACT_TIMECONST        # a weaker one keeps it
+    assert mujoco_ball.contact_timeconst(98.1) == pytest.approx(0.002 / np.sqrt(10.0))
+    assert mujoco_ball.substeps(0.01, 9.81) == 20 and mujoco_ball.substeps(0.01, 2.0) == 20
+    assert mujoco_ball.substeps(0.01, 98.1) == 64                    # 0.01 / 64 <= 0.000632 / 4
+    assert mujoco_ball.substeps(0.05, 9.81) == 100                   # a quarter of 0.002 s
