@@ -230,4 +230,19 @@ def mujoco_paths(problem, hf, seed: int, n_particles: int, n_steps: int | None =
             mujoco.mj_step(model, data)
         x[k + 1], v[k + 1] = qpos[:, :2], qvel[:, :2]
         f[k + 1] = wall_force(x[k + 1]) + (0.0 if fext is None else fext[k + 1])
+    _check_warnings(mujoco, data)
     return Trajectory(x, v, f)
+
+
+#: MuJoCo's warnings that make a run's figures untrustworthy, and what each means here.
+_WARNINGS = {"mjWARN_CONTACTFULL": "it ran out of room for contacts", "mjWARN_CNSTRFULL": "it ran out of room for "
+             "constraints", "mjWARN_BADQACC": "its accelerations became invalid (unstable)",
+             "mjWARN_BADQPOS": "its positions became invalid", "mjWARN_BADQVEL": "its velocities became invalid"}
+
+
+def _check_warnings(mujoco, data) -> None:
+    """Refuse a run that MuJoCo warned about (it drops contacts or resets a state and carries on)."""
+    for name, what in _WARNINGS.items():
+        if data.warning[int(getattr(mujoco.mjtWarning, name))].number:
+            raise checks.InputError("n_particles", f"the MuJoCo check's run is not to be trusted: {what} "
+                                                   f"({name}); fewer n_particles or a gentler plate may help")

@@ -135,3 +135,18 @@ def test_a_stronger_gravity_gets_a_stiffer_contact_and_a_shorter_timestep():
     assert mujoco_ball.substeps(0.01, 9.81) == 20 and mujoco_ball.substeps(0.01, 2.0) == 20
     assert mujoco_ball.substeps(0.01, 98.1) == 64                    # 0.01 / 64 <= 0.000632 / 4
     assert mujoco_ball.substeps(0.05, 9.81) == 100                   # a quarter of 0.002 s
+
+
+def test_a_run_mujoco_warned_about_is_refused(vee, monkeypatch):
+    """MuJoCo drops contacts or resets a state and carries on; the check says so instead."""
+    import mujoco
+    p, _, hf = vee
+    real_step = mujoco.mj_step
+
+    def step(model, data):
+        real_step(model, data)
+        data.warning[int(mujoco.mjtWarning.mjWARN_CONTACTFULL)].number += 1
+
+    monkeypatch.setattr(mujoco, "mj_step", step)
+    with pytest.raises(ValueError, match="ran out of room for contacts"):
+        mujoco_ball.mujoco_paths(p, hf, seed=1, n_particles=2, n_steps=3)
