@@ -57,10 +57,11 @@ __all__ = ["BALL_RADIUS_SHARE", "SLIDING_FRICTION", "CONDIM", "CONTACT_TIMECONST
            "TIMESTEP_SHARE", "SUBSTEPS", "PAD", "contact_timeconst", "substeps", "mujoco_paths", "plate_model"]
 
 #: The ball's radius as a share of the grid's finer spacing. A sphere on a heightfield touches
-#: it at the point where the surface's normal passes through its centre, not under the centre,
-#: and it cannot follow a dip narrower than itself: a quarter of a cell keeps it far inside
-#: the grid's smallest feature (one cell), so its centre follows the nodes' surface within
-#: ``r (sqrt(1 + |grad h|^2) - 1)`` (docs/realize.md measures a half and an eighth).
+#: it at the point where the surface's normal passes through its centre, not under the centre
+#: (on a slope s, ``r s / sqrt(1 + s^2)`` away: 0.002 for a quarter cell of the 200-node funnel
+#: at its steepest, 1.35), and it cannot follow a dip narrower than itself: a quarter of a cell
+#: keeps it inside the grid's smallest feature, one cell (docs/realize.md measures a half and an
+#: eighth).
 BALL_RADIUS_SHARE = 0.25
 #: Sliding friction (Coulomb, MuJoCo's ``friction[0]``). A solid ball rolls without slipping
 #: while the friction it needs, 2/7 of the tangential force, stays within mu times the normal
