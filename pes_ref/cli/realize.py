@@ -10,6 +10,12 @@ unless ``--force``; the set made whole in a staging folder, ``device.toml`` writ
 then reads every file back and prints one ``name: value`` line per figure of the check: the
 blocked share of the C-space the device file's parts give against the design's, the part's
 area from the DXF against the device file's, and the STL meshes' watertightness and volume.
+
+``realize DESIGN.npz --as heightfield --out DIR [--g G] [--base B] [--seed S] [--particles N]
+[--steps N] [--force]`` writes ``DIR/heightfield.stl``, reads it back and prints the held-out
+figures of the design's particle, the rolling ball and the ball in MuJoCo
+(:func:`pes_ref.realize.heightfield.heightfield_check`; without the extra ``mujoco``, one
+``mujoco: not run: ...`` line with its pip line).
 """
 from __future__ import annotations
 
@@ -33,11 +39,13 @@ CONTACT_FILES = {
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
          "drum_radius": "--drum-radius",
-         "as": "--as", "rule": "--rule", "g": "--g", "base": "--base", "seed": "--seed", "n_particles": "--particles"}
+         "as": "--as", "rule": "--rule", "g": "--g", "base": "--base", "seed": "--seed", "n_particles": "--particles",
+         "n_steps": "--steps"}
 #: Each realization's own options (``dest``, flag): given with the other, they are refused.
 OPTIONS = {"contact": (("rule", "--rule"), ("level", "--level"), ("pin_radius", "--pin-radius"), ("rim", "--rim"),
                        ("thickness", "--thickness"), ("drum_radius", "--drum-radius")),
-           "heightfield": (("g", "--g"), ("base", "--base"), ("seed", "--seed"), ("particles", "--particles"))}
+           "heightfield": (("g", "--g"), ("base", "--base"), ("seed", "--seed"), ("particles", "--particles"),
+                           ("steps", "--steps"))}
 
 
 def _default(key: str) -> LazyDefault:
@@ -62,7 +70,8 @@ def add_parser(sub) -> None:
                     "the check: blocked shares, the plate's area from the DXF, the meshes' watertightness. "
                     "--as heightfield writes DIR/heightfield.stl, a plate whose top is h = E / (m g), reads it back "
                     "and runs the held-out particles as rolling balls on it (7/5 the mass; with and without the "
-                    "slope's shortening of the force): max_slope and the in-band fractions. "
+                    "slope's shortening of the force) and as balls on a MuJoCo heightfield (the optional extra "
+                    "'mujoco'; without it that line says how to install it): max_slope and the in-band fractions. "
                     "Needs the optional extra 'realize' (pip install 'pes_ref[realize]'). docs/realize.md.",
         examples=["realize funnel.npz --as contact --out funnel_parts",
                   "realize osc.npz --as contact --drum-radius 1 --out osc_drum",
@@ -92,6 +101,9 @@ def add_parser(sub) -> None:
                    help="heightfield: the held-out seed of the rolling-ball check (default 12345)")
     p.add_argument("--particles", type=int, default=None, metavar="N",
                    help="heightfield: held-out particles of the rolling-ball check (default 200)")
+    p.add_argument("--steps", type=int, default=None, metavar="N",
+                   help="heightfield: the check's horizon in steps of the design's dt, for the design's particle and "
+                        "every ball alike (default the design's own, 350 for the funnel)")
     p.add_argument("--force", action="store_true", help="overwrite existing files in DIR")
     p.set_defaults(func=_run_realize)
 
@@ -272,40 +284,31 @@ def _prepare_heightfield(state, args):
     check_heightfield_kind(state.problem)
     seed = checks.as_nonneg_int("seed", 12345 if args.seed is None else args.seed)
     n = checks.as_positive_int("n_particles", 200 if args.particles is None else args.particles)
-    budget.check_memory(state.problem.n_steps, n, "simulate", particles="n_particles", fixed_steps=True, runs=3,
-                        length=f"a held-out run of {state.problem.n_steps} steps")
+    steps = state.problem.n_steps if args.steps is None else checks.as_positive_int("n_steps", args.steps)
+    budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True, runs=4,
+                        length=f"a held-out run of {steps} steps")
     hf = heightfield(state.problem, state.values, _value(args.g))
-    return hf, check_base(hf, _value(args.base)), seed, n
+    return hf, check_base(hf, _value(args.base)), seed, n, None if args.steps is None else steps
 
 
 def _write_heightfield(job, state, outputs: dict, args) -> list:
     """The plate written, read back, and the rolling-ball check on the heights read back."""
     import numpy as np
     from pes_ref.realize import exports
-    from pes_ref.realize.heightfield import HeightField, heightfield_mesh, heights_from_mesh, rolling_paths
-    from pes_ref.synthesis import exit_positions, funnel_paths
-    hf, base, seed, n = job
+    from pes_ref.realize.heightfield import HeightField, heightfield_check, heightfield_mesh, heights_from_mesh
+    hf, base, seed, n, n_steps = job
     mesh = heightfield_mesh(hf, base)
     os.makedirs(args.out, exist_ok=True)
     exports.write_stl(outputs["stl"], mesh, args.force)
     mesh = exports.read_stl(outputs["stl"])
     heights = heights_from_mesh(mesh, hf)
-    energy = HeightField(heights, hf.lower, hf.upper, hf.mass, hf.g).energy()
-    p = state.problem
     slope = hf.slope()
-    exits = {"design": exit_positions(p, funnel_paths(p, state.values, n, seed).traj),
-             "rolling": exit_positions(p, rolling_paths(p, energy, seed, n)),
-             "sloped": exit_positions(p, rolling_paths(p, energy, seed, n, g=hf.g))}
-    both = np.isfinite(exits["rolling"]) & np.isfinite(exits["sloped"])
     figures = {"g": hf.g, "height_range": float(np.ptp(hf.heights)), "max_slope": float(slope.max()),
                "slope_share_over_0.1": float(np.mean(slope > 0.1)), "watertight": bool(mesh.is_watertight),
                "volume": float(mesh.volume), "height_error": float(np.max(np.abs(heights - hf.heights))),
-               "seed": seed, "particles": n,
-               "in_band_fraction": float(np.mean(p.in_band(exits["design"]))),
-               "rolling_in_band_fraction": float(np.mean(p.in_band(exits["rolling"]))),
-               "sloped_in_band_fraction": float(np.mean(p.in_band(exits["sloped"]))),
-               "slope_exit_shift": float(np.mean(np.abs(exits["sloped"] - exits["rolling"])[both]))
-               if both.any() else float("nan")}
+               "seed": seed, "particles": n}
+    read_back = HeightField(heights, hf.lower, hf.upper, hf.mass, hf.g)
+    figures.update(heightfield_check(state.problem, state.values, read_back, seed, n, n_steps))
     return _figure_lines(figures)
 
 

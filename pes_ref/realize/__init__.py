@@ -4,7 +4,7 @@
 ``python -m pes_ref evaluate DESIGN.npz --realized DIR/device.toml`` (``docs/realize.md``).
 Modules, one idea each:
 
-- :mod:`.extra`       the optional extra ``realize`` and its pip line
+- :mod:`.extra`       the optional extras ``realize`` and ``mujoco`` and their pip lines
 - :mod:`.regions`     the blocked region of a design: the contact level, chosen by a stated
                       rule (:data:`~pes_ref.realize.regions.CONTACT_RULES`), as polygons
 - :mod:`.followers`   blocked polygons into two parts, per topology: a pin in a plate (a
@@ -16,5 +16,6 @@ Modules, one idea each:
                       design kind needs to be realized is its kind's entry,
                       :attr:`pes_ref.synthesis.kinds.DesignKind.realizable`)
 - :mod:`.heightfield` a plate whose top is the energy, and a ball rolling on it
+- :mod:`.mujoco_ball` the same balls on the plate in MuJoCo (its heightfield geom)
 - :mod:`.drawing`     the parts at three positions
 """

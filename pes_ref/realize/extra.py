@@ -1,10 +1,12 @@
-"""The optional extra ``realize``: shapely >= 2.1 (the parts' geometry and their triangulation),
-contourpy (the blocked region's contour), ezdxf (DXF) and trimesh (STL).
+"""The optional extras of realization: ``realize``, shapely >= 2.1 (the parts' geometry and
+their triangulation), contourpy (the blocked region's contour), ezdxf (DXF) and trimesh (STL);
+and ``mujoco``, the heightfield's check in MuJoCo (:mod:`pes_ref.realize.mujoco_ball`).
 
 :func:`require_realize` imports shapely and finds the others without importing them (each is
 imported where it is used; importing ezdxf and trimesh takes longer than refusing a bad
 option), or raises :class:`pes_ref.devices.geometry.MissingExtraError` with the pip line,
-which the command line prints as its one error line.
+which the command line prints as its one error line. :func:`require_mujoco` imports mujoco or
+raises the same error with the extra's pip line (:data:`MUJOCO_PIP_LINE`).
 """
 from __future__ import annotations
 
@@ -12,10 +14,14 @@ import importlib.util
 
 from pes_ref.devices.geometry import MissingExtraError, require_shapely
 
-__all__ = ["PIP_LINE", "require_realize"]
+__all__ = ["PIP_LINE", "MUJOCO_PIP_LINE", "require_realize", "require_mujoco"]
 
 #: The pip line that installs what realization needs.
 PIP_LINE = "pip install 'pes_ref[realize]'"
+#: The pip line that installs MuJoCo, the heightfield's second check.
+MUJOCO_PIP_LINE = "pip install 'pes_ref[mujoco]'"
+#: The oldest MuJoCo whose Python bindings the check uses (the extra's pin).
+MUJOCO_MIN = (3, 2)
 #: The modules of the extra beyond shapely, and what each is for.
 _MODULES = (("contourpy", "contours"), ("ezdxf", "DXF files"), ("trimesh", "STL files"))
 
@@ -35,3 +41,17 @@ def require_realize() -> dict:
             raise MissingExtraError(f"realization needs {name} for its {what} (the optional extra 'realize'): "
                                     f"{PIP_LINE}")
     return out
+
+
+def require_mujoco():
+    """The ``mujoco`` module (>= :data:`MUJOCO_MIN`), or
+    :class:`~pes_ref.devices.geometry.MissingExtraError` with :data:`MUJOCO_PIP_LINE`."""
+    try:
+        import mujoco
+    except ImportError:
+        raise MissingExtraError(f"the MuJoCo check needs mujoco >= 3.2 (the optional extra 'mujoco'): "
+                                f"{MUJOCO_PIP_LINE}") from None
+    version = tuple(int(part) for part in mujoco.__version__.split(".")[:2] if part.isdigit())
+    if version < MUJOCO_MIN:
+        raise MissingExtraError(f"the MuJoCo check needs mujoco >= 3.2, found {mujoco.__version__}: {MUJOCO_PIP_LINE}")
+    return mujoco

@@ -18,6 +18,11 @@ too (the same damped velocity Verlet, docs/spec.md section 5.1, with the surface
 scaled by ``1 / (1 + |grad h|^2)`` at each state; the terms of the second order in the
 velocity, ``v^T H v grad h / (1 + |grad h|^2)``, are left out). The surface is rebuilt from
 the exported STL (:func:`heights_from_mesh`).
+
+:func:`heightfield_check` gives the figures of ``realize --as heightfield``: the design's
+particle, the rolling ball with and without the slope, and the same balls in MuJoCo
+(:mod:`pes_ref.realize.mujoco_ball`, the optional extra ``mujoco``), on the same held-out starts,
+pushes and noise draws, over the design's horizon or ``n_steps`` given.
 """
 from __future__ import annotations
 
@@ -33,7 +38,7 @@ from pes_ref.core.scene import simulate
 from pes_ref.core.surface import spacing as grid_spacing
 
 __all__ = ["ROLLING", "HeightField", "heightfield", "check_base", "heightfield_mesh", "heights_from_mesh", "rolling_paths",
-           "HEIGHTFIELD_DEFAULTS", "HEIGHTFIELD_KINDS", "check_heightfield_kind"]
+           "HEIGHTFIELD_DEFAULTS", "HEIGHTFIELD_KINDS", "check_heightfield_kind", "heightfield_check"]
 
 #: A solid ball's effective mass over its mass when it rolls without slipping: 1 + 2/5.
 ROLLING = 7.0 / 5.0
@@ -143,12 +148,14 @@ def heights_from_mesh(mesh, like: HeightField) -> np.ndarray:
     return out
 
 
-def rolling_paths(problem, energy, seed: int, n_particles: int, g: float | None = None) -> Trajectory:
+def rolling_paths(problem, energy, seed: int, n_particles: int, g: float | None = None,
+                  n_steps: int | None = None) -> Trajectory:
     """Held-out funnel particles as rolling balls on grid ``energy``: the design's batch from
     ``default_rng(seed)`` with every mass :data:`ROLLING` times the design's; with ``g`` the
-    surface's force is also scaled by ``1 / (1 + |grad h|^2)``, ``h = E / (m g)`` (module docstring)."""
+    surface's force is also scaled by ``1 / (1 + |grad h|^2)``, ``h = E / (m g)`` (module docstring).
+    ``n_steps`` of the design's ``dt`` (default the design's own)."""
     batch = problem.plain().batch(np.asarray(energy, dtype=np.float64), np.random.default_rng(seed),
-                                         n_particles)
+                                  n_particles, n_steps=n_steps)
     m = _scalar_mass(batch.scene)
     scene = dataclasses.replace(batch.scene, mass=ROLLING * m)
     if g is None:
@@ -186,3 +193,56 @@ def _sloped(scene, x0, v0, weight: float) -> Trajectory:
             f[k + 1] += fext[k + 1]
         v[k + 1] = p + a * f[k + 1] if c is None else (p - c * v[k] + a * f[k + 1]) / (1.0 + c)
     return Trajectory(x, v, f)
+
+
+def heightfield_check(problem, values, hf: HeightField, seed: int, n_particles: int, n_steps: int | None = None,
+                      mujoco: bool | None = None) -> dict:
+    """The held-out figures of the design ``values`` realized as heightfield ``hf`` (the heights
+    read back from the plate): for the design's particle (``in_band_fraction``,
+    ``exited_fraction``), the rolling ball (``rolling_*``), the rolling ball with the slope
+    (``sloped_*``, and ``slope_exit_shift``: the mean ``|exit q0|`` change the slope causes over
+    the balls exiting in both) and the ball in MuJoCo (``mujoco_*``, and ``mujoco_exit_shift``
+    against the rolling ball, ``mujoco_dt`` its timestep, ``mujoco_radius`` the ball's radius,
+    ``mujoco_seconds`` its run's wall time), each on ``n_particles`` of held-out seed ``seed`` over
+    ``n_steps`` of the design's ``dt`` (default the design's). ``mujoco``: True runs MuJoCo (its
+    absence raises :class:`pes_ref.devices.geometry.MissingExtraError`), False leaves it out,
+    None runs it when it is installed and otherwise sets ``mujoco`` to the line that installs it.
+    ``exited`` counts the particles that reach the exit edge within the horizon: the in-band
+    fraction is at most it."""
+    import time
+    from pes_ref.synthesis import exit_positions, funnel_paths
+    seed = checks.as_nonneg_int("seed", seed)
+    n = checks.as_positive_int("n_particles", n_particles)
+    if n_steps is not None:
+        n_steps = checks.as_positive_int("n_steps", n_steps)
+    energy = hf.energy()
+    exits = {"": exit_positions(problem, funnel_paths(problem, values, n, seed, n_steps).traj),
+             "rolling_": exit_positions(problem, rolling_paths(problem, energy, seed, n, n_steps=n_steps)),
+             "sloped_": exit_positions(problem, rolling_paths(problem, energy, seed, n, g=hf.g, n_steps=n_steps))}
+    out = {"steps": int(problem.n_steps if n_steps is None else n_steps)}
+    extra = {"slope_exit_shift": _shift(exits["sloped_"], exits["rolling_"])}
+    if mujoco is not False:
+        from pes_ref.devices.geometry import MissingExtraError
+        from pes_ref.realize import mujoco_ball
+        try:
+            start = time.perf_counter()
+            exits["mujoco_"] = exit_positions(problem, mujoco_ball.mujoco_paths(problem, hf, seed, n, n_steps))
+            extra.update({"mujoco_exit_shift": _shift(exits["mujoco_"], exits["rolling_"]),
+                          "mujoco_dt": float(problem.dt / mujoco_ball.substeps(problem.dt, hf.g)),
+                          "mujoco_radius": float(mujoco_ball.BALL_RADIUS_SHARE * hf.spacing.min()),
+                          "mujoco_seconds": time.perf_counter() - start})
+        except MissingExtraError as exc:
+            if mujoco:
+                raise
+            extra["mujoco"] = f"not run: {exc}"
+    for prefix, e in exits.items():
+        out[f"{prefix}in_band_fraction"] = float(np.mean(problem.in_band(e)))
+        out[f"{prefix}exited_fraction"] = float(np.mean(np.isfinite(e)))
+    out.update(extra)
+    return out
+
+
+def _shift(a: np.ndarray, b: np.ndarray) -> float:
+    """The mean ``|a - b|`` over the particles exiting in both (NaN if none)."""
+    both = np.isfinite(a) & np.isfinite(b)
+    return float(np.mean(np.abs(a - b)[both])) if both.any() else float("nan")

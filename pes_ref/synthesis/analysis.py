@@ -64,15 +64,18 @@ class TorqueSweep(NamedTuple):
     traj: Trajectory
 
 
-def _funnel_run(problem: FunnelProblem, values, n_particles: int, seed: int):
+def _funnel_run(problem: FunnelProblem, values, n_particles: int, seed: int, n_steps: int | None = None):
     """``(scene, x0, v0)`` of :func:`funnel_paths`."""
-    batch = problem.batch(np.asarray(values, dtype=np.float64), np.random.default_rng(seed), n_particles)
+    batch = problem.batch(np.asarray(values, dtype=np.float64), np.random.default_rng(seed), n_particles,
+                          n_steps=n_steps)
     return batch.scene, batch.x0, batch.v0
 
 
-def funnel_paths(problem: FunnelProblem, values, n_particles: int = 200, seed: int = 1) -> Paths:
-    """Held-out funnel particles: the training sampler with ``default_rng(seed)``."""
-    scene, x0, v0 = _funnel_run(problem, values, n_particles, seed)
+def funnel_paths(problem: FunnelProblem, values, n_particles: int = 200, seed: int = 1,
+                 n_steps: int | None = None) -> Paths:
+    """Held-out funnel particles: the training sampler with ``default_rng(seed)``, run for
+    ``n_steps`` (default the problem's; a longer run's first steps are the same, noise too)."""
+    scene, x0, v0 = _funnel_run(problem, values, n_particles, seed, n_steps)
     return Paths(x0, simulate(scene, x0, v0))
 
 

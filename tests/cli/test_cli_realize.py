@@ -72,8 +72,38 @@ def test_realize_as_heightfield_writes_the_plate_and_checks_the_rolling_ball(cap
     assert got["watertight"] == "True" and float(got["height_error"]) < 1e-6
     assert float(got["height_range"]) == pytest.approx(0.2 / 2.0, rel=1e-12)      # the design's range / (m g)
     assert float(got["max_slope"]) > 0 and got["seed"] == "9191" and got["particles"] == "40"
-    for name in ("in_band_fraction", "rolling_in_band_fraction", "sloped_in_band_fraction"):
-        assert 0.0 <= float(got[name]) <= 1.0
+    assert got["steps"] == "300"                                                       # the design's horizon
+    for prefix in ("", "rolling_", "sloped_", "mujoco_"):
+        assert 0.0 <= float(got[prefix + "in_band_fraction"]) <= float(got[prefix + "exited_fraction"]) <= 1.0
+    assert float(got["mujoco_dt"]) == pytest.approx(0.01 / 20) and float(got["mujoco_radius"]) == pytest.approx(0.0125)
+    assert float(got["mujoco_seconds"]) > 0 and "mujoco" not in got
+
+
+def test_realize_as_heightfield_runs_longer_with_steps_and_refuses_a_bad_horizon(capsys, design, tmp_path):
+    argv = ["realize", str(design), "--as", "heightfield", "--particles", "6", "--seed", "7"]
+    code, out, err = run(capsys, *argv, "--out", str(tmp_path / "a"), "--steps", "450")
+    assert code == EXIT_OK, err
+    got = figures(out)
+    assert got["steps"] == "450" and got["exited_fraction"] == "1"
+    for bad in ("0", "-3"):
+        code, out, err = run(capsys, *argv, "--out", str(tmp_path / "b"), "--steps", bad)
+        assert code == EXIT_ERROR and out == "" and err == f"error: --steps must be >= 1, got {bad}\n"
+        assert not (tmp_path / "b").exists()
+    code, out, err = run(capsys, "realize", str(design), "--as", "contact", "--out", str(tmp_path / "c"), "--steps", "9")
+    assert code == EXIT_ERROR and err == "error: --steps goes with --as heightfield, not --as contact\n"
+
+
+def test_without_mujoco_the_heightfield_check_runs_the_rolling_ball_and_says_how_to_add_it(capsys, monkeypatch,
+                                                                                             design, tmp_path):
+    monkeypatch.setitem(sys.modules, "mujoco", None)           # import mujoco -> ImportError
+    code, out, err = run(capsys, "realize", str(design), "--as", "heightfield", "--out", str(tmp_path / "hf"),
+                         "--particles", "6")
+    assert code == EXIT_OK, err
+    got = figures(out)
+    assert "rolling_in_band_fraction" in got and not any(k.startswith("mujoco_") for k in got)
+    assert [line for line in out.splitlines() if "mujoco" in line] == \
+        ["mujoco: not run: the MuJoCo check needs mujoco >= 3.2 (the optional extra 'mujoco'): "
+         "pip install 'pes_ref[mujoco]'"]
 
 
 def test_existing_files_are_kept_unless_forced(capsys, design, tmp_path):

@@ -6,7 +6,8 @@ V start alone, the starting shape saved as a design file with no iteration), ``r
 --as contact --out DIR``, and ``evaluate DESIGN --realized DIR/device.toml --seed S`` for the
 held-out seeds 12345 and 9191 (for :data:`SENSITIVITY`, also at the contact level's neighbours);
 the variants of :data:`HEIGHTFIELD` are also realized as a heightfield and checked with the
-rolling ball (``realize --as heightfield --seed S``); it prints one row per variant and seed (the design's in-band
+rolling ball and in MuJoCo (``realize --as heightfield --seed S``, and with ``--steps`` twice the
+design's: 700 for the funnel); it prints one row per variant and seed (the design's in-band
 and exited fractions beside the realized device's, the realized step, each command's wall
 time) and writes them to ``OUT/realize_study.csv``. ``--smoke`` uses the design command's
 tiny preset (seconds; for the tests).
@@ -46,10 +47,13 @@ VARIANTS = {
 #: The variants whose contact level's neighbours (the realize command's ``neighbour:`` lines) are
 #: realized and evaluated too (``--rule value --level E``): how sensitive the result is to the level.
 SENSITIVITY = ("default funnel (visited rule)",)
-#: The variants also realized as a heightfield (``realize --as heightfield --seed S``): the rolling-ball check.
+#: The variants also realized as a heightfield (``realize --as heightfield --seed S``): the rolling-ball
+#: and MuJoCo checks, at the design's horizon and at :data:`HEIGHTFIELD_LONGER` times it (``--steps``).
 HEIGHTFIELD = ("default funnel (visited rule)", "realizable, V start, linger 20")
-HEIGHTFIELD_FIGURES = ("max_slope", "slope_share_over_0.1", "in_band_fraction", "rolling_in_band_fraction",
-                       "sloped_in_band_fraction", "slope_exit_shift")
+HEIGHTFIELD_LONGER = 2
+HEIGHTFIELD_FIGURES = ("max_slope", "slope_share_over_0.1", "steps", "in_band_fraction", "exited_fraction",
+                       "rolling_in_band_fraction", "rolling_exited_fraction", "sloped_in_band_fraction",
+                       "slope_exit_shift", "mujoco_in_band_fraction", "mujoco_exited_fraction", "mujoco_seconds")
 FIGURES = ("in_band_fraction", "exited_fraction")
 
 
@@ -103,11 +107,15 @@ def run(out: Path, smoke: bool, names=None) -> list:
         rows += _evaluated(name, design, parts, text, t_design, t_realize)
         if name in HEIGHTFIELD:
             for seed in HELD_OUT:
-                more, t_hf = _cli(["realize", str(design), "--as", "heightfield", "--seed", str(seed),
-                                   "--out", str(out / f"plate{i}"), "--force"])
-                got = _figures(more)
-                HEIGHTFIELD_ROWS.append({"variant": name, "seed": seed, **{k: got[k] for k in HEIGHTFIELD_FIGURES},
-                                         "realize_s": f"{t_hf:.1f}"})
+                steps = []
+                for _ in range(2):                   # the design's horizon, then HEIGHTFIELD_LONGER times it
+                    more, t_hf = _cli(["realize", str(design), "--as", "heightfield", "--seed", str(seed), *steps,
+                                       "--out", str(out / f"plate{i}"), "--force"])
+                    got = _figures(more)
+                    HEIGHTFIELD_ROWS.append({"variant": name, "seed": seed,
+                                             **{k: got.get(k, "not run") for k in HEIGHTFIELD_FIGURES},
+                                             "realize_s": f"{t_hf:.1f}"})
+                    steps = ["--steps", str(HEIGHTFIELD_LONGER * int(got["steps"]))]
         if name not in SENSITIVITY:
             continue
         for k, line in enumerate(line for line in text.splitlines() if line.startswith("neighbour: ")):
