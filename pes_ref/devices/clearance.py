@@ -174,12 +174,12 @@ def _narrow(width, narrow, spacing, periodic) -> list:
     return out
 
 
-def _sig(x: float, digits: int = 2) -> float:
-    """``x`` rounded down to ``digits`` significant digits (a bound that stays below ``x``)."""
+def _sig(x: float, digits: int = 2, up: bool = False) -> float:
+    """``x`` rounded down (``up``: up) to ``digits`` significant digits: a bound that stays on its side of ``x``."""
     if not x > 0:
         return 0.0
     e = 10.0 ** (np.floor(np.log10(x)) - digits + 1)
-    return float(np.floor(x / e) * e)
+    return float(round((np.ceil(x / e) if up else np.floor(x / e)) * e, 12))
 
 
 def check_clearance(device, cspace=None) -> list:
@@ -219,17 +219,17 @@ def check_clearance(device, cspace=None) -> list:
                    f"across all of it and drags the parts (a locked output moves); set [energy] r_c below "
                    f"{top:g} (at most {r_c:g} leaves the channel's centre free of it; scale [energy] v by "
                    f"(new r_c / {device.r_c:g})^3 for the same standoff), or widen the clearance to "
-                   f"{_sig(BARRIER_REACH * device.r_c, 2) * 1.0:g} or more")
+                   f"{_sig(BARRIER_REACH * device.r_c, up=True):g} or more")
             findings.append(Finding(kind, ("energy.r_c",), msg, w, at, BARRIER_REACH * float(device.r_c), top))
         else:
             cells = float(np.median(width[i, j] / across[i, j]))
             need = max(float(np.quantile(RESOLVE_CELLS * across[ii, jj] / width[ii, jj], 0.75))
                        for ii, jj, _ in stretches)
             shape = tuple(int(np.ceil(n * need)) for n in device.shape)
-            lim = float(RESOLVE_CELLS * np.median(across[i, j]))
+            lim = _sig(float(RESOLVE_CELLS * np.median(across[i, j])), up=True)
             msg = (f"[cspace] shape = {list(device.shape)} cannot resolve a free channel of the C-space "
                    f"(half-width {w:.3g} at {where}: {cells:.2g} cells across it, fewer than {RESOLVE_CELLS:g}): "
                    f"a quasistatic drive may stall in it; raise [cspace] shape to at least "
-                   f"{shape[0]},{shape[1]}, or widen the clearance to {lim:.2g} or more")
+                   f"{shape[0]},{shape[1]}, or widen the clearance to {lim:g} or more")
             findings.append(Finding(kind, ("cspace.shape",), msg, w, at, lim, shape))
     return findings
