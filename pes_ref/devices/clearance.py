@@ -229,7 +229,8 @@ def check_clearance(device, cspace=None) -> list:
             lim = _sig(float(RESOLVE_CELLS * np.median(across[i, j])), up=True)
             msg = (f"[cspace] shape = {list(device.shape)} cannot resolve a free channel of the C-space "
                    f"(half-width {w:.3g} at {where}: {cells:.2g} cells across it, fewer than {RESOLVE_CELLS:g}): "
-                   f"a quasistatic drive may stall in it; raise [cspace] shape to at least "
+                   f"the interpolated surface misplaces its walls and a quasistatic drive may stall in it; "
+                   f"raise [cspace] shape to at least "
                    f"{shape[0]},{shape[1]}, or widen the clearance to {lim:g} or more")
             findings.append(Finding(kind, ("cspace.shape",), msg, w, at, lim, shape))
     return findings
