@@ -10,7 +10,8 @@
 Each prints one ``name: value unit`` line per figure (:mod:`pes_ref.devices.ratchet`,
 :mod:`pes_ref.devices.dartgun`), and on stderr one ``warning: ...`` line for each thing that
 makes some figures mean something else than they say (a torque that overwhelms the
-ratchet's barrier, a reload that did not latch). Numbers are read as text and checked here, so a bad value is
+ratchet's barrier, a reload that did not latch, a device file whose free channels are
+narrower than eq. (1)'s reach or than its grid resolves: :mod:`pes_ref.devices.clearance`). Numbers are read as text and checked here, so a bad value is
 one line ``error: <message>`` on stderr and exit status 2; so is a bad device file (naming
 its key) and a missing optional extra (with its pip line). Every output file is checked
 before anything is computed and written atomically; an existing one is kept unless ``--force``.
@@ -116,8 +117,10 @@ def add_parser(sub) -> None:
         description="Reads the device file (docs/devices.md), builds its C-space and surface, then applies "
                     "a constant force or torque --load on the axis --drive and follows the other axis, "
                     "quasistatically or dynamically, for --cycles turns of a periodic input (to the grid's "
-                    "edge for a translation). Prints input_travel, advance_per_cycle, moving_fraction, "
-                    "max_ratio and whether it jammed (and where); writes the motion law to "
+                    "edge for a translation). Prints input_travel, the output's advance over it, each full "
+                    "cycle's (advance_per_cycle_each) and the last one's (advance_per_cycle), moving_fraction, "
+                    "max_ratio and whether it jammed (and where), then a warning for each free channel the "
+                    "surface cannot be trusted in; writes the motion law to "
                     "DIR/motion_law.csv (--out), the figures to --json and a plot of the C-space with the "
                     "path beside the motion law to --plot.",
         examples=[f"analyze {CAM} --drive 0 --load 0.5 --shape 96,64",
@@ -131,7 +134,9 @@ def add_parser(sub) -> None:
     f.add_argument("--cycles", default=None, metavar="K",
                    help="full turns of a periodic input (integer >= 1; default 1); not for a translation, "
                         "which travels to the grid's edge")
-    f.add_argument("--start", default=None, metavar="Q0,Q1", help="where the drive starts (default: the file's [start])")
+    f.add_argument("--start", default=None, metavar="Q0,Q1",
+                   help="where the drive starts, a free configuration (default: the file's [start]); "
+                        "a negative first number is fine: --start -0.1,0.3")
     f.add_argument("--threshold", default="0.05", metavar="T",
                    help="|dq_out/dq_in| above which the output counts as moving (> 0)")
     f.add_argument("--shape", default=None, metavar="N0,N1",

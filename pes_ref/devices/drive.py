@@ -256,6 +256,12 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     Returns
     -------
     DriveResult
+
+    Raises
+    ------
+    pes_ref.core.checks.InputError
+        A bad argument (:func:`check_drive`), a C-space with no free node or a start inside
+        blocked space (:func:`check_free`).
     """
     t_wall = time.perf_counter()
     axis, load, mode, requested, start, threshold = check_drive(device, axis, load, mode, cycles, start, threshold)

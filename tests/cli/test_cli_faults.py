@@ -232,6 +232,10 @@ FAULTS = [
     Fault("device-r-c-below-default-r-min", "analyze dev-rcsmall.toml --drive 0 --load 1",
           ("dev-rcsmall.toml: energy.r_c", "0.01", "r_min", "half the finer grid spacing", "0.025",
            "cspace.shape")),
+    Fault("device-shape-too-coarse-for-r-c", "analyze dev.toml --drive 0 --load 1 --shape 3,3",
+          ("--shape 3,3: dev.toml: energy.r_c", "half the finer grid spacing (0.25")),
+    Fault("device-load-negative-exponent", "analyze dev.toml --drive 0 --load -1e-3 --json notes.txt",
+          ("notes.txt", "exists")),
     Fault("device-start-outside-in-file", "analyze dev-startout.toml --drive 0 --load 1",
           ("dev-startout.toml: start.q = [0, 5]", "q1 = 5 is outside the grid"), absent=("--start q1",)),
     # ------------------------------------------------------------------ design
