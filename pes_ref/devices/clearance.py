@@ -174,6 +174,17 @@ def _narrow(width, narrow, spacing, periodic) -> list:
     return out
 
 
+def _typical(i, j, widths, w) -> int:
+    """The node of a stretch to name: of those within 2% of its median half-width ``w`` (or the
+    nearest), the middle one along the stretch's longer axis."""
+    near = np.nonzero(np.abs(widths - w) <= 0.02 * w)[0]
+    if near.size == 0:
+        return int(np.argmin(np.abs(widths - w)))
+    along = i if np.unique(i).size >= np.unique(j).size else j
+    order = near[np.argsort(along[near], kind="stable")]
+    return int(order[order.size // 2])
+
+
 def _sig(x: float, digits: int = 2, up: bool = False) -> float:
     """``x`` rounded down (``up``: up) to ``digits`` significant digits: a bound that stays on its side of ``x``."""
     if not x > 0:
@@ -209,7 +220,7 @@ def check_clearance(device, cspace=None) -> list:
         if not stretches:
             continue
         i, j, w = min(stretches, key=lambda s: s[2])          # the narrowest stretch
-        k = int(np.argmin(np.abs(width[i, j] - w)))
+        k = _typical(i, j, width[i, j], w)
         at = (float(nodes[0][i[k]]), float(nodes[1][j[k]]))
         where = f"q0 = {at[0]:.4g}, q1 = {at[1]:.4g}"
         if kind == "barrier":
