@@ -37,8 +37,9 @@ def test_a_geneva_whose_locked_play_is_below_r_c_is_told_to_lower_r_c(findings):
     assert abs(f.at[1]) < 0.03 or abs(f.at[1] + np.pi / 3) < 0.03             # a locked pose: q1 = 0 or -pi/3
     assert f.limit == pytest.approx(BARRIER_REACH * 0.05) and f.suggestion < f.half_width / BARRIER_REACH
     assert "[energy] r_c = 0.05" in f.message and "set [energy] r_c below 0.04" in f.message
-    fixed = device.replace(r_c=0.9 * f.half_width, v=device.v * 0.9 ** 3)     # the fix it suggests
-    assert not check_clearance(fixed)
+    r_c = 0.9 * f.half_width                                                  # the fix it suggests
+    fixed = device.replace(r_c=r_c, v=device.v * (r_c / device.r_c) ** 3)
+    assert not check_clearance(fixed, device.cspace())     # the same C-space (its distance reaches further)
 
 
 def test_a_yoke_whose_channel_is_a_cell_across_is_told_to_raise_the_grid(findings):
