@@ -11,9 +11,11 @@ Each prints one ``name: value unit`` line per figure (:mod:`pes_ref.devices.ratc
 :mod:`pes_ref.devices.dartgun`), and on stderr one ``warning: ...`` line for each thing that
 makes some figures mean something else than they say (a torque that overwhelms the
 ratchet's barrier, a reload that did not latch, a device file whose free channels are
-narrower than eq. (1)'s reach or than its grid resolves: :mod:`pes_ref.devices.clearance`). Numbers are read as text and checked here, so a bad value is
-one line ``error: <message>`` on stderr and exit status 2; so is a bad device file (naming
-its key) and a missing optional extra (with its pip line). Every output file is checked
+narrower than eq. (1)'s reach or than its grid resolves: :mod:`pes_ref.devices.clearance`).
+Numbers are read as text and checked here, so a bad value is one line ``error: <message>``
+on stderr and exit status 2; so is a bad device file (naming its key), a device file's drive
+that has nowhere to go (no free configuration, a start inside blocked space) and a missing
+optional extra (with its pip line). Every output file is checked
 before anything is computed and written atomically; an existing one is kept unless ``--force``.
 """
 from __future__ import annotations

@@ -12,17 +12,19 @@ distance field of the computed C-space (:attr:`pes_ref.devices.cspace.CSpace.dis
   the barrier's force where it holds a load, which is below about 0.7 r_c.
 - **The grid cannot resolve the channel.** The surface is interpolated between nodes; a
   channel whose half-width spans fewer than :data:`RESOLVE_CELLS` cells across it is a few
-  nodes wide or none, and a quasistatic drive stalls in it.
+  nodes wide or none: the interpolated surface misplaces its walls, and a quasistatic drive
+  may stall in it.
 
 The channels are found on the *ridge* of the distance field: the nodes where the distance
-is a local maximum along a grid axis. Across a channel the distance is a tent whose peak is
-the channel's half-width ``w``, located between the nodes from the node and its two
-neighbours (:func:`ridge`); the tent's slope gives the direction across the channel, and so
-the grid's cell extent across it, ``h_n = |n0| h0 + |n1| h1``. A ridge node is narrow when
-``w < BARRIER_REACH r_c`` (the barrier, :data:`BARRIER_SHARE`) or ``w < RESOLVE_CELLS h_n`` (the grid). A corner of free space
-also has a ridge that narrows to nothing; a channel is long. So the narrow ridge nodes count
-only as stretches (8-connected, across a periodic seam) at least :data:`MIN_LENGTH` times
-their largest half-width long, and no shorter than :data:`MIN_CELLS` cells.
+peaks along a grid axis that crosses the channel steeply (:data:`CROSSING`). Across a
+channel the distance is a tent whose peak is the channel's half-width ``w``, located between
+the nodes from the node and its two neighbours (:func:`ridge`); the tent's slope gives the
+direction across the channel, and so the grid's cell extent across it,
+``h_n = |n0| h0 + |n1| h1``. A ridge node is narrow when ``w < BARRIER_REACH r_c`` (the
+barrier) or ``w < RESOLVE_CELLS h_n`` (the grid). A corner of free space also has a ridge
+that narrows to nothing; a channel is long. So the narrow ridge nodes count only as
+stretches (8-connected, across a periodic seam) at least :data:`MIN_LENGTH` times their
+median half-width long, and no shorter than :data:`MIN_CELLS` cells.
 
 :func:`check_clearance` returns one :class:`Finding` per kind, with the narrowest stretch, the
 numbers and what to change; ``analyze DEVICE.toml`` prints each as one ``warning:`` line.
@@ -34,11 +36,11 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Finding", "check_clearance", "ridge", "RESOLVE_CELLS", "MIN_LENGTH", "MIN_CELLS", "KINDS",
-           "BARRIER_SHARE", "BARRIER_REACH"]
+           "BARRIER_SHARE", "BARRIER_REACH", "CROSSING"]
 
 #: A channel's half-width must span at least this many grid cells across it.
 RESOLVE_CELLS = 2.0
-#: A narrow stretch of ridge counts when it is at least this many times its largest half-width long ...
+#: A narrow stretch of ridge counts when it is at least this many times its median half-width long ...
 MIN_LENGTH = 16.0
 #: ... and at least this many grid cells long.
 MIN_CELLS = 8
@@ -51,7 +53,8 @@ CROSSING = 0.7
 #: drags the parts: ``(1/x - 1) / (18 x^2)`` with ``x = half-width / r_c``, which exceeds it for
 #: ``x < BARRIER_REACH`` (0.70).
 BARRIER_SHARE = 0.05
-BARRIER_REACH = float(min(r.real for r in np.roots([18.0 * BARRIER_SHARE, 0.0, 1.0, -1.0]) if abs(r.imag) < 1e-12))
+BARRIER_REACH = float(min(r.real for r in np.roots([18.0 * BARRIER_SHARE, 0.0, 1.0, -1.0])
+                          if abs(r.imag) < 1e-12))
 #: The kinds of finding: eq. (1)'s cut-off against the clearance, the grid against the channel.
 KINDS = ("barrier", "resolution")
 
@@ -68,13 +71,15 @@ class Finding:
     message : str
         One line: what is wrong, where, and what to change, with the device's numbers.
     half_width : float
-        The narrowest stretch's half-width (C-space units: the clearance, on each side).
+        The narrowest stretch's median half-width (C-space units: the clearance on each side).
     at : tuple of float
-        A C-space point (q0, q1) on that stretch, where it is narrowest.
+        A C-space point (q0, q1) in the middle of that stretch, at about that half-width.
     limit : float
-        What the half-width is compared with: r_c, or RESOLVE_CELLS cells across the channel.
+        What the half-width is compared with: ``BARRIER_REACH r_c``, or the clearance that
+        spans ``RESOLVE_CELLS`` cells across the channel.
     suggestion : float or tuple
-        The fix in numbers: an r_c below the clearance, or the grid shape that resolves it.
+        The fix in numbers: the r_c to stay below (``half_width / BARRIER_REACH``), or the grid
+        shape that resolves the channel.
     """
 
     kind: str
@@ -214,7 +219,8 @@ def check_clearance(device, cspace=None) -> list:
     on = np.isfinite(width)
     nodes = [device.grid.nodes(d) for d in range(2)]
     findings = []
-    rules = (("barrier", on & (width < BARRIER_REACH * device.r_c)), ("resolution", on & (width < RESOLVE_CELLS * across)))
+    rules = (("barrier", on & (width < BARRIER_REACH * device.r_c)),
+             ("resolution", on & (width < RESOLVE_CELLS * across)))
     for kind, narrow in rules:
         stretches = _narrow(width, narrow, h, periodic)
         if not stretches:
