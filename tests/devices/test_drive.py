@@ -217,3 +217,14 @@ def test_the_plot_title_fits_and_says_jammed(gun):
         assert frame.x0 <= box.x0 and box.x1 <= frame.x1, (box, frame)
     finally:
         plt.close(fig)
+
+
+@pytest.mark.parametrize("name, shape, axis, start", [
+    ("cam_follower", (160, 41), 0, (0.0, 0.3)),          # the follower's face inside the cam (lift 0.5 at q0 = 0)
+    ("drum_cam", None, 1, (0.0, np.pi)),                 # the pin inside the wall between two turns of the groove
+])
+def test_a_part_started_inside_the_other_is_refused(name, shape, axis, start):
+    device = load_device(ROOT / "examples" / "devices" / f"{name}.toml")
+    device = device if shape is None else device.replace(shape=shape)
+    with pytest.raises(ValueError, match=r"start q = \[0, (0.3|3.14159)\] is inside blocked space"):
+        drive(device, axis, 0.5, start=start)
