@@ -66,7 +66,7 @@ def main(argv=None) -> int:
     device = load_device(ROOT / "examples" / "devices" / "geneva4.toml")
     n = 64 if args.smoke else 512
     device = device.replace(shape=(n, n))
-    device.replace(shape=(8, 8)).cspace()          # imports (shapely, scipy) outside the timings
+    device.replace(shape=(8, 8), r_min=0.01).cspace()  # imports (shapely, scipy) outside the timings
     load = os.getloadavg()[0]
     cases = [("~%d vertices" % VERTICES, tolerance_for(device, VERTICES)), ("the default tolerance", None)]
     rows = []

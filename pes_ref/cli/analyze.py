@@ -10,9 +10,12 @@
 Each prints one ``name: value unit`` line per figure (:mod:`pes_ref.devices.ratchet`,
 :mod:`pes_ref.devices.dartgun`), and on stderr one ``warning: ...`` line for each thing that
 makes some figures mean something else than they say (a torque that overwhelms the
-ratchet's barrier, a reload that did not latch). Numbers are read as text and checked here, so a bad value is
-one line ``error: <message>`` on stderr and exit status 2; so is a bad device file (naming
-its key) and a missing optional extra (with its pip line). Every output file is checked
+ratchet's barrier, a reload that did not latch, a device file whose free channels are
+narrower than eq. (1)'s reach or than its grid resolves: :mod:`pes_ref.devices.clearance`).
+Numbers are read as text and checked here, so a bad value is one line ``error: <message>``
+on stderr and exit status 2; so is a bad device file (naming its key), a device file's drive
+that has nowhere to go (no free configuration, a start inside blocked space) and a missing
+optional extra (with its pip line). Every output file is checked
 before anything is computed and written atomically; an existing one is kept unless ``--force``.
 """
 from __future__ import annotations
@@ -20,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import time
 
@@ -55,6 +59,11 @@ def _floats(option: str, text: str) -> list:
 
 
 
+
+#: A word that argparse takes for a value although it starts with '-': a negative number, or a
+#: comma-separated list that starts with one (``--start -0.1,0.3``, ``--load -1e-3``); argparse's own
+#: test takes only plain negative numbers, and would read ``-0.1,0.3`` as an unknown option.
+NEGATIVE_VALUE = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?(,.*)?$")
 
 #: The name under which a device file's parser is registered (any other word ending in .toml goes to it).
 FILE_CHOICE = "DEVICE.toml"
@@ -110,12 +119,15 @@ def add_parser(sub) -> None:
         description="Reads the device file (docs/devices.md), builds its C-space and surface, then applies "
                     "a constant force or torque --load on the axis --drive and follows the other axis, "
                     "quasistatically or dynamically, for --cycles turns of a periodic input (to the grid's "
-                    "edge for a translation). Prints input_travel, advance_per_cycle, moving_fraction, "
-                    "max_ratio and whether it jammed (and where); writes the motion law to "
+                    "edge for a translation). Prints input_travel, the output's advance over it, each full "
+                    "cycle's (advance_per_cycle_each) and the last one's (advance_per_cycle), moving_fraction, "
+                    "max_ratio and whether it jammed (and where), then a warning for each free channel the "
+                    "surface cannot be trusted in; writes the motion law to "
                     "DIR/motion_law.csv (--out), the figures to --json and a plot of the C-space with the "
                     "path beside the motion law to --plot.",
         examples=[f"analyze {CAM} --drive 0 --load 0.5 --shape 96,64",
                   f"analyze {CAM} --drive 0 --load 0.5 --mode dynamic --out cam --plot cam.png"])
+    f._negative_number_matcher = NEGATIVE_VALUE  # --start -0.1,0.3 is a value, not an option
     f.add_argument("--drive", required=True, metavar="AXIS", help="the driven axis (the input): 0 or 1")
     f.add_argument("--load", required=True, metavar="VALUE",
                    help="constant force (translation) or torque (rotation) on the input; its sign is the direction")
@@ -124,7 +136,9 @@ def add_parser(sub) -> None:
     f.add_argument("--cycles", default=None, metavar="K",
                    help="full turns of a periodic input (integer >= 1; default 1); not for a translation, "
                         "which travels to the grid's edge")
-    f.add_argument("--start", default=None, metavar="Q0,Q1", help="where the drive starts (default: the file's [start])")
+    f.add_argument("--start", default=None, metavar="Q0,Q1",
+                   help="where the drive starts, a free configuration (default: the file's [start]); "
+                        "a negative first number is fine: --start -0.1,0.3")
     f.add_argument("--threshold", default="0.05", metavar="T",
                    help="|dq_out/dq_in| above which the output counts as moving (> 0)")
     f.add_argument("--shape", default=None, metavar="N0,N1",
@@ -297,8 +311,31 @@ def _integer(option: str, text: str, least: int) -> int:
     return value
 
 
+def _clashes(args) -> None:
+    """Refuse two outputs on one path (``--out law --json law``, ``--json a.png --plot a.png``,
+    ``--json`` on the motion law ``--out`` writes): one would overwrite the other, or fail after
+    the drive. Named by their flags, before anything is computed or checked on disk."""
+    paths = []                                    # (flag and its value, what it writes there, path)
+    for flag, value in (("--json", args.json), ("--plot", args.plot)):
+        if value is not None:
+            paths.append((f"{flag} {value}", "", value))
+    if args.out is not None:
+        paths.append((f"--out {args.out}", " (its folder)", args.out))
+        paths.append((f"--out {args.out}", f" (its {os.path.join(args.out, 'motion_law.csv')})",
+                      os.path.join(args.out, "motion_law.csv")))
+    seen = {}
+    for name, what, path in paths:
+        key = os.path.normcase(os.path.realpath(path))
+        if key in seen and seen[key][0] != name:
+            first, first_what = seen[key]
+            raise ValueError(f"{first}{first_what} and {name}{what} name the same path: give each output a path "
+                             f"of its own")
+        seen.setdefault(key, (name, what))
+
+
 def _outputs(args) -> dict:
     """Every output path, checked before anything is computed."""
+    _clashes(args)
     out = {}
     if args.json is not None:
         out["json"] = output_file(args.json, "JSON", force=args.force)
@@ -321,13 +358,44 @@ def _write(path: str, data: bytes, force: bool, what: str) -> None:
         fh.write(data)
 
 
+def _reshaped(device, shape: tuple, path: str, text: str):
+    """The device on the grid ``--shape`` gives; a grid the file's keys do not fit (a tolerance or
+    r_c finer than it allows) is refused naming --shape, the file and the key."""
+    from pes_ref.devices.device_file import FILE_KEYS
+    try:
+        return device.replace(shape=shape)
+    except checks.InputError as exc:
+        key = FILE_KEYS.get(exc.key, exc.key)
+        raise ValueError(f"--shape {text}: {path}: {key}: {' '.join(str(exc).split())}") from None
+
+
+def _in_file_words(exc, path: str, given, start) -> ValueError:
+    """A refusal of the drive in the command's words: a start that came from the device file
+    names the file and its key ``start.q`` (one from --start names the flag, by DRIVE_FLAGS); a
+    C-space with no free configuration names the file."""
+    text = " ".join(str(exc).split())
+    if exc.key == "cspace":
+        return ValueError(f"{path}: {text}")
+    if exc.key != "start":
+        return exc
+    where = f"[{start[0]:g}, {start[1]:g}]"
+    if given is not None:
+        if text.startswith("start q = ["):
+            return ValueError(f"--start {given}" + text[text.index("]") + 1:])
+        return exc
+    if text.startswith("start q = ["):
+        return ValueError(f"{path}: start.q" + text[len("start q"):] + " (or start elsewhere with --start)")
+    return ValueError(f"{path}: start.q = {where}: " + text[len("start "):] + " (or start elsewhere with --start)")
+
+
 def _motion_law_csv(result) -> bytes:
     lines = ["q_in,q_out"] + [f"{a:.17g},{b:.17g}" for a, b in zip(result.q_in, result.q_out)]
     return ("\n".join(lines) + "\n").encode()
 
 
 def _run_file(args) -> int:
-    from pes_ref.devices.drive import check_drive, drive
+    from pes_ref.devices.clearance import check_clearance
+    from pes_ref.devices.drive import check_drive, check_free, drive
     from pes_ref.devices.device_file import load_device
     path = args.device_file if getattr(args, "device_file", None) else args.device
     try:
@@ -346,18 +414,27 @@ def _run_file(args) -> int:
         outputs = _outputs(args)
         device = load_device(path)
         if shape is not None:
-            device = device.replace(shape=shape)
-        check_drive(device, axis, load, args.mode, cycles, start, threshold)      # before anything is computed
-        progress = _Progress(os.path.basename(path))
+            device = _reshaped(device, shape, path, args.shape)
         try:
-            device.cspace(progress)
-            result = drive(device, axis, load, args.mode, cycles, start, threshold, progress)
-        finally:
-            progress.lines.end()        # the last progress line stays, whole, before anything else is printed
+            start = check_drive(device, axis, load, args.mode, cycles, start, threshold)[4]  # before computing
+            progress = _Progress(os.path.basename(path))
+            try:
+                cs = device.cspace(progress)
+                check_free(device, start)
+                result = drive(device, axis, load, args.mode, cycles, start, threshold, progress)
+            finally:
+                progress.lines.end()    # the last progress line stays, whole, before anything else is printed
+        except checks.InputError as exc:
+            raise _in_file_words(exc, path, args.start, device.start) from None
     except (ValueError, TypeError, OSError, ImportError) as exc:
         return error(exc, DRIVE_FLAGS)
     for line in result.as_lines():
         print(line)
+    for finding in check_clearance(device, cs):
+        text = finding.message if args.shape is None else \
+            finding.message.replace(f"[cspace] shape = {list(device.shape)}", f"--shape {args.shape}") \
+                           .replace("[cspace] shape", "--shape")
+        print(f"warning: {path}: {text}", file=sys.stderr)
     try:
         if "csv" in outputs:
             os.makedirs(args.out, exist_ok=True)

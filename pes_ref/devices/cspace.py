@@ -40,7 +40,7 @@ import numpy as np
 from pes_ref.core import checks
 from pes_ref.core.surface import Surface, spacing as grid_spacing
 from pes_ref.devices import boundary
-from pes_ref.devices.geometry import Part, default_tolerance, pose, require_shapely
+from pes_ref.devices.geometry import Part, default_tolerance, pose, require_shapely, tolerance_bound
 
 __all__ = ["CSpaceGrid", "CSpace", "blocked_mask", "apf_energy", "apf_slope", "apf_curvature",
            "default_r_min", "GridSpring", "spring_grid", "build_surface", "CHUNK_PAIRS"]
@@ -383,6 +383,12 @@ class CSpaceGrid:
         object.__setattr__(self, "periodic", periodic)
         tol = default_tolerance(parts, self.spacing) if self.tolerance is None else \
             checks.as_positive_float("tolerance", self.tolerance)
+        bound = tolerance_bound(parts, self.spacing)
+        if not tol < bound:
+            raise checks.InputError("tolerance", f"tolerance must be below {bound:.3g} (the grid spacing times the "
+                                                 f"contact's lever, min_d h_d l_d: 20 times the default "
+                                                 f"{bound / 20:.3g}), got {tol:g}: a circle's polygon would move "
+                                                 f"the C-space boundary by more than a grid spacing")
         object.__setattr__(self, "tolerance", tol)
 
     @property

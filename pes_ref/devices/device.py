@@ -17,7 +17,7 @@ from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Walls
 from pes_ref.devices.boundary import BAND
-from pes_ref.devices.cspace import CSpace, CSpaceGrid, GridSpring
+from pes_ref.devices.cspace import CSpace, CSpaceGrid, GridSpring, default_r_min
 from pes_ref.devices.geometry import Part
 
 __all__ = ["Device"]
@@ -94,6 +94,11 @@ class Device:
             set_("r_min", checks.as_positive_float("r_min", self.r_min))
             if not self.r_min < self.r_c:
                 raise checks.InputError("r_min", f"r_min must be < r_c, got r_min={self.r_min:g}, r_c={self.r_c:g}")
+        elif not default_r_min(grid.spacing) < self.r_c:
+            raise checks.InputError("r_c", f"r_c = {self.r_c:g} must exceed r_min, which defaults to half the finer "
+                                           f"grid spacing ({default_r_min(grid.spacing):g} on the grid of "
+                                           f"cspace.shape {list(grid.shape)}): raise r_c, refine cspace.shape or "
+                                           f"set r_min below r_c", names=("r_c", "r_min"))
         springs = tuple(self.springs)
         for s in springs:
             if not isinstance(s, GridSpring):
@@ -110,6 +115,11 @@ class Device:
             for d in range(2):
                 if grid.periodic[d] and self.walls.edges[d].any():
                     raise checks.InputError("walls", f"axis {d} is periodic and cannot have a wall")
+                length = float(grid.upper[d] - grid.lower[d])
+                if self.walls.edges[d].all() and not 2.0 * self.walls.margin < length:
+                    raise checks.InputError("wall_margin", f"the walls' margin {self.walls.margin:g} leaves no room "
+                                                           f"between the two walls of q{d}: twice it must be below "
+                                                           f"the grid's length {length:g} along q{d}")
         set_("analysis", dict(self.analysis))
         set_("restitution", checks.as_nonneg_float("restitution", self.restitution))
         if self.restitution > 1.0:

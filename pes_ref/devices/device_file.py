@@ -23,7 +23,8 @@ from pes_ref.devices import geometry as g
 from pes_ref.devices.cspace import SIDES, GridSpring
 from pes_ref.devices.device import Device
 
-__all__ = ["FORMAT", "DeviceFileError", "load_device", "parse_device", "shipped_device", "SHIPPED", "ANALYSES", "read_shapes"]
+__all__ = ["FORMAT", "DeviceFileError", "load_device", "parse_device", "shipped_device", "SHIPPED", "ANALYSES", "read_shapes",
+           "FILE_KEYS"]
 
 #: The device-file format this module reads.
 FORMAT = 1
@@ -45,6 +46,12 @@ WALL_KEYS = ("k", "margin", "edges")
 START_KEYS = ("q",)
 #: ``[rigid]``: the contact of the rigid engine (``analyze --engine rigid``), each with its default.
 RIGID_KEYS = {"restitution": 0.0, "friction": 0.0}
+#: The device-file key of each argument of :class:`~pes_ref.devices.device.Device` whose refusal
+#: names a key of its own (an argument not here is named as it is).
+FILE_KEYS = {"walls": "dynamics.walls", "upper": "cspace.upper", "lower": "cspace.lower", "shape": "cspace.shape",
+             "periodic": "cspace.upper", "tolerance": "geometry.tolerance", "wall_margin": "dynamics.walls.margin",
+             "r_c": "energy.r_c", "r_min": "energy.r_min", "restitution": "rigid.restitution",
+             "friction": "rigid.friction"}
 #: The device analyses a file may configure (``[analysis] kind``): their keys, each required.
 ANALYSES = {
     "ratchet": ("pitch", "settle"),
@@ -168,6 +175,7 @@ def _part(r: _Reader, value, key: str) -> g.Part:
     built = tuple(_shape(r, s, f"{key}.shapes[{i}]") for i, s in enumerate(shapes))
     part = r.build(f"{key}.shapes", g.Part, built, m)
     r.build(f"{key}.shapes", part.geometry, 1e-3)        # a part the cuts leave empty is refused here
+    r.build(f"{key}.shapes", g.check_drum_drawing, part)
     return part
 
 
@@ -302,8 +310,7 @@ def parse_device(data: dict, path: str = "<device>") -> Device:
         return Device(parts, lower, upper, shape, v, r_c, springs, mass, damping, dt, start, r_min, walls,
                       tolerance, name, analysis, restitution, friction)
     except checks.InputError as exc:
-        key = {"walls": "dynamics.walls", "upper": "cspace.upper", "lower": "cspace.lower",
-               "shape": "cspace.shape", "periodic": "cspace.upper"}.get(exc.key, exc.key or "device")
+        key = FILE_KEYS.get(exc.key, exc.key or "device")
         r.fail(key, " ".join(str(exc).split()))
 
 

@@ -9,8 +9,14 @@ stalls. From the path it reads the *motion law*: the output at each point of the
 travel (where the input first gets there), sampled every half input spacing, and:
 
 - ``input_travel``: how far the input got along the load (radians or length);
-- ``advance_per_cycle``: the output's change per full turn of a periodic input (2 pi of
-  travel), or per unit of input travel otherwise;
+- ``advance``: the output's change over that travel (whatever it was: a jammed run's is
+  over the travel it achieved);
+- ``advance_per_cycle_each``: for a periodic input, the output's change over each full
+  turn (2 pi of travel) the input completed, in order;
+- ``advance_per_cycle``: the steady advance: for a periodic input the last full turn's
+  (the first one holds the start's transient, so ``cycles >= 2`` gives the steady one),
+  NaN when the input did not complete a turn (a jam: never extrapolated from part of a
+  turn, see ``advance``); for a translation, the change per unit of the travel achieved;
 - ``moving_fraction``: the share of the input's travel during which
   ``|dq_out/dq_in| > threshold`` (default 0.05), the ratio taken across
   :data:`RATIO_CELLS` input spacings;
@@ -38,7 +44,7 @@ from pes_ref.core.effects import Constant
 from pes_ref.core.scene import simulate
 from pes_ref.devices.device import Device
 
-__all__ = ["DriveResult", "drive", "check_drive", "MODES", "JAM_CELLS", "JAM_FRACTION", "THRESHOLD"]
+__all__ = ["DriveResult", "drive", "check_drive", "check_free", "MODES", "JAM_CELLS", "JAM_FRACTION", "THRESHOLD"]
 
 #: The drive's modes.
 MODES = ("quasistatic", "dynamic")
@@ -89,7 +95,9 @@ class DriveResult:
     periodic_input: bool
     requested_travel: float
     input_travel: float
+    advance: float
     advance_per_cycle: float
+    advance_per_cycle_each: tuple
     moving_fraction: float
     max_ratio: float
     jammed: bool
@@ -106,7 +114,9 @@ class DriveResult:
         """The figures as plain JSON-able values."""
         return {"device": self.device, "drive": self.drive, "load": self.load, "mode": self.mode,
                 "periodic_input": self.periodic_input, "requested_travel": self.requested_travel,
-                "input_travel": self.input_travel, "advance_per_cycle": self.advance_per_cycle,
+                "input_travel": self.input_travel, "advance": self.advance,
+                "advance_per_cycle": None if np.isnan(self.advance_per_cycle) else self.advance_per_cycle,
+                "advance_per_cycle_each": list(self.advance_per_cycle_each),
                 "moving_fraction": self.moving_fraction, "moving_threshold": self.threshold,
                 "max_ratio": self.max_ratio, "jammed": self.jammed, "stop_reason": self.stop_reason,
                 "stopped_at": list(self.stopped_at), "steps": self.steps, "samples": int(self.q_in.size),
@@ -115,15 +125,24 @@ class DriveResult:
     def as_lines(self) -> list:
         """``name: value unit`` lines."""
         u_in = "rad" if self.periodic_input else "length"
-        per = "per cycle" if self.periodic_input else f"per {u_in}"
         stop = f"{self.stopped_at[0]:.6g},{self.stopped_at[1]:.6g}"
+        if self.periodic_input:
+            each = ",".join(f"{a:.6g}" for a in self.advance_per_cycle_each) or "none"
+            per = [f"advance_per_cycle: {self.advance_per_cycle:.6g} output-unit per cycle ("
+                   + (f"the last of {len(self.advance_per_cycle_each)} full cycles)" if self.advance_per_cycle_each
+                      else "no full cycle: the input stopped short of a turn; see advance)"),
+                   f"advance_per_cycle_each: {each} output-unit per cycle"]
+        else:
+            per = [f"advance_per_cycle: {self.advance_per_cycle:.6g} output-unit per length (over the travel achieved)"]
         return [f"device: {self.device} name",
                 f"drive: q{self.drive} axis",
                 f"load: {self.load:.6g} force-or-torque",
                 f"mode: {self.mode} mode",
                 f"requested_travel: {self.requested_travel:.6g} {u_in}",
                 f"input_travel: {self.input_travel:.6g} {u_in}",
-                f"advance_per_cycle: {self.advance_per_cycle:.6g} output-unit {per}",
+                f"advance: {self.advance:.6g} output-unit over the input's travel"
+                + (" (jammed: not extrapolated)" if self.jammed else ""),
+                *per,
                 f"moving_fraction: {self.moving_fraction:.6g} 1 (|dq_out/dq_in| > {self.threshold:g})",
                 f"max_ratio: {self.max_ratio:.6g} 1",
                 f"jammed: {self.jammed} bool",
@@ -191,6 +210,24 @@ def check_drive(device: Device, axis: int, load: float, mode: str = "quasistatic
     return axis, load, mode, requested, start, threshold
 
 
+def check_free(device: Device, start) -> None:
+    """Refuse a drive that has nowhere to go (a keyed :class:`~pes_ref.core.checks.InputError`):
+    a C-space blocked at every node (key ``cspace``), or a start inside blocked space, where
+    the posed parts' interiors overlap (key ``start``; a touch is free). Needs the computed
+    C-space (:meth:`Device.cspace`); the start is tested on the exact geometry."""
+    from pes_ref.devices.geometry import interiors_overlap, posed_geometries
+
+    if device.cspace().blocked.all():
+        raise checks.InputError("cspace", f"no configuration is free: the parts' interiors overlap at every node "
+                                          f"of the C-space grid (q0 in [{device.lower[0]:g}, {device.upper[0]:g}], "
+                                          f"q1 in [{device.lower[1]:g}, {device.upper[1]:g}], "
+                                          f"{device.shape[0]} x {device.shape[1]} nodes)")
+    start = checks.as_float_array("start", start, shape=(2,))
+    if interiors_overlap(*posed_geometries(*device.parts, start[0], start[1], device.grid.tolerance)):
+        raise checks.InputError("start", f"start q = [{start[0]:g}, {start[1]:g}] is inside blocked space: the "
+                                         f"parts' interiors overlap there; start from a free configuration")
+
+
 def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cycles=None, start=None,
           threshold: float = THRESHOLD, progress=None, chunk: int = 4096, engine=None) -> DriveResult:
     """Drive ``axis`` of ``device`` with a constant ``load`` and follow the other axis.
@@ -223,9 +260,16 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     Returns
     -------
     DriveResult
+
+    Raises
+    ------
+    pes_ref.core.checks.InputError
+        A bad argument (:func:`check_drive`), a C-space with no free node or a start inside
+        blocked space (:func:`check_free`).
     """
     t_wall = time.perf_counter()
     axis, load, mode, requested, start, threshold = check_drive(device, axis, load, mode, cycles, start, threshold)
+    check_free(device, start)
     sign = 1.0 if load > 0 else -1.0
     out_axis = 1 - axis
     h = float(device.spacing[axis])
@@ -282,11 +326,24 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     ratio = _ratio(q_in, q_out)
     moving = float(np.mean(np.abs(ratio) > threshold)) if ratio.size else 0.0
     max_ratio = float(np.max(np.abs(ratio))) if ratio.size else 0.0
-    change = float(q_out[-1] - q_out[0])
-    span = s[-1] if s.size else 0.0
-    per = 2.0 * np.pi if device.periodic[axis] else 1.0
-    advance = change / span * per if span > 0 else 0.0
     jammed = reason != "done"
+    advance, per_cycle, each = _advances(s, q_out, bool(device.periodic[axis]), requested, jammed)
     return DriveResult(device.name, axis, load, mode, bool(device.periodic[axis]), requested, travel, advance,
-                       moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold, steps,
-                       q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall)
+                       per_cycle, each, moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold,
+                       steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall)
+
+
+def _advances(s: np.ndarray, q_out: np.ndarray, periodic: bool, requested: float, jammed: bool) -> tuple:
+    """(advance, advance_per_cycle, advance_per_cycle_each) of a motion law: the output ``q_out``
+    at the input's travel ``s`` (module docstring). A periodic input's cycles end where its
+    travel reaches each multiple of 2 pi (the output interpolated there); a run that was not
+    jammed completed every requested cycle (its last sample may fall a rounding short)."""
+    advance = float(q_out[-1] - q_out[0]) if s.size else 0.0
+    span = float(s[-1]) if s.size else 0.0
+    if not periodic:
+        return advance, (advance / span if span > 0 else 0.0), ()
+    turn = 2.0 * np.pi
+    full = int(round(requested / turn)) if not jammed else int(np.floor(span / turn * (1 + 1e-9)))
+    ends = np.interp(turn * np.arange(full + 1), s, q_out) if full else np.empty(0)
+    each = tuple(float(a) for a in np.diff(ends))
+    return advance, (each[-1] if each else float("nan")), each

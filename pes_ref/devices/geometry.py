@@ -34,7 +34,8 @@ from pes_ref.core import checks
 
 __all__ = ["MissingExtraError", "require_shapely", "Polygon", "Circle", "Rectangle", "regular_polygon",
            "Translation", "Rotation", "Drum", "MOTIONS", "Part", "pose", "posed_geometries", "interiors_overlap", "overlap",
-           "default_tolerance", "circle_sides", "SHAPES"]
+           "default_tolerance", "circle_sides", "SHAPES",
+           "check_drum_drawing", "tolerance_bound"]
 
 #: The pip line that installs what this module needs.
 PIP_LINE = "pip install 'pes_ref[devices]'"
@@ -322,6 +323,22 @@ class Part:
         return self._cache[key]
 
 
+def check_drum_drawing(part: Part, tolerance: float = 1e-3) -> None:
+    """Refuse a drum's drawing that spans more than one turn: its shapes must lie within y in
+    ``[0, 2 pi R]`` (:class:`Drum`; a circle's polygon may stray ``tolerance`` beyond), else the
+    copies a turn apart overlap each other and the drum is not what was drawn. A keyed
+    :class:`~pes_ref.core.checks.InputError` (``shapes``) naming the span; nothing for another motion."""
+    if not isinstance(part.motion, Drum):
+        return
+    period = part.motion.circumference
+    _, y0, _, y1 = part.geometry(tolerance).bounds
+    slack = tolerance + 1e-9 * period
+    if y0 < -slack or y1 > period + slack:
+        raise checks.InputError("shapes", f"the drum's shapes span y from {y0:.4g} to {y1:.4g}, more than one turn "
+                                          f"of its surface: they must lie within y in [0, 2 pi R] = [0, {period:.4g}] "
+                                          f"(R = {part.motion.radius:g}; the drawing repeats every turn)")
+
+
 def default_tolerance(parts, spacing) -> float:
     """The circles' tolerance for a grid of ``spacing`` (2,): ``min_d h_d l_d / 20`` with
     ``l_d`` 1 for a translation, the smallest circle radius of the device for a rotation
@@ -334,6 +351,16 @@ def default_tolerance(parts, spacing) -> float:
         return 1e-3
     lever = [_LEVERS[type(p.motion)](p.motion, min(radii)) for p in parts]
     return float(min(h[d] * lever[d] for d in range(2)) / 20.0)
+
+
+def tolerance_bound(parts, spacing) -> float:
+    """The largest circles' tolerance a grid of ``spacing`` (2,) accepts: ``min_d h_d l_d``, 20 times
+    :func:`default_tolerance`: a circle's polygon then moves the C-space boundary by less than one
+    grid spacing where the contact's lever is at least ``l_d``. Infinite without circles (the
+    tolerance is not used)."""
+    if not any(p.circles for p in parts):
+        return float("inf")
+    return 20.0 * default_tolerance(parts, spacing)
 
 
 #: The lever of each motion (:func:`default_tolerance`): motion, smallest circle radius -> length per unit q.

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["geometry_path", "draw_geometry", "draw_device", "cspace_image", "drive_figure", "display_grid",
-           "wrapped_path", "domain_limits", "CSPACE_COLORS"]
+           "wrapped_path", "domain_limits", "CSPACE_COLORS", "motion_law_title"]
 
 #: Colours of the C-space: free, blocked, boundary.
 CSPACE_COLORS = {"free": "#f7f7f7", "blocked": "#4d4d4d", "boundary": "#d62728"}
@@ -112,6 +112,22 @@ def wrapped_path(surface, x):
     return xw
 
 
+def motion_law_title(result) -> str:
+    """The motion law's title, two lines that fit over its axes: the steady advance (the last full
+    cycle's; a run short of a turn gives its advance over the travel achieved, never extrapolated)
+    and the moving share, with where the run jammed."""
+    if result.periodic_input and result.advance_per_cycle_each:
+        head = f"advance {result.advance_per_cycle:.4g} per cycle (last of {len(result.advance_per_cycle_each)})"
+    elif result.periodic_input:
+        head = f"advance {result.advance:.4g} over {result.input_travel:.3g} rad (no full cycle)"
+    else:
+        head = f"advance {result.advance_per_cycle:.4g} per unit of input"
+    tail = f"moving {100 * result.moving_fraction:.1f}% of the travel"
+    if result.jammed:
+        tail += f"; JAMMED ({result.stop_reason}) at ({result.stopped_at[0]:.3g}, {result.stopped_at[1]:.3g})"
+    return f"motion law: {head}\n{tail}"
+
+
 def drive_figure(device, result, title: str = ""):
     """The C-space with the drive's path (left) and its motion law (right): a matplotlib Figure."""
     import matplotlib
@@ -134,9 +150,7 @@ def drive_figure(device, result, title: str = ""):
     ax1.plot(result.q_in - result.q_in[0], result.q_out - result.q_out[0], color="#1f77b4", lw=1.4)
     ax1.set_xlabel(f"input q{result.drive} travel")
     ax1.set_ylabel(f"output q{1 - result.drive} change")
-    ax1.set_title(f"motion law: advance {result.advance_per_cycle:.4g} per "
-                  f"{'cycle' if result.periodic_input else 'unit of input'}, moving "
-                  f"{100 * result.moving_fraction:.1f}%{', JAMMED' if result.jammed else ''}")
+    ax1.set_title(motion_law_title(result), fontsize=10)
     ax1.grid(alpha=0.3)
     fig.suptitle(title or f"{device.name}: drive q{result.drive} with load {result.load:g} ({result.mode})")
     return fig

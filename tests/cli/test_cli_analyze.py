@@ -157,3 +157,31 @@ def test_progress_lines_start_after_a_few_seconds_and_come_every_period(capsys):
     assert [line.split(" | ")[:2] + line.split(" | ")[-2:] for line in lines] == [
         ["cam.toml: drive", "percent 25/100", "elapsed 0:03", "left 0:06"],     # 2.1 s for the first quarter
         ["cam.toml: drive", "percent 50/100", "elapsed 0:05", "left 0:04"]]
+
+
+def test_a_start_with_a_negative_first_number_is_a_value_and_each_cycle_is_reported(capsys, tmp_path):
+    """``--start -0.1,0.6`` (argparse alone reads a word starting with '-' as an option); the
+    first turn holds the follower's settling from 0.6, the headline is the last turn's."""
+    js = tmp_path / "cam.json"
+    values = figures(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--start", "-0.1,0.6", "--cycles",
+                     "2", "--json", str(js))
+    summary = json.loads(js.read_text())
+    first, last = summary["advance_per_cycle_each"]
+    assert summary["advance_per_cycle"] == last and abs(last) < abs(first)
+    assert values["advance_per_cycle_each"].split()[0] == f"{first:.6g},{last:.6g}"
+    assert "the last of 2 full cycles" in values["advance_per_cycle"]
+    assert summary["advance"] == pytest.approx(first + last)
+
+
+EXAMPLES = CAM.parent
+
+
+@pytest.mark.parametrize("name, keys", [("geneva6_play.toml", ("[energy] r_c = 0.05", "set [energy] r_c below")),
+                                        ("geneva6_play_fixed.toml", ())])
+def test_a_device_whose_surface_cannot_be_trusted_says_so_after_its_figures(capsys, name, keys):
+    code, out, err = run(capsys, str(EXAMPLES / name), "--drive", "0", "--load", "1")
+    assert code == EXIT_OK and "advance_per_cycle" in out
+    warnings = [line for line in err.splitlines() if line.startswith("warning: ")]
+    assert len(warnings) == (1 if keys else 0), err
+    for key in keys:
+        assert key in warnings[0]

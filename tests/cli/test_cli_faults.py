@@ -209,6 +209,35 @@ FAULTS = [
     Fault("device-plot-extension", "analyze dev.toml --drive 0 --load 1 --plot law.txt", ("--plot law.txt", ".png")),
     Fault("device-out-under-a-file", "analyze dev.toml --drive 0 --load 1 --out text.npz/law", ("text.npz", "not a folder")),
     Fault("device-out-law-exists", "analyze dev.toml --drive 0 --load 1 --out sub", ("sub/motion_law.csv", "exists")),
+    Fault("device-out-json-clash", "analyze dev.toml --drive 0 --load 1 --out law --json law",
+          ("--out law", "--json law", "the same path")),
+    Fault("device-json-plot-clash", "analyze dev.toml --drive 0 --load 1 --json law.png --plot law.png",
+          ("--json law.png", "--plot law.png", "the same path")),
+    Fault("device-json-is-the-motion-law", "analyze dev.toml --drive 0 --load 1 --out sub --json sub/motion_law.csv "
+          "--force", ("--out sub", "--json sub/motion_law.csv", "the same path")),
+    Fault("device-start-blocked-in-file", "analyze dev-startblocked.toml --drive 0 --load 1",
+          ("dev-startblocked.toml: start.q = [0.45, 0]", "blocked", "--start")),
+    Fault("device-start-blocked-cli", "analyze dev.toml --drive 0 --load 1 --start 0.45,0",
+          ("--start 0.45,0", "blocked"), absent=("start.q",)),
+    Fault("device-start-negative-blocked", "analyze dev.toml --drive 0 --load 1 --start -0.45,0.1",
+          ("--start -0.45,0.1", "blocked")),
+    Fault("device-all-blocked", "analyze dev-blocked.toml --drive 0 --load 1",
+          ("dev-blocked.toml", "no configuration is free", "every node")),
+    Fault("device-tolerance-large", "analyze dev-tolerance.toml --drive 0 --load 1",
+          ("dev-tolerance.toml: geometry.tolerance", "got 10", "below 0.05")),
+    Fault("device-drum-over-a-turn", "analyze dev-drumspan.toml --drive 0 --load 1",
+          ("dev-drumspan.toml: part[1].shapes", "y from -1 to 1", "one turn", "0.628")),
+    Fault("device-wall-margin-no-room", "analyze dev-margin.toml --drive 0 --load 1",
+          ("dev-margin.toml: dynamics.walls.margin", "5", "no room")),
+    Fault("device-r-c-below-default-r-min", "analyze dev-rcsmall.toml --drive 0 --load 1",
+          ("dev-rcsmall.toml: energy.r_c", "0.01", "r_min", "half the finer grid spacing", "0.025",
+           "cspace.shape")),
+    Fault("device-shape-too-coarse-for-r-c", "analyze dev.toml --drive 0 --load 1 --shape 3,3",
+          ("--shape 3,3: dev.toml: energy.r_c", "half the finer grid spacing (0.25")),
+    Fault("device-load-negative-exponent", "analyze dev.toml --drive 0 --load -1e-3 --json notes.txt",
+          ("notes.txt", "exists")),
+    Fault("device-start-outside-in-file", "analyze dev-startout.toml --drive 0 --load 1",
+          ("dev-startout.toml: start.q = [0, 5]", "q1 = 5 is outside the grid"), absent=("--start q1",)),
     # ------------------------------------------------------------------ design
     Fault("design-particles-zero", "design funnel --smoke --out new.npz --particles 0", ("--particles", "0")),
     Fault("design-particles-negative", "design funnel --smoke --out new.npz --particles -2",
@@ -515,6 +544,28 @@ BAD_DEVICES = {
     "walls": ("edges = [[true, true], [true, true]]", "edges = [true, true]"),
     "start": ("q = [0.0, 0.0]", "q = [\"zero\", 0.0]"),
     "analysis": ("[start]", "[analysis]\nkind = \"catapult\"\n[start]"),
+    "startblocked": ("q = [0.0, 0.0]", "q = [0.45, 0.0]"),
+    "startout": ("q = [0.0, 0.0]", "q = [0.0, 5.0]"),
+    "blocked": ("radius = 0.5 }", "radius = 0.05 }"),
+    "tolerance": ("[energy]", "[geometry]\ntolerance = 10\n[energy]"),
+    "drumspan": ("motion = \"translation\"\ndirection = [0.0, 1.0]", "motion = \"drum\"\nradius = 0.1"),
+    "margin": ("margin = 0.01", "margin = 5.0"),
+    "rcsmall": ("r_c = 0.1", "r_c = 0.01"),
+}
+#: Devices whose C-space is a straight free channel along q1 (the plate's hole made a slot for the
+#: pin, with no spring or walls on q1: a drive along it runs free to the grid's edge, in well under
+#: the 3 s after which progress lines start; an r_min of its own keeps the barrier's stable step
+#: large on the fine grid): name -> the replacements that make it.
+FREE_Q1 = (("springs = [{ axis = 1, k = 1.0, center = 0.0 }]", "springs = []"),
+           ("edges = [[true, true], [true, true]]", "edges = [[true, true], [false, false]]"))
+CHANNELS = {
+    "narrow": (("{ circle = { center = [0.0, 0.0], radius = 0.5 } }]", "{ rectangle = { lower = [-0.15, -2.0], "
+                "upper = [0.15, 2.0] } }]"), ("lower = [-0.5, -0.5]\nupper = [0.5, 0.5]\nshape = [21, 21]",
+                "lower = [-0.5, -1.0]\nupper = [0.5, 1.0]\nshape = [21, 41]"), ("r_c = 0.1", "r_c = 0.05"), *FREE_Q1),
+    "slot": (("{ circle = { center = [0.0, 0.0], radius = 0.5 } }]", "{ rectangle = { lower = [-0.13, -2.0], "
+              "upper = [0.13, 2.0] } }]"), ("lower = [-0.5, -0.5]\nupper = [0.5, 0.5]\nshape = [21, 21]",
+              "lower = [-0.5, -1.0]\nupper = [0.5, 1.0]\nshape = [21, 41]"), ("r_c = 0.1", "r_c = 0.1\nr_min = 0.02"),
+             *FREE_Q1),
 }
 
 #: The commands the suite must cover: every one of the command line (tested below).
@@ -561,6 +612,12 @@ def assets(tmp_path_factory):
     for name, (old, new) in BAD_DEVICES.items():
         assert old in DEVICE, name
         (folder / f"dev-{name}.toml").write_text(DEVICE.replace(old, new, 1))
+    for name, changes in CHANNELS.items():
+        text = DEVICE
+        for old, new in changes:
+            assert old in text, name
+            text = text.replace(old, new, 1)
+        (folder / f"dev-{name}.toml").write_text(text)
     return folder
 
 
@@ -767,6 +824,14 @@ WARNINGS = [
            ("warning: the torque 1e+30 torque-unit exceeds", "barrier_torque_max", "overwhelms the barrier")),
     Warned("dartgun-reload-does-not-latch", "analyze dartgun --smoke --reload-force 1e12",
            ("warning: the reload with force 1e+12 did not latch", "reference latch")),
+    Warned("device-channel-below-the-grid", "analyze dev-narrow.toml --drive 1 --load 0.5",
+           ("warning: dev-narrow.toml: [cspace] shape = [21, 41] cannot resolve a free channel", "half-width 0.05",
+            "raise [cspace] shape to at least")),
+    Warned("device-channel-below-the-grid-shape", "analyze dev-narrow.toml --drive 1 --load 0.5 --shape 25,41",
+           ("warning: dev-narrow.toml: --shape 25,41 cannot resolve a free channel", "raise --shape to at least")),
+    Warned("device-barrier-wider-than-the-clearance", "analyze dev-slot.toml --drive 1 --load 0.5 --shape 81,41",
+           ("warning: dev-slot.toml: [energy] r_c = 0.1 is wider than the clearance", "half-width 0.029",
+            "set [energy] r_c below 0.042", "widen the clearance to 0.07 or more")),
 ]
 
 

@@ -177,9 +177,14 @@ def test_a_bad_key_or_value_is_refused_in_one_line_naming_it(key, value, message
     assert message in text, text
 
 
+#: A drum's drawing within one turn of a drum of radius 0.5 (y in [0, pi]): a plate with a hole.
+DRUM_SHAPES = [{"rectangle": {"lower": [-1.0, 0.0], "upper": [1.0, 3.0]},
+                "minus": [{"circle": {"center": [0.0, 1.5], "radius": 0.5}}]}]
+
+
 def _drum(**keys):
     """FULL with part 1 a drum of radius 0.5 (its other keys replaced by ``keys``)."""
-    data = _edit("part[1]", {"motion": "drum", "radius": 0.5, "shapes": tomllib.loads(FULL)["part"][1]["shapes"]})
+    data = _edit("part[1]", {"motion": "drum", "radius": 0.5, "shapes": DRUM_SHAPES})
     data["part"][1].update(keys)
     data["dynamics"]["walls"]["edges"][1] = [False, False]
     return data
@@ -198,6 +203,10 @@ def test_a_drum_is_read_and_a_full_turn_of_it_is_periodic():
     ({"radius": "big"}, "part[1].radius: expected a finite number, got 'big'"),
     ({"radius": float("inf")}, "part[1].radius: expected a finite number, got inf"),
     ({"pivot": [0.0, 0.0]}, "part[1].pivot: a drum has a radius, not a pivot"),
+    ({"shapes": tomllib.loads(FULL)["part"][1]["shapes"]},
+     "part[1].shapes: the drum's shapes span y from -1 to 1, more than one turn of its surface: they must lie "
+     "within y in [0, 2 pi R] = [0, 3.142]"),
+    ({"radius": 0.4}, "part[1].shapes: the drum's shapes span y from 0 to 3, more than one turn"),
 ])
 def test_a_bad_drum_is_refused_in_one_line_naming_its_key(keys, message):
     with pytest.raises(F.DeviceFileError) as err:

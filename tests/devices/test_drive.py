@@ -151,3 +151,80 @@ def test_bad_drives_are_refused(gun, kw, match):
     args = {"axis": 0, "load": 1.0} | kw
     with pytest.raises(ValueError, match=match):
         drive(gun, **args)
+
+
+def test_a_start_inside_blocked_space_and_a_fully_blocked_c_space_are_refused(gun):
+    """The trigger's tooth inside the dart (q1 = 0.5 at q0 = 0) overlaps it; a dart with no room
+    for the tooth at any node leaves nothing free."""
+    with pytest.raises(ValueError, match=r"start q = \[0, 0.5\] is inside blocked space"):
+        drive(gun, 0, 1.0, start=(0.0, 0.5))
+    no_room = gun.replace(lower=(-0.5, 0.2), upper=(0.5, 0.3), shape=(11, 5), walls=None)   # the tooth in the bar
+    with pytest.raises(ValueError, match="no configuration is free: the parts' interiors overlap at every node"):
+        drive(no_room, 0, 1.0, start=(0.0, 0.25))
+
+
+# --------------------------------------------------------------------------- the advance per cycle
+
+@pytest.fixture(scope="module")
+def cam_two_cycles():
+    """The cam on a coarse grid for two turns from q1 = 0.6, above its rest: the follower settles
+    onto the cam during the first turn."""
+    return drive(load_device(CAM).replace(shape=(160, 41)), 0, 0.5, cycles=2, start=(0.0, 0.6))
+
+
+def test_each_cycle_is_reported_and_the_headline_is_the_last_full_one(cam_two_cycles):
+    r = cam_two_cycles
+    first, last = r.advance_per_cycle_each
+    assert r.advance_per_cycle == last and abs(last) < 0.01 * STROKE          # steady: the follower returns
+    assert first < -0.02                                                       # the start's transient: it settles
+    assert r.advance == pytest.approx(first + last, abs=1e-9)
+    assert r.summary()["advance_per_cycle_each"] == [first, last]
+    assert "advance_per_cycle: " in "\n".join(r.as_lines()) and "(the last of 2 full cycles)" in "\n".join(r.as_lines())
+
+
+@pytest.mark.parametrize("travel, jammed, cycles, per_cycle", [
+    (2 * np.pi, False, 1, 1.0),
+    (4 * np.pi, False, 2, 1.0),
+    (1.5 * np.pi, True, 0, np.nan),            # jammed short of a turn: no figure per cycle
+    (3 * np.pi, True, 1, 1.0),                 # jammed in the second turn: the first one counts
+])
+def test_a_jammed_run_is_never_extrapolated_to_a_full_turn(travel, jammed, cycles, per_cycle):
+    """An output that advances 1 per turn, steadily: each full turn reads 1, and a run that
+    stopped short of a turn has only its advance over the travel it achieved."""
+    from pes_ref.devices.drive import _advances
+    s = np.linspace(0.0, travel, 200)
+    advance, got, each = _advances(s, s / (2 * np.pi), True, 4 * np.pi if cycles == 2 else 2 * np.pi, jammed)
+    assert advance == pytest.approx(travel / (2 * np.pi))
+    assert len(each) == cycles and np.allclose(each, 1.0)
+    assert got == pytest.approx(per_cycle, nan_ok=True)
+
+
+def test_the_plot_title_fits_and_says_jammed(gun):
+    """The motion law's title of a jammed run: the advance over the travel achieved (a translation's
+    per unit of it) and JAMMED, both inside the figure."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from pes_ref.devices.plots import drive_figure
+
+    r = drive(gun, 1, 5.0, "quasistatic")
+    fig = drive_figure(gun, r)
+    try:
+        fig.canvas.draw()
+        title = fig.axes[1].title
+        box, frame = title.get_window_extent(), fig.bbox
+        assert "JAMMED" in title.get_text()
+        assert frame.x0 <= box.x0 and box.x1 <= frame.x1, (box, frame)
+    finally:
+        plt.close(fig)
+
+
+@pytest.mark.parametrize("name, shape, axis, start", [
+    ("cam_follower", (160, 41), 0, (0.0, 0.3)),          # the follower's face inside the cam (lift 0.5 at q0 = 0)
+    ("drum_cam", None, 1, (0.0, np.pi)),                 # the pin inside the wall between two turns of the groove
+])
+def test_a_part_started_inside_the_other_is_refused(name, shape, axis, start):
+    device = load_device(ROOT / "examples" / "devices" / f"{name}.toml")
+    device = device if shape is None else device.replace(shape=shape)
+    with pytest.raises(ValueError, match=r"start q = \[0, (0.3|3.14159)\] is inside blocked space"):
+        drive(device, axis, 0.5, start=start)
