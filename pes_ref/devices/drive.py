@@ -38,7 +38,7 @@ from pes_ref.core.effects import Constant
 from pes_ref.core.scene import simulate
 from pes_ref.devices.device import Device
 
-__all__ = ["DriveResult", "drive", "check_drive", "MODES", "JAM_CELLS", "JAM_FRACTION", "THRESHOLD"]
+__all__ = ["DriveResult", "drive", "drive_scene", "check_drive", "MODES", "JAM_CELLS", "JAM_FRACTION", "THRESHOLD"]
 
 #: The drive's modes.
 MODES = ("quasistatic", "dynamic")
@@ -290,3 +290,21 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     return DriveResult(device.name, axis, load, mode, bool(device.periodic[axis]), requested, travel, advance,
                        moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold, steps,
                        q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall)
+
+
+def drive_scene(device: Device, axis: int, load: float, mode: str, n_steps: int) -> tuple:
+    """The scene :func:`drive` runs (the constant ``load`` on ``axis``, in ``mode``, ``n_steps``
+    steps) and the steps in which the unresisted input moves one input spacing: ``(scene,
+    steps_per_spacing)``. For a run that goes on from a drive's state (the rigid engine's
+    look at a stall, :mod:`pes_ref.rigid.engines`)."""
+    h = float(device.spacing[axis])
+    force = np.zeros(2)
+    force[axis] = load
+    effects = (Constant(force),)
+    if mode == "quasistatic":
+        mobility = device.stable_mobility()
+        scene = device.scene(n_steps, effects, mode="quasistatic", dt=1.0, mobility=mobility)
+        return scene, h / (mobility[axis] * abs(load))
+    scene = device.scene(n_steps, effects)
+    m, c, f = device.mass[axis], device.damping[axis], abs(load)
+    return scene, max(h * c / f, np.sqrt(2.0 * h * m / f)) / scene.dt

@@ -30,13 +30,19 @@ import numpy as np
 from pes_ref.core import checks
 from pes_ref.devices.geometry import Drum, MissingExtraError, Rotation, Translation, require_shapely
 
-__all__ = ["PIP_LINE", "require_pymunk", "MOTION_BODIES", "RigidParts", "rigid_parts", "SLOP_SHARE", "ITERATIONS"]
+__all__ = ["PIP_LINE", "require_pymunk", "MOTION_BODIES", "RigidParts", "rigid_parts", "SLOP_SHARE", "COLLISION_BIAS", "ITERATIONS"]
 
 #: The pip line that installs the rigid engine.
 PIP_LINE = "pip install 'pes_ref[rigid]'"
 #: pymunk's allowed overlap (its collision slop), as a share of the C-space cell in length
 #: (:attr:`RigidParts.cell`): the contact rests this far inside the wall.
 SLOP_SHARE = 1e-3
+#: The share of an overlap the contact leaves after one second (pymunk's collision bias; its
+#: default 0.9^60 takes a tenth of a second to push out an overlap). 0: each step pushes the
+#: whole overlap beyond the slop out, with pymunk's separate pseudo-velocities, which move the
+#: parts without changing their velocities (no energy is added). A part that moved into the
+#: other within a substep (up to half a C-space cell) is back at the contact the next substep.
+COLLISION_BIAS = 0.0
 #: The constraint solver's iterations per step (pymunk's default is 10; the pivot and groove
 #: joints and the contacts are solved together).
 ITERATIONS = 20
@@ -239,6 +245,7 @@ class RigidParts:
         space = pymunk.Space()
         space.iterations = ITERATIONS
         space.collision_slop = SLOP_SHARE * self.cell
+        space.collision_bias = COLLISION_BIAS
         handles = []
         e, mu = math.sqrt(self.restitution), math.sqrt(self.friction)
         for d, part in enumerate(self.device.parts):

@@ -38,10 +38,12 @@ __all__ = ["simulate", "SUBSTEP_SHARE", "MAX_SUBSTEPS", "StartBlockedError"]
 
 #: The largest move of a part's point in one substep, as a share of the C-space cell.
 SUBSTEP_SHARE = 0.5
-#: How far the parts may overlap at a start, as a share of the C-space cell (ten times the
-#: contact's own overlap, :data:`pes_ref.rigid.bodies.SLOP_SHARE`: a run goes on from the
-#: state another ended in).
-START_ALLOWANCE = 1e-2
+#: How far the parts may overlap at a start, as a share of the C-space cell: a substep's
+#: move (:data:`SUBSTEP_SHARE`). Pymunk finds a contact once the parts overlap, within the
+#: substep that brought them together, and pushes them apart in the next one: a run stopped
+#: there (a drive's chunk) leaves an overlap of up to a substep's move, which the run that
+#: goes on from that state must accept.
+START_ALLOWANCE = SUBSTEP_SHARE
 #: The most substeps one step is cut into (a faster part is refused: its step is too long).
 MAX_SUBSTEPS = 256
 

@@ -89,3 +89,16 @@ def test_a_rotating_bar_stops_against_a_fixed_block():
     corner = np.hypot(1.0, 0.05)
     expected = np.arcsin(0.5 / corner) - np.arctan2(0.05, 1.0)
     assert traj.x[-1, 0, 0] == pytest.approx(expected, abs=2e-3)
+
+
+@pytest.mark.parametrize("load", [1.0, 10.0, 100.0])
+def test_a_pin_slammed_into_the_edge_in_short_chunks_goes_on_and_rests_at_the_contact(load):
+    # each chunk starts a new space from the last chunk's state: a state caught within the
+    # substep of the impact overlaps the wall by up to a substep's move, and the next chunk
+    # must take it; at rest the pin is at the edge (not pushed in by the load)
+    from pes_ref.devices.drive import drive
+    from pes_ref.rigid.engines import ENGINES
+    device = _plate_device(damping=(0.0, 0.0), mass=(0.01, 1.0), dt=2e-3)
+    result = drive(device, 0, load, "dynamic", start=(0.0, 0.1), engine=ENGINES["rigid"].run, chunk=7)
+    assert result.stop_reason == "stalled"
+    assert 0.45 - 2 * device.grid.tolerance <= result.stopped_at[0] <= 0.45 + SLOP_SHARE * 0.025
