@@ -25,7 +25,7 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.core.scene import simulate as surface_simulate
-from pes_ref.devices.drive import JAM_CELLS, drive_scene
+from pes_ref.devices.drive import JAM_CELLS, JAM_FRACTION, drive_scene
 from pes_ref.rigid.bodies import require_pymunk
 from pes_ref.rigid.engine import StartBlockedError, simulate as rigid_simulate
 
@@ -156,14 +156,21 @@ class LawDifference:
 
 
 def compare_laws(a, b) -> LawDifference:
-    """The difference ``b - a`` of two drives' motion laws (:class:`LawDifference`)."""
+    """The difference ``b - a`` of two drives' motion laws (:class:`LawDifference`) on the
+    samples both reached; after the first turn when both made two turns or more of a periodic
+    input (the start's transient left out: parts that start apart, or a part set down at the
+    barrier's standoff that the rigid parts do not keep, settle within it)."""
     n = min(a.q_in.size, b.q_in.size)
     if n == 0:
         return LawDifference(0, 0.0, float("nan"), float("nan"), float("nan"))
-    d = b.q_out[:n] - a.q_out[:n]
+    first = 0
+    if a.periodic_input and min(cycle_advances(a).size, cycle_advances(b).size) >= 2:
+        first = int(np.searchsorted(np.abs(a.q_in[:n] - a.q_in[0]), 2.0 * math.pi - 1e-9))
+    qa, qb = a.q_out[first:n], b.q_out[first:n]
+    d = qb - qa
     offset = float(np.mean(d))
-    travel = max(float(np.ptp(a.q_out)), float(np.ptp(b.q_out)))
-    return LawDifference(n, travel, float(np.sqrt(np.mean(d * d))), offset,
+    travel = max(float(np.ptp(qa)), float(np.ptp(qb)))
+    return LawDifference(n - first, travel, float(np.sqrt(np.mean(d * d))), offset,
                          float(np.sqrt(np.mean((d - offset) ** 2))))
 
 
@@ -222,10 +229,13 @@ def side_by_side(lines: dict) -> list:
 
 # =========================================================================== a stall told apart
 
-#: The rigid parts pass a stall point when their input gets this many input spacings past it ...
+#: The rigid parts pass a stall point when their input gets this many input spacings past it,
+#: plus eq. (1)'s cut-off r_c (the surface's input stops up to about r_c short of a wall the
+#: rigid parts touch: that much is no passing) ...
 PASS_CELLS = 2.0
-#: ... within this many of the drive's stall windows (the steps in which the unresisted input
-#: would move :data:`pes_ref.devices.drive.JAM_CELLS` spacings).
+#: ... or is still moving at the end of this many of the drive's stall windows (the steps in
+#: which the unresisted input would move :data:`pes_ref.devices.drive.JAM_CELLS` spacings):
+#: still moving by the drive's own test of a stall.
 PROBE_WINDOWS = 4
 
 
@@ -254,32 +264,40 @@ class Stall:
         return {"stall": self.kind, "stall_rigid_travel": self.rigid_travel}
 
 
+def _passing(device, axis: int) -> float:
+    """How far past a stall point the rigid input must get to pass it (:data:`PASS_CELLS`)."""
+    return PASS_CELLS * float(device.spacing[axis]) + float(device.r_c)
+
+
 def stall_from_runs(device, surface, rigid) -> Stall:
     """The stall of the surface drive ``surface`` told apart by a whole rigid drive ``rigid`` from
-    the same start: resolution when the rigid input got :data:`PASS_CELLS` spacings past
-    where the surface input stalled."""
-    h = float(device.spacing[surface.drive])
+    the same start: resolution when the rigid drive went the whole way or its input got
+    :data:`PASS_CELLS` spacings and r_c past where the surface input stalled."""
     past = float(rigid.input_travel - surface.input_travel)
-    return Stall("resolution" if past >= PASS_CELLS * h else "jam", past)
+    passed = rigid.stop_reason == "done" or past >= _passing(device, surface.drive)
+    return Stall("resolution" if passed else "jam", past)
 
 
 def tell_stall(device, result) -> Stall:
     """The stall of the surface drive ``result`` told apart by the rigid engine: the rigid parts
     run from the stall point under the same load and mode for :data:`PROBE_WINDOWS` stall
-    windows; they pass when their input gets :data:`PASS_CELLS` input spacings on."""
+    windows; they pass when their input gets :data:`PASS_CELLS` input spacings and r_c on, or
+    is still moving in the last window (it has not stalled by the drive's test)."""
     try:
         require_pymunk()
     except ImportError as exc:
         return Stall("unknown", reason=f"the rigid engine tells a stall of resolution from a jam: {exc}")
     axis, sign = result.drive, (1.0 if result.load > 0 else -1.0)
     _, per_spacing = drive_scene(device, axis, result.load, result.mode, 1)
-    steps = PROBE_WINDOWS * max(1, int(math.ceil(JAM_CELLS * per_spacing)))
+    window = max(1, int(math.ceil(JAM_CELLS * per_spacing)))
+    steps = PROBE_WINDOWS * window
     scene, _ = drive_scene(device, axis, result.load, result.mode, steps)
     x0 = np.asarray(result.stopped_at, dtype=float)[None, :]
     try:
         x = ENGINES["rigid"].run(device, scene, x0).x[:, 0, axis]
     except StartBlockedError:
         return Stall("unknown", reason="the parts overlap at the stall point: the rigid engine cannot start there")
-    past = float(np.max(sign * (x - x0[0, axis])))
-    h = float(device.spacing[axis])
-    return Stall("resolution" if past >= PASS_CELLS * h else "jam", past)
+    p = sign * (x - x0[0, axis])
+    past = float(np.max(p))
+    moving = p[-1] - p[-1 - window] >= JAM_FRACTION * float(device.spacing[axis])
+    return Stall("resolution" if moving or past >= _passing(device, axis) else "jam", past)

@@ -1,0 +1,165 @@
+"""The shipped devices driven on both engines, against each other and the analytic answers:
+the table of ``docs/rigid.md`` (``make rigid-devices``).
+
+Each entry of :data:`DRIVES` is one drive of a shipped device (the Geneva, cam-follower and
+drum-cam examples, the ratchet and the dart gun) with what is known of its answer in closed
+form. :func:`measure` runs it on the surface and the rigid engine in one mode and states the
+steady advance per cycle (the mean over the turns after the first,
+:func:`pes_ref.rigid.engines.steady_advance`), the difference of the two motion laws after
+the first turn (:func:`pes_ref.rigid.engines.compare_laws`; its mean is the surface
+barrier's standoff, stated apart), each engine's law against the analytic one where there
+is one, and both run times.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from pes_ref.devices.device_file import load_device, shipped_device
+from pes_ref.devices.drive import drive
+from pes_ref.rigid.engines import ENGINES, compare_laws, stall_from_runs, steady_advance
+
+__all__ = ["Case", "DRIVES", "MODES", "measure", "measure_all", "markdown_table", "rewrite", "BEGIN", "END",
+           "ADVANCE_BAR", "RMS_BAR"]
+
+#: The bar: advances per cycle within 1 degree (or 1% of the output's travel per cycle, the larger) ...
+ADVANCE_BAR = math.radians(1.0)
+#: ... and motion laws within this share of the output's travel (RMS, the standoff removed).
+RMS_BAR = 0.01
+#: The drive's modes, each measured.
+MODES = ("quasistatic", "dynamic")
+
+
+@dataclass(frozen=True)
+class Case:
+    """One drive of a shipped device: ``source`` a file under the repository's root or a shipped
+    device's name; ``advance`` the analytic advance per cycle (None: none known); ``law`` the
+    analytic output as a function of the input (None: none known)."""
+
+    name: str
+    source: str
+    axis: int
+    load: float
+    cycles: int | None
+    start: tuple | None
+    advance: float | None
+    law: object = None
+    note: str = ""
+
+    def device(self, root: str):
+        if self.source.endswith(".toml"):
+            return load_device(os.path.join(root, self.source))
+        return shipped_device(self.source)
+
+
+def _cam_lift(q0):
+    return 0.5 + 0.2 * np.sin(q0)
+
+
+#: The drives of the table.
+DRIVES = (
+    Case("geneva4", "examples/devices/geneva4.toml", 0, 1.0, 2, None, -math.pi / 2,
+         note="a quarter turn of the wheel per crank turn"),
+    Case("cam_follower", "examples/devices/cam_follower.toml", 0, 0.5, 2, None, 0.0, _cam_lift,
+         note="lift q1 = R + e sin q0 = 0.5 + 0.2 sin q0, no net advance"),
+    Case("drum_cam", "examples/devices/drum_cam.toml", 1, 1.0, 2, (-1.0, 0.0), 1.0,
+         note="one lead (1) per drum turn; started at the groove's middle at q1 = 0 so two turns fit the grid"),
+    Case("ratchet", "ratchet", 0, 1.0, 2, None, 0.0,
+         note="the pawl rides each tooth and falls back: no net advance per wheel turn"),
+    Case("dartgun", "dartgun", 0, 30.0, None, None, None,
+         note="the dart pushed back until the tooth in its notch stops it at q0 = 2 (a jam of the geometry)"),
+)
+
+
+def _law_vs(result, law) -> tuple:
+    """(RMS, mean) of ``result``'s law minus the analytic ``law`` after the first turn."""
+    s = np.abs(result.q_in - result.q_in[0])
+    keep = s >= 2.0 * math.pi - 1e-9 if s[-1] >= 4.0 * math.pi - 1e-9 else np.ones(s.size, bool)
+    d = result.q_out[keep] - law(result.q_in[keep])
+    return float(np.sqrt(np.mean(d * d))), float(np.mean(d))
+
+
+def measure(case: Case, mode: str, root: str = ".", shape=None) -> dict:
+    """``case`` driven in ``mode`` on both engines: a row of the table (plain values)."""
+    device = case.device(root)
+    if shape is not None:
+        device = device.replace(shape=tuple(shape))
+    t = time.perf_counter()
+    device.cspace()
+    device.surface()
+    t_build = time.perf_counter() - t
+    runs, times = {}, {}
+    for name in ENGINES:
+        t = time.perf_counter()
+        runs[name] = drive(device, case.axis, case.load, mode, case.cycles, case.start,
+                           engine=None if name == "surface" else ENGINES[name].run)
+        times[name] = time.perf_counter() - t
+    s, r = runs["surface"], runs["rigid"]
+    diff = compare_laws(s, r)
+    row = {"device": case.name, "mode": mode, "grid": "x".join(map(str, device.shape)),
+           "advance_surface": steady_advance(s), "advance_rigid": steady_advance(r), "advance_analytic": case.advance,
+           "output_travel": diff.output_travel, "rms": diff.rms, "offset": diff.offset,
+           "rms_centred": diff.rms_centred, "rms_centred_share": diff.share(diff.rms_centred),
+           "stop_surface": s.stop_reason, "stop_rigid": r.stop_reason,
+           "stopped_surface": s.stopped_at, "stopped_rigid": r.stopped_at,
+           "time_cspace": t_build, "time_surface": times["surface"], "time_rigid": times["rigid"],
+           "steps_surface": s.steps, "steps_rigid": r.steps,
+           "stall": stall_from_runs(device, s, r).kind if s.stop_reason == "stalled" else ""}
+    if case.law is not None:
+        row["law_rms_surface"], row["law_offset_surface"] = _law_vs(s, case.law)
+        row["law_rms_rigid"], row["law_offset_rigid"] = _law_vs(r, case.law)
+    return row
+
+
+def measure_all(root: str = ".", cases=DRIVES, modes=MODES, report=None) -> list:
+    """Every case in every mode (``report(row)`` after each)."""
+    rows = []
+    for case in cases:
+        for mode in modes:
+            rows.append(measure(case, mode, root))
+            if report is not None:
+                report(rows[-1])
+    return rows
+
+
+def _f(v, digits=4) -> str:
+    return "-" if v is None else f"{v:.{digits}g}"
+
+
+def markdown_table(rows: list) -> str:
+    """The rows as the Markdown table of ``docs/rigid.md``."""
+    head = ("| device | mode | advance per cycle: surface / rigid / analytic | law RMS rigid-surface "
+            "(share of travel, standoff removed) | standoff (mean rigid-surface) | stop: surface / rigid | "
+            "time s: surface / rigid |")
+    out = [head, "|" + "---|" * 7]
+    for r in rows:
+        stop = f"{r['stop_surface']} / {r['stop_rigid']}"
+        if r["stall"]:
+            stop += f" (stall: {r['stall']})"
+        out.append(f"| {r['device']} | {r['mode']} | {_f(r['advance_surface'])} / {_f(r['advance_rigid'])} / "
+                   f"{_f(r['advance_analytic'])} | {_f(r['rms_centred'], 3)} ({_f(r['rms_centred_share'], 2)}) | "
+                   f"{_f(r['offset'], 3)} | {stop} | {r['time_surface']:.2f} / {r['time_rigid']:.2f} |")
+    return "\n".join(out)
+
+
+#: The lines of docs/rigid.md between which :func:`markdown_table`'s table goes.
+BEGIN = "<!-- rigid-devices:begin (make rigid-devices writes what follows) -->"
+END = "<!-- rigid-devices:end -->"
+
+
+def rewrite(text: str, block: str) -> str:
+    """``text`` with the lines between :data:`BEGIN` and :data:`END` replaced by ``block``
+    (a ValueError when either line is missing, twice, or they are out of order)."""
+    lines = text.split("\n")
+    at = {m: [i for i, line in enumerate(lines) if line.strip() == m] for m in (BEGIN, END)}
+    for marker, found in at.items():
+        if len(found) != 1:
+            raise ValueError(f"expected the line {marker!r} once, found it {len(found)} times")
+    begin, end = at[BEGIN][0], at[END][0]
+    if end < begin:
+        raise ValueError(f"the line {END!r} comes before {BEGIN!r}")
+    return "\n".join(lines[:begin + 1] + block.split("\n") + lines[end:])
