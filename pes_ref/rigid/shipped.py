@@ -60,10 +60,24 @@ def _cam_lift(q0):
     return 0.5 + 0.2 * np.sin(q0)
 
 
+def _geneva_wheel(q0):
+    """The 4-slot Geneva's wheel angle for crank angle ``q0`` (no play; the wheel at 0 at q0 = 0):
+    the pin (radius a = sin 45 degrees, at angle q0 + pi) drives the slot it is in from
+    q0 = 3 pi / 4 to 5 pi / 4 of each turn, turning the wheel by -pi / 2; locked elsewhere."""
+    q0 = np.asarray(q0, dtype=float)
+    a = math.sin(math.pi / 4)
+    k = np.floor(q0 / (2.0 * math.pi))
+    r = q0 - 2.0 * math.pi * k
+    alpha = r - math.pi                                  # the pin's angle from the line of centres
+    beta = np.arctan2(a * np.sin(alpha), a * np.cos(alpha) - 1.0) % (2.0 * math.pi)   # the slot's direction
+    phi = np.where(r < 0.75 * math.pi, 0.0, np.where(r > 1.25 * math.pi, -0.5 * math.pi, beta - 1.25 * math.pi))
+    return -0.5 * math.pi * k + phi
+
+
 #: The drives of the table.
 DRIVES = (
-    Case("geneva4", "examples/devices/geneva4.toml", 0, 1.0, 2, None, -math.pi / 2,
-         note="a quarter turn of the wheel per crank turn"),
+    Case("geneva4", "examples/devices/geneva4.toml", 0, 1.0, 2, None, -math.pi / 2, _geneva_wheel,
+         note="a quarter turn of the wheel per crank turn, the pin's kinematics in between"),
     Case("cam_follower", "examples/devices/cam_follower.toml", 0, 0.5, 2, None, 0.0, _cam_lift,
          note="lift q1 = R + e sin q0 = 0.5 + 0.2 sin q0, no net advance"),
     Case("drum_cam", "examples/devices/drum_cam.toml", 1, 1.0, 2, (-1.0, 0.0), 1.0,

@@ -102,3 +102,22 @@ def test_a_pin_slammed_into_the_edge_in_short_chunks_goes_on_and_rests_at_the_co
     result = drive(device, 0, load, "dynamic", start=(0.0, 0.1), engine=ENGINES["rigid"].run, chunk=7)
     assert result.stop_reason == "stalled"
     assert 0.45 - 2 * device.grid.tolerance <= result.stopped_at[0] <= 0.45 + SLOP_SHARE * 0.025
+
+
+@pytest.mark.parametrize("geom", [
+    Circle([0.2, 0.1], 0.5).geometry(1e-4),
+    Rectangle([-1.0, -1.0], [1.0, 1.0], minus=(Rectangle([-0.5, -0.5], [0.5, 0.5]),)).geometry(1e-4),
+    Circle([0.0, 0.0], 0.5, minus=(Circle([-1.0, 0.0], 0.76),)).geometry(1e-4),
+], ids=["disc", "plate with a window", "locking disc"])
+def test_a_part_is_cut_into_few_convex_pieces_that_tile_it(geom):
+    import shapely
+    from pes_ref.rigid.bodies import _triangles, convex_pieces
+    pieces = convex_pieces(geom)
+    polys = [shapely.Polygon(p) for p in pieces]
+    assert all(abs(p.convex_hull.area - p.area) <= 1e-12 for p in polys)          # each convex
+    assert sum(p.area for p in polys) == pytest.approx(geom.area, rel=1e-12)       # no overlap, no gap
+    assert shapely.union_all(polys).symmetric_difference(geom).area <= 1e-12
+    assert len(pieces) <= len(_triangles(geom)) / 2
+    if geom.equals(geom.convex_hull):
+        assert len(pieces) == 1                     # a disc is one piece, not a fan of triangles
+    assert all(np.array_equal(a, b) for a, b in zip(pieces, convex_pieces(geom)))
