@@ -21,7 +21,7 @@ import numpy as np
 
 from pes_ref.devices.device_file import load_device, shipped_device
 from pes_ref.devices.drive import drive
-from pes_ref.rigid.engines import ENGINES, compare_laws, stall_from_runs, steady_advance
+from pes_ref.rigid.engines import ENGINES, compare_laws, cycle_advances, stall_from_runs, steady_advance
 
 __all__ = ["Case", "DRIVES", "MODES", "measure", "measure_all", "markdown_table", "rewrite", "BEGIN", "END",
            "ADVANCE_BAR", "RMS_BAR"]
@@ -115,7 +115,7 @@ def measure(case: Case, mode: str, root: str = ".", shape=None) -> dict:
     s, r = runs["surface"], runs["rigid"]
     diff = compare_laws(s, r)
     row = {"device": case.name, "mode": mode, "grid": "x".join(map(str, device.shape)),
-           "advance_surface": steady_advance(s), "advance_rigid": steady_advance(r), "advance_analytic": case.advance,
+           "advance_surface": _advance(s), "advance_rigid": _advance(r), "advance_analytic": case.advance,
            "output_travel": diff.output_travel, "rms": diff.rms, "offset": diff.offset,
            "rms_centred": diff.rms_centred, "rms_centred_share": diff.share(diff.rms_centred),
            "stop_surface": s.stop_reason, "stop_rigid": r.stop_reason,
@@ -126,7 +126,28 @@ def measure(case: Case, mode: str, root: str = ".", shape=None) -> dict:
     if case.law is not None:
         row["law_rms_surface"], row["law_offset_surface"] = _law_vs(s, case.law)
         row["law_rms_rigid"], row["law_offset_rigid"] = _law_vs(r, case.law)
+    row["bar"] = _bar(row)
     return row
+
+
+def _advance(result):
+    """The steady advance per cycle; None for a periodic input that stopped short of a turn."""
+    if result.periodic_input and cycle_advances(result).size == 0:
+        return None
+    return steady_advance(result)
+
+
+def _bar(row: dict) -> str:
+    """Which parts of the bar a row meets: the advances within :data:`ADVANCE_BAR` (or 1% of the
+    output's travel per cycle, the larger) of each other and of the analytic one, the laws
+    within :data:`RMS_BAR` of the travel (RMS, the standoff removed)."""
+    tol = max(ADVANCE_BAR, 0.01 * row["output_travel"])
+    adv = [row["advance_surface"], row["advance_rigid"]]
+    if row["advance_analytic"] is not None:
+        adv.append(row["advance_analytic"])
+    ok_adv = None not in adv and max(adv) - min(adv) <= tol
+    ok_law = bool(row["rms_centred_share"] <= RMS_BAR)
+    return f"advance {'yes' if ok_adv else 'no'}, law {'yes' if ok_law else 'no'}"
 
 
 def measure_all(root: str = ".", cases=DRIVES, modes=MODES, report=None) -> list:
@@ -146,17 +167,20 @@ def _f(v, digits=4) -> str:
 
 def markdown_table(rows: list) -> str:
     """The rows as the Markdown table of ``docs/rigid.md``."""
-    head = ("| device | mode | advance per cycle: surface / rigid / analytic | law RMS rigid-surface "
-            "(share of travel, standoff removed) | standoff (mean rigid-surface) | stop: surface / rigid | "
-            "time s: surface / rigid |")
-    out = [head, "|" + "---|" * 7]
+    head = ("| device | mode | advance per cycle: surface / rigid / analytic | law RMS rigid-surface, standoff "
+            "removed (share of travel) | standoff: mean rigid-surface | law RMS against the analytic: surface / "
+            "rigid | stop: surface / rigid | bar | time s: surface / rigid |")
+    out = [head, "|" + "---|" * 9]
     for r in rows:
         stop = f"{r['stop_surface']} / {r['stop_rigid']}"
         if r["stall"]:
             stop += f" (stall: {r['stall']})"
-        out.append(f"| {r['device']} | {r['mode']} | {_f(r['advance_surface'])} / {_f(r['advance_rigid'])} / "
-                   f"{_f(r['advance_analytic'])} | {_f(r['rms_centred'], 3)} ({_f(r['rms_centred_share'], 2)}) | "
-                   f"{_f(r['offset'], 3)} | {stop} | {r['time_surface']:.2f} / {r['time_rigid']:.2f} |")
+        law = f"{_f(r['law_rms_surface'], 3)} / {_f(r['law_rms_rigid'], 3)}" if "law_rms_rigid" in r else "-"
+        adv = " / ".join("stalled" if v is None and k != "advance_analytic" else _f(v)
+                         for k, v in ((k, r[k]) for k in ("advance_surface", "advance_rigid", "advance_analytic")))
+        out.append(f"| {r['device']} | {r['mode']} | {adv} | {_f(r['rms_centred'], 3)} "
+                   f"({_f(r['rms_centred_share'], 2)}) | {_f(r['offset'], 3)} | {law} | {stop} | {r['bar']} | "
+                   f"{r['time_surface']:.3g} / {r['time_rigid']:.3g} |")
     return "\n".join(out)
 
 
