@@ -297,6 +297,8 @@ def tell_stall(device, result) -> Stall:
         x = ENGINES["rigid"].run(device, scene, x0).x[:, 0, axis]
     except StartBlockedError:
         return Stall("unknown", reason="the parts overlap at the stall point: the rigid engine cannot start there")
+    except checks.InputError as exc:        # a step the rigid parts cannot take (too fast a part)
+        return Stall("unknown", reason=f"the rigid engine cannot run from the stall point: {exc}")
     p = sign * (x - x0[0, axis])
     past = float(np.max(p))
     moving = p[-1] - p[-1 - window] >= JAM_FRACTION * float(device.spacing[axis])
