@@ -143,7 +143,7 @@ def drive_figure(device, result, title: str = ""):
 
 
 #: The colour of each engine's path and motion law (:func:`engines_figure`).
-ENGINE_COLORS = {"surface": "#1f77b4", "rigid": "#d62728"}
+ENGINE_COLORS = {"surface": "#1f77b4", "rigid": "#9467bd"}   # the boundary is red
 
 
 def engines_figure(device, results: dict, title: str = ""):
