@@ -11,7 +11,8 @@ Each takes ``--engine surface|rigid|both`` (:data:`pes_ref.rigid.engines.ENGINES
 ``surface``): the rigid engine runs the same analysis with the parts in rigid contact and
 adds its ``engine``, ``restitution`` and ``friction``; ``both`` runs both and prints a line
 both engines print the same once, any other as ``name[surface]``, ``name[rigid]`` and
-``name[rigid-surface]`` (:func:`pes_ref.rigid.engines.side_by_side`). Each prints one ``name: value unit`` line per figure (:mod:`pes_ref.devices.ratchet`,
+``name[rigid-surface]`` (:func:`pes_ref.rigid.engines.side_by_side`). Each prints one
+``name: value unit`` line per figure (:mod:`pes_ref.devices.ratchet`,
 :mod:`pes_ref.devices.dartgun`), and on stderr one ``warning: ...`` line for each thing that
 makes some figures mean something else than they say (a torque that overwhelms the
 ratchet's barrier, a reload that did not latch). Numbers are read as text and checked here, so a bad value is
@@ -117,9 +118,13 @@ def add_parser(sub) -> None:
                     "edge for a translation). Prints input_travel, advance_per_cycle, moving_fraction, "
                     "max_ratio and whether it jammed (and where); writes the motion law to "
                     "DIR/motion_law.csv (--out), the figures to --json and a plot of the C-space with the "
-                    "path beside the motion law to --plot.",
+                    "path beside the motion law to --plot. --engine rigid runs the parts in rigid contact "
+                    "instead (pymunk), --engine both runs both side by side (docs/rigid.md). When the drive "
+                    "on the surface stalls, a line says whether the rigid parts pass there (stall: "
+                    "resolution) or stop too (stall: jam).",
         examples=[f"analyze {CAM} --drive 0 --load 0.5 --shape 96,64",
-                  f"analyze {CAM} --drive 0 --load 0.5 --mode dynamic --out cam --plot cam.png"])
+                  f"analyze {CAM} --drive 0 --load 0.5 --mode dynamic --out cam --plot cam.png",
+                  f"analyze {CAM} --drive 0 --load 0.5 --engine both --out cam --plot cam.png"])
     f.add_argument("--drive", required=True, metavar="AXIS", help="the driven axis (the input): 0 or 1")
     f.add_argument("--load", required=True, metavar="VALUE",
                    help="constant force (translation) or torque (rotation) on the input; its sign is the direction")
@@ -136,8 +141,8 @@ def add_parser(sub) -> None:
     f.add_argument("--json", default=None, metavar="FILE", help="write the figures to FILE as JSON")
     f.add_argument("--plot", default=None, metavar="FILE",
                    help="draw the C-space with the path and the motion law side by side (PNG, PDF or SVG)")
-    f.add_argument("--out", default=None, metavar="DIR", help="write DIR/motion_law.csv (columns q_in,q_out; with --engine both "
-                                                                 "q_in,q_out_surface,q_out_rigid)")
+    f.add_argument("--out", default=None, metavar="DIR",
+                   help="write DIR/motion_law.csv (columns q_in,q_out; with --engine both q_in,q_out_surface,q_out_rigid)")
     f.add_argument("--force", action="store_true", help="overwrite output files that exist (default: refuse)")
     _engine_flag(f)
     f.set_defaults(func=_run_file)
