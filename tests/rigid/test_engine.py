@@ -121,3 +121,24 @@ def test_a_part_is_cut_into_few_convex_pieces_that_tile_it(geom):
     if geom.equals(geom.convex_hull):
         assert len(pieces) == 1                     # a disc is one piece, not a fan of triangles
     assert all(np.array_equal(a, b) for a, b in zip(pieces, convex_pieces(geom)))
+
+
+@pytest.mark.parametrize("start", [(0.3, 0.1), (0.3, 0.44)], ids=["free, then the edge", "along an edge"])
+def test_quasistatic_steps_in_blocks_give_the_step_by_step_run_with_fewer_pymunk_steps(monkeypatch, start):
+    # a quasistatic step that moves the pin a small share of a cell (the surface's stable
+    # mobility does): steps under one force are one pymunk step while they move a part by at
+    # most BLOCK_SHARE of a cell, the states between on the line between the block's ends
+    import pes_ref.rigid.engine as engine
+    device = _plate_device()
+    scene = device.scene(3000, (Constant([1.0, 0.3]),), mode="quasistatic", dt=1.0, mobility=(1e-4, 1e-4))
+    calls = []
+    real = engine._block
+    monkeypatch.setattr(engine, "_block", lambda *a: calls.append(real(*a)) or calls[-1])
+    blocks = simulate(device, scene, [start])
+    made = list(calls)
+    monkeypatch.setattr(engine, "MAX_BLOCK", 1)
+    single = simulate(device, scene, [start])
+    assert sum(made) == 3000 and len(made) < 3000 / 8
+    cell = rigid_parts(device, device.mass).cell
+    assert np.max(np.abs(blocks.x - single.x)) <= engine.BLOCK_SHARE * cell
+    assert blocks.x[-1, 0, 0] == pytest.approx(0.45, abs=2 * device.grid.tolerance + 1e-3 * cell)   # at the edge
