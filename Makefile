@@ -89,7 +89,7 @@ problems-study: $(STAMP)
 # docs/rigid.md's table: the shipped devices (the Geneva, cam-follower and drum-cam examples, the
 # ratchet, the dart gun) driven in both modes on the surface and the rigid engine (pymunk, the
 # extra `rigid`, in `test`); the table between its markers is rewritten, the rows go to
-# validation/out/rigid_devices/rows.json (about 4 minutes at load 7-9 on 2 cores).
+# validation/out/rigid_devices/rows.json (about 30 s at load 14 on 2 cores).
 rigid-devices: $(STAMP)
 	$(PY) validation/experiments/rigid_devices.py
 
