@@ -246,14 +246,14 @@ def _engines(args) -> tuple:
 def _analysis_on(name: str, analyze, device, values):
     """A shipped device's analysis on engine ``name`` (the surface's as it always ran)."""
     from pes_ref.rigid.engines import ENGINES
-    return analyze(device, *values) if name == "surface" else analyze(device, *values, run=ENGINES[name].run)
+    hook = ENGINES[name].hook()
+    return analyze(device, *values) if hook is None else analyze(device, *values, run=hook)
 
 
 def _report_lines(device, reports: dict) -> list:
     """The reports' lines: one engine's with its facts (the rigid engine's contact), two side by side."""
-    from pes_ref.rigid.engines import engine_facts, fact_lines, side_by_side
-    lines = {name: report.as_lines() + (fact_lines(engine_facts(device, name)) if name != "surface" else [])
-             for name, report in reports.items()}
+    from pes_ref.rigid.engines import side_by_side, stated_lines
+    lines = {name: report.as_lines() + stated_lines(device, name) for name, report in reports.items()}
     return next(iter(lines.values())) if len(lines) == 1 else side_by_side(lines)
 
 
@@ -436,8 +436,8 @@ def _run_file(args) -> int:
 def _drives(names, drive, device, axis, load, mode, cycles, start, threshold, progress) -> dict:
     """The drive on each engine named, by name (the surface's as it always ran)."""
     from pes_ref.rigid.engines import ENGINES
-    return {name: drive(device, axis, load, mode, cycles, start, threshold, progress,
-                        engine=None if name == "surface" else ENGINES[name].run) for name in names}
+    return {name: drive(device, axis, load, mode, cycles, start, threshold, progress, engine=ENGINES[name].hook())
+            for name in names}
 
 
 def _stall(device, results: dict):
@@ -456,9 +456,8 @@ def _stall(device, results: dict):
 def _drive_lines(device, results: dict, stall) -> list:
     """The drive's lines: one engine's (the rigid engine's with its contact), or both side by side
     with the two motion laws' difference; then the stall's verdict."""
-    from pes_ref.rigid.engines import compare_laws, engine_facts, fact_lines, law_lines, side_by_side
-    lines = {name: r.as_lines() + (fact_lines(engine_facts(device, name)) if name != "surface" else [])
-             for name, r in results.items()}
+    from pes_ref.rigid.engines import compare_laws, law_lines, side_by_side, stated_lines
+    lines = {name: r.as_lines() + stated_lines(device, name) for name, r in results.items()}
     if len(lines) == 1:
         out = next(iter(lines.values()))
     else:

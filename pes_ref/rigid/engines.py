@@ -30,7 +30,7 @@ from pes_ref.rigid.bodies import require_pymunk
 from pes_ref.rigid.engine import StartBlockedError, simulate as rigid_simulate
 
 __all__ = ["Engine", "ENGINES", "BOTH", "engine_names", "require_engines", "engine_facts", "cycle_advances",
-           "steady_advance", "LawDifference", "compare_laws", "side_by_side", "Stall", "tell_stall",
+           "steady_advance", "stated_lines", "fact_lines", "law_lines", "LawDifference", "compare_laws", "side_by_side", "Stall", "tell_stall",
            "stall_from_runs", "PASS_CELLS", "PROBE_WINDOWS"]
 
 
@@ -50,16 +50,23 @@ def _nothing() -> None:
 class Engine:
     """An engine: ``run(device, scene, x0, v0=None) -> Trajectory``; ``require()`` raises
     :class:`pes_ref.devices.geometry.MissingExtraError` (with its pip line) when the engine's
-    extra is not installed; ``contact``: its figures state the contact's restitution and friction."""
+    extra is not installed; ``contact``: its figures state the engine and the contact's
+    restitution and friction; ``native``: the analyses' own runs (an analysis on it is called
+    as it always was, without a ``run``)."""
 
     name: str
     run: object
     require: object
     contact: bool
+    native: bool = False
+
+    def hook(self):
+        """What an analysis' ``run=`` (or a drive's ``engine=``) takes: None for the native engine."""
+        return None if self.native else self.run
 
 
 #: The engines by name (``analyze --engine NAME``).
-ENGINES = {"surface": Engine("surface", _surface_run, _nothing, False),
+ENGINES = {"surface": Engine("surface", _surface_run, _nothing, False, native=True),
            "rigid": Engine("rigid", _rigid_run, require_pymunk, True)}
 #: The choice that runs every engine of :data:`ENGINES` and states them side by side.
 BOTH = "both"
@@ -88,6 +95,12 @@ def engine_facts(device, name: str) -> dict:
     if ENGINES[name].contact:
         facts.update(restitution=float(device.restitution), friction=float(device.friction))
     return facts
+
+
+def stated_lines(device, name: str) -> list:
+    """The lines an engine adds to an analysis' own: :func:`engine_facts` for an engine that
+    states its contact (the rigid one), none for the surface (its lines as they always were)."""
+    return fact_lines(engine_facts(device, name)) if ENGINES[name].contact else []
 
 
 def fact_lines(facts: dict) -> list:

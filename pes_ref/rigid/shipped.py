@@ -110,7 +110,7 @@ def measure(case: Case, mode: str, root: str = ".", shape=None) -> dict:
     for name in ENGINES:
         t = time.perf_counter()
         runs[name] = drive(device, case.axis, case.load, mode, case.cycles, case.start,
-                           engine=None if name == "surface" else ENGINES[name].run)
+                           engine=ENGINES[name].hook())
         times[name] = time.perf_counter() - t
     s, r = runs["surface"], runs["rigid"]
     diff = compare_laws(s, r)
