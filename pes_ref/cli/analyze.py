@@ -286,7 +286,7 @@ LONG_RUN, PERIOD = 3.0, 2.0
 PLOT_FORMATS = ("png", "pdf", "svg")
 #: The analyses' names of what the options set (errors name the option).
 DRIVE_FLAGS = {"axis": "--drive", "load": "--load", "cycles": "--cycles", "start": "--start",
-               "threshold": "--threshold", "mode": "--mode", "engine": "--engine"}
+               "threshold": "--threshold", "mode": "--mode", "engine": "--engine", "x0": "--start"}
 
 
 class _Progress:

@@ -259,3 +259,12 @@ def test_a_stall_of_the_grid_s_resolution_is_told_apart(capsys, tmp_path, engine
     values = figures(capsys, str(path), "--drive", "0", "--load", "1", "--engine", engine)
     assert values["stall"] == verdict
     assert values.get("stop_reason", values.get("stop_reason[surface]")) == "stalled text"
+
+
+def test_a_start_inside_the_rigid_parts_is_one_error_line_naming_start(capsys, tmp_path):
+    # the follower's face at 0.45, inside the cam (its top at 0.5 at q0 = 0): the rigid parts overlap
+    code, out, err = run(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--engine", "rigid",
+                         "--start", "0,0.45", "--json", str(tmp_path / "a.json"))
+    assert code == EXIT_ERROR and out == "" and err.count("\n") == 1
+    assert "--start" in err and "0.45" in err and "inside blocked space" in err
+    assert list(tmp_path.iterdir()) == []
