@@ -19,7 +19,10 @@ the parts cannot pass through each other. The quasistatic step gives each part, 
 substep, the force that brings it to the velocity the mobility gives the force
 (``q' = mobility F``), and the contact takes away what the parts forbid before the parts move
 (pymunk moves the bodies with the velocities its last contact solve left; the bodies'
-masses are the inverse mobilities).
+masses are the inverse mobilities). Consecutive quasistatic steps under one external force
+that together move a part by at most :data:`BLOCK_SHARE` of a cell are one pymunk step
+(:func:`_block`): the scene's mobility is the surface's stable one, far smaller than the
+rigid parts need.
 """
 from __future__ import annotations
 
