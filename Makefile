@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: all test test-random test-thorough figures validate oscillator-plans oscillator-table funnel-study problems-study design-study realize-study realize-oscillator bench conformance check-example docs venv clean
+.PHONY: all test test-random test-thorough figures validate oscillator-plans oscillator-table funnel-study problems-study design-study realize-study realize-oscillator rigid-devices bench conformance check-example docs venv clean
 
 all: test
 
@@ -91,6 +91,13 @@ problems-study: $(STAMP)
 	$(PY) -m pes_ref sweep validation/experiments/problems_funnel.toml --out validation/out/sweeps/problems_funnel
 	$(PY) -m pes_ref sweep validation/experiments/problems_latch.toml --out validation/out/sweeps/problems_latch
 	$(PY) validation/experiments/problems_study.py
+
+# docs/rigid.md's table: the shipped devices (the Geneva, cam-follower and drum-cam examples, the
+# ratchet, the dart gun) driven in both modes on the surface and the rigid engine (pymunk, the
+# extra `rigid`, in `test`); the table between its markers is rewritten, the rows go to
+# validation/out/rigid_devices/rows.json (about 30 s at load 14 on 2 cores).
+rigid-devices: $(STAMP)
+	$(PY) validation/experiments/rigid_devices.py
 
 # The benchmark installs its optional extra (autograd, JAX) into the same venv first.
 BENCH_STAMP := $(VENV)/.installed-bench

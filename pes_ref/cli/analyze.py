@@ -1,13 +1,18 @@
 """The ``analyze`` command of ``python -m pes_ref``.
 
 - ``analyze DEVICE.toml --drive AXIS --load VALUE [--mode quasistatic|dynamic] [--cycles K]
-  [--start Q0,Q1] [--threshold T] [--shape N0,N1] [--json FILE] [--plot FILE] [--out DIR] [--force]``:
+  [--start Q0,Q1] [--threshold T] [--shape N0,N1] [--json FILE] [--plot FILE] [--out DIR] [--force] [--engine E]``:
   the drive analysis of any device file (:mod:`pes_ref.devices.drive`, ``docs/devices.md``)
-- ``analyze ratchet [--torque T] [--duration S] [--search-hi T] [--search-tol T] [--smoke]``
+- ``analyze ratchet [--torque T] [--duration S] [--search-hi T] [--search-tol T] [--smoke] [--engine E]``
 - ``analyze dartgun [--reload-force F] [--reload-time S] [--trigger-forces F1,F2,...]
-  [--fire-time S] [--search-hi F] [--search-tol F] [--smoke]``
+  [--fire-time S] [--search-hi F] [--search-tol F] [--smoke] [--engine E]``
 
-Each prints one ``name: value unit`` line per figure (:mod:`pes_ref.devices.ratchet`,
+Each takes ``--engine surface|rigid|both`` (:data:`pes_ref.rigid.engines.ENGINES`; default
+``surface``): the rigid engine runs the same analysis with the parts in rigid contact and
+adds its ``engine``, ``restitution`` and ``friction``; ``both`` runs both and prints a line
+both engines print the same once, any other as ``name[surface]``, ``name[rigid]`` and
+``name[rigid-surface]`` (:func:`pes_ref.rigid.engines.side_by_side`). Each prints one
+``name: value unit`` line per figure (:mod:`pes_ref.devices.ratchet`,
 :mod:`pes_ref.devices.dartgun`), and on stderr one ``warning: ...`` line for each thing that
 makes some figures mean something else than they say (a torque that overwhelms the
 ratchet's barrier, a reload that did not latch, a device file whose free channels are
@@ -40,7 +45,7 @@ DARTGUN_SMOKE = {"shape": (121, 81), "dt": 5e-4, "trigger_forces": "10,30", "sea
 #: The entries of a smoke preset that change the design (the rest are option texts).
 DESIGN_KEYS = ("shape", "dt")
 #: The analyses' names of what the options set, and the options (errors name the option).
-FLAGS = {"hi": "--search-hi", "tol": "--search-tol", "duration": "--duration"}
+FLAGS = {"hi": "--search-hi", "tol": "--search-tol", "duration": "--duration", "engine": "--engine"}
 
 
 def _float(option: str, text: str, check=checks.as_positive_float) -> float:
@@ -124,9 +129,13 @@ def add_parser(sub) -> None:
                     "max_ratio and whether it jammed (and where), then a warning for each free channel the "
                     "surface cannot be trusted in; writes the motion law to "
                     "DIR/motion_law.csv (--out), the figures to --json and a plot of the C-space with the "
-                    "path beside the motion law to --plot.",
+                    "path beside the motion law to --plot. --engine rigid runs the parts in rigid contact "
+                    "instead (pymunk), --engine both runs both side by side (docs/rigid.md). When the drive "
+                    "on the surface stalls, a line says whether the rigid parts pass there (stall: "
+                    "resolution) or stop too (stall: jam).",
         examples=[f"analyze {CAM} --drive 0 --load 0.5 --shape 96,64",
-                  f"analyze {CAM} --drive 0 --load 0.5 --mode dynamic --out cam --plot cam.png"])
+                  f"analyze {CAM} --drive 0 --load 0.5 --mode dynamic --out cam --plot cam.png",
+                  f"analyze {CAM} --drive 0 --load 0.5 --engine both --out cam --plot cam.png"])
     f._negative_number_matcher = NEGATIVE_VALUE  # --start -0.1,0.3 is a value, not an option
     f.add_argument("--drive", required=True, metavar="AXIS", help="the driven axis (the input): 0 or 1")
     f.add_argument("--load", required=True, metavar="VALUE",
@@ -146,8 +155,10 @@ def add_parser(sub) -> None:
     f.add_argument("--json", default=None, metavar="FILE", help="write the figures to FILE as JSON")
     f.add_argument("--plot", default=None, metavar="FILE",
                    help="draw the C-space with the path and the motion law side by side (PNG, PDF or SVG)")
-    f.add_argument("--out", default=None, metavar="DIR", help="write DIR/motion_law.csv (columns q_in,q_out)")
+    f.add_argument("--out", default=None, metavar="DIR",
+                   help="write DIR/motion_law.csv (columns q_in,q_out; with --engine both q_in,q_out_surface,q_out_rigid)")
     f.add_argument("--force", action="store_true", help="overwrite output files that exist (default: refuse)")
+    _engine_flag(f)
     f.set_defaults(func=_run_file)
 
     r = add_command(
@@ -167,6 +178,7 @@ def add_parser(sub) -> None:
                    help="bracket width at which the torque search stops (> 0; default %(default)s)")
     r.add_argument("--smoke", action="store_true",
                    help=f"quick look: small grid, short runs, coarse search ({_preset(RATCHET_SMOKE)})")
+    _engine_flag(r)
     r.set_defaults(func=_run_ratchet)
 
     d = add_command(
@@ -191,6 +203,7 @@ def add_parser(sub) -> None:
                    help="bracket width at which the force search stops (> 0; default %(default)s)")
     d.add_argument("--smoke", action="store_true",
                    help=f"quick look: small grid, fewer runs, coarse search ({_preset(DARTGUN_SMOKE)})")
+    _engine_flag(d)
     d.set_defaults(func=_run_dartgun)
 
 
@@ -215,17 +228,47 @@ def _run(args, defaults: dict, smoke: dict, design, analyze, parse) -> int:
     and print its report's lines; a bad value is one ``error:`` line and EXIT_ERROR."""
     try:
         values = parse(_options(args, defaults, smoke))
+        names = _engines(args)
         device = design()
         if args.smoke:
             device = device.replace(**{k: smoke[k] for k in DESIGN_KEYS})
-        report = analyze(device, *values)
+        reports = {name: _analysis_on(name, analyze, device, values) for name in names}
     except (ValueError, TypeError, ImportError) as exc:
         return error(exc, FLAGS)
-    for line in report.as_lines():
+    for line in _report_lines(device, reports):
         print(line)
-    for line in report.warnings():
-        print("warning: " + line, file=sys.stderr)
+    for name, report in reports.items():
+        for line in report.warnings():
+            print("warning: " + (f"[{name}] " if len(reports) > 1 else "") + line, file=sys.stderr)
     return EXIT_OK
+
+
+def _engine_flag(parser) -> None:
+    parser.add_argument("--engine", default="surface", metavar="NAME",
+                        help="surface (the potential energy surface, default), rigid (the parts in rigid contact, "
+                             "pymunk: pip install 'pes_ref[rigid]') or both (side by side, with their difference)")
+
+
+def _engines(args) -> tuple:
+    """The engines ``--engine`` names, their extras checked (before anything is computed)."""
+    from pes_ref.rigid.engines import engine_names, require_engines
+    names = engine_names(args.engine)
+    require_engines(names)
+    return names
+
+
+def _analysis_on(name: str, analyze, device, values):
+    """A shipped device's analysis on engine ``name`` (the surface's as it always ran)."""
+    from pes_ref.rigid.engines import ENGINES
+    hook = ENGINES[name].hook()
+    return analyze(device, *values) if hook is None else analyze(device, *values, run=hook)
+
+
+def _report_lines(device, reports: dict) -> list:
+    """The reports' lines: one engine's with its facts (the rigid engine's contact), two side by side."""
+    from pes_ref.rigid.engines import side_by_side, stated_lines
+    lines = {name: report.as_lines() + stated_lines(device, name) for name, report in reports.items()}
+    return next(iter(lines.values())) if len(lines) == 1 else side_by_side(lines)
 
 
 def _run_ratchet(args) -> int:
@@ -257,7 +300,7 @@ LONG_RUN, PERIOD = 3.0, 2.0
 PLOT_FORMATS = ("png", "pdf", "svg")
 #: The analyses' names of what the options set (errors name the option).
 DRIVE_FLAGS = {"axis": "--drive", "load": "--load", "cycles": "--cycles", "start": "--start",
-               "threshold": "--threshold", "mode": "--mode"}
+               "threshold": "--threshold", "mode": "--mode", "engine": "--engine", "x0": "--start"}
 
 
 class _Progress:
@@ -412,6 +455,7 @@ def _run_file(args) -> int:
         if shape is not None and min(shape) < 2:
             raise ValueError(f"--shape must be two integers >= 2, got {args.shape!r}")
         outputs = _outputs(args)
+        names = _engines(args)
         device = load_device(path)
         if shape is not None:
             device = _reshaped(device, shape, path, args.shape)
@@ -421,14 +465,16 @@ def _run_file(args) -> int:
             try:
                 cs = device.cspace(progress)
                 check_free(device, start)
-                result = drive(device, axis, load, args.mode, cycles, start, threshold, progress)
+                results = _drives(names, drive, device, axis, load, args.mode, cycles, start, threshold, progress)
+                stall = _stall(device, results)
             finally:
                 progress.lines.end()    # the last progress line stays, whole, before anything else is printed
         except checks.InputError as exc:
             raise _in_file_words(exc, path, args.start, device.start) from None
     except (ValueError, TypeError, OSError, ImportError) as exc:
         return error(exc, DRIVE_FLAGS)
-    for line in result.as_lines():
+    result = next(iter(results.values()))
+    for line in _drive_lines(device, results, stall):
         print(line)
     for finding in check_clearance(device, cs):
         text = finding.message if args.shape is None else \
@@ -438,14 +484,16 @@ def _run_file(args) -> int:
     try:
         if "csv" in outputs:
             os.makedirs(args.out, exist_ok=True)
-            _write(outputs["csv"], _motion_law_csv(result), args.force, "motion law")
+            _write(outputs["csv"], _motion_law_csv(result) if len(results) == 1 else _motion_laws_csv(results),
+                   args.force, "motion law")
         if "json" in outputs:
-            _write(outputs["json"], (json.dumps(result.summary(), indent=2) + "\n").encode(), args.force, "JSON")
+            summary = _drive_summary(device, results, stall)
+            _write(outputs["json"], (json.dumps(summary, indent=2) + "\n").encode(), args.force, "JSON")
         if "plot" in outputs:
             import io
-            from pes_ref.devices.plots import drive_figure
+            from pes_ref.devices.plots import drive_figure, engines_figure
             import matplotlib.pyplot as plt
-            fig = drive_figure(device, result)
+            fig = drive_figure(device, result) if len(results) == 1 else engines_figure(device, results)
             buf = io.BytesIO()
             try:
                 fig.savefig(buf, format=os.path.splitext(outputs["plot"])[1].lower().lstrip("."), dpi=120)
@@ -458,3 +506,69 @@ def _run_file(args) -> int:
         if key in outputs:
             print(f"wrote {outputs[key]} ({label})", file=sys.stderr)
     return EXIT_OK
+
+
+# =========================================================================== a drive on each engine
+
+def _drives(names, drive, device, axis, load, mode, cycles, start, threshold, progress) -> dict:
+    """The drive on each engine named, by name (the surface's as it always ran)."""
+    from pes_ref.rigid.engines import ENGINES
+    return {name: drive(device, axis, load, mode, cycles, start, threshold, progress, engine=ENGINES[name].hook())
+            for name in names}
+
+
+def _stall(device, results: dict):
+    """What the rigid engine says of the surface drive's stall (None when it did not stall):
+    the rigid drive of ``--engine both``, else a rigid run from the stall point
+    (:func:`pes_ref.rigid.engines.tell_stall`; unknown without pymunk)."""
+    from pes_ref.rigid.engines import stall_from_runs, tell_stall
+    surface = results.get("surface")
+    if surface is None or surface.stop_reason != "stalled":
+        return None
+    if "rigid" in results:
+        return stall_from_runs(device, surface, results["rigid"])
+    return tell_stall(device, surface)
+
+
+def _drive_lines(device, results: dict, stall) -> list:
+    """The drive's lines: one engine's (the rigid engine's with its contact), or both side by side
+    with the two motion laws' difference; then the stall's verdict."""
+    from pes_ref.rigid.engines import compare_laws, law_lines, side_by_side, stated_lines
+    lines = {name: r.as_lines() + stated_lines(device, name) for name, r in results.items()}
+    if len(lines) == 1:
+        out = next(iter(lines.values()))
+    else:
+        (a, ra), (b, rb) = results.items()
+        out = side_by_side(lines) + law_lines(compare_laws(ra, rb), f"{b}-{a}")
+    return out + ([stall.line()] if stall is not None else [])
+
+
+def _drive_summary(device, results: dict, stall) -> dict:
+    """The JSON: one engine's figures with its facts, or ``{"engine": "both", name: figures, ...,
+    "difference": ...}``; the stall's verdict when the surface drive stalled."""
+    from pes_ref.rigid.engines import compare_laws, engine_facts
+    figures = {name: {**r.summary(), **engine_facts(device, name)} for name, r in results.items()}
+    if len(figures) == 1:
+        out = next(iter(figures.values()))
+    else:
+        (a, ra), (b, rb) = results.items()
+        diff = {k: getattr(rb, k) - getattr(ra, k) for k in ("advance_per_cycle", "moving_fraction", "max_ratio")}
+        out = {"engine": "both", **figures, "difference": {"of": f"{b} - {a}", **diff,
+                                                           "motion_law": compare_laws(ra, rb).summary()}}
+    if stall is not None:
+        out.update(stall.summary())
+    return out
+
+
+def _motion_laws_csv(results: dict) -> bytes:
+    """Both engines' motion laws in one file: ``q_in,q_out_<engine>,...`` on the input's samples
+    (the same for every engine: every half input spacing from the start), ``nan`` past where an
+    engine's input got."""
+    import numpy as np
+    longest = max(results.values(), key=lambda r: r.q_in.size)
+    cols = [np.full(longest.q_in.size, np.nan) for _ in results]
+    for col, r in zip(cols, results.values()):
+        col[:r.q_in.size] = r.q_out
+    lines = [",".join(["q_in"] + [f"q_out_{name}" for name in results])]
+    lines += [",".join(f"{v:.17g}" for v in row) for row in zip(longest.q_in, *cols)]
+    return ("\n".join(lines) + "\n").encode()

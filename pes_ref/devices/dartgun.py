@@ -18,6 +18,10 @@ The device is the shipped file ``pes_ref/devices/data/dartgun.toml`` (:func:`dar
 its surface is eq. (1) of the C-space plus both springs baked into the grid
 (:mod:`pes_ref.devices.cspace`); its scenes have inertia, damping, walls on the edges the dart
 and trigger must not leave (q0 upper, q1 lower and upper), and the pushes (Window effects).
+
+Every run goes through ``run(device, scene, x0) -> Trajectory`` (default: the surface model,
+:func:`pes_ref.core.scene.simulate` of the scene), so the same analysis runs on another
+engine (the rigid parts: ``pes_ref.rigid.engines.ENGINES["rigid"].run``).
 """
 from __future__ import annotations
 
@@ -59,12 +63,17 @@ def _scene(device: Device, forces: np.ndarray, push_time: float, duration: float
                         effects=(Window(PerParticle(forces), 0.0, push_time),))
 
 
-def dartgun_start(device: Device) -> np.ndarray:
+def _simulate(run, device: Device, scene: Scene, x0) -> Trajectory:
+    """The scene run by ``run`` (default: the surface model)."""
+    return simulate(scene, x0) if run is None else run(device, scene, x0)
+
+
+def dartgun_start(device: Device, run=None) -> np.ndarray:
     """The unloaded rest state (1, 2): from the device's ``[start]`` (dart out, the tooth just
     below it), settled for ``analysis.settle`` seconds: the tooth pressed against the dart's underside."""
     settle_time = _analysis(device)["settle"]
-    return simulate(_scene(device, np.zeros((1, 2)), device.stable_dt(), settle_time),
-                    device.start[None, :]).x[-1].copy()
+    return _simulate(run, device, _scene(device, np.zeros((1, 2)), device.stable_dt(), settle_time),
+                     device.start[None, :]).x[-1].copy()
 
 
 def reload_scene(device: Device, forces, push_time: float, duration: float) -> Scene:
@@ -101,7 +110,7 @@ class FireResult:
 
 
 def run_reload(device: Device, forces, push_time: float = 1.0, duration: float = 3.0,
-               start=None) -> ReloadResult:
+               start=None, run=None) -> ReloadResult:
     """Reload from the unloaded rest state with each force.
 
     Latched where the run ends with the tooth up in the notch: ``q1 > 0`` (the tooth is
@@ -112,8 +121,8 @@ def run_reload(device: Device, forces, push_time: float = 1.0, duration: float =
     a = _analysis(device)
     scene = reload_scene(device, forces, push_time, duration)
     n = np.atleast_1d(forces).size
-    start = dartgun_start(device) if start is None else np.asarray(start, dtype=float).reshape(1, 2)
-    traj = simulate(scene, np.repeat(start, n, axis=0))
+    start = dartgun_start(device, run) if start is None else np.asarray(start, dtype=float).reshape(1, 2)
+    traj = _simulate(run, device, scene, np.repeat(start, n, axis=0))
     final = traj.x[-1]
     latched = ((final[:, 1] > 0.0) & (final[:, 0] > a["latch_q0"] - device.r_c)
                & (final[:, 0] < a["stop_q0"] + device.r_c))
@@ -121,7 +130,7 @@ def run_reload(device: Device, forces, push_time: float = 1.0, duration: float =
 
 
 def run_fire(device: Device, trigger_forces, push_time: float = 0.3, duration: float = 1.5,
-             start=None) -> FireResult:
+             start=None, run=None) -> FireResult:
     """Fire from ``start`` (default: the latched state of a reload with 1.5x the latch force).
 
     A particle has fired when it crosses the surface's edge q0 = lower[0]; its exit speed
@@ -129,14 +138,14 @@ def run_fire(device: Device, trigger_forces, push_time: float = 0.3, duration: f
     """
     surface = device.surface()
     if start is None:
-        start = latched_state(device)
+        start = latched_state(device, run=run)
     start = checks.as_float_array("start", np.asarray(start).reshape(-1, 2)[:1], shape=(1, 2))
     if not start[0, 0] >= surface.lower[0]:
         raise ValueError(f"start {start[0].tolist()} is already past the surface's exit edge "
                          f"q0 = {surface.lower[0]:g}: fire from a state on the surface (a latched state)")
     scene = fire_scene(device, trigger_forces, push_time, duration)
     n = np.atleast_1d(trigger_forces).size
-    traj = simulate(scene, np.repeat(start, n, axis=0))
+    traj = _simulate(run, device, scene, np.repeat(start, n, axis=0))
     edge = surface.lower[0]
     q0, v0 = traj.x[:, :, 0], traj.v[:, :, 0]
     out = q0 < edge
@@ -156,7 +165,7 @@ def run_fire(device: Device, trigger_forces, push_time: float = 0.3, duration: f
 SETTLE_STEPS, SETTLE_ROUNDS = 4000, 50
 
 
-def settle(device: Device, state, tol: float = 0.05) -> np.ndarray:
+def settle(device: Device, state, tol: float = 0.05, run=None) -> np.ndarray:
     """Relax ``state`` (1, 2) to the nearby equilibrium: rounds of :data:`SETTLE_STEPS`
     quasistatic steps, with mobility ``0.5 / stiffness`` of the stiffest grid term so each
     step is stable, until the mean state of a round's second half moves by less than ``tol``
@@ -169,7 +178,7 @@ def settle(device: Device, state, tol: float = 0.05) -> np.ndarray:
     x = np.asarray(state, dtype=float).reshape(1, 2)
     mean = None
     for _ in range(SETTLE_ROUNDS):
-        xs = simulate(scene, x).x[:, 0]
+        xs = _simulate(run, device, scene, x).x[:, 0]
         x = xs[-1:].copy()
         now = xs[SETTLE_STEPS // 2:].mean(axis=0)
         if mean is not None and np.all(np.abs(now - mean) < tol * device.spacing):
@@ -179,27 +188,27 @@ def settle(device: Device, state, tol: float = 0.05) -> np.ndarray:
                      f"{SETTLE_ROUNDS * SETTLE_STEPS} quasistatic steps (now at {x[0].tolist()})")
 
 
-def latched_state(device: Device, start=None) -> np.ndarray:
+def latched_state(device: Device, start=None, run=None) -> np.ndarray:
     """The latched equilibrium (1, 2): the end of a reload with 1.5 x the static latch force
     ``dart_k * latch_q0``, relaxed by :func:`settle`; a ValueError if that reload does not latch."""
     force = 1.5 * _dart_k(device) * _analysis(device)["latch_q0"]
-    res = run_reload(device, [force], start=start)
+    res = run_reload(device, [force], start=start, run=run)
     if not res.latched[0]:
         raise ValueError(f"the reference reload (force {force:g}) did not latch; final state {res.final[0].tolist()}")
-    return settle(device, res.final[:1])
+    return settle(device, res.final[:1], run=run)
 
 
 def min_reload_force(device: Device, push_time: float, hi: float, tol: float, start=None,
-                     duration: float = 3.0) -> float:
+                     duration: float = 3.0, run=None) -> float:
     """Smallest reload force that latches (:func:`pes_ref.devices.probes.threshold_search`)."""
-    start = dartgun_start(device) if start is None else start
-    return threshold_search(lambda f: run_reload(device, f, push_time, duration, start).latched, 0.0, hi, tol)
+    start = dartgun_start(device, run) if start is None else start
+    return threshold_search(lambda f: run_reload(device, f, push_time, duration, start, run).latched, 0.0, hi, tol)
 
 
 def exit_speeds(device: Device, trigger_forces, push_time: float = 0.3, duration: float = 1.5,
-                start=None) -> np.ndarray:
+                start=None, run=None) -> np.ndarray:
     """Exit speed per trigger force (0 where the dart does not fire), one batched run."""
-    return run_fire(device, trigger_forces, push_time, duration, start).exit_speed
+    return run_fire(device, trigger_forces, push_time, duration, start, run).exit_speed
 
 
 def trajectory_bbox(x) -> tuple:
@@ -281,10 +290,11 @@ def analyze_dartgun(device: Device | None = None, reload_force: float = DARTGUN_
                     reload_time: float = DARTGUN_ANALYSIS["reload_time"],
                     trigger_forces=DARTGUN_ANALYSIS["trigger_forces"], fire_time: float = DARTGUN_ANALYSIS["fire_time"],
                     search_hi: float = DARTGUN_ANALYSIS["search_hi"], search_tol: float = DARTGUN_ANALYSIS["search_tol"],
-                    progress=None) -> DartGunReport:
+                    progress=None, run=None) -> DartGunReport:
     """Reload with ``reload_force`` for ``reload_time``, the smallest force that reloads, the exit
     speed for each trigger force (fired from the latched state), and the trajectories' bounding boxes
-    (``device`` default: :func:`dartgun_device`; ``progress`` is passed to its C-space)."""
+    (``device`` default: :func:`dartgun_device`; ``progress`` is passed to its C-space; ``run``:
+    the engine of every run, default the surface model)."""
     device = dartgun_device() if device is None else device
     _analysis(device)
     reload_force = checks.as_positive_float("reload_force", reload_force)
@@ -295,15 +305,15 @@ def analyze_dartgun(device: Device | None = None, reload_force: float = DARTGUN_
     times["cspace"] = time.perf_counter() - t
     t = time.perf_counter()
     surface = device.surface()
-    start = dartgun_start(device)
+    start = dartgun_start(device, run)
     times["surface"] = time.perf_counter() - t
     t = time.perf_counter()
-    rel = run_reload(device, [reload_force], reload_time, start=start)
-    latched = settle(device, rel.final[:1]) if rel.latched[0] else latched_state(device, start)
-    fire = run_fire(device, trigger_forces, fire_time, start=latched)
+    rel = run_reload(device, [reload_force], reload_time, start=start, run=run)
+    latched = settle(device, rel.final[:1], run=run) if rel.latched[0] else latched_state(device, start, run)
+    fire = run_fire(device, trigger_forces, fire_time, start=latched, run=run)
     times["runs"] = time.perf_counter() - t
     t = time.perf_counter()
-    fmin = min_reload_force(device, reload_time, search_hi, search_tol, start)
+    fmin = min_reload_force(device, reload_time, search_hi, search_tol, start, run=run)
     times["min_force_search"] = time.perf_counter() - t
     k = grid_stiffness(surface)
     fired_x = np.array(fire.trajectory.x[:, fire.fired] if fire.fired.any() else fire.trajectory.x)

@@ -44,7 +44,8 @@ from pes_ref.core.effects import Constant
 from pes_ref.core.scene import simulate
 from pes_ref.devices.device import Device
 
-__all__ = ["DriveResult", "drive", "check_drive", "check_free", "MODES", "JAM_CELLS", "JAM_FRACTION", "THRESHOLD"]
+__all__ = ["DriveResult", "drive", "check_drive", "check_free", "drive_scene", "MODES", "JAM_CELLS", "JAM_FRACTION",
+           "THRESHOLD"]
 
 #: The drive's modes.
 MODES = ("quasistatic", "dynamic")
@@ -273,18 +274,7 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     sign = 1.0 if load > 0 else -1.0
     out_axis = 1 - axis
     h = float(device.spacing[axis])
-    force = np.zeros(2)
-    force[axis] = load
-    effects = (Constant(force),)
-    if mode == "quasistatic":
-        mobility = device.stable_mobility()
-        scene = device.scene(chunk, effects, mode="quasistatic", dt=1.0, mobility=mobility)
-        free_steps = h / (mobility[axis] * abs(load))                    # steps per spacing, unresisted
-    else:
-        scene = device.scene(chunk, effects)
-        m, c, f = device.mass[axis], device.damping[axis], abs(load)
-        free_time = max(h * c / f, np.sqrt(2.0 * h * m / f))            # time per spacing, from rest
-        free_steps = free_time / scene.dt
+    scene, free_steps = drive_scene(device, axis, load, mode, chunk)    # steps per spacing, unresisted
     window = max(1, int(np.ceil(JAM_CELLS * free_steps)))
     max_steps = int(np.ceil(MAX_FREE_FACTOR * free_steps * (requested / h + JAM_CELLS)))
     law = _Law(h / SAMPLES_PER_CELL, float(start[out_axis]))
@@ -347,3 +337,23 @@ def _advances(s: np.ndarray, q_out: np.ndarray, periodic: bool, requested: float
     ends = np.interp(turn * np.arange(full + 1), s, q_out) if full else np.empty(0)
     each = tuple(float(a) for a in np.diff(ends))
     return advance, (each[-1] if each else float("nan")), each
+
+
+def drive_scene(device: Device, axis: int, load: float, mode: str, n_steps: int) -> tuple:
+    """The scene :func:`drive` runs (the constant ``load`` on ``axis``, in ``mode``, ``n_steps``
+    steps) and the steps in which the unresisted input moves one input spacing: ``(scene,
+    steps_per_spacing)``: quasistatically, a spacing over the mobility's step; dynamically, the
+    longer of the damped drift's and the free fall's time per spacing from rest. :func:`drive`
+    runs it, and so does a run that goes on from a drive's state (the rigid engine's look at a
+    stall, :mod:`pes_ref.rigid.engines`)."""
+    h = float(device.spacing[axis])
+    force = np.zeros(2)
+    force[axis] = load
+    effects = (Constant(force),)
+    if mode == "quasistatic":
+        mobility = device.stable_mobility()
+        scene = device.scene(n_steps, effects, mode="quasistatic", dt=1.0, mobility=mobility)
+        return scene, h / (mobility[axis] * abs(load))
+    scene = device.scene(n_steps, effects)
+    m, c, f = device.mass[axis], device.damping[axis], abs(load)
+    return scene, max(h * c / f, np.sqrt(2.0 * h * m / f)) / scene.dt

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["geometry_path", "draw_geometry", "draw_device", "cspace_image", "drive_figure", "display_grid",
-           "wrapped_path", "domain_limits", "CSPACE_COLORS", "motion_law_title"]
+           "wrapped_path", "domain_limits", "CSPACE_COLORS", "motion_law_title", "engines_figure",
+           "ENGINE_COLORS"]
 
 #: Colours of the C-space: free, blocked, boundary.
 CSPACE_COLORS = {"free": "#f7f7f7", "blocked": "#4d4d4d", "boundary": "#d62728"}
@@ -153,4 +154,44 @@ def drive_figure(device, result, title: str = ""):
     ax1.set_title(motion_law_title(result), fontsize=10)
     ax1.grid(alpha=0.3)
     fig.suptitle(title or f"{device.name}: drive q{result.drive} with load {result.load:g} ({result.mode})")
+    return fig
+
+
+#: The colour of each engine's path and motion law (:func:`engines_figure`).
+ENGINE_COLORS = {"surface": "#1f77b4", "rigid": "#9467bd"}   # the boundary is red
+
+
+def engines_figure(device, results: dict, title: str = ""):
+    """One drive on several engines (``{engine: DriveResult}``): the C-space with each path (left)
+    and each motion law (right), both against the start, one colour per engine."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cs = device.cspace()
+    surface = device.surface()
+    first = next(iter(results.values()))
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
+    handles = cspace_image(ax0, surface, cs.blocked, cs.segments)
+    (s,) = ax0.plot(*surface.wrap(first.path[0]), "o", color="#2ca02c", ms=5, label="start")
+    handles.append(s)
+    for name, r in results.items():
+        color = ENGINE_COLORS.get(name, "k")
+        p = wrapped_path(surface, r.path)
+        (line,) = ax0.plot(p[:, 0], p[:, 1], color=color, lw=1.2, label=f"path ({name})")
+        ax0.plot(*surface.wrap(r.path[-1]), "x" if r.jammed else "s", color=color, ms=7, mew=2)
+        handles.append(line)
+        ax1.plot(r.q_in - first.q_in[0], r.q_out - first.q_out[0], color=color, lw=1.3,
+                 label=f"{name}: advance {r.advance_per_cycle:.4g}, moving {100 * r.moving_fraction:.1f}%"
+                       f"{', JAMMED' if r.jammed else ''}")
+    ax0.legend(handles=handles, loc="lower right", fontsize=7, framealpha=0.9)
+    ax0.set_xlabel("q0")
+    ax0.set_ylabel("q1")
+    ax0.set_title(f"C-space ({cs.blocked.shape[0]}x{cs.blocked.shape[1]}, {100 * cs.blocked.mean():.0f}% blocked)")
+    ax1.set_xlabel(f"input q{first.drive} travel")
+    ax1.set_ylabel(f"output q{1 - first.drive} change")
+    ax1.set_title(f"motion laws ({' vs '.join(results)})")
+    ax1.legend(fontsize=8, loc="best")
+    ax1.grid(alpha=0.3)
+    fig.suptitle(title or f"{device.name}: drive q{first.drive} with load {first.load:g} ({first.mode})")
     return fig

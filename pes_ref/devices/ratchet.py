@@ -15,6 +15,10 @@ at the top of the wheel and its arm runs to the pivot on the +x side, so that
 The device is the shipped file ``pes_ref/devices/data/ratchet.toml`` (:func:`ratchet_device`):
 the surface is eq. (1) of the C-space (:mod:`pes_ref.devices.cspace`) plus the pawl's torsion
 spring baked into the grid; the scene adds only the torque, inertia and damping.
+
+Every run goes through ``run(device, scene, x0) -> Trajectory`` (default: the surface model,
+:func:`pes_ref.core.scene.simulate` of the scene), so the same analysis runs on another
+engine (the rigid parts: ``pes_ref.rigid.engines.ENGINES["rigid"].run``).
 """
 from __future__ import annotations
 
@@ -63,36 +67,41 @@ def ratchet_scene(device: Device, torques, duration: float) -> Scene:
     return device.scene(n_steps, effects=(PerParticle(force),))
 
 
-def ratchet_start(device: Device) -> np.ndarray:
+def _simulate(run, device: Device, scene: Scene, x0) -> Trajectory:
+    """The scene run by ``run`` (default: the surface model)."""
+    return simulate(scene, x0) if run is None else run(device, scene, x0)
+
+
+def ratchet_start(device: Device, run=None) -> np.ndarray:
     """The engaged rest state, shape (1, 2): the pawl, started from the device's ``[start]``
     (lifted clear of the teeth), swings in under its spring and settles for the
     ``analysis.settle`` seconds without torque."""
     _pitch(device)
-    traj = simulate(ratchet_scene(device, [0.0], device.analysis["settle"]), device.start[None, :])
+    traj = _simulate(run, device, ratchet_scene(device, [0.0], device.analysis["settle"]), device.start[None, :])
     return traj.x[-1].copy()
 
 
-def run_ratchet(device: Device, torques, duration: float, start=None) -> Trajectory:
-    """Run every torque from the engaged rest state; trajectory (T+1, N, 2)."""
+def run_ratchet(device: Device, torques, duration: float, start=None, run=None) -> Trajectory:
+    """Run every torque from the engaged rest state; trajectory (T+1, N, 2) (``run``: the engine)."""
     torques = np.atleast_1d(np.asarray(torques, dtype=float))
-    start = ratchet_start(device) if start is None else np.asarray(start, dtype=float).reshape(1, 2)
+    start = ratchet_start(device, run) if start is None else np.asarray(start, dtype=float).reshape(1, 2)
     x0 = np.repeat(start, torques.size, axis=0)
-    return simulate(ratchet_scene(device, torques, duration), x0)
+    return _simulate(run, device, ratchet_scene(device, torques, duration), x0)
 
 
-def _advances(device, start, duration):
+def _advances(device, start, duration, run=None):
     pitch = _pitch(device)
 
     def passes(torques):
-        x = run_ratchet(device, torques, duration, start).x
+        x = run_ratchet(device, torques, duration, start, run).x
         return x[-1, :, 0] - x[0, :, 0] >= pitch
     return passes
 
 
-def min_advancing_torque(device: Device, duration: float, hi: float, tol: float, start=None) -> float:
+def min_advancing_torque(device: Device, duration: float, hi: float, tol: float, start=None, run=None) -> float:
     """Smallest torque that advances the wheel by at least one tooth within ``duration``."""
-    start = ratchet_start(device) if start is None else start
-    return threshold_search(_advances(device, start, duration), 0.0, hi, tol)
+    start = ratchet_start(device, run) if start is None else start
+    return threshold_search(_advances(device, start, duration, run), 0.0, hi, tol)
 
 
 @dataclass(frozen=True)
@@ -152,9 +161,10 @@ RATCHET_ANALYSIS = {"torque": 1.0, "duration": 10.0, "search_hi": 2.0, "search_t
 def analyze_ratchet(device: Device | None = None, torque: float = RATCHET_ANALYSIS["torque"],
                     duration: float = RATCHET_ANALYSIS["duration"], search_hi: float = RATCHET_ANALYSIS["search_hi"],
                     search_tol: float = RATCHET_ANALYSIS["search_tol"],
-                    search_duration: float = RATCHET_ANALYSIS["duration"], progress=None) -> RatchetReport:
+                    search_duration: float = RATCHET_ANALYSIS["duration"], progress=None, run=None) -> RatchetReport:
     """Net rotation under +/- ``torque``, the pawl's swing, and the smallest advancing torque
-    (``device`` default: :func:`ratchet_device`; ``progress`` is passed to its C-space)."""
+    (``device`` default: :func:`ratchet_device`; ``progress`` is passed to its C-space; ``run``:
+    the engine of every run, default the surface model)."""
     device = ratchet_device() if device is None else device
     pitch = _pitch(device)
     torque = checks.as_positive_float("torque", torque)
@@ -164,13 +174,13 @@ def analyze_ratchet(device: Device | None = None, torque: float = RATCHET_ANALYS
     times["cspace"] = time.perf_counter() - t
     t = time.perf_counter()
     surface = device.surface()
-    start = ratchet_start(device)
+    start = ratchet_start(device, run)
     times["surface"] = time.perf_counter() - t
     t = time.perf_counter()
-    x = run_ratchet(device, [torque, -torque], duration, start).x
+    x = run_ratchet(device, [torque, -torque], duration, start, run).x
     times["runs"] = time.perf_counter() - t
     t = time.perf_counter()
-    tmin = min_advancing_torque(device, search_duration, search_hi, search_tol, start)
+    tmin = min_advancing_torque(device, search_duration, search_hi, search_tol, start, run)
     times["min_torque_search"] = time.perf_counter() - t
     rot = x[-1, :, 0] - x[0, :, 0]
     k = grid_stiffness(surface)

@@ -19,7 +19,10 @@ the parts cannot pass through each other. The quasistatic step gives each part, 
 substep, the force that brings it to the velocity the mobility gives the force
 (``q' = mobility F``), and the contact takes away what the parts forbid before the parts move
 (pymunk moves the bodies with the velocities its last contact solve left; the bodies'
-masses are the inverse mobilities).
+masses are the inverse mobilities). Consecutive quasistatic steps under one external force
+that together move a part by at most :data:`BLOCK_SHARE` of a cell are one pymunk step
+(:func:`_block`): the scene's mobility is the surface's stable one, far smaller than the
+rigid parts need.
 """
 from __future__ import annotations
 
@@ -29,21 +32,34 @@ import numpy as np
 
 from pes_ref.core import budget, checks
 from pes_ref.core.integrator import Trajectory
-from pes_ref.core.progress import reporting
+from pes_ref.core.progress import EVERY
 from pes_ref.core.terms import spring_add_force, wall_add_force, wall_bounds
 from pes_ref.devices.geometry import interiors_overlap, pose, require_shapely
 from pes_ref.rigid.bodies import rigid_parts
 
-__all__ = ["simulate", "SUBSTEP_SHARE", "MAX_SUBSTEPS", "StartBlockedError"]
+__all__ = ["simulate", "SUBSTEP_SHARE", "MAX_SUBSTEPS", "BLOCK_SHARE", "MAX_BLOCK", "StartBlockedError"]
 
 #: The largest move of a part's point in one substep, as a share of the C-space cell.
 SUBSTEP_SHARE = 0.5
-#: How far the parts may overlap at a start, as a share of the C-space cell (ten times the
-#: contact's own overlap, :data:`pes_ref.rigid.bodies.SLOP_SHARE`: a run goes on from the
-#: state another ended in).
-START_ALLOWANCE = 1e-2
+#: How far the parts may overlap at a start, as a share of the C-space cell: a substep's
+#: move (:data:`SUBSTEP_SHARE`). Pymunk finds a contact once the parts overlap, within the
+#: substep that brought them together, and pushes them apart in the next one: a run stopped
+#: there (a drive's chunk) leaves an overlap of up to a substep's move, which the run that
+#: goes on from that state must accept.
+START_ALLOWANCE = SUBSTEP_SHARE
 #: The most substeps one step is cut into (a faster part is refused: its step is too long).
 MAX_SUBSTEPS = 256
+#: Quasistatic blocks. A quasistatic step moves each part by ``dt`` times the velocity the
+#: mobility gives the force; the scene's mobility is the surface's stable one, which its stiff
+#: barrier makes small (the Geneva's crank moves 1/200 of a cell a step). The rigid parts have
+#: no barrier: consecutive steps that together move a part by at most ``BLOCK_SHARE`` of a cell,
+#: under one external force, are one pymunk step under the force at the block's start; the
+#: states in between lie on the line between the block's ends (their forces evaluated there).
+#: A share well below a substep's: while one part pushes the other along a curved path, the
+#: contact comes loose now and then and the parts then overlap by up to one pymunk step's move.
+BLOCK_SHARE = 0.05
+#: The most steps in one block.
+MAX_BLOCK = 64
 
 
 class StartBlockedError(checks.InputError):
@@ -134,6 +150,18 @@ def simulate(device, scene, x0, v0=None, *, fext="scene", progress=None) -> Traj
     return _run(parts, scene, x0, v0, fext, lo_hi, progress)
 
 
+def _block(qdot, reach, dt: float, left: int, changes, k: int) -> int:
+    """How many quasistatic steps from step ``k`` one pymunk step spans: as many as keep every
+    part's free move within :data:`BLOCK_SHARE` of a cell (at most :data:`MAX_BLOCK`, the steps
+    ``left``, and up to the next step at which the external force changes, ``changes``)."""
+    per_step = float(np.max(np.sum(np.abs(qdot) * reach, axis=1))) * dt * SUBSTEP_SHARE / BLOCK_SHARE
+    b = MAX_BLOCK if per_step * MAX_BLOCK <= 1.0 else max(1, int(1.0 / per_step))
+    nxt = np.searchsorted(changes, k, side="right")
+    if nxt < changes.size:
+        b = min(b, int(changes[nxt]) - k)
+    return max(1, min(b, left))
+
+
 def _run(parts, scene, x0, v0, fext, lo_hi, progress) -> Trajectory:
     device = parts.device
     n, steps, dt = x0.shape[0], scene.n_steps, scene.dt
@@ -154,7 +182,13 @@ def _run(parts, scene, x0, v0, fext, lo_hi, progress) -> Trajectory:
     force = np.empty((n, 2))
     reach = parts.levers / (SUBSTEP_SHARE * parts.cell)
     mobility = None if not quasistatic else np.asarray(scene.mobility, dtype=float).reshape(-1)
-    for k in reporting(range(steps + 1), progress, "rigid", steps):
+    # the steps at which the external force changes (a block of quasistatic steps holds one force)
+    changes = np.zeros(0, dtype=np.int64) if fext is None else \
+        np.flatnonzero(np.any(fext[1:] != fext[:-1], axis=(1, 2))) + 1
+    k, told = 0, 0
+    if progress is not None:
+        progress("rigid", 0, steps)
+    while True:
         _forces(device, scene, x[k], v[k], lo_hi, force)
         if fext is not None:
             force += fext[k]
@@ -162,8 +196,10 @@ def _run(parts, scene, x0, v0, fext, lo_hi, progress) -> Trajectory:
         if k == steps:
             break
         qdot = mobility * force if quasistatic else v[k]
+        b = _block(qdot, reach, dt, steps - k, changes, k) if quasistatic else 1
+        span = b * dt
         for i, (space, handles) in enumerate(worlds):
-            move = float(np.sum(np.abs(qdot[i]) * reach)) * dt
+            move = float(np.sum(np.abs(qdot[i]) * reach)) * span
             if not quasistatic:
                 move += float(np.sum(np.abs(force[i]) / parts.mass * reach)) * dt * dt
             sub = max(1, math.ceil(move))
@@ -171,7 +207,7 @@ def _run(parts, scene, x0, v0, fext, lo_hi, progress) -> Trajectory:
                 raise checks.InputError("dt", f"a part moves {move * SUBSTEP_SHARE:.3g} C-space cells in one step "
                                               f"of dt = {dt:g} (particle {i}, step {k}); the rigid engine allows "
                                               f"{MAX_SUBSTEPS * SUBSTEP_SHARE:g}: use a shorter dt")
-            h = dt / sub
+            h = span / sub
             for _ in range(sub):
                 for d, (entry, body, data) in enumerate(handles):
                     if quasistatic:       # the force that gives the velocity mobility F in one substep
@@ -183,8 +219,19 @@ def _run(parts, scene, x0, v0, fext, lo_hi, progress) -> Trajectory:
             for d, (entry, body, data) in enumerate(handles):
                 turns[i, d] += entry.rewrap(space, body, data)
                 q, qd = entry.read(body, data, turns[i, d])
-                x[k + 1, i, d] = q
+                x[k + b, i, d] = q
                 if not quasistatic:
-                    v[k + 1, i, d] = qd
+                    v[k + b, i, d] = qd
+        for j in range(1, b):             # the steps within a block: on the line between its ends
+            x[k + j] = x[k] + (j / b) * (x[k + b] - x[k])
+            _forces(device, scene, x[k + j], v[k + j], lo_hi, f[k + j])
+            if fext is not None:
+                f[k + j] += fext[k + j]
+        k += b
+        if progress is not None and k - told >= EVERY:
+            told = k
+            progress("rigid", k, steps)
+    if progress is not None:
+        progress("rigid", steps, steps)
     return Trajectory(x, v, f)
 

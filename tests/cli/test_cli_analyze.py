@@ -9,7 +9,7 @@ import pytest
 from pes_ref.cli import EXIT_ERROR, EXIT_OK, main
 
 #: ``name: value unit``; names may carry a bracketed argument, values may be a range "a .. b".
-LINE = re.compile(r"^[a-z_0-9]+(\[[a-z_]+=[-0-9.e+]+\])?: \S+( \.\. \S+)? \S+.*$")
+LINE = re.compile(r"^[a-z_0-9]+(\[[a-z_]+=[-0-9.e+]+\]|\[[a-z-]+\])?: \S+( \.\. \S+)? \S+.*$")
 
 
 def run(capsys, *argv):
@@ -38,7 +38,7 @@ def test_without_options_the_command_runs_the_analysis_with_its_defaults(capsys,
 
     mod = importlib.import_module(module)
     signature = [p.default for p in inspect.signature(getattr(mod, name)).parameters.values()
-                 if p.name not in ("device", "progress")]
+                 if p.name not in ("device", "progress", "run")]
     got = []
 
     class Report:
@@ -185,3 +185,114 @@ def test_a_device_whose_surface_cannot_be_trusted_says_so_after_its_figures(caps
     assert len(warnings) == (1 if keys else 0), err
     for key in keys:
         assert key in warnings[0]
+
+
+# =========================================================================== --engine
+
+#: A Scotch yoke: a crank's pin (radius 0.05, 0.5 from the pivot) in the slot of a yoke sliding
+#: along x, 0.015 clearance each side; on a 64 x 32 grid (0.045 in q1) the surface's drive stalls
+#: in the channel and the rigid parts pass.
+YOKE = """format = 1
+name = "yoke"
+[[part]]
+name = "crank"
+motion = "rotation"
+pivot = [0.0, 0.0]
+shapes = [{ circle = { center = [0.5, 0.0], radius = 0.05 } }]
+[[part]]
+name = "yoke"
+motion = "translation"
+direction = [1.0, 0.0]
+shapes = [{ rectangle = { lower = [-0.2, -0.8], upper = [0.2, 0.8] }, minus = [
+    { rectangle = { lower = [-0.065, -0.7], upper = [0.065, 0.7] } }] }]
+[cspace]
+lower = [0.0, -0.7]
+upper = [6.283185307179586, 0.7]
+shape = [64, 32]
+[energy]
+v = 1e-4
+r_c = 0.03
+[dynamics]
+mass = [1.0, 1.0]
+damping = [1.0, 1.0]
+[start]
+q = [0.0, 0.5]
+"""
+ENGINE_DEVICES = [(str(CAM), "--drive", "0", "--load", "0.5", *QUICK), ("ratchet", "--smoke"), ("dartgun", "--smoke")]
+
+
+@pytest.mark.parametrize("argv", ENGINE_DEVICES, ids=["file", "ratchet", "dartgun"])
+def test_an_unknown_engine_is_one_error_line_naming_the_flag(capsys, argv):
+    code, out, err = run(capsys, *argv, "--engine", "soft")
+    assert code == EXIT_ERROR and out == ""
+    assert err.count("\n") == 1 and "--engine" in err and "'soft'" in err and "surface, rigid, both" in err
+
+
+@pytest.mark.parametrize("engine", ["rigid", "both"])
+@pytest.mark.parametrize("argv", ENGINE_DEVICES, ids=["file", "ratchet", "dartgun"])
+def test_without_pymunk_the_rigid_engine_prints_the_pip_line_and_writes_nothing(capsys, monkeypatch, tmp_path,
+                                                                                 argv, engine):
+    monkeypatch.setitem(sys.modules, "pymunk", None)           # import pymunk -> ImportError
+    extra = ("--json", str(tmp_path / "a.json")) if argv[0].endswith(".toml") else ()
+    code, out, err = run(capsys, *argv, "--engine", engine, *extra)
+    assert code == EXIT_ERROR and out == ""
+    assert err.count("\n") == 1 and "pip install 'pes_ref[rigid]'" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_rigid_engine_writes_the_same_files_and_states_its_contact(capsys, tmp_path):
+    out, js = tmp_path / "cam", tmp_path / "cam.json"
+    values = figures(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--engine", "rigid",
+                     "--out", str(out), "--json", str(js))
+    assert values["engine"] == "rigid name" and values["restitution"] == "0 1" and values["friction"] == "0 1"
+    assert (out / "motion_law.csv").read_text().startswith("q_in,q_out\n")
+    summary = json.loads(js.read_text())
+    assert (summary["engine"], summary["restitution"], summary["friction"]) == ("rigid", 0.0, 0.0)
+    # the rigid follower rests on the cam: q1 = 0.5 + 0.2 sin q0 at the end of the turn
+    assert summary["stopped_at"][1] == pytest.approx(0.5 + 0.2 * np.sin(summary["stopped_at"][0]), abs=2e-3)
+
+
+def test_both_engines_side_by_side_with_their_difference_in_lines_csv_json_and_plot(capsys, tmp_path):
+    out, js, plot = tmp_path / "cam", tmp_path / "cam.json", tmp_path / "cam.png"
+    values = figures(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--engine", "both",
+                     "--out", str(out), "--json", str(js), "--plot", str(plot))
+    assert values["device"] == "cam_follower name"                          # the same in both: once
+    s, r = (float(values[f"advance_per_cycle[{e}]"].split()[0]) for e in ("surface", "rigid"))
+    assert float(values["advance_per_cycle[rigid-surface]"].split()[0]) == pytest.approx(r - s, abs=1e-5)
+    # the surface's follower rides the barrier's standoff above the cam, the rigid one on it
+    assert float(values["motion_law_offset[rigid-surface]"].split()[0]) < -0.03
+    assert values["engine[rigid]"] == "rigid name"
+    text = (out / "motion_law.csv").read_text()
+    assert text.startswith("q_in,q_out_surface,q_out_rigid\n")
+    law = np.genfromtxt(out / "motion_law.csv", delimiter=",", skip_header=1)
+    assert law.shape[1] == 3 and np.all(np.isfinite(law[:, 0]))
+    summary = json.loads(js.read_text())
+    assert summary["engine"] == "both" and summary["rigid"]["engine"] == "rigid"
+    assert summary["difference"]["advance_per_cycle"] == pytest.approx(r - s, abs=1e-5)
+    assert summary["difference"]["motion_law"]["offset"] < -0.03
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_ratchet_on_both_engines_side_by_side(capsys):
+    values = figures(capsys, "ratchet", "--smoke", "--duration", "2", "--search-tol", "0.5", "--engine", "both")
+    assert {"net_rotation_plus[surface]", "net_rotation_plus[rigid]", "net_rotation_plus[rigid-surface]",
+            "engine[rigid]", "torque"} <= set(values)
+
+
+@pytest.mark.parametrize("engine, verdict", [("surface", "resolution (the rigid parts pass)"),
+                                             ("both", "resolution (the rigid parts pass)")])
+def test_a_stall_of_the_grid_s_resolution_is_told_apart(capsys, tmp_path, engine, verdict):
+    path = tmp_path / "yoke.toml"
+    path.write_text(YOKE)
+    values = figures(capsys, str(path), "--drive", "0", "--load", "1", "--engine", engine)
+    assert values["stall"] == verdict
+    assert values.get("stop_reason", values.get("stop_reason[surface]")) == "stalled text"
+
+
+def test_a_start_inside_the_rigid_parts_is_one_error_line_naming_start(capsys, tmp_path):
+    # the follower's face at 0.45, inside the cam (its top at 0.5 at q0 = 0): the rigid parts overlap
+    code, out, err = run(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--engine", "rigid",
+                         "--start", "0,0.45", "--json", str(tmp_path / "a.json"))
+    assert code == EXIT_ERROR and out == "" and err.count("\n") == 1
+    assert "--start" in err and "0.45" in err and "inside blocked space" in err
+    assert list(tmp_path.iterdir()) == []

@@ -89,3 +89,56 @@ def test_a_rotating_bar_stops_against_a_fixed_block():
     corner = np.hypot(1.0, 0.05)
     expected = np.arcsin(0.5 / corner) - np.arctan2(0.05, 1.0)
     assert traj.x[-1, 0, 0] == pytest.approx(expected, abs=2e-3)
+
+
+@pytest.mark.parametrize("load", [1.0, 10.0, 100.0])
+def test_a_pin_slammed_into_the_edge_in_short_chunks_goes_on_and_rests_at_the_contact(load):
+    # each chunk starts a new space from the last chunk's state: a state caught within the
+    # substep of the impact overlaps the wall by up to a substep's move, and the next chunk
+    # must take it; at rest the pin is at the edge (not pushed in by the load)
+    from pes_ref.devices.drive import drive
+    from pes_ref.rigid.engines import ENGINES
+    device = _plate_device(damping=(0.0, 0.0), mass=(0.01, 1.0), dt=2e-3)
+    result = drive(device, 0, load, "dynamic", start=(0.0, 0.1), engine=ENGINES["rigid"].run, chunk=7)
+    assert result.stop_reason == "stalled"
+    assert 0.45 - 2 * device.grid.tolerance <= result.stopped_at[0] <= 0.45 + SLOP_SHARE * 0.025
+
+
+@pytest.mark.parametrize("geom", [
+    Circle([0.2, 0.1], 0.5).geometry(1e-4),
+    Rectangle([-1.0, -1.0], [1.0, 1.0], minus=(Rectangle([-0.5, -0.5], [0.5, 0.5]),)).geometry(1e-4),
+    Circle([0.0, 0.0], 0.5, minus=(Circle([-1.0, 0.0], 0.76),)).geometry(1e-4),
+], ids=["disc", "plate with a window", "locking disc"])
+def test_a_part_is_cut_into_few_convex_pieces_that_tile_it(geom):
+    import shapely
+    from pes_ref.rigid.bodies import _triangles, convex_pieces
+    pieces = convex_pieces(geom)
+    polys = [shapely.Polygon(p) for p in pieces]
+    assert all(abs(p.convex_hull.area - p.area) <= 1e-12 for p in polys)          # each convex
+    assert sum(p.area for p in polys) == pytest.approx(geom.area, rel=1e-12)       # no overlap, no gap
+    assert shapely.union_all(polys).symmetric_difference(geom).area <= 1e-12
+    assert len(pieces) <= len(_triangles(geom)) / 2
+    if geom.equals(geom.convex_hull):
+        assert len(pieces) == 1                     # a disc is one piece, not a fan of triangles
+    assert all(np.array_equal(a, b) for a, b in zip(pieces, convex_pieces(geom)))
+
+
+@pytest.mark.parametrize("start", [(0.3, 0.1), (0.3, 0.44)], ids=["free, then the edge", "along an edge"])
+def test_quasistatic_steps_in_blocks_give_the_step_by_step_run_with_fewer_pymunk_steps(monkeypatch, start):
+    # a quasistatic step that moves the pin a small share of a cell (the surface's stable
+    # mobility does): steps under one force are one pymunk step while they move a part by at
+    # most BLOCK_SHARE of a cell, the states between on the line between the block's ends
+    import pes_ref.rigid.engine as engine
+    device = _plate_device()
+    scene = device.scene(3000, (Constant([1.0, 0.3]),), mode="quasistatic", dt=1.0, mobility=(1e-4, 1e-4))
+    calls = []
+    real = engine._block
+    monkeypatch.setattr(engine, "_block", lambda *a: calls.append(real(*a)) or calls[-1])
+    blocks = simulate(device, scene, [start])
+    made = list(calls)
+    monkeypatch.setattr(engine, "MAX_BLOCK", 1)
+    single = simulate(device, scene, [start])
+    assert sum(made) == 3000 and len(made) < 3000 / 8
+    cell = rigid_parts(device, device.mass).cell
+    assert np.max(np.abs(blocks.x - single.x)) <= engine.BLOCK_SHARE * cell
+    assert blocks.x[-1, 0, 0] == pytest.approx(0.45, abs=2 * device.grid.tolerance + 1e-3 * cell)   # at the edge

@@ -1,0 +1,43 @@
+"""The shipped devices on both engines: the table of docs/rigid.md, regenerated from the code.
+
+``make rigid-devices`` runs it: every drive of :data:`pes_ref.rigid.shipped.DRIVES` in both
+modes on the surface and the rigid engine (:func:`pes_ref.rigid.shipped.measure_all`); prints
+each row as it comes, writes the rows to ``validation/out/rigid_devices/rows.json`` and
+replaces the table between the marker lines of docs/rigid.md (nothing else in the file),
+with the date, the commit and the load average it was measured at.
+"""
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from pes_ref.rigid.shipped import markdown_table, measure_all, rewrite
+
+ROOT = Path(__file__).resolve().parents[2]
+DOC = ROOT / "docs" / "rigid.md"
+OUT = ROOT / "validation" / "out" / "rigid_devices"
+
+
+def main() -> int:
+    load = os.getloadavg()
+    rows = measure_all(str(ROOT), report=lambda row: print(json.dumps(row), flush=True))
+    load = tuple(max(a, b) for a, b in zip(load, os.getloadavg()))
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                            text=True).stdout.strip() or "unknown"
+    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    table = markdown_table(rows)
+    stamp = (f"Measured {when} at commit {commit}, load average up to {load[0]:.1f} (1 min), "
+             f"{load[1]:.1f} (5 min); times are each engine's whole drive, the C-space built before.")
+    print(table)
+    OUT.mkdir(parents=True, exist_ok=True)
+    (OUT / "rows.json").write_text(json.dumps(rows, indent=1) + "\n")
+    DOC.write_text(rewrite(DOC.read_text(), stamp + "\n\n" + table))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
