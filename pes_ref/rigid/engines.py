@@ -112,15 +112,10 @@ def fact_lines(facts: dict) -> list:
 # =========================================================================== motion laws
 
 def cycle_advances(result) -> np.ndarray:
-    """The output's change over each whole turn of a periodic input, read off the motion law
-    of a :class:`pes_ref.devices.drive.DriveResult` (empty for a translation input or a run
-    shorter than a turn)."""
-    if not result.periodic_input or result.q_in.size < 2:
-        return np.empty(0)
-    s = np.abs(result.q_in - result.q_in[0])
-    turns = int(math.floor(s[-1] / (2.0 * math.pi) + 1e-9))
-    at = np.interp(2.0 * math.pi * np.arange(turns + 1), s, result.q_out)
-    return np.diff(at)
+    """The output's change over each whole turn of a periodic input: the drive's own
+    ``advance_per_cycle_each`` (:class:`pes_ref.devices.drive.DriveResult`; empty for a
+    translation input or a run shorter than a turn)."""
+    return np.asarray(result.advance_per_cycle_each, dtype=float)
 
 
 def steady_advance(result) -> float:
@@ -163,6 +158,8 @@ class LawDifference:
         return value / self.output_travel if self.output_travel > 0 else float("nan")
 
     def summary(self) -> dict:
+        """The difference's figures as plain JSON-able values (the ``difference`` of ``analyze
+        --engine both --json``)."""
         return {"samples": self.samples, "output_travel": self.output_travel, "rms": self.rms,
                 "rms_share": self.share(self.rms), "offset": self.offset, "rms_centred": self.rms_centred,
                 "rms_centred_share": self.share(self.rms_centred)}
@@ -274,6 +271,7 @@ class Stall:
         return f"stall: unknown ({self.reason})"
 
     def summary(self) -> dict:
+        """The verdict as plain JSON-able values: ``stall`` (its kind) and ``stall_rigid_travel``."""
         return {"stall": self.kind, "stall_rigid_travel": self.rigid_travel}
 
 

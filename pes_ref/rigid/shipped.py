@@ -51,6 +51,7 @@ class Case:
     note: str = ""
 
     def device(self, root: str):
+        """The device this drive runs: the file ``source`` under ``root``, or the shipped device of that name."""
         if self.source.endswith(".toml"):
             return load_device(os.path.join(root, self.source))
         return shipped_device(self.source)

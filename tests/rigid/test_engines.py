@@ -7,7 +7,7 @@ import pytest
 
 from pes_ref.core.checks import InputError
 from pes_ref.devices.device import Device
-from pes_ref.devices.drive import DriveResult, drive
+from pes_ref.devices.drive import DriveResult, _advances, drive
 from pes_ref.devices.geometry import Circle, Part, Rectangle, Rotation, Translation
 from pes_ref.rigid.bodies import rigid_parts
 from pes_ref.rigid.engines import (BOTH, ENGINES, compare_laws, cycle_advances, engine_facts, engine_names,
@@ -18,9 +18,11 @@ pytest.importorskip("pymunk")
 
 def _result(q_in, q_out, periodic=True, **kw) -> DriveResult:
     q_in, q_out = np.asarray(q_in, float), np.asarray(q_out, float)
+    travel = float(q_in[-1] - q_in[0])
+    advance, per_cycle, each = _advances(q_in - q_in[0], q_out, periodic, travel, False)
     fields = dict(device="d", drive=0, load=1.0, mode="quasistatic", periodic_input=periodic,
-                  requested_travel=float(q_in[-1] - q_in[0]), input_travel=float(q_in[-1] - q_in[0]),
-                  advance_per_cycle=0.0, moving_fraction=0.0, max_ratio=0.0, jammed=False, stop_reason="done",
+                  requested_travel=travel, input_travel=travel, advance=advance, advance_per_cycle=per_cycle,
+                  advance_per_cycle_each=each, moving_fraction=0.0, max_ratio=0.0, jammed=False, stop_reason="done",
                   stopped_at=(0.0, 0.0), threshold=0.05, steps=1, q_in=q_in, q_out=q_out,
                   path=np.zeros((1, 2)))
     fields.update(kw)
@@ -85,7 +87,7 @@ def _yoke(clearance: float, slot_half: float, shape, r_c: float = 0.03) -> Devic
     frame = Part(Rectangle([-0.2, -0.8], [0.2, 0.8], minus=(Rectangle([-w, -slot_half], [w, slot_half]),)),
                  Translation([1.0, 0.0]))
     return Device((pin, frame), [0.0, -0.7], [2 * np.pi, 0.7], shape, v=1e-4, r_c=r_c, mass=(1.0, 1.0),
-                  damping=(1.0, 1.0), start=(0.0, 0.5))
+                  damping=(1.0, 1.0), start=(0.0, 0.5), r_min=r_c / 3)
 
 
 #: (clearance, slot's half length, grid, the verdict): a channel 0.03 wide on a grid of spacing
