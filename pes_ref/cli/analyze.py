@@ -156,7 +156,7 @@ def add_parser(sub) -> None:
     f.add_argument("--plot", default=None, metavar="FILE",
                    help="draw the C-space with the path and the motion law side by side (PNG, PDF or SVG)")
     f.add_argument("--out", default=None, metavar="DIR",
-                   help="write DIR/motion_law.csv (columns q_in,q_out; with --engine both q_in,q_out_surface,q_out_rigid)")
+                   help="write DIR/motion_law.csv (columns q_in,q_out; on both engines q_in,q_out_surface,q_out_rigid)")
     f.add_argument("--force", action="store_true", help="overwrite output files that exist (default: refuse)")
     _engine_flag(f)
     f.set_defaults(func=_run_file)
