@@ -9,7 +9,7 @@ import sys
 def run() -> int:
     """Import the command line and run it on ``sys.argv``; return the exit status."""
     try:
-        from pes_ref.core.signals import interrupted, note_interrupts   # the standard library only
+        from pes_ref.core.runtime.signals import interrupted, note_interrupts   # the standard library only
         note_interrupts()
         try:
             from pes_ref.cli import main

@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-from pes_ref.core.files import atomic_file
+from pes_ref.core.runtime.files import atomic_file
 
 __all__ = ["plot_scaling", "output_paths", "write_outputs"]
 
@@ -58,7 +58,7 @@ def output_paths(json_path: str) -> tuple:
 
 def write_outputs(res: dict, json_path: str, overwrite: bool) -> tuple:
     """Write the JSON and, beside it, ``scaling.png`` (or ``<stem>-scaling.png``), each
-    atomically (:func:`pes_ref.core.files.atomic_file`).
+    atomically (:func:`pes_ref.core.runtime.files.atomic_file`).
 
     Refuses (FileExistsError) to replace an existing file unless ``overwrite``: both are
     checked before anything is written, and each again as it is published."""

@@ -17,7 +17,7 @@ import sys
 
 from pes_ref import __version__
 from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, EXIT_PIPE, Parser, error, watch_pipes
-from pes_ref.core.signals import interrupted, sigterm_interrupts
+from pes_ref.core.runtime.signals import interrupted, sigterm_interrupts
 
 __all__ = ["main", "build_parser", "command_module", "COMMANDS", "EXIT_OK", "EXIT_FAIL", "EXIT_ERROR",
            "EXIT_INTERRUPTED", "EXIT_PIPE"]

@@ -304,21 +304,21 @@ DRIVE_FLAGS = {"axis": "--drive", "load": "--load", "cycles": "--cycles", "start
 
 
 class _Progress:
-    """Progress lines of a long analysis on stderr (:func:`pes_ref.core.progress.progress_line`):
+    """Progress lines of a long analysis on stderr (:func:`pes_ref.core.runtime.progress.progress_line`):
     ``cam.toml: drive | percent 40/100 | 8.1 percent/s | elapsed 0:07 | left 0:10``. A callback ``progress(phase,
-    done, total)`` (:mod:`pes_ref.core.progress`'s signature; ``done`` and ``total`` may be a
+    done, total)`` (:mod:`pes_ref.core.runtime.progress`'s signature; ``done`` and ``total`` may be a
     travel), silent for the first :data:`LONG_RUN` seconds, then at most one line every
     :data:`PERIOD` seconds; the time left is the elapsed time scaled by the share still to do."""
 
     def __init__(self, label: str, clock=time.monotonic):
-        from pes_ref.core.progress import ProgressWriter
+        from pes_ref.core.runtime.progress import ProgressWriter
         self.label, self.clock = label, clock
         self.lines = ProgressWriter()   # in place at a terminal; ``end`` it before printing anything else
         self.start = self.last = clock()
         self.phase, self.phase_start = None, self.start
 
     def __call__(self, phase: str, done, total) -> None:
-        from pes_ref.core.progress import Progress
+        from pes_ref.core.runtime.progress import Progress
         now = self.clock()
         if phase != self.phase:
             self.phase, self.phase_start = phase, now
@@ -396,7 +396,7 @@ def _outputs(args) -> dict:
 
 
 def _write(path: str, data: bytes, force: bool, what: str) -> None:
-    from pes_ref.core.files import atomic_file
+    from pes_ref.core.runtime.files import atomic_file
     with atomic_file(path, overwrite=force, what=what) as fh:
         fh.write(data)
 

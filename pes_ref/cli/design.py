@@ -178,7 +178,7 @@ def _pool(workers: int, inputs, kind: str):
         raise ValueError(f"--workers: this {kind} run has no polish stage")
     from concurrent.futures import ProcessPoolExecutor
 
-    from pes_ref.core.signals import ignore_interrupts
+    from pes_ref.core.runtime.signals import ignore_interrupts
     return ProcessPoolExecutor(workers, initializer=ignore_interrupts)
 
 
@@ -217,7 +217,7 @@ def _run_design(args) -> int:
     except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, with its pip line
         return error(exc, flags)
 
-    from pes_ref.core.progress import ProgressWriter, figure_text
+    from pes_ref.core.runtime.progress import ProgressWriter, figure_text
 
     shown = []                          # the stages shown so far
     lines = ProgressWriter()            # in place at a terminal, plain lines elsewhere

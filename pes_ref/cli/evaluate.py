@@ -162,7 +162,7 @@ def _picture(state, args) -> bytes:
 
 
 def _write(path: str, data: bytes, force: bool, what: str) -> None:
-    from pes_ref.core.files import atomic_file
+    from pes_ref.core.runtime.files import atomic_file
     with atomic_file(path, overwrite=force, what=what) as fh:
         fh.write(data)
 

@@ -10,7 +10,7 @@ import os
 import time
 import zipfile
 
-from pes_ref.core.progress import Clock, Progress, ProgressWriter, clock_time
+from pes_ref.core.runtime.progress import Clock, Progress, ProgressWriter, clock_time
 from pes_ref.oracle.conformance import LATEST
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, input_file, output_file
 
@@ -59,13 +59,13 @@ PERIOD = 2.0
 
 class ProgressLines:
     """The progress of one oracle run on stderr, once it is long: the estimate first, then
-    at most one line every ``period`` seconds (:func:`pes_ref.core.progress.progress_line`), e.g.
+    at most one line every ``period`` seconds (:func:`pes_ref.core.runtime.progress.progress_line`), e.g.
     ``case.npz: forward | steps 1200/3000 | 250 steps/s | elapsed 0:05 | left 0:12``.
 
-    A progress callback of :mod:`pes_ref.core.progress` (called every few hundred steps).
+    A progress callback of :mod:`pes_ref.core.runtime.progress` (called every few hundred steps).
     A run estimated longer than ``after`` seconds (:func:`pes_ref.core.budget.estimate`)
     prints its estimate at once; one estimated shorter starts printing if it runs past
-    ``after`` seconds all the same. The time left is a :class:`pes_ref.core.progress.Clock`
+    ``after`` seconds all the same. The time left is a :class:`pes_ref.core.runtime.progress.Clock`
     over the two phases, the forward run and then the adjoint, each step costing the
     model's share of its phase (:func:`pes_ref.core.budget.step_cost`): a phase not yet
     timed is scaled from the one timed (the model's estimate until then).

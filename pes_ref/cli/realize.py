@@ -196,11 +196,11 @@ def _write_contact(real, state, outputs: dict, args) -> list:
 
 def _write(real, state, outputs: dict, force: bool) -> None:
     """The files as one set: the drawings and meshes made whole in a staging folder inside
-    ``--out`` and moved into place (:func:`pes_ref.core.files.move_into`), then the set's
+    ``--out`` and moved into place (:func:`pes_ref.core.runtime.files.move_into`), then the set's
     index, ``device.toml``, written last and atomically; a stop part-way leaves no half file."""
     import shutil
     import tempfile
-    from pes_ref.core.files import move_into
+    from pes_ref.core.runtime.files import move_into
     from pes_ref.realize import exports
     from pes_ref.realize.drawing import parts_figure
     from pes_ref.realize.evaluation import held_out_positions

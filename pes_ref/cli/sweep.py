@@ -61,7 +61,7 @@ def _run_sweep(args) -> int:
         return error(exc)
     out = args.out if args.out is not None else os.path.join(DEFAULT_OUT_ROOT, sweep.name)
 
-    from pes_ref.core.progress import ProgressWriter, clock_time
+    from pes_ref.core.runtime.progress import ProgressWriter, clock_time
 
     lines = ProgressWriter()            # in place at a terminal, plain lines elsewhere
 

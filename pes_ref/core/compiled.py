@@ -32,8 +32,8 @@ The kernels take every array C-contiguous float64 of a fixed dimension (absent t
 placeholders with a flag), so each compiles once; numba caches the machine code on disk
 (``cache=True``: beside this file in ``__pycache__``, or in numba's user cache directory
 when the package is installed read-only, or in ``NUMBA_CACHE_DIR``). A run without a
-progress callback is one call; with one, a call per :data:`pes_ref.core.progress.EVERY`
-steps (:func:`pes_ref.core.progress.blocks`), so Ctrl-C and progress lines come between
+progress callback is one call; with one, a call per :data:`pes_ref.core.runtime.progress.EVERY`
+steps (:func:`pes_ref.core.runtime.progress.blocks`), so Ctrl-C and progress lines come between
 them.
 """
 from __future__ import annotations
@@ -46,7 +46,7 @@ from numba import njit, prange
 
 from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, finish_quasistatic_adjoint,
                                      quasistatic_velocities, reports_nonfinite, step_coefficients, trajectory_arrays)
-from pes_ref.core.progress import blocks as step_blocks
+from pes_ref.core.runtime.progress import blocks as step_blocks
 from pes_ref.core.steppers import STEPPERS as NUMPY_STEPPERS, Stepper, StepParams
 from pes_ref.core.terms import spring_axes
 

@@ -32,7 +32,7 @@ import numpy as np
 from pes_ref.core.forces import Field, ForceAdjoint
 from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, reports_nonfinite, start_dynamic,
                                      step_coefficients)
-from pes_ref.core.progress import reporting
+from pes_ref.core.runtime.progress import reporting
 
 __all__ = ["simulate_gjf", "adjoint_gjf"]
 

@@ -45,7 +45,7 @@ from typing import NamedTuple
 import numpy as np
 
 from pes_ref.core.forces import Field, ForceAdjoint, ForceKernel
-from pes_ref.core.progress import reporting
+from pes_ref.core.runtime.progress import reporting
 
 __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
            "adjoint_quasistatic", "NonFiniteError", "check_finite", "reports_nonfinite", "step_coefficients",
@@ -152,7 +152,7 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
     damping : ndarray broadcastable to (N, 2), or None for an undamped scene.
     progress : callable or None
         ``progress("forward", done, n_steps)`` every few hundred steps
-        (:func:`pes_ref.core.progress.reporting`).
+        (:func:`pes_ref.core.runtime.progress.reporting`).
     refuse_nonfinite : bool
         Raise :class:`NonFiniteError` for a trajectory that left the finite numbers
         (:func:`check_finite`); False returns it (a population checks each member's part).

@@ -237,7 +237,7 @@ def simulate(scene: Scene, x0, v0=None, *, fext="scene", allow_unstable: bool = 
     progress : callable, optional
         ``progress(phase, done, total)``, called before the first step, every few
         hundred steps and after the last (``phase`` is ``"forward"``;
-        :mod:`pes_ref.core.progress`).
+        :mod:`pes_ref.core.runtime.progress`).
     backend : {"numba", "numpy"} or None
         Which loops run the steps (:data:`pes_ref.core.backends.BACKENDS`): None is the
         compiled ones when the extra ``fast`` (numba) is installed, else NumPy's; a scene

@@ -33,7 +33,7 @@ class StepParams(NamedTuple):
     broadcastable to (N, 2), or None for an undamped scene (no damping arithmetic at
     all); ``mobility`` (2,) in quasistatic mode, else None; ``progress`` a callback
     ``(phase, done, total)`` called every few hundred steps of the forward loop and of
-    the adjoint (:mod:`pes_ref.core.progress`), or None; ``refuse_nonfinite`` False returns
+    the adjoint (:mod:`pes_ref.core.runtime.progress`), or None; ``refuse_nonfinite`` False returns
     a trajectory that left the finite numbers instead of raising (a population checks each
     member's part, :mod:`pes_ref.core.population`); ``out`` a
     :class:`~pes_ref.core.integrator.Trajectory` of (T+1, N, 2) arrays to run into, or None

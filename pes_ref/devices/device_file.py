@@ -17,7 +17,7 @@ from importlib import resources
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.core.keyfile import KeyFileError, KeyReader, parse_toml, read_text, show as _show
+from pes_ref.core.runtime.keyfile import KeyFileError, KeyReader, parse_toml, read_text, show as _show
 from pes_ref.core.terms import Walls
 from pes_ref.devices import geometry as g
 from pes_ref.devices.cspace import SIDES, GridSpring

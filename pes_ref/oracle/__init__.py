@@ -4,7 +4,7 @@ contract's tolerances, and the versioned conformance vectors.
 - :mod:`pes_ref.oracle.case`         case validation, running a case, result keys
 - :mod:`pes_ref.oracle.from_scene`   a Scene, state and objective as a case
 - :mod:`pes_ref.oracle.errors`       CaseError (a keyed input error)
-- :mod:`pes_ref.oracle.npz`          reading and writing .npz without pickle (atomically: pes_ref.core.files)
+- :mod:`pes_ref.oracle.npz`          reading and writing .npz without pickle (atomically: pes_ref.core.runtime.files)
 - :mod:`pes_ref.oracle.compare`      a result against the reference, by the tolerances
 - :mod:`pes_ref.oracle.tolerances`   the tolerances of the contract
 - :mod:`pes_ref.oracle.conformance`  the shipped vectors and their generator

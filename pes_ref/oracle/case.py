@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import budget, checks, stability
-from pes_ref.core.files import ResultExistsError
+from pes_ref.core.runtime.files import ResultExistsError
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene, energy, gradient_names, value_and_grad
@@ -431,7 +431,7 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
         Called once, after the case is validated and before it runs, with the run's
         :class:`pes_ref.core.budget.RunEstimate` (steps, particles, memory, seconds); it
         returns a progress callback ``(phase, done, total)`` for the run's forward loop
-        and adjoint (:mod:`pes_ref.core.progress`), or None for no reports.
+        and adjoint (:mod:`pes_ref.core.runtime.progress`), or None for no reports.
     backend : {"numpy", "numba"}
         The loops that run it (:data:`pes_ref.core.backends.BACKENDS`): NumPy's by default,
         so that the oracle imports no compiler; the compiled ones give the same trajectory

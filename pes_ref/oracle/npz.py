@@ -3,7 +3,7 @@
 The case and result files of the oracle (:mod:`pes_ref.oracle.case`) are such archives;
 any other ``.npz`` the package writes (design files) goes through :func:`write_npz` too,
 which writes through the package's one atomic writer,
-:func:`pes_ref.core.files.atomic_file`: a reader never sees half a file, and an existing
+:func:`pes_ref.core.runtime.files.atomic_file`: a reader never sees half a file, and an existing
 file is never replaced unless asked.
 """
 from __future__ import annotations
@@ -14,7 +14,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from pes_ref.core.files import atomic_file
+from pes_ref.core.runtime.files import atomic_file
 from pes_ref.oracle.errors import CaseError, CaseTypeError
 
 __all__ = ["read_npz", "write_npz"]
@@ -89,7 +89,7 @@ def write_npz(path, arrays: Mapping, *, overwrite: bool = False, compress: bool 
               what: str = "result") -> None:
     """Write named arrays to an ``.npz`` file atomically and reproducibly.
 
-    The archive is written through :func:`~pes_ref.core.files.atomic_file`, so a reader never sees half a
+    The archive is written through :func:`~pes_ref.core.runtime.files.atomic_file`, so a reader never sees half a
     file and an existing file is never replaced unless ``overwrite``. Every member
     carries the same fixed date, so the same arrays always give the same bytes.
 
@@ -100,11 +100,11 @@ def write_npz(path, arrays: Mapping, *, overwrite: bool = False, compress: bool 
     arrays : mapping of str -> array_like
         Python strings become 0-d unicode arrays; object arrays are refused.
     overwrite : bool
-        Replace an existing file; otherwise raise :class:`~pes_ref.core.files.ResultExistsError`.
+        Replace an existing file; otherwise raise :class:`~pes_ref.core.runtime.files.ResultExistsError`.
     compress : bool
         Deflate the members (``np.load`` reads both).
     what : str
-        What the file is ("result", "design", ...), for the message of :class:`~pes_ref.core.files.ResultExistsError`.
+        What the file is ("result", "design", ...), for the message of :class:`~pes_ref.core.runtime.files.ResultExistsError`.
 
     Raises
     ------

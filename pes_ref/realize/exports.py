@@ -12,7 +12,7 @@
   template to cut and wrap round the drum), and the drum as one solid, its walls standing
   proud of a cylinder (:func:`drum_mesh`).
 
-Every file is written atomically (:func:`pes_ref.core.files.atomic_file`). The readers
+Every file is written atomically (:func:`pes_ref.core.runtime.files.atomic_file`). The readers
 (:func:`read_dxf_plate`, :func:`read_stl`) rebuild what a check needs from the files alone.
 """
 from __future__ import annotations
@@ -21,7 +21,7 @@ import io
 
 import numpy as np
 
-from pes_ref.core.files import atomic_file
+from pes_ref.core.runtime.files import atomic_file
 
 __all__ = ["device_text", "write_bytes", "write_text", "write_dxf", "read_dxf_plate", "plate_mesh", "base_mesh", "pin_mesh", "drum_mesh", "drum_volume", "write_stl",
            "read_stl", "DXF_LAYER"]

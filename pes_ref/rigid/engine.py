@@ -32,7 +32,7 @@ import numpy as np
 
 from pes_ref.core import budget, checks
 from pes_ref.core.integrator import Trajectory
-from pes_ref.core.progress import EVERY
+from pes_ref.core.runtime.progress import EVERY
 from pes_ref.core.terms import spring_add_force, wall_add_force, wall_bounds
 from pes_ref.devices.geometry import interiors_overlap, pose, require_shapely
 from pes_ref.rigid.bodies import rigid_parts

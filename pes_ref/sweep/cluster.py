@@ -16,7 +16,7 @@ import contextlib
 import logging
 import os
 
-from pes_ref.core.signals import ignore_interrupts
+from pes_ref.core.runtime.signals import ignore_interrupts
 
 __all__ = ["require_dask", "open_client", "local_cluster", "INSTALL_HINT", "WORKER_ENV"]
 
@@ -40,7 +40,7 @@ def require_dask() -> None:
 
 def _local_worker_setup(client) -> None:
     """Make the local workers, present and restarted, ignore SIGINT
-    (:func:`pes_ref.core.signals.ignore_interrupts`, run in each worker's main thread)."""
+    (:func:`pes_ref.core.runtime.signals.ignore_interrupts`, run in each worker's main thread)."""
     from distributed import WorkerPlugin
 
     class IgnoreSigint(WorkerPlugin):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Mapping
 
-from pes_ref.core.keyfile import show
+from pes_ref.core.runtime.keyfile import show
 from pes_ref.synthesis import DESIGN_OPTIONS, KINDS, DesignInputs, design_inputs, kind_named
 
 __all__ = ["run_inputs", "typed_sets", "scene_parameters", "has_type", "type_name", "BUILT_IN_KINDS"]

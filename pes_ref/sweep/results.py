@@ -21,7 +21,7 @@ import json
 import math
 import os
 
-from pes_ref.core.files import atomic_file
+from pes_ref.core.runtime.files import atomic_file
 
 __all__ = ["new_row", "record", "is_finished", "read_results", "write_results", "columns", "figure_names",
            "plot_summary", "CSV_NAME", "PLOT_NAME"]
@@ -107,7 +107,7 @@ def _text(value) -> str:
 
 
 def write_results(path, sweep, rows) -> None:
-    """Write ``rows`` to the CSV at ``path`` atomically (:func:`pes_ref.core.files.atomic_file`)."""
+    """Write ``rows`` to the CSV at ``path`` atomically (:func:`pes_ref.core.runtime.files.atomic_file`)."""
     cols = columns(sweep, rows)
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")

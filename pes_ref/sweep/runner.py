@@ -21,7 +21,7 @@ import uuid
 from dataclasses import dataclass, field
 from typing import Callable
 
-from pes_ref.core.progress import Clock, Progress
+from pes_ref.core.runtime.progress import Clock, Progress
 from pes_ref.sweep import results
 from pes_ref.sweep.task import request_stop, run_task
 
@@ -65,7 +65,7 @@ def run_sweep(sweep, out_dir, client, *, task: Callable = run_task, progress: Ca
     task : callable
         ``payload -> outcome dict``, :func:`pes_ref.sweep.task.run_task` (replaceable for tests).
     progress : callable, optional
-        Called with a :class:`pes_ref.core.progress.Progress` every ``progress_every``
+        Called with a :class:`pes_ref.core.runtime.progress.Progress` every ``progress_every``
         seconds and at the end: ``done`` counts the runs ok (this time or earlier) out of
         all, its figures ``running`` (executing on a worker now) and ``failed`` (failed
         twice); the time left is this session's pace (``inf`` before a run ends).

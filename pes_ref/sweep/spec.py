@@ -37,7 +37,7 @@ import os
 from dataclasses import dataclass
 
 from pes_ref.core.backends import check_backend
-from pes_ref.core.keyfile import KeyFileError, KeyReader, parse_toml, read_text, show
+from pes_ref.core.runtime.keyfile import KeyFileError, KeyReader, parse_toml, read_text, show
 from pes_ref.synthesis import DESIGN_OPTIONS, ProblemFileError, load_problem, problem_text
 from pes_ref.sweep.options import BUILT_IN_KINDS, has_type, run_inputs, scene_parameters, type_name, typed_sets
 

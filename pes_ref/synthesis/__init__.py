@@ -31,9 +31,9 @@ Modules, one idea each, in import order:
 
 
 The names below are the public synthesis API (with :class:`Progress`, what the loops'
-callbacks receive, from :mod:`pes_ref.core.progress`).
+callbacks receive, from :mod:`pes_ref.core.runtime.progress`).
 """
-from pes_ref.core.progress import Progress
+from pes_ref.core.runtime.progress import Progress
 from pes_ref.synthesis.optimizers import Adam, RMSprop, make_optimizer
 from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 from pes_ref.synthesis.exits import FunnelExit, exit_steps

@@ -53,7 +53,7 @@ import os
 import numpy as np
 
 from pes_ref.core.backends import BACKENDS
-from pes_ref.core.keyfile import show
+from pes_ref.core.runtime.keyfile import show
 from pes_ref.oracle.case import REQUIRED_KEYS, TRAJECTORY_KEYS
 from pes_ref.oracle.errors import CaseError
 from pes_ref.oracle.npz import read_npz, write_npz

@@ -14,7 +14,7 @@ import os
 import sys
 from typing import NamedTuple
 
-from pes_ref.core.keyfile import KeyFileError, KeyReader, show
+from pes_ref.core.runtime.keyfile import KeyFileError, KeyReader, show
 
 __all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES", "import_object"]
 

@@ -34,7 +34,7 @@ from pes_ref.core.stability import check_stable
 from pes_ref.core.steppers import INTEGRATORS, MODES
 from pes_ref.core.terms import Spring, Walls
 from pes_ref.synthesis.design_problem import FORCES, DesignProblem, Force, Scenario, StartGroup, Starts
-from pes_ref.core.keyfile import parse_toml, read_text, show
+from pes_ref.core.runtime.keyfile import parse_toml, read_text, show
 from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
 from pes_ref.synthesis.plans import Plan, default_plan

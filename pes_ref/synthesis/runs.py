@@ -19,7 +19,7 @@ from typing import Mapping, NamedTuple
 
 from pes_ref.core import backends
 from pes_ref.core.checks import InputError
-from pes_ref.core.keyfile import show
+from pes_ref.core.runtime.keyfile import show
 from pes_ref.synthesis.design_file import DesignFileError, first_difference, save_design
 from pes_ref.synthesis.design_state import STOPPED, DesignState, new_design
 from pes_ref.synthesis.kinds import kind_of

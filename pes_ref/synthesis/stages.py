@@ -18,8 +18,8 @@ import time
 from typing import Callable
 
 from pes_ref.core import checks
-from pes_ref.core.progress import Clock, Progress
-from pes_ref.core.signals import StopFlag
+from pes_ref.core.runtime.progress import Clock, Progress
+from pes_ref.core.runtime.signals import StopFlag
 from pes_ref.synthesis.design_state import DesignState
 from pes_ref.synthesis.plans import PolishPlan
 from pes_ref.synthesis.polish import PolishStep, legendre_fourier_basis, polish
@@ -97,7 +97,7 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
     """Run every stage of ``state`` that is not done: the gradient iterations up to ``iterations``
     (default: the plan's), then the polish (if ``state.polish``).
 
-    ``callback`` receives a :class:`pes_ref.core.progress.Progress` during both stages
+    ``callback`` receives a :class:`pes_ref.core.runtime.progress.Progress` during both stages
     (its stage ``"stage 1/2"`` ... in the gradient stage, ``"polish"`` in the polish, with
     the ``fitness``, its ``start`` and, once judged, the best's ``validation`` share among
     the figures), every ``progress_every`` seconds

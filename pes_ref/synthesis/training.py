@@ -3,10 +3,10 @@
 :func:`run_design` advances a :class:`~pes_ref.synthesis.design_state.DesignState`, one
 optimizer step on the adjoint gradient of the batch's objective per iteration
 (:mod:`pes_ref.synthesis.stages` runs the polish after it). It reports a
-:class:`pes_ref.core.progress.Progress` with the stage, its grid and horizon, the loss,
-the metric, the rate and the time left (a :class:`pes_ref.core.progress.Clock` over the
+:class:`pes_ref.core.runtime.progress.Progress` with the stage, its grid and horizon, the loss,
+the metric, the rate and the time left (a :class:`pes_ref.core.runtime.progress.Clock` over the
 plan's stages); Ctrl-C and SIGTERM stop it between two iterations
-(:class:`pes_ref.core.signals.StopFlag`).
+(:class:`pes_ref.core.runtime.signals.StopFlag`).
 
 Iteration ``k`` of a run with seed ``s`` draws its particles (start positions, noise,
 torques) from ``numpy.random.default_rng([s, k])`` only, so a run stopped after ``k``
@@ -21,9 +21,9 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.core.integrator import Trajectory
-from pes_ref.core.progress import Clock, Progress
+from pes_ref.core.runtime.progress import Clock, Progress
 from pes_ref.core.scene import value_and_grad
-from pes_ref.core.signals import StopFlag
+from pes_ref.core.runtime.signals import StopFlag
 from pes_ref.core.stability import UnstableStepError
 from pes_ref.synthesis.design_state import DesignState
 from pes_ref.synthesis.plans import Plan

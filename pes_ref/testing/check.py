@@ -60,7 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pes_ref.core.files import atomic_file
+from pes_ref.core.runtime.files import atomic_file
 from pes_ref.oracle.case import TRAJECTORY_KEYS, CaseError, run_case, save_case, validate_case
 from pes_ref.oracle.compare import passes
 from pes_ref.oracle.conformance import LATEST, vectors_dir

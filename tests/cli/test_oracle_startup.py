@@ -33,9 +33,9 @@ ORACLE_IMPORTS = {
     "pes_ref.oracle.conformance",           # the shipped vectors' version, in the examples of --help
     "pes_ref.core", "pes_ref.core.bicubic", "pes_ref.core.bilinear", "pes_ref.core.budget", "pes_ref.core.checks",
     "pes_ref.core.effects", "pes_ref.core.forces", "pes_ref.core.gjf", "pes_ref.core.grid",
-    "pes_ref.core.integrator", "pes_ref.core.interpolations", "pes_ref.core.objectives", "pes_ref.core.progress",
+    "pes_ref.core.integrator", "pes_ref.core.interpolations", "pes_ref.core.objectives", "pes_ref.core.runtime.progress",
     "pes_ref.core.scene", "pes_ref.core.stability", "pes_ref.core.steppers", "pes_ref.core.surface",
-    "pes_ref.core.terms", "pes_ref.core.files", "pes_ref.core.signals",
+    "pes_ref.core.terms", "pes_ref.core.runtime", "pes_ref.core.runtime.files", "pes_ref.core.runtime.signals",
     "pes_ref.core.backends",                # the registry of loops: finds numba, never imports it here
     "argparse", "gettext", "locale", "_locale", "copy", "dataclasses",
     "zipfile", "shutil", "binascii", "zlib", "bz2", "_bz2", "lzma", "_lzma", "_compression",

@@ -14,7 +14,8 @@ import pytest
 import pes_ref
 import pes_ref as pr
 from pes_ref.cli import EXIT_ERROR, EXIT_OK
-from pes_ref.core import budget, progress
+from pes_ref.core import budget
+from pes_ref.core.runtime import progress
 from pes_ref.oracle import case as oracle
 
 ROOT = Path(pes_ref.__file__).resolve().parent.parent

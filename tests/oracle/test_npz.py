@@ -1,5 +1,5 @@
 """pes_ref.oracle.npz: the .npz writer (through the one atomic writer,
-pes_ref.core.files.atomic_file) and reader.
+pes_ref.core.runtime.files.atomic_file) and reader.
 
 A file is published in one step: a reader never sees half of it, a failed write leaves
 nothing behind, and without ``overwrite`` an existing file is never replaced, not even
@@ -12,8 +12,8 @@ import os
 import numpy as np
 import pytest
 
-from pes_ref.core import files
-from pes_ref.core.files import ResultExistsError
+from pes_ref.core.runtime import files
+from pes_ref.core.runtime.files import ResultExistsError
 from pes_ref.oracle import npz
 
 ARRAYS = {"a": np.arange(6.0).reshape(2, 3), "name": "text", "n": np.int64(3)}

@@ -1,6 +1,6 @@
-"""Process plumbing has one home each: signals in pes_ref/core/signals.py, progress, time
-left, m:ss and a line rewritten in place at a terminal in pes_ref/core/progress.py, atomic writes in pes_ref/core/files.py, reading a
-TOML input file in pes_ref/core/keyfile.py. A module
+"""Process plumbing has one home each: signals in pes_ref/core/runtime/signals.py, progress, time
+left, m:ss and a line rewritten in place at a terminal in pes_ref/core/runtime/progress.py, atomic writes in pes_ref/core/runtime/files.py, reading a
+TOML input file in pes_ref/core/runtime/keyfile.py. A module
 elsewhere that installs a signal handler, renames a file into place or formats minutes
 itself is a second copy that would drift; this reads the package's source for them."""
 import re
@@ -13,11 +13,11 @@ PACKAGE = ROOT / "pes_ref"
 
 #: Each piece of plumbing: its home, and what only its home may write.
 HOMES = {
-    "signals": ("core/signals.py", re.compile(r"\bsignal\.signal\(|\bsignal\.SIG_IGN\b")),
-    "m:ss and time left": ("core/progress.py", re.compile(r"//\s*60\b|divmod\([^)]*,\s*60\)|seconds_left\s*=")),
-    "a line rewritten in place": ("core/progress.py", re.compile(r"\\r|\\x1b\[|\\033\[")),
-    "atomic writes": ("core/files.py", re.compile(r"\bos\.replace\(|\bos\.rename\(|\bmkstemp\(|\bos\.link\(")),
-    "reading a TOML input file": ("core/keyfile.py", re.compile(r"TOMLDecodeError as|not valid TOML|\.decode\(\"utf-8\"\)")),
+    "signals": ("core/runtime/signals.py", re.compile(r"\bsignal\.signal\(|\bsignal\.SIG_IGN\b")),
+    "m:ss and time left": ("core/runtime/progress.py", re.compile(r"//\s*60\b|divmod\([^)]*,\s*60\)|seconds_left\s*=")),
+    "a line rewritten in place": ("core/runtime/progress.py", re.compile(r"\\r|\\x1b\[|\\033\[")),
+    "atomic writes": ("core/runtime/files.py", re.compile(r"\bos\.replace\(|\bos\.rename\(|\bmkstemp\(|\bos\.link\(")),
+    "reading a TOML input file": ("core/runtime/keyfile.py", re.compile(r"TOMLDecodeError as|not valid TOML|\.decode\(\"utf-8\"\)")),
 }
 
 

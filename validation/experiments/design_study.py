@@ -100,7 +100,7 @@ def table(rows: list, held_out: tuple) -> list:
 
 
 def write_csv(path: Path, rows: list) -> None:
-    from pes_ref.core.files import atomic_file
+    from pes_ref.core.runtime.files import atomic_file
     out = io.StringIO(newline="")
     writer = csv.DictWriter(out, fieldnames=list(rows[0]))
     writer.writeheader()
@@ -155,7 +155,7 @@ def main(argv=None) -> int:
     block = ["", *_table.where_made(cmd, (load0, os.getloadavg()[0]), args.workers), ""] + table(rows, args.held_out) + [""]
     print("\n".join(block))
     if not args.print_only:
-        from pes_ref.core.files import atomic_file
+        from pes_ref.core.runtime.files import atomic_file
         text = _table.rewrite(Path(args.doc).read_text(), block, BEGIN, END)
         with atomic_file(args.doc, overwrite=True, what="document") as fh:
             fh.write(text.encode())

@@ -228,7 +228,7 @@ def main(argv=None) -> int:
     block = where_made(command(args.seeds, args.held_out, args.smoke, backends), (start, os.getloadavg()[0]),
                        min(args.workers, len(jobs))) + [""] + table(runs)
     if not args.print_only:
-        from pes_ref.core.files import atomic_file
+        from pes_ref.core.runtime.files import atomic_file
         with atomic_file(doc, overwrite=True, what="document") as fh:
             fh.write(rewrite(doc.read_text(), block).encode())
     print("\n".join(block))

@@ -12,7 +12,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from pes_ref.core.files import atomic_file, move_into
+from pes_ref.core.runtime.files import atomic_file, move_into
 from pes_ref.oracle import case as oracle
 from pes_ref.oracle import tolerances
 from pes_ref.oracle.compare import compare_results, passes

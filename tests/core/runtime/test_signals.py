@@ -1,4 +1,4 @@
-"""pes_ref.core.signals: the one home of signal handling. A loop's StopFlag turns Ctrl-C
+"""pes_ref.core.runtime.signals: the one home of signal handling. A loop's StopFlag turns Ctrl-C
 and SIGTERM into a flag (a second signal stops at once), the command line's SIGTERM acts
 as Ctrl-C, and worker processes ignore Ctrl-C; every handler is given back."""
 import os
@@ -9,7 +9,7 @@ import threading
 
 import pytest
 
-from pes_ref.core.signals import StopFlag, sigterm_interrupts
+from pes_ref.core.runtime.signals import StopFlag, sigterm_interrupts
 
 
 @pytest.fixture
@@ -55,7 +55,7 @@ def test_sigterm_interrupts_like_ctrl_c_within_the_block(own_sigterm):
 
 
 def test_a_worker_ignores_ctrl_c():
-    code = ("import os, signal, sys; from pes_ref.core.signals import ignore_interrupts; ignore_interrupts(); "
+    code = ("import os, signal, sys; from pes_ref.core.runtime.signals import ignore_interrupts; ignore_interrupts(); "
             "os.kill(os.getpid(), signal.SIGINT); print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0 and proc.stdout.strip() == "True", proc.stderr

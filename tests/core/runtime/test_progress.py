@@ -1,4 +1,4 @@
-"""pes_ref.core.progress: the one progress type, its clock of the time left, the one
+"""pes_ref.core.runtime.progress: the one progress type, its clock of the time left, the one
 line every command prints and how it is shown (the hot loops' per-step hook is tested in
 test_budget.py)."""
 import io
@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from pes_ref.core.progress import Clock, Progress, ProgressWriter, clock_time, progress_line
+from pes_ref.core.runtime.progress import Clock, Progress, ProgressWriter, clock_time, progress_line
 
 
 @pytest.mark.parametrize("seconds, text", [(0, "0:00"), (4.4, "0:04"), (59.6, "1:00"), (61, "1:01"),

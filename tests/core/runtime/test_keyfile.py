@@ -1,7 +1,7 @@
-"""What the TOML input files share (pes_ref.core.keyfile): a bad value is shown in TOML's spelling."""
+"""What the TOML input files share (pes_ref.core.runtime.keyfile): a bad value is shown in TOML's spelling."""
 import pytest
 
-from pes_ref.core.keyfile import show
+from pes_ref.core.runtime.keyfile import show
 
 #: (a value as tomllib reads it, how a refusal shows it)
 SHOWN = [

@@ -1,11 +1,11 @@
-"""pes_ref.core.files: the one atomic writer. (Its publication rules, with and without
+"""pes_ref.core.runtime.files: the one atomic writer. (Its publication rules, with and without
 hard links and against a concurrent writer, are tested through the .npz writer in
 tests/oracle/test_npz.py.)"""
 import os
 
 import pytest
 
-from pes_ref.core.files import ResultExistsError, atomic_file
+from pes_ref.core.runtime.files import ResultExistsError, atomic_file
 
 
 def test_the_bytes_appear_at_once_when_the_block_ends(tmp_path):
