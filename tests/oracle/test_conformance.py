@@ -42,7 +42,7 @@ def regenerated(tmp_path_factory):
     """The vectors generated afresh by ``pes_ref conformance --write DIR`` (once per module),
     into a folder that holds an older vector set (its manifest and a stale vector file) and
     a file that is not a vector. (A folder with files but no manifest is refused: the
-    fault suite, tests/cli/test_cli_faults.py.)"""
+    fault suite, tests/cli/test_faults_*.py.)"""
     folder = tmp_path_factory.mktemp("v1")
     (folder / "manifest.json").write_text("{}\n")
     (folder / "stale.case.npz").write_bytes(b"old")

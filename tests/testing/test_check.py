@@ -350,7 +350,7 @@ def test_random_cases_need_no_hypothesis():
 
 
 # =========================================================================== arguments
-# (bad arguments: the fault suite, tests/cli/test_cli_faults.py)
+# (bad arguments: the fault suite, tests/cli/test_faults_*.py)
 
 def test_the_vectors_are_listed():
     proc = _check("--list")
