@@ -3,7 +3,7 @@
 (a) paths on the designed surface: one training batch (the particles of the run's next
 iteration, :func:`pes_ref.synthesis.training.design_gradient`) and held-out particles drawn with a
 seed training never uses (:func:`pes_ref.synthesis.analysis.funnel_paths`); (b) where the held-out
-particles leave the bottom edge (:func:`pes_ref.synthesis.problems.exit_positions`), on the design
+particles leave the bottom edge (:func:`pes_ref.synthesis.funnel.exit_positions`), on the design
 and on the flat starting surface.
 """
 from __future__ import annotations

@@ -37,8 +37,9 @@ from pes_ref.core.runtime.progress import Progress
 from pes_ref.synthesis.optimizers import Adam, RMSprop, make_optimizer
 from pes_ref.synthesis.gait import GaitShooting, GaitStarts, sample_gait_starts
 from pes_ref.synthesis.exits import FunnelExit, exit_steps
-from pes_ref.synthesis.problems import (FUNNEL_OBJECTIVES, IN_BAND_SHARE, OSCILLATOR_COSTS, Batch,
-                                        FunnelProblem, OscillatorProblem, PhaseThenCycle, exit_positions)
+from pes_ref.synthesis.funnel import exit_positions, FUNNEL_OBJECTIVES, FunnelProblem, IN_BAND_SHARE
+from pes_ref.synthesis.oscillator import OSCILLATOR_COSTS, OscillatorProblem, PhaseThenCycle
+from pes_ref.synthesis.problems import Batch
 from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, FUNNEL_PLAN, OSCILLATOR_PLANS, OSCILLATOR_POLISH, Plan,
                                      PolishPlan, default_plan)
 from pes_ref.synthesis.resampling import resample

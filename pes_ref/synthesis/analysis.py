@@ -1,7 +1,7 @@
 """Held-out analysis of each kind of design: paths, torque sweeps, phase space, cycle figures, figures, panels.
 
 Held-out particles come from seeds training never uses. The funnel's figures are where its
-particles exit (:func:`pes_ref.synthesis.problems.exit_positions`); the oscillator's are
+particles exit (:func:`pes_ref.synthesis.funnel.exit_positions`); the oscillator's are
 per-particle amplitude, period and drift over the last :data:`ANALYSIS_PERIODS` periods
 (:func:`cycle_figures`), and whether a particle reaches the target cycle; a problem file's,
 its success tests. ``evaluate_KIND`` gives one kind's figures of several held-out seeds, their
@@ -22,7 +22,8 @@ from pes_ref.core.integrator import Trajectory
 from pes_ref.core.population import simulate_batch
 from pes_ref.core.scene import simulate
 from pes_ref.synthesis.design_problem import DesignProblem
-from pes_ref.synthesis.problems import IN_BAND_SHARE, FunnelProblem, OscillatorProblem, exit_positions
+from pes_ref.synthesis.funnel import exit_positions, FunnelProblem, IN_BAND_SHARE
+from pes_ref.synthesis.oscillator import OscillatorProblem
 from pes_ref.synthesis.success import applies, passes_all
 
 __all__ = ["Paths", "TorqueSweep", "Panel", "funnel_paths", "oscillator_torque_sweep", "oscillator_grid_starts",
@@ -203,7 +204,7 @@ def _population(runs: dict) -> dict:
 def evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int) -> dict:
     """The funnel's held-out figures: seed -> figures of ``n`` particles per seed, on the design
     and on the flat surface (``flat_``): the share of particles that exit in the band
-    (:meth:`~pes_ref.synthesis.problems.FunnelProblem.in_band`), that exit at all, and the
+    (:meth:`~pes_ref.synthesis.funnel.FunnelProblem.in_band`), that exit at all, and the
     standard deviation of the exit q0; every run one population."""
     runs = {(prefix, seed): _funnel_run(problem, vals, n, seed)
             for prefix, vals in _surfaces(problem, values) for seed in seeds}

@@ -93,8 +93,8 @@ def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan
                backend: str | None = None, **params) -> DesignState:
     """A fresh run of a problem ``kind`` (a problem object: a
     :class:`~pes_ref.synthesis.design_problem.DesignProblem` from a problem file or built in code,
-    a :class:`~pes_ref.synthesis.problems.FunnelProblem` or
-    :class:`~pes_ref.synthesis.problems.OscillatorProblem`), or of a built-in kind by its name
+    a :class:`~pes_ref.synthesis.funnel.FunnelProblem` or
+    :class:`~pes_ref.synthesis.oscillator.OscillatorProblem`), or of a built-in kind by its name
     (``"funnel"``, ``"oscillator"``) with problem overrides ``params``.
 
     Without ``plan`` the run has its kind's default plan (a problem file's own: its ``[train]``

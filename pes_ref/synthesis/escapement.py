@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.synthesis.problems import OscillatorProblem
+from pes_ref.synthesis.oscillator import OscillatorProblem
 
 __all__ = ["escapement_values"]
 

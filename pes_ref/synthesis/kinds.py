@@ -1,7 +1,7 @@
 """The kinds of design, as one interface: :data:`KINDS` (kind name -> :class:`DesignKind`).
 
 A design's problem is one of three kinds: the paper's funnel and oscillator
-(:class:`~pes_ref.synthesis.problems.FunnelProblem`, :class:`~pes_ref.synthesis.problems.OscillatorProblem`,
+(:class:`~pes_ref.synthesis.funnel.FunnelProblem`, :class:`~pes_ref.synthesis.oscillator.OscillatorProblem`,
 whose scene parameters are dataclass fields) or the problem a problem file states
 (:class:`~pes_ref.synthesis.design_problem.DesignProblem`, whose keys are the file's). What
 the rest of the package asks of a kind is one :class:`DesignKind` entry, as scipy's
@@ -27,7 +27,8 @@ from pes_ref.synthesis import analysis
 from pes_ref.synthesis.plans import DEFAULT_OSCILLATOR_PLAN, FUNNEL_PLAN, OSCILLATOR_PLANS, OSCILLATOR_POLISH, PolishPlan
 from pes_ref.synthesis.problem_file import (at_step, parse_set, plan_for, problem_from_text, problem_text,
                                             with_sets)
-from pes_ref.synthesis.problems import FunnelProblem, OscillatorProblem
+from pes_ref.synthesis.funnel import FunnelProblem
+from pes_ref.synthesis.oscillator import OscillatorProblem
 
 __all__ = ["DesignKind", "Realizable", "Smoke", "KINDS", "kind_of", "kind_named", "evaluate", "evaluate_seeds",
            "held_out_steps", "held_out_panels", "GRID_CONTACT", "SMOKE_GRID"]

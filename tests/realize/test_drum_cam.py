@@ -17,7 +17,7 @@ from pes_ref.realize.contact import realize_contact
 from pes_ref.realize.evaluation import (contact_parameters, evaluate_realized, held_out_positions,
                                         realized_problem, start_point)
 from pes_ref.realize.followers import drum_cam
-from pes_ref.synthesis.problems import OscillatorProblem
+from pes_ref.synthesis.oscillator import OscillatorProblem
 
 GRID = 24
 LEVEL = 0.25

@@ -13,7 +13,7 @@ from pes_ref.devices.device_file import parse_device
 from pes_ref.realize import exports
 from pes_ref.realize.contact import realize_contact
 from pes_ref.realize.evaluation import evaluate_realized, realized_problem
-from pes_ref.synthesis.problems import FunnelProblem
+from pes_ref.synthesis.funnel import FunnelProblem
 
 GRID = 41
 

@@ -94,7 +94,7 @@ def test_resample_vjp_is_the_transpose_of_resample():
     ("vee", [(0.0, 0.0), (0.1, 0.0), (0.8, 1.6)], [(0.3, 0.0), (-0.6, 0.5), (0.9, 1.0)]),
 ])
 def test_a_realizable_funnel_starts_from_its_stated_shape(shape, free_at, blocked_at):
-    from pes_ref.synthesis.problems import FunnelProblem
+    from pes_ref.synthesis.funnel import FunnelProblem
     p = FunnelProblem(grid=41, realizable=True, init_shape=shape)
     values = p.initial_values(np.random.default_rng(0), (41, 41))
     node = lambda q: (int(round((q[0] + 1.0) * 20)), int(round(q[1] * 20)))   # noqa: E731
@@ -105,6 +105,6 @@ def test_a_realizable_funnel_starts_from_its_stated_shape(shape, free_at, blocke
 
 
 def test_a_starting_shape_is_one_of_the_stated():
-    from pes_ref.synthesis.problems import FunnelProblem
+    from pes_ref.synthesis.funnel import FunnelProblem
     with pytest.raises(ValueError, match="init_shape"):
         FunnelProblem(realizable=True, init_shape="star")

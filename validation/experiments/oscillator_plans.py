@@ -2,7 +2,7 @@
 
 Every row of the tables "Plans tried in the third session" in ``docs/synthesis.md``
 is one named plan here (:data:`PLANS`); this script regenerates it. A plan is the
-package's oscillator problem (:class:`pes_ref.synthesis.problems.OscillatorProblem`) and plan
+package's oscillator problem (:class:`pes_ref.synthesis.oscillator.OscillatorProblem`) and plan
 machinery (:class:`pes_ref.synthesis.plans.Plan`: RMSprop, learning-rate decay, coarse-to-fine
 stages) plus the training variations that are not package options:
 
