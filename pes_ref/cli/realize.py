@@ -37,7 +37,7 @@ FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness
 #: Each realization's own options (``dest``, flag): given with the other, they are refused.
 OPTIONS = {"contact": (("rule", "--rule"), ("level", "--level"), ("pin_radius", "--pin-radius"), ("rim", "--rim"),
                        ("thickness", "--thickness"), ("drum_radius", "--drum-radius")),
-           "heightfield": (("g", "--g"), ("base", "--base"), ("seed", "--seed"), ("particles", "--particles"))}
+           "heightfield": (("g", "--g"), ("base", "--base"))}
 
 
 def _default(key: str) -> LazyDefault:
@@ -89,9 +89,12 @@ def add_parser(sub) -> None:
     p.add_argument("--base", type=float, default=_hf_default("base"), metavar="B",
                    help="heightfield: the plate's thickness below its lowest point (length)")
     p.add_argument("--seed", type=int, default=None, metavar="S",
-                   help="heightfield: the held-out seed of the rolling-ball check (default 12345)")
+                   help="the held-out seed of the check (default 12345): contact, the design's held-out evaluation "
+                        "on the parts under eq. (1) and in rigid contact (the kind's headline figure); heightfield, "
+                        "the rolling-ball check")
     p.add_argument("--particles", type=int, default=None, metavar="N",
-                   help="heightfield: held-out particles of the rolling-ball check (default 200)")
+                   help="held-out particles of the check (default: the design's held-out evaluation's; heightfield "
+                        "200)")
     p.add_argument("--force", action="store_true", help="overwrite existing files in DIR")
     p.set_defaults(func=_run_realize)
 
@@ -179,7 +182,7 @@ def _write_contact(real, state, outputs: dict, args) -> list:
     lines += [f"neighbour: {label}: level {level:.6g}, blocked_share {share:.6g}, changed_share {changed:.6g}"
               for label, level, share, changed in real.sensitivity]
     lines += [f"lost: {line}" for line in real.lost]
-    return lines + _figure_lines(_check(real, outputs))
+    return lines + _figure_lines(_check(real, outputs)) + _figure_lines(_scores(state, outputs["device"], args))
 
 
 def _write(real, state, outputs: dict, force: bool) -> None:
@@ -242,6 +245,31 @@ MESHES = {
 def _drum_volume(real, part) -> float:
     from pes_ref.realize import exports
     return exports.drum_volume(part, real.parts.motion["radius"], real.thickness)
+
+
+def _scores(state, device_path: str, args) -> dict:
+    """The design's headline figure on held-out seed ``--seed`` beside the parts' under eq. (1)
+    (``realized_``) and in rigid contact (``rigid_``; not run without pymunk, said with its
+    pip line): :func:`pes_ref.realize.evaluation.evaluate_realized`."""
+    from pes_ref.devices.device_file import load_device
+    from pes_ref.devices.geometry import MissingExtraError
+    from pes_ref.realize.evaluation import ENGINES, evaluate_realized
+    from pes_ref.rigid import require_pymunk
+    from pes_ref.synthesis import kind_of
+    seed = 12345 if args.seed is None else args.seed
+    try:
+        require_pymunk()
+        engines, missing = ("surface", "rigid"), None
+    except MissingExtraError as exc:
+        engines, missing = ("surface",), str(exc)
+    figures = evaluate_realized(state.problem, state.values, load_device(device_path), seed=seed,
+                                n_particles=args.particles, engines=engines)
+    name = kind_of(state.problem).headline
+    out = {"score_seed": seed, "score_particles": int(figures["particles"][0]), name: figures[name][0]}
+    out.update({ENGINES[e].prefix + name: x for e, x in zip(engines, figures[name][1:])})
+    if missing is not None:
+        out[ENGINES["rigid"].prefix + name] = f"not run ({missing})"
+    return out
 
 
 def _check(real, outputs: dict) -> dict:

@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 _SPEC = importlib.util.spec_from_file_location("realize_study", Path(__file__).with_name("realize_study.py"))
 _study = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(_study)
-HELD_OUT, _cli = _study.HELD_OUT, _study._cli      # the funnel study's runner
+HELD_OUT, _cli, SCORE_CHECK = _study.HELD_OUT, _study._cli, _study.SCORE_CHECK      # the funnel study's runner
 DEFAULT_OUT = ROOT / "validation" / "out" / "realize_latch"
 #: The smooth latch's contact: latch_contact.toml's eq. (1).
 SMOOTH_CONTACT = "surface.contact={ v = 0.0012, r_c = 0.1, r_min = 0.03 }"
@@ -62,7 +62,8 @@ def run(out: Path, smoke: bool, names=None) -> list:
                 args = [a for a in args if a not in ("--iterations", "200")] + ["--iterations", "2"]
             _, t_design = _cli(["design", *args, "--quiet", "--force", "--out", str(design)])
         parts = out / f"parts{i}"
-        text, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force"])
+        text, t_realize = _cli(["realize", str(design), "--as", "contact",
+                                *SCORE_CHECK, "--out", str(parts), "--force"])
         rows += _study._evaluated(name, design, parts, text, t_design, t_realize, FIGURES)
     return rows
 
