@@ -32,11 +32,12 @@ CONTACT_FILES = {
 }
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
-         "drum_radius": "--drum-radius",
+         "drum_radius": "--drum-radius", "clearance": "--clearance", "restitution": "--restitution",
          "as": "--as", "rule": "--rule", "g": "--g", "base": "--base", "seed": "--seed", "n_particles": "--particles"}
 #: Each realization's own options (``dest``, flag): given with the other, they are refused.
 OPTIONS = {"contact": (("rule", "--rule"), ("level", "--level"), ("pin_radius", "--pin-radius"), ("rim", "--rim"),
-                       ("thickness", "--thickness"), ("drum_radius", "--drum-radius")),
+                       ("thickness", "--thickness"), ("drum_radius", "--drum-radius"), ("clearance", "--clearance"),
+                       ("restitution", "--restitution")),
            "heightfield": (("g", "--g"), ("base", "--base"))}
 
 
@@ -78,6 +79,13 @@ def add_parser(sub) -> None:
     p.add_argument("--level", type=float, default=None, metavar="E", help="the contact level of --rule value")
     p.add_argument("--pin-radius", type=float, default=_default("pin_radius"), metavar="R",
                    help="the pin's radius (C-space length)")
+    p.add_argument("--clearance", type=float, default=_default("clearance"), metavar="C",
+                   help="make the pin C larger than the plate (or drum) is cut for: the parts' blocked region grows "
+                        "by C, so a rigid pin stands off the walls as eq. (1) holds a particle off them (C-space "
+                        "length)")
+    p.add_argument("--restitution", type=float, default=None, metavar="E",
+                   help="the parts' coefficient of restitution in [0, 1], written to the device file's [rigid] "
+                        "table (the rigid engine's; default: left out, inelastic)")
     p.add_argument("--rim", type=float, default=_default("rim"), metavar="W",
                    help="the plate's rim beyond its cut-out (C-space length)")
     p.add_argument("--thickness", type=float, default=_default("thickness"), metavar="T",
@@ -172,7 +180,7 @@ def _prepare_contact(state, args):
     drum_radius = None if isinstance(args.drum_radius, LazyDefault) else args.drum_radius
     return realize_contact(state.problem, state.values, args.rule, args.level, name=name,
                            pin_radius=_value(args.pin_radius), rim=_value(args.rim), thickness=_value(args.thickness),
-                           drum_radius=drum_radius)
+                           drum_radius=drum_radius, clearance=_value(args.clearance), restitution=args.restitution)
 
 
 def _write_contact(real, state, outputs: dict, args) -> list:
@@ -219,14 +227,14 @@ def _plate_meshes(real) -> dict:
     from pes_ref.realize import exports
     plate, t = real.parts.plate, real.thickness
     return {"plate_stl": exports.plate_mesh(plate, t), "base_stl": exports.base_mesh(plate, t),
-            "pin_stl": exports.pin_mesh(real.parts.pin_radius, t)}
+            "pin_stl": exports.pin_mesh(real.parts.pin_made, t)}
 
 
 def _drum_meshes(real) -> dict:
     from pes_ref.realize import exports
     parts, t = real.parts, real.thickness
     return {"drum_stl": exports.drum_mesh(parts.plate, parts.motion["radius"], t, _drum_cell(real)),
-            "pin_stl": exports.pin_mesh(parts.pin_radius, t)}
+            "pin_stl": exports.pin_mesh(parts.pin_made, t)}
 
 
 def _drum_cell(real) -> float:
