@@ -64,7 +64,7 @@ FLAGS = {"n_particles": "--particles", "seed": "--seed", "realized": "--realized
 #: ``--engine NAME`` -> the engines (:data:`pes_ref.realize.evaluation.ENGINES`) that run the realized device.
 ENGINE_CHOICES = {"surface": ("surface",), "rigid": ("rigid",), "both": ("surface", "rigid")}
 #: The figures that are no measure of the device (no difference line under ``--engine both``).
-_NO_DIFFERENCE = ("dt", "n_steps", "particles")
+_NO_DIFFERENCE = ("dt", "n_steps", "particles", "starts_blocked")
 
 
 def _run_evaluate(args) -> int:

@@ -29,7 +29,6 @@ What a realization needs of each kind of design is its kind's entry,
 """
 from __future__ import annotations
 
-import functools
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -38,7 +37,7 @@ from pes_ref.core import checks
 from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.synthesis.kinds import evaluate, held_out_steps, kind_of
 
-__all__ = ["RealizedRun", "RealizedEngine", "ENGINES", "realized_problem", "rigid_problem", "evaluate_realized",
+__all__ = ["RealizedRun", "RealizedEngine", "RigidRuns", "ENGINES", "realized_problem", "rigid_problem", "evaluate_realized",
            "held_out_positions", "contact_parameters", "start_point", "device_spring"]
 
 
@@ -124,13 +123,36 @@ def rigid_problem(problem, device) -> RealizedRun:
     lim = stability_limit(entry.with_spring(problem.plain(), device_spring(device)).scene(values), "rule")
     base = problem if lim.ratio <= 1.0 else entry.at_step(problem, SAFETY * lim.limit)
     run = entry.with_spring(base.plain(), None)
-    return RealizedRun(run, values, float(run.dt), int(run.n_steps), functools.partial(_rigid_batch, device))
+    return RealizedRun(run, values, float(run.dt), int(run.n_steps), RigidRuns(device))
 
 
-def _rigid_batch(device, scenes, x0s, v0s) -> list:
-    """The kinds' ``engine`` of the rigid engine: each scene's run on ``device``'s parts."""
-    from pes_ref.rigid import simulate
-    return [simulate(device, scene, x0, v0) for scene, x0, v0 in zip(scenes, x0s, v0s)]
+class RigidRuns:
+    """The kinds' ``engine`` of the rigid engine: each scene's run on ``device``'s parts.
+
+    A start where the parts overlap (a design's start inside what the parts block: the
+    surface model pushes it out, a rigid part cannot be put there) is not run: its path is
+    NaN throughout, so it passes no test, and :attr:`blocked` counts such starts."""
+
+    def __init__(self, device):
+        self.device = device
+        self.blocked = 0
+
+    def __call__(self, scenes, x0s, v0s) -> list:
+        from pes_ref.core.integrator import Trajectory
+        from pes_ref.rigid import blocked_starts, simulate
+        out = []
+        for scene, x0, v0 in zip(scenes, x0s, v0s):
+            x0 = np.asarray(x0, dtype=float)
+            v0 = np.zeros_like(x0) if v0 is None else np.asarray(v0, dtype=float)
+            free = ~blocked_starts(self.device, x0)
+            self.blocked += int(np.sum(~free))
+            full = [np.full((scene.n_steps + 1,) + x0.shape, np.nan) for _ in range(3)]
+            if free.any():
+                traj = simulate(self.device, scene, x0[free], v0[free])
+                for whole, part in zip(full, (traj.x, traj.v, traj.f)):
+                    whole[:, free] = part
+            out.append(Trajectory(*full))
+        return out
 
 
 class RealizedEngine(NamedTuple):
@@ -159,6 +181,8 @@ def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: i
                 for run in runs]
     out = {name: tuple(column[name] for column in columns) for name in columns[0] if not name.startswith("flat_")}
     out["dt"] = (float(problem.dt),) + tuple(float(run.dt) for run in runs)
+    if any(isinstance(run.engine, RigidRuns) for run in runs):        # starts a rigid part cannot be put at
+        out["starts_blocked"] = (0.0,) + tuple(float(getattr(run.engine, "blocked", 0)) for run in runs)
     out["n_steps"] = (float(held_out_steps(problem)),) + tuple(float(held_out_steps(run.problem)) for run in runs)
     return out
 

@@ -132,3 +132,14 @@ def test_every_kind_runs_its_design_s_scenes_on_the_engine_given_with_the_same_f
     plain = evaluate(small, values, seed=3, n_particles=5)
     assert hooked.keys() == plain.keys()                             # ... and gave the same figures
     np.testing.assert_array_equal(list(hooked.values()), list(plain.values()))
+
+
+def test_a_start_inside_the_parts_is_not_run_by_the_rigid_engine_and_passes_nothing(problem, device_data):
+    pytest.importorskip("pymunk")
+    from pes_ref.realize.evaluation import RigidRuns
+    device = _device(device_data)
+    scene = problem.plain().scene(np.zeros((GRID, GRID)))
+    runs = RigidRuns(device)
+    x0 = np.array([[0.0, 1.9], [0.95, 0.05]])                      # free; inside the right wall
+    (traj,) = runs([scene], [x0], [None])
+    assert runs.blocked == 1 and np.isnan(traj.x[:, 1]).all() and np.isfinite(traj.x[:, 0]).all()
