@@ -2,9 +2,10 @@
 
 ``make realize-rigid`` (``python validation/experiments/realize_rigid.py``) runs the project's own
 commands in-process for each variant: ``design ...`` (skipped when ``OUT/NAME.npz`` exists and
-``--reuse`` is given), ``realize DESIGN --as contact --out DIR`` (the default rule and pin
-radius), then for each candidate (the parts as realized, or a change to the device file that a
-machinist could make: a larger pin in the same plate, a restitution) and each held-out seed
+``--reuse`` is given), then for each candidate ``realize DESIGN --as contact --out DIR`` (the
+default rule and pin radius; the parts as realized, or with what a machinist can choose without
+a new design: ``--clearance``, a pin larger than its cut-out in the same plate, and
+``--restitution``) and for each held-out seed
 ``evaluate DESIGN --realized DEVICE --engine both --seed S``. It prints one row per variant,
 candidate and seed (the design's headline figure, the parts' under eq. (1) and in rigid contact,
 each evaluation's wall time and the load) and writes them to ``OUT/realize_rigid.csv``.
@@ -15,7 +16,6 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import os
-import re
 import time
 from pathlib import Path
 
@@ -35,21 +35,15 @@ VARIANTS = {
                                                "in_band_fraction"),
     "oscillator (default plan)": ("oscillator", ["oscillator", "--workers", "1"], "captured_fraction"),
 }
-#: candidate -> (the variants it is tried on, the device file's text -> the candidate's).
+LATCH, VEE = "latch_contact (shipped plan)", "funnel, realizable, V start, linger 20"
+#: candidate -> (the variants it is tried on, the realize command's extra arguments): what a
+#: machinist can choose without a new design (a pin larger than its cut-out, the parts' restitution).
 CANDIDATES = {
-    "as realized (pin 0.02)": (tuple(VARIANTS), lambda text: text),
-    "pin 0.05 in the same plate": (("latch_contact (shipped plan)", "funnel, realizable, V start, linger 20"),
-                                   lambda text: _pin(text, 0.05)),
-    "pin 0.05, restitution 0.5": (("latch_contact (shipped plan)",),
-                                  lambda text: _pin(text, 0.05) + "\n[rigid]\nrestitution = 0.5\n"),
+    "as realized (pin 0.02)": (tuple(VARIANTS), []),
+    "clearance 0.03 (pin 0.05, the same plate)": ((LATCH, VEE), ["--clearance", "0.03"]),
+    "clearance 0.03, restitution 0.5": ((LATCH,), ["--clearance", "0.03", "--restitution", "0.5"]),
+    "clearance 0.03, restitution 0.9": ((LATCH, VEE), ["--clearance", "0.03", "--restitution", "0.9"]),
 }
-
-
-def _pin(text: str, radius: float) -> str:
-    """The device file with its pin's radius (the only ``radius = 0.02`` line: part 0's circle) ``radius``."""
-    out, n = re.subn(r"(?m)^radius = 0\.02$", f"radius = {radius}", text)
-    assert n == 1, "the pin's radius line"
-    return out
 
 
 def _load() -> str:
@@ -67,17 +61,13 @@ def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT) -> list
         if not (reuse and design.exists()):
             _, t_design = _cli(["design", *args, *(["--smoke"] if smoke else []), "--quiet", "--force",
                                 "--out", str(design)])
-        parts = out / f"{stem}_parts"
-        _, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force",
-                             "--particles", "8"])
-        text = (parts / "device.toml").read_text()
-        for candidate, (applies, change) in CANDIDATES.items():
+        for i, (candidate, (applies, extra)) in enumerate(CANDIDATES.items()):
             if name not in applies:
                 continue
+            parts = out / f"{stem}_parts{i}"
+            _, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force",
+                                 "--particles", "8", *extra])
             device = parts / "device.toml"
-            if change(text) != text:
-                device = out / f"{stem}_{len(rows)}.toml"
-                device.write_text(change(text))
             for seed in seeds:
                 load = _load()
                 printed, t_eval = _cli(["evaluate", str(design), "--realized", str(device), "--engine", "both",
@@ -86,6 +76,7 @@ def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT) -> list
                 rows.append({"variant": name, "candidate": candidate, "seed": seed, "figure": headline,
                              "design": f[headline], "soft": f[f"realized_{headline}"],
                              "rigid": f[f"rigid_{headline}"], "rigid_dt": f["rigid_dt"],
+                             "blocked_starts": f.get("rigid_starts_blocked", "0"),
                              "design_s": f"{t_design:.1f}", "realize_s": f"{t_realize:.1f}",
                              "evaluate_s": f"{t_eval:.1f}", "load": f"{load}-{_load()}"})
                 print(" | ".join(str(v) for v in rows[-1].values()), flush=True)
@@ -93,7 +84,8 @@ def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT) -> list
 
 
 def table(rows: list) -> str:
-    head = ["variant", "candidate", "seed", "figure", "design", "soft (eq. (1))", "rigid", "rigid dt", "design s",
+    head = ["variant", "candidate", "seed", "figure", "design", "soft (eq. (1))", "rigid", "rigid dt", "starts in the parts",
+            "design s",
             "realize s", "evaluate s (both engines)", "load"]
     return _study.markdown(head, list(rows[0]), rows)
 
