@@ -148,7 +148,9 @@ class RigidRuns:
             self.blocked += int(np.sum(~free))
             full = [np.full((scene.n_steps + 1,) + x0.shape, np.nan) for _ in range(3)]
             if free.any():
-                traj = simulate(self.device, scene, x0[free], v0[free])
+                fext = scene.schedule(x0.shape[0])               # every particle's own draws and pushes
+                fext = None if fext is None else fext[:, free]
+                traj = simulate(self.device, scene, x0[free], v0[free], fext=fext)
                 for whole, part in zip(full, (traj.x, traj.v, traj.f)):
                     whole[:, free] = part
             out.append(Trajectory(*full))

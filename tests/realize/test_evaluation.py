@@ -143,3 +143,19 @@ def test_a_start_inside_the_parts_is_not_run_by_the_rigid_engine_and_passes_noth
     x0 = np.array([[0.0, 1.9], [0.95, 0.05]])                      # free; inside the right wall
     (traj,) = runs([scene], [x0], [None])
     assert runs.blocked == 1 and np.isnan(traj.x[:, 1]).all() and np.isfinite(traj.x[:, 0]).all()
+
+
+def test_the_starts_run_keep_their_own_pushes_and_draws_when_one_is_left_out(problem, device_data):
+    pytest.importorskip("pymunk")
+    from pes_ref.core.effects import PerParticle
+    from pes_ref.realize.evaluation import RigidRuns
+    from pes_ref.rigid import simulate
+    device = _device(device_data)
+    scene = problem.plain().scene(np.zeros((GRID, GRID)))
+    import dataclasses
+    scene = dataclasses.replace(scene, n_steps=40, effects=scene.effects + (PerParticle([[0.0, -1.0], [0.0, 0.0],
+                                                                                         [0.3, -0.5]]),))
+    x0 = np.array([[0.0, 1.9], [0.95, 0.05], [0.2, 1.85]])
+    (traj,) = RigidRuns(device)([scene], [x0], [None])
+    alone = simulate(device, scene, x0[[0, 2]], fext=scene.schedule(3)[:, [0, 2]])
+    np.testing.assert_array_equal(traj.x[:, [0, 2]], alone.x)
