@@ -123,7 +123,7 @@ def _lines(state, figures: dict, engines: tuple = ("surface",)) -> list:
     for name, value in figures.items():
         if isinstance(value, tuple):
             from pes_ref.realize.evaluation import ENGINES
-            prefixes = [ENGINES[name].prefix for name in engines]
+            prefixes = [ENGINES[engine].prefix for engine in engines]
             lines += [(name, float(value[0]))] + [(prefix + name, float(x)) for prefix, x in zip(prefixes, value[1:])]
             if len(value) == 3 and name not in _NO_DIFFERENCE:
                 lines.append((f"{prefixes[1]}minus_{prefixes[0]}{name}", float(value[2]) - float(value[1])))
