@@ -79,13 +79,14 @@ def add_parser(sub) -> None:
     p.add_argument("--level", type=float, default=None, metavar="E", help="the contact level of --rule value")
     p.add_argument("--pin-radius", type=float, default=_default("pin_radius"), metavar="R",
                    help="the pin's radius (C-space length)")
-    p.add_argument("--clearance", type=float, default=_default("clearance"), metavar="C",
+    p.add_argument("--clearance", type=float, default=None, metavar="C",
                    help="make the pin C larger than the plate (or drum) is cut for: the parts' blocked region grows "
                         "by C, so a rigid pin stands off the walls as eq. (1) holds a particle off them (C-space "
-                        "length)")
+                        "length; default: the problem file's [surface.contact] clearance, else 0)")
     p.add_argument("--restitution", type=float, default=None, metavar="E",
                    help="the parts' coefficient of restitution in [0, 1], written to the device file's [rigid] "
-                        "table (the rigid engine's; default: left out, inelastic)")
+                        "table (the rigid engine's; default: the problem file's [surface.contact] restitution, "
+                        "else left out: inelastic)")
     p.add_argument("--rim", type=float, default=_default("rim"), metavar="W",
                    help="the plate's rim beyond its cut-out (C-space length)")
     p.add_argument("--thickness", type=float, default=_default("thickness"), metavar="T",
@@ -180,7 +181,7 @@ def _prepare_contact(state, args):
     drum_radius = None if isinstance(args.drum_radius, LazyDefault) else args.drum_radius
     return realize_contact(state.problem, state.values, args.rule, args.level, name=name,
                            pin_radius=_value(args.pin_radius), rim=_value(args.rim), thickness=_value(args.thickness),
-                           drum_radius=drum_radius, clearance=_value(args.clearance), restitution=args.restitution)
+                           drum_radius=drum_radius, clearance=args.clearance, restitution=args.restitution)
 
 
 def _write_contact(real, state, outputs: dict, args) -> list:

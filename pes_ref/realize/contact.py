@@ -25,6 +25,7 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.realize.evaluation import contact_parameters, start_point
+from pes_ref.synthesis.kinds import kind_of
 from pes_ref.realize.followers import DRUM_CAM, DRUM_RADIUS, Parts, follower_for
 from pes_ref.realize.regions import Region, contact_region
 
@@ -69,13 +70,18 @@ def _springs(scene) -> list:
 def realize_contact(problem, values, rule: str | None = None, level: float | None = None, *, name: str = "design",
                     pin_radius: float = CONTACT_DEFAULTS["pin_radius"], rim: float = CONTACT_DEFAULTS["rim"],
                     thickness: float = CONTACT_DEFAULTS["thickness"], drum_radius: float | None = None,
-                    clearance: float = CONTACT_DEFAULTS["clearance"], restitution: float | None = None
+                    clearance: float | None = None, restitution: float | None = None
                     ) -> ContactRealization:
     """Realize design ``values`` of ``problem`` by contact (module docstring); ``drum_radius``
     (a cylinder's drum cam only) defaults to :data:`pes_ref.realize.followers.DRUM_RADIUS`.
     ``clearance``: the pin is made that much larger than part 1 is cut for; ``restitution``:
     the parts' coefficient of restitution, written to the device file's ``[rigid]`` table (the
-    rigid engine's; None: the table left out, inelastic)."""
+    rigid engine's). Either None: what the design's problem states (a problem file's
+    ``[surface.contact]``, :attr:`pes_ref.synthesis.kinds.Realizable.parts`), else no clearance
+    and no ``[rigid]`` table (inelastic)."""
+    stated = kind_of(problem).realizable.parts(problem)
+    clearance = stated.get("clearance", CONTACT_DEFAULTS["clearance"]) if clearance is None else clearance
+    restitution = stated.get("restitution") if restitution is None else restitution
     v, r_c, r_min = contact_parameters(problem, problem.surface_values(values))
     thickness = checks.as_positive_float("thickness", thickness)
     pin_radius = checks.as_positive_float("pin_radius", pin_radius)

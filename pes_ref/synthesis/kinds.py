@@ -44,7 +44,9 @@ class Realizable(NamedTuple):
     - ``at_step(problem, dt)``: the problem run at step ``dt``, its durations and the noise's
       diffusion per unit time kept;
     - ``with_spring(problem, spring)``: the problem with its scene's spring the device's
-      (a :class:`pes_ref.core.terms.Spring`, or None for none).
+      (a :class:`pes_ref.core.terms.Spring`, or None for none);
+    - ``parts(problem)``: what the problem states the parts are made with, ``{"clearance": C,
+      "restitution": E}`` (either left out: the realization's defaults).
     """
 
     positions: Callable
@@ -52,6 +54,7 @@ class Realizable(NamedTuple):
     contact: Callable
     at_step: Callable
     with_spring: Callable
+    parts: Callable = lambda problem: {}
 
 
 class Smoke(NamedTuple):
@@ -231,6 +234,17 @@ def _problem_contact(problem, energy) -> tuple:
     return problem.contact.v, problem.contact.r_c, problem.contact.r_min
 
 
+def _problem_parts(problem) -> dict:
+    """A problem file's ``[surface.contact]`` clearance and restitution (those it states)."""
+    contact = problem.contact
+    if contact is None:
+        return {}
+    out = {"clearance": contact.clearance}
+    if contact.restitution is not None:
+        out["restitution"] = contact.restitution
+    return out
+
+
 def _problem_start(problem) -> list:
     starts = problem.starts
     if starts.box is not None:
@@ -298,7 +312,7 @@ KINDS = {
         realizable=Realizable(
             positions=lambda problem, values, seed, n: problem.run(values, seed, n).traj.x,
             start=_problem_start, contact=_problem_contact, at_step=at_step,
-            with_spring=lambda problem, spring: problem.with_spring(spring))),
+            with_spring=lambda problem, spring: problem.with_spring(spring), parts=_problem_parts)),
 }
 
 

@@ -39,10 +39,12 @@ LATCH, VEE = "latch_contact (shipped plan)", "funnel, realizable, V start, linge
 #: candidate -> (the variants it is tried on, the realize command's extra arguments): what a
 #: machinist can choose without a new design (a pin larger than its cut-out, the parts' restitution).
 CANDIDATES = {
-    "as realized (pin 0.02)": (tuple(VARIANTS), []),
-    "clearance 0.03 (pin 0.05, the same plate)": ((LATCH, VEE), ["--clearance", "0.03"]),
+    "pin 0.02, no clearance, inelastic": (tuple(VARIANTS), ["--clearance", "0", "--restitution", "0"]),
+    "clearance 0.03 (pin 0.05, the same plate)": ((LATCH, VEE), ["--clearance", "0.03", "--restitution", "0"]),
     "clearance 0.03, restitution 0.5": ((LATCH,), ["--clearance", "0.03", "--restitution", "0.5"]),
     "clearance 0.03, restitution 0.9": ((LATCH, VEE), ["--clearance", "0.03", "--restitution", "0.9"]),
+    "clearance 0.035, restitution 1 (latch_contact.toml's)": ((LATCH, VEE), ["--clearance", "0.035",
+                                                                             "--restitution", "1"]),
 }
 
 
