@@ -7,4 +7,5 @@ bodies raises :class:`pes_ref.devices.geometry.MissingExtraError` naming that li
 from pes_ref.rigid.bodies import MOTION_BODIES, RigidParts, require_pymunk, rigid_parts
 from pes_ref.rigid.engine import StartBlockedError, blocked_starts, simulate
 
-__all__ = ["MOTION_BODIES", "RigidParts", "require_pymunk", "rigid_parts", "StartBlockedError", "blocked_starts", "simulate"]
+__all__ = ["MOTION_BODIES", "RigidParts", "require_pymunk", "rigid_parts", "StartBlockedError", "blocked_starts",
+           "simulate"]

@@ -86,9 +86,8 @@ def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT) -> list
 
 
 def table(rows: list) -> str:
-    head = ["variant", "candidate", "seed", "figure", "design", "soft (eq. (1))", "rigid", "rigid dt", "starts in the parts",
-            "design s",
-            "realize s", "evaluate s (both engines)", "load"]
+    head = ["variant", "candidate", "seed", "figure", "design", "soft (eq. (1))", "rigid", "rigid dt",
+            "starts in the parts", "design s", "realize s", "evaluate s (both engines)", "load"]
     return _study.markdown(head, list(rows[0]), rows)
 
 
