@@ -40,6 +40,10 @@ def add_parser(sub) -> None:
                    help="also run the same held-out evaluation on this realized device (a device file written by "
                         "'realize'): its surface from the exported parts, the design's forces, at the step the "
                         "stability rule allows; each figure is followed by its realized_ line (docs/realize.md)")
+    p.add_argument("--engine", default="surface", metavar="ENGINE",
+                   help="with --realized: what runs the realized device: 'surface' (default: eq. (1) of the distance "
+                        "to its parts, realized_ lines), 'rigid' (the parts in rigid contact, pymunk: rigid_ lines; "
+                        "pip install 'pes_ref[rigid]') or 'both' (both, and rigid_minus_realized_ lines)")
     p.add_argument("--particles", type=int, default=None, metavar="N",
                    help="held-out particles (funnel default 200; oscillator torque sweep default 50; a problem "
                         "file's: its [evaluate] particles)")
@@ -56,7 +60,11 @@ def add_parser(sub) -> None:
 
 
 #: The library's names of what the options set, and the options (errors name the option).
-FLAGS = {"n_particles": "--particles", "seed": "--seed", "realized": "--realized"}
+FLAGS = {"n_particles": "--particles", "seed": "--seed", "realized": "--realized", "engine": "--engine"}
+#: ``--engine NAME`` -> the engines (:data:`pes_ref.realize.evaluation.ENGINES`) that run the realized device.
+ENGINE_CHOICES = {"surface": ("surface",), "rigid": ("rigid",), "both": ("surface", "rigid")}
+#: The figures that are no measure of the device (no difference line under ``--engine both``).
+_NO_DIFFERENCE = ("dt", "n_steps", "particles", "starts_blocked")
 
 
 def _run_evaluate(args) -> int:
@@ -65,6 +73,7 @@ def _run_evaluate(args) -> int:
     start = time.perf_counter()
     try:
         state = load_design(input_file(args.file, "design file"))
+        engines = _engines(args)
         outputs = _outputs(args)                   # refused before anything is computed
         if args.realized is not None:
             figures = _realized(state, args)
@@ -73,7 +82,7 @@ def _run_evaluate(args) -> int:
         picture = _picture(state, args) if "plot" in outputs else None
     except (OSError, ValueError, TypeError, ImportError, NonFiniteError) as exc:
         return error(exc, FLAGS)
-    lines = _lines(state, figures)
+    lines = _lines(state, figures, engines)
     for name, value in lines:
         print(f"{name}: {value:.6g}" if isinstance(value, float) else f"{name}: {value}")
     if args.realized is not None:
@@ -92,10 +101,20 @@ def _run_evaluate(args) -> int:
     return EXIT_OK
 
 
-def _lines(state, figures: dict) -> list:
+def _engines(args) -> tuple:
+    """The realized engines ``--engine`` names (one line naming the flag and its value when refused)."""
+    if args.engine not in ENGINE_CHOICES:
+        raise ValueError(f"--engine {args.engine!r}: expected one of {', '.join(ENGINE_CHOICES)}")
+    if args.realized is None and args.engine != "surface":
+        raise ValueError(f"--engine {args.engine} runs a realized device's parts: it needs --realized DEVICE.toml")
+    return ENGINE_CHOICES[args.engine]
+
+
+def _lines(state, figures: dict, engines: tuple = ("surface",)) -> list:
     """The ``(name, value)`` of every line, in order: the header facts, then the figures (a
-    realized figure's ``realized_`` line after its own). The printed lines and the JSON
-    both come from this list."""
+    realized figure's line per engine after its own: ``realized_`` for the surface model,
+    ``rigid_`` for the rigid engine, and with both ``rigid_minus_realized_``). The printed
+    lines and the JSON both come from this list."""
     lines = [("kind", state.kind)]
     if hasattr(state.problem, "name"):                  # a problem file's design: its problem's name
         lines.append(("problem", state.problem.name))
@@ -103,7 +122,11 @@ def _lines(state, figures: dict) -> list:
               ("evaluations", state.evaluations), ("status", state.status)]
     for name, value in figures.items():
         if isinstance(value, tuple):
-            lines += [(name, float(value[0])), (f"realized_{name}", float(value[1]))]
+            from pes_ref.realize.evaluation import ENGINES
+            prefixes = [ENGINES[engine].prefix for engine in engines]
+            lines += [(name, float(value[0]))] + [(prefix + name, float(x)) for prefix, x in zip(prefixes, value[1:])]
+            if len(value) == 3 and name not in _NO_DIFFERENCE:
+                lines.append((f"{prefixes[1]}minus_{prefixes[0]}{name}", float(value[2]) - float(value[1])))
         else:
             lines.append((name, float(value)))
     return lines
@@ -120,7 +143,8 @@ def _json(args, lines: list) -> bytes:
     figures = {name: (value if math.isfinite(value) else None) for name, value in lines
                if isinstance(value, float)}
     data = {"design": args.file, **{key: facts.get(key) for key in _HEADER}, "seed": args.seed,
-            "particles": int(facts["particles"]), "realized": args.realized, "figures": figures}
+            "particles": int(facts["particles"]), "realized": args.realized,
+            "engine": args.engine if args.realized is not None else None, "figures": figures}
     return (json.dumps(data, indent=2, allow_nan=False) + "\n").encode()
 
 
@@ -174,7 +198,8 @@ def _realized(state, args) -> dict:
     from pes_ref.realize.evaluation import evaluate_realized
     device = load_device(input_file(args.realized, "device file"))
     try:
-        return evaluate_realized(state.problem, state.values, device, seed=args.seed, n_particles=args.particles)
+        return evaluate_realized(state.problem, state.values, device, seed=args.seed, n_particles=args.particles,
+                                 engines=ENGINE_CHOICES[args.engine])
     except checks.InputError as exc:
         if exc.key != "realized":
             raise

@@ -38,14 +38,14 @@ CONTACT_FILES = {
 }
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
-         "drum_radius": "--drum-radius",
+         "drum_radius": "--drum-radius", "clearance": "--clearance", "restitution": "--restitution",
          "as": "--as", "rule": "--rule", "g": "--g", "base": "--base", "seed": "--seed", "n_particles": "--particles",
          "n_steps": "--steps"}
 #: Each realization's own options (``dest``, flag): given with the other, they are refused.
 OPTIONS = {"contact": (("rule", "--rule"), ("level", "--level"), ("pin_radius", "--pin-radius"), ("rim", "--rim"),
-                       ("thickness", "--thickness"), ("drum_radius", "--drum-radius")),
-           "heightfield": (("g", "--g"), ("base", "--base"), ("seed", "--seed"), ("particles", "--particles"),
-                           ("steps", "--steps"))}
+                       ("thickness", "--thickness"), ("drum_radius", "--drum-radius"), ("clearance", "--clearance"),
+                       ("restitution", "--restitution")),
+           "heightfield": (("g", "--g"), ("base", "--base"), ("steps", "--steps"))}
 
 
 def _default(key: str) -> LazyDefault:
@@ -87,6 +87,14 @@ def add_parser(sub) -> None:
     p.add_argument("--level", type=float, default=None, metavar="E", help="the contact level of --rule value")
     p.add_argument("--pin-radius", type=float, default=_default("pin_radius"), metavar="R",
                    help="the pin's radius (C-space length)")
+    p.add_argument("--clearance", type=float, default=None, metavar="C",
+                   help="make the pin C larger than the plate (or drum) is cut for: the parts' blocked region grows "
+                        "by C, so a rigid pin stands off the walls as eq. (1) holds a particle off them (C-space "
+                        "length; default: the problem file's [surface.contact] clearance, else 0)")
+    p.add_argument("--restitution", type=float, default=None, metavar="E",
+                   help="the parts' coefficient of restitution in [0, 1], written to the device file's [rigid] "
+                        "table (the rigid engine's; default: the problem file's [surface.contact] restitution, "
+                        "else left out: inelastic)")
     p.add_argument("--rim", type=float, default=_default("rim"), metavar="W",
                    help="the plate's rim beyond its cut-out (C-space length)")
     p.add_argument("--thickness", type=float, default=_default("thickness"), metavar="T",
@@ -98,9 +106,12 @@ def add_parser(sub) -> None:
     p.add_argument("--base", type=float, default=_hf_default("base"), metavar="B",
                    help="heightfield: the plate's thickness below its lowest point (length)")
     p.add_argument("--seed", type=int, default=None, metavar="S",
-                   help="heightfield: the held-out seed of the rolling-ball check (default 12345)")
+                   help="the held-out seed of the check (default 12345): contact, the design's held-out evaluation "
+                        "on the parts under eq. (1) and in rigid contact (the kind's headline figure); heightfield, "
+                        "the rolling-ball check")
     p.add_argument("--particles", type=int, default=None, metavar="N",
-                   help="heightfield: held-out particles of the rolling-ball check (default 200)")
+                   help="held-out particles of the check (default: the design's held-out evaluation's; heightfield "
+                        "200)")
     p.add_argument("--steps", type=int, default=None, metavar="N",
                    help="heightfield: the check's horizon in steps of the design's dt, for the design's particle and "
                         "every ball alike (default the design's own, 350 for the funnel)")
@@ -181,7 +192,7 @@ def _prepare_contact(state, args):
     drum_radius = None if isinstance(args.drum_radius, LazyDefault) else args.drum_radius
     return realize_contact(state.problem, state.values, args.rule, args.level, name=name,
                            pin_radius=_value(args.pin_radius), rim=_value(args.rim), thickness=_value(args.thickness),
-                           drum_radius=drum_radius)
+                           drum_radius=drum_radius, clearance=args.clearance, restitution=args.restitution)
 
 
 def _write_contact(real, state, outputs: dict, args) -> list:
@@ -191,7 +202,7 @@ def _write_contact(real, state, outputs: dict, args) -> list:
     lines += [f"neighbour: {label}: level {level:.6g}, blocked_share {share:.6g}, changed_share {changed:.6g}"
               for label, level, share, changed in real.sensitivity]
     lines += [f"lost: {line}" for line in real.lost]
-    return lines + _figure_lines(_check(real, outputs))
+    return lines + _figure_lines(_check(real, outputs)) + _figure_lines(_scores(state, outputs["device"], args))
 
 
 def _write(real, state, outputs: dict, force: bool) -> None:
@@ -228,14 +239,14 @@ def _plate_meshes(real) -> dict:
     from pes_ref.realize import exports
     plate, t = real.parts.plate, real.thickness
     return {"plate_stl": exports.plate_mesh(plate, t), "base_stl": exports.base_mesh(plate, t),
-            "pin_stl": exports.pin_mesh(real.parts.pin_radius, t)}
+            "pin_stl": exports.pin_mesh(real.parts.pin_made, t)}
 
 
 def _drum_meshes(real) -> dict:
     from pes_ref.realize import exports
     parts, t = real.parts, real.thickness
     return {"drum_stl": exports.drum_mesh(parts.plate, parts.motion["radius"], t, _drum_cell(real)),
-            "pin_stl": exports.pin_mesh(parts.pin_radius, t)}
+            "pin_stl": exports.pin_mesh(parts.pin_made, t)}
 
 
 def _drum_cell(real) -> float:
@@ -254,6 +265,31 @@ MESHES = {
 def _drum_volume(real, part) -> float:
     from pes_ref.realize import exports
     return exports.drum_volume(part, real.parts.motion["radius"], real.thickness)
+
+
+def _scores(state, device_path: str, args) -> dict:
+    """The design's headline figure on held-out seed ``--seed`` beside the parts' under eq. (1)
+    (``realized_``) and in rigid contact (``rigid_``; not run without pymunk, said with its
+    pip line): :func:`pes_ref.realize.evaluation.evaluate_realized`."""
+    from pes_ref.devices.device_file import load_device
+    from pes_ref.devices.geometry import MissingExtraError
+    from pes_ref.realize.evaluation import ENGINES, evaluate_realized
+    from pes_ref.rigid import require_pymunk
+    from pes_ref.synthesis import kind_of
+    seed = 12345 if args.seed is None else args.seed
+    try:
+        require_pymunk()
+        engines, missing = ("surface", "rigid"), None
+    except MissingExtraError as exc:
+        engines, missing = ("surface",), str(exc)
+    figures = evaluate_realized(state.problem, state.values, load_device(device_path), seed=seed,
+                                n_particles=args.particles, engines=engines)
+    name = kind_of(state.problem).headline
+    out = {"score_seed": seed, "score_particles": int(figures["particles"][0]), name: figures[name][0]}
+    out.update({ENGINES[e].prefix + name: x for e, x in zip(engines, figures[name][1:])})
+    if missing is not None:
+        out[ENGINES["rigid"].prefix + name] = f"not run ({missing})"
+    return out
 
 
 def _check(real, outputs: dict) -> dict:

@@ -12,7 +12,8 @@ Modules, one idea each:
                       (:data:`~pes_ref.realize.followers.FOLLOWERS`)
 - :mod:`.contact`     a contact realization: parts, the device file's tables, what is lost
 - :mod:`.exports`     writing and reading back device.toml, DXF (ezdxf) and STL (trimesh)
-- :mod:`.evaluation`  a design's own held-out evaluation on a realized device (what each
+- :mod:`.evaluation`  a design's own held-out evaluation on a realized device, under eq. (1)
+                      or its parts in rigid contact (:data:`~pes_ref.realize.evaluation.ENGINES`; what each
                       design kind needs to be realized is its kind's entry,
                       :attr:`pes_ref.synthesis.kinds.DesignKind.realizable`)
 - :mod:`.heightfield` a plate whose top is the energy, and a ball rolling on it

@@ -18,12 +18,14 @@ area the pin's disc cannot keep (:attr:`pes_ref.realize.followers.Parts.lost_sha
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.realize.evaluation import contact_parameters, start_point
+from pes_ref.synthesis.kinds import kind_of
 from pes_ref.realize.followers import DRUM_CAM, DRUM_RADIUS, Parts, follower_for
 from pes_ref.realize.regions import Region, contact_region
 
@@ -31,9 +33,10 @@ __all__ = ["ContactRealization", "realize_contact", "CONTACT_DEFAULTS"]
 
 #: The defaults of the contact realization's settings (C-space length units): the pin's
 #: radius, the plate's rim beyond its cut-out (a drum's walls' beyond the drawn box at its
-#: ends), the plate's (and pin's, and a drum's walls') thickness in the STL, and a drum cam's
-#: radius (:data:`pes_ref.realize.followers.DRUM_RADIUS`).
-CONTACT_DEFAULTS = {"pin_radius": 0.02, "rim": 0.1, "thickness": 0.1, "drum_radius": DRUM_RADIUS}
+#: ends), the plate's (and pin's, and a drum's walls') thickness in the STL, a drum cam's
+#: radius (:data:`pes_ref.realize.followers.DRUM_RADIUS`) and the pin's clearance (how much
+#: larger than its cut-out the pin is made, :attr:`pes_ref.realize.followers.Parts.clearance`).
+CONTACT_DEFAULTS = {"pin_radius": 0.02, "rim": 0.1, "thickness": 0.1, "drum_radius": DRUM_RADIUS, "clearance": 0.0}
 
 
 @dataclass(frozen=True)
@@ -66,20 +69,38 @@ def _springs(scene) -> list:
 
 def realize_contact(problem, values, rule: str | None = None, level: float | None = None, *, name: str = "design",
                     pin_radius: float = CONTACT_DEFAULTS["pin_radius"], rim: float = CONTACT_DEFAULTS["rim"],
-                    thickness: float = CONTACT_DEFAULTS["thickness"], drum_radius: float | None = None
+                    thickness: float = CONTACT_DEFAULTS["thickness"], drum_radius: float | None = None,
+                    clearance: float | None = None, restitution: float | None = None
                     ) -> ContactRealization:
     """Realize design ``values`` of ``problem`` by contact (module docstring); ``drum_radius``
-    (a cylinder's drum cam only) defaults to :data:`pes_ref.realize.followers.DRUM_RADIUS`."""
+    (a cylinder's drum cam only) defaults to :data:`pes_ref.realize.followers.DRUM_RADIUS`.
+    ``clearance``: the pin is made that much larger than part 1 is cut for; ``restitution``:
+    the parts' coefficient of restitution, written to the device file's ``[rigid]`` table (the
+    rigid engine's). Either None: what the design's problem states (a problem file's
+    ``[surface.contact]``, :attr:`pes_ref.synthesis.kinds.Realizable.parts`), else no clearance
+    and no ``[rigid]`` table (inelastic)."""
+    stated = kind_of(problem).realizable.parts(problem)
+    clearance = stated.get("clearance", CONTACT_DEFAULTS["clearance"]) if clearance is None else clearance
+    restitution = stated.get("restitution") if restitution is None else restitution
     v, r_c, r_min = contact_parameters(problem, problem.surface_values(values))
     thickness = checks.as_positive_float("thickness", thickness)
     pin_radius = checks.as_positive_float("pin_radius", pin_radius)
     rim = checks.as_positive_float("rim", rim)
+    clearance = checks.as_nonneg_float("clearance", clearance)
+    if restitution is not None:
+        restitution = checks.as_nonneg_float("restitution", restitution)
+        if restitution > 1.0:
+            raise checks.InputError("restitution", f"restitution must be in [0, 1], got {restitution:g}")
     sides = np.asarray(problem.scene(values).surface.length, dtype=float)
     # a pin as wide as the domain has no room to move; a rim past the domain's size only
     # grows the plate (and the grid its C-space is checked on) for nothing
     if not 2 * pin_radius < sides.min():
         raise checks.InputError("pin_radius", f"pin_radius must be below half the design's shortest side "
                                               f"({sides.min() / 2:g}), got {pin_radius:g}")
+    if not 2 * (pin_radius + clearance) < sides.min():
+        raise checks.InputError("clearance", f"pin_radius + clearance must be below half the design's shortest "
+                                             f"side ({sides.min() / 2:g}), got {pin_radius + clearance:g}",
+                                names=("pin_radius", "clearance"))
     if not rim <= sides.max():
         raise checks.InputError("rim", f"rim must be at most the design's longest side ({sides.max():g}), "
                                        f"got {rim:g}")
@@ -100,6 +121,7 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     walled = np.zeros((2, 2), dtype=bool) if scene.walls is None else np.asarray(scene.walls.edges, dtype=bool)
     open_edges = [(d, side) for d in range(2) for side in range(2) if not region.periodic[d] and not walled[d, side]]
     parts = follower.build(region, pin_radius, rim, open_edges, drum_radius)
+    parts = dataclasses.replace(parts, clearance=clearance)
     damping = np.broadcast_to(scene.damping if scene.damping is not None else 0.0, (2,))
     mass = np.broadcast_to(scene.mass, (2,))
     dynamics = {"mass": [float(m) for m in mass], "damping": [float(d) for d in damping]}
@@ -118,6 +140,8 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
         "dynamics": dynamics,
         "start": {"q": start_point(problem)},
     }
+    if restitution is not None:
+        device["rigid"] = {"restitution": restitution}
     free = region.phi >= 0
     below = region.energy[free]
     lost = []
@@ -127,6 +151,9 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
                     f"{r_c:g} of the {parts.part_name}")
     lost.append(f"{parts.lost_share:.2%} of the domain changes side (blocked slivers thinner than the pin's "
                 f"diameter {2 * parts.pin_radius:g}, sharp free corners)")
+    if clearance > 0:
+        lost.append(f"the pin is made {clearance:g} larger (radius {parts.pin_made:g}) than the {parts.part_name} "
+                    f"is cut for: the blocked region grows by {clearance:g} on every side")
     blocked = region.phi < 0
     sensitivity = tuple((label, float(e), float(np.mean(phi < 0)), float(np.mean((phi < 0) != blocked)))
                         for label, e, phi in region.neighbours)

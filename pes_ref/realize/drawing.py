@@ -42,13 +42,13 @@ def parts_figure(realization, path):
     for share in POSITIONS:
         k = int(round(share * end))
         q, at = path[k], parts.in_frame(path[k])
-        ax1.add_patch(_circle(at, parts.pin_radius))
+        ax1.add_patch(_circle(at, parts.pin_made))
         ax1.annotate(f"({q[0]:.2f}, {q[1]:.2f})", at, xytext=(4, 4), textcoords="offset points", fontsize=7)
     b0, b1 = parts.plate.bounds[:2], parts.plate.bounds[2:]
     ax1.set_xlim(b0[0], b1[0])
     ax1.set_ylim(b0[1], b1[1])
     ax1.set_aspect("equal")
-    ax1.set_title(f"{parts.part_name} and pin (r = {parts.pin_radius:g}) at three positions (q0, q1)")
+    ax1.set_title(f"{parts.part_name} and pin (r = {parts.pin_made:g}) at three positions (q0, q1)")
     ax1.set_xlabel(f"x ({parts.part_name} frame)")
     ax1.set_ylabel("y" if parts.y_period is None else "y: arc length round the drum")
     fig.tight_layout()

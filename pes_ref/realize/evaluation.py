@@ -16,12 +16,20 @@ design's smooth slopes, so the run takes the step the stability rule allows
   ``sqrt(dt / dt_realized)``, so that the noise's diffusion (its variance per unit time) is
   the design's.
 
+The same held-out evaluation runs on the parts in rigid contact too (:func:`rigid_problem`,
+the rigid engine :func:`pes_ref.rigid.simulate` as the kinds' ``engine``): the same starts,
+force schedules and noise draws, steps and figures, with the parts' contact in place of
+eq. (1). That engine needs no step for the barriers (it cuts each step into substeps that
+move no part more than half a C-space cell), so it runs at the design's own ``dt`` unless the
+springs, walls or damping need less by the same rule (the rule applied to the scene on a flat
+surface). :data:`ENGINES` names both; :func:`evaluate_realized` runs the ones asked for.
+
 What a realization needs of each kind of design is its kind's entry,
 :attr:`pes_ref.synthesis.kinds.DesignKind.realizable`.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -29,18 +37,21 @@ from pes_ref.core import checks
 from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.synthesis.kinds import evaluate, held_out_steps, kind_of
 
-__all__ = ["RealizedRun", "realized_problem", "evaluate_realized", "held_out_positions", "contact_parameters",
-           "start_point", "device_spring"]
+__all__ = ["RealizedRun", "RealizedEngine", "RigidRuns", "ENGINES", "realized_problem", "rigid_problem", "evaluate_realized",
+           "held_out_positions", "contact_parameters", "start_point", "device_spring"]
 
 
 class RealizedRun(NamedTuple):
-    """The design's problem on the realized surface: ``problem`` (the design's, at the step the
-    rule allows), the realized grid ``values``, and the step ``dt`` and ``n_steps`` it takes."""
+    """The design's problem on the realized device: ``problem`` (the design's, at the step the
+    rule allows), the grid ``values`` its scenes are built on, the step ``dt`` and ``n_steps``
+    it takes, and the ``engine`` that runs its scenes (None: the surface model; see
+    :func:`pes_ref.synthesis.kinds.evaluate`)."""
 
     problem: object
     values: np.ndarray
     dt: float
     n_steps: int
+    engine: Callable | None = None
 
 
 def contact_parameters(problem, energy) -> tuple:
@@ -53,9 +64,8 @@ def start_point(problem) -> list:
     return kind_of(problem).realizable.start(problem)
 
 
-def realized_problem(problem, device) -> RealizedRun:
-    """The design ``problem`` on ``device``'s surface, at the step the stability rule allows
-    (module docstring). The device's grid must be the design's surface grid."""
+def _check_grid(problem, device) -> None:
+    """Refuse a device whose grid is not the design's surface grid (key ``realized``)."""
     shape = tuple(problem.shape())
     if tuple(device.shape) != shape or not (np.allclose(device.lower, problem.lower)
                                             and np.allclose(device.upper, problem.upper)):
@@ -63,6 +73,12 @@ def realized_problem(problem, device) -> RealizedRun:
                                             f"{list(map(float, device.lower))} .. {list(map(float, device.upper))}) "
                                             f"is not the design's ({shape[0]} x {shape[1]} on "
                                             f"{list(map(float, problem.lower))} .. {list(map(float, problem.upper))})")
+
+
+def realized_problem(problem, device) -> RealizedRun:
+    """The design ``problem`` on ``device``'s surface, at the step the stability rule allows
+    (module docstring). The device's grid must be the design's surface grid."""
+    _check_grid(problem, device)
     values = np.asarray(device.cspace().surface(device.v, device.r_c, (), device.r_min).values, dtype=np.float64)
     entry = kind_of(problem).realizable
     spring = device_spring(device)
@@ -93,15 +109,83 @@ def device_spring(device):
     return Spring(k, np.divide(moment, k, out=np.zeros(2), where=k > 0))
 
 
-def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: int | None = None) -> dict:
-    """The design's figures and the realized device's, side by side: ``{name: (design, realized)}``,
-    plus ``dt`` and the held-out run's steps ``n_steps`` of each (the realized run's as the rule allows)."""
-    run = realized_problem(problem, device)
-    design = evaluate(problem, values, seed=seed, n_particles=n_particles)
-    realized = evaluate(run.problem, run.values, seed=seed, n_particles=n_particles)
-    out = {name: (value, realized[name]) for name, value in design.items() if not name.startswith("flat_")}
-    out["dt"] = (float(problem.dt), run.dt)
-    out["n_steps"] = (float(held_out_steps(problem)), float(held_out_steps(run.problem)))
+def rigid_problem(problem, device) -> RealizedRun:
+    """The design ``problem`` on ``device``'s parts in rigid contact (module docstring): the
+    design's scenes, at its own ``dt`` unless the springs, walls or damping need less, run by
+    :func:`pes_ref.rigid.simulate`. The device's springs act in the engine
+    (:meth:`pes_ref.devices.cspace.GridSpring.force`), so the scenes have none of their own;
+    their surface (flat) is not used."""
+    from pes_ref.rigid import require_pymunk
+    require_pymunk()                           # refused before any run, with the pip line
+    _check_grid(problem, device)
+    entry = kind_of(problem).realizable
+    values = np.zeros(tuple(problem.shape()))
+    lim = stability_limit(entry.with_spring(problem.plain(), device_spring(device)).scene(values), "rule")
+    base = problem if lim.ratio <= 1.0 else entry.at_step(problem, SAFETY * lim.limit)
+    run = entry.with_spring(base.plain(), None)
+    return RealizedRun(run, values, float(run.dt), int(run.n_steps), RigidRuns(device))
+
+
+class RigidRuns:
+    """The kinds' ``engine`` of the rigid engine: each scene's run on ``device``'s parts.
+
+    A start where the parts overlap (a design's start inside what the parts block: the
+    surface model pushes it out, a rigid part cannot be put there) is not run: its path is
+    NaN throughout, so it passes no test, and :attr:`blocked` counts such starts."""
+
+    def __init__(self, device):
+        self.device = device
+        self.blocked = 0
+
+    def __call__(self, scenes, x0s, v0s) -> list:
+        from pes_ref.core.integrator import Trajectory
+        from pes_ref.rigid import blocked_starts, simulate
+        out = []
+        for scene, x0, v0 in zip(scenes, x0s, v0s):
+            x0 = np.asarray(x0, dtype=float)
+            v0 = np.zeros_like(x0) if v0 is None else np.asarray(v0, dtype=float)
+            free = ~blocked_starts(self.device, x0)
+            self.blocked += int(np.sum(~free))
+            full = [np.full((scene.n_steps + 1,) + x0.shape, np.nan) for _ in range(3)]
+            if free.any():
+                fext = scene.schedule(x0.shape[0])               # every particle's own draws and pushes
+                fext = None if fext is None else fext[:, free]
+                traj = simulate(self.device, scene, x0[free], v0[free], fext=fext)
+                for whole, part in zip(full, (traj.x, traj.v, traj.f)):
+                    whole[:, free] = part
+            out.append(Trajectory(*full))
+        return out
+
+
+class RealizedEngine(NamedTuple):
+    """How one engine runs the design on a realized device: ``prefix`` of its figures
+    (``realized_in_band_fraction``) and ``run(problem, device) -> RealizedRun``."""
+
+    prefix: str
+    run: Callable
+
+
+#: The engines a realized device is checked by: eq. (1) of the distance to the parts
+#: (the surface model), and the parts in rigid contact.
+ENGINES = {"surface": RealizedEngine("realized_", realized_problem),
+           "rigid": RealizedEngine("rigid_", rigid_problem)}
+
+
+def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: int | None = None,
+                      engines=("surface",)) -> dict:
+    """The design's figures and the realized device's under each of ``engines`` (names of
+    :data:`ENGINES`), side by side: ``{name: (design, engine 1, ...)}``, plus ``dt`` and the
+    held-out run's steps ``n_steps`` of each (a realized run's as its engine's rule allows).
+    The flat surface's figures (the same for all) are left out."""
+    runs = [ENGINES[checks.as_choice("engine", name, set(ENGINES))].run(problem, device) for name in engines]
+    columns = [evaluate(problem, values, seed=seed, n_particles=n_particles)]
+    columns += [evaluate(run.problem, run.values, seed=seed, n_particles=n_particles, engine=run.engine)
+                for run in runs]
+    out = {name: tuple(column[name] for column in columns) for name in columns[0] if not name.startswith("flat_")}
+    out["dt"] = (float(problem.dt),) + tuple(float(run.dt) for run in runs)
+    if any(isinstance(run.engine, RigidRuns) for run in runs):        # starts a rigid part cannot be put at
+        out["starts_blocked"] = (0.0,) + tuple(float(getattr(run.engine, "blocked", 0)) for run in runs)
+    out["n_steps"] = (float(held_out_steps(problem)),) + tuple(float(held_out_steps(run.problem)) for run in runs)
     return out
 
 

@@ -77,6 +77,10 @@ class Parts:
     y_scale, y_period : float, float or None
         Where the pin's centre (q0, q1) sits in part 1's frame: ``(q0, y_scale q1)``, taken
         modulo ``y_period`` on a drum.
+    clearance : float
+        How much larger than ``pin_radius`` (the radius part 1 is cut for) the pin is made
+        (:attr:`pin_made`): the parts' C-space obstacle is then the region grown by it, so a
+        rigid pin stands that far off the walls as eq. (1)'s barrier holds a particle off them.
     """
 
     follower: str
@@ -90,12 +94,18 @@ class Parts:
     part_name: str = "plate"
     y_scale: float = 1.0
     y_period: float | None = None
+    clearance: float = 0.0
+
+    @property
+    def pin_made(self) -> float:
+        """The pin's radius as made: the radius part 1 is cut for plus the clearance."""
+        return self.pin_radius + self.clearance
 
     def device_parts(self) -> list:
         """The two ``[[part]]`` tables of the device file."""
         return [
             {"name": "pin", "motion": "translation", "direction": [1.0, 0.0],
-             "shapes": [{"circle": {"center": [0.0, 0.0], "radius": self.pin_radius}}]},
+             "shapes": [{"circle": {"center": [0.0, 0.0], "radius": self.pin_made}}]},
             {"name": self.part_name, **self.motion, "shapes": [_shape_table(p) for p in _pieces(self.plate)]},
         ]
 

@@ -5,6 +5,7 @@ The optional extra ``rigid`` (``pip install 'pes_ref[rigid]'``); without it, bui
 bodies raises :class:`pes_ref.devices.geometry.MissingExtraError` naming that line.
 """
 from pes_ref.rigid.bodies import MOTION_BODIES, RigidParts, require_pymunk, rigid_parts
-from pes_ref.rigid.engine import StartBlockedError, simulate
+from pes_ref.rigid.engine import StartBlockedError, blocked_starts, simulate
 
-__all__ = ["MOTION_BODIES", "RigidParts", "require_pymunk", "rigid_parts", "StartBlockedError", "simulate"]
+__all__ = ["MOTION_BODIES", "RigidParts", "require_pymunk", "rigid_parts", "StartBlockedError", "blocked_starts",
+           "simulate"]

@@ -37,7 +37,8 @@ from pes_ref.core.terms import spring_add_force, wall_add_force, wall_bounds
 from pes_ref.devices.geometry import interiors_overlap, pose, require_shapely
 from pes_ref.rigid.bodies import rigid_parts
 
-__all__ = ["simulate", "SUBSTEP_SHARE", "MAX_SUBSTEPS", "BLOCK_SHARE", "MAX_BLOCK", "StartBlockedError"]
+__all__ = ["simulate", "blocked_starts", "SUBSTEP_SHARE", "MAX_SUBSTEPS", "BLOCK_SHARE", "MAX_BLOCK",
+           "StartBlockedError"]
 
 #: The largest move of a part's point in one substep, as a share of the C-space cell.
 SUBSTEP_SHARE = 0.5
@@ -87,15 +88,24 @@ def _forces(device, scene, q, v, lo_hi, out) -> np.ndarray:
     return out
 
 
+def blocked_starts(device, x0, allowance: float | None = None) -> np.ndarray:
+    """(N,) bool: where the parts posed at ``x0`` (N, 2) overlap by more than ``allowance`` (a
+    length; default :data:`START_ALLOWANCE` of the C-space cell): the starts the engine refuses."""
+    shapely = require_shapely()
+    x0 = np.asarray(x0, dtype=float)
+    if allowance is None:
+        allowance = START_ALLOWANCE * rigid_parts(device, (1.0, 1.0)).cell
+    tol = device.grid.tolerance
+    a = shapely.buffer(pose(device.parts[0], x0[:, 0], tol), -allowance)
+    b = pose(device.parts[1], x0[:, 1], tol)
+    return np.asarray(interiors_overlap(a, b), dtype=bool)
+
+
 def check_start(device, x0, allowance: float) -> None:
     """Refuse starts where the posed parts overlap by more than ``allowance`` (a length: the
     contact's own overlap, so that a run can go on from where another stopped)
     (:class:`StartBlockedError` naming ``x0``)."""
-    shapely = require_shapely()
-    tol = device.grid.tolerance
-    a = shapely.buffer(pose(device.parts[0], x0[:, 0], tol), -allowance)
-    b = pose(device.parts[1], x0[:, 1], tol)
-    bad = np.nonzero(interiors_overlap(a, b))[0]
+    bad = np.nonzero(blocked_starts(device, x0, allowance))[0]
     if bad.size:
         i = int(bad[0])
         raise StartBlockedError("x0", f"x0[{i}] = ({x0[i, 0]:.6g}, {x0[i, 1]:.6g}) is inside blocked space (the "

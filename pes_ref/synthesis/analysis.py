@@ -10,6 +10,13 @@ runs (design and flat surface, every seed) as one population
 ``KIND_panels`` the same held-out particles' paths, each with whether it passed, for
 ``evaluate --plot`` (:mod:`pes_ref.synthesis.plots`). :mod:`pes_ref.synthesis.kinds` holds
 them as each kind's entry, and its :func:`~pes_ref.synthesis.kinds.evaluate` serves every kind.
+
+The ``evaluate_KIND`` functions take an ``engine``: what runs the scenes on the design's
+surface, ``engine(scenes, x0s, v0s) -> [Trajectory]`` (as
+:func:`pes_ref.core.population.simulate_batch`, one trajectory per scene), the surface model
+when None. A layer above supplies another, such as parts in rigid contact
+(:mod:`pes_ref.realize.evaluation`); the figures are computed from its trajectories as from the
+surface's.
 """
 from __future__ import annotations
 
@@ -194,21 +201,30 @@ def _surfaces(problem, values) -> tuple:
     return ("", values), ("flat_", problem.flat_values(values.shape))
 
 
-def _population(runs: dict) -> dict:
-    """``simulate_batch`` of the ``(scene, x0, v0)`` runs of ``runs``: name -> trajectory."""
-    trajectories = simulate_batch([r[0] for r in runs.values()], [r[1] for r in runs.values()],
-                                  [r[2] for r in runs.values()])
-    return dict(zip(runs, trajectories))
+def _population(runs: dict, engine=None) -> dict:
+    """``simulate_batch`` of the ``(scene, x0, v0)`` runs of ``runs`` (keyed ``(prefix, ...)``):
+    name -> trajectory. With an ``engine`` (module docstring), the runs on the design's surface
+    (prefix ``""``) are the engine's; the flat surface's stay the surface model's (a flat
+    surface has no parts)."""
+    own = {} if engine is None else {key: run for key, run in runs.items() if key[0] == ""}
+    rest = {key: run for key, run in runs.items() if key not in own}
+    out = {}
+    for group, run_all in ((rest, simulate_batch), (own, engine)):
+        if group:
+            out.update(zip(group, run_all([r[0] for r in group.values()], [r[1] for r in group.values()],
+                                          [r[2] for r in group.values()])))
+    return {key: out[key] for key in runs}
 
 
-def evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int) -> dict:
+def evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int, engine=None) -> dict:
     """The funnel's held-out figures: seed -> figures of ``n`` particles per seed, on the design
     and on the flat surface (``flat_``): the share of particles that exit in the band
     (:meth:`~pes_ref.synthesis.funnel.FunnelProblem.in_band`), that exit at all, and the
-    standard deviation of the exit q0; every run one population."""
+    standard deviation of the exit q0; every run one population. ``engine`` runs the design's
+    scenes (:func:`pes_ref.synthesis.kinds.evaluate`; the flat surface's stay on the surface model)."""
     runs = {(prefix, seed): _funnel_run(problem, vals, n, seed)
             for prefix, vals in _surfaces(problem, values) for seed in seeds}
-    paths = _population(runs)
+    paths = _population(runs, engine)
     figures = {}
     for seed in seeds:
         out = figures[seed] = {}
@@ -222,7 +238,7 @@ def evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int) -> dic
     return figures
 
 
-def evaluate_oscillator(problem: OscillatorProblem, values, seeds: tuple, n: int) -> dict:
+def evaluate_oscillator(problem: OscillatorProblem, values, seeds: tuple, n: int, engine=None) -> dict:
     """The torque sweep of each seed and the 5 x 5 grid (the same for every seed), on the
     design and on the flat surface, as one population."""
     runs = {}
@@ -232,7 +248,7 @@ def evaluate_oscillator(problem: OscillatorProblem, values, seeds: tuple, n: int
         for seed in seeds:
             _, x0, scene = _torque_sweep_run(problem, vals, n, None, seed)
             runs[(prefix, seed)] = (scene, x0, None)
-    traj = _population(runs)
+    traj = _population(runs, engine)
     return {seed: _oscillator_figures(problem, {prefix: (traj[(prefix, seed)], traj[(prefix, "grid")])
                                                 for prefix, _ in _surfaces(problem, values)}, n)
             for seed in seeds}
@@ -270,15 +286,16 @@ def _reduce(reduce, x: np.ndarray) -> float:
     return float(reduce(x)) if x.size else float("nan")
 
 
-def evaluate_problem(problem: DesignProblem, values, seeds: tuple, n: int) -> dict:
+def evaluate_problem(problem: DesignProblem, values, seeds: tuple, n: int, engine=None) -> dict:
     """A problem file's held-out figures: seed -> figures of ``n`` particles: the success
     fraction (every test) and each test's, each share criterion and whether it is met, each
-    objective term's value, each scenario's success fraction and the flat surface's."""
-    return {seed: _evaluate_problem_seed(problem, values, seed, n) for seed in seeds}
+    objective term's value, each scenario's success fraction and the flat surface's.
+    ``engine`` runs the design's scenes (:func:`pes_ref.synthesis.kinds.evaluate`)."""
+    return {seed: _evaluate_problem_seed(problem, values, seed, n, engine) for seed in seeds}
 
 
-def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int) -> dict:
-    held = problem.run(values, seed, n)
+def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int, engine=None) -> dict:
+    held = problem.run(values, seed, n, engine=engine)
     every, each = passes_all([test for _, test in problem.tests], held.traj.x, held.traj.v, held.times)
     out = {"success_fraction": float(np.mean(every))}
     for (name, test), ok in zip(problem.tests, each):
@@ -292,7 +309,7 @@ def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int) ->
     for name, value in zip(problem.term_names, values_of_terms):
         out[f"objective_{name}"] = float(value)
     for scenario in problem.scenarios:
-        run = problem.run(values, seed, n, scenario)
+        run = problem.run(values, seed, n, scenario, engine=engine)
         ok, _ = passes_all([test for _, test in scenario.tests], run.traj.x, run.traj.v, run.times)
         out[f"scenario_{scenario.name}_success_fraction"] = float(np.mean(ok))
     flat = problem.run(problem.flat_values(values.shape), seed, n)

@@ -293,11 +293,13 @@ class DesignProblem(_Problem):
             out.append((start, stop, " + ".join(on)))
         return out
 
-    def run(self, values, seed: int, n_particles: int, scenario: Scenario | None = None) -> HeldOut:
-
+    def run(self, values, seed: int, n_particles: int, scenario: Scenario | None = None, engine=None) -> HeldOut:
         """Held-out particles: the training sampler with ``default_rng(seed)`` under the problem's
-        schedule, or ``scenario``'s."""
+        schedule, or ``scenario``'s; run by ``engine(scenes, x0s, v0s) -> [Trajectory]`` if given
+        (:mod:`pes_ref.synthesis.analysis`), else the surface model."""
         n_steps, forces = (None, None) if scenario is None else (scenario.n_steps, scenario.forces)
         batch = self.batch(np.asarray(values, dtype=np.float64), np.random.default_rng(seed), n_particles, n_steps,
                            forces)
-        return HeldOut(batch.x0, simulate(batch.scene, batch.x0, batch.v0), self.times(batch.scene.n_steps))
+        traj = (simulate(batch.scene, batch.x0, batch.v0) if engine is None
+                else engine([batch.scene], [batch.x0], [batch.v0])[0])
+        return HeldOut(batch.x0, traj, self.times(batch.scene.n_steps))

@@ -45,7 +45,9 @@ class Realizable(NamedTuple):
     - ``at_step(problem, dt)``: the problem run at step ``dt``, its durations and the noise's
       diffusion per unit time kept;
     - ``with_spring(problem, spring)``: the problem with its scene's spring the device's
-      (a :class:`pes_ref.core.terms.Spring`, or None for none).
+      (a :class:`pes_ref.core.terms.Spring`, or None for none);
+    - ``parts(problem)``: what the problem states the parts are made with, ``{"clearance": C,
+      "restitution": E}`` (either left out: the realization's defaults).
     """
 
     positions: Callable
@@ -53,6 +55,7 @@ class Realizable(NamedTuple):
     contact: Callable
     at_step: Callable
     with_spring: Callable
+    parts: Callable = lambda problem: {}
 
 
 class Smoke(NamedTuple):
@@ -100,7 +103,9 @@ class DesignKind:
     smoke : Smoke
         The ``--smoke`` preset.
     evaluate : callable
-        ``(problem, values, seeds, n) -> {seed: figures}``: the held-out figures (:func:`evaluate_seeds`).
+        ``(problem, values, seeds, n, engine) -> {seed: figures}``: the held-out figures
+        (:func:`evaluate_seeds`); ``engine`` runs the scenes on the design's surface (None: the
+        surface model; :mod:`pes_ref.synthesis.analysis`).
     eval_particles : callable
         ``problem -> int``: the held-out particles by default.
     held_out_steps : callable
@@ -230,6 +235,17 @@ def _problem_contact(problem, energy) -> tuple:
     return problem.contact.v, problem.contact.r_c, problem.contact.r_min
 
 
+def _problem_parts(problem) -> dict:
+    """A problem file's ``[surface.contact]`` clearance and restitution (those it states)."""
+    contact = problem.contact
+    if contact is None:
+        return {}
+    out = {"clearance": contact.clearance}
+    if contact.restitution is not None:
+        out["restitution"] = contact.restitution
+    return out
+
+
 def _problem_start(problem) -> list:
     starts = problem.starts
     if starts.box is not None:
@@ -297,7 +313,7 @@ KINDS = {
         realizable=Realizable(
             positions=lambda problem, values, seed, n: problem.run(values, seed, n).traj.x,
             start=_problem_start, contact=_problem_contact, at_step=at_step,
-            with_spring=lambda problem, spring: problem.with_spring(spring))),
+            with_spring=lambda problem, spring: problem.with_spring(spring), parts=_problem_parts)),
 }
 
 
@@ -312,7 +328,7 @@ def kind_of(problem) -> DesignKind:
 
 
 # ---------------------------------------------------------------- held-out evaluation, every kind
-def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None) -> dict:
+def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None, engine=None) -> dict:
     """Held-out figures of design ``values`` (the figures of ``python -m pes_ref evaluate``).
 
     Funnel (``n_particles`` default 200, held-out seed ``seed``): ``in_band_fraction``,
@@ -327,9 +343,13 @@ def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None)
     ``gait_advance`` (the problem's ``gait_delta``), and ``flat_captured_fraction``. A problem
     file's design: ``success_fraction``, one ``success_NAME`` per test, the share criteria, the
     objective's terms, the scenarios' and the flat surface's success (docs/problems.md).
+
+    ``engine``: what runs the held-out scenes on the design's surface,
+    ``engine(scenes, x0s, v0s) -> [Trajectory]`` (None: the surface model; another, such as
+    realized parts in rigid contact, gets the same scenes: starts, forces, noise draws, steps).
     """
     seed = checks.as_nonneg_int("seed", seed)
-    return evaluate_seeds(problem, values, (seed,), n_particles)[seed]
+    return evaluate_seeds(problem, values, (seed,), n_particles, engine)[seed]
 
 
 def _particles(problem, n_particles) -> int:
@@ -338,10 +358,10 @@ def _particles(problem, n_particles) -> int:
     return checks.as_positive_int("n_particles", n_particles)
 
 
-def evaluate_seeds(problem, values, seeds, n_particles: int | None = None) -> dict:
+def evaluate_seeds(problem, values, seeds, n_particles: int | None = None, engine=None) -> dict:
     """:func:`evaluate` on each held-out seed of ``seeds``: seed -> figures, each the same
-    numbers as ``evaluate(problem, values, seed, n_particles)``; the runs of every seed (and
-    of the flat surface) are one population (:func:`pes_ref.core.population.simulate_batch`)."""
+    numbers as ``evaluate(problem, values, seed, n_particles, engine)``; the runs of every seed
+    (and of the flat surface) are one population (:func:`pes_ref.core.population.simulate_batch`)."""
     values = checks.as_float_array("values", values, ndim=2)
     seeds = tuple(dict.fromkeys(checks.as_nonneg_int("seed", s) for s in seeds))
     n = _particles(problem, n_particles)
@@ -349,7 +369,7 @@ def evaluate_seeds(problem, values, seeds, n_particles: int | None = None) -> di
     # one population: each seed's runs on the design and on the flat surface
     budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True,
                         length=f"a held-out run of {steps} steps", runs=2 * len(seeds))
-    return kind_of(problem).evaluate(problem, values, seeds, n)
+    return kind_of(problem).evaluate(problem, values, seeds, n, engine)
 
 
 def held_out_steps(problem) -> int:

@@ -1,7 +1,9 @@
 """A problem file's contact: eq. (1) of blocked space, and a design made of it (``[surface.contact]``).
 
 A problem file may state the contact its designs are realized by (``docs/problems.md``,
-``docs/realize.md``): eq. (1)'s strength ``v``, cut-off ``r_c`` and cap ``r_min``. With
+``docs/realize.md``): eq. (1)'s strength ``v``, cut-off ``r_c`` and cap ``r_min``, and the
+parts' ``clearance`` (the pin made that much larger than its cut-out) and ``restitution`` (the
+rigid engine's), what the realized parts are made with. With
 ``realizable = true`` the design's grid values are a level set
 (:class:`pes_ref.synthesis.level_set.LevelSet`): the simulated surface is always eq. (1) of
 the shape ``{values + r_c < 0}``, and the design starts from the shapes ``blocked`` (drawn as
@@ -21,13 +23,16 @@ __all__ = ["Contact", "signed_distance"]
 
 class Contact(NamedTuple):
     """``[surface.contact]``: eq. (1)'s ``v``, ``r_c``, ``r_min``, whether the design is a level set
-    (``realizable``) and its starting shapes ``blocked`` (:mod:`pes_ref.devices.geometry` shapes; ``()``: none)."""
+    (``realizable``), its starting shapes ``blocked`` (:mod:`pes_ref.devices.geometry` shapes; ``()``: none),
+    and the realized parts' ``clearance`` and ``restitution`` (None: not stated)."""
 
     v: float
     r_c: float
     r_min: float
     realizable: bool
     blocked: tuple
+    clearance: float = 0.0
+    restitution: float | None = None
 
     def level_set(self) -> LevelSet | None:
         """The level set of a realizable design (None: the grid values are energies)."""

@@ -63,7 +63,8 @@ SURFACE_KEYS = {
 CONTACT_KEYS = {
     "v": Key("positive", unit="energy length^2"), "r_c": Key("positive", unit="length"),
     "r_min": Key("positive", None, unit="length"), "realizable": Key("bool", False),
-    "blocked": Key("shapes", None, unit="length"),
+    "blocked": Key("shapes", None, unit="length"), "clearance": Key("nonneg", 0.0, unit="length"),
+    "restitution": Key("nonneg", None),
 }
 HOLD_KEYS = {"lower": Key("point", unit="length"), "upper": Key("point", unit="length")}
 DYNAMICS_KEYS = {
@@ -273,7 +274,10 @@ def _contact(r: Reader, table, surface: dict) -> Contact | None:
     if not keys["realizable"] and keys["blocked"] is not None:
         r.fail("surface.contact.blocked", "is the starting shape of a realizable design; set "
                                           "surface.contact.realizable = true, or leave blocked out")
-    return Contact(keys["v"], keys["r_c"], float(r_min), keys["realizable"], keys["blocked"] or ())
+    if keys["restitution"] is not None and keys["restitution"] > 1.0:
+        r.fail("surface.contact.restitution", f"expected a number in [0, 1], got {show(keys['restitution'])}")
+    return Contact(keys["v"], keys["r_c"], float(r_min), keys["realizable"], keys["blocked"] or (),
+                   keys["clearance"], keys["restitution"])
 
 
 def _section(r: Reader, data: dict, name: str) -> dict:

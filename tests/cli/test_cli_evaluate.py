@@ -126,3 +126,57 @@ def test_the_built_in_kinds_panels(name, title, designs):
     panels = held_out_panels(state.problem, state.values, n_particles=8)
     assert panels and all(title in p.title and p.passed.dtype == bool for p in panels)
     assert not math.isnan(float(np.mean(panels[0].passed)))
+
+
+# ------------------------------------------------------------------ --realized --engine
+@pytest.fixture(scope="module")
+def realized(designs):
+    """The smoke funnel realized by contact: (design file, device file)."""
+    pytest.importorskip("shapely")
+    out = designs / "funnel_parts"
+    assert main(["realize", str(designs / "funnel.npz"), "--as", "contact", "--out", str(out)]) == EXIT_OK
+    return designs / "funnel.npz", out / "device.toml"
+
+
+def test_engine_both_prints_the_design_the_surface_and_the_rigid_figures_and_their_difference(realized, capsys):
+    pytest.importorskip("pymunk")
+    design, device = realized
+    code, out, err = run(capsys, "evaluate", design, "--realized", device, "--engine", "both", *PARTICLES)
+    assert code == EXIT_OK, err
+    lines = dict(line.split(": ", 1) for line in out.splitlines())
+    for name in ("in_band_fraction", "exited_fraction", "dt", "n_steps"):
+        assert {name, f"realized_{name}", f"rigid_{name}"} <= lines.keys()
+    difference = float(lines["rigid_in_band_fraction"]) - float(lines["realized_in_band_fraction"])
+    assert float(lines["rigid_minus_realized_in_band_fraction"]) == pytest.approx(difference, abs=1e-6)
+    assert "rigid_minus_realized_dt" not in lines
+    # bit-identical on repeat (every line but the wall time)
+    again = run(capsys, "evaluate", design, "--realized", device, "--engine", "both", *PARTICLES)[1]
+    assert [x for x in out.splitlines() if not x.startswith("seconds")] == \
+        [x for x in again.splitlines() if not x.startswith("seconds")]
+    # --engine rigid alone: the rigid lines, no surface-realized ones, the same numbers
+    code, alone, err = run(capsys, "evaluate", design, "--realized", device, "--engine", "rigid", *PARTICLES)
+    assert code == EXIT_OK, err
+    rigid = dict(line.split(": ", 1) for line in alone.splitlines())
+    assert rigid["rigid_in_band_fraction"] == lines["rigid_in_band_fraction"]
+    assert not any(name.startswith("realized_") for name in rigid)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--engine", "soft"], "--engine 'soft': expected one of surface, rigid, both"),
+    (["--engine", "rigid", "--no-realized"], "--engine rigid runs a realized device's parts: it needs --realized"),
+])
+def test_a_bad_engine_is_one_line_naming_the_flag(realized, capsys, argv, words):
+    design, device = realized
+    argv = [a for a in argv if a != "--no-realized"] + ([] if "--no-realized" in argv else ["--realized", device])
+    code, out, err = run(capsys, "evaluate", design, *argv, *PARTICLES)
+    assert code == EXIT_ERROR and out == ""
+    assert err.count("\n") == 1 and words in err
+
+
+def test_the_rigid_engine_without_pymunk_is_one_line_with_the_pip_line(realized, capsys, monkeypatch):
+    import sys
+    monkeypatch.setitem(sys.modules, "pymunk", None)
+    design, device = realized
+    code, out, err = run(capsys, "evaluate", design, "--realized", device, "--engine", "both", *PARTICLES)
+    assert code == EXIT_ERROR and out == ""
+    assert err.count("\n") == 1 and "pip install 'pes_ref[rigid]'" in err

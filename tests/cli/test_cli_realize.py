@@ -39,10 +39,13 @@ def design(tmp_path_factory):
 def test_realize_writes_every_file_and_checks_each_read_back(capsys, design, tmp_path):
     out_dir = tmp_path / "parts"
     code, out, err = run(capsys, "realize", str(design), "--as", "contact", "--rule", "value", "--level", "0.1",
-                         "--out", str(out_dir))
+                         "--out", str(out_dir), "--particles", "6", "--seed", "9191")
     assert code == EXIT_OK, err
     assert sorted(p.name for p in out_dir.iterdir()) == sorted(FILES)
     got = figures(out)
+    # the design's headline figure beside the parts' under eq. (1) and in rigid contact
+    assert got["score_seed"] == "9191" and got["score_particles"] == "6"
+    assert {"in_band_fraction", "realized_in_band_fraction", "rigid_in_band_fraction"} <= got.keys()
     assert got["rule"] == "value" and float(got["level"]) == 0.1
     assert abs(float(got["device_blocked_share"]) - float(got["blocked_share"])) < 0.02
     assert float(got["plate_area_dxf"]) == pytest.approx(float(got["plate_area_device"]), rel=1e-9)
@@ -110,7 +113,8 @@ def test_existing_files_are_kept_unless_forced(capsys, design, tmp_path):
     out_dir = tmp_path / "parts"
     out_dir.mkdir()
     (out_dir / "plate.dxf").write_text("a user's drawing")
-    argv = ["realize", str(design), "--as", "contact", "--rule", "value", "--level", "0.1", "--out", str(out_dir)]
+    argv = ["realize", str(design), "--as", "contact", "--rule", "value", "--level", "0.1", "--out", str(out_dir),
+            "--particles", "4"]
     code, out, err = run(capsys, *argv)
     assert code == EXIT_ERROR and out == "" and "plate.dxf exists already" in err
     assert [p.name for p in out_dir.iterdir()] == ["plate.dxf"] and (out_dir / "plate.dxf").read_text() == "a user's drawing"
@@ -175,7 +179,7 @@ def oscillator_design(tmp_path_factory):
 def test_a_cylinder_design_becomes_a_drum_cam_and_its_own_evaluation_runs_on_it(capsys, oscillator_design, tmp_path):
     out_dir = tmp_path / "drum"
     code, out, err = run(capsys, "realize", str(oscillator_design), "--as", "contact", "--rule", "value", "--level",
-                         "0.25", "--drum-radius", "2", "--out", str(out_dir))
+                         "0.25", "--drum-radius", "2", "--out", str(out_dir), "--particles", "4")
     assert code == EXIT_OK, err
     assert sorted(p.name for p in out_dir.iterdir()) == sorted(("device.toml", "drum.dxf", "drum.stl", "pin.stl",
                                                                 "parts.png"))
@@ -191,3 +195,14 @@ def test_a_cylinder_design_becomes_a_drum_cam_and_its_own_evaluation_runs_on_it(
     got = figures(out)
     assert 0.0 <= float(got["realized_captured_fraction"]) <= 1.0 and "realized_q1_advance_median" in got
     assert float(got["realized_dt"]) <= float(got["dt"])
+
+
+def test_realize_without_pymunk_says_the_rigid_score_is_not_run_with_the_pip_line(capsys, monkeypatch, design,
+                                                                                     tmp_path):
+    monkeypatch.setitem(sys.modules, "pymunk", None)
+    code, out, err = run(capsys, "realize", str(design), "--as", "contact", "--rule", "value", "--level", "0.1",
+                         "--out", str(tmp_path / "p"), "--particles", "4")
+    assert code == EXIT_OK, err
+    got = figures(out)
+    assert "realized_in_band_fraction" in got
+    assert got["rigid_in_band_fraction"].startswith("not run") and "pip install 'pes_ref[rigid]'" in out

@@ -14,6 +14,8 @@ FAULTS = [
     Fault("evaluate-particles-zero", "evaluate design.npz --particles 0", ("--particles must be >= 1", "0")),
     Fault("evaluate-particles-negative", "evaluate design.npz --particles -3", ("--particles must be >= 1", "-3")),
     Fault("evaluate-seed-negative", "evaluate design.npz --seed -1", ("--seed must be >= 0", "-1")),
+    Fault("evaluate-engine-unknown", "evaluate design.npz --engine soft", ("--engine 'soft'", "surface, rigid, both")),
+    Fault("evaluate-engine-without-realized", "evaluate design.npz --engine rigid", ("--engine rigid", "--realized")),
     Fault("evaluate-particles-float", "evaluate design.npz --particles 2.5", ("--particles", "'2.5'")),
     Fault("evaluate-unknown-option", "evaluate design.npz --bogus", ("--bogus",)),
     Fault("evaluate-particles-too-many-for-memory", "evaluate design.npz --particles 1000000000",

@@ -2,6 +2,8 @@
 design, realize and evaluate --realized commands and writes its table."""
 import csv
 
+import pytest
+
 from _helpers import ROOT, load_script
 
 study = load_script(ROOT / "validation" / "experiments" / "realize_study.py")
@@ -46,3 +48,17 @@ def test_the_latch_study_writes_a_row_per_held_out_seed(tmp_path, capsys):
     for r in rows:
         assert r["rule"] == "level-set" and r["iterations"] == "0"
         assert 0.0 <= float(r["realized_success_fraction"]) <= 1.0
+
+
+def test_the_smoke_rigid_study_writes_both_engines_scores_per_candidate_and_seed(tmp_path, capsys):
+    pytest.importorskip("pymunk")
+    rigid = load_script(ROOT / "validation" / "experiments" / "realize_rigid.py")
+    name = "funnel, realizable, V start, linger 20"
+    assert rigid.main(["--smoke", "--out", str(tmp_path), "--only", name]) == 0
+    out = capsys.readouterr().out
+    tried = [c for c, (applies, _) in rigid.CANDIDATES.items() if name in applies]
+    assert out.count(f"| {name} |") == len(tried) * len(rigid.HELD_OUT)
+    rows = [r for f in tmp_path.glob("realize_rigid*.csv") for r in csv.DictReader(open(f, newline=""))]
+    assert [r["candidate"] for r in rows] == [c for c in tried for _ in rigid.HELD_OUT]
+    for r in rows:
+        assert 0.0 <= float(r["soft"]) <= 1.0 and 0.0 <= float(r["rigid"]) <= 1.0

@@ -106,3 +106,23 @@ def test_an_existing_file_is_kept(realized, tmp_path):
 def test_what_is_lost_is_said(realized):
     assert any("energies below the contact level" in line for line in realized.lost)
     assert any("changes side" in line for line in realized.lost)
+
+
+def test_a_clearance_makes_the_pin_larger_than_its_cut_out_and_grows_what_the_parts_block(problem, realized):
+    loose = realize_contact(problem, _v_walls(problem), "value", LEVEL, name="v", clearance=0.05, restitution=0.9)
+    assert loose.parts.plate.equals(realized.parts.plate)           # the same plate ...
+    pin = loose.device["part"][0]["shapes"][0]["circle"]["radius"]
+    assert pin == pytest.approx(realized.parts.pin_radius + 0.05)   # ... and a larger pin
+    device = parse_device(tomllib.loads(exports.device_text(loose.device, "test")), "v.toml")
+    tight = parse_device(tomllib.loads(exports.device_text(realized.device, "test")), "v.toml")
+    grown = device.cspace().blocked
+    assert (grown >= tight.cspace().blocked).all() and grown.mean() > tight.cspace().blocked.mean()
+    assert device.restitution == 0.9 and tight.restitution == 0.0 and "rigid" not in realized.device
+    assert any("0.05 larger" in line for line in loose.lost)
+
+
+@pytest.mark.parametrize("kw, words", [({"clearance": -0.1}, "clearance must be >= 0"),
+                                       ({"restitution": 1.5}, r"restitution must be in \[0, 1\]")])
+def test_a_bad_clearance_or_restitution_is_refused_naming_it(problem, kw, words):
+    with pytest.raises(ValueError, match=words):
+        realize_contact(problem, _v_walls(problem), "value", LEVEL, **kw)

@@ -101,3 +101,27 @@ def test_the_shipped_latch_s_starting_shapes_are_realized_by_a_pin_in_a_plate():
     assert real.parts.lost_share < 0.01 and 0.3 < real.region.blocked_share < 0.35
     assert [s["axis"] for s in real.device["energy"]["springs"]] == [0, 1]
     assert real.device["dynamics"]["walls"]["edges"][0] == [False, True]      # the dart leaves by q0 = -1
+
+
+def test_the_problem_s_clearance_and_restitution_are_the_parts_and_the_options_win(problem, values, realized):
+    stated = copy.deepcopy(SETS["surface.contact"])
+    stated.update(clearance=0.02, restitution=0.8)
+    loose = with_sets(problem, {"surface.contact": stated})
+    real = realize_contact(loose, values)
+    pin = real.device["part"][0]["shapes"][0]["circle"]["radius"]
+    assert pin == pytest.approx(realized.parts.pin_radius + 0.02) and real.device["rigid"] == {"restitution": 0.8}
+    own = realize_contact(loose, values, clearance=0.0, restitution=0.0)         # the options win
+    assert own.device["part"][0]["shapes"][0]["circle"]["radius"] == realized.parts.pin_radius
+    assert own.device["rigid"] == {"restitution": 0.0}
+    assert "rigid" not in realized.device                                          # none stated: inelastic
+
+
+def test_a_restitution_above_one_in_the_problem_file_is_refused_naming_the_key(problem):
+    stated = {**SETS["surface.contact"], "restitution": 1.5}
+    with pytest.raises(ValueError, match=r"surface\.contact\.restitution.*\[0, 1\]"):
+        with_sets(problem, {"surface.contact": stated})
+
+
+def test_the_shipped_latch_states_the_clearance_and_restitution_its_rigid_parts_need():
+    contact = load_problem(shipped_problem("latch_contact")).contact
+    assert (contact.clearance, contact.restitution) == (0.035, 1.0)

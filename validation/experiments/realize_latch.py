@@ -5,7 +5,8 @@
 commands in-process: ``design latch_contact ...`` (the shipped realizable latch, a level set
 starting from a tooth and a cam; for the starting shapes alone, saved as a design file with no
 iteration) or ``design latch --set surface.contact=...`` (the smooth latch, its contact stated),
-``realize DESIGN --as contact --out DIR`` (the default rule: ``level-set`` or ``visited``) and
+``realize DESIGN --as contact --clearance 0 --restitution 0 --out DIR`` (the default rule:
+``level-set`` or ``visited``; the parts of the design's own shape) and
 ``evaluate DESIGN --realized DIR/device.toml --seed S`` for the held-out seeds 12345 and 9191; it
 prints one row per variant and seed (the design's success fractions beside the realized
 device's, each command's wall time) and writes them to ``OUT/realize_latch.csv``. ``--smoke``
@@ -23,8 +24,11 @@ ROOT = Path(__file__).resolve().parents[2]
 _SPEC = importlib.util.spec_from_file_location("realize_study", Path(__file__).with_name("realize_study.py"))
 _study = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(_study)
-HELD_OUT, _cli = _study.HELD_OUT, _study._cli      # the funnel study's runner
+HELD_OUT, _cli, SCORE_CHECK = _study.HELD_OUT, _study._cli, _study.SCORE_CHECK      # the funnel study's runner
 DEFAULT_OUT = ROOT / "validation" / "out" / "realize_latch"
+#: The parts of the design's own shape: the pin 0.02 exactly, inelastic (latch_contact.toml's clearance
+#: and restitution are for rigid parts: realize_rigid.py).
+EXACT = ["--clearance", "0", "--restitution", "0"]
 #: The smooth latch's contact: latch_contact.toml's eq. (1).
 SMOOTH_CONTACT = "surface.contact={ v = 0.0012, r_c = 0.1, r_min = 0.03 }"
 #: name -> the design command's arguments (None: the starting shapes alone, saved with no iteration).
@@ -62,7 +66,8 @@ def run(out: Path, smoke: bool, names=None) -> list:
                 args = [a for a in args if a not in ("--iterations", "200")] + ["--iterations", "2"]
             _, t_design = _cli(["design", *args, "--quiet", "--force", "--out", str(design)])
         parts = out / f"parts{i}"
-        text, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force"])
+        text, t_realize = _cli(["realize", str(design), "--as", "contact", *SCORE_CHECK, *EXACT,
+                                "--out", str(parts), "--force"])
         rows += _study._evaluated(name, design, parts, text, t_design, t_realize, FIGURES)
     return rows
 

@@ -33,6 +33,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_OUT = ROOT / "validation" / "out" / "realize_study"
 HELD_OUT = (12345, 9191)
+#: realize's own check of the parts' score, kept small: the study's figures are its evaluate runs.
+SCORE_CHECK = ["--particles", "8"]
 REALIZABLE = ["--set", "realizable=true"]
 #: name -> the design command's options (None: the V start alone, saved with no iteration).
 VARIANTS = {
@@ -103,7 +105,8 @@ def run(out: Path, smoke: bool, names=None) -> list:
             _, t_design = _cli(["design", "funnel", *options, *(["--smoke"] if smoke else []), "--quiet",
                                 "--force", "--out", str(design)])
         parts = out / f"parts{i}"
-        text, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force"])
+        text, t_realize = _cli(["realize", str(design), "--as", "contact",
+                                *SCORE_CHECK, "--out", str(parts), "--force"])
         rows += _evaluated(name, design, parts, text, t_design, t_realize)
         if name in HEIGHTFIELD:
             for seed in HELD_OUT:
@@ -121,7 +124,8 @@ def run(out: Path, smoke: bool, names=None) -> list:
         for k, line in enumerate(line for line in text.splitlines() if line.startswith("neighbour: ")):
             label, level = line.split(": ")[1], line.split("level ")[1].split(",")[0]
             other = out / f"parts{i}_{k}"
-            more, t_more = _cli(["realize", str(design), "--as", "contact", "--rule", "value", "--level", level,
+            more, t_more = _cli(["realize", str(design), "--as", "contact",
+                                 *SCORE_CHECK, "--rule", "value", "--level", level,
                                  "--out", str(other), "--force"])
             rows += _evaluated(f"{name}, {label} (level {level})", design, other, more, t_design, t_more)
     return rows
@@ -164,12 +168,13 @@ def run_oscillator(out: Path, smoke: bool) -> tuple:
     flat = {seed: _figures(_cli(["evaluate", str(design), "--seed", str(seed)])[0])["flat_captured_fraction"]
             for seed in HELD_OUT}
     parts = out / "drum"
-    text, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force"])
+    text, t_realize = _cli(["realize", str(design), "--as", "contact", *SCORE_CHECK, "--out", str(parts), "--force"])
     runs = [("visited (quantile 0.99)", parts, text, t_realize)]
     for k, line in enumerate(line for line in text.splitlines() if line.startswith("neighbour: ")):
         label, level = line.split(": ")[1], line.split("level ")[1].split(",")[0]
         other = out / f"drum_{k}"
-        more, t_more = _cli(["realize", str(design), "--as", "contact", "--rule", "value", "--level", level,
+        more, t_more = _cli(["realize", str(design), "--as", "contact",
+                             *SCORE_CHECK, "--rule", "value", "--level", level,
                              "--out", str(other), "--force"])
         runs.append((f"{label} ({level})", other, more, t_more))
     rows = []

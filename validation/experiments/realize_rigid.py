@@ -1,0 +1,112 @@
+"""docs/realize.md's "Parts under the rigid engine": realized designs run in rigid contact.
+
+``make realize-rigid`` (``python validation/experiments/realize_rigid.py``) runs the project's own
+commands in-process for each variant: ``design ...`` (skipped when ``OUT/NAME.npz`` exists and
+``--reuse`` is given), then for each candidate ``realize DESIGN --as contact --out DIR`` (the
+default rule and pin radius; the parts as realized, or with what a machinist can choose without
+a new design: ``--clearance``, a pin larger than its cut-out in the same plate, and
+``--restitution``) and for each held-out seed
+``evaluate DESIGN --realized DEVICE --engine both --seed S``. It prints one row per variant,
+candidate and seed (the design's headline figure, the parts' under eq. (1) and in rigid contact,
+each evaluation's wall time and the load) and writes them to ``OUT/realize_rigid.csv``.
+``--smoke`` designs with ``--smoke`` and evaluates 8 particles (seconds; for a try).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+_SPEC = importlib.util.spec_from_file_location("realize_study", Path(__file__).with_name("realize_study.py"))
+_study = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(_study)
+HELD_OUT, _cli, _figures = _study.HELD_OUT, _study._cli, _study._figures
+DEFAULT_OUT = ROOT / "validation" / "out" / "realize_rigid"
+#: name -> (file stem, the design command's arguments, the headline figure).
+VARIANTS = {
+    "latch_contact (shipped plan)": ("latch_contact", ["latch_contact"], "success_fraction"),
+    "funnel, realizable, default plan (strips)": ("funnel_strips", ["funnel", "--set", "realizable=true"],
+                                                  "in_band_fraction"),
+    "funnel, realizable, V start, linger 20": ("funnel_vee", ["funnel", "--set", "realizable=true", "--set",
+                                                              "linger=20", "--set", "init_shape=vee"],
+                                               "in_band_fraction"),
+    "oscillator (default plan)": ("oscillator", ["oscillator", "--workers", "1"], "captured_fraction"),
+}
+LATCH, VEE = "latch_contact (shipped plan)", "funnel, realizable, V start, linger 20"
+#: candidate -> (the variants it is tried on, the realize command's extra arguments): what a
+#: machinist can choose without a new design (a pin larger than its cut-out, the parts' restitution).
+CANDIDATES = {
+    "pin 0.02, no clearance, inelastic": (tuple(VARIANTS), ["--clearance", "0", "--restitution", "0"]),
+    "clearance 0.03 (pin 0.05, the same plate)": ((LATCH, VEE), ["--clearance", "0.03", "--restitution", "0"]),
+    "clearance 0.03, restitution 0.5": ((LATCH,), ["--clearance", "0.03", "--restitution", "0.5"]),
+    "clearance 0.03, restitution 0.9": ((LATCH, VEE), ["--clearance", "0.03", "--restitution", "0.9"]),
+    "clearance 0.035, restitution 1 (latch_contact.toml's)": ((LATCH, VEE), ["--clearance", "0.035",
+                                                                             "--restitution", "1"]),
+}
+
+
+def _load() -> str:
+    return f"{os.getloadavg()[0]:.1f}"
+
+
+def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT) -> list:
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for name, (stem, args, headline) in VARIANTS.items():
+        if names and name not in names:
+            continue
+        design = out / f"{stem}.npz"
+        t_design = float("nan")
+        if not (reuse and design.exists()):
+            _, t_design = _cli(["design", *args, *(["--smoke"] if smoke else []), "--quiet", "--force",
+                                "--out", str(design)])
+        for i, (candidate, (applies, extra)) in enumerate(CANDIDATES.items()):
+            if name not in applies:
+                continue
+            parts = out / f"{stem}_parts{i}"
+            _, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force",
+                                 "--particles", "8", *extra])
+            device = parts / "device.toml"
+            for seed in seeds:
+                load = _load()
+                printed, t_eval = _cli(["evaluate", str(design), "--realized", str(device), "--engine", "both",
+                                        "--seed", str(seed), *(["--particles", "8"] if smoke else [])])
+                f = _figures(printed)
+                rows.append({"variant": name, "candidate": candidate, "seed": seed, "figure": headline,
+                             "design": f[headline], "soft": f[f"realized_{headline}"],
+                             "rigid": f[f"rigid_{headline}"], "rigid_dt": f["rigid_dt"],
+                             "blocked_starts": f.get("rigid_starts_blocked", "0"),
+                             "design_s": f"{t_design:.1f}", "realize_s": f"{t_realize:.1f}",
+                             "evaluate_s": f"{t_eval:.1f}", "load": f"{load}-{_load()}"})
+                print(" | ".join(str(v) for v in rows[-1].values()), flush=True)
+    return rows
+
+
+def table(rows: list) -> str:
+    head = ["variant", "candidate", "seed", "figure", "design", "soft (eq. (1))", "rigid", "rigid dt",
+            "starts in the parts", "design s", "realize s", "evaluate s (both engines)", "load"]
+    return _study.markdown(head, list(rows[0]), rows)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder")
+    p.add_argument("--smoke", action="store_true", help="smoke designs, 8 held-out particles (seconds)")
+    p.add_argument("--reuse", action="store_true", help="keep a design file OUT/NAME.npz that exists")
+    p.add_argument("--only", action="append", default=None, metavar="VARIANT", help="run only this variant")
+    p.add_argument("--seed", action="append", type=int, default=None, help="only this held-out seed")
+    args = p.parse_args(argv)
+    start = time.perf_counter()
+    rows = run(args.out, args.smoke, args.reuse, args.only, tuple(args.seed or HELD_OUT))
+    print(table(rows))
+    name = "realize_rigid.csv" if not (args.only or args.seed) else f"realize_rigid_{os.getpid()}.csv"
+    _study.write_csv(args.out / name, rows)
+    print(f"wrote {args.out / name} ({time.perf_counter() - start:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
