@@ -287,8 +287,11 @@ class RigidParts:
     restitution, friction : float
         The contact's (the device's ``[rigid]`` table).
     cell : float
-        The C-space cell in length: ``min_d h_d l_d`` with ``l_d`` the lever of axis d's
-        motion (1 for a translation, the part's reach for a rotation, R for a drum).
+        The length a part may move in one substep, at most: the C-space cell in length,
+        ``min_d h_d l_d`` with ``l_d`` the lever of axis d's motion (1 for a translation, the
+        part's reach for a rotation, R for a drum), or the radius of the largest disc inside
+        the parts' smallest piece where that is less (a pin thinner than a cell of a coarse
+        grid), so that no part passes through another and a start's allowance never eats one.
     levers : ndarray (2,)
         Length per unit of each coordinate at the parts' far edge.
     """
@@ -325,6 +328,13 @@ class RigidParts:
         return self.device.parts[d].geometry(self.device.grid.tolerance)
 
 
+def _thinnest(geoms) -> float:
+    """The radius of the largest disc inside the smallest piece of the parts' geometries."""
+    shapely = require_shapely()
+    pieces = [p for g in geoms for p in shapely.get_parts(g)]
+    return float(min(shapely.length(shapely.maximum_inscribed_circle(p)) for p in pieces))
+
+
 def rigid_parts(device, mass, quasistatic: bool = False) -> RigidParts:
     """The device's parts as rigid bodies with the masses (or inertias) ``mass`` (2,) per axis;
     ``quasistatic``: the masses are the inverse mobilities (the bodies take the velocity the
@@ -333,5 +343,5 @@ def rigid_parts(device, mass, quasistatic: bool = False) -> RigidParts:
     mass = checks.as_float_array("mass", mass, shape=(2,), positive=True)
     geoms = [p.geometry(device.grid.tolerance) for p in device.parts]
     levers = np.array([MOTION_BODIES[type(p.motion)].lever(p.motion, g) for p, g in zip(device.parts, geoms)])
-    cell = float(np.min(np.asarray(device.spacing) * levers))
+    cell = min(float(np.min(np.asarray(device.spacing) * levers)), _thinnest(geoms))
     return RigidParts(device, mass, bool(quasistatic), float(device.restitution), float(device.friction), cell, levers)

@@ -140,7 +140,7 @@ def test_a_start_inside_the_parts_is_not_run_by_the_rigid_engine_and_passes_noth
     device = _device(device_data)
     scene = problem.plain().scene(np.zeros((GRID, GRID)))
     runs = RigidRuns(device)
-    x0 = np.array([[0.0, 1.9], [0.95, 0.05]])                      # free; inside the right wall
+    x0 = np.array([[0.0, 1.9], [1.05, 0.05]])                      # free; inside the plate's rim
     (traj,) = runs([scene], [x0], [None])
     assert runs.blocked == 1 and np.isnan(traj.x[:, 1]).all() and np.isfinite(traj.x[:, 0]).all()
 
