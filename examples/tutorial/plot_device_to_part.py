@@ -52,8 +52,9 @@ def pes_ref_cmd(*args: str) -> str:
 
 def show(png: Path, title: str) -> None:
     """Draw a PNG a command wrote, so that it appears on this page."""
-    fig, ax = plt.subplots(figsize=(9, 6))
-    ax.imshow(mpimg.imread(png))
+    image = mpimg.imread(png)
+    fig, ax = plt.subplots(figsize=(9, 9 * image.shape[0] / image.shape[1]))
+    ax.imshow(image)
     ax.set_title(title)
     ax.axis("off")
     plt.show()

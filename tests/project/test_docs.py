@@ -120,9 +120,8 @@ def test_check_transcripts_count_what_the_code_ships():
 
 # ------------------------------------------------------------------ the docs say what is, not how it came to be
 
-#: Pages another change is rewriting now; they are excluded until rewritten, then removed from this list.
 #: decisions.md records how things came to be, as CHANGELOG.md does, so it may name issues and times.
-HISTORY_EXCLUDED = {"docs/realize.md", "docs/decisions.md"}
+HISTORY_EXCLUDED = {"docs/decisions.md"}
 PAGES = sorted(p for p in [*ROOT.glob("docs/*.md"), ROOT / "README.md"] if str(p.relative_to(ROOT)) not in HISTORY_EXCLUDED)
 #: "issue 15", "issues 4 and 15", "Issue 30": a number a reader cannot follow (the repository has no tracker).
 ISSUE = re.compile(r"\bissues? #?\d+", re.I)
