@@ -3,7 +3,7 @@
 [--drum-radius R] [--force]``.
 
 It turns a saved design into parts (:mod:`pes_ref.realize`, ``docs/realize.md``), writes
-``DIR/device.toml`` and the follower's files (:data:`CONTACT_FILES`: a plane's
+``DIR/device.toml`` and the follower's files (:data:`pes_ref.realize.files.CONTACT_FILES`: a plane's
 ``plate.dxf``, ``plate.stl``, ``base.stl``; a cylinder's ``drum.dxf``, ``drum.stl``; both
 ``pin.stl`` and ``parts.png``; each checked before anything is written, an existing one kept
 unless ``--force``; the set made whole in a staging folder, ``device.toml`` written last),
@@ -19,23 +19,12 @@ figures of the design's particle, the rolling ball and the ball in MuJoCo
 """
 from __future__ import annotations
 
-import io
 import os
 import sys
 import time
 
 from pes_ref.cli.common import EXIT_OK, LazyDefault, add_command, error, input_file, output_file, output_folder
 
-#: The files each realization writes into ``--out``, and what each is (for refusals).
-HEIGHTFIELD_FILES = {"stl": ("heightfield.stl", "STL")}
-#: A contact realization's files, per follower (:data:`pes_ref.realize.followers.FOLLOWERS`' names).
-CONTACT_FILES = {
-    "pin-in-plate": {"device": ("device.toml", "device"), "dxf": ("plate.dxf", "DXF"),
-                     "plate_stl": ("plate.stl", "STL"), "base_stl": ("base.stl", "STL"), "pin_stl": ("pin.stl", "STL"),
-                     "png": ("parts.png", "drawing")},
-    "drum-cam": {"device": ("device.toml", "device"), "dxf": ("drum.dxf", "DXF"), "drum_stl": ("drum.stl", "STL"),
-                 "pin_stl": ("pin.stl", "STL"), "png": ("parts.png", "drawing")},
-}
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
          "drum_radius": "--drum-radius", "clearance": "--clearance", "restitution": "--restitution",
@@ -131,8 +120,14 @@ def _outputs(args, files: dict) -> dict:
 
 def _contact_files(state) -> dict:
     """The files of the follower that realizes the design's topology (known before anything is computed)."""
+    from pes_ref.realize.files import CONTACT_FILES
     from pes_ref.realize.followers import follower_for
     return CONTACT_FILES[follower_for(state.problem.periodic).name]
+
+
+def _heightfield_files(state) -> dict:
+    from pes_ref.realize.files import HEIGHTFIELD_FILES
+    return HEIGHTFIELD_FILES
 
 
 def _value(option):
@@ -196,120 +191,18 @@ def _prepare_contact(state, args):
 
 
 def _write_contact(real, state, outputs: dict, args) -> list:
-    _write(real, state, outputs, args.force)
+    from pes_ref.devices.device_file import load_device
+    from pes_ref.realize.evaluation import headline_scores
+    from pes_ref.realize.files import check_contact, write_contact
+    write_contact(real, state.problem, state.values, outputs, args.force)
     region = real.region
     lines = [f"rule: {region.rule}", f"level: {region.level:.6g}", f"blocked_share: {region.blocked_share:.6g}"]
     lines += [f"neighbour: {label}: level {level:.6g}, blocked_share {share:.6g}, changed_share {changed:.6g}"
               for label, level, share, changed in real.sensitivity]
     lines += [f"lost: {line}" for line in real.lost]
-    return lines + _figure_lines(_check(real, outputs)) + _figure_lines(_scores(state, outputs["device"], args))
-
-
-def _write(real, state, outputs: dict, force: bool) -> None:
-    """The files as one set: the drawings and meshes made whole in a staging folder inside
-    ``--out`` and moved into place (:func:`pes_ref.core.runtime.files.move_into`), then the set's
-    index, ``device.toml``, written last and atomically; a stop part-way leaves no half file."""
-    import shutil
-    import tempfile
-    from pes_ref.core.runtime.files import move_into
-    from pes_ref.realize import exports
-    from pes_ref.realize.drawing import parts_figure
-    from pes_ref.realize.evaluation import held_out_positions
-    from pes_ref.realize.regions import VISITED_SEED
-    folder = os.path.dirname(outputs["device"]) or "."
-    os.makedirs(folder, exist_ok=True)
-    staging = tempfile.mkdtemp(prefix=".realize-", dir=folder)
-    try:
-        staged = {key: os.path.join(staging, os.path.basename(path)) for key, path in outputs.items()}
-        exports.write_dxf(staged["dxf"], real.parts.plate, False)
-        for key, mesh in MESHES[real.parts.follower][0](real).items():
-            exports.write_stl(staged[key], mesh, False)
-        path = held_out_positions(state.problem, state.values, VISITED_SEED, n_particles=1)[:, 0, :]
-        buf = io.BytesIO()
-        parts_figure(real, path).savefig(buf, format="png", dpi=110)
-        exports.write_bytes(staged["png"], buf.getvalue(), False, "drawing")
-        move_into([staged[key] for key in outputs if key != "device"], folder)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-    header = f"{real.device['description']}\nwritten by pes_ref realize (docs/realize.md)"
-    exports.write_text(outputs["device"], exports.device_text(real.device, header), force, "device")
-
-
-def _plate_meshes(real) -> dict:
-    from pes_ref.realize import exports
-    plate, t = real.parts.plate, real.thickness
-    return {"plate_stl": exports.plate_mesh(plate, t), "base_stl": exports.base_mesh(plate, t),
-            "pin_stl": exports.pin_mesh(real.parts.pin_made, t)}
-
-
-def _drum_meshes(real) -> dict:
-    from pes_ref.realize import exports
-    parts, t = real.parts, real.thickness
-    return {"drum_stl": exports.drum_mesh(parts.plate, parts.motion["radius"], t, _drum_cell(real)),
-            "pin_stl": exports.pin_mesh(parts.pin_made, t)}
-
-
-def _drum_cell(real) -> float:
-    """The drum STL's node spacing: a quarter of the design grid's finer spacing on the drum's surface."""
-    return float(min(real.region.spacing * [1.0, real.parts.motion["radius"]])) / 4.0
-
-
-#: Per follower: its meshes (realization -> {output key: mesh}) and the volume the first
-#: mesh should have, from the part read back from the DXF (realization, part -> (name, volume)).
-MESHES = {
-    "pin-in-plate": (_plate_meshes, lambda real, part: ("plate_volume_expected", float(part.area * real.thickness))),
-    "drum-cam": (_drum_meshes, lambda real, part: ("drum_volume_expected", _drum_volume(real, part))),
-}
-
-
-def _drum_volume(real, part) -> float:
-    from pes_ref.realize import exports
-    return exports.drum_volume(part, real.parts.motion["radius"], real.thickness)
-
-
-def _scores(state, device_path: str, args) -> dict:
-    """The design's headline figure on held-out seed ``--seed`` beside the parts' under eq. (1)
-    (``realized_``) and in rigid contact (``rigid_``; not run without pymunk, said with its
-    pip line): :func:`pes_ref.realize.evaluation.evaluate_realized`."""
-    from pes_ref.devices.device_file import load_device
-    from pes_ref.devices.geometry import MissingExtraError
-    from pes_ref.realize.evaluation import ENGINES, evaluate_realized
-    from pes_ref.rigid import require_pymunk
-    from pes_ref.synthesis import kind_of
-    seed = 12345 if args.seed is None else args.seed
-    try:
-        require_pymunk()
-        engines, missing = ("surface", "rigid"), None
-    except MissingExtraError as exc:
-        engines, missing = ("surface",), str(exc)
-    figures = evaluate_realized(state.problem, state.values, load_device(device_path), seed=seed,
-                                n_particles=args.particles, engines=engines)
-    name = kind_of(state.problem).headline
-    out = {"score_seed": seed, "score_particles": int(figures["particles"][0]), name: figures[name][0]}
-    out.update({ENGINES[e].prefix + name: x for e, x in zip(engines, figures[name][1:])})
-    if missing is not None:
-        out[ENGINES["rigid"].prefix + name] = f"not run ({missing})"
-    return out
-
-
-def _check(real, outputs: dict) -> dict:
-    """Every file read back: the device's C-space, the DXF's part, the meshes."""
-    from pes_ref.devices.device_file import load_device
-    from pes_ref.realize import exports
-    device = load_device(outputs["device"])
-    part = exports.read_dxf_plate(outputs["dxf"])
-    file_part = device.parts[1].geometry(device.grid.tolerance)
-    name = real.parts.part_name
-    out = {"device_blocked_share": float(device.cspace().blocked.mean()),
-           f"{name}_area_dxf": float(part.area), f"{name}_area_device": float(file_part.area)}
-    for key in outputs:
-        if key.endswith("_stl"):
-            mesh = exports.read_stl(outputs[key])
-            out[f"{key[:-4]}_watertight"] = bool(mesh.is_watertight)
-            out[f"{key[:-4]}_volume"] = float(mesh.volume)
-    expected, volume = MESHES[real.parts.follower][1](real, part)
-    out[expected] = volume
-    return out
+    scores = headline_scores(state.problem, state.values, load_device(outputs["device"]),
+                             12345 if args.seed is None else args.seed, args.particles)
+    return lines + _figure_lines(check_contact(real, outputs)) + _figure_lines(scores)
 
 
 # --------------------------------------------------------------------------- heightfield
@@ -329,21 +222,11 @@ def _prepare_heightfield(state, args):
 
 def _write_heightfield(job, state, outputs: dict, args) -> list:
     """The plate written, read back, and the rolling-ball check on the heights read back."""
-    import numpy as np
-    from pes_ref.realize import exports
-    from pes_ref.realize.heightfield import HeightField, heightfield_check, heightfield_mesh, heights_from_mesh
+    from pes_ref.realize.files import write_heightfield
+    from pes_ref.realize.heightfield import heightfield_check
     hf, base, seed, n, n_steps = job
-    mesh = heightfield_mesh(hf, base)
-    os.makedirs(args.out, exist_ok=True)
-    exports.write_stl(outputs["stl"], mesh, args.force)
-    mesh = exports.read_stl(outputs["stl"])
-    heights = heights_from_mesh(mesh, hf)
-    slope = hf.slope()
-    figures = {"g": hf.g, "height_range": float(np.ptp(hf.heights)), "max_slope": float(slope.max()),
-               "slope_share_over_0.1": float(np.mean(slope > 0.1)), "watertight": bool(mesh.is_watertight),
-               "volume": float(mesh.volume), "height_error": float(np.max(np.abs(heights - hf.heights))),
-               "seed": seed, "particles": n}
-    read_back = HeightField(heights, hf.lower, hf.upper, hf.mass, hf.g)
+    read_back, figures = write_heightfield(hf, base, outputs["stl"], args.force)
+    figures.update(seed=seed, particles=n)
     figures.update(heightfield_check(state.problem, state.values, read_back, seed, n, n_steps))
     return _figure_lines(figures)
 
@@ -351,4 +234,4 @@ def _write_heightfield(job, state, outputs: dict, args) -> list:
 #: The realizations: --as NAME -> (prepare(state, args) -> job, write(job, state, outputs, args) -> lines,
 #: files(state) -> the files it writes, known before anything is computed).
 REALIZATIONS = {"contact": (_prepare_contact, _write_contact, _contact_files),
-                "heightfield": (_prepare_heightfield, _write_heightfield, lambda state: HEIGHTFIELD_FILES)}
+                "heightfield": (_prepare_heightfield, _write_heightfield, _heightfield_files)}

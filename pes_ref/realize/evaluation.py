@@ -38,6 +38,7 @@ from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.synthesis.kinds import evaluate, held_out_steps, kind_of
 
 __all__ = ["RealizedRun", "RealizedEngine", "RigidRuns", "ENGINES", "realized_problem", "rigid_problem", "evaluate_realized",
+           "headline_scores",
            "held_out_positions", "contact_parameters", "start_point", "device_spring"]
 
 
@@ -192,3 +193,23 @@ def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: i
 def held_out_positions(problem, values, seed: int, n_particles: int = 200) -> np.ndarray:
     """Every state (T+1, N, 2) of ``n_particles`` paths of design ``values`` from ``default_rng(seed)``."""
     return kind_of(problem).realizable.positions(problem, values, seed, n_particles)
+
+
+def headline_scores(problem, values, device, seed: int = 12345, n_particles: int | None = None) -> dict:
+    """The design's headline figure (its kind's, :data:`pes_ref.synthesis.kinds.KINDS`) on held-out
+    ``seed`` beside the parts' under eq. (1) (``realized_``) and in rigid contact (``rigid_``; without
+    pymunk its value says it was not run, with the pip line), with ``score_seed`` and ``score_particles``."""
+    from pes_ref.devices.geometry import MissingExtraError
+    from pes_ref.rigid import require_pymunk
+    try:
+        require_pymunk()
+        engines, missing = ("surface", "rigid"), None
+    except MissingExtraError as exc:
+        engines, missing = ("surface",), str(exc)
+    figures = evaluate_realized(problem, values, device, seed=seed, n_particles=n_particles, engines=engines)
+    name = kind_of(problem).headline
+    out = {"score_seed": seed, "score_particles": int(figures["particles"][0]), name: figures[name][0]}
+    out.update({ENGINES[e].prefix + name: x for e, x in zip(engines, figures[name][1:])})
+    if missing is not None:
+        out[ENGINES["rigid"].prefix + name] = f"not run ({missing})"
+    return out
