@@ -5,12 +5,12 @@ by a stated rule), turns it into the two parts of the topology's follower
 (:data:`pes_ref.realize.followers.FOLLOWERS`) and writes their device file's tables:
 
 - ``[energy]``: eq. (1) of the distance to the parts' C-space obstacle, with the design
-  kind's contact parameters (:func:`pes_ref.realize.evaluation.contact_parameters`: the
+  kind's contact parameters (:func:`pes_ref.realize.hooks.contact_parameters`: the
   funnel's ``contact_v``, ``contact_r_c``, ``contact_r_min``, a realizable design's own
   eq. (1); a problem file's ``[surface.contact]``; the oscillator's from its grid), and the
   design's springs (its scene's per-axis spring);
 - ``[dynamics]``: the design scene's masses, damping and walls;
-- ``[start]``: the design kind's start point (:func:`pes_ref.realize.evaluation.start_point`).
+- ``[start]``: the design kind's start point (:func:`pes_ref.realize.hooks.start_point`).
 
 What the parts cannot have is listed in :attr:`ContactRealization.lost`, in words: the
 energies below the contact level (flat on the device beyond ``r_c`` of an obstacle), and the
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.realize.evaluation import contact_parameters, start_point
+from pes_ref.realize.hooks import contact_parameters, start_point
 from pes_ref.synthesis.kinds import kind_of
 from pes_ref.realize.followers import DRUM_CAM, DRUM_RADIUS, Parts, follower_for
 from pes_ref.realize.regions import Region, contact_region

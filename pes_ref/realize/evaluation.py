@@ -38,8 +38,7 @@ from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.synthesis.kinds import evaluate, held_out_steps, kind_of
 
 __all__ = ["RealizedRun", "RealizedEngine", "RigidRuns", "ENGINES", "realized_problem", "rigid_problem", "evaluate_realized",
-           "headline_scores",
-           "held_out_positions", "contact_parameters", "start_point", "device_spring"]
+           "headline_scores", "device_spring"]
 
 
 class RealizedRun(NamedTuple):
@@ -53,16 +52,6 @@ class RealizedRun(NamedTuple):
     dt: float
     n_steps: int
     engine: Callable | None = None
-
-
-def contact_parameters(problem, energy) -> tuple:
-    """Eq. (1)'s ``(v, r_c, r_min)`` of ``problem``'s parts (``energy``: the design's surface grid)."""
-    return tuple(float(x) for x in kind_of(problem).realizable.contact(problem, energy))
-
-
-def start_point(problem) -> list:
-    """Where an analysis of ``problem``'s device starts."""
-    return kind_of(problem).realizable.start(problem)
 
 
 def _check_grid(problem, device) -> None:
@@ -188,11 +177,6 @@ def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: i
         out["starts_blocked"] = (0.0,) + tuple(float(getattr(run.engine, "blocked", 0)) for run in runs)
     out["n_steps"] = (float(held_out_steps(problem)),) + tuple(float(held_out_steps(run.problem)) for run in runs)
     return out
-
-
-def held_out_positions(problem, values, seed: int, n_particles: int = 200) -> np.ndarray:
-    """Every state (T+1, N, 2) of ``n_particles`` paths of design ``values`` from ``default_rng(seed)``."""
-    return kind_of(problem).realizable.positions(problem, values, seed, n_particles)
 
 
 def headline_scores(problem, values, device, seed: int = 12345, n_particles: int | None = None) -> dict:

@@ -71,7 +71,7 @@ def write_contact(real, problem, values, outputs: dict, force: bool) -> None:
     from pes_ref.core.runtime.files import move_into
     from pes_ref.realize import exports
     from pes_ref.realize.drawing import parts_figure
-    from pes_ref.realize.evaluation import held_out_positions
+    from pes_ref.realize.hooks import held_out_positions
     from pes_ref.realize.regions import VISITED_SEED
     folder = os.path.dirname(outputs["device"]) or "."
     os.makedirs(folder, exist_ok=True)

@@ -117,7 +117,7 @@ def _level_set_rule(problem, values, energy, level):
 
 
 def _visited_rule(problem, values, energy, level):
-    from pes_ref.realize.evaluation import held_out_positions
+    from pes_ref.realize.hooks import held_out_positions
     x = held_out_positions(problem, values, VISITED_SEED)
     surface = Surface(energy, problem.lower, problem.upper, problem.periodic)
     visited = surface.energy(x.reshape(-1, 2))

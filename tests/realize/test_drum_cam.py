@@ -14,8 +14,8 @@ from pes_ref.devices.cspace import apf_energy, spring_grid
 from pes_ref.devices.device_file import parse_device
 from pes_ref.realize import exports
 from pes_ref.realize.contact import realize_contact
-from pes_ref.realize.evaluation import (contact_parameters, evaluate_realized, held_out_positions,
-                                        realized_problem, start_point)
+from pes_ref.realize.evaluation import evaluate_realized, realized_problem
+from pes_ref.realize.hooks import contact_parameters, held_out_positions, start_point
 from pes_ref.realize.followers import drum_cam
 from pes_ref.synthesis.oscillator import OscillatorProblem
 

@@ -205,7 +205,8 @@ def walls(design: Path, device_file: Path, level: float) -> dict:
     import numpy as np
     from pes_ref.core.surface import Surface
     from pes_ref.devices.device_file import load_device
-    from pes_ref.realize.evaluation import held_out_positions, realized_problem
+    from pes_ref.realize.evaluation import realized_problem
+    from pes_ref.realize.hooks import held_out_positions
     from pes_ref.realize.regions import VISITED_SEED
     from pes_ref.synthesis import load_design
     from pes_ref.synthesis.analysis import cycle_figures, oscillator_torque_sweep, q1_advance
