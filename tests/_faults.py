@@ -359,3 +359,20 @@ def run_piped(row: Piped, work: Path) -> Outcome:
     finally:
         os.close(write)
     return Outcome(proc.returncode, proc.stdout or "", proc.stderr or "", before, snapshot(work))
+
+
+def fault_table(rows: list):
+    """One command's table as pytest sees it: ``outcomes, test_fault = fault_table(FAULTS)`` in a
+    ``tests/cli/test_faults_<command>.py`` gives the module its fixture (every row run once, in
+    parallel, each in a folder of its own) and its test (each row refused as :func:`check_fault` says)."""
+    import pytest
+
+    @pytest.fixture(scope="module")
+    def outcomes(fault_assets, tmp_path_factory):
+        return run_rows(rows, fault_assets, tmp_path_factory.mktemp("faults"))
+
+    @pytest.mark.parametrize("fault", rows, ids=[f.id for f in rows])
+    def test_fault(fault, outcomes):
+        check_fault(fault, outcomes[fault.id])
+
+    return outcomes, test_fault

@@ -1,8 +1,6 @@
 """The faults of `realize`: each row refused in one line naming its argument, the folder left as it was
 (the harness and the assets: ``tests/_faults.py``)."""
-import pytest
-
-from _faults import Fault, check_fault, run_rows
+from _faults import Fault, fault_table
 
 FAULTS = [
     # ------------------------------------------------------------------ realize
@@ -90,12 +88,4 @@ FAULTS = [
 ]
 
 
-@pytest.fixture(scope="module")
-def outcomes(fault_assets, tmp_path_factory):
-    """Every row, run in parallel (each in a folder of its own)."""
-    return run_rows(FAULTS, fault_assets, tmp_path_factory.mktemp("faults"))
-
-
-@pytest.mark.parametrize("fault", FAULTS, ids=[f.id for f in FAULTS])
-def test_fault(fault, outcomes):
-    check_fault(fault, outcomes[fault.id])
+outcomes, test_fault = fault_table(FAULTS)
