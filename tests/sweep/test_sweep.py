@@ -158,7 +158,7 @@ def test_ctrl_c_saves_the_running_designs_and_the_next_run_resumes_them(client, 
     """Interrupted mid-design, resumed: the same grid as a run that never stopped."""
     spec = tmp_path / "s.toml"
     spec.write_text('kind = "funnel"\nseeds = [0, 1]\neval_seeds = [1]\neval_particles = 8\n'
-                    '[base]\nsmoke = true\niterations = 400\nparticles = 4\n')
+                    '[base]\nsmoke = true\niterations = 1500\nparticles = 4\n')
     sweep = load_sweep(spec)
     calls = []
 
@@ -170,7 +170,7 @@ def test_ctrl_c_saves_the_running_designs_and_the_next_run_resumes_them(client, 
     assert calls and report.interrupted
     assert [r["status"] for r in report.rows] == ["interrupted", "interrupted"]
     stopped = [load_design(r["design_file"]) for r in report.rows]
-    assert all(s.status == "interrupted" and 0 < s.iteration < 400 for s in stopped)
+    assert all(s.status == "interrupted" and 0 < s.iteration < 1500 for s in stopped)
 
     report = run_sweep(sweep, tmp_path / "o", client, plot=False)
     assert [r["status"] for r in report.rows] == ["ok", "ok"]
