@@ -28,10 +28,11 @@ def main() -> int:
     load = tuple(max(a, b) for a, b in zip(load, os.getloadavg()))
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
                             text=True).stdout.strip() or "unknown"
-    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    today = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
     table = markdown_table(rows)
-    stamp = (f"Measured {when} at commit {commit}, load average up to {load[0]:.1f} (1 min), "
-             f"{load[1]:.1f} (5 min); times are each engine's whole drive, the C-space built before.")
+    stamp = (f"`make rigid-devices` rewrites this table. Conditions: load average up to {load[0]:.1f} (1 min), "
+             f"{load[1]:.1f} (5 min); times are each engine's whole drive, the C-space built before.\n\n"
+             f"regenerated: {today}, commit `{commit}`")
     print(table)
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "rows.json").write_text(json.dumps(rows, indent=1) + "\n")
