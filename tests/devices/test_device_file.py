@@ -165,6 +165,11 @@ BAD = [
     ("analysis", {"kind": "catapult"}, "analysis.kind: expected one of 'ratchet', 'dartgun', got 'catapult'"),
     ("analysis", {"kind": "ratchet", "pitch": 0.5}, "analysis.settle: missing"),
     ("analysis", {"kind": "ratchet", "pitch": 0.5, "settle": 1.0, "teeth": 4}, "analysis.teeth: unknown key"),
+    ("rigid", {"restitution": 1.5}, "rigid.restitution: expected a number in [0, 1], got 1.5"),
+    ("rigid", {"restitution": -0.1}, "rigid.restitution: expected a number >= 0, got -0.1"),
+    ("rigid", {"friction": "high"}, "rigid.friction: expected a finite number, got 'high'"),
+    ("rigid", {"stiffness": 1e6}, "rigid.stiffness: unknown key"),
+    ("rigid", 0.5, "rigid: expected a table, got 0.5"),
 ]
 
 
@@ -175,6 +180,14 @@ def test_a_bad_key_or_value_is_refused_in_one_line_naming_it(key, value, message
     text = str(err.value)
     assert text.startswith("bad.toml: ") and "\n" not in text
     assert message in text, text
+
+
+@pytest.mark.parametrize("table, expected", [(None, (0.0, 0.0)), ({}, (0.0, 0.0)),
+                                             ({"restitution": 0.25, "friction": 0.5}, (0.25, 0.5))])
+def test_the_rigid_table_sets_the_contact_and_defaults_to_inelastic_and_frictionless(table, expected):
+    data = _edit("rigid", table) if table is not None else copy.deepcopy(tomllib.loads(FULL))
+    device = F.parse_device(data, "rigid.toml")
+    assert (device.restitution, device.friction) == expected
 
 
 #: A drum's drawing within one turn of a drum of radius 0.5 (y in [0, pi]): a plate with a hole.
