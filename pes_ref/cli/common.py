@@ -216,6 +216,24 @@ class LazyDefault:
 
 
 
+@dataclasses.dataclass(frozen=True)
+class LazyChoices:
+    """An option's choices: the keys of the table ``table`` in ``module`` (a registry), read
+    only when an argument is checked or the help is shown, as :class:`LazyDefault`."""
+
+    module: str
+    table: str
+
+    def _names(self) -> tuple:
+        return tuple(getattr(importlib.import_module(self.module), self.table))
+
+    def __contains__(self, name) -> bool:
+        return name in self._names()
+
+    def __iter__(self):
+        return iter(self._names())
+
+
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
     """Descriptions and examples as written; each option's default appended to its help
     (unless the help already states it, or there is none)."""

@@ -23,18 +23,15 @@ import os
 import sys
 import time
 
-from pes_ref.cli.common import EXIT_OK, LazyDefault, add_command, error, input_file, output_file, output_folder
+from pes_ref.cli.common import EXIT_OK, LazyChoices, LazyDefault, add_command, error, input_file, output_file, output_folder
 
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
          "drum_radius": "--drum-radius", "clearance": "--clearance", "restitution": "--restitution",
          "as": "--as", "rule": "--rule", "g": "--g", "base": "--base", "seed": "--seed", "n_particles": "--particles",
          "n_steps": "--steps"}
-#: Each realization's own options (``dest``, flag): given with the other, they are refused.
-OPTIONS = {"contact": (("rule", "--rule"), ("level", "--level"), ("pin_radius", "--pin-radius"), ("rim", "--rim"),
-                       ("thickness", "--thickness"), ("drum_radius", "--drum-radius"), ("clearance", "--clearance"),
-                       ("restitution", "--restitution")),
-           "heightfield": (("g", "--g"), ("base", "--base"), ("steps", "--steps"))}
+#: The options' destinations, by library name.
+DESTS = {name: flag[2:].replace("-", "_") for name, flag in FLAGS.items() if name != "as"}
 
 
 def _default(key: str) -> LazyDefault:
@@ -66,7 +63,7 @@ def add_parser(sub) -> None:
                   "realize osc.npz --as contact --drum-radius 1 --out osc_drum",
                   "realize funnel.npz --as heightfield --out funnel_plate"])
     p.add_argument("file", metavar="DESIGN.npz", help="a design file written by 'design'")
-    p.add_argument("--as", dest="as_", choices=tuple(REALIZATIONS), required=True,
+    p.add_argument("--as", dest="as_", choices=LazyChoices("pes_ref.realize.realizations", "REALIZATIONS"), required=True,
                    help="the realization: 'contact' (rigid parts and eq. (1)) or 'heightfield' (a plate whose top "
                         "is the energy, for a rolling ball)")
     p.add_argument("--out", required=True, metavar="DIR", help="folder to write into (made if missing)")
@@ -108,130 +105,29 @@ def add_parser(sub) -> None:
     p.set_defaults(func=_run_realize)
 
 
-def _outputs(args, files: dict) -> dict:
-    """Every output path, checked before anything is computed."""
-    output_folder(args.out)
-    out = {}
-    for key, (name, what) in files.items():
-        path = os.path.join(args.out, name)
-        out[key] = output_file(path, what, force=args.force) if os.path.isdir(args.out) else path
-    return out
-
-
-def _contact_files(state) -> dict:
-    """The files of the follower that realizes the design's topology (known before anything is computed)."""
-    from pes_ref.realize.files import CONTACT_FILES
-    from pes_ref.realize.followers import follower_for
-    return CONTACT_FILES[follower_for(state.problem.periodic).name]
-
-
-def _heightfield_files(state) -> dict:
-    from pes_ref.realize.files import HEIGHTFIELD_FILES
-    return HEIGHTFIELD_FILES
-
-
-def _value(option):
-    """An option's value: the library's default where it was not given."""
-    return option.value() if isinstance(option, LazyDefault) else option
-
-
-def _refuse_others(args) -> None:
-    """An option of the other realization, given, is refused (one line naming both)."""
-    for kind, options in OPTIONS.items():
-        if kind == args.as_:
-            continue
-        for dest, flag in options:
-            value = getattr(args, dest)
-            if value is not None and not isinstance(value, LazyDefault):
-                raise ValueError(f"{flag} goes with --as {kind}, not --as {args.as_}")
-
-
 def _run_realize(args) -> int:
     start = time.perf_counter()
+    options = {name: getattr(args, dest) for name, dest in DESTS.items()}
+    options = {name: None if isinstance(value, LazyDefault) else value for name, value in options.items()}
     try:
         from pes_ref.realize.extra import require_realize
         require_realize()
+        from pes_ref.realize.realizations import check_options, realize
         from pes_ref.synthesis import load_design
-        _refuse_others(args)
+        realization = check_options(args.as_, options)
         state = load_design(input_file(args.file, "design file"))
-        prepare, write, files_of = REALIZATIONS[args.as_]
-        files = files_of(state)
-        outputs = _outputs(args, files)
-        job = prepare(state, args)
+        files = realization.files(state.problem)
+        output_folder(args.out)
+        paths = {key: os.path.join(args.out, name) for key, (name, _) in files.items()}
+        if os.path.isdir(args.out):  # a folder made later holds nothing to keep
+            paths = {key: output_file(path, files[key][1], force=args.force) for key, path in paths.items()}
+        name = os.path.splitext(os.path.basename(args.file))[0]
+        report = realize(state, args.as_, paths, options, name=name, force=args.force)
     except (ValueError, TypeError, OSError, ImportError) as exc:
         return error(exc, FLAGS)
-    try:
-        lines = write(job, state, outputs, args)
-    except (ValueError, OSError) as exc:
-        return error(exc, FLAGS)
-    for line in lines:
-        print(line)
+    for key, value in report:
+        print(f"{key}: {value:.6g}" if isinstance(value, float) else f"{key}: {value}")
     print(f"seconds: {time.perf_counter() - start:.3g}")
-    for key, path in outputs.items():
+    for key, path in paths.items():
         print(f"wrote {path} ({files[key][1]})", file=sys.stderr)
     return EXIT_OK
-
-
-def _figure_lines(figures: dict) -> list:
-    return [f"{key}: {value:.6g}" if isinstance(value, float) else f"{key}: {value}" for key, value in figures.items()]
-
-
-# --------------------------------------------------------------------------- contact
-
-def _prepare_contact(state, args):
-    from pes_ref.realize.contact import realize_contact
-    if (args.level is not None) != (args.rule == "value"):
-        raise ValueError(f"--level E goes with --rule value (the contact level given), got --level {args.level} "
-                         f"and --rule {args.rule}")
-    name = os.path.splitext(os.path.basename(args.file))[0]
-    drum_radius = None if isinstance(args.drum_radius, LazyDefault) else args.drum_radius
-    return realize_contact(state.problem, state.values, args.rule, args.level, name=name,
-                           pin_radius=_value(args.pin_radius), rim=_value(args.rim), thickness=_value(args.thickness),
-                           drum_radius=drum_radius, clearance=args.clearance, restitution=args.restitution)
-
-
-def _write_contact(real, state, outputs: dict, args) -> list:
-    from pes_ref.devices.device_file import load_device
-    from pes_ref.realize.evaluation import headline_scores
-    from pes_ref.realize.files import check_contact, write_contact
-    write_contact(real, state.problem, state.values, outputs, args.force)
-    region = real.region
-    lines = [f"rule: {region.rule}", f"level: {region.level:.6g}", f"blocked_share: {region.blocked_share:.6g}"]
-    lines += [f"neighbour: {label}: level {level:.6g}, blocked_share {share:.6g}, changed_share {changed:.6g}"
-              for label, level, share, changed in real.sensitivity]
-    lines += [f"lost: {line}" for line in real.lost]
-    scores = headline_scores(state.problem, state.values, load_device(outputs["device"]),
-                             12345 if args.seed is None else args.seed, args.particles)
-    return lines + _figure_lines(check_contact(real, outputs)) + _figure_lines(scores)
-
-
-# --------------------------------------------------------------------------- heightfield
-
-def _prepare_heightfield(state, args):
-    from pes_ref.core import budget, checks
-    from pes_ref.realize.heightfield import check_base, check_heightfield_kind, heightfield
-    check_heightfield_kind(state.problem)
-    seed = checks.as_nonneg_int("seed", 12345 if args.seed is None else args.seed)
-    n = checks.as_positive_int("n_particles", 200 if args.particles is None else args.particles)
-    steps = state.problem.n_steps if args.steps is None else checks.as_positive_int("n_steps", args.steps)
-    budget.check_memory(steps, n, "simulate", particles="n_particles", fixed_steps=True, runs=4,
-                        length=f"a held-out run of {steps} steps")
-    hf = heightfield(state.problem, state.values, _value(args.g))
-    return hf, check_base(hf, _value(args.base)), seed, n, None if args.steps is None else steps
-
-
-def _write_heightfield(job, state, outputs: dict, args) -> list:
-    """The plate written, read back, and the rolling-ball check on the heights read back."""
-    from pes_ref.realize.files import write_heightfield
-    from pes_ref.realize.heightfield import heightfield_check
-    hf, base, seed, n, n_steps = job
-    read_back, figures = write_heightfield(hf, base, outputs["stl"], args.force)
-    figures.update(seed=seed, particles=n)
-    figures.update(heightfield_check(state.problem, state.values, read_back, seed, n, n_steps))
-    return _figure_lines(figures)
-
-
-#: The realizations: --as NAME -> (prepare(state, args) -> job, write(job, state, outputs, args) -> lines,
-#: files(state) -> the files it writes, known before anything is computed).
-REALIZATIONS = {"contact": (_prepare_contact, _write_contact, _contact_files),
-                "heightfield": (_prepare_heightfield, _write_heightfield, _heightfield_files)}

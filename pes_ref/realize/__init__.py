@@ -19,4 +19,6 @@ Modules, one idea each:
 - :mod:`.heightfield` a plate whose top is the energy, and a ball rolling on it
 - :mod:`.mujoco_ball` the same balls on the plate in MuJoCo (its heightfield geom)
 - :mod:`.drawing`     the parts at three positions
+- :mod:`.realizations` the realizations by name (``--as``): their files, options, and each
+                      one prepared, written, read back and checked
 """
