@@ -83,7 +83,7 @@ FAULTS = [
     Fault("problem-unknown-term", "design happiness.toml --out new.npz",
           ("happiness.toml: objective[0].kind: expected one of", "got 'happiness'")),
     Fault("problem-term-key", "design shortpoint.toml --out new.npz",
-          ("shortpoint.toml: objective[0].target: expected a list of two values, got [0.3]",)),
+          ("shortpoint.toml: objective[0].target: expected a list of two numbers, got [0.3]",)),
     Fault("problem-custom-import", "design custom.toml --out new.npz",
           ("custom.toml: objective[0].object: cannot import it", "no_such_module_here")),
     Fault("problem-time-after-end", "design late.toml --out new.npz",
