@@ -37,16 +37,11 @@ import os
 from dataclasses import dataclass
 
 from pes_ref.core.backends import check_backend
-from pes_ref.core.runtime.keyfile import KeyFileError, KeyReader, parse_toml, read_text, show
+from pes_ref.core.runtime.keyfile import TYPES, Key, KeyFileError, KeyReader, parse_toml, read_text, show
 from pes_ref.synthesis import DESIGN_OPTIONS, ProblemFileError, load_problem, problem_text
 from pes_ref.sweep.options import BUILT_IN_KINDS, has_type, run_inputs, scene_parameters, type_name, typed_sets
 
 __all__ = ["Sweep", "Run", "SweepFileError", "load_sweep", "parse_sweep", "TOP_LEVEL_KEYS"]
-
-#: The keys a sweep file may have at its top level.
-TOP_LEVEL_KEYS = ("description", "kind", "problem", "seeds", "eval_seeds", "eval_particles", "base", "grid",
-                  "variants")
-
 
 class SweepFileError(KeyFileError):
     """A sweep file that cannot be run; the message names the file and the key."""
@@ -97,8 +92,30 @@ class Sweep:
         return os.path.splitext(os.path.basename(self.path))[0]
 
 
+def _seeds(r, v, w, k) -> tuple:
+    """A non-empty list of distinct integers >= 0."""
+    if not isinstance(v, list) or not v:
+        r.fail(w, f"expected a non-empty list of integers >= 0, got {show(v)}")
+    for i, seed in enumerate(v):
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            r.fail(r.at(w, i), f"expected an integer >= 0, got {show(seed)}")
+    if len(set(v)) != len(v):
+        r.fail(w, f"repeated seeds in {show(v)}")
+    return tuple(v)
+
+
 class _Reader(KeyReader):
     error = SweepFileError
+    noun = "a sweep file"
+    types = {**TYPES, "seeds": _seeds}
+
+
+#: The keys of a sweep file's top level: type, default (the module docstring has their meaning;
+#: docs/sweeps.md documents each).
+TOP_LEVEL_KEYS = {"description": Key("text", ""), "kind": Key("choice", None, choices=tuple(sorted(BUILT_IN_KINDS))),
+                  "problem": Key("text", None), "seeds": Key("seeds", (0,)), "eval_seeds": Key("seeds", None),
+                  "eval_particles": Key("count", None), "base": Key("table", {}), "grid": Key("table", {}),
+                  "variants": Key("table_list", ())}
 
 
 def load_sweep(path) -> Sweep:
@@ -116,41 +133,32 @@ def load_sweep(path) -> Sweep:
 
 def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
     """Check the parsed TOML ``data`` of a sweep file and expand it into its runs."""
-    fail = _Reader(path).fail
-
-    for key in data:
-        if key not in TOP_LEVEL_KEYS:
-            fail(key, f"unknown key; a sweep file has {', '.join(TOP_LEVEL_KEYS)}")
+    r = _Reader(path)
+    fail = r.fail
+    top = r.table(data, "", TOP_LEVEL_KEYS)
     problem = None
-    if "problem" in data:
-        if "kind" in data:
+    if top["problem"] is not None:
+        if top["kind"] is not None:
             fail("kind", "give kind or problem, not both")
-        problem = _problem(data["problem"], path, fail)
+        problem = _problem(top["problem"], path, fail)
         kind = "problem"
+    elif top["kind"] is None:
+        fail("kind", "missing (kind = \"funnel\" or \"oscillator\", or problem = \"FILE.toml\")")
     else:
-        kind = data.get("kind")
-        if kind not in BUILT_IN_KINDS:
-            fail("kind", f"expected one of {sorted(BUILT_IN_KINDS)}, got {show(kind)}" if "kind" in data
-                 else "missing (kind = \"funnel\" or \"oscillator\", or problem = \"FILE.toml\")")
-    description = data.get("description", "")
-    if not isinstance(description, str):
-        fail("description", f"expected a string, got {show(description)}")
-    seeds = _seed_list(data.get("seeds", [0]), "seeds", fail)
-    if "eval_seeds" not in data:
+        kind = top["kind"]
+    if top["eval_seeds"] is None:
         fail("eval_seeds", "missing (the held-out seeds every run is evaluated on, e.g. eval_seeds = [12345])")
-    eval_seeds = _seed_list(data["eval_seeds"], "eval_seeds", fail)
-    eval_particles = data.get("eval_particles")
-    if eval_particles is not None and not (_is_int(eval_particles) and eval_particles > 0):
-        fail("eval_particles", f"expected an integer > 0, got {show(eval_particles)}")
+    description, seeds, eval_seeds, eval_particles = (top[key] for key in
+                                                      ("description", "seeds", "eval_seeds", "eval_particles"))
 
-    base = _options(_table(data.get("base", {}), "base", fail), "base", kind, fail)
-    grid = _table(data.get("grid", {}), "grid", fail)
+    base = _options(top["base"], "base", kind, fail)
+    grid = top["grid"]
     for name, values in grid.items():
         if not isinstance(values, list) or not values:
             fail(f"grid.{name}", f"expected a non-empty list of values, got {show(values)}")
         for i, value in enumerate(values):
             _options({name: value}, f"grid.{name}[{i}]", kind, fail)
-    variants = _variants(data.get("variants", []), kind, fail)
+    variants = _variants(top["variants"], kind, fail)
     problem_id = None if problem is None else json.dumps(problem.data, sort_keys=True)
     for vname, options in variants:
         for name in options:
@@ -184,36 +192,13 @@ def parse_sweep(data: dict, path: str = "<sweep>") -> Sweep:
 
 # --------------------------------------------------------------------------- pieces
 
-def _is_int(value) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
 def _problem(value, path: str, fail):
     """The problem file ``value`` names, relative to the sweep file's folder."""
-    if not isinstance(value, str):
-        fail("problem", f"expected the path of a problem file, got {show(value)}")
     where = os.path.join(os.path.dirname(os.path.abspath(path)), value)
     try:
         return load_problem(where)
     except ProblemFileError as exc:
         fail("problem", str(exc))
-
-
-def _seed_list(values, key, fail) -> tuple:
-    if not isinstance(values, list) or not values:
-        fail(key, f"expected a non-empty list of integers >= 0, got {show(values)}")
-    for i, seed in enumerate(values):
-        if not (_is_int(seed) and seed >= 0):
-            fail(f"{key}[{i}]", f"expected an integer >= 0, got {show(seed)}")
-    if len(set(values)) != len(values):
-        fail(key, f"repeated seeds in {show(values)}")
-    return tuple(values)
-
-
-def _table(value, key, fail) -> dict:
-    if not isinstance(value, dict):
-        fail(key, f"expected a table ([{key}]), got {show(value)}")
-    return value
 
 
 def _options(table: dict, key: str, kind: str, fail) -> dict:
@@ -245,12 +230,8 @@ def _options(table: dict, key: str, kind: str, fail) -> dict:
 
 
 def _variants(value, kind, fail) -> list:
-    if not isinstance(value, list):
-        fail("variants", f"expected a list of tables ([[variants]]), got {show(value)}")
     out, names = [], set()
     for i, entry in enumerate(value):
-        if not isinstance(entry, dict):
-            fail(f"variants[{i}]", f"expected a table, got {show(entry)}")
         entry = dict(entry)
         name = entry.pop("name", f"v{i}")
         if not isinstance(name, str) or not name or name in names:

@@ -58,7 +58,7 @@ FAULTS = [
     Fault("device-cut-leaves-nothing", "analyze dev-empty.toml --drive 0 --load 1", ("part[1].shapes", "leave nothing")),
     Fault("device-shape-one", "analyze dev-grid.toml --drive 0 --load 1", ("cspace.shape[1]: expected an integer >= 2, got 1",)),
     Fault("device-upper-below-lower", "analyze dev-upper.toml --drive 0 --load 1", ("cspace.upper[0]: expected upper > lower",)),
-    Fault("device-spring-axis", "analyze dev-spring.toml --drive 0 --load 1", ("energy.springs[0].axis: expected 0 or 1, got 3",)),
+    Fault("device-spring-axis", "analyze dev-spring.toml --drive 0 --load 1", ("energy.springs[0].axis: expected an axis, 0 or 1, got 3",)),
     Fault("device-r-min-above-r-c", "analyze dev-rmin.toml --drive 0 --load 1", ("energy.r_min: expected r_min < r_c",)),
     Fault("device-mass-zero", "analyze dev-mass.toml --drive 0 --load 1", ("dynamics.mass[0]: expected a number > 0, got 0",)),
     Fault("device-walls-edges", "analyze dev-walls.toml --drive 0 --load 1",

@@ -148,7 +148,7 @@ BAD = [
     ("energy.v", -1e-3, "energy.v: expected a number >= 0"),
     ("energy.r_c", "wide", "energy.r_c: expected a finite number, got 'wide'"),
     ("energy.r_min", 0.5, "energy.r_min: expected r_min < r_c = 0.1, got 0.5"),
-    ("energy.springs[0].axis", 2, "energy.springs[0].axis: expected 0 or 1, got 2"),
+    ("energy.springs[0].axis", 2, "energy.springs[0].axis: expected an axis, 0 or 1, got 2"),
     ("energy.springs[1].side", "left", "energy.springs[1].side: expected one of"),
     ("energy.springs[1].k", float("nan"), "energy.springs[1].k: expected a finite number, got nan"),
     ("energy.springs[1].stiffness", 1.0, "energy.springs[1].stiffness: unknown key"),

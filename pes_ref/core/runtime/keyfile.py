@@ -222,8 +222,9 @@ def _boolean(r, v, w, k):
 
 def _edges(r, v, w, k):
     """``[[lower0, upper0], [lower1, upper1]]`` of booleans: which walls are on."""
-    return r.pair(v, w, lambda row, where: r.pair(row, where, lambda b, at: r.boolean(b, at), "booleans"),
-                  "[lower, upper] pairs of booleans")
+    if not (isinstance(v, list) and len(v) == 2 and all(isinstance(e, list) and len(e) == 2 for e in v)):
+        r.fail(w, f"expected [[lower0, upper0], [lower1, upper1]] of true/false, got {show(v)}")
+    return tuple(tuple(r.boolean(b, r.at(r.at(w, d), s)) for s, b in enumerate(e)) for d, e in enumerate(v))
 
 
 def _fraction(r, v, w, k):
