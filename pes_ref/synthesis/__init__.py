@@ -40,8 +40,8 @@ from pes_ref.synthesis.exits import FunnelExit, exit_steps
 from pes_ref.synthesis.funnel import exit_positions, FUNNEL_OBJECTIVES, FunnelProblem, IN_BAND_SHARE
 from pes_ref.synthesis.oscillator import OSCILLATOR_COSTS, OscillatorProblem, PhaseThenCycle
 from pes_ref.synthesis.problems import Batch
-from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, FUNNEL_PLAN, OSCILLATOR_PLANS, OSCILLATOR_POLISH, Plan,
-                                     PolishPlan, default_plan)
+from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, FUNNEL_ENVELOPE_PLAN, FUNNEL_PLAN, OSCILLATOR_PLANS,
+                                     OSCILLATOR_POLISH, Plan, PolishPlan, default_plan)
 from pes_ref.synthesis.resampling import resample
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, TermSum
 from pes_ref.synthesis.success import SUCCESS_TESTS
@@ -71,7 +71,7 @@ __all__ = [
     "FunnelExit", "exit_steps",
     "FunnelProblem", "OscillatorProblem", "PhaseThenCycle", "Batch", "OSCILLATOR_COSTS",
     "IN_BAND_SHARE", "exit_positions", "FUNNEL_OBJECTIVES",
-    "Plan", "PolishPlan", "default_plan", "FUNNEL_PLAN", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
+    "Plan", "PolishPlan", "default_plan", "FUNNEL_PLAN", "FUNNEL_ENVELOPE_PLAN", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
     "DEFAULT_OSCILLATOR_PLAN",
     "resample",
     "DesignState", "Progress", "GradientStep", "new_design", "run_design", "design_gradient",

@@ -20,6 +20,7 @@ from pes_ref.core.objectives import Funnel
 from pes_ref.core.scene import Scene
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Walls
+from pes_ref.synthesis.envelope import convex_channel, envelope_start
 from pes_ref.synthesis.exits import FunnelExit, exit_steps
 from pes_ref.synthesis.level_set import LevelSet
 from pes_ref.synthesis.problems import Batch, _check_fields, _Problem
@@ -54,8 +55,11 @@ class FunnelProblem(_Problem):
     ``{values + contact_r_c < 0}``, and the surface is eq. (1) with strength ``contact_v``,
     cut-off ``contact_r_c`` and cap ``contact_r_min`` of the exact distance to that shape, on
     the ``grid`` x ``grid`` surface whatever the stage's grid of values. The shape starts as
-    ``init_shape`` (:data:`INIT_SHAPES`): two strips ``init_strip`` wide along the walled sides
-    (``"strips"``), or a V whose gap at the exit edge is ``2 init_gap`` wide (``"vee"``).
+    ``init_shape`` (:data:`INIT_SHAPES`): the convex envelope of a smooth funnel's paths, made
+    by design (``"envelope"``, the default: :mod:`pes_ref.synthesis.envelope`), two strips
+    ``init_strip`` wide along the walled sides (``"strips"``), or a V whose gap at the exit edge
+    is ``2 init_gap`` wide (``"vee"``). A design from the envelope ends on its channel with
+    convex walls (:meth:`final_values`).
     """
 
     kind: ClassVar[str] = "funnel"
@@ -84,7 +88,7 @@ class FunnelProblem(_Problem):
     contact_r_c: float = 0.06
     contact_r_min: float = 0.02
     init_strip: float = 0.03
-    init_shape: str = "strips"
+    init_shape: str = "envelope"
     init_gap: float = 0.15
 
     def __post_init__(self):
@@ -127,13 +131,25 @@ class FunnelProblem(_Problem):
     def initial_values(self, rng, shape: tuple) -> np.ndarray:
         """Small random values (std ``init_scale``); with ``realizable``, the starting shape
         ``init_shape`` (:data:`INIT_SHAPES`) below the start strip (a level set's shape only
-        moves where its contour is: the walls grow from it)."""
+        moves where its contour is: the walls grow from it). The ``"envelope"`` designs a
+        smooth funnel first, from seeds drawn from ``rng``
+        (:func:`pes_ref.synthesis.envelope.envelope_start`)."""
         if not self.realizable:
             return super().initial_values(rng, shape)
-        q0 = np.linspace(self.lower[0], self.upper[0], shape[0])[:, None]
-        q1 = np.linspace(self.lower[1], self.upper[1], shape[1])[None, :]
-        free = np.broadcast_to(INIT_SHAPES[self.init_shape](self, q0, q1), shape)
+        if self.init_shape == "envelope":
+            free = envelope_start(self, rng, shape)
+        else:
+            q0 = np.linspace(self.lower[0], self.upper[0], shape[0])[:, None]
+            q1 = np.linspace(self.lower[1], self.upper[1], shape[1])[None, :]
+            free = np.broadcast_to(INIT_SHAPES[self.init_shape](self, q0, q1), shape)
         return self.level_set.from_distance(free) * self.mask(shape)
+
+    def final_values(self, values) -> np.ndarray:
+        """The grid a finished run delivers: ``values``, or for a design from the ``"envelope"``
+        its free channel with convex walls (:func:`pes_ref.synthesis.envelope.convex_channel`)."""
+        if self.realizable and self.init_shape == "envelope":
+            return convex_channel(self, values)
+        return values
 
     def mask(self, shape: tuple) -> np.ndarray:
         """1.0 where a grid value is designed, 0.0 in the start and exit strips held at zero energy."""
@@ -168,10 +184,15 @@ class FunnelProblem(_Problem):
         """Share of the batch whose exit |q0 - target| < 10% of the width."""
         return float(np.mean(self.in_band(exit_positions(self, traj))))
 
+    @property
+    def band(self) -> float:
+        """The band's half-width: an exit is in band within :data:`IN_BAND_SHARE` of the width from the target."""
+        return IN_BAND_SHARE * self.width
+
     def in_band(self, exits: np.ndarray) -> np.ndarray:
         """Where an exit q0 is within :data:`IN_BAND_SHARE` of the width from the target (False for NaN)."""
         with np.errstate(invalid="ignore"):
-            return np.abs(exits - self.target) < IN_BAND_SHARE * self.width
+            return np.abs(exits - self.target) < self.band
 
 
 def _strips(p: FunnelProblem, q0, q1):
@@ -187,8 +208,9 @@ def _vee(p: FunnelProblem, q0, q1):
     return (p.init_gap + slope * q1 - np.abs(q0)) / np.hypot(1.0, slope)
 
 
-#: The starting shapes of a realizable funnel: name -> signed distance (> 0 free) on the nodes.
-INIT_SHAPES = {"strips": _strips, "vee": _vee}
+#: The starting shapes of a realizable funnel: name -> signed distance (> 0 free) on the nodes
+#: (None: made by design, :func:`pes_ref.synthesis.envelope.envelope_start`).
+INIT_SHAPES = {"envelope": None, "strips": _strips, "vee": _vee}
 
 
 def exit_positions(problem: FunnelProblem, traj: Trajectory) -> np.ndarray:

@@ -24,7 +24,8 @@ import numpy as np
 from pes_ref.core import budget, checks
 from pes_ref.core.surface import spacing as grid_spacing
 from pes_ref.synthesis import analysis
-from pes_ref.synthesis.plans import DEFAULT_OSCILLATOR_PLAN, FUNNEL_PLAN, OSCILLATOR_PLANS, OSCILLATOR_POLISH, PolishPlan
+from pes_ref.synthesis.plans import (DEFAULT_OSCILLATOR_PLAN, FUNNEL_ENVELOPE_PLAN, FUNNEL_PLAN, OSCILLATOR_PLANS,
+                                    OSCILLATOR_POLISH, PolishPlan)
 from pes_ref.synthesis.problem_file import (at_step, parse_set, plan_for, problem_from_text, problem_text,
                                             with_sets)
 from pes_ref.synthesis.funnel import FunnelProblem
@@ -264,6 +265,14 @@ def _problem_smoke_scene(problem) -> dict:
     return {"surface.shape": list(problem.shape(min(SMOKE_GRID, problem.shape()[0])))}
 
 
+def _funnel_plan(problem):
+    """The funnel's default plan: :data:`pes_ref.synthesis.plans.FUNNEL_PLAN`, or for a realizable
+    funnel from the ``"envelope"`` start :data:`pes_ref.synthesis.plans.FUNNEL_ENVELOPE_PLAN`."""
+    if problem.realizable and problem.init_shape == "envelope":
+        return FUNNEL_ENVELOPE_PLAN
+    return FUNNEL_PLAN
+
+
 # ---------------------------------------------------------------- the kinds
 _OSCILLATOR_SETS, _OSCILLATOR_PLAN = OSCILLATOR_PLANS[DEFAULT_OSCILLATOR_PLAN]
 
@@ -273,7 +282,7 @@ KINDS = {
         name="funnel", default_problem=FunnelProblem, with_sets=_replace_fields,
         parse_sets=_parse_fields(FunnelProblem), data=_fields, whole=False,
         to_text=_dataclass_text, from_text=_from_json(FunnelProblem),
-        default_plan=lambda problem, iterations=None: FUNNEL_PLAN, default_polish=None, named_plans={},
+        default_plan=lambda problem, iterations=None: _funnel_plan(problem), default_polish=None, named_plans={},
         smoke=Smoke(lambda problem: {"grid": 12, "n_steps": 60, "dt": 0.05}, 6, 8, ((0, 0),), {}),
         evaluate=analysis.evaluate_funnel, eval_particles=lambda problem: 200,
         held_out_steps=lambda problem: problem.n_steps, panels=analysis.funnel_panels,

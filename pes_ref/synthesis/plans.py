@@ -17,8 +17,8 @@ from typing import NamedTuple
 from pes_ref.core import checks
 from pes_ref.synthesis.optimizers import make_optimizer
 
-__all__ = ["Plan", "Stage", "PolishPlan", "default_plan", "coarse_to_fine", "FUNNEL_PLAN", "OSCILLATOR_PLANS", "OSCILLATOR_POLISH",
-           "DEFAULT_OSCILLATOR_PLAN", "POLISH_METHODS"]
+__all__ = ["Plan", "Stage", "PolishPlan", "default_plan", "coarse_to_fine", "FUNNEL_PLAN", "FUNNEL_ENVELOPE_PLAN",
+           "OSCILLATOR_PLANS", "OSCILLATOR_POLISH", "DEFAULT_OSCILLATOR_PLAN", "POLISH_METHODS"]
 
 
 class Stage(NamedTuple):
@@ -297,6 +297,13 @@ DEFAULT_OSCILLATOR_PLAN = "gait"
 #: The funnel's default plan (measured in docs/synthesis.md, "Results").
 FUNNEL_PLAN = Plan(iterations=500, lr=0.002, lr_final=0.0005, decay_iterations=400, stages=((0, 25), (400, 0)),
                    n_particles=64)
+#: The default plan of a realizable funnel from the ``"envelope"`` start (``init_shape``;
+#: measured in docs/realize.md, "The candidates"): 100 iterations of RMSprop at lr 5e-4 on the
+#: problem's own grid (a coarse grid would not hold the start), validated every 10 on 200
+#: particles, ending on the best validated grid (its channel made convex:
+#: :func:`pes_ref.synthesis.envelope.convex_channel`).
+FUNNEL_ENVELOPE_PLAN = Plan(iterations=100, lr=0.0005, lr_final=0.0005, decay_iterations=100, stages=((0, 0),),
+                            n_particles=64, validate_every=10, validation_particles=200)
 
 
 #: The grids (nodes along axis 0) of :func:`coarse_to_fine`'s stages below the final grid: each

@@ -67,6 +67,11 @@ class _Problem:
         """Small random values (std ``init_scale``) to break symmetry, zero where held."""
         return rng.standard_normal(shape) * self.init_scale * self.mask(shape)
 
+    def final_values(self, values) -> np.ndarray:
+        """The grid a finished gradient stage delivers (``values`` itself unless a problem says
+        otherwise: a realizable funnel from the ``"envelope"``)."""
+        return values
+
     def flat_values(self, shape: tuple | None = None) -> np.ndarray:
         """The flat starting surface: zeros."""
         return np.zeros(self.shape() if shape is None else shape)

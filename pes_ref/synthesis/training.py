@@ -155,7 +155,10 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     A plan that validates (``validate_every``, :mod:`pes_ref.synthesis.validation`) judges the
     grid before the first iteration, every that many and after the last, keeps the best (``state.best``), stops
     early once one reaches the plan's ``target``, and a run that is done ends on the best grid
-    (``state.values``); resuming a done run for more iterations continues from that grid. The
+    (``state.values``); resuming a done run for more iterations continues from that grid. A
+    run that is done ends on its problem's ``final_values`` of that grid (the grid itself,
+    except a realizable funnel from the ``"envelope"`` start: its channel made convex again,
+    :func:`pes_ref.synthesis.envelope.convex_channel`). The
     validations are part of the state a design file holds, so a stopped run resumes bit-exactly.
     """
     total = state.plan.iterations if iterations is None else checks.as_nonneg_int("iterations", iterations)
@@ -244,6 +247,8 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
             state.status = "done"
     if state.status == "done" and state.best is not None:
         state.values = state.best.values        # the run delivers its best validated grid
+    if state.status == "done":
+        state.values = problem.final_values(state.values)
     state.elapsed += time.perf_counter() - t_start
     if callback is not None and reported[0] != state.iteration:      # once at the end, unless just shown
         report(time.perf_counter())

@@ -28,21 +28,25 @@ DEFAULT_OUT = ROOT / "validation" / "out" / "realize_rigid"
 #: name -> (file stem, the design command's arguments, the headline figure).
 VARIANTS = {
     "latch_contact (shipped plan)": ("latch_contact", ["latch_contact"], "success_fraction"),
-    "funnel, realizable, default plan (strips)": ("funnel_strips", ["funnel", "--set", "realizable=true"],
-                                                  "in_band_fraction"),
+    "funnel, realizable, default plan (envelope)": ("funnel_envelope", ["funnel", "--set", "realizable=true"],
+                                                    "in_band_fraction"),
+    "funnel, realizable, strips": ("funnel_strips", ["funnel", "--set", "realizable=true", "--set",
+                                                     "init_shape=strips"], "in_band_fraction"),
     "funnel, realizable, V start, linger 20": ("funnel_vee", ["funnel", "--set", "realizable=true", "--set",
                                                               "linger=20", "--set", "init_shape=vee"],
                                                "in_band_fraction"),
     "oscillator (default plan)": ("oscillator", ["oscillator", "--workers", "1"], "captured_fraction"),
 }
 LATCH, VEE = "latch_contact (shipped plan)", "funnel, realizable, V start, linger 20"
+ENVELOPE = "funnel, realizable, default plan (envelope)"
 #: candidate -> (the variants it is tried on, the realize command's extra arguments): what a
 #: machinist can choose without a new design (a pin larger than its cut-out, the parts' restitution).
 CANDIDATES = {
     "pin 0.02, no clearance, inelastic": (tuple(VARIANTS), ["--clearance", "0", "--restitution", "0"]),
-    "clearance 0.03 (pin 0.05, the same plate)": ((LATCH, VEE), ["--clearance", "0.03", "--restitution", "0"]),
+    "clearance 0.03 (pin 0.05, the same plate)": ((LATCH, VEE, ENVELOPE), ["--clearance", "0.03", "--restitution",
+                                                                          "0"]),
     "clearance 0.03, restitution 0.5": ((LATCH,), ["--clearance", "0.03", "--restitution", "0.5"]),
-    "clearance 0.03, restitution 0.9": ((LATCH, VEE), ["--clearance", "0.03", "--restitution", "0.9"]),
+    "clearance 0.03, restitution 0.9": ((LATCH, VEE, ENVELOPE), ["--clearance", "0.03", "--restitution", "0.9"]),
     "clearance 0.035, restitution 1 (latch_contact.toml's)": ((LATCH, VEE), ["--clearance", "0.035",
                                                                              "--restitution", "1"]),
 }

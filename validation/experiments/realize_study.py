@@ -39,9 +39,10 @@ REALIZABLE = ["--set", "realizable=true"]
 #: name -> the design command's options (None: the V start alone, saved with no iteration).
 VARIANTS = {
     "default funnel (visited rule)": [],
-    "realizable, strips": REALIZABLE,
-    "realizable, strips, linger 1": REALIZABLE + ["--set", "linger=1"],
-    "realizable, strips, linger 20": REALIZABLE + ["--set", "linger=20"],
+    "realizable, envelope (the default plan)": REALIZABLE,
+    "realizable, strips": REALIZABLE + ["--set", "init_shape=strips"],
+    "realizable, strips, linger 1": REALIZABLE + ["--set", "linger=1", "--set", "init_shape=strips"],
+    "realizable, strips, linger 20": REALIZABLE + ["--set", "linger=20", "--set", "init_shape=strips"],
     "realizable, V start alone": None,
     "realizable, V start, linger 1": REALIZABLE + ["--set", "linger=1", "--set", "init_shape=vee"],
     "realizable, V start, linger 20": REALIZABLE + ["--set", "linger=20", "--set", "init_shape=vee"],
