@@ -138,6 +138,14 @@ def _force(q0, q1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, 
     the unpacked tuples of :func:`_grid`, :func:`_spring` and :func:`_walls`: a kernel
     unpacks them once, outside its loops; ``wraps`` is its compile-time constant.)"""
     cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
+    return _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf,
+                     slen, won, wk, wlo, whi)
+
+
+@njit(inline="always", **_JIT)
+def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
+              won, wk, wlo, whi):
+    """:func:`_force` at the cell and fractions that :func:`_locate` gave for ``(q0, q1)``."""
     row = cell + offsets[i]
     if row >= table.shape[0]:
         row = table.shape[0] - 1
@@ -196,6 +204,53 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, cross, offsets, gtab
         xb1 = xb1 - k1 * w1
     return xb0, xb1
 
+
+@njit(inline="always", **_JIT)
+def _energy_at(q0, q1, w0, w1, i, cell, f0, f1, per0, per1, values, m, wrapping, son, sk, sc, swrap0, swrap1,
+               shalf, slen, won, hwk, wlo, whi):
+    """Particle ``i``'s total energy at ``(q0, q1)`` with velocity ``(w0, w1)``, at its cell and
+    fractions of :func:`_locate`: :func:`pes_ref.core.scene.energy`'s operations in its order,
+    the bilinear energy of :func:`pes_ref.core.bilinear.grid_energy`, plus the spring's
+    ``0.5 (k0 d0 d0 + k1 d1 d1)`` (the minimum image on the axes ``swrap``, the periodic ones,
+    as :func:`pes_ref.core.terms.spring_delta`; ``wrapping``, a caller's compile-time constant,
+    False leaves the image out of a loop whose caller passes no ``swrap``), plus the walls'
+    ``(0.5 k) (b0 b0 + a0 a0 + (b1 b1 + a1 a1))``, plus ``0.5 (m0 v0 v0 + m1 v1 v1)``."""
+    n0 = values.shape[0]
+    n1 = values.shape[1]
+    i0 = cell // n1
+    j0 = cell - i0 * n1
+    i1 = i0 + 1
+    j1 = j0 + 1
+    if per0 and i1 == n0:
+        i1 = 0
+    if per1 and j1 == n1:
+        j1 = 0
+    if i1 >= n0:                 # a non-finite point (cell 0 of a 1-node axis never occurs)
+        i1 = n0 - 1
+    if j1 >= n1:
+        j1 = n1 - 1
+    u = ((1 - f0) * (1 - f1) * values[i0, j0] + f0 * (1 - f1) * values[i1, j0]
+         + (1 - f0) * f1 * values[i0, j1] + f0 * f1 * values[i1, j1])
+    if son:
+        d0 = q0 - sc[i, 0]
+        d1 = q1 - sc[i, 1]
+        if wrapping:
+            if swrap0:
+                d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
+            if swrap1:
+                d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
+        u = u + 0.5 * (sk[i, 0] * d0 * d0 + sk[i, 1] * d1 * d1)
+    if won:
+        b0 = wlo[i, 0] - q0
+        b0 = b0 if (b0 != b0 or b0 > 0.0) else 0.0
+        a0 = q0 - whi[i, 0]
+        a0 = a0 if (a0 != a0 or a0 > 0.0) else 0.0
+        b1 = wlo[i, 1] - q1
+        b1 = b1 if (b1 != b1 or b1 > 0.0) else 0.0
+        a1 = q1 - whi[i, 1]
+        a1 = a1 if (a1 != a1 or a1 > 0.0) else 0.0
+        u = u + hwk[i] * ((b0 * b0 + a0 * a0) + (b1 * b1 + a1 * a1))
+    return u + 0.5 * (m[i, 0] * w0 * w0 + m[i, 1] * w1 * w1)
 
 
 # =========================================================================== the per-cell tables
@@ -298,16 +353,21 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
     # ======================================================================= dynamic mode
 
     @njit(**jit)
-    def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls):
+    def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls,
+                       energy):
         """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_dynamic`, and
         from ``start = 0`` the initial force ``F_0 = F(X_0) + F_ext[0]`` first (as a step -1
         that is only (S3): one copy of the force in the loop); the particles of each block
         (``blocks[b] .. blocks[b+1] - 1``: a population's member, whose grid's table then stays
         in cache) through all the steps before the next block's (particles are independent:
-        the order changes no number)."""
+        the order changes no number). ``energy`` (:func:`_energy_terms`) on: each state's
+        energy into its ``out`` as the state is made, at the state's lookup (:func:`_energy_at`)."""
         g, per0, per1, clips, table, offsets = grid
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
+        e_on, eout, em, evalues, espring, ewalls = energy
+        eson, esk, esc, eswrap0, eswrap1, eshalf, eslen = espring
+        ewon, ehwk, ewlo, ewhi = ewalls
         for b in loop(blocks.size - 1):
             for n in range(start - 1 if start == 0 else start, stop):
                 for i in range(blocks[b], blocks[b + 1]):
@@ -324,23 +384,29 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
                         y0, y1 = x[0, i, 0], x[0, i, 1]
                         p0 = p1 = 0.0
                     # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
-                    F0, F1 = _force(y0, y1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, swrap0,
-                                    swrap1, shalf, slen, won, wk, wlo, whi)
+                    cell, f0, f1, s0, s1 = _locate(y0, y1, g, per0, per1, clips)
+                    F0, F1 = _force_at(y0, y1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0,
+                                       swrap1, shalf, slen, won, wk, wlo, whi)
                     if has_fext:
                         F0 = F0 + fext[n + 1, i, 0]
                         F1 = F1 + fext[n + 1, i, 1]
                     f[n + 1, i, 0] = F0
                     f[n + 1, i, 1] = F1
                     if n < 0:
-                        continue
-                    # (S4) kick: V_{n+1} = a F_{n+1} + P, damped ((a F_{n+1} + P) - c V_n) (1 / (1 + c))
-                    w0 = a[i, 0] * F0 + p0
-                    w1 = a[i, 1] * F1 + p1
-                    if damped:
-                        w0 = (w0 - c[i, 0] * v[n, i, 0]) * inv_1pc[i, 0]
-                        w1 = (w1 - c[i, 1] * v[n, i, 1]) * inv_1pc[i, 1]
-                    v[n + 1, i, 0] = w0
-                    v[n + 1, i, 1] = w1
+                        w0, w1 = v[0, i, 0], v[0, i, 1]
+                    else:
+                        # (S4) kick: V_{n+1} = a F_{n+1} + P, damped ((a F_{n+1} + P) - c V_n) (1 / (1 + c))
+                        w0 = a[i, 0] * F0 + p0
+                        w1 = a[i, 1] * F1 + p1
+                        if damped:
+                            w0 = (w0 - c[i, 0] * v[n, i, 0]) * inv_1pc[i, 0]
+                            w1 = (w1 - c[i, 1] * v[n, i, 1]) * inv_1pc[i, 1]
+                        v[n + 1, i, 0] = w0
+                        v[n + 1, i, 1] = w1
+                    if e_on:
+                        eout[n + 1, i] = _energy_at(y0, y1, w0, w1, i, cell, f0, f1, per0, per1, evalues, em, wraps,
+                                                    eson, esk, esc, eswrap0, eswrap1, eshalf, eslen, ewon, ehwk, ewlo,
+                                                    ewhi)
 
 
     @njit(**jit)
@@ -494,55 +560,16 @@ def _make_energy(parallel: bool):
     @njit(parallel=parallel, **_JIT)
     def _energy(x, v, m, blocks, g, per0, per1, clips, values, son, sk, sc, swrap0, swrap1, shalf, slen,
                 won, hwk, wlo, whi, out):
-        """``out[n, i]``: :func:`pes_ref.core.scene.energy`'s operations in its order, per
-        particle-state: the bilinear energy of :func:`pes_ref.core.bilinear.grid_energy` at the
-        cell and fractions of :func:`pes_ref.core.grid.locate`, plus the spring's
-        ``0.5 (k0 d0 d0 + k1 d1 d1)`` (the minimum image on every periodic axis, as
-        :func:`pes_ref.core.terms.spring_delta`), plus the walls' ``(0.5 k) (b0 b0 + a0 a0 +
-        (b1 b1 + a1 a1))``, plus ``0.5 (m0 v0 v0 + m1 v1 v1)``."""
-        n1 = values.shape[1]
-        n0 = values.shape[0]
+        """``out[n, i]``: :func:`_energy_at` of each particle-state (a spring's minimum image
+        on every periodic axis)."""
         for b in loop(blocks.size - 1):
             for n in range(x.shape[0]):
                 for i in range(blocks[b], blocks[b + 1]):
                     q0 = x[n, i, 0]
                     q1 = x[n, i, 1]
-                    cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
-                    i0 = cell // n1
-                    j0 = cell - i0 * n1
-                    i1 = i0 + 1
-                    j1 = j0 + 1
-                    if per0 and i1 == n0:
-                        i1 = 0
-                    if per1 and j1 == n1:
-                        j1 = 0
-                    if i1 >= n0:                 # a non-finite point (cell 0 of a 1-node axis never occurs)
-                        i1 = n0 - 1
-                    if j1 >= n1:
-                        j1 = n1 - 1
-                    u = ((1 - f0) * (1 - f1) * values[i0, j0] + f0 * (1 - f1) * values[i1, j0]
-                         + (1 - f0) * f1 * values[i0, j1] + f0 * f1 * values[i1, j1])
-                    if son:
-                        d0 = q0 - sc[i, 0]
-                        d1 = q1 - sc[i, 1]
-                        if swrap0:
-                            d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
-                        if swrap1:
-                            d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
-                        u = u + 0.5 * (sk[i, 0] * d0 * d0 + sk[i, 1] * d1 * d1)
-                    if won:
-                        b0 = wlo[i, 0] - q0
-                        b0 = b0 if (b0 != b0 or b0 > 0.0) else 0.0
-                        a0 = q0 - whi[i, 0]
-                        a0 = a0 if (a0 != a0 or a0 > 0.0) else 0.0
-                        b1 = wlo[i, 1] - q1
-                        b1 = b1 if (b1 != b1 or b1 > 0.0) else 0.0
-                        a1 = q1 - whi[i, 1]
-                        a1 = a1 if (a1 != a1 or a1 > 0.0) else 0.0
-                        u = u + hwk[i] * ((b0 * b0 + a0 * a0) + (b1 * b1 + a1 * a1))
-                    w0 = v[n, i, 0]
-                    w1 = v[n, i, 1]
-                    out[n, i] = u + 0.5 * (m[i, 0] * w0 * w0 + m[i, 1] * w1 * w1)
+                    cell, f0, f1, _, _ = _locate(q0, q1, g, per0, per1, clips)
+                    out[n, i] = _energy_at(q0, q1, v[n, i, 0], v[n, i, 1], i, cell, f0, f1, per0, per1, values, m,
+                                           True, son, sk, sc, swrap0, swrap1, shalf, slen, won, hwk, wlo, whi)
 
     return _energy
 
@@ -551,37 +578,56 @@ def _make_energy(parallel: bool):
 ENERGY = {parallel: _make_energy(parallel) for parallel in (False, True)}
 
 
-def energy(field, x: np.ndarray, v: np.ndarray, mass) -> np.ndarray:
-    """Total energy per state and particle, (T+1, N): :func:`pes_ref.core.scene.energy`'s
-    numbers bit for bit (bilinear grid, one grid), compiled; the particles in blocks of
-    :data:`BLOCK` on numba's threads from :data:`PARALLEL_MIN` particles on."""
-    x, v = _kernel_array(x), _kernel_array(v)
-    T1, N = x.shape[0], x.shape[1]
-    grid = _grid(field, N, _NONE2)
-    g, per0, per1, clips = grid[:4]
+def _energy_terms(field, n: int, mass, out) -> tuple:
+    """``(on, out, mass, values, spring, walls)``: the energy arguments of :func:`_energy_at`
+    (:func:`_make_energy`'s kernel and the forward loop's), ``on`` False and placeholders of
+    the same types when ``out`` is None. The spring's minimum image on every periodic axis
+    (``spring[3:5]``), the walls' ``0.5 k`` per particle."""
+    if out is None:
+        return False, _NONE2, _NONE2, _NONE2, _NO_SPRING, _NO_ENERGY_WALLS
     if field.spring is not None:
         wrap = [bool(p) for p in field.periodic]
         length = np.asarray(field.length, dtype=np.float64)
-        spring = (True, _as(field.spring[0], N), _as(field.spring[1], N), wrap[0], wrap[1], 0.5 * length, length.copy())
+        spring = (True, _as(field.spring[0], n), _as(field.spring[1], n), wrap[0], wrap[1], 0.5 * length, length.copy())
     else:
-        spring = _spring(field, N, False, ())
+        spring = _spring(field, n, False, ())
     if field.walls is not None:
         k, lo, hi = field.walls
-        walls = (True, np.ascontiguousarray(np.broadcast_to(0.5 * np.asarray(k, dtype=np.float64), (N, 1))[:, 0]),
-                 _as(lo, N), _as(hi, N))
+        walls = (True, np.broadcast_to(0.5 * np.asarray(k, dtype=np.float64), (n, 1))[:, 0].copy(), _as(lo, n),
+                 _as(hi, n))
     else:
-        walls = (False, np.zeros(1), _NONE2, _NONE2)
-    out = np.empty((T1, N))
+        walls = _NO_ENERGY_WALLS
+    return True, out, _as(mass, n), _kernel_array(field.values), spring, walls
+
+
+def energy(field, x: np.ndarray, v: np.ndarray, mass, out=None) -> np.ndarray:
+    """Total energy per state and particle, (T+1, N), into ``out`` (fresh when None):
+    :func:`pes_ref.core.scene.energy`'s numbers bit for bit (bilinear grid, one grid),
+    compiled; the particles in blocks of :data:`BLOCK` on numba's threads from
+    :data:`PARALLEL_MIN` particles on."""
+    x, v = _kernel_array(x), _kernel_array(v)
+    T1, N = x.shape[0], x.shape[1]
+    g, per0, per1, clips = _grid(field, N, _NONE2)[:4]
+    out = np.empty((T1, N)) if out is None else out
+    _, out, m, values, spring, walls = _energy_terms(field, N, mass, out)
     parallel = N >= PARALLEL_MIN
-    ENERGY[parallel](x, v, _as(mass, N), particle_blocks(N) if parallel else np.array([0, N], dtype=np.intp),
-                     g, per0, per1, clips, _kernel_array(field.values), *spring, *walls, out)
+    ENERGY[parallel](x, v, m, particle_blocks(N) if parallel else np.array([0, N], dtype=np.intp),
+                     g, per0, per1, clips, values, *spring, *walls, out)
     return out
+
+
+def energy_wraps(field) -> bool:
+    """Whether :func:`_energy_at` takes a spring's minimum image in ``field`` (a spring and a
+    periodic axis): a forward loop that computes the energy is then the one compiled with it."""
+    return field.spring is not None and any(bool(p) for p in field.periodic)
 
 
 # =========================================================================== the kernels' arguments
 
 _NONE2 = np.zeros((1, 2))
 _NONE3 = np.zeros((1, 1, 2))
+_NO_SPRING = (False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2))
+_NO_ENERGY_WALLS = (False, np.zeros(1), _NONE2, _NONE2)
 
 #: From this many particles on, the loops run their particles in blocks on numba's threads
 #: (both cores); below it, one block on one thread (a thread pool's start costs more there).
@@ -653,7 +699,7 @@ def _spring(field, n: int, on: bool, axes):
     """``(on, k, center, wrap0, wrap1, half, length)``: the minimum image on the periodic
     axes among ``axes``."""
     if field.spring is None:
-        return False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2)
+        return _NO_SPRING
     length = np.asarray(field.length, dtype=np.float64)
     wrap = [bool(field.periodic[d]) and d in axes for d in range(2)]
     return (on, _as(field.spring[0], n), _as(field.spring[1], n), wrap[0], wrap[1], 0.5 * length,
@@ -749,12 +795,20 @@ class _Adjoint:
 
 @reports_nonfinite
 def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping, progress=None,
-                     refuse_nonfinite: bool = True, out=None) -> Trajectory:
-    """:func:`pes_ref.core.integrator.simulate_dynamic`, compiled (same arguments, same numbers)."""
+                     refuse_nonfinite: bool = True, out=None, energy=None) -> Trajectory:
+    """:func:`pes_ref.core.integrator.simulate_dynamic`, compiled (same arguments, same numbers).
+    ``energy``: a C-contiguous float64 (T+1, N) array that the loop fills with each state's
+    total energy as it makes the state (:func:`pes_ref.core.scene.energy`'s numbers, bit for
+    bit; one grid), or None."""
     T, N = n_steps, x0.shape[0]
     x, v, f = trajectory_arrays(T, N, out)
     x[0], v[0] = x0, v0
+    if energy is not None and field.offsets is not None:
+        raise ValueError("a population's energy is not computed in its forward loop")
     K, grid, spring, walls = _forward_terms(field, N)
+    energy = _energy_terms(field, N, mass, energy)
+    if energy[0] and energy_wraps(field):
+        K = KERNELS[True]
     ext, has_fext = _c3(fext)
     a, c = step_coefficients(dt, mass, damping, N)
     damped = c is not None
@@ -766,7 +820,7 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
         K = PARALLEL_KERNELS[K is KERNELS[True]]
     for start, stop in step_blocks(T, progress, "forward"):         # from step 0: F_0 first
         K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, float(dt), grid, spring,
-                        walls)
+                        walls, energy)
     traj = Trajectory(x, v, f)
     if refuse_nonfinite:
         check_finite(traj, f"dt={dt!r}")
@@ -850,7 +904,7 @@ def _or3(a):
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):
     return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
-                            p.out)
+                            p.out, p.energy)
 
 
 def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
@@ -868,7 +922,8 @@ def _adjoint_quasistatic(field, traj, p: StepParams, gx, gv, want):
 #: The compiled steppers by ``(mode, integrator)``: what :data:`pes_ref.core.backends.BACKENDS`
 #: ``"numba"`` covers (the GJF step runs on NumPy).
 STEPPERS = {
-    ("dynamic", "verlet"): Stepper(_simulate_verlet, _adjoint_verlet, NUMPY_STEPPERS[("dynamic", "verlet")].gradients),
+    ("dynamic", "verlet"): Stepper(_simulate_verlet, _adjoint_verlet, NUMPY_STEPPERS[("dynamic", "verlet")].gradients,
+                                   energy=True),
     ("quasistatic", "verlet"): Stepper(_simulate_quasistatic, _adjoint_quasistatic,
                                        NUMPY_STEPPERS[("quasistatic", "verlet")].gradients),
 }

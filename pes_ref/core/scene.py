@@ -306,11 +306,11 @@ def _explains_nonfinite(forward):
     return wrapper
 
 
-def _step_params(scene: Scene, progress=None) -> StepParams:
+def _step_params(scene: Scene, progress=None, energy_out=None) -> StepParams:
     """The scene's step parameters for its stepper; ``damping`` is None unless some gamma
     is nonzero (then the core does no damping arithmetic at all)."""
     return StepParams(scene.dt, scene.n_steps, scene.mass, scene.damping if scene.damped else None, scene.mobility,
-                      progress)
+                      progress, energy=energy_out)
 
 
 def _stepper(scene: Scene, backend: str):
@@ -319,8 +319,10 @@ def _stepper(scene: Scene, backend: str):
 
 
 @_explains_nonfinite
-def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy") -> Trajectory:
-    return _stepper(scene, backend).simulate(scene.field(), x0, v0, fext, _step_params(scene, progress))
+def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy", energy_out=None) -> Trajectory:
+    """The run; ``energy_out`` ((T+1, N) float64) for a stepper whose loop fills it with each
+    state's :func:`energy` (:attr:`pes_ref.core.steppers.Stepper.energy`), else None."""
+    return _stepper(scene, backend).simulate(scene.field(), x0, v0, fext, _step_params(scene, progress, energy_out))
 
 
 #: Particle-states per chunk of :func:`energy` on NumPy: its ~20 temporaries then stay in cache
@@ -328,8 +330,9 @@ def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy") 
 ENERGY_CHUNK = 1 << 14
 
 
-def energy(scene: Scene, traj: Trajectory, backend: str = "numpy") -> np.ndarray:
-    """Total energy per state and particle, shape (T+1, N) (docs/spec.md section 3.4).
+def energy(scene: Scene, traj: Trajectory, backend: str = "numpy", out: np.ndarray | None = None) -> np.ndarray:
+    """Total energy per state and particle, shape (T+1, N) (docs/spec.md section 3.4), into
+    ``out`` (a C-contiguous float64 (T+1, N) array; fresh when None).
 
     Kinetic ``sum_d m_d v_d^2 / 2`` plus ``U = U_grid + U_spring + U_wall``. On NumPy a
     chunk of :data:`ENERGY_CHUNK` particle-states at a time; with ``backend="numba"`` (the
@@ -341,10 +344,11 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy") -> np.ndarray
     fld = scene.field()
     if backend == "numba" and fld.interpolation == "bilinear":
         from pes_ref.core import compiled
-        return compiled.energy(fld, x, v, scene.mass)
+        return compiled.energy(fld, x, v, scene.mass, out)
+    if out is None:
+        out = np.empty((T1, N))
     if fld.interpolation == "bilinear" and fld.offsets is None:
-        return _bilinear_energy(fld, x, v, scene.mass)
-    out = np.empty((T1, N))
+        return _bilinear_energy(fld, x, v, scene.mass, out)
     m = np.broadcast_to(scene.mass, (N, 2))
     step = max(1, ENERGY_CHUNK // max(N, 1))
     spring = fld.spring
@@ -361,7 +365,7 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy") -> np.ndarray
     return out
 
 
-def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass) -> np.ndarray:
+def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass, out: np.ndarray) -> np.ndarray:
     """:func:`energy` on the bilinear grid, a chunk of states at a time with the hot loop's
     lookup (:class:`pes_ref.core.grid.Locator`: the cells and fractions of
     :func:`pes_ref.core.grid.locate`) and a per-cell table of the four corner values, column by
@@ -393,7 +397,6 @@ def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass) -> np.ndarr
         hk = 0.5 * np.asarray(k, dtype=np.float64)
         lo, hi = np.broadcast_to(lo, (N, 2)), np.broadcast_to(hi, (N, 2))
         walls = [(d, lo[:, d], hi[:, d]) for d in range(2)]
-    out = np.empty((T1, N))
     mul, add, sub = np.multiply, np.add, np.subtract
     for t0 in range(0, T1, step):
         t1 = min(T1, t0 + step)
@@ -451,7 +454,7 @@ def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass) -> np.ndarr
 
 def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: float = 0.0,
                    wrt=None, fext="scene", allow_unstable: bool = False, progress=None, checked: bool = False,
-                   backend: str | None = None):
+                   backend: str | None = None, energy_out: np.ndarray | None = None):
     """The loss of a run and its exact gradients by the hand-derived adjoint (docs/spec.md sections 6-7).
 
     Parameters
@@ -481,8 +484,13 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
         The caller has checked everything already, as the oracle's
         :func:`pes_ref.oracle.case.validate_case` does: ``x0`` and ``v0`` are float64
         (N, 2) arrays, ``fext`` a float64 (T+1, N, 2) array or None, the weight a float
-        >= 0, the objective has ``value_and_grad``, and the run's stability and memory
-        are checked. Nothing of it is done again (``allow_unstable`` is then moot).
+        >= 0, the objective has ``value_and_grad``, ``energy_out`` is as asked or None, and
+        the run's stability and memory are checked. Nothing of it is done again
+        (``allow_unstable`` is then moot).
+    energy_out : ndarray (T+1, N), optional
+        A writable C-contiguous float64 array to fill with the run's :func:`energy` (the same numbers
+        as ``energy(scene, traj)``): the compiled dynamic loop computes it as it makes each
+        state, at the state's own grid lookup; the others after the run.
 
     Returns
     -------
@@ -503,16 +511,37 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
         n = x0.shape[0]
         _check_run(scene, n, "value_and_grad", allow_unstable, progress)
         fext = _resolve_fext(scene, fext, n)
+        if energy_out is not None:
+            _check_energy_out(energy_out, (scene.n_steps + 1, n))
     want = _wanted(scene, wrt)
     backend = backends.check_backend(backend)
-    traj = _forward(scene, x0, v0, fext, progress, backend)
+    stepper = _stepper(scene, backend)
+    in_loop = energy_out is not None and stepper.energy         # the forward loop fills it as it steps
+    traj = _forward(scene, x0, v0, fext, progress, backend, energy_out if in_loop else None)
     loss, gx, gv = objective.value_and_grad(traj.x, traj.v, scene.times())
     reg, greg = regularization(scene.surface.values, R)
-    raw = _stepper(scene, backend).adjoint(scene.field(), traj, _step_params(scene, progress), gx, gv, want)
+    raw = stepper.adjoint(scene.field(), traj, _step_params(scene, progress), gx, gv, want)
+    if energy_out is not None and not in_loop:
+        energy(scene, traj, backend=backend, out=energy_out)
     grads = {name: _INPUT_SHAPE.get(name, _as_given)(scene, raw[name], n) for name in GRADIENT_NAMES if name in want}
     if "values" in grads and greg is not None:
         grads["values"] = grads["values"] + greg
     return loss + reg, grads, traj
+
+
+def _check_energy_out(out, shape: tuple) -> None:
+    """``energy_out`` of :func:`value_and_grad`: a writable C-contiguous float64 array of ``shape``."""
+    if not (isinstance(out, np.ndarray) and out.dtype == np.float64 and out.shape == shape
+            and out.flags.c_contiguous and out.flags.writeable):
+        raise checks.InputError("energy_out", f"energy_out must be a writable C-contiguous float64 array of shape "
+                                              f"(T+1, N) = {shape}, got {_describe_array(out)}")
+
+
+def _describe_array(a) -> str:
+    if not isinstance(a, np.ndarray):
+        return f"a {type(a).__name__}"
+    return f"dtype {a.dtype}, shape {a.shape}" + ("" if a.flags.c_contiguous else ", not C-contiguous") + (
+        "" if a.flags.writeable else ", read-only")
 
 
 # ---------------------------------------------------------------- a gradient in its input's shape

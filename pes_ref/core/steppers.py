@@ -37,7 +37,9 @@ class StepParams(NamedTuple):
     a trajectory that left the finite numbers instead of raising (a population checks each
     member's part, :mod:`pes_ref.core.population`); ``out`` a
     :class:`~pes_ref.core.integrator.Trajectory` of (T+1, N, 2) arrays to run into, or None
-    for fresh ones (:func:`pes_ref.core.integrator.trajectory_arrays`).
+    for fresh ones (:func:`pes_ref.core.integrator.trajectory_arrays`); ``energy`` a float64
+    (T+1, N) array that a forward loop which computes the energy as it steps
+    (:attr:`Stepper.energy`) fills with each state's total energy, or None.
     """
 
     dt: float
@@ -48,6 +50,7 @@ class StepParams(NamedTuple):
     progress: Callable | None = None
     refuse_nonfinite: bool = True
     out: object = None
+    energy: np.ndarray | None = None
 
 
 class Stepper(NamedTuple):
@@ -67,11 +70,16 @@ class Stepper(NamedTuple):
         of every scene (``values``, ``x0``, ``force``, and a spring's): ``v0``, ``mass``,
         ``damping`` in dynamic mode, ``mobility`` in quasistatic mode (where v0, mass and
         damping play no part).
+    energy : bool
+        ``simulate`` fills ``params.energy`` (when it is not None) with each state's total
+        energy as it makes the state (:func:`pes_ref.core.scene.energy`'s numbers, bit for
+        bit): the compiled dynamic loop; the others leave it to a pass after the run.
     """
 
     simulate: Callable
     adjoint: Callable
     gradients: tuple
+    energy: bool = False
 
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):

@@ -39,7 +39,7 @@ from pes_ref.core import budget, checks, stability
 from pes_ref.core.runtime.files import ResultExistsError
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
-from pes_ref.core.scene import MODES, Scene, energy, gradient_names, value_and_grad
+from pes_ref.core.scene import MODES, Scene, gradient_names, value_and_grad
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
 from pes_ref.oracle.errors import CaseError, CaseTypeError
@@ -458,11 +458,11 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
     blame = "dt" if scene.mode == "dynamic" else "mobility"
     try:
         with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            e = np.empty((scene.n_steps + 1, vc.x0.shape[0]))
             loss, grads, traj = value_and_grad(scene, vc.x0, vc.v0, vc.objective,
                                                regularization_weight=vc.regularization,
                                                wrt=vc.grad_names, fext=vc.force, progress=progress, backend=backend,
-                                               checked=True)       # by validate_case, once
-            e = energy(scene, traj, backend=backend)
+                                               checked=True, energy_out=e)       # checked by validate_case, once
     except NonFiniteError as exc:             # its message names the step and a stable value
         raise CaseError(blame, str(exc)) from None
     except FloatingPointError as exc:

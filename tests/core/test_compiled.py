@@ -93,6 +93,23 @@ def test_random_scenes_run_bit_identically(mode, topology, data):
     assert_gradients_agree(grads_f, grads_r)
 
 
+@pytest.mark.parametrize("topology", pst.TOPOLOGIES)
+@settings(max_examples=N_STRATUM)
+@given(data=st.data())
+def test_the_energy_the_forward_loop_computes_is_the_energy_pass(topology, data):
+    """value_and_grad's ``energy_out``: the compiled dynamic loop fills it as it steps (springs
+    on periodic axes among the scenes: the loop with the minimum image), the same bytes as
+    the energy pass over the trajectory on either backend."""
+    scene, x0, v0 = data.draw(pst.scene_cases(mode="dynamic", topology=topology))
+    objective, R = data.draw(pst.objectives(scene, x0.shape[0]))
+    assert backends.stepper("numba", "dynamic", scene.integrator, scene.surface.interpolation).energy == (
+        scene.integrator == "verlet" and scene.surface.interpolation == "bilinear")
+    for b in ("numba", "numpy"):
+        e = np.full((scene.n_steps + 1, x0.shape[0]), np.nan)
+        _, _, traj = pr.value_and_grad(scene, x0, v0, objective, regularization_weight=R, backend=b, energy_out=e)
+        assert e.tobytes() == pr.energy(scene, traj).tobytes(), b
+
+
 def _scene(**kw):
     rng = np.random.default_rng(4)
     surf = pr.Surface(rng.uniform(-0.2, 0.2, (7, 6)), (0, 0), (1, 2), kw.pop("periodic", (False, True)),

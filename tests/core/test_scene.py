@@ -361,3 +361,19 @@ def test_a_single_effect_is_taken_for_a_tuple_of_one():
 def test_something_else_as_effects_names_effects(effects):
     with pytest.raises(TypeError, match=r"\beffects\b"):
         _scene(effects=effects)
+
+
+@pytest.mark.parametrize("bad", [np.empty((7, 3)), np.empty((7, N), dtype=np.float32), np.empty((N, 7)).T,
+                                 np.broadcast_to(0.0, (7, N)), [[0.0] * N] * 7])
+def test_energy_out_is_refused_unless_a_writable_c_contiguous_float64_array_of_the_run(bad):
+    with _raises(ValueError, "energy_out"):
+        pr.value_and_grad(_scene(), X0, V0, pr.Funnel(0.5), energy_out=bad)
+
+
+@pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
+def test_energy_out_holds_the_runs_energy(mode):
+    kw = dict(mode="quasistatic", mobility=(0.01, 0.01)) if mode == "quasistatic" else dict(damping=0.3)
+    scene = _scene(**kw)
+    e = np.empty((scene.n_steps + 1, N))
+    _, _, traj = pr.value_and_grad(scene, X0, V0, pr.Funnel(0.5), energy_out=e, backend="numpy")
+    assert e.tobytes() == pr.energy(scene, traj).tobytes()
