@@ -82,9 +82,20 @@ def _mod(a, length):
 @njit(inline="always", **_JIT)
 def _locate(q0, q1, g, per0, per1, clips):
     """The lookup of :meth:`pes_ref.core.grid.Locator.bind` for one point, both axes:
-    ``(cell, f0, f1, s0, s1)``. ``g`` holds ``lower0, lower1, h0, h1, n0 - 1, n1 - 1,
-    n0 - 2, n1 - 2, n0, n1``. A periodic axis is neither clipped nor switched (a no-op
-    there), a non-periodic one never wrapped (idem); a non-finite point gets cell 0."""
+    ``(cell, f0, f1, s0, s1)`` (:func:`_locate_ij` without the cell's row and column)."""
+    cell, _, _, f0, f1, s0, s1 = _locate_ij(q0, q1, g, per0, per1, clips)
+    return cell, f0, f1, s0, s1
+
+
+@njit(inline="always", **_JIT)
+def _locate_ij(q0, q1, g, per0, per1, clips):
+    """The lookup of :meth:`pes_ref.core.grid.Locator.bind` for one point, both axes:
+    ``(cell, i0, j0, f0, f1, s0, s1)``, ``cell = i0 n1 + j0``. ``g`` holds ``lower0, lower1,
+    h0, h1, n0 - 1, n1 - 1, n0 - 2, n1 - 2, n0, n1``. A periodic axis is neither clipped nor
+    switched (a no-op there), a non-periodic one never wrapped (idem); a non-finite point
+    gets cell 0 (row and column 0). (Within the grid ``0 <= k_d < n_d`` on each axis, as
+    ``n_d >= 2``: so the row and column are ``cell // n1`` and ``cell % n1``, without the
+    division.)"""
     u0 = (q0 - g[0]) / g[2]
     u1 = (q1 - g[1]) / g[3]
     s0 = 1.0
@@ -112,8 +123,9 @@ def _locate(q0, q1, g, per0, per1, clips):
     if per1:
         k1 = k1 - np.floor(k1 / g[9]) * g[9]
     cf = k0 * g[9] + k1
-    cell = int(cf) if (cf >= 0.0 and cf < g[8] * g[9]) else 0
-    return cell, f0, f1, s0, s1
+    if cf >= 0.0 and cf < g[8] * g[9]:
+        return int(cf), int(k0), int(k1), f0, f1, s0, s1
+    return 0, 0, 0, f0, f1, s0, s1
 
 
 @njit(inline="always", **_JIT)
@@ -206,10 +218,10 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, cross, offsets, gtab
 
 
 @njit(inline="always", **_JIT)
-def _energy_at(q0, q1, w0, w1, i, cell, f0, f1, per0, per1, values, m, wrapping, son, sk, sc, swrap0, swrap1,
+def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrapping, son, sk, sc, swrap0, swrap1,
                shalf, slen, won, hwk, wlo, whi):
-    """Particle ``i``'s total energy at ``(q0, q1)`` with velocity ``(w0, w1)``, at its cell and
-    fractions of :func:`_locate`: :func:`pes_ref.core.scene.energy`'s operations in its order,
+    """Particle ``i``'s total energy at ``(q0, q1)`` with velocity ``(w0, w1)``, at its cell's
+    row and column and fractions of :func:`_locate_ij`: :func:`pes_ref.core.scene.energy`'s operations in its order,
     the bilinear energy of :func:`pes_ref.core.bilinear.grid_energy`, plus the spring's
     ``0.5 (k0 d0 d0 + k1 d1 d1)`` (the minimum image on the axes ``swrap``, the periodic ones,
     as :func:`pes_ref.core.terms.spring_delta`; ``wrapping``, a caller's compile-time constant,
@@ -217,8 +229,6 @@ def _energy_at(q0, q1, w0, w1, i, cell, f0, f1, per0, per1, values, m, wrapping,
     ``(0.5 k) (b0 b0 + a0 a0 + (b1 b1 + a1 a1))``, plus ``0.5 (m0 v0 v0 + m1 v1 v1)``."""
     n0 = values.shape[0]
     n1 = values.shape[1]
-    i0 = cell // n1
-    j0 = cell - i0 * n1
     i1 = i0 + 1
     j1 = j0 + 1
     if per0 and i1 == n0:
@@ -384,7 +394,7 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
                         y0, y1 = x[0, i, 0], x[0, i, 1]
                         p0 = p1 = 0.0
                     # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
-                    cell, f0, f1, s0, s1 = _locate(y0, y1, g, per0, per1, clips)
+                    cell, i0, j0, f0, f1, s0, s1 = _locate_ij(y0, y1, g, per0, per1, clips)
                     F0, F1 = _force_at(y0, y1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0,
                                        swrap1, shalf, slen, won, wk, wlo, whi)
                     if has_fext:
@@ -404,7 +414,7 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
                         v[n + 1, i, 0] = w0
                         v[n + 1, i, 1] = w1
                     if e_on:
-                        eout[n + 1, i] = _energy_at(y0, y1, w0, w1, i, cell, f0, f1, per0, per1, evalues, em, wraps,
+                        eout[n + 1, i] = _energy_at(y0, y1, w0, w1, i, i0, j0, f0, f1, per0, per1, evalues, em, wraps,
                                                     eson, esk, esc, eswrap0, eswrap1, eshalf, eslen, ewon, ehwk, ewlo,
                                                     ewhi)
 
@@ -567,8 +577,8 @@ def _make_energy(parallel: bool):
                 for i in range(blocks[b], blocks[b + 1]):
                     q0 = x[n, i, 0]
                     q1 = x[n, i, 1]
-                    cell, f0, f1, _, _ = _locate(q0, q1, g, per0, per1, clips)
-                    out[n, i] = _energy_at(q0, q1, v[n, i, 0], v[n, i, 1], i, cell, f0, f1, per0, per1, values, m,
+                    _, i0, j0, f0, f1, _, _ = _locate_ij(q0, q1, g, per0, per1, clips)
+                    out[n, i] = _energy_at(q0, q1, v[n, i, 0], v[n, i, 1], i, i0, j0, f0, f1, per0, per1, values, m,
                                            True, son, sk, sc, swrap0, swrap1, shalf, slen, won, hwk, wlo, whi)
 
     return _energy
