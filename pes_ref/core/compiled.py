@@ -315,6 +315,32 @@ def _table_grad_to_values(gtab, nih0, nih1, n0, n1, out):
             out[i, j] = acc + (gtab[rd, 2] * nih0 + gtab[rd, 3] * nih1)
 
 
+@njit(**_JIT)
+def _cross_curvature_max(values, per0, per1):
+    """``max over cells |((G11 - G10) - G01) + G00|`` of :func:`pes_ref.core.stability.grid_cross_curvature`
+    (a periodic axis's last cell wrapped to node 0), NaN if any cell's is (as ``np.max``)."""
+    n0, n1 = values.shape
+    m0 = n0 if per0 else n0 - 1
+    m1 = n1 if per1 else n1 - 1
+    best = -np.inf
+    for i in range(m0):
+        ip = i + 1 if i + 1 < n0 else 0
+        for j in range(m1):
+            jp = j + 1 if j + 1 < n1 else 0
+            d = abs(((values[ip, jp] - values[ip, j]) - values[i, jp]) + values[i, j])
+            if d != d:
+                return d
+            if d > best:
+                best = d
+    return best
+
+
+def cross_curvature_max(values: np.ndarray, periodic) -> float:
+    """:func:`_cross_curvature_max` of one grid (n0, n1): the numerator of
+    :func:`pes_ref.core.stability.grid_cross_curvature`, compiled, bit for bit."""
+    return _cross_curvature_max(_readonly(values), bool(periodic[0]), bool(periodic[1]))
+
+
 def _stacked(values: np.ndarray, width: int) -> tuple:
     """``(out, grids, size)``: a per-cell table (``width`` columns, 0 for one) of a grid or of
     a stack of grids, one after another (:func:`pes_ref.core.grid.stacked_table`), the grids
@@ -329,7 +355,7 @@ def coefficient_table(values: np.ndarray, h) -> np.ndarray:
     """:func:`pes_ref.core.bilinear.coefficient_table` (of each grid of a stack), compiled."""
     out, grids, size = _stacked(values, 4)
     for c, grid in enumerate(grids):
-        _coefficient_table(_kernel_array(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
+        _coefficient_table(_readonly(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
     return out
 
 
@@ -337,7 +363,7 @@ def cross_table(values: np.ndarray, h) -> np.ndarray:
     """:func:`pes_ref.core.bilinear.cross_table` (of each grid of a stack), compiled."""
     out, grids, size = _stacked(values, 0)
     for c, grid in enumerate(grids):
-        _cross_table(_kernel_array(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
+        _cross_table(_readonly(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
     return out
 
 
@@ -594,7 +620,7 @@ def _energy_terms(field, n: int, mass, out) -> tuple:
     the same types when ``out`` is None. The spring's minimum image on every periodic axis
     (``spring[3:5]``), the walls' ``0.5 k`` per particle."""
     if out is None:
-        return False, _NONE2, _NONE2, _NONE2, _NO_SPRING, _NO_ENERGY_WALLS
+        return False, _NONE2, _NONE2, _NONE2_RO, _NO_SPRING, _NO_ENERGY_WALLS
     if field.spring is not None:
         wrap = [bool(p) for p in field.periodic]
         length = np.asarray(field.length, dtype=np.float64)
@@ -607,7 +633,7 @@ def _energy_terms(field, n: int, mass, out) -> tuple:
                  _as(hi, n))
     else:
         walls = _NO_ENERGY_WALLS
-    return True, out, _as(mass, n), _kernel_array(field.values), spring, walls
+    return True, out, _as(mass, n), _readonly(field.values), spring, walls
 
 
 def energy(field, x: np.ndarray, v: np.ndarray, mass, out=None) -> np.ndarray:
@@ -636,6 +662,10 @@ def energy_wraps(field) -> bool:
 
 _NONE2 = np.zeros((1, 2))
 _NONE3 = np.zeros((1, 1, 2))
+_NONE2_RO = _NONE2.copy()
+_NONE2_RO.setflags(write=False)
+_NONE3_RO = _NONE3.copy()
+_NONE3_RO.setflags(write=False)
 _NO_SPRING = (False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2))
 _NO_ENERGY_WALLS = (False, np.zeros(1), _NONE2, _NONE2)
 
@@ -690,9 +720,20 @@ def _kernel_array(a) -> np.ndarray:
     return np.require(a, dtype=np.float64, requirements=["C", "W"])
 
 
+def _readonly(a) -> np.ndarray:
+    """``a`` as the argument of a kernel that only reads it: a read-only C-contiguous float64
+    view (a copy only when ``a`` is not C-contiguous float64), so the kernel's argument type
+    is the same whether the caller's array is writable or not (the surface's values and the
+    validated force are read-only) and nothing is copied to make it writable."""
+    view = np.ascontiguousarray(a, dtype=np.float64).view()
+    view.setflags(write=False)
+    return view
+
+
 def _c3(a):
-    """A (T+1, N, 2) input as the kernels take it (placeholder and False when None)."""
-    return (_NONE3, False) if a is None else (_kernel_array(a), True)
+    """A (T+1, N, 2) input as the kernels take it, read-only (:func:`_readonly`; placeholder
+    and False when None)."""
+    return (_NONE3_RO, False) if a is None else (_readonly(a), True)
 
 
 def _grid(field, n: int, table):

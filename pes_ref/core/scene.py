@@ -263,22 +263,23 @@ def simulate(scene: Scene, x0, v0=None, *, fext="scene", allow_unstable: bool = 
     """
     x0, v0 = _check_state(scene, x0, v0)
     backend = backends.check_backend(backend)
-    _check_run(scene, x0.shape[0], "simulate", allow_unstable, progress)
+    _check_run(scene, x0.shape[0], "simulate", allow_unstable, progress, backend)
     fext = _resolve_fext(scene, fext, x0.shape[0])
     return _forward(scene, x0, v0, fext, progress, backend)
 
 
-def _check_run(scene: Scene, n_particles: int, kind: str, allow_unstable, progress) -> None:
+def _check_run(scene: Scene, n_particles: int, kind: str, allow_unstable, progress, backend: str = "numpy") -> None:
     """What the public boundary checks of a run before anything of its size is allocated:
     the stability rule (:func:`pes_ref.core.stability.check_stable`), unless
-    ``allow_unstable``, and its memory (:func:`pes_ref.core.budget.check_memory`)."""
+    ``allow_unstable`` (its grid's cross curvature on ``backend``, checked), and its memory
+    (:func:`pes_ref.core.budget.check_memory`)."""
     if not isinstance(allow_unstable, (bool, np.bool_)):
         raise checks.InputTypeError("allow_unstable", f"allow_unstable must be True or False, got {allow_unstable!r}")
     if progress is not None and not callable(progress):
         raise checks.InputTypeError("progress", f"progress must be a callable (phase, done, total) or None, "
                                                 f"got {progress!r}")
     if not allow_unstable:
-        stability.check_stable(scene)
+        stability.check_stable(scene, backend)
     budget.check_memory(scene.n_steps, n_particles, kind)
 
 
@@ -509,7 +510,8 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
             raise TypeError(f"objective must have a value_and_grad(x, v, t) method, got {objective!r}")
         R = checks.as_nonneg_float("regularization_weight", regularization_weight)
         n = x0.shape[0]
-        _check_run(scene, n, "value_and_grad", allow_unstable, progress)
+        backend = backends.check_backend(backend)
+        _check_run(scene, n, "value_and_grad", allow_unstable, progress, backend)
         fext = _resolve_fext(scene, fext, n)
         if energy_out is not None:
             _check_energy_out(energy_out, (scene.n_steps + 1, n))

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pes_ref.core import budget, checks, stability
+from pes_ref.core import backends, budget, checks, stability
 from pes_ref.core.runtime.files import ResultExistsError
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
@@ -357,7 +357,7 @@ def result_keys(grad_names) -> tuple:
     return TRAJECTORY_KEYS + tuple("grad_" + g for g in grad_names)
 
 
-def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
+def validate_case(raw: Mapping, *, allow_unstable: bool = False, backend: str = "numpy") -> ValidCase:
     """Check a case against docs/spec.md section 8 and build what the engine runs.
 
     The oracle checks what is particular to the file format: which keys a case holds,
@@ -377,6 +377,9 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
         Accept a case past the stability rule (docs/spec.md section 10). Not part of the
         contract: a conforming program refuses such a case; this is for studying the
         unstable scheme on purpose.
+    backend : {"numpy", "numba"}
+        The loops that will run the case (:func:`run_case`); the stability rule takes the
+        grid's cross curvature on them too (the same number). Checked first.
 
     Returns
     -------
@@ -395,6 +398,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
         is built, a run that cannot fit in the available memory is refused naming
         ``n_steps`` (:func:`pes_ref.core.budget.check_memory`; not part of the contract).
     """
+    backend = backends.check_backend(backend)
     if not isinstance(raw, Mapping):
         raise CaseTypeError(None, f"a case is a mapping of key -> array, got {type(raw).__name__}")
     _check_key_names(raw)
@@ -412,7 +416,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
         objective = _OBJECTIVES[objective_name](raw, shape)
         reg = checks.as_nonneg_float("regularization", _scalar("regularization", raw.get("regularization", 0.0)))
         if not allow_unstable:
-            stability.check_stable(scene)
+            stability.check_stable(scene, backend)
     return ValidCase(scene, x0, v0, force, objective, reg, gradient_names(mode, scene.spring is not None))
 
 
@@ -452,7 +456,7 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
     """
     if isinstance(case, (str, os.PathLike)):
         case = load_case(case)
-    vc = validate_case(case, allow_unstable=allow_unstable)
+    vc = validate_case(case, allow_unstable=allow_unstable, backend=backend)
     scene = vc.scene
     progress = None if monitor is None else monitor(budget.estimate(scene.n_steps, vc.x0.shape[0], "case"))
     blame = "dt" if scene.mode == "dynamic" else "mobility"

@@ -300,3 +300,35 @@ def test_a_run_of_no_steps_has_its_state_0_with_and_without_progress(mode):
             assert got[2].f.tobytes() == b[2].f.tobytes() and got[0] == b[0]
             assert_gradients_agree(got[1], b[1])
         assert seen_a == seen_b
+
+
+@pytest.mark.parametrize("periodic", pst.TOPOLOGIES)
+@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7)])
+def test_the_compiled_cross_curvature_is_numpys_bit_for_bit(periodic, shape):
+    """The stability rule's grid cross curvature on the compiled loops: the same number as
+    NumPy's, on every topology, and inf alike where a corner difference leaves float64."""
+    from pes_ref.core import stability
+    rng = np.random.default_rng(6)
+    grids = [rng.standard_normal(shape), rng.uniform(-1e3, 1e3, shape), np.zeros(shape), np.full(shape, 1.5)]
+    huge = rng.standard_normal(shape)
+    huge[0, 0], huge[-1, -1] = 1.7e308, -1.7e308          # a corner difference beyond float64
+    for values in grids + [huge]:
+        surf = pr.Surface(values, (0, -1), (1, 2.5), periodic)
+        with np.errstate(over="ignore", invalid="ignore"):
+            want = stability.grid_cross_curvature(surf)
+            got = stability.grid_cross_curvature(surf, backend="numba")
+        assert np.float64(got).tobytes() == np.float64(want).tobytes(), (got, want)
+
+
+def test_the_stability_rule_on_the_compiled_loops_decides_alike():
+    """check_stable's limit on either backend is the same (the oracle runs it on the case's)."""
+    from pes_ref.core import stability
+    for dt in (0.01, 0.5, 5.0):
+        scene = _scene(dt=dt, walls=pr.Walls(30.0, 0.05, [[True, True], [False, False]]))
+        results = []
+        for b in ("numpy", "numba"):
+            try:
+                results.append(stability.check_stable(scene, b))
+            except stability.UnstableStepError as err:
+                results.append(str(err))
+        assert repr(results[0]) == repr(results[1])
