@@ -265,27 +265,35 @@ def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrappin
 
 # =========================================================================== the per-cell tables
 
+@njit(inline="always", **_JIT)
+def _coefficient_row(values, i, ip, j, jp, nih0, nih1, out):
+    """Row ``i n1 + j`` of :func:`_coefficient_table`: cell (i, j) with its next nodes ``ip``, ``jp``."""
+    d0a = values[ip, j] - values[i, j]
+    d1a = values[i, jp] - values[i, j]
+    row = i * values.shape[1] + j
+    out[row, 0] = d0a * nih0
+    out[row, 1] = d1a * nih1
+    out[row, 2] = ((values[ip, jp] - values[i, jp]) - d0a) * nih0
+    out[row, 3] = ((values[ip, jp] - values[ip, j]) - d1a) * nih1
+
+
 @njit(**_JIT)
 def _coefficient_table(values, nih0, nih1, out):
     """:func:`pes_ref.core.bilinear.coefficient_table` into ``out`` (n0 n1, 4): the same
-    differences, wrapped, then scaled by ``-1/h`` (bit-identical)."""
+    differences, wrapped, then scaled by ``-1/h`` (bit-identical). Each row's cells but the
+    last in a loop without the wrap (which the compiler runs on SIMD lanes), the last wrapped."""
     n0, n1 = values.shape
     for i in range(n0):
         ip = i + 1 if i + 1 < n0 else 0
-        for j in range(n1):
-            jp = j + 1 if j + 1 < n1 else 0
-            d0a = values[ip, j] - values[i, j]
-            d1a = values[i, jp] - values[i, j]
-            row = i * n1 + j
-            out[row, 0] = d0a * nih0
-            out[row, 1] = d1a * nih1
-            out[row, 2] = ((values[ip, jp] - values[i, jp]) - d0a) * nih0
-            out[row, 3] = ((values[ip, jp] - values[ip, j]) - d1a) * nih1
+        for j in range(n1 - 1):
+            _coefficient_row(values, i, ip, j, j + 1, nih0, nih1, out)
+        _coefficient_row(values, i, ip, n1 - 1, 0, nih0, nih1, out)
 
 
 @njit(**_JIT)
 def _cross_table(values, nih0, nih1, out):
-    """:func:`pes_ref.core.bilinear.cross_table` into ``out`` (n0 n1,) (bit-identical)."""
+    """:func:`pes_ref.core.bilinear.cross_table` into ``out`` (n0 n1,) (bit-identical; the
+    loops as :func:`_coefficient_table`'s)."""
     n0, n1 = values.shape
     for i in range(n0):
         ip = i + 1 if i + 1 < n0 else 0
@@ -295,43 +303,62 @@ def _cross_table(values, nih0, nih1, out):
 
 
 @njit(**_JIT)
-def _table_grad_to_values(gtab, nih0, nih1, n0, n1, out):
-    """:func:`pes_ref.core.bilinear.table_grad_to_values` into ``out`` (n0, n1): per node
-    ``-c10 - c01 - c11`` of its own cell plus ``c10``, ``c01``, ``c11`` of the cells it is
-    the other corner of (wrapped), in that order (bit-identical)."""
-    for i in range(n0):
-        im = i - 1 if i > 0 else n0 - 1
-        for j in range(n1):
-            jm = j - 1 if j > 0 else n1 - 1
-            r, ru, rl, rd = i * n1 + j, im * n1 + j, i * n1 + jm, im * n1 + jm
-            c11 = gtab[r, 2] * nih0 + gtab[r, 3] * nih1
-            acc = -(gtab[r, 0] * nih0 - c11)
-            acc = acc - (gtab[r, 1] * nih1 - c11)
-            acc = acc - c11
-            c11u = gtab[ru, 2] * nih0 + gtab[ru, 3] * nih1
-            acc = acc + (gtab[ru, 0] * nih0 - c11u)
-            c11l = gtab[rl, 2] * nih0 + gtab[rl, 3] * nih1
-            acc = acc + (gtab[rl, 1] * nih1 - c11l)
-            out[i, j] = acc + (gtab[rd, 2] * nih0 + gtab[rd, 3] * nih1)
+def _table_grad_terms(gtab, nih0, nih1, c10, c01, c11):
+    """Per cell, the terms of :func:`pes_ref.core.bilinear.table_grad_to_values`:
+    ``c11 = gD0 (-1/h0) + gD1 (-1/h1)``, ``c10 = gA0 (-1/h0) - c11``, ``c01 = gA1 (-1/h1) - c11``."""
+    for r in range(gtab.shape[0]):
+        d = gtab[r, 2] * nih0 + gtab[r, 3] * nih1
+        c11[r] = d
+        c10[r] = gtab[r, 0] * nih0 - d
+        c01[r] = gtab[r, 1] * nih1 - d
+
+
+@njit(inline="always", **_JIT)
+def _node_grad(c10, c01, c11, r, ru, rl, rd):
+    """Node ``r``'s gradient: ``-c10 - c01 - c11`` of its own cell plus ``c10`` of the cell
+    above (``ru``), ``c01`` of the one to the left (``rl``), ``c11`` of the diagonal one (``rd``)."""
+    acc = -c10[r]
+    acc = acc - c01[r]
+    acc = acc - c11[r]
+    acc = acc + c10[ru]
+    acc = acc + c01[rl]
+    return acc + c11[rd]
 
 
 @njit(**_JIT)
+def _table_grad_to_values(gtab, nih0, nih1, n0, n1, out, c10, c01, c11):
+    """:func:`pes_ref.core.bilinear.table_grad_to_values` into ``out`` (n0, n1): per node
+    ``-c10 - c01 - c11`` of its own cell plus ``c10``, ``c01``, ``c11`` of the cells it is
+    the other corner of (wrapped), in that order (bit-identical); the terms per cell first
+    (:func:`_table_grad_terms`, into ``c10, c01, c11``, each (n0 n1,)), then each row's nodes
+    but the first in a loop without the wrap (on SIMD lanes), the first wrapped."""
+    _table_grad_terms(gtab, nih0, nih1, c10, c01, c11)
+    for i in range(n0):
+        im = i - 1 if i > 0 else n0 - 1
+        r0, u0 = i * n1, im * n1
+        out[i, 0] = _node_grad(c10, c01, c11, r0, u0, r0 + n1 - 1, u0 + n1 - 1)
+        for j in range(1, n1):
+            out[i, j] = _node_grad(c10, c01, c11, r0 + j, u0 + j, r0 + j - 1, u0 + j - 1)
+
+
+@njit(**dict(_JIT, fastmath={"nnan", "nsz"}))
 def _cross_curvature_max(values, per0, per1):
     """``max over cells |((G11 - G10) - G01) + G00|`` of :func:`pes_ref.core.stability.grid_cross_curvature`
-    (a periodic axis's last cell wrapped to node 0), NaN if any cell's is (as ``np.max``)."""
+    (a periodic axis's last cell wrapped to node 0). Finite values give no NaN here (a
+    difference that overflows is an infinity, which the next finite term keeps) and every
+    term is >= +0, so the maximum is the same in any order: the compiler may take it on SIMD
+    lanes (``nnan``, ``nsz``; nothing else is reassociated or contracted)."""
     n0, n1 = values.shape
     m0 = n0 if per0 else n0 - 1
-    m1 = n1 if per1 else n1 - 1
     best = -np.inf
     for i in range(m0):
         ip = i + 1 if i + 1 < n0 else 0
-        for j in range(m1):
-            jp = j + 1 if j + 1 < n1 else 0
-            d = abs(((values[ip, jp] - values[ip, j]) - values[i, jp]) + values[i, j])
-            if d != d:
-                return d
-            if d > best:
-                best = d
+        for j in range(n1 - 1):
+            d = abs(((values[ip, j + 1] - values[ip, j]) - values[i, j + 1]) + values[i, j])
+            best = d if d > best else best
+        if per1:
+            d = abs(((values[ip, 0] - values[ip, n1 - 1]) - values[i, 0]) + values[i, n1 - 1])
+            best = d if d > best else best
     return best
 
 
@@ -367,11 +394,13 @@ def cross_table(values: np.ndarray, h) -> np.ndarray:
     return out
 
 
-def table_grad_to_values(gtab: np.ndarray, h, shape: tuple) -> np.ndarray:
-    """:func:`pes_ref.core.bilinear.table_grad_to_values` of one grid, compiled; flat (n0 n1,)."""
+def table_grad_to_values(gtab: np.ndarray, h, shape: tuple, flat: bool = True) -> np.ndarray:
+    """:func:`pes_ref.core.bilinear.table_grad_to_values` of one grid, compiled; flat (n0 n1,),
+    or in the grid's shape (an array of its own, not a view) unless ``flat``."""
     out = np.empty(shape)
-    _table_grad_to_values(gtab, -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out)
-    return out.reshape(-1)
+    terms = np.empty((3, gtab.shape[0]))
+    _table_grad_to_values(gtab, -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out, terms[0], terms[1], terms[2])
+    return out.reshape(-1) if flat else out
 
 
 def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
@@ -834,7 +863,7 @@ class _Adjoint:
             for lane in self.gtabs[1:]:          # in lane order: the same sum whatever the threads
                 gtab = gtab + lane
             shape = self.field.values.shape
-            out["values"] = table_grad_to_values(gtab, self.field.h, shape[-2:])
+            out["values"] = table_grad_to_values(gtab, self.field.h, shape[-2:], flat=False)     # (n0, n1), its own
         if self.want_k:
             out["spring_k"] = self.gk
         if self.want_c:
@@ -881,7 +910,7 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
 def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, want: frozenset,
                     progress=None) -> dict:
     """:func:`pes_ref.core.integrator.adjoint_dynamic`, compiled (same arguments and gradients;
-    the grid's summed in another order)."""
+    the grid's summed in another order, and in the grid's shape (n0, n1))."""
     x, v, f = (_kernel_array(a) for a in traj)
     T, N = x.shape[0] - 1, x.shape[1]
     adj = _Adjoint(field, x, want, parallel=N >= PARALLEL_MIN)
@@ -927,7 +956,7 @@ def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
 
 def adjoint_quasistatic(field, traj: Trajectory, mobility, gx, want: frozenset, progress=None) -> dict:
     """:func:`pes_ref.core.integrator.adjoint_quasistatic`, compiled (the grid and mobility
-    gradients summed in another order)."""
+    gradients summed in another order; the grid's in the grid's shape (n0, n1))."""
     x, f = _kernel_array(traj.x), _kernel_array(traj.f)
     T, N = x.shape[0] - 1, x.shape[1]
     adj = _Adjoint(field, x, want)

@@ -555,7 +555,8 @@ def _as_given(scene: Scene, g, n: int):
 
 
 def _grid_shape(scene: Scene, g, n: int):
-    return g.reshape(scene.surface.shape)
+    shape = scene.surface.shape
+    return g if g.shape == shape else g.reshape(shape)      # the compiled adjoint's is shaped (and its own) already
 
 
 def _scene_field_shape(field: str):
