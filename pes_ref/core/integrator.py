@@ -247,11 +247,12 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
     fbar = np.zeros((N, 2))
     tmp = np.empty((N, 2))
+    tmp2 = np.empty((N, 2)) if cbar is not None else None         # V_n + V_{n+1}
     dt_ = np.array(dt)
     # undamped, P^ = V^_{n+1} and V^_n = P^: one buffer serves both
     pbar = np.empty((N, 2)) if damped else vbar
     vbar_prev = np.empty((N, 2)) if damped else None
-    mul, add, vjp = np.multiply, np.add, adj.vjp             # bound once (see simulate_dynamic)
+    mul, add, sub, vjp = np.multiply, np.add, np.subtract, adj.vjp      # bound once (see simulate_dynamic)
     for n in reporting(range(T - 1, -1, -1), progress, "adjoint", T):
         # (B4) kick^T: P^ = d V^_{n+1} with d = 1/(1+c) (d = 1 undamped);
         #      F^_{n+1} += a P^; a^ += F_{n+1} P^; c^ -= (V_n + V_{n+1}) P^; V^_n = -c P^
@@ -261,9 +262,12 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
         mul(a, pbar, tmp)
         add(fbar, tmp, fbar)
         if abar is not None:
-            abar += f[n + 1] * pbar
+            mul(f[n + 1], pbar, tmp)
+            add(abar, tmp, abar)
         if cbar is not None:
-            cbar -= (v[n] + v[n + 1]) * pbar
+            add(v[n], v[n + 1], tmp2)
+            mul(tmp2, pbar, tmp2)
+            sub(cbar, tmp2, cbar)
         # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}; G^, k^, c^
         if gforce is not None:
             gforce[n + 1] = fbar
@@ -277,7 +281,8 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
             add(vbar_prev, pbar, vbar)
         mul(a, pbar, fbar)
         if abar is not None:
-            abar += f[n] * pbar
+            mul(f[n], pbar, tmp)
+            add(abar, tmp, abar)
         # the objective's direct terms at step n
         if gx is not None:
             add(xbar, gx[n], xbar)
@@ -378,7 +383,7 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     fbar = np.empty((N, 2))
     mu = np.ascontiguousarray(np.broadcast_to(mobility, (N, 2)))
-    mul, add, vjp = np.multiply, np.add, adj.vjp             # bound once (see simulate_dynamic)
+    mul, add, sub, vjp = np.multiply, np.add, np.subtract, adj.vjp      # bound once (see simulate_dynamic)
     for n in reporting(range(T - 1, -1, -1), progress, "adjoint", T):
         # (QB2) drift^T: F^_n = mu X^_{n+1}; mu^ += sum_i F_n X^_{n+1}; X^_n = X^_{n+1} (kept)
         mul(mu, xbar, fbar)
