@@ -983,8 +983,12 @@ def _or3(a):
 
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):
-    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
-                            p.out, p.energy)
+    sink = p.energy if field.offsets is None else None           # (StepParams.energy: a population's is not)
+    traj = simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
+                            p.out, None if sink is None else sink.out)
+    if sink is not None:
+        sink.filled = True
+    return traj
 
 
 def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
@@ -1002,8 +1006,7 @@ def _adjoint_quasistatic(field, traj, p: StepParams, gx, gv, want):
 #: The compiled steppers by ``(mode, integrator)``: what :data:`pes_ref.core.backends.BACKENDS`
 #: ``"numba"`` covers (the GJF step runs on NumPy).
 STEPPERS = {
-    ("dynamic", "verlet"): Stepper(_simulate_verlet, _adjoint_verlet, NUMPY_STEPPERS[("dynamic", "verlet")].gradients,
-                                   energy=True),
+    ("dynamic", "verlet"): Stepper(_simulate_verlet, _adjoint_verlet, NUMPY_STEPPERS[("dynamic", "verlet")].gradients),
     ("quasistatic", "verlet"): Stepper(_simulate_quasistatic, _adjoint_quasistatic,
                                        NUMPY_STEPPERS[("quasistatic", "verlet")].gradients),
 }

@@ -25,6 +25,7 @@ import numpy as np
 from pes_ref.core import backends, budget, checks
 from pes_ref.core import stability
 from pes_ref.core.effects import all_zero, build_schedule, step_times
+from pes_ref.core.bilinear import BilinearForce
 from pes_ref.core.forces import Field, potential_energy
 from pes_ref.core.grid import Locator
 from pes_ref.core.integrator import NonFiniteError, Trajectory
@@ -307,11 +308,11 @@ def _explains_nonfinite(forward):
     return wrapper
 
 
-def _step_params(scene: Scene, progress=None, energy_out=None) -> StepParams:
+def _step_params(scene: Scene, progress=None, energy=None) -> StepParams:
     """The scene's step parameters for its stepper; ``damping`` is None unless some gamma
     is nonzero (then the core does no damping arithmetic at all)."""
     return StepParams(scene.dt, scene.n_steps, scene.mass, scene.damping if scene.damped else None, scene.mobility,
-                      progress, energy=energy_out)
+                      progress, energy=energy)
 
 
 def _stepper(scene: Scene, backend: str):
@@ -320,10 +321,9 @@ def _stepper(scene: Scene, backend: str):
 
 
 @_explains_nonfinite
-def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy", energy_out=None) -> Trajectory:
-    """The run; ``energy_out`` ((T+1, N) float64) for a stepper whose loop fills it with each
-    state's :func:`energy` (:attr:`pes_ref.core.steppers.Stepper.energy`), else None."""
-    return _stepper(scene, backend).simulate(scene.field(), x0, v0, fext, _step_params(scene, progress, energy_out))
+def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy", energy=None) -> Trajectory:
+    """The run; ``energy`` an :class:`_EnergyOut` that its loop may fill (:attr:`StepParams.energy`), or None."""
+    return _stepper(scene, backend).simulate(scene.field(), x0, v0, fext, _step_params(scene, progress, energy))
 
 
 #: Particle-states per chunk of :func:`energy` on NumPy: its ~20 temporaries then stay in cache
@@ -369,36 +369,15 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy", out: np.ndarr
 def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass, out: np.ndarray) -> np.ndarray:
     """:func:`energy` on the bilinear grid, a chunk of states at a time with the hot loop's
     lookup (:class:`pes_ref.core.grid.Locator`: the cells and fractions of
-    :func:`pes_ref.core.grid.locate`) and a per-cell table of the four corner values, column by
-    column: the operations of :func:`pes_ref.core.bilinear.grid_energy`,
-    :func:`pes_ref.core.terms.spring_energy`, :func:`pes_ref.core.terms.wall_energy` and the
-    kinetic energy in their order, so the same numbers bit for bit. (A sum over the axis of
-    length 2 is ``0 + a0 + a1``, which is ``a0 + a1`` here: every term is >= +0; a wall that is
-    absent adds +0 and is skipped.)"""
+    :func:`pes_ref.core.grid.locate`), then :meth:`_BilinearEnergy.into`."""
     T1, N = x.shape[0], x.shape[1]
-    values = fld.values
-    n0, n1 = values.shape
-    corners = np.empty((n0, n1, 4))
-    nxt0 = np.concatenate((values[1:], values[:1]), axis=0)          # row i + 1 (wrapped: unused at a plane's edge)
-    corners[..., 0] = values
-    corners[..., 1] = nxt0
-    corners[..., 2] = np.concatenate((values[:, 1:], values[:, :1]), axis=1)
-    corners[..., 3] = np.concatenate((nxt0[:, 1:], nxt0[:, :1]), axis=1)
-    corners = corners.reshape(-1, 4)
+    n0, n1 = fld.values.shape
     loc = Locator(fld.lower, fld.h, (n0, n1), fld.periodic)
     step = max(1, ENERGY_CHUNK // max(N, 1))
+    terms = _BilinearEnergy(fld, mass, N, min(step, T1))
     buf = loc.buffers((step * N,))
     locate_into = loc.bind(buf)
     cell, f = buf["cell"], buf["f"]
-    m = np.broadcast_to(np.asarray(mass, dtype=np.float64), (N, 2))
-    m0, m1 = np.ascontiguousarray(m[:, 0]), np.ascontiguousarray(m[:, 1])
-    walls = []
-    if fld.walls is not None:
-        k, lo, hi = fld.walls
-        hk = 0.5 * np.asarray(k, dtype=np.float64)
-        lo, hi = np.broadcast_to(lo, (N, 2)), np.broadcast_to(hi, (N, 2))
-        walls = [(d, lo[:, d], hi[:, d]) for d in range(2)]
-    mul, add, sub = np.multiply, np.add, np.subtract
     for t0 in range(0, T1, step):
         t1 = min(T1, t0 + step)
         M = (t1 - t0) * N
@@ -408,7 +387,56 @@ def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass, out: np.nda
             locate_into = loc.bind(buf)
             cell, f = buf["cell"], buf["f"]
         locate_into(q)
-        g = corners.take(cell, axis=0)
+        terms.into(q, cell, f, x[t0:t1], v[t0:t1], out[t0:t1])
+    return out
+
+
+class _BilinearEnergy:
+    """The total energy at located states (bilinear grid, one grid): a per-cell table of the
+    four corner values, column by column, then the operations of
+    :func:`pes_ref.core.bilinear.grid_energy`, :func:`pes_ref.core.terms.spring_energy`,
+    :func:`pes_ref.core.terms.wall_energy` and the kinetic energy in their order, so the same
+    numbers bit for bit as :func:`energy`'s formula. (A sum over the axis of length 2 is
+    ``0 + a0 + a1``, which is ``a0 + a1`` here: every term is >= +0; a wall that is absent
+    adds +0 and is skipped.) For :func:`_bilinear_energy`'s chunks of states and for the
+    NumPy forward loop, one state at a time at its own lookup (:class:`_EnergyOut`); ``states``
+    is the most states of N particles a call takes."""
+
+    def __init__(self, fld: Field, mass, n: int, states: int):
+        values = fld.values
+        n0, n1 = values.shape
+        corners = np.empty((n0, n1, 4))
+        nxt0 = np.concatenate((values[1:], values[:1]), axis=0)      # row i + 1 (wrapped: unused at a plane's edge)
+        corners[..., 0] = values
+        corners[..., 1] = nxt0
+        corners[..., 2] = np.concatenate((values[:, 1:], values[:, :1]), axis=1)
+        corners[..., 3] = np.concatenate((nxt0[:, 1:], nxt0[:, :1]), axis=1)
+        self.corners = corners.reshape(-1, 4)
+        m = np.broadcast_to(np.asarray(mass, dtype=np.float64), (n, 2))
+        self.m0, self.m1 = np.ascontiguousarray(m[:, 0]), np.ascontiguousarray(m[:, 1])
+        self.fld, self.n = fld, n
+        self.walls, self.hk, self.no_wall = [], None, None
+        if fld.walls is not None:
+            k, lo, hi = fld.walls
+            self.hk = 0.5 * np.asarray(k, dtype=np.float64)
+            lo, hi = np.broadcast_to(lo, (n, 2)), np.broadcast_to(hi, (n, 2))
+            # which sides have a wall: fixed for the run, so looked at once
+            self.walls = [(d, lo[:, d] if np.any(np.isfinite(lo[:, d])) else None,
+                           hi[:, d] if np.any(np.isfinite(hi[:, d])) else None) for d in range(2)]
+            self.no_wall = np.zeros((states, n))
+            self.no_wall.setflags(write=False)          # an axis without a wall adds it: never written
+        self.spring = None
+        if fld.spring is not None:
+            self.spring = tuple(np.broadcast_to(s_, (states, n, 2)) for s_ in fld.spring)
+
+    def into(self, q: np.ndarray, cell: np.ndarray, f: np.ndarray, xs: np.ndarray, vs: np.ndarray,
+             out: np.ndarray) -> None:
+        """``out`` (S, N): the energy of the S states ``xs``, ``vs`` (S, N, 2), whose points
+        ``q`` (S N, 2) are located at ``cell`` (S N,) with fractions ``f`` (S N, 2). A cell
+        off the table (a non-finite point, whose run is refused) is clipped to it."""
+        S, N = xs.shape[0], xs.shape[1]
+        mul, add, sub = np.multiply, np.add, np.subtract
+        g = self.corners.take(cell, axis=0, mode="clip")
         f0, f1 = f[:, 0], f[:, 1]
         a, b = 1 - f0, 1 - f1
         u = a * b
@@ -416,41 +444,66 @@ def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass, out: np.nda
         add(u, mul(mul(f0, b, b), g[:, 1], b), u)          # b = 1 - f1 is not needed after this
         add(u, mul(mul(a, f1, a), g[:, 2], a), u)
         add(u, mul(mul(f0, f1), g[:, 3]), u)
-        u = u.reshape(t1 - t0, N)
-        if fld.spring is not None:
-            part = fld._replace(spring=tuple(np.broadcast_to(s_, (t1 - t0, N, 2)).reshape(-1, 2) for s_ in fld.spring))
-            u = u + spring_energy(q, part.spring[0], part.spring[1], fld.length, fld.periodic).reshape(t1 - t0, N)
-        if fld.walls is not None:
-            qc = x[t0:t1]
+        u = u.reshape(S, N)
+        fld = self.fld
+        if self.spring is not None:
+            k, c = (s_[:S].reshape(-1, 2) for s_ in self.spring)
+            u = u + spring_energy(q, k, c, fld.length, fld.periodic).reshape(S, N)
+        if self.walls:
             total = None
-            for d, lo_d, hi_d in walls:
-                terms = []
-                if np.any(np.isfinite(lo_d)):
-                    below = np.maximum(sub(lo_d, qc[..., d]), 0.0)
-                    terms.append(mul(below, below, below))
-                else:
-                    terms.append(None)
-                if np.any(np.isfinite(hi_d)):
-                    above = np.maximum(sub(qc[..., d], hi_d), 0.0)
-                    terms.append(mul(above, above, above))
-                else:
-                    terms.append(None)
-                low, high = terms
+            for d, lo_d, hi_d in self.walls:
+                low = high = None
+                if lo_d is not None:
+                    below = np.maximum(sub(lo_d, xs[..., d]), 0.0)
+                    low = mul(below, below, below)
+                if hi_d is not None:
+                    above = np.maximum(sub(xs[..., d], hi_d), 0.0)
+                    high = mul(above, above, above)
                 axis = low if high is None else (high if low is None else add(low, high, low))
                 if axis is None:
-                    axis = np.zeros((t1 - t0, N))
-                total = axis if total is None else add(total, axis, total)
+                    axis = self.no_wall[:S]
+                if total is None:
+                    total = axis
+                else:
+                    total = add(total, axis, None if not total.flags.writeable else total)
+            if not total.flags.writeable:
+                total = total.copy()
+            hk = self.hk
             u = u + mul(hk, total, total) if np.ndim(hk) == 0 else u + hk * total
-        vc = v[t0:t1]
-        v0_, v1_ = vc[..., 0], vc[..., 1]
-        kin = mul(m0, v0_)
+        v0_, v1_ = vs[..., 0], vs[..., 1]
+        kin = mul(self.m0, v0_)
         mul(kin, v0_, kin)
-        k1 = mul(m1, v1_)
+        k1 = mul(self.m1, v1_)
         mul(k1, v1_, k1)
         add(kin, k1, kin)
         mul(0.5, kin, kin)
-        add(u, kin, out[t0:t1])
-    return out
+        add(u, kin, out)
+
+
+class _EnergyOut:
+    """:func:`value_and_grad`'s ``energy_out`` as a forward loop takes it (:attr:`StepParams.energy`):
+    ``out`` (T+1, N), which the compiled loop fills (setting ``filled``), and :meth:`bind`, the
+    NumPy loop's per-state energy at its force's own lookup."""
+
+    def __init__(self, scene: Scene, out: np.ndarray):
+        self.scene, self.out, self.filled = scene, out, False
+        self.errors_ignored = False      # computed under the NumPy loop's np.errstate (overflow ignored)
+
+    def bind(self, force, field: Field):
+        """``step(x, v, row)``: the energy of one state (N, 2) into ``row`` (N,), right after
+        ``force`` (the loop's :class:`~pes_ref.core.forces.ForceKernel`) was called at ``x``,
+        whose lookup it reads; None where the force has no such lookup (not the bilinear grid,
+        one particle, or a population), and the energy is then left to :func:`energy`."""
+        grid = force.grid
+        if not (isinstance(grid, BilinearForce) and field.offsets is None):
+            return None
+        terms = _BilinearEnergy(field, self.scene.mass, self.out.shape[1], 1)
+        cell, f, into = grid.buf["cell"], grid.buf["f"], terms.into
+        self.filled = self.errors_ignored = True
+
+        def step(x, v, row):
+            into(x, cell, f, x[None], v[None], row[None])
+        return step
 
 
 def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: float = 0.0,
@@ -518,12 +571,14 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
     want = _wanted(scene, wrt)
     backend = backends.check_backend(backend)
     stepper = _stepper(scene, backend)
-    in_loop = energy_out is not None and stepper.energy         # the forward loop fills it as it steps
-    traj = _forward(scene, x0, v0, fext, progress, backend, energy_out if in_loop else None)
+    sink = None if energy_out is None else _EnergyOut(scene, energy_out)
+    traj = _forward(scene, x0, v0, fext, progress, backend, sink)
     loss, gx, gv = objective.value_and_grad(traj.x, traj.v, scene.times())
     reg, greg = regularization(scene.surface.values, R)
     raw = stepper.adjoint(scene.field(), traj, _step_params(scene, progress), gx, gv, want)
-    if energy_out is not None and not in_loop:
+    # a pass after the run where the loop did not fill it; on NumPy, where a state's energy left
+    # the finite numbers, again after the run, under the caller's np.errstate (as it always was)
+    if sink is not None and (not sink.filled or (sink.errors_ignored and not np.isfinite(energy_out).all())):
         energy(scene, traj, backend=backend, out=energy_out)
     grads = {name: _INPUT_SHAPE.get(name, _as_given)(scene, raw[name], n) for name in GRADIENT_NAMES if name in want}
     if "values" in grads and greg is not None:

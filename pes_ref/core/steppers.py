@@ -37,9 +37,13 @@ class StepParams(NamedTuple):
     a trajectory that left the finite numbers instead of raising (a population checks each
     member's part, :mod:`pes_ref.core.population`); ``out`` a
     :class:`~pes_ref.core.integrator.Trajectory` of (T+1, N, 2) arrays to run into, or None
-    for fresh ones (:func:`pes_ref.core.integrator.trajectory_arrays`); ``energy`` a float64
-    (T+1, N) array that a forward loop which computes the energy as it steps
-    (:attr:`Stepper.energy`) fills with each state's total energy, or None.
+    for fresh ones (:func:`pes_ref.core.integrator.trajectory_arrays`); ``energy`` None, or
+    where a dynamic forward loop puts each state's total energy as it makes the state, at
+    the state's own grid lookup: its ``out``, a float64 (T+1, N) array, which a loop that
+    fills it marks ``filled``; the NumPy loop computes each state's by ``energy.bind(force,
+    field)`` (:func:`pes_ref.core.integrator.simulate_dynamic`). A loop that does not (the
+    GJF and quasistatic steps, another grid) leaves it, and the energy to a pass after the
+    run (:func:`pes_ref.core.scene.value_and_grad`).
     """
 
     dt: float
@@ -50,7 +54,7 @@ class StepParams(NamedTuple):
     progress: Callable | None = None
     refuse_nonfinite: bool = True
     out: object = None
-    energy: np.ndarray | None = None
+    energy: object = None
 
 
 class Stepper(NamedTuple):
@@ -70,21 +74,16 @@ class Stepper(NamedTuple):
         of every scene (``values``, ``x0``, ``force``, and a spring's): ``v0``, ``mass``,
         ``damping`` in dynamic mode, ``mobility`` in quasistatic mode (where v0, mass and
         damping play no part).
-    energy : bool
-        ``simulate`` fills ``params.energy`` (when it is not None) with each state's total
-        energy as it makes the state (:func:`pes_ref.core.scene.energy`'s numbers, bit for
-        bit): the compiled dynamic loop; the others leave it to a pass after the run.
     """
 
     simulate: Callable
     adjoint: Callable
     gradients: tuple
-    energy: bool = False
 
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):
     return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
-                            p.out)
+                            p.out, p.energy)
 
 
 def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):
