@@ -129,7 +129,8 @@ class ValidCase:
     scene : Scene
     x0, v0 : ndarray (N, 2)
     force : ndarray (T+1, N, 2)
-        The external force schedule (zeros when the case has no ``force``).
+        The external force schedule (zeros when the case has no ``force``), read-only: a view
+        of the case's own array when that is float64 and C-contiguous already.
     objective : Funnel, Oscillator or Quadratic
     regularization : float
     grad_names : tuple of str
@@ -338,13 +339,26 @@ def _quadratic(raw: Mapping, shape: tuple):
 _OBJECTIVES = {"funnel": _funnel, "oscillator": _oscillator, "quadratic": _quadratic}
 
 
+#: Force entries checked finite at a time (a bool temporary of this many stays in cache).
+FINITE_CHUNK = 1 << 16
+
+
 def _force(raw: Mapping, shape: tuple) -> np.ndarray:
+    """The force schedule, read-only: a float64 C-contiguous force is a read-only view of the
+    case's own array, checked finite a chunk at a time (a copy of a large run's force costs
+    more than the run's additions of it); any other is converted, a copy."""
     if "force" not in raw:
         return np.zeros(shape)
     force = _numeric("force", raw["force"])
     if force.shape != shape:
         raise CaseError("force", f"force must have shape (T+1, N, 2) = {shape}, got shape {force.shape}")
-    return checks.as_float_array("force", force)
+    if force.dtype == np.float64 and force.flags.c_contiguous:
+        view = force.view()
+        view.setflags(write=False)
+        flat = view.reshape(-1)
+        if all(np.isfinite(flat[i:i + FINITE_CHUNK]).all() for i in range(0, flat.size, FINITE_CHUNK)):
+            return view
+    return checks.as_float_array("force", force)      # (the message of a non-finite force is its)
 
 
 #: The keys every result holds before its gradients (docs/spec.md section 9): the trajectory,
