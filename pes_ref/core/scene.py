@@ -425,55 +425,63 @@ class _BilinearEnergy:
                            hi[:, d] if np.any(np.isfinite(hi[:, d])) else None) for d in range(2)]
             self.no_wall = np.zeros((states, n))
             self.no_wall.setflags(write=False)          # an axis without a wall adds it: never written
+            self.wall_bufs = [(np.empty((states, n)), np.empty((states, n))) for _ in range(2)]
+            self.total = np.empty((states, n))
         self.spring = None
         if fld.spring is not None:
             self.spring = tuple(np.broadcast_to(s_, (states, n, 2)) for s_ in fld.spring)
+        m = states * n
+        self.g = np.empty((m, 4))
+        self.a, self.b, self.u, self.t = (np.empty(m) for _ in range(4))
+        self.kin, self.k1 = np.empty((states, n)), np.empty((states, n))
 
     def into(self, q: np.ndarray, cell: np.ndarray, f: np.ndarray, xs: np.ndarray, vs: np.ndarray,
              out: np.ndarray) -> None:
         """``out`` (S, N): the energy of the S states ``xs``, ``vs`` (S, N, 2), whose points
         ``q`` (S N, 2) are located at ``cell`` (S N,) with fractions ``f`` (S N, 2). A cell
-        off the table (a non-finite point, whose run is refused) is clipped to it."""
+        off the table (a non-finite point, whose run is refused) is clipped to it. Every
+        temporary is a buffer of the object's (a fresh half-megabyte array per operation
+        costs its page faults whenever the allocator hands the memory back)."""
         S, N = xs.shape[0], xs.shape[1]
-        mul, add, sub = np.multiply, np.add, np.subtract
-        g = self.corners.take(cell, axis=0, mode="clip")
+        M = S * N
+        mul, add, sub, maximum = np.multiply, np.add, np.subtract, np.maximum
+        g = self.corners.take(cell, axis=0, mode="clip", out=self.g[:M])
         f0, f1 = f[:, 0], f[:, 1]
-        a, b = 1 - f0, 1 - f1
-        u = a * b
+        a, b, u, t = sub(1.0, f0, self.a[:M]), sub(1.0, f1, self.b[:M]), self.u[:M], self.t[:M]
+        mul(a, b, u)
         mul(u, g[:, 0], u)
         add(u, mul(mul(f0, b, b), g[:, 1], b), u)          # b = 1 - f1 is not needed after this
         add(u, mul(mul(a, f1, a), g[:, 2], a), u)
-        add(u, mul(mul(f0, f1), g[:, 3]), u)
+        add(u, mul(mul(f0, f1, t), g[:, 3], t), u)
         u = u.reshape(S, N)
         fld = self.fld
         if self.spring is not None:
             k, c = (s_[:S].reshape(-1, 2) for s_ in self.spring)
             u = u + spring_energy(q, k, c, fld.length, fld.periodic).reshape(S, N)
         if self.walls:
-            total = None
-            for d, lo_d, hi_d in self.walls:
-                low = high = None
+            total, no_wall = None, self.no_wall[:S]
+            for (d, lo_d, hi_d), (low, high) in zip(self.walls, self.wall_bufs):
                 if lo_d is not None:
-                    below = np.maximum(sub(lo_d, xs[..., d]), 0.0)
+                    below = maximum(sub(lo_d, xs[..., d], low[:S]), 0.0, out=low[:S])
                     low = mul(below, below, below)
                 if hi_d is not None:
-                    above = np.maximum(sub(xs[..., d], hi_d), 0.0)
+                    above = maximum(sub(xs[..., d], hi_d, high[:S]), 0.0, out=high[:S])
                     high = mul(above, above, above)
-                axis = low if high is None else (high if low is None else add(low, high, low))
-                if axis is None:
-                    axis = self.no_wall[:S]
-                if total is None:
-                    total = axis
-                else:
-                    total = add(total, axis, None if not total.flags.writeable else total)
-            if not total.flags.writeable:
-                total = total.copy()
+                axis = low if hi_d is None else (high if lo_d is None else add(low, high, low))
+                if lo_d is None and hi_d is None:
+                    axis = no_wall
+                total = axis if total is None else add(total, axis, self.total[:S] if total is no_wall else total)
+            if total is no_wall:
+                np.copyto(self.total[:S], no_wall)
+                total = self.total[:S]
             hk = self.hk
-            u = u + mul(hk, total, total) if np.ndim(hk) == 0 else u + hk * total
+            if np.ndim(hk) == 0:
+                add(u, mul(hk, total, total), u)
+            else:
+                u = u + hk * total
         v0_, v1_ = vs[..., 0], vs[..., 1]
-        kin = mul(self.m0, v0_)
+        kin, k1 = mul(self.m0, v0_, self.kin[:S]), mul(self.m1, v1_, self.k1[:S])
         mul(kin, v0_, kin)
-        k1 = mul(self.m1, v1_)
         mul(k1, v1_, k1)
         add(kin, k1, kin)
         mul(0.5, kin, kin)
