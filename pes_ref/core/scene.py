@@ -501,9 +501,12 @@ class _EnergyOut:
         """``step(x, v, row)``: the energy of one state (N, 2) into ``row`` (N,), right after
         ``force`` (the loop's :class:`~pes_ref.core.forces.ForceKernel`) was called at ``x``,
         whose lookup it reads; None where the force has no such lookup (not the bilinear grid,
-        one particle, or a population), and the energy is then left to :func:`energy`."""
+        one particle, or a population) or a state has fewer than :data:`ENERGY_CHUNK`
+        particles (the pass after the run then takes several states per NumPy call, where a
+        call per state would cost more in calls than the lookup it saves), and the energy is
+        then left to :func:`energy`."""
         grid = force.grid
-        if not (isinstance(grid, BilinearForce) and field.offsets is None):
+        if not (isinstance(grid, BilinearForce) and field.offsets is None and self.out.shape[1] >= ENERGY_CHUNK):
             return None
         terms = _BilinearEnergy(field, self.scene.mass, self.out.shape[1], 1)
         cell, f, into = grid.buf["cell"], grid.buf["f"], terms.into

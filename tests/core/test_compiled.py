@@ -102,10 +102,14 @@ def test_the_energy_the_forward_loop_computes_is_the_energy_pass(topology, data)
     minimum image), the same bytes as the energy pass over the trajectory on either backend."""
     scene, x0, v0 = data.draw(pst.scene_cases(mode="dynamic", topology=topology))
     objective, R = data.draw(pst.objectives(scene, x0.shape[0]))
-    for b in ("numba", "numpy"):
+    from unittest import mock
+    from pes_ref.core import scene as scene_module
+    for b, chunk in (("numba", None), ("numpy", None), ("numpy", 1)):      # chunk 1: NumPy's loop at any N
         e = np.full((scene.n_steps + 1, x0.shape[0]), np.nan)
-        _, _, traj = pr.value_and_grad(scene, x0, v0, objective, regularization_weight=R, backend=b, energy_out=e)
-        assert e.tobytes() == pr.energy(scene, traj).tobytes(), b
+        with mock.patch.object(scene_module, "ENERGY_CHUNK", chunk or scene_module.ENERGY_CHUNK):
+            _, _, traj = pr.value_and_grad(scene, x0, v0, objective, regularization_weight=R, backend=b,
+                                           energy_out=e)
+        assert e.tobytes() == pr.energy(scene, traj).tobytes(), (b, chunk)
 
 
 def _scene(**kw):

@@ -382,9 +382,11 @@ def test_energy_out_holds_the_runs_energy(mode):
 @pytest.mark.parametrize("backend", ["numpy", "numba"])
 @pytest.mark.parametrize("periodic", [(False, False), (True, False), (True, True)])
 def test_the_dynamic_loops_compute_the_energy_as_they_step(monkeypatch, backend, periodic):
-    """No pass over the trajectory: the loop's energy at each state's own lookup, the pass's bytes."""
+    """No pass over the trajectory: the loop's energy at each state's own lookup, the pass's
+    bytes (NumPy's loop from ENERGY_CHUNK particles on: here from 1)."""
     pytest.importorskip("numba") if backend == "numba" else None
     from pes_ref.core import scene as scene_module
+    monkeypatch.setattr(scene_module, "ENERGY_CHUNK", 1)
     walls = pr.Walls(20.0, 0.05, [[not periodic[0]] * 2, [not periodic[1]] * 2]) if not all(periodic) else None
     scene = _scene(periodic=periodic, damping=0.2, walls=walls, spring=pr.Spring((1.0, 0.5), (0.5, 0.5)),
                    effects=(pr.Constant((0.1, -0.2)),), mass=[[1.0, 2.0], [0.5, 1.5]])
@@ -407,3 +409,15 @@ def test_an_energy_beyond_float64_is_refused_as_before_by_the_oracle():
     with pytest.raises(oracle.CaseError) as err:
         oracle.run_case(case, backend="numpy")
     assert err.value.key == "dt" and "overflow" in str(err.value)
+
+
+def test_numpys_loop_leaves_the_energy_of_few_particles_to_the_pass(monkeypatch):
+    """Below ENERGY_CHUNK particles a state, the pass after the run (several states per call)."""
+    from pes_ref.core import scene as scene_module
+    passes = []
+    real = scene_module.energy
+    monkeypatch.setattr(scene_module, "energy", lambda *a, **k: passes.append(1) or real(*a, **k))
+    scene = _scene(damping=0.2)
+    e = np.empty((scene.n_steps + 1, N))
+    _, _, traj = pr.value_and_grad(scene, X0, V0, pr.Funnel(0.5), energy_out=e, backend="numpy")
+    assert passes == [1] and e.tobytes() == real(scene, traj).tobytes()
