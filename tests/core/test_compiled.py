@@ -334,3 +334,20 @@ def test_the_stability_rule_on_the_compiled_loops_decides_alike():
             except stability.UnstableStepError as err:
                 results.append(str(err))
         assert repr(results[0]) == repr(results[1])
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_the_energy_computed_in_blocks_of_steps_is_the_same(backend, monkeypatch):
+    """With progress reports the loops run in blocks of steps; the energy the loop computes
+    as it steps (NumPy's forced at any N) is the same bytes as without them."""
+    from pes_ref.core import scene as scene_module
+    monkeypatch.setattr(scene_module, "ENERGY_CHUNK", 1)
+    scene, x0 = _oracle_scene((False, True), 5)
+    scene = replace(scene, n_steps=600)
+    case = case_from_scene(scene, x0, np.full((5, 2), 0.1), pr.Funnel(target=0.5, when="every_step"))
+    seen = []
+    quiet = oracle.run_case(case, backend=backend)
+    reported = oracle.run_case(case, backend=backend, monitor=lambda estimate: lambda *a: seen.append(a))
+    assert ("forward", 256, 600) in seen
+    assert reported["energy"].tobytes() == quiet["energy"].tobytes()
+    assert quiet["energy"].tobytes() == oracle.run_case(case, backend="numpy")["energy"].tobytes()
