@@ -302,64 +302,77 @@ def _cross_table(values, nih0, nih1, out):
             out[i * n1 + j] = (((values[ip, jp] - values[i, jp]) - (values[ip, j] - values[i, j])) * nih0) * nih1
 
 
-@njit(**_JIT)
-def _table_grad_terms(gtab, nih0, nih1, c10, c01, c11):
-    """Per cell, the terms of :func:`pes_ref.core.bilinear.table_grad_to_values`:
-    ``c11 = gD0 (-1/h0) + gD1 (-1/h1)``, ``c10 = gA0 (-1/h0) - c11``, ``c01 = gA1 (-1/h1) - c11``."""
-    for r in range(gtab.shape[0]):
+@njit(inline="always", **_JIT)
+def _table_grad_row(gtab, i, n1, nih0, nih1, terms):
+    """Row ``i``'s per-cell terms of :func:`pes_ref.core.bilinear.table_grad_to_values` into
+    ``terms`` (3, n1): ``c10 = gA0 (-1/h0) - c11``, ``c01 = gA1 (-1/h1) - c11``, ``c11 = gD0
+    (-1/h0) + gD1 (-1/h1)``."""
+    for j in range(n1):
+        r = i * n1 + j
         d = gtab[r, 2] * nih0 + gtab[r, 3] * nih1
-        c11[r] = d
-        c10[r] = gtab[r, 0] * nih0 - d
-        c01[r] = gtab[r, 1] * nih1 - d
+        terms[2, j] = d
+        terms[0, j] = gtab[r, 0] * nih0 - d
+        terms[1, j] = gtab[r, 1] * nih1 - d
+
+
+@njit(**_JIT)
+def _table_grad_to_values(gtab, nih0, nih1, n0, n1, out, rows):
+    """:func:`pes_ref.core.bilinear.table_grad_to_values` into ``out`` (n0, n1): per node
+    ``-c10 - c01 - c11`` of its own cell plus ``c10``, ``c01``, ``c11`` of the cells it is
+    the other corner of (wrapped), in that order (bit-identical). The terms of a row of cells
+    and of the row before it (``rows`` (2, 3, n1), in cache), so the table gradient is read
+    once; each row's nodes but the first in a loop without the wrap, the first wrapped."""
+    prev, cur = rows[0], rows[1]
+    _table_grad_row(gtab, n0 - 1, n1, nih0, nih1, prev)          # the row before row 0 (wrapped)
+    for i in range(n0):
+        _table_grad_row(gtab, i, n1, nih0, nih1, cur)
+        out[i, 0] = ((((-cur[0, 0] - cur[1, 0]) - cur[2, 0]) + prev[0, 0]) + cur[1, n1 - 1]) + prev[2, n1 - 1]
+        for j in range(1, n1):
+            out[i, j] = ((((-cur[0, j] - cur[1, j]) - cur[2, j]) + prev[0, j]) + cur[1, j - 1]) + prev[2, j - 1]
+        prev, cur = cur, prev
 
 
 @njit(inline="always", **_JIT)
-def _node_grad(c10, c01, c11, r, ru, rl, rd):
-    """Node ``r``'s gradient: ``-c10 - c01 - c11`` of its own cell plus ``c10`` of the cell
-    above (``ru``), ``c01`` of the one to the left (``rl``), ``c11`` of the diagonal one (``rd``)."""
-    acc = -c10[r]
-    acc = acc - c01[r]
-    acc = acc - c11[r]
-    acc = acc + c10[ru]
-    acc = acc + c01[rl]
-    return acc + c11[rd]
+def _cell_cross(a, b, j, jp):
+    """``|((G11 - G10) - G01) + G00|`` of the cell at column ``j`` (next column ``jp``) between
+    the rows ``b`` (i) and ``a`` (i + 1)."""
+    return abs(((a[jp] - a[j]) - b[jp]) + b[j])
 
 
 @njit(**_JIT)
-def _table_grad_to_values(gtab, nih0, nih1, n0, n1, out, c10, c01, c11):
-    """:func:`pes_ref.core.bilinear.table_grad_to_values` into ``out`` (n0, n1): per node
-    ``-c10 - c01 - c11`` of its own cell plus ``c10``, ``c01``, ``c11`` of the cells it is
-    the other corner of (wrapped), in that order (bit-identical); the terms per cell first
-    (:func:`_table_grad_terms`, into ``c10, c01, c11``, each (n0 n1,)), then each row's nodes
-    but the first in a loop without the wrap (on SIMD lanes), the first wrapped."""
-    _table_grad_terms(gtab, nih0, nih1, c10, c01, c11)
-    for i in range(n0):
-        im = i - 1 if i > 0 else n0 - 1
-        r0, u0 = i * n1, im * n1
-        out[i, 0] = _node_grad(c10, c01, c11, r0, u0, r0 + n1 - 1, u0 + n1 - 1)
-        for j in range(1, n1):
-            out[i, j] = _node_grad(c10, c01, c11, r0 + j, u0 + j, r0 + j - 1, u0 + j - 1)
-
-
-@njit(**dict(_JIT, fastmath={"nnan", "nsz"}))
 def _cross_curvature_max(values, per0, per1):
     """``max over cells |((G11 - G10) - G01) + G00|`` of :func:`pes_ref.core.stability.grid_cross_curvature`
     (a periodic axis's last cell wrapped to node 0). Finite values give no NaN here (a
-    difference that overflows is an infinity, which the next finite term keeps) and every
-    term is >= +0, so the maximum is the same in any order: the compiler may take it on SIMD
-    lanes (``nnan``, ``nsz``; nothing else is reassociated or contracted)."""
+    difference that overflows is an infinity, which the next finite term keeps), so the
+    maximum is the same number in any order: four running maxima over a row's cells (four
+    cells at a time keep the processor's pipelines full), then the largest of the four."""
     n0, n1 = values.shape
     m0 = n0 if per0 else n0 - 1
-    best = -np.inf
+    b0 = b1 = b2 = b3 = -np.inf
     for i in range(m0):
-        ip = i + 1 if i + 1 < n0 else 0
-        for j in range(n1 - 1):
-            d = abs(((values[ip, j + 1] - values[ip, j]) - values[i, j + 1]) + values[i, j])
-            best = d if d > best else best
+        a = values[i + 1 if i + 1 < n0 else 0]
+        b = values[i]
+        j = 0
+        while j + 4 <= n1 - 1:
+            d0 = _cell_cross(a, b, j, j + 1)
+            d1 = _cell_cross(a, b, j + 1, j + 2)
+            d2 = _cell_cross(a, b, j + 2, j + 3)
+            d3 = _cell_cross(a, b, j + 3, j + 4)
+            b0 = d0 if d0 > b0 else b0
+            b1 = d1 if d1 > b1 else b1
+            b2 = d2 if d2 > b2 else b2
+            b3 = d3 if d3 > b3 else b3
+            j += 4
+        while j < n1 - 1:
+            d0 = _cell_cross(a, b, j, j + 1)
+            b0 = d0 if d0 > b0 else b0
+            j += 1
         if per1:
-            d = abs(((values[ip, 0] - values[ip, n1 - 1]) - values[i, 0]) + values[i, n1 - 1])
-            best = d if d > best else best
-    return best
+            d0 = _cell_cross(a, b, n1 - 1, 0)
+            b0 = d0 if d0 > b0 else b0
+    b0 = b1 if b1 > b0 else b0
+    b2 = b3 if b3 > b2 else b2
+    return b2 if b2 > b0 else b0
 
 
 def cross_curvature_max(values: np.ndarray, periodic) -> float:
@@ -398,8 +411,7 @@ def table_grad_to_values(gtab: np.ndarray, h, shape: tuple, flat: bool = True) -
     """:func:`pes_ref.core.bilinear.table_grad_to_values` of one grid, compiled; flat (n0 n1,),
     or in the grid's shape (an array of its own, not a view) unless ``flat``."""
     out = np.empty(shape)
-    terms = np.empty((3, gtab.shape[0]))
-    _table_grad_to_values(gtab, -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out, terms[0], terms[1], terms[2])
+    _table_grad_to_values(gtab, -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out, np.empty((2, 3, shape[1])))
     return out.reshape(-1) if flat else out
 
 

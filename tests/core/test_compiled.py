@@ -272,7 +272,7 @@ def test_a_population_needs_no_numpy_step_and_runs_on_the_compiled_loops(monkeyp
         pr.simulate_batch(scenes, [X0, X0[:1]], backend="numpy")
 
 
-@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7)])
+@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7), (13, 30)])
 def test_the_compiled_tables_are_numpys_bit_for_bit(shape):
     """The per-cell coefficient and cross tables and the table gradient's map to the grid, each
     the compiled twin of pes_ref.core.bilinear's, for one grid and for a stack of them."""
@@ -305,7 +305,7 @@ def test_a_run_of_no_steps_has_its_state_0_with_and_without_progress(mode):
 
 
 @pytest.mark.parametrize("periodic", pst.TOPOLOGIES)
-@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7)])
+@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7), (13, 30)])
 def test_the_compiled_cross_curvature_is_numpys_bit_for_bit(periodic, shape):
     """The stability rule's grid cross curvature on the compiled loops: the same number as
     NumPy's, on every topology, and inf alike where a corner difference leaves float64."""
