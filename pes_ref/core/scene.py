@@ -321,9 +321,12 @@ def _stepper(scene: Scene, backend: str):
 
 
 @_explains_nonfinite
-def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy", energy=None) -> Trajectory:
-    """The run; ``energy`` an :class:`_EnergyOut` that its loop may fill (:attr:`StepParams.energy`), or None."""
-    return _stepper(scene, backend).simulate(scene.field(), x0, v0, fext, _step_params(scene, progress, energy))
+def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy", energy=None,
+             field: Field | None = None) -> Trajectory:
+    """The run; ``energy`` an :class:`_EnergyOut` that its loop may fill (:attr:`StepParams.energy`),
+    or None; ``field`` the scene's :meth:`Scene.field` when the caller has it already."""
+    field = scene.field() if field is None else field
+    return _stepper(scene, backend).simulate(field, x0, v0, fext, _step_params(scene, progress, energy))
 
 
 #: Particle-states per chunk of :func:`energy` on NumPy: its ~20 temporaries then stay in cache
@@ -583,10 +586,11 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
     backend = backends.check_backend(backend)
     stepper = _stepper(scene, backend)
     sink = None if energy_out is None else _EnergyOut(scene, energy_out)
-    traj = _forward(scene, x0, v0, fext, progress, backend, sink)
+    fld = scene.field()                                         # one for the run and its adjoint
+    traj = _forward(scene, x0, v0, fext, progress, backend, sink, fld)
     loss, gx, gv = objective.value_and_grad(traj.x, traj.v, scene.times())
     reg, greg = regularization(scene.surface.values, R)
-    raw = stepper.adjoint(scene.field(), traj, _step_params(scene, progress), gx, gv, want)
+    raw = stepper.adjoint(fld, traj, _step_params(scene, progress), gx, gv, want)
     # a pass after the run where the loop did not fill it; on NumPy, where a state's energy left
     # the finite numbers, again after the run, under the caller's np.errstate (as it always was)
     if sink is not None and (not sink.filled or (sink.errors_ignored and not np.isfinite(energy_out).all())):
