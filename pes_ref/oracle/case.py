@@ -358,7 +358,7 @@ def _force(raw: Mapping, shape: tuple) -> np.ndarray:
         flat = view.reshape(-1)
         if all(np.isfinite(flat[i:i + FINITE_CHUNK]).all() for i in range(0, flat.size, FINITE_CHUNK)):
             return view
-    return checks.as_float_array("force", force)      # (the message of a non-finite force is its)
+    return checks.as_float_array("force", force)      # (a non-finite force: refused with its message)
 
 
 #: The keys every result holds before its gradients (docs/spec.md section 9): the trajectory,
