@@ -90,11 +90,15 @@ def run_bytes(n_steps: int, n_particles: int, kind: str) -> int:
 def available_memory() -> int | None:
     """The memory a new run can take, in bytes: ``MemAvailable`` of ``/proc/meminfo``, or
     the free physical pages (``os.sysconf``); None when neither is known."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+    try:                                    # one read of the raw bytes (it is the third line)
+        fd = os.open("/proc/meminfo", os.O_RDONLY)
+        try:
+            data = os.read(fd, 4096)
+        finally:
+            os.close(fd)
+        at = data.find(b"\nMemAvailable:") + 1
+        if at > 0:
+            return int(data[at + 13:data.index(b"\n", at)].split()[0]) * 1024
     except (OSError, ValueError, IndexError):
         pass
     try:

@@ -82,9 +82,20 @@ def _mod(a, length):
 @njit(inline="always", **_JIT)
 def _locate(q0, q1, g, per0, per1, clips):
     """The lookup of :meth:`pes_ref.core.grid.Locator.bind` for one point, both axes:
-    ``(cell, f0, f1, s0, s1)``. ``g`` holds ``lower0, lower1, h0, h1, n0 - 1, n1 - 1,
-    n0 - 2, n1 - 2, n0, n1``. A periodic axis is neither clipped nor switched (a no-op
-    there), a non-periodic one never wrapped (idem); a non-finite point gets cell 0."""
+    ``(cell, f0, f1, s0, s1)`` (:func:`_locate_ij` without the cell's row and column)."""
+    cell, _, _, f0, f1, s0, s1 = _locate_ij(q0, q1, g, per0, per1, clips)
+    return cell, f0, f1, s0, s1
+
+
+@njit(inline="always", **_JIT)
+def _locate_ij(q0, q1, g, per0, per1, clips):
+    """The lookup of :meth:`pes_ref.core.grid.Locator.bind` for one point, both axes:
+    ``(cell, i0, j0, f0, f1, s0, s1)``, ``cell = i0 n1 + j0``. ``g`` holds ``lower0, lower1,
+    h0, h1, n0 - 1, n1 - 1, n0 - 2, n1 - 2, n0, n1``. A periodic axis is neither clipped nor
+    switched (a no-op there), a non-periodic one never wrapped (idem); a non-finite point
+    gets cell 0 (row and column 0). (Within the grid ``0 <= k_d < n_d`` on each axis, as
+    ``n_d >= 2``: so the row and column are ``cell // n1`` and ``cell % n1``, without the
+    division.)"""
     u0 = (q0 - g[0]) / g[2]
     u1 = (q1 - g[1]) / g[3]
     s0 = 1.0
@@ -112,8 +123,9 @@ def _locate(q0, q1, g, per0, per1, clips):
     if per1:
         k1 = k1 - np.floor(k1 / g[9]) * g[9]
     cf = k0 * g[9] + k1
-    cell = int(cf) if (cf >= 0.0 and cf < g[8] * g[9]) else 0
-    return cell, f0, f1, s0, s1
+    if cf >= 0.0 and cf < g[8] * g[9]:
+        return int(cf), int(k0), int(k1), f0, f1, s0, s1
+    return 0, 0, 0, f0, f1, s0, s1
 
 
 @njit(inline="always", **_JIT)
@@ -138,6 +150,14 @@ def _force(q0, q1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, 
     the unpacked tuples of :func:`_grid`, :func:`_spring` and :func:`_walls`: a kernel
     unpacks them once, outside its loops; ``wraps`` is its compile-time constant.)"""
     cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
+    return _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf,
+                     slen, won, wk, wlo, whi)
+
+
+@njit(inline="always", **_JIT)
+def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
+              won, wk, wlo, whi):
+    """:func:`_force` at the cell and fractions that :func:`_locate` gave for ``(q0, q1)``."""
     row = cell + offsets[i]
     if row >= table.shape[0]:
         row = table.shape[0] - 1
@@ -197,30 +217,83 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, cross, offsets, gtab
     return xb0, xb1
 
 
+@njit(inline="always", **_JIT)
+def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrapping, son, sk, sc, swrap0, swrap1,
+               shalf, slen, won, hwk, wlo, whi):
+    """Particle ``i``'s total energy at ``(q0, q1)`` with velocity ``(w0, w1)``, at its cell's
+    row and column and fractions of :func:`_locate_ij`: :func:`pes_ref.core.scene.energy`'s operations in its order,
+    the bilinear energy of :func:`pes_ref.core.bilinear.grid_energy`, plus the spring's
+    ``0.5 (k0 d0 d0 + k1 d1 d1)`` (the minimum image on the axes ``swrap``, the periodic ones,
+    as :func:`pes_ref.core.terms.spring_delta`; ``wrapping``, a caller's compile-time constant,
+    False leaves the image out of a loop whose caller passes no ``swrap``), plus the walls'
+    ``(0.5 k) (b0 b0 + a0 a0 + (b1 b1 + a1 a1))``, plus ``0.5 (m0 v0 v0 + m1 v1 v1)``."""
+    n0 = values.shape[0]
+    n1 = values.shape[1]
+    i1 = i0 + 1
+    j1 = j0 + 1
+    if per0 and i1 == n0:
+        i1 = 0
+    if per1 and j1 == n1:
+        j1 = 0
+    if i1 >= n0:                 # a non-finite point (cell 0 of a 1-node axis never occurs)
+        i1 = n0 - 1
+    if j1 >= n1:
+        j1 = n1 - 1
+    u = ((1 - f0) * (1 - f1) * values[i0, j0] + f0 * (1 - f1) * values[i1, j0]
+         + (1 - f0) * f1 * values[i0, j1] + f0 * f1 * values[i1, j1])
+    if son:
+        d0 = q0 - sc[i, 0]
+        d1 = q1 - sc[i, 1]
+        if wrapping:
+            if swrap0:
+                d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
+            if swrap1:
+                d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
+        u = u + 0.5 * (sk[i, 0] * d0 * d0 + sk[i, 1] * d1 * d1)
+    if won:
+        b0 = wlo[i, 0] - q0
+        b0 = b0 if (b0 != b0 or b0 > 0.0) else 0.0
+        a0 = q0 - whi[i, 0]
+        a0 = a0 if (a0 != a0 or a0 > 0.0) else 0.0
+        b1 = wlo[i, 1] - q1
+        b1 = b1 if (b1 != b1 or b1 > 0.0) else 0.0
+        a1 = q1 - whi[i, 1]
+        a1 = a1 if (a1 != a1 or a1 > 0.0) else 0.0
+        u = u + hwk[i] * ((b0 * b0 + a0 * a0) + (b1 * b1 + a1 * a1))
+    return u + 0.5 * (m[i, 0] * w0 * w0 + m[i, 1] * w1 * w1)
+
 
 # =========================================================================== the per-cell tables
+
+@njit(inline="always", **_JIT)
+def _coefficient_row(values, i, ip, j, jp, nih0, nih1, out):
+    """Row ``i n1 + j`` of :func:`_coefficient_table`: cell (i, j) with its next nodes ``ip``, ``jp``."""
+    d0a = values[ip, j] - values[i, j]
+    d1a = values[i, jp] - values[i, j]
+    row = i * values.shape[1] + j
+    out[row, 0] = d0a * nih0
+    out[row, 1] = d1a * nih1
+    out[row, 2] = ((values[ip, jp] - values[i, jp]) - d0a) * nih0
+    out[row, 3] = ((values[ip, jp] - values[ip, j]) - d1a) * nih1
+
 
 @njit(**_JIT)
 def _coefficient_table(values, nih0, nih1, out):
     """:func:`pes_ref.core.bilinear.coefficient_table` into ``out`` (n0 n1, 4): the same
-    differences, wrapped, then scaled by ``-1/h`` (bit-identical)."""
+    differences, wrapped, then scaled by ``-1/h`` (bit-identical). Each row's cells but the
+    last in a loop without the wrap (which the compiler runs on SIMD lanes), the last wrapped."""
     n0, n1 = values.shape
     for i in range(n0):
         ip = i + 1 if i + 1 < n0 else 0
-        for j in range(n1):
-            jp = j + 1 if j + 1 < n1 else 0
-            d0a = values[ip, j] - values[i, j]
-            d1a = values[i, jp] - values[i, j]
-            row = i * n1 + j
-            out[row, 0] = d0a * nih0
-            out[row, 1] = d1a * nih1
-            out[row, 2] = ((values[ip, jp] - values[i, jp]) - d0a) * nih0
-            out[row, 3] = ((values[ip, jp] - values[ip, j]) - d1a) * nih1
+        for j in range(n1 - 1):
+            _coefficient_row(values, i, ip, j, j + 1, nih0, nih1, out)
+        _coefficient_row(values, i, ip, n1 - 1, 0, nih0, nih1, out)
 
 
 @njit(**_JIT)
 def _cross_table(values, nih0, nih1, out):
-    """:func:`pes_ref.core.bilinear.cross_table` into ``out`` (n0 n1,) (bit-identical)."""
+    """:func:`pes_ref.core.bilinear.cross_table` into ``out`` (n0 n1,) (bit-identical; the
+    loops as :func:`_coefficient_table`'s)."""
     n0, n1 = values.shape
     for i in range(n0):
         ip = i + 1 if i + 1 < n0 else 0
@@ -229,25 +302,83 @@ def _cross_table(values, nih0, nih1, out):
             out[i * n1 + j] = (((values[ip, jp] - values[i, jp]) - (values[ip, j] - values[i, j])) * nih0) * nih1
 
 
+@njit(inline="always", **_JIT)
+def _table_grad_row(gtab, i, n1, nih0, nih1, terms):
+    """Row ``i``'s per-cell terms of :func:`pes_ref.core.bilinear.table_grad_to_values` into
+    ``terms`` (3, n1): ``c10 = gA0 (-1/h0) - c11``, ``c01 = gA1 (-1/h1) - c11``, ``c11 = gD0
+    (-1/h0) + gD1 (-1/h1)``."""
+    for j in range(n1):
+        r = i * n1 + j
+        d = gtab[r, 2] * nih0 + gtab[r, 3] * nih1
+        terms[2, j] = d
+        terms[0, j] = gtab[r, 0] * nih0 - d
+        terms[1, j] = gtab[r, 1] * nih1 - d
+
+
 @njit(**_JIT)
-def _table_grad_to_values(gtab, nih0, nih1, n0, n1, out):
+def _table_grad_to_values(gtab, nih0, nih1, n0, n1, out, rows):
     """:func:`pes_ref.core.bilinear.table_grad_to_values` into ``out`` (n0, n1): per node
     ``-c10 - c01 - c11`` of its own cell plus ``c10``, ``c01``, ``c11`` of the cells it is
-    the other corner of (wrapped), in that order (bit-identical)."""
+    the other corner of (wrapped), in that order (bit-identical). The terms of a row of cells
+    and of the row before it (``rows`` (2, 3, n1), in cache), so the table gradient is read
+    once; each row's nodes but the first in a loop without the wrap, the first wrapped."""
+    prev, cur = rows[0], rows[1]
+    _table_grad_row(gtab, n0 - 1, n1, nih0, nih1, prev)          # the row before row 0 (wrapped)
     for i in range(n0):
-        im = i - 1 if i > 0 else n0 - 1
-        for j in range(n1):
-            jm = j - 1 if j > 0 else n1 - 1
-            r, ru, rl, rd = i * n1 + j, im * n1 + j, i * n1 + jm, im * n1 + jm
-            c11 = gtab[r, 2] * nih0 + gtab[r, 3] * nih1
-            acc = -(gtab[r, 0] * nih0 - c11)
-            acc = acc - (gtab[r, 1] * nih1 - c11)
-            acc = acc - c11
-            c11u = gtab[ru, 2] * nih0 + gtab[ru, 3] * nih1
-            acc = acc + (gtab[ru, 0] * nih0 - c11u)
-            c11l = gtab[rl, 2] * nih0 + gtab[rl, 3] * nih1
-            acc = acc + (gtab[rl, 1] * nih1 - c11l)
-            out[i, j] = acc + (gtab[rd, 2] * nih0 + gtab[rd, 3] * nih1)
+        _table_grad_row(gtab, i, n1, nih0, nih1, cur)
+        out[i, 0] = ((((-cur[0, 0] - cur[1, 0]) - cur[2, 0]) + prev[0, 0]) + cur[1, n1 - 1]) + prev[2, n1 - 1]
+        for j in range(1, n1):
+            out[i, j] = ((((-cur[0, j] - cur[1, j]) - cur[2, j]) + prev[0, j]) + cur[1, j - 1]) + prev[2, j - 1]
+        prev, cur = cur, prev
+
+
+@njit(inline="always", **_JIT)
+def _cell_cross(a, b, j, jp):
+    """``|((G11 - G10) - G01) + G00|`` of the cell at column ``j`` (next column ``jp``) between
+    the rows ``b`` (i) and ``a`` (i + 1)."""
+    return abs(((a[jp] - a[j]) - b[jp]) + b[j])
+
+
+@njit(**_JIT)
+def _cross_curvature_max(values, per0, per1):
+    """``max over cells |((G11 - G10) - G01) + G00|`` of :func:`pes_ref.core.stability.grid_cross_curvature`
+    (a periodic axis's last cell wrapped to node 0). Finite values give no NaN here (a
+    difference that overflows is an infinity, which the next finite term keeps), so the
+    maximum is the same number in any order: four running maxima over a row's cells (four
+    cells at a time keep the processor's pipelines full), then the largest of the four."""
+    n0, n1 = values.shape
+    m0 = n0 if per0 else n0 - 1
+    b0 = b1 = b2 = b3 = -np.inf
+    for i in range(m0):
+        a = values[i + 1 if i + 1 < n0 else 0]
+        b = values[i]
+        j = 0
+        while j + 4 <= n1 - 1:
+            d0 = _cell_cross(a, b, j, j + 1)
+            d1 = _cell_cross(a, b, j + 1, j + 2)
+            d2 = _cell_cross(a, b, j + 2, j + 3)
+            d3 = _cell_cross(a, b, j + 3, j + 4)
+            b0 = d0 if d0 > b0 else b0
+            b1 = d1 if d1 > b1 else b1
+            b2 = d2 if d2 > b2 else b2
+            b3 = d3 if d3 > b3 else b3
+            j += 4
+        while j < n1 - 1:
+            d0 = _cell_cross(a, b, j, j + 1)
+            b0 = d0 if d0 > b0 else b0
+            j += 1
+        if per1:
+            d0 = _cell_cross(a, b, n1 - 1, 0)
+            b0 = d0 if d0 > b0 else b0
+    b0 = b1 if b1 > b0 else b0
+    b2 = b3 if b3 > b2 else b2
+    return b2 if b2 > b0 else b0
+
+
+def cross_curvature_max(values: np.ndarray, periodic) -> float:
+    """:func:`_cross_curvature_max` of one grid (n0, n1): the numerator of
+    :func:`pes_ref.core.stability.grid_cross_curvature`, compiled, bit for bit."""
+    return _cross_curvature_max(_readonly(values), bool(periodic[0]), bool(periodic[1]))
 
 
 def _stacked(values: np.ndarray, width: int) -> tuple:
@@ -264,7 +395,7 @@ def coefficient_table(values: np.ndarray, h) -> np.ndarray:
     """:func:`pes_ref.core.bilinear.coefficient_table` (of each grid of a stack), compiled."""
     out, grids, size = _stacked(values, 4)
     for c, grid in enumerate(grids):
-        _coefficient_table(_kernel_array(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
+        _coefficient_table(_readonly(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
     return out
 
 
@@ -272,15 +403,16 @@ def cross_table(values: np.ndarray, h) -> np.ndarray:
     """:func:`pes_ref.core.bilinear.cross_table` (of each grid of a stack), compiled."""
     out, grids, size = _stacked(values, 0)
     for c, grid in enumerate(grids):
-        _cross_table(_kernel_array(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
+        _cross_table(_readonly(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
     return out
 
 
-def table_grad_to_values(gtab: np.ndarray, h, shape: tuple) -> np.ndarray:
-    """:func:`pes_ref.core.bilinear.table_grad_to_values` of one grid, compiled; flat (n0 n1,)."""
+def table_grad_to_values(gtab: np.ndarray, h, shape: tuple, flat: bool = True) -> np.ndarray:
+    """:func:`pes_ref.core.bilinear.table_grad_to_values` of one grid, compiled; flat (n0 n1,),
+    or in the grid's shape (an array of its own, not a view) unless ``flat``."""
     out = np.empty(shape)
-    _table_grad_to_values(gtab, -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out)
-    return out.reshape(-1)
+    _table_grad_to_values(gtab, -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out, np.empty((2, 3, shape[1])))
+    return out.reshape(-1) if flat else out
 
 
 def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
@@ -298,16 +430,21 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
     # ======================================================================= dynamic mode
 
     @njit(**jit)
-    def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls):
+    def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls,
+                       energy):
         """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_dynamic`, and
         from ``start = 0`` the initial force ``F_0 = F(X_0) + F_ext[0]`` first (as a step -1
         that is only (S3): one copy of the force in the loop); the particles of each block
         (``blocks[b] .. blocks[b+1] - 1``: a population's member, whose grid's table then stays
         in cache) through all the steps before the next block's (particles are independent:
-        the order changes no number)."""
+        the order changes no number). ``energy`` (:func:`_energy_terms`) on: each state's
+        energy into its ``out`` as the state is made, at the state's lookup (:func:`_energy_at`)."""
         g, per0, per1, clips, table, offsets = grid
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
+        e_on, eout, em, evalues, espring, ewalls = energy
+        eson, esk, esc, eswrap0, eswrap1, eshalf, eslen = espring
+        ewon, ehwk, ewlo, ewhi = ewalls
         for b in loop(blocks.size - 1):
             for n in range(start - 1 if start == 0 else start, stop):
                 for i in range(blocks[b], blocks[b + 1]):
@@ -324,23 +461,29 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
                         y0, y1 = x[0, i, 0], x[0, i, 1]
                         p0 = p1 = 0.0
                     # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
-                    F0, F1 = _force(y0, y1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, swrap0,
-                                    swrap1, shalf, slen, won, wk, wlo, whi)
+                    cell, i0, j0, f0, f1, s0, s1 = _locate_ij(y0, y1, g, per0, per1, clips)
+                    F0, F1 = _force_at(y0, y1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0,
+                                       swrap1, shalf, slen, won, wk, wlo, whi)
                     if has_fext:
                         F0 = F0 + fext[n + 1, i, 0]
                         F1 = F1 + fext[n + 1, i, 1]
                     f[n + 1, i, 0] = F0
                     f[n + 1, i, 1] = F1
                     if n < 0:
-                        continue
-                    # (S4) kick: V_{n+1} = a F_{n+1} + P, damped ((a F_{n+1} + P) - c V_n) (1 / (1 + c))
-                    w0 = a[i, 0] * F0 + p0
-                    w1 = a[i, 1] * F1 + p1
-                    if damped:
-                        w0 = (w0 - c[i, 0] * v[n, i, 0]) * inv_1pc[i, 0]
-                        w1 = (w1 - c[i, 1] * v[n, i, 1]) * inv_1pc[i, 1]
-                    v[n + 1, i, 0] = w0
-                    v[n + 1, i, 1] = w1
+                        w0, w1 = v[0, i, 0], v[0, i, 1]
+                    else:
+                        # (S4) kick: V_{n+1} = a F_{n+1} + P, damped ((a F_{n+1} + P) - c V_n) (1 / (1 + c))
+                        w0 = a[i, 0] * F0 + p0
+                        w1 = a[i, 1] * F1 + p1
+                        if damped:
+                            w0 = (w0 - c[i, 0] * v[n, i, 0]) * inv_1pc[i, 0]
+                            w1 = (w1 - c[i, 1] * v[n, i, 1]) * inv_1pc[i, 1]
+                        v[n + 1, i, 0] = w0
+                        v[n + 1, i, 1] = w1
+                    if e_on:
+                        eout[n + 1, i] = _energy_at(y0, y1, w0, w1, i, i0, j0, f0, f1, per0, per1, evalues, em, wraps,
+                                                    eson, esk, esc, eswrap0, eswrap1, eshalf, eslen, ewon, ehwk, ewlo,
+                                                    ewhi)
 
 
     @njit(**jit)
@@ -494,55 +637,16 @@ def _make_energy(parallel: bool):
     @njit(parallel=parallel, **_JIT)
     def _energy(x, v, m, blocks, g, per0, per1, clips, values, son, sk, sc, swrap0, swrap1, shalf, slen,
                 won, hwk, wlo, whi, out):
-        """``out[n, i]``: :func:`pes_ref.core.scene.energy`'s operations in its order, per
-        particle-state: the bilinear energy of :func:`pes_ref.core.bilinear.grid_energy` at the
-        cell and fractions of :func:`pes_ref.core.grid.locate`, plus the spring's
-        ``0.5 (k0 d0 d0 + k1 d1 d1)`` (the minimum image on every periodic axis, as
-        :func:`pes_ref.core.terms.spring_delta`), plus the walls' ``(0.5 k) (b0 b0 + a0 a0 +
-        (b1 b1 + a1 a1))``, plus ``0.5 (m0 v0 v0 + m1 v1 v1)``."""
-        n1 = values.shape[1]
-        n0 = values.shape[0]
+        """``out[n, i]``: :func:`_energy_at` of each particle-state (a spring's minimum image
+        on every periodic axis)."""
         for b in loop(blocks.size - 1):
             for n in range(x.shape[0]):
                 for i in range(blocks[b], blocks[b + 1]):
                     q0 = x[n, i, 0]
                     q1 = x[n, i, 1]
-                    cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
-                    i0 = cell // n1
-                    j0 = cell - i0 * n1
-                    i1 = i0 + 1
-                    j1 = j0 + 1
-                    if per0 and i1 == n0:
-                        i1 = 0
-                    if per1 and j1 == n1:
-                        j1 = 0
-                    if i1 >= n0:                 # a non-finite point (cell 0 of a 1-node axis never occurs)
-                        i1 = n0 - 1
-                    if j1 >= n1:
-                        j1 = n1 - 1
-                    u = ((1 - f0) * (1 - f1) * values[i0, j0] + f0 * (1 - f1) * values[i1, j0]
-                         + (1 - f0) * f1 * values[i0, j1] + f0 * f1 * values[i1, j1])
-                    if son:
-                        d0 = q0 - sc[i, 0]
-                        d1 = q1 - sc[i, 1]
-                        if swrap0:
-                            d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
-                        if swrap1:
-                            d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
-                        u = u + 0.5 * (sk[i, 0] * d0 * d0 + sk[i, 1] * d1 * d1)
-                    if won:
-                        b0 = wlo[i, 0] - q0
-                        b0 = b0 if (b0 != b0 or b0 > 0.0) else 0.0
-                        a0 = q0 - whi[i, 0]
-                        a0 = a0 if (a0 != a0 or a0 > 0.0) else 0.0
-                        b1 = wlo[i, 1] - q1
-                        b1 = b1 if (b1 != b1 or b1 > 0.0) else 0.0
-                        a1 = q1 - whi[i, 1]
-                        a1 = a1 if (a1 != a1 or a1 > 0.0) else 0.0
-                        u = u + hwk[i] * ((b0 * b0 + a0 * a0) + (b1 * b1 + a1 * a1))
-                    w0 = v[n, i, 0]
-                    w1 = v[n, i, 1]
-                    out[n, i] = u + 0.5 * (m[i, 0] * w0 * w0 + m[i, 1] * w1 * w1)
+                    _, i0, j0, f0, f1, _, _ = _locate_ij(q0, q1, g, per0, per1, clips)
+                    out[n, i] = _energy_at(q0, q1, v[n, i, 0], v[n, i, 1], i, i0, j0, f0, f1, per0, per1, values, m,
+                                           True, son, sk, sc, swrap0, swrap1, shalf, slen, won, hwk, wlo, whi)
 
     return _energy
 
@@ -551,37 +655,60 @@ def _make_energy(parallel: bool):
 ENERGY = {parallel: _make_energy(parallel) for parallel in (False, True)}
 
 
-def energy(field, x: np.ndarray, v: np.ndarray, mass) -> np.ndarray:
-    """Total energy per state and particle, (T+1, N): :func:`pes_ref.core.scene.energy`'s
-    numbers bit for bit (bilinear grid, one grid), compiled; the particles in blocks of
-    :data:`BLOCK` on numba's threads from :data:`PARALLEL_MIN` particles on."""
-    x, v = _kernel_array(x), _kernel_array(v)
-    T1, N = x.shape[0], x.shape[1]
-    grid = _grid(field, N, _NONE2)
-    g, per0, per1, clips = grid[:4]
+def _energy_terms(field, n: int, mass, out) -> tuple:
+    """``(on, out, mass, values, spring, walls)``: the energy arguments of :func:`_energy_at`
+    (:func:`_make_energy`'s kernel and the forward loop's), ``on`` False and placeholders of
+    the same types when ``out`` is None. The spring's minimum image on every periodic axis
+    (``spring[3:5]``), the walls' ``0.5 k`` per particle."""
+    if out is None:
+        return False, _NONE2, _NONE2, _NONE2_RO, _NO_SPRING, _NO_ENERGY_WALLS
     if field.spring is not None:
         wrap = [bool(p) for p in field.periodic]
         length = np.asarray(field.length, dtype=np.float64)
-        spring = (True, _as(field.spring[0], N), _as(field.spring[1], N), wrap[0], wrap[1], 0.5 * length, length.copy())
+        spring = (True, _as(field.spring[0], n), _as(field.spring[1], n), wrap[0], wrap[1], 0.5 * length, length.copy())
     else:
-        spring = _spring(field, N, False, ())
+        spring = _spring(field, n, False, ())
     if field.walls is not None:
         k, lo, hi = field.walls
-        walls = (True, np.ascontiguousarray(np.broadcast_to(0.5 * np.asarray(k, dtype=np.float64), (N, 1))[:, 0]),
-                 _as(lo, N), _as(hi, N))
+        walls = (True, np.broadcast_to(0.5 * np.asarray(k, dtype=np.float64), (n, 1))[:, 0].copy(), _as(lo, n),
+                 _as(hi, n))
     else:
-        walls = (False, np.zeros(1), _NONE2, _NONE2)
-    out = np.empty((T1, N))
+        walls = _NO_ENERGY_WALLS
+    return True, out, _as(mass, n), _readonly(field.values), spring, walls
+
+
+def energy(field, x: np.ndarray, v: np.ndarray, mass, out=None) -> np.ndarray:
+    """Total energy per state and particle, (T+1, N), into ``out`` (fresh when None):
+    :func:`pes_ref.core.scene.energy`'s numbers bit for bit (bilinear grid, one grid),
+    compiled; the particles in blocks of :data:`BLOCK` on numba's threads from
+    :data:`PARALLEL_MIN` particles on."""
+    x, v = _kernel_array(x), _kernel_array(v)
+    T1, N = x.shape[0], x.shape[1]
+    g, per0, per1, clips = _grid(field, N, _NONE2)[:4]
+    out = np.empty((T1, N)) if out is None else out
+    _, out, m, values, spring, walls = _energy_terms(field, N, mass, out)
     parallel = N >= PARALLEL_MIN
-    ENERGY[parallel](x, v, _as(mass, N), particle_blocks(N) if parallel else np.array([0, N], dtype=np.intp),
-                     g, per0, per1, clips, _kernel_array(field.values), *spring, *walls, out)
+    ENERGY[parallel](x, v, m, particle_blocks(N) if parallel else np.array([0, N], dtype=np.intp),
+                     g, per0, per1, clips, values, *spring, *walls, out)
     return out
+
+
+def energy_wraps(field) -> bool:
+    """Whether :func:`_energy_at` takes a spring's minimum image in ``field`` (a spring and a
+    periodic axis): a forward loop that computes the energy is then the one compiled with it."""
+    return field.spring is not None and any(bool(p) for p in field.periodic)
 
 
 # =========================================================================== the kernels' arguments
 
 _NONE2 = np.zeros((1, 2))
 _NONE3 = np.zeros((1, 1, 2))
+_NONE2_RO = _NONE2.copy()
+_NONE2_RO.setflags(write=False)
+_NONE3_RO = _NONE3.copy()
+_NONE3_RO.setflags(write=False)
+_NO_SPRING = (False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2))
+_NO_ENERGY_WALLS = (False, np.zeros(1), _NONE2, _NONE2)
 
 #: From this many particles on, the loops run their particles in blocks on numba's threads
 #: (both cores); below it, one block on one thread (a thread pool's start costs more there).
@@ -634,9 +761,20 @@ def _kernel_array(a) -> np.ndarray:
     return np.require(a, dtype=np.float64, requirements=["C", "W"])
 
 
+def _readonly(a) -> np.ndarray:
+    """``a`` as the argument of a kernel that only reads it: a read-only C-contiguous float64
+    view (a copy only when ``a`` is not C-contiguous float64), so the kernel's argument type
+    is the same whether the caller's array is writable or not (the surface's values and the
+    validated force are read-only) and nothing is copied to make it writable."""
+    view = np.ascontiguousarray(a, dtype=np.float64).view()
+    view.setflags(write=False)
+    return view
+
+
 def _c3(a):
-    """A (T+1, N, 2) input as the kernels take it (placeholder and False when None)."""
-    return (_NONE3, False) if a is None else (_kernel_array(a), True)
+    """A (T+1, N, 2) input as the kernels take it, read-only (:func:`_readonly`; placeholder
+    and False when None)."""
+    return (_NONE3_RO, False) if a is None else (_readonly(a), True)
 
 
 def _grid(field, n: int, table):
@@ -653,7 +791,7 @@ def _spring(field, n: int, on: bool, axes):
     """``(on, k, center, wrap0, wrap1, half, length)``: the minimum image on the periodic
     axes among ``axes``."""
     if field.spring is None:
-        return False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2)
+        return _NO_SPRING
     length = np.asarray(field.length, dtype=np.float64)
     wrap = [bool(field.periodic[d]) and d in axes for d in range(2)]
     return (on, _as(field.spring[0], n), _as(field.spring[1], n), wrap[0], wrap[1], 0.5 * length,
@@ -737,7 +875,7 @@ class _Adjoint:
             for lane in self.gtabs[1:]:          # in lane order: the same sum whatever the threads
                 gtab = gtab + lane
             shape = self.field.values.shape
-            out["values"] = table_grad_to_values(gtab, self.field.h, shape[-2:])
+            out["values"] = table_grad_to_values(gtab, self.field.h, shape[-2:], flat=False)     # (n0, n1), its own
         if self.want_k:
             out["spring_k"] = self.gk
         if self.want_c:
@@ -749,12 +887,20 @@ class _Adjoint:
 
 @reports_nonfinite
 def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping, progress=None,
-                     refuse_nonfinite: bool = True, out=None) -> Trajectory:
-    """:func:`pes_ref.core.integrator.simulate_dynamic`, compiled (same arguments, same numbers)."""
+                     refuse_nonfinite: bool = True, out=None, energy=None) -> Trajectory:
+    """:func:`pes_ref.core.integrator.simulate_dynamic`, compiled (same arguments, same numbers).
+    ``energy``: a C-contiguous float64 (T+1, N) array that the loop fills with each state's
+    total energy as it makes the state (:func:`pes_ref.core.scene.energy`'s numbers, bit for
+    bit; one grid), or None."""
     T, N = n_steps, x0.shape[0]
     x, v, f = trajectory_arrays(T, N, out)
     x[0], v[0] = x0, v0
+    if energy is not None and field.offsets is not None:
+        raise ValueError("a population's energy is not computed in its forward loop")
     K, grid, spring, walls = _forward_terms(field, N)
+    energy = _energy_terms(field, N, mass, energy)
+    if energy[0] and energy_wraps(field):
+        K = KERNELS[True]
     ext, has_fext = _c3(fext)
     a, c = step_coefficients(dt, mass, damping, N)
     damped = c is not None
@@ -766,7 +912,7 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
         K = PARALLEL_KERNELS[K is KERNELS[True]]
     for start, stop in step_blocks(T, progress, "forward"):         # from step 0: F_0 first
         K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, float(dt), grid, spring,
-                        walls)
+                        walls, energy)
     traj = Trajectory(x, v, f)
     if refuse_nonfinite:
         check_finite(traj, f"dt={dt!r}")
@@ -776,7 +922,7 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
 def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, want: frozenset,
                     progress=None) -> dict:
     """:func:`pes_ref.core.integrator.adjoint_dynamic`, compiled (same arguments and gradients;
-    the grid's summed in another order)."""
+    the grid's summed in another order, and in the grid's shape (n0, n1))."""
     x, v, f = (_kernel_array(a) for a in traj)
     T, N = x.shape[0] - 1, x.shape[1]
     adj = _Adjoint(field, x, want, parallel=N >= PARALLEL_MIN)
@@ -822,7 +968,7 @@ def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
 
 def adjoint_quasistatic(field, traj: Trajectory, mobility, gx, want: frozenset, progress=None) -> dict:
     """:func:`pes_ref.core.integrator.adjoint_quasistatic`, compiled (the grid and mobility
-    gradients summed in another order)."""
+    gradients summed in another order; the grid's in the grid's shape (n0, n1))."""
     x, f = _kernel_array(traj.x), _kernel_array(traj.f)
     T, N = x.shape[0] - 1, x.shape[1]
     adj = _Adjoint(field, x, want)
@@ -849,8 +995,12 @@ def _or3(a):
 
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):
-    return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
-                            p.out)
+    sink = p.energy if field.offsets is None else None           # (StepParams.energy: a population's is not)
+    traj = simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
+                            p.out, None if sink is None else sink.out)
+    if sink is not None:
+        sink.filled = True
+    return traj
 
 
 def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):

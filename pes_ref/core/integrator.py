@@ -135,7 +135,7 @@ def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: i
 @reports_nonfinite
 def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, n_steps: int,
                      mass: np.ndarray, damping, progress=None, refuse_nonfinite: bool = True,
-                     out: Trajectory | None = None) -> Trajectory:
+                     out: Trajectory | None = None, energy=None) -> Trajectory:
     """Damped velocity Verlet of the paper's eqs. (2)-(3) (docs/spec.md section 5.1).
 
     Parameters
@@ -158,6 +158,11 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
         (:func:`check_finite`); False returns it (a population checks each member's part).
     out : Trajectory or None
         Arrays (T+1, N, 2) to run into instead of fresh ones (:func:`trajectory_arrays`).
+    energy : object or None
+        Where each state's total energy goes as the state is made (:attr:`pes_ref.core.steppers.StepParams.energy`):
+        ``energy.bind(force, field)`` gives ``step(x_n, v_n, row_n)``, called right after the
+        force at ``x_n``, whose lookup it reads, with the row ``n`` of ``energy.out``; or None
+        (nothing is computed then).
 
     Returns
     -------
@@ -165,6 +170,9 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
     """
     N = x0.shape[0]
     x, v, f, force = start_dynamic(field, x0, v0, fext, n_steps, out)
+    estep = None if energy is None else energy.bind(force, field)
+    if estep is not None:
+        estep(x[0], v[0], energy.out[0])
     a, c = step_coefficients(dt, mass, damping, N)
     damped = c is not None
     if damped:
@@ -181,8 +189,9 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
     # a F_n is computed once: by the kick of step n-1 (S4), reused by the half-kick (S1)
     af = np.multiply(a, f[0])
     # the loop runs over views (x_n, x_{n+1}, ...); nothing is allocated per step
-    steps = zip(x[:-1], x[1:], v[:-1], v[1:], f[1:], ext)
-    for xn, xn1, vn, vn1, fn1, fe in reporting(steps, progress, "forward", n_steps):
+    rows = energy.out[1:] if estep is not None else ext           # (ext: a placeholder, unused)
+    steps = zip(x[:-1], x[1:], v[:-1], v[1:], f[1:], ext, rows)
+    for xn, xn1, vn, vn1, fn1, fe, en1 in reporting(steps, progress, "forward", n_steps):
         # (S1) half_kick: P = V_n + a F_n
         add(af, vn, p)
         # (S2) drift: X_{n+1} = X_n + dt P
@@ -199,6 +208,8 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
             mul(c, vn, cv)
             sub(vn1, cv, vn1)
             mul(vn1, inv_1pc, vn1)
+        if estep is not None:
+            estep(xn1, vn1, en1)
     traj = Trajectory(x, v, f)
     if refuse_nonfinite:
         check_finite(traj, f"dt={dt!r}")
@@ -247,11 +258,12 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
     fbar = np.zeros((N, 2))
     tmp = np.empty((N, 2))
+    tmp2 = np.empty((N, 2)) if cbar is not None else None         # V_n + V_{n+1}
     dt_ = np.array(dt)
     # undamped, P^ = V^_{n+1} and V^_n = P^: one buffer serves both
     pbar = np.empty((N, 2)) if damped else vbar
     vbar_prev = np.empty((N, 2)) if damped else None
-    mul, add, vjp = np.multiply, np.add, adj.vjp             # bound once (see simulate_dynamic)
+    mul, add, sub, vjp = np.multiply, np.add, np.subtract, adj.vjp      # bound once (see simulate_dynamic)
     for n in reporting(range(T - 1, -1, -1), progress, "adjoint", T):
         # (B4) kick^T: P^ = d V^_{n+1} with d = 1/(1+c) (d = 1 undamped);
         #      F^_{n+1} += a P^; a^ += F_{n+1} P^; c^ -= (V_n + V_{n+1}) P^; V^_n = -c P^
@@ -261,9 +273,12 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
         mul(a, pbar, tmp)
         add(fbar, tmp, fbar)
         if abar is not None:
-            abar += f[n + 1] * pbar
+            mul(f[n + 1], pbar, tmp)
+            add(abar, tmp, abar)
         if cbar is not None:
-            cbar -= (v[n] + v[n + 1]) * pbar
+            add(v[n], v[n + 1], tmp2)
+            mul(tmp2, pbar, tmp2)
+            sub(cbar, tmp2, cbar)
         # (B3) force^T at X_{n+1}: F_ext^[n+1] = F^_{n+1}; X^_{n+1} += -H_U F^_{n+1}; G^, k^, c^
         if gforce is not None:
             gforce[n + 1] = fbar
@@ -277,7 +292,8 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
             add(vbar_prev, pbar, vbar)
         mul(a, pbar, fbar)
         if abar is not None:
-            abar += f[n] * pbar
+            mul(f[n], pbar, tmp)
+            add(abar, tmp, abar)
         # the objective's direct terms at step n
         if gx is not None:
             add(xbar, gx[n], xbar)

@@ -46,10 +46,12 @@ class Funnel:
         if self.when == "final":
             e = x[-1, :, 0] - self.target
             gx[-1, :, 0] = 2.0 * e
-        else:
-            e = x[:, :, 0] - self.target
-            gx[:, :, 0] = 2.0 * e
-        return float(np.sum(e * e)), gx, None
+            return float(np.sum(e * e)), gx, None
+        # every step: one (T+1, N) temporary, 2 e written straight into gx, then squared in place
+        e = np.subtract(x[:, :, 0], self.target)
+        np.multiply(e, 2.0, out=gx[:, :, 0])
+        np.multiply(e, e, out=e)
+        return float(np.sum(e)), gx, None
 
 
 @dataclass(frozen=True)

@@ -209,7 +209,7 @@ def simulate_batch(scenes, x0s, v0s=None, *, allow_unstable: bool = False, progr
     if not allow_unstable:
         for i, scene in enumerate(scenes):
             try:
-                stability.check_stable(scene)
+                stability.check_stable(scene, backend)
             except stability.UnstableStepError as err:
                 raise stability.UnstableStepError(err.key, f"scenes[{i}]: {err}") from None
     counts = [x0.shape[0] for x0, _ in states]

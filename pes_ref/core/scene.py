@@ -25,6 +25,7 @@ import numpy as np
 from pes_ref.core import backends, budget, checks
 from pes_ref.core import stability
 from pes_ref.core.effects import all_zero, build_schedule, step_times
+from pes_ref.core.bilinear import BilinearForce
 from pes_ref.core.forces import Field, potential_energy
 from pes_ref.core.grid import Locator
 from pes_ref.core.integrator import NonFiniteError, Trajectory
@@ -263,22 +264,23 @@ def simulate(scene: Scene, x0, v0=None, *, fext="scene", allow_unstable: bool = 
     """
     x0, v0 = _check_state(scene, x0, v0)
     backend = backends.check_backend(backend)
-    _check_run(scene, x0.shape[0], "simulate", allow_unstable, progress)
+    _check_run(scene, x0.shape[0], "simulate", allow_unstable, progress, backend)
     fext = _resolve_fext(scene, fext, x0.shape[0])
     return _forward(scene, x0, v0, fext, progress, backend)
 
 
-def _check_run(scene: Scene, n_particles: int, kind: str, allow_unstable, progress) -> None:
+def _check_run(scene: Scene, n_particles: int, kind: str, allow_unstable, progress, backend: str = "numpy") -> None:
     """What the public boundary checks of a run before anything of its size is allocated:
     the stability rule (:func:`pes_ref.core.stability.check_stable`), unless
-    ``allow_unstable``, and its memory (:func:`pes_ref.core.budget.check_memory`)."""
+    ``allow_unstable`` (its grid's cross curvature on ``backend``, checked), and its memory
+    (:func:`pes_ref.core.budget.check_memory`)."""
     if not isinstance(allow_unstable, (bool, np.bool_)):
         raise checks.InputTypeError("allow_unstable", f"allow_unstable must be True or False, got {allow_unstable!r}")
     if progress is not None and not callable(progress):
         raise checks.InputTypeError("progress", f"progress must be a callable (phase, done, total) or None, "
                                                 f"got {progress!r}")
     if not allow_unstable:
-        stability.check_stable(scene)
+        stability.check_stable(scene, backend)
     budget.check_memory(scene.n_steps, n_particles, kind)
 
 
@@ -306,11 +308,11 @@ def _explains_nonfinite(forward):
     return wrapper
 
 
-def _step_params(scene: Scene, progress=None) -> StepParams:
+def _step_params(scene: Scene, progress=None, energy=None) -> StepParams:
     """The scene's step parameters for its stepper; ``damping`` is None unless some gamma
     is nonzero (then the core does no damping arithmetic at all)."""
     return StepParams(scene.dt, scene.n_steps, scene.mass, scene.damping if scene.damped else None, scene.mobility,
-                      progress)
+                      progress, energy=energy)
 
 
 def _stepper(scene: Scene, backend: str):
@@ -319,8 +321,12 @@ def _stepper(scene: Scene, backend: str):
 
 
 @_explains_nonfinite
-def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy") -> Trajectory:
-    return _stepper(scene, backend).simulate(scene.field(), x0, v0, fext, _step_params(scene, progress))
+def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy", energy=None,
+             field: Field | None = None) -> Trajectory:
+    """The run; ``energy`` an :class:`_EnergyOut` that its loop may fill (:attr:`StepParams.energy`),
+    or None; ``field`` the scene's :meth:`Scene.field` when the caller has it already."""
+    field = scene.field() if field is None else field
+    return _stepper(scene, backend).simulate(field, x0, v0, fext, _step_params(scene, progress, energy))
 
 
 #: Particle-states per chunk of :func:`energy` on NumPy: its ~20 temporaries then stay in cache
@@ -328,8 +334,9 @@ def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy") 
 ENERGY_CHUNK = 1 << 14
 
 
-def energy(scene: Scene, traj: Trajectory, backend: str = "numpy") -> np.ndarray:
-    """Total energy per state and particle, shape (T+1, N) (docs/spec.md section 3.4).
+def energy(scene: Scene, traj: Trajectory, backend: str = "numpy", out: np.ndarray | None = None) -> np.ndarray:
+    """Total energy per state and particle, shape (T+1, N) (docs/spec.md section 3.4), into
+    ``out`` (a C-contiguous float64 (T+1, N) array; fresh when None).
 
     Kinetic ``sum_d m_d v_d^2 / 2`` plus ``U = U_grid + U_spring + U_wall``. On NumPy a
     chunk of :data:`ENERGY_CHUNK` particle-states at a time; with ``backend="numba"`` (the
@@ -341,10 +348,11 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy") -> np.ndarray
     fld = scene.field()
     if backend == "numba" and fld.interpolation == "bilinear":
         from pes_ref.core import compiled
-        return compiled.energy(fld, x, v, scene.mass)
+        return compiled.energy(fld, x, v, scene.mass, out)
+    if out is None:
+        out = np.empty((T1, N))
     if fld.interpolation == "bilinear" and fld.offsets is None:
-        return _bilinear_energy(fld, x, v, scene.mass)
-    out = np.empty((T1, N))
+        return _bilinear_energy(fld, x, v, scene.mass, out)
     m = np.broadcast_to(scene.mass, (N, 2))
     step = max(1, ENERGY_CHUNK // max(N, 1))
     spring = fld.spring
@@ -361,40 +369,18 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy") -> np.ndarray
     return out
 
 
-def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass) -> np.ndarray:
+def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass, out: np.ndarray) -> np.ndarray:
     """:func:`energy` on the bilinear grid, a chunk of states at a time with the hot loop's
     lookup (:class:`pes_ref.core.grid.Locator`: the cells and fractions of
-    :func:`pes_ref.core.grid.locate`) and a per-cell table of the four corner values, column by
-    column: the operations of :func:`pes_ref.core.bilinear.grid_energy`,
-    :func:`pes_ref.core.terms.spring_energy`, :func:`pes_ref.core.terms.wall_energy` and the
-    kinetic energy in their order, so the same numbers bit for bit. (A sum over the axis of
-    length 2 is ``0 + a0 + a1``, which is ``a0 + a1`` here: every term is >= +0; a wall that is
-    absent adds +0 and is skipped.)"""
+    :func:`pes_ref.core.grid.locate`), then :meth:`_BilinearEnergy.into`."""
     T1, N = x.shape[0], x.shape[1]
-    values = fld.values
-    n0, n1 = values.shape
-    corners = np.empty((n0, n1, 4))
-    nxt0 = np.concatenate((values[1:], values[:1]), axis=0)          # row i + 1 (wrapped: unused at a plane's edge)
-    corners[..., 0] = values
-    corners[..., 1] = nxt0
-    corners[..., 2] = np.concatenate((values[:, 1:], values[:, :1]), axis=1)
-    corners[..., 3] = np.concatenate((nxt0[:, 1:], nxt0[:, :1]), axis=1)
-    corners = corners.reshape(-1, 4)
+    n0, n1 = fld.values.shape
     loc = Locator(fld.lower, fld.h, (n0, n1), fld.periodic)
     step = max(1, ENERGY_CHUNK // max(N, 1))
+    terms = _BilinearEnergy(fld, mass, N, min(step, T1))
     buf = loc.buffers((step * N,))
     locate_into = loc.bind(buf)
     cell, f = buf["cell"], buf["f"]
-    m = np.broadcast_to(np.asarray(mass, dtype=np.float64), (N, 2))
-    m0, m1 = np.ascontiguousarray(m[:, 0]), np.ascontiguousarray(m[:, 1])
-    walls = []
-    if fld.walls is not None:
-        k, lo, hi = fld.walls
-        hk = 0.5 * np.asarray(k, dtype=np.float64)
-        lo, hi = np.broadcast_to(lo, (N, 2)), np.broadcast_to(hi, (N, 2))
-        walls = [(d, lo[:, d], hi[:, d]) for d in range(2)]
-    out = np.empty((T1, N))
-    mul, add, sub = np.multiply, np.add, np.subtract
     for t0 in range(0, T1, step):
         t1 = min(T1, t0 + step)
         M = (t1 - t0) * N
@@ -404,54 +390,139 @@ def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass) -> np.ndarr
             locate_into = loc.bind(buf)
             cell, f = buf["cell"], buf["f"]
         locate_into(q)
-        g = corners.take(cell, axis=0)
+        terms.into(q, cell, f, x[t0:t1], v[t0:t1], out[t0:t1])
+    return out
+
+
+class _BilinearEnergy:
+    """The total energy at located states (bilinear grid, one grid): a per-cell table of the
+    four corner values, column by column, then the operations of
+    :func:`pes_ref.core.bilinear.grid_energy`, :func:`pes_ref.core.terms.spring_energy`,
+    :func:`pes_ref.core.terms.wall_energy` and the kinetic energy in their order, so the same
+    numbers bit for bit as :func:`energy`'s formula. (A sum over the axis of length 2 is
+    ``0 + a0 + a1``, which is ``a0 + a1`` here: every term is >= +0; a wall that is absent
+    adds +0 and is skipped.) For :func:`_bilinear_energy`'s chunks of states and for the
+    NumPy forward loop, one state at a time at its own lookup (:class:`_EnergyOut`); ``states``
+    is the most states of N particles a call takes."""
+
+    def __init__(self, fld: Field, mass, n: int, states: int):
+        values = fld.values
+        n0, n1 = values.shape
+        corners = np.empty((n0, n1, 4))
+        nxt0 = np.concatenate((values[1:], values[:1]), axis=0)      # row i + 1 (wrapped: unused at a plane's edge)
+        corners[..., 0] = values
+        corners[..., 1] = nxt0
+        corners[..., 2] = np.concatenate((values[:, 1:], values[:, :1]), axis=1)
+        corners[..., 3] = np.concatenate((nxt0[:, 1:], nxt0[:, :1]), axis=1)
+        self.corners = corners.reshape(-1, 4)
+        m = np.broadcast_to(np.asarray(mass, dtype=np.float64), (n, 2))
+        self.m0, self.m1 = np.ascontiguousarray(m[:, 0]), np.ascontiguousarray(m[:, 1])
+        self.fld, self.n = fld, n
+        self.walls, self.hk, self.no_wall = [], None, None
+        if fld.walls is not None:
+            k, lo, hi = fld.walls
+            self.hk = 0.5 * np.asarray(k, dtype=np.float64)
+            lo, hi = np.broadcast_to(lo, (n, 2)), np.broadcast_to(hi, (n, 2))
+            # which sides have a wall: fixed for the run, so looked at once
+            self.walls = [(d, lo[:, d] if np.any(np.isfinite(lo[:, d])) else None,
+                           hi[:, d] if np.any(np.isfinite(hi[:, d])) else None) for d in range(2)]
+            self.no_wall = np.zeros((states, n))
+            self.no_wall.setflags(write=False)          # an axis without a wall adds it: never written
+            self.wall_bufs = [(np.empty((states, n)), np.empty((states, n))) for _ in range(2)]
+            self.total = np.empty((states, n))
+        self.spring = None
+        if fld.spring is not None:
+            self.spring = tuple(np.broadcast_to(s_, (states, n, 2)) for s_ in fld.spring)
+        m = states * n
+        self.g = np.empty((m, 4))
+        self.a, self.b, self.u, self.t = (np.empty(m) for _ in range(4))
+        self.kin, self.k1 = np.empty((states, n)), np.empty((states, n))
+
+    def into(self, q: np.ndarray, cell: np.ndarray, f: np.ndarray, xs: np.ndarray, vs: np.ndarray,
+             out: np.ndarray) -> None:
+        """``out`` (S, N): the energy of the S states ``xs``, ``vs`` (S, N, 2), whose points
+        ``q`` (S N, 2) are located at ``cell`` (S N,) with fractions ``f`` (S N, 2). A cell
+        off the table (a non-finite point, whose run is refused) is clipped to it. Every
+        temporary is a buffer of the object's (a fresh half-megabyte array per operation
+        costs its page faults whenever the allocator hands the memory back)."""
+        S, N = xs.shape[0], xs.shape[1]
+        M = S * N
+        mul, add, sub, maximum = np.multiply, np.add, np.subtract, np.maximum
+        g = self.corners.take(cell, axis=0, mode="clip", out=self.g[:M])
         f0, f1 = f[:, 0], f[:, 1]
-        a, b = 1 - f0, 1 - f1
-        u = a * b
+        a, b, u, t = sub(1.0, f0, self.a[:M]), sub(1.0, f1, self.b[:M]), self.u[:M], self.t[:M]
+        mul(a, b, u)
         mul(u, g[:, 0], u)
         add(u, mul(mul(f0, b, b), g[:, 1], b), u)          # b = 1 - f1 is not needed after this
         add(u, mul(mul(a, f1, a), g[:, 2], a), u)
-        add(u, mul(mul(f0, f1), g[:, 3]), u)
-        u = u.reshape(t1 - t0, N)
-        if fld.spring is not None:
-            part = fld._replace(spring=tuple(np.broadcast_to(s_, (t1 - t0, N, 2)).reshape(-1, 2) for s_ in fld.spring))
-            u = u + spring_energy(q, part.spring[0], part.spring[1], fld.length, fld.periodic).reshape(t1 - t0, N)
-        if fld.walls is not None:
-            qc = x[t0:t1]
-            total = None
-            for d, lo_d, hi_d in walls:
-                terms = []
-                if np.any(np.isfinite(lo_d)):
-                    below = np.maximum(sub(lo_d, qc[..., d]), 0.0)
-                    terms.append(mul(below, below, below))
-                else:
-                    terms.append(None)
-                if np.any(np.isfinite(hi_d)):
-                    above = np.maximum(sub(qc[..., d], hi_d), 0.0)
-                    terms.append(mul(above, above, above))
-                else:
-                    terms.append(None)
-                low, high = terms
-                axis = low if high is None else (high if low is None else add(low, high, low))
-                if axis is None:
-                    axis = np.zeros((t1 - t0, N))
-                total = axis if total is None else add(total, axis, total)
-            u = u + mul(hk, total, total) if np.ndim(hk) == 0 else u + hk * total
-        vc = v[t0:t1]
-        v0_, v1_ = vc[..., 0], vc[..., 1]
-        kin = mul(m0, v0_)
+        add(u, mul(mul(f0, f1, t), g[:, 3], t), u)
+        u = u.reshape(S, N)
+        fld = self.fld
+        if self.spring is not None:
+            k, c = (s_[:S].reshape(-1, 2) for s_ in self.spring)
+            u = u + spring_energy(q, k, c, fld.length, fld.periodic).reshape(S, N)
+        if self.walls:
+            total, no_wall = None, self.no_wall[:S]
+            for (d, lo_d, hi_d), (low, high) in zip(self.walls, self.wall_bufs):
+                if lo_d is not None:
+                    below = maximum(sub(lo_d, xs[..., d], low[:S]), 0.0, out=low[:S])
+                    low = mul(below, below, below)
+                if hi_d is not None:
+                    above = maximum(sub(xs[..., d], hi_d, high[:S]), 0.0, out=high[:S])
+                    high = mul(above, above, above)
+                axis = low if hi_d is None else (high if lo_d is None else add(low, high, low))
+                if lo_d is None and hi_d is None:
+                    axis = no_wall
+                total = axis if total is None else add(total, axis, self.total[:S] if total is no_wall else total)
+            if total is no_wall:
+                np.copyto(self.total[:S], no_wall)
+                total = self.total[:S]
+            hk = self.hk
+            if np.ndim(hk) == 0:
+                add(u, mul(hk, total, total), u)
+            else:
+                u = u + hk * total
+        v0_, v1_ = vs[..., 0], vs[..., 1]
+        kin, k1 = mul(self.m0, v0_, self.kin[:S]), mul(self.m1, v1_, self.k1[:S])
         mul(kin, v0_, kin)
-        k1 = mul(m1, v1_)
         mul(k1, v1_, k1)
         add(kin, k1, kin)
         mul(0.5, kin, kin)
-        add(u, kin, out[t0:t1])
-    return out
+        add(u, kin, out)
+
+
+class _EnergyOut:
+    """:func:`value_and_grad`'s ``energy_out`` as a forward loop takes it (:attr:`StepParams.energy`):
+    ``out`` (T+1, N), which the compiled loop fills (setting ``filled``), and :meth:`bind`, the
+    NumPy loop's per-state energy at its force's own lookup."""
+
+    def __init__(self, scene: Scene, out: np.ndarray):
+        self.scene, self.out, self.filled = scene, out, False
+        self.errors_ignored = False      # computed under the NumPy loop's np.errstate (overflow ignored)
+
+    def bind(self, force, field: Field):
+        """``step(x, v, row)``: the energy of one state (N, 2) into ``row`` (N,), right after
+        ``force`` (the loop's :class:`~pes_ref.core.forces.ForceKernel`) was called at ``x``,
+        whose lookup it reads; None where the force has no such lookup (not the bilinear grid,
+        one particle, or a population) or a state has fewer than :data:`ENERGY_CHUNK`
+        particles (the pass after the run then takes several states per NumPy call, where a
+        call per state would cost more in calls than the lookup it saves), and the energy is
+        then left to :func:`energy`."""
+        grid = force.grid
+        if not (isinstance(grid, BilinearForce) and field.offsets is None and self.out.shape[1] >= ENERGY_CHUNK):
+            return None
+        terms = _BilinearEnergy(field, self.scene.mass, self.out.shape[1], 1)
+        cell, f, into = grid.buf["cell"], grid.buf["f"], terms.into
+        self.filled = self.errors_ignored = True
+
+        def step(x, v, row):
+            into(x, cell, f, x[None], v[None], row[None])
+        return step
 
 
 def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: float = 0.0,
                    wrt=None, fext="scene", allow_unstable: bool = False, progress=None, checked: bool = False,
-                   backend: str | None = None):
+                   backend: str | None = None, energy_out: np.ndarray | None = None):
     """The loss of a run and its exact gradients by the hand-derived adjoint (docs/spec.md sections 6-7).
 
     Parameters
@@ -481,8 +552,13 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
         The caller has checked everything already, as the oracle's
         :func:`pes_ref.oracle.case.validate_case` does: ``x0`` and ``v0`` are float64
         (N, 2) arrays, ``fext`` a float64 (T+1, N, 2) array or None, the weight a float
-        >= 0, the objective has ``value_and_grad``, and the run's stability and memory
-        are checked. Nothing of it is done again (``allow_unstable`` is then moot).
+        >= 0, the objective has ``value_and_grad``, ``energy_out`` is as asked or None, and
+        the run's stability and memory are checked. Nothing of it is done again
+        (``allow_unstable`` is then moot).
+    energy_out : ndarray (T+1, N), optional
+        A writable C-contiguous float64 array to fill with the run's :func:`energy` (the same numbers
+        as ``energy(scene, traj)``): the compiled dynamic loop computes it as it makes each
+        state, at the state's own grid lookup; the others after the run.
 
     Returns
     -------
@@ -501,18 +577,43 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
             raise TypeError(f"objective must have a value_and_grad(x, v, t) method, got {objective!r}")
         R = checks.as_nonneg_float("regularization_weight", regularization_weight)
         n = x0.shape[0]
-        _check_run(scene, n, "value_and_grad", allow_unstable, progress)
+        backend = backends.check_backend(backend)
+        _check_run(scene, n, "value_and_grad", allow_unstable, progress, backend)
         fext = _resolve_fext(scene, fext, n)
+        if energy_out is not None:
+            _check_energy_out(energy_out, (scene.n_steps + 1, n))
     want = _wanted(scene, wrt)
     backend = backends.check_backend(backend)
-    traj = _forward(scene, x0, v0, fext, progress, backend)
+    stepper = _stepper(scene, backend)
+    sink = None if energy_out is None else _EnergyOut(scene, energy_out)
+    fld = scene.field()                                         # one for the run and its adjoint
+    traj = _forward(scene, x0, v0, fext, progress, backend, sink, fld)
     loss, gx, gv = objective.value_and_grad(traj.x, traj.v, scene.times())
     reg, greg = regularization(scene.surface.values, R)
-    raw = _stepper(scene, backend).adjoint(scene.field(), traj, _step_params(scene, progress), gx, gv, want)
+    raw = stepper.adjoint(fld, traj, _step_params(scene, progress), gx, gv, want)
+    # a pass after the run where the loop did not fill it; on NumPy, where a state's energy left
+    # the finite numbers, again after the run, under the caller's np.errstate (as it always was)
+    if sink is not None and (not sink.filled or (sink.errors_ignored and not np.isfinite(energy_out).all())):
+        energy(scene, traj, backend=backend, out=energy_out)
     grads = {name: _INPUT_SHAPE.get(name, _as_given)(scene, raw[name], n) for name in GRADIENT_NAMES if name in want}
     if "values" in grads and greg is not None:
         grads["values"] = grads["values"] + greg
     return loss + reg, grads, traj
+
+
+def _check_energy_out(out, shape: tuple) -> None:
+    """``energy_out`` of :func:`value_and_grad`: a writable C-contiguous float64 array of ``shape``."""
+    if not (isinstance(out, np.ndarray) and out.dtype == np.float64 and out.shape == shape
+            and out.flags.c_contiguous and out.flags.writeable):
+        raise checks.InputError("energy_out", f"energy_out must be a writable C-contiguous float64 array of shape "
+                                              f"(T+1, N) = {shape}, got {_describe_array(out)}")
+
+
+def _describe_array(a) -> str:
+    if not isinstance(a, np.ndarray):
+        return f"a {type(a).__name__}"
+    return f"dtype {a.dtype}, shape {a.shape}" + ("" if a.flags.c_contiguous else ", not C-contiguous") + (
+        "" if a.flags.writeable else ", read-only")
 
 
 # ---------------------------------------------------------------- a gradient in its input's shape
@@ -524,7 +625,8 @@ def _as_given(scene: Scene, g, n: int):
 
 
 def _grid_shape(scene: Scene, g, n: int):
-    return g.reshape(scene.surface.shape)
+    shape = scene.surface.shape
+    return g if g.shape == shape else g.reshape(shape)      # the compiled adjoint's is shaped (and its own) already
 
 
 def _scene_field_shape(field: str):

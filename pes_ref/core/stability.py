@@ -83,12 +83,18 @@ def _closed(G: np.ndarray, periodic) -> np.ndarray:
     return G
 
 
-def grid_cross_curvature(surface) -> float:
+def grid_cross_curvature(surface, backend: str = "numpy") -> float:
     """``max over cells |G11 - G10 - G01 + G00| / (h0 h1)``: the bilinear surface's only
-    second derivative inside a cell (its Hessian has eigenvalues +-this)."""
+    second derivative inside a cell (its Hessian has eigenvalues +-this). ``backend="numba"``
+    takes the maximum in one compiled pass over the grid
+    (:func:`pes_ref.core.compiled.cross_curvature_max`), without the temporaries: the same
+    number bit for bit."""
+    h = surface.spacing
+    if backend == "numba":
+        from pes_ref.core import compiled
+        return float(np.float64(compiled.cross_curvature_max(surface.values, surface.periodic)) / (h[0] * h[1]))
     G = _closed(surface.values, surface.periodic)
     hc = np.abs(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1])
-    h = surface.spacing
     return float(hc.max() / (h[0] * h[1]))
 
 
@@ -115,13 +121,14 @@ def grid_stiffness(surface) -> float:
     return float(np.max(grid_second_difference(surface)))
 
 
-def term_stiffness(scene, edges: bool = True) -> dict:
+def term_stiffness(scene, edges: bool = True, backend: str = "numpy") -> dict:
     """Each term's stiffness ``K`` per axis, the one stiffness table of a scene: a dict of
     (2,) arrays ``grid_cross`` (the grid's cross curvature ``c``, the same on both axes),
     ``spring`` (the largest ``k_d`` over particles), ``walls`` (``k_w`` on an axis with a
     wall) and, with ``edges``, ``grid_edges`` (:func:`grid_second_difference`, the
-    costliest; the refusal rule, which runs on every :func:`pes_ref.simulate`, leaves it out)."""
-    table = {"grid_cross": np.full(2, grid_cross_curvature(scene.surface)), "spring": np.zeros(2),
+    costliest; the refusal rule, which runs on every :func:`pes_ref.simulate`, leaves it out).
+    ``backend``: which loops take the cross curvature (:func:`grid_cross_curvature`)."""
+    table = {"grid_cross": np.full(2, grid_cross_curvature(scene.surface, backend)), "spring": np.zeros(2),
              "walls": np.zeros(2)}
     if scene.spring is not None:
         k = np.broadcast_to(scene.spring.k, np.broadcast_shapes(np.shape(scene.spring.k), (1, 2)))
@@ -226,7 +233,7 @@ _KEYS = {"dynamic": "dt", "quasistatic": "mobility"}
 _TERM_KEYS = {"grid curvature": "values", "spring": "spring_k", "wall": "wall_k"}
 
 
-def stability_limit(scene, bound: str = "sum") -> StabilityLimit:
+def stability_limit(scene, bound: str = "sum", backend: str = "numpy") -> StabilityLimit:
     """The stability limit of ``scene`` under ``bound`` (see the module docstring).
 
     Parameters
@@ -235,6 +242,9 @@ def stability_limit(scene, bound: str = "sum") -> StabilityLimit:
     bound : {"sum", "rule"}
         :data:`BOUNDS`: every term summed per axis (conservative), or each term of the
         refusal rule alone (what :func:`check_stable` applies).
+    backend : {"numpy", "numba"}
+        Which loops take the grid's cross curvature (:func:`grid_cross_curvature`; the
+        same number); the caller has checked that it is installed.
 
     Returns
     -------
@@ -243,7 +253,7 @@ def stability_limit(scene, bound: str = "sum") -> StabilityLimit:
     checks.as_choice("bound", bound, set(BOUNDS))
     names = [_SUM] if bound == "sum" else list(RULE_TERMS)
     with np.errstate(over="ignore", invalid="ignore"):     # a stiffness beyond float64: inf, limit 0
-        table = term_stiffness(scene, edges=bound == "sum")
+        table = term_stiffness(scene, edges=bound == "sum", backend=backend)
         K = np.array([sum(table.values())]) if bound == "sum" else np.array([table[name] for name in names])
         reach = _REACH[scene.mode](scene, K)                           # (terms, 2)
     reach = np.where(np.isnan(reach), np.inf, reach)        # a stiffness beyond float64 (inf - inf)
@@ -328,13 +338,15 @@ def _refusal(scene, lim: StabilityLimit) -> str:
             f"({RULE_DOC})")
 
 
-def check_stable(scene) -> StabilityLimit:
+def check_stable(scene, backend: str = "numpy") -> StabilityLimit:
     """Apply the refusal rule (docs/spec.md section 10): refuse a scene that takes at
     least one step past the stability limit of its stiffest term.
 
     Parameters
     ----------
     scene : pes_ref.Scene
+    backend : {"numpy", "numba"}
+        As in :func:`stability_limit`.
 
     Returns
     -------
@@ -352,7 +364,7 @@ def check_stable(scene) -> StabilityLimit:
         finite, ``mass`` for a frequency ``sqrt(K/m)`` that is not.
     """
     with np.errstate(over="ignore", invalid="ignore"):      # a grid of huge values: infinite stiffness
-        lim = stability_limit(scene, "rule")
+        lim = stability_limit(scene, "rule", backend)
         if scene.n_steps > 0 and lim.ratio > 1.0:
             raise _beyond_float(scene, lim) or UnstableStepError(lim.key, _refusal(scene, lim))
     return lim

@@ -37,7 +37,13 @@ class StepParams(NamedTuple):
     a trajectory that left the finite numbers instead of raising (a population checks each
     member's part, :mod:`pes_ref.core.population`); ``out`` a
     :class:`~pes_ref.core.integrator.Trajectory` of (T+1, N, 2) arrays to run into, or None
-    for fresh ones (:func:`pes_ref.core.integrator.trajectory_arrays`).
+    for fresh ones (:func:`pes_ref.core.integrator.trajectory_arrays`); ``energy`` None, or
+    where a dynamic forward loop puts each state's total energy as it makes the state, at
+    the state's own grid lookup: its ``out``, a float64 (T+1, N) array, which a loop that
+    fills it marks ``filled``; the NumPy loop computes each state's by ``energy.bind(force,
+    field)`` (:func:`pes_ref.core.integrator.simulate_dynamic`). A loop that does not (the
+    GJF and quasistatic steps, another grid) leaves it, and the energy to a pass after the
+    run (:func:`pes_ref.core.scene.value_and_grad`).
     """
 
     dt: float
@@ -48,6 +54,7 @@ class StepParams(NamedTuple):
     progress: Callable | None = None
     refuse_nonfinite: bool = True
     out: object = None
+    energy: object = None
 
 
 class Stepper(NamedTuple):
@@ -76,7 +83,7 @@ class Stepper(NamedTuple):
 
 def _simulate_verlet(field, x0, v0, fext, p: StepParams):
     return simulate_dynamic(field, x0, v0, fext, p.dt, p.n_steps, p.mass, p.damping, p.progress, p.refuse_nonfinite,
-                            p.out)
+                            p.out, p.energy)
 
 
 def _adjoint_verlet(field, traj, p: StepParams, gx, gv, want):

@@ -35,11 +35,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pes_ref.core import budget, checks, stability
+from pes_ref.core import backends, budget, checks, stability
 from pes_ref.core.runtime.files import ResultExistsError
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
-from pes_ref.core.scene import MODES, Scene, energy, gradient_names, value_and_grad
+from pes_ref.core.scene import MODES, Scene, gradient_names, value_and_grad
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
 from pes_ref.oracle.errors import CaseError, CaseTypeError
@@ -129,7 +129,8 @@ class ValidCase:
     scene : Scene
     x0, v0 : ndarray (N, 2)
     force : ndarray (T+1, N, 2)
-        The external force schedule (zeros when the case has no ``force``).
+        The external force schedule (zeros when the case has no ``force``), read-only: a view
+        of the case's own array when that is float64 and C-contiguous already.
     objective : Funnel, Oscillator or Quadratic
     regularization : float
     grad_names : tuple of str
@@ -338,13 +339,26 @@ def _quadratic(raw: Mapping, shape: tuple):
 _OBJECTIVES = {"funnel": _funnel, "oscillator": _oscillator, "quadratic": _quadratic}
 
 
+#: Force entries checked finite at a time (a bool temporary of this many stays in cache).
+FINITE_CHUNK = 1 << 16
+
+
 def _force(raw: Mapping, shape: tuple) -> np.ndarray:
+    """The force schedule, read-only: a float64 C-contiguous force is a read-only view of the
+    case's own array, checked finite a chunk at a time (a copy of a large run's force costs
+    more than the run's additions of it); any other is converted, a copy."""
     if "force" not in raw:
         return np.zeros(shape)
     force = _numeric("force", raw["force"])
     if force.shape != shape:
         raise CaseError("force", f"force must have shape (T+1, N, 2) = {shape}, got shape {force.shape}")
-    return checks.as_float_array("force", force)
+    if force.dtype == np.float64 and force.flags.c_contiguous:
+        view = force.view()
+        view.setflags(write=False)
+        flat = view.reshape(-1)
+        if all(np.isfinite(flat[i:i + FINITE_CHUNK]).all() for i in range(0, flat.size, FINITE_CHUNK)):
+            return view
+    return checks.as_float_array("force", force)      # (a non-finite force: refused with its message)
 
 
 #: The keys every result holds before its gradients (docs/spec.md section 9): the trajectory,
@@ -357,7 +371,7 @@ def result_keys(grad_names) -> tuple:
     return TRAJECTORY_KEYS + tuple("grad_" + g for g in grad_names)
 
 
-def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
+def validate_case(raw: Mapping, *, allow_unstable: bool = False, backend: str = "numpy") -> ValidCase:
     """Check a case against docs/spec.md section 8 and build what the engine runs.
 
     The oracle checks what is particular to the file format: which keys a case holds,
@@ -377,6 +391,9 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
         Accept a case past the stability rule (docs/spec.md section 10). Not part of the
         contract: a conforming program refuses such a case; this is for studying the
         unstable scheme on purpose.
+    backend : {"numpy", "numba"}
+        The loops that will run the case (:func:`run_case`); the stability rule takes the
+        grid's cross curvature on them too (the same number). Checked first.
 
     Returns
     -------
@@ -395,6 +412,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
         is built, a run that cannot fit in the available memory is refused naming
         ``n_steps`` (:func:`pes_ref.core.budget.check_memory`; not part of the contract).
     """
+    backend = backends.check_backend(backend)
     if not isinstance(raw, Mapping):
         raise CaseTypeError(None, f"a case is a mapping of key -> array, got {type(raw).__name__}")
     _check_key_names(raw)
@@ -412,7 +430,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False) -> ValidCase:
         objective = _OBJECTIVES[objective_name](raw, shape)
         reg = checks.as_nonneg_float("regularization", _scalar("regularization", raw.get("regularization", 0.0)))
         if not allow_unstable:
-            stability.check_stable(scene)
+            stability.check_stable(scene, backend)
     return ValidCase(scene, x0, v0, force, objective, reg, gradient_names(mode, scene.spring is not None))
 
 
@@ -452,17 +470,17 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
     """
     if isinstance(case, (str, os.PathLike)):
         case = load_case(case)
-    vc = validate_case(case, allow_unstable=allow_unstable)
+    vc = validate_case(case, allow_unstable=allow_unstable, backend=backend)
     scene = vc.scene
     progress = None if monitor is None else monitor(budget.estimate(scene.n_steps, vc.x0.shape[0], "case"))
     blame = "dt" if scene.mode == "dynamic" else "mobility"
     try:
         with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
+            e = np.empty((scene.n_steps + 1, vc.x0.shape[0]))
             loss, grads, traj = value_and_grad(scene, vc.x0, vc.v0, vc.objective,
                                                regularization_weight=vc.regularization,
                                                wrt=vc.grad_names, fext=vc.force, progress=progress, backend=backend,
-                                               checked=True)       # by validate_case, once
-            e = energy(scene, traj, backend=backend)
+                                               checked=True, energy_out=e)       # checked by validate_case, once
     except NonFiniteError as exc:             # its message names the step and a stable value
         raise CaseError(blame, str(exc)) from None
     except FloatingPointError as exc:

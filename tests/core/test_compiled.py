@@ -93,6 +93,25 @@ def test_random_scenes_run_bit_identically(mode, topology, data):
     assert_gradients_agree(grads_f, grads_r)
 
 
+@pytest.mark.parametrize("topology", pst.TOPOLOGIES)
+@settings(max_examples=N_STRATUM)
+@given(data=st.data())
+def test_the_energy_the_forward_loop_computes_is_the_energy_pass(topology, data):
+    """value_and_grad's ``energy_out``: the dynamic loops fill it as they step, each state's at
+    its own lookup (springs on periodic axes among the scenes: the compiled loop with the
+    minimum image), the same bytes as the energy pass over the trajectory on either backend."""
+    scene, x0, v0 = data.draw(pst.scene_cases(mode="dynamic", topology=topology))
+    objective, R = data.draw(pst.objectives(scene, x0.shape[0]))
+    from unittest import mock
+    from pes_ref.core import scene as scene_module
+    for b, chunk in (("numba", None), ("numpy", None), ("numpy", 1)):      # chunk 1: NumPy's loop at any N
+        e = np.full((scene.n_steps + 1, x0.shape[0]), np.nan)
+        with mock.patch.object(scene_module, "ENERGY_CHUNK", chunk or scene_module.ENERGY_CHUNK):
+            _, _, traj = pr.value_and_grad(scene, x0, v0, objective, regularization_weight=R, backend=b,
+                                           energy_out=e)
+        assert e.tobytes() == pr.energy(scene, traj).tobytes(), (b, chunk)
+
+
 def _scene(**kw):
     rng = np.random.default_rng(4)
     surf = pr.Surface(rng.uniform(-0.2, 0.2, (7, 6)), (0, 0), (1, 2), kw.pop("periodic", (False, True)),
@@ -253,7 +272,7 @@ def test_a_population_needs_no_numpy_step_and_runs_on_the_compiled_loops(monkeyp
         pr.simulate_batch(scenes, [X0, X0[:1]], backend="numpy")
 
 
-@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7)])
+@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7), (13, 30)])
 def test_the_compiled_tables_are_numpys_bit_for_bit(shape):
     """The per-cell coefficient and cross tables and the table gradient's map to the grid, each
     the compiled twin of pes_ref.core.bilinear's, for one grid and for a stack of them."""
@@ -283,3 +302,52 @@ def test_a_run_of_no_steps_has_its_state_0_with_and_without_progress(mode):
             assert got[2].f.tobytes() == b[2].f.tobytes() and got[0] == b[0]
             assert_gradients_agree(got[1], b[1])
         assert seen_a == seen_b
+
+
+@pytest.mark.parametrize("periodic", pst.TOPOLOGIES)
+@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (8, 7), (13, 30)])
+def test_the_compiled_cross_curvature_is_numpys_bit_for_bit(periodic, shape):
+    """The stability rule's grid cross curvature on the compiled loops: the same number as
+    NumPy's, on every topology, and inf alike where a corner difference leaves float64."""
+    from pes_ref.core import stability
+    rng = np.random.default_rng(6)
+    grids = [rng.standard_normal(shape), rng.uniform(-1e3, 1e3, shape), np.zeros(shape), np.full(shape, 1.5)]
+    huge = rng.standard_normal(shape)
+    huge[0, 0], huge[-1, -1] = 1.7e308, -1.7e308          # a corner difference beyond float64
+    for values in grids + [huge]:
+        surf = pr.Surface(values, (0, -1), (1, 2.5), periodic)
+        with np.errstate(over="ignore", invalid="ignore"):
+            want = stability.grid_cross_curvature(surf)
+            got = stability.grid_cross_curvature(surf, backend="numba")
+        assert np.float64(got).tobytes() == np.float64(want).tobytes(), (got, want)
+
+
+def test_the_stability_rule_on_the_compiled_loops_decides_alike():
+    """check_stable's limit on either backend is the same (the oracle runs it on the case's)."""
+    from pes_ref.core import stability
+    for dt in (0.01, 0.5, 5.0):
+        scene = _scene(dt=dt, walls=pr.Walls(30.0, 0.05, [[True, True], [False, False]]))
+        results = []
+        for b in ("numpy", "numba"):
+            try:
+                results.append(stability.check_stable(scene, b))
+            except stability.UnstableStepError as err:
+                results.append(str(err))
+        assert repr(results[0]) == repr(results[1])
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_the_energy_computed_in_blocks_of_steps_is_the_same(backend, monkeypatch):
+    """With progress reports the loops run in blocks of steps; the energy the loop computes
+    as it steps (NumPy's forced at any N) is the same bytes as without them."""
+    from pes_ref.core import scene as scene_module
+    monkeypatch.setattr(scene_module, "ENERGY_CHUNK", 1)
+    scene, x0 = _oracle_scene((False, True), 5)
+    scene = replace(scene, n_steps=600)
+    case = case_from_scene(scene, x0, np.full((5, 2), 0.1), pr.Funnel(target=0.5, when="every_step"))
+    seen = []
+    quiet = oracle.run_case(case, backend=backend)
+    reported = oracle.run_case(case, backend=backend, monitor=lambda estimate: lambda *a: seen.append(a))
+    assert ("forward", 256, 600) in seen
+    assert reported["energy"].tobytes() == quiet["energy"].tobytes()
+    assert quiet["energy"].tobytes() == oracle.run_case(case, backend="numpy")["energy"].tobytes()

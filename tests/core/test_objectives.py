@@ -60,6 +60,19 @@ def test_funnel_value_by_hand(when, want):
 
 
 @pytest.mark.parametrize("when", ["final", "every_step"])
+def test_funnel_is_its_formula_bit_for_bit(when):
+    """``sum e^2`` and ``2 e`` of eq. (5), written plainly over (T+1, N), on a trajectory of
+    many states (the sum's pairwise blocks): the same bytes as the objective's in-place ops."""
+    x = np.random.default_rng(3).standard_normal((301, 37, 2))
+    value, gx, _ = Funnel(target=0.3, when=when).value_and_grad(x, None, None)
+    e = x[:, :, 0] - 0.3 if when == "every_step" else x[-1, :, 0] - 0.3
+    assert value == float(np.sum(e * e))
+    want = np.zeros(x.shape)
+    (want[:, :, 0] if when == "every_step" else want[-1, :, 0])[...] = 2.0 * e
+    assert gx.tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("when", ["final", "every_step"])
 @pytest.mark.parametrize("seed", [0, 1])
 def test_funnel_gradient_by_central_differences(when, seed):
     _check_grads_by_fd(Funnel(target=0.3, when=when), *_random_traj(seed))

@@ -361,3 +361,63 @@ def test_a_single_effect_is_taken_for_a_tuple_of_one():
 def test_something_else_as_effects_names_effects(effects):
     with pytest.raises(TypeError, match=r"\beffects\b"):
         _scene(effects=effects)
+
+
+@pytest.mark.parametrize("bad", [np.empty((7, 3)), np.empty((7, N), dtype=np.float32), np.empty((N, 7)).T,
+                                 np.broadcast_to(0.0, (7, N)), [[0.0] * N] * 7])
+def test_energy_out_is_refused_unless_a_writable_c_contiguous_float64_array_of_the_run(bad):
+    with _raises(ValueError, "energy_out"):
+        pr.value_and_grad(_scene(), X0, V0, pr.Funnel(0.5), energy_out=bad)
+
+
+@pytest.mark.parametrize("mode", ["dynamic", "quasistatic"])
+def test_energy_out_holds_the_runs_energy(mode):
+    kw = dict(mode="quasistatic", mobility=(0.01, 0.01)) if mode == "quasistatic" else dict(damping=0.3)
+    scene = _scene(**kw)
+    e = np.empty((scene.n_steps + 1, N))
+    _, _, traj = pr.value_and_grad(scene, X0, V0, pr.Funnel(0.5), energy_out=e, backend="numpy")
+    assert e.tobytes() == pr.energy(scene, traj).tobytes()
+
+
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+@pytest.mark.parametrize("periodic", [(False, False), (True, False), (True, True)])
+def test_the_dynamic_loops_compute_the_energy_as_they_step(monkeypatch, backend, periodic):
+    """No pass over the trajectory: the loop's energy at each state's own lookup, the pass's
+    bytes (NumPy's loop from ENERGY_CHUNK particles on: here from 1)."""
+    pytest.importorskip("numba") if backend == "numba" else None
+    from pes_ref.core import scene as scene_module
+    monkeypatch.setattr(scene_module, "ENERGY_CHUNK", 1)
+    walls = pr.Walls(20.0, 0.05, [[not periodic[0]] * 2, [not periodic[1]] * 2]) if not all(periodic) else None
+    scene = _scene(periodic=periodic, damping=0.2, walls=walls, spring=pr.Spring((1.0, 0.5), (0.5, 0.5)),
+                   effects=(pr.Constant((0.1, -0.2)),), mass=[[1.0, 2.0], [0.5, 1.5]])
+    e = np.empty((scene.n_steps + 1, N))
+    passes = []
+    real = scene_module.energy
+    monkeypatch.setattr(scene_module, "energy", lambda *a, **k: passes.append(1) or real(*a, **k))
+    _, _, traj = pr.value_and_grad(scene, X0, V0, pr.Funnel(0.5, "every_step"), energy_out=e, backend=backend)
+    assert not passes
+    assert e.tobytes() == real(scene, traj).tobytes()
+
+
+def test_an_energy_beyond_float64_is_refused_as_before_by_the_oracle():
+    """A finite run whose kinetic energy overflows: the oracle refuses it naming dt on NumPy
+    (the energy again after the run, under its np.errstate), as when the energy was a pass."""
+    from pes_ref import oracle
+    case = dict(values=np.zeros((4, 4)), lower=[0.0, 0.0], upper=[1.0, 1.0], periodic=[True, True], dt=1e-160,
+                n_steps=np.int64(2), mode="dynamic", mass=1e10, damping=0.0, x0=[[0.3, 0.4]], v0=[[1e154, 0.0]],
+                objective="funnel", target=0.5, when="final")
+    with pytest.raises(oracle.CaseError) as err:
+        oracle.run_case(case, backend="numpy")
+    assert err.value.key == "dt" and "overflow" in str(err.value)
+
+
+def test_numpys_loop_leaves_the_energy_of_few_particles_to_the_pass(monkeypatch):
+    """Below ENERGY_CHUNK particles a state, the pass after the run (several states per call)."""
+    from pes_ref.core import scene as scene_module
+    passes = []
+    real = scene_module.energy
+    monkeypatch.setattr(scene_module, "energy", lambda *a, **k: passes.append(1) or real(*a, **k))
+    scene = _scene(damping=0.2)
+    e = np.empty((scene.n_steps + 1, N))
+    _, _, traj = pr.value_and_grad(scene, X0, V0, pr.Funnel(0.5), energy_out=e, backend="numpy")
+    assert passes == [1] and e.tobytes() == real(scene, traj).tobytes()

@@ -139,6 +139,27 @@ def test_validate_case_unpacks():
     assert force.shape == (7, 2, 2) and reg == 0.0 and grads == ("values", "x0", "v0", "force", "mass", "damping")
 
 
+@pytest.mark.parametrize("layout", ["float64", "float32", "strided"])
+def test_the_force_is_read_only_and_checked_finite_to_its_last_entry(layout, monkeypatch):
+    """A float64 C-contiguous force is read through a read-only view of the case's own array
+    (no copy), any other converted; the same result, the case untouched, and a non-finite
+    entry anywhere (past the first chunk of the check) refused naming force."""
+    monkeypatch.setattr(oracle, "FINITE_CHUNK", 8)
+    force = np.random.default_rng(2).normal(size=(7, 2, 2)) * 0.1
+    given = {"float64": force.copy(), "float32": force.astype(np.float32),
+             "strided": np.repeat(force, 2, axis=2)[:, :, ::2]}[layout]
+    before = given.copy()
+    vc = oracle.validate_case(base_case(force=given))
+    assert not vc.force.flags.writeable and np.shares_memory(vc.force, given) == (layout == "float64")
+    assert_same_result(oracle.run_case(base_case(force=given)), oracle.run_case(base_case(force=given.astype(float))))
+    assert np.array_equal(given, before)
+    bad = given.copy()
+    bad[-1, -1, -1] = np.nan
+    with pytest.raises(oracle.CaseError) as err:
+        oracle.run_case(base_case(force=bad))
+    assert err.value.key == "force" and "finite" in str(err.value)
+
+
 def test_integer_inputs_are_promoted():
     ints = base_case(lower=np.array([0, 0]), upper=np.array([1, 2]), mass=np.int64(2), n_steps=np.int32(6))
     floats = base_case(lower=np.array([0.0, 0.0]), upper=np.array([1.0, 2.0]), mass=np.float64(2.0))
