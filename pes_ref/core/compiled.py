@@ -242,13 +242,7 @@ def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrappin
     u = ((1 - f0) * (1 - f1) * values[i0, j0] + f0 * (1 - f1) * values[i1, j0]
          + (1 - f0) * f1 * values[i0, j1] + f0 * f1 * values[i1, j1])
     if son:
-        d0 = q0 - sc[i, 0]
-        d1 = q1 - sc[i, 1]
-        if wrapping:
-            if swrap0:
-                d0 = _mod(d0 + shalf[0], slen[0]) - shalf[0]
-            if swrap1:
-                d1 = _mod(d1 + shalf[1], slen[1]) - shalf[1]
+        d0, d1 = _spring_d(q0, q1, i, sc, wrapping, swrap0, swrap1, shalf, slen)
         u = u + 0.5 * (sk[i, 0] * d0 * d0 + sk[i, 1] * d1 * d1)
     if won:
         b0 = wlo[i, 0] - q0
