@@ -269,6 +269,8 @@ def _summary(kind: str, metric_name: str, out: str, state, iterations: int, seco
     metric = state.history["metric"][-1] if state.history["metric"] else float("nan")
     line = (f"wrote {out}: {kind}, iteration {state.iteration}/{state.plan.iterations} "
             f"({state.status.split(':')[0]}), loss {loss:.6g}, {metric_name} {metric:.3f}")
+    if state.best is not None:          # a validating plan delivers its best validated grid, not the last
+        line += f"; delivered: the grid of iteration {state.best.iteration}, validation {state.best.success:.3f}"
     if state.stage == "polish":
         fit = state.polish_history["fitness"]
         line += (f", polish {state.evaluations} evaluations"

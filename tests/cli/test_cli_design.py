@@ -232,3 +232,16 @@ def test_the_polish_uses_both_cores_by_default_and_an_explicit_workers_wins(monk
     assert polish_workers(1, osc) == 1 and polish_workers(3, osc) == 3 and polish_workers(3, osc, smoke=True) == 3
     monkeypatch.setattr(os, "cpu_count", lambda: 1)
     assert polish_workers(None, osc) == 1
+
+
+@pytest.mark.parametrize("validates", [True, False])
+def test_the_summary_names_the_grid_a_validating_plan_delivers(tmp_path, capsys, validates):
+    sets = ["--set", "realizable=true", "--set", "grid=21", "--set", "n_steps=60", "--set", "dt=0.05"] if validates \
+        else ["--smoke"]
+    code, out, _ = run(capsys, "design", "funnel", *sets, "--iterations", 4, "--out", tmp_path / "f.npz")
+    assert code == EXIT_OK
+    state = load_design(tmp_path / "f.npz")
+    if validates:
+        assert f"; delivered: the grid of iteration {state.best.iteration}, validation {state.best.success:.3f};" in out
+    else:
+        assert state.best is None and "delivered" not in out
