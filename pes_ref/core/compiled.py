@@ -39,6 +39,7 @@ them.
 from __future__ import annotations
 
 
+import weakref
 from types import SimpleNamespace
 
 import numpy as np
@@ -174,17 +175,20 @@ def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wrap
 
 
 @njit(inline="always", **_JIT)
-def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, cross, offsets, gtab, want_values,
+def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, table, nih1, offsets, gtab, want_values,
          son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, gc, walls):
     """(A6) at particle ``i``'s position for the cotangent ``w``: returns ``xbar + (dF/dx)^T w``
     (the grid's ``-Hc s0 s1 (w1, w0)``, the spring's ``-k w``, the walls' ``-k w`` where
     active, in :class:`~pes_ref.core.forces.ForceAdjoint`'s order) and accumulates the
-    grid's table gradient and the spring's, as wanted."""
+    grid's table gradient and the spring's, as wanted. The cross term ``Hc`` of a cell is
+    its coefficient table's ``D0`` times ``nih1 = -1/h1``: the operations of
+    :func:`pes_ref.core.bilinear.cross_table` in its order, so the same number bit for bit
+    (the forward's table serves the adjoint; no cross table is built)."""
     cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
     row = cell + offsets[i]
-    if row >= cross.size:
-        row = cross.size - 1
-    hcs = cross[row]
+    if row >= table.shape[0]:
+        row = table.shape[0] - 1
+    hcs = table[row, 2] * nih1
     if clips:
         hcs = hcs * s0 * s1
     xb0 = xb0 - hcs * w1
@@ -297,29 +301,53 @@ def _cross_table(values, nih0, nih1, out):
 
 
 @njit(inline="always", **_JIT)
-def _table_grad_row(gtab, i, n1, nih0, nih1, terms):
+def _table_grad_row(gtabs, i, n1, nih0, nih1, terms, clear):
     """Row ``i``'s per-cell terms of :func:`pes_ref.core.bilinear.table_grad_to_values` into
     ``terms`` (3, n1): ``c10 = gA0 (-1/h0) - c11``, ``c01 = gA1 (-1/h1) - c11``, ``c11 = gD0
-    (-1/h0) + gD1 (-1/h1)``."""
+    (-1/h0) + gD1 (-1/h1)``, of the lanes' table gradients ``gtabs`` (L, n0 n1, 4) summed in
+    lane order (``((g_0 + g_1) + g_2) ...``, one lane as it is). ``clear``: every entry read
+    is set to 0 (the buffers left zeroed for their next run, in the same pass)."""
+    if gtabs.shape[0] == 1:
+        gtab = gtabs[0]
+        for j in range(n1):
+            r = i * n1 + j
+            d = gtab[r, 2] * nih0 + gtab[r, 3] * nih1
+            terms[2, j] = d
+            terms[0, j] = gtab[r, 0] * nih0 - d
+            terms[1, j] = gtab[r, 1] * nih1 - d
+            if clear:
+                gtab[r, 0] = gtab[r, 1] = gtab[r, 2] = gtab[r, 3] = 0.0
+        return
     for j in range(n1):
         r = i * n1 + j
-        d = gtab[r, 2] * nih0 + gtab[r, 3] * nih1
+        g0, g1, g2, g3 = gtabs[0, r, 0], gtabs[0, r, 1], gtabs[0, r, 2], gtabs[0, r, 3]
+        for lane in range(1, gtabs.shape[0]):
+            g0 = g0 + gtabs[lane, r, 0]
+            g1 = g1 + gtabs[lane, r, 1]
+            g2 = g2 + gtabs[lane, r, 2]
+            g3 = g3 + gtabs[lane, r, 3]
+        if clear:
+            for lane in range(gtabs.shape[0]):
+                gtabs[lane, r, 0] = gtabs[lane, r, 1] = gtabs[lane, r, 2] = gtabs[lane, r, 3] = 0.0
+        d = g2 * nih0 + g3 * nih1
         terms[2, j] = d
-        terms[0, j] = gtab[r, 0] * nih0 - d
-        terms[1, j] = gtab[r, 1] * nih1 - d
+        terms[0, j] = g0 * nih0 - d
+        terms[1, j] = g1 * nih1 - d
 
 
 @njit(**_JIT)
-def _table_grad_to_values(gtab, nih0, nih1, n0, n1, out, rows):
-    """:func:`pes_ref.core.bilinear.table_grad_to_values` into ``out`` (n0, n1): per node
-    ``-c10 - c01 - c11`` of its own cell plus ``c10``, ``c01``, ``c11`` of the cells it is
-    the other corner of (wrapped), in that order (bit-identical). The terms of a row of cells
-    and of the row before it (``rows`` (2, 3, n1), in cache), so the table gradient is read
-    once; each row's nodes but the first in a loop without the wrap, the first wrapped."""
+def _table_grad_to_values(gtabs, nih0, nih1, n0, n1, out, rows, clear):
+    """:func:`pes_ref.core.bilinear.table_grad_to_values` of the lanes' table gradients
+    ``gtabs`` (L, n0 n1, 4) summed in lane order, into ``out`` (n0, n1): per node ``-c10 -
+    c01 - c11`` of its own cell plus ``c10``, ``c01``, ``c11`` of the cells it is the other
+    corner of (wrapped), in that order (bit-identical). The terms of a row of cells and of
+    the row before it (``rows`` (2, 3, n1), in cache), so the table gradient is read once
+    (row n0 - 1 twice: first, as row 0's wrapped neighbour, without ``clear``); each row's
+    nodes but the first in a loop without the wrap, the first wrapped."""
     prev, cur = rows[0], rows[1]
-    _table_grad_row(gtab, n0 - 1, n1, nih0, nih1, prev)          # the row before row 0 (wrapped)
+    _table_grad_row(gtabs, n0 - 1, n1, nih0, nih1, prev, False)          # the row before row 0 (wrapped)
     for i in range(n0):
-        _table_grad_row(gtab, i, n1, nih0, nih1, cur)
+        _table_grad_row(gtabs, i, n1, nih0, nih1, cur, clear)
         out[i, 0] = ((((-cur[0, 0] - cur[1, 0]) - cur[2, 0]) + prev[0, 0]) + cur[1, n1 - 1]) + prev[2, n1 - 1]
         for j in range(1, n1):
             out[i, j] = ((((-cur[0, j] - cur[1, j]) - cur[2, j]) + prev[0, j]) + cur[1, j - 1]) + prev[2, j - 1]
@@ -405,7 +433,8 @@ def table_grad_to_values(gtab: np.ndarray, h, shape: tuple, flat: bool = True) -
     """:func:`pes_ref.core.bilinear.table_grad_to_values` of one grid, compiled; flat (n0 n1,),
     or in the grid's shape (an array of its own, not a view) unless ``flat``."""
     out = np.empty(shape)
-    _table_grad_to_values(gtab, -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out, np.empty((2, 3, shape[1])))
+    _table_grad_to_values(_kernel_array(gtab)[None], -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out,
+                          np.empty((2, 3, shape[1])), False)
     return out.reshape(-1) if flat else out
 
 
@@ -483,13 +512,13 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
     @njit(**jit)
     def _dynamic_adjoint_steps(x, v, f, gx, has_gx, gv, has_gv, start, stop, a, inv_1pc, minus_c, damped, dt,
                                xbar, vbar, fbar, want_abar, abar, want_cbar, cbar, want_force, gforce,
-                               lanes, blocks, grid, cross, gtabs, want_values, spring, want_k, gk, want_c, gc, walls):
+                               lanes, blocks, grid, nih1, gtabs, want_values, spring, want_k, gk, want_c, gc, walls):
         """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_dynamic`,
         (B4)-(B1) and the objective's direct terms, per particle; down to ``start = 0``, then
         (B0), the adjoint of the initial force (as a step -1 that is only (B3)). The particles
         in ``lanes`` of ``blocks`` (lane ``l``: blocks ``lanes[l] .. lanes[l+1] - 1``), each lane
         with its own table gradient ``gtabs[l]`` (the caller sums them in lane order)."""
-        g, per0, per1, clips, _, offsets = grid
+        g, per0, per1, clips, table, offsets = grid
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         for lane in loop(lanes.size - 1):
@@ -524,8 +553,8 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
                         if want_force:
                             gforce[n + 1, i, 0] = fb0
                             gforce[n + 1, i, 1] = fb1
-                        xb0, xb1 = _vjp(x[n + 1, i, 0], x[n + 1, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, cross,
-                                        offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk,
+                        xb0, xb1 = _vjp(x[n + 1, i, 0], x[n + 1, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, table,
+                                        nih1, offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk,
                                         want_c, gc, walls)
                         if n < 0:
                             xbar[i, 0], xbar[i, 1] = xb0, xb1
@@ -585,9 +614,9 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
 
     @njit(**_JIT)
     def _quasistatic_adjoint_steps(x, f, gx, has_gx, start, stop, mu, xbar, want_mubar, mubar, want_force, gforce,
-                                   grid, cross, gtab, want_values, spring, want_k, gk, want_c, gc, walls):
+                                   grid, nih1, gtab, want_values, spring, want_k, gk, want_c, gc, walls):
         """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_quasistatic`."""
-        g, per0, per1, clips, _, offsets = grid
+        g, per0, per1, clips, table, offsets = grid
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         for n in range(stop - 1, start - 1, -1):
@@ -603,8 +632,8 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
                 if want_force:
                     gforce[n, i, 0] = fb0
                     gforce[n, i, 1] = fb1
-                xb0, xb1 = _vjp(x[n, i, 0], x[n, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, cross, offsets,
-                                gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c,
+                xb0, xb1 = _vjp(x[n, i, 0], x[n, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, table, nih1,
+                                offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c,
                                 gc, walls)
                 if has_gx:
                     xb0 = xb0 + gx[n, i, 0]
@@ -701,6 +730,7 @@ _NONE2_RO = _NONE2.copy()
 _NONE2_RO.setflags(write=False)
 _NONE3_RO = _NONE3.copy()
 _NONE3_RO.setflags(write=False)
+_ONE_LANE = np.array([0, 1], dtype=np.intp)
 _NO_SPRING = (False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2))
 _NO_ENERGY_WALLS = (False, np.zeros(1), _NONE2, _NONE2)
 
@@ -817,7 +847,7 @@ def _forward_terms(field, n: int):
     """The forward kernels (:data:`KERNELS`) and their grid, spring and walls arguments: the
     spring only where the NumPy path builds its kernel (some nonzero ``k``), its minimum
     image where it pulls."""
-    grid = _grid(field, n, coefficient_table(field.values, field.h))
+    grid = _grid(field, n, grid_table(field))
     axes = () if field.spring is None else spring_axes(field.spring[0])
     spring = _spring(field, n, bool(axes), axes)
     return KERNELS[_wraps(spring)], grid, spring, _walls(field, n)
@@ -825,21 +855,19 @@ def _forward_terms(field, n: int):
 
 class _Adjoint:
     """The force's adjoint over stored states: the compiled kernels' arguments (the grid's
-    cross term and table gradients, the spring's gradients) and ``result()``, for
-    :func:`finish_dynamic_adjoint`. ``lanes`` particle lanes (:func:`lanes_of`), each with its
-    own table gradient, summed in lane order by ``result()``."""
+    coefficient table, whose ``D0 (-1/h1)`` is the cross term, and its table gradients, the
+    spring's gradients) and ``result()``, for :func:`finish_dynamic_adjoint`. ``lanes``
+    particle lanes (:func:`lanes_of`), each with its own table gradient (zeroed buffers of
+    :func:`_zeroed`), summed in lane order by ``result()`` as it maps them to the grid."""
 
     def __init__(self, field, xs: np.ndarray, want: frozenset, parallel: bool = False):
         n = xs.shape[1]
         self.field, self.xs = field, xs
         self.want_values = "values" in want
-        table = cross_table(field.values, field.h)
-        self.grid = _grid(field, n, np.empty((table.shape[0], 0)))      # the adjoint reads the cross term
-        self.cross = _kernel_array(table)
-        self.lanes, self.blocks = lanes_of(n) if parallel else (np.array([0, 1], dtype=np.intp),
-                                                                 np.array([0, n], dtype=np.intp))
-        n_lanes = self.lanes.size - 1
-        self.gtabs = np.zeros((n_lanes, table.shape[0], 4)) if self.want_values else np.zeros((n_lanes, 1, 2))
+        self.grid = _grid(field, n, grid_table(field))
+        self.nih1 = -1.0 / field.h[1]                         # as cross_table's: (D0 (-1/h0)) (-1/h1)
+        self.lanes, self.blocks = lanes_of(n) if parallel else (_ONE_LANE, np.array([0, n], dtype=np.intp))
+        self.gtabs = _zeroed((self.lanes.size - 1, self.grid[4].shape[0], 4)) if self.want_values else _NONE3
         self.gtab = self.gtabs[0] if self.want_values else _NONE2
         has_spring = field.spring is not None
         self.want_k = has_spring and "spring_k" in want
@@ -854,27 +882,83 @@ class _Adjoint:
 
     def terms(self) -> tuple:
         """The trailing arguments of the quasistatic adjoint kernel (one lane)."""
-        return (self.grid, self.cross, self.gtab, self.want_values, self.spring, self.want_k, self.gk,
+        return (self.grid, self.nih1, self.gtab, self.want_values, self.spring, self.want_k, self.gk,
                 self.want_c, self.gc, self.walls)
 
     def lane_terms(self) -> tuple:
         """The trailing arguments of the dynamic adjoint kernel (its lanes)."""
-        return (self.lanes, self.blocks, self.grid, self.cross, self.gtabs, self.want_values, self.spring,
+        return (self.lanes, self.blocks, self.grid, self.nih1, self.gtabs, self.want_values, self.spring,
                 self.want_k, self.gk, self.want_c, self.gc, self.walls)
 
     def result(self) -> dict:
+        """The terms' gradients; the grid's (n0, n1), its own array, from the lanes' table
+        gradients summed in lane order (the same sum whatever the threads), which the same
+        pass zeroes and hands back (:func:`_give_back`). Once: the lanes are then gone."""
         out = {}
         if self.want_values:
-            gtab = self.gtabs[0]
-            for lane in self.gtabs[1:]:          # in lane order: the same sum whatever the threads
-                gtab = gtab + lane
-            shape = self.field.values.shape
-            out["values"] = table_grad_to_values(gtab, self.field.h, shape[-2:], flat=False)     # (n0, n1), its own
+            h, shape = self.field.h, self.field.values.shape[-2:]
+            grad = np.empty(shape)
+            _table_grad_to_values(self.gtabs, -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], grad,
+                                  np.empty((2, 3, shape[1])), True)
+            _give_back(self.gtabs)
+            self.gtabs = self.gtab = None
+            out["values"] = grad
         if self.want_k:
             out["spring_k"] = self.gk
         if self.want_c:
             out["spring_center"] = self.gc
         return out
+
+
+#: The last grid's coefficient table, ``(weakref to its values, h0, h1, table)``, or None:
+#: a run's forward builds it and its adjoint (and the next run on the same grid) reads it.
+#: Kept only for a values array that is read-only and owns its memory (a
+#: :class:`~pes_ref.core.surface.Surface`'s: a checked copy that nothing writes), and only
+#: while that array lives (the weak reference's callback drops it).
+_TABLE = [None]
+
+
+def _forget(ref) -> None:
+    entry = _TABLE[0]
+    if entry is not None and entry[0] is ref:
+        _TABLE[0] = None
+
+
+def grid_table(field) -> np.ndarray:
+    """:func:`coefficient_table` of ``field``'s grid (or stack of grids): the one kept in
+    :data:`_TABLE` when it is this values array's at this spacing, else built (and kept,
+    when the array is a read-only one that owns its memory)."""
+    values = field.values
+    h0, h1 = float(field.h[0]), float(field.h[1])
+    entry = _TABLE[0]
+    if entry is not None and entry[0]() is values and entry[1] == h0 and entry[2] == h1:
+        return entry[3]
+    table = coefficient_table(values, field.h)
+    if not values.flags.writeable and values.base is None:
+        _TABLE[0] = (weakref.ref(values, _forget), h0, h1, table)
+    return table
+
+
+#: Zeroed table-gradient buffers between runs (at most one, of at most :data:`SPARE_BYTES`):
+#: an adjoint takes one (:func:`_zeroed`) instead of zeroing fresh memory, and hands it
+#: back zeroed by the pass that reads it (:meth:`_Adjoint.result`).
+_SPARE: list = []
+SPARE_BYTES = 1 << 24
+
+
+def _zeroed(shape: tuple) -> np.ndarray:
+    """A zeroed float64 array of ``shape``: the spare buffer when it has that shape, else fresh."""
+    try:
+        buf = _SPARE.pop()
+    except IndexError:
+        return np.zeros(shape)
+    return buf if buf.shape == shape else np.zeros(shape)
+
+
+def _give_back(buf: np.ndarray) -> None:
+    """Keep ``buf``, all zeros again, as the spare buffer (if there is none and it is small enough)."""
+    if buf.nbytes <= SPARE_BYTES and not _SPARE:
+        _SPARE.append(buf)
 
 
 # =========================================================================== the steppers
