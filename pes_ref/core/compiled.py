@@ -775,8 +775,11 @@ def parallel_blocks(field, n: int) -> np.ndarray:
 
 
 def _as(a, n: int) -> np.ndarray:
-    """``a`` broadcast to a fresh contiguous float64 (N, 2)."""
-    return np.broadcast_to(np.asarray(a, dtype=np.float64), (n, 2)).copy()
+    """``a`` broadcast to a fresh contiguous float64 (N, 2) (an assignment: the broadcast
+    and the copy in one call, ``np.broadcast_to``'s checks without its Python layer)."""
+    out = np.empty((n, 2))
+    out[...] = a
+    return out
 
 
 def _kernel_array(a) -> np.ndarray:
