@@ -470,7 +470,10 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
         ewon, ehwk, ewlo, ewhi = ewalls
         for b in loop(blocks.size - 1):
             for n in range(start - 1 if start == 0 else start, stop):
-                for i in range(blocks[b], blocks[b + 1]):
+                for ii in range(blocks[b + 1] - blocks[b]):
+                    # unsigned: numba indexes with a signed integer through a test for a negative
+                    # index (counted from the end) at every access, with an unsigned one without
+                    i = np.uint64(blocks[b]) + np.uint64(ii)
                     if n >= 0:
                         # (S1) half_kick: P = V_n + a F_n (as a F_n + V_n)
                         p0 = a[i, 0] * f[n, i, 0] + v[n, i, 0]
@@ -525,7 +528,8 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
             gtab = gtabs[lane]
             for blk in range(lanes[lane], lanes[lane + 1]):
                 for n in range(stop - 1, start - 2 if start == 0 else start - 1, -1):
-                    for i in range(blocks[blk], blocks[blk + 1]):
+                    for ii in range(blocks[blk + 1] - blocks[blk]):
+                        i = np.uint64(blocks[blk]) + np.uint64(ii)          # unsigned: see _dynamic_steps
                         xb0, xb1 = xbar[i, 0], xbar[i, 1]
                         vb0, vb1 = vbar[i, 0], vbar[i, 1]
                         if n >= 0:
