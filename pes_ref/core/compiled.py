@@ -156,12 +156,20 @@ def _force(q0, q1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, 
 
 
 @njit(inline="always", **_JIT)
+def _row(cell, i, offsets, rows):
+    """Particle ``i``'s table row: its ``cell`` plus its grid's offset, at most the last row;
+    unsigned (both are >= 0), so that numba indexes with it without its negative-index test."""
+    row = cell + offsets[i]
+    if row >= rows:
+        row = rows - 1
+    return np.uint64(row)
+
+
+@njit(inline="always", **_JIT)
 def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
               won, wk, wlo, whi):
     """:func:`_force` at the cell and fractions that :func:`_locate` gave for ``(q0, q1)``."""
-    row = cell + offsets[i]
-    if row >= table.shape[0]:
-        row = table.shape[0] - 1
+    row = _row(cell, i, offsets, table.shape[0])
     F0 = (table[row, 2] * f1 + table[row, 0]) * s0
     F1 = (table[row, 3] * f0 + table[row, 1]) * s1
     if son:
@@ -185,9 +193,7 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, table, nih1, offsets
     :func:`pes_ref.core.bilinear.cross_table` in its order, so the same number bit for bit
     (the forward's table serves the adjoint; no cross table is built)."""
     cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
-    row = cell + offsets[i]
-    if row >= table.shape[0]:
-        row = table.shape[0] - 1
+    row = _row(cell, i, offsets, table.shape[0])
     hcs = table[row, 2] * nih1
     if clips:
         hcs = hcs * s0 * s1
@@ -243,6 +249,7 @@ def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrappin
         i1 = n0 - 1
     if j1 >= n1:
         j1 = n1 - 1
+    i0, j0, i1, j1 = np.uint64(i0), np.uint64(j0), np.uint64(i1), np.uint64(j1)     # (as _row's)
     u = ((1 - f0) * (1 - f1) * values[i0, j0] + f0 * (1 - f1) * values[i1, j0]
          + (1 - f0) * f1 * values[i0, j1] + f0 * f1 * values[i1, j1])
     if son:
