@@ -445,17 +445,23 @@ def table_grad_to_values(gtab: np.ndarray, h, shape: tuple, flat: bool = True) -
     return out.reshape(-1) if flat else out
 
 
-def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
+def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -> SimpleNamespace:
     """The compiled loops, with ``wraps`` a compile-time constant: True where a spring's
     minimum image is computed (a periodic axis where it pulls, or its gradient wanted). A
     loop whose body holds the ``fmod`` call of the image runs ~30% slower even where it is
     never taken, so the loops without one are compiled without it (numba caches both).
+
+    ``per0``, ``per1``: the grid's topology (axis 0, 1 periodic), compile-time constants
+    too (the ``grid`` argument's flags are not read): the lookup of every particle-state
+    tests them several times, and a loop compiled for its topology, without the tests and
+    the code of the other, runs ~12% faster (the same operations on the numbers).
 
     ``parallel``: the dynamic loops run their particle blocks (forward) and lanes (adjoint)
     on numba's threads (``prange``); each particle's operations are the same in the same
     order, so its numbers are its own run's, bit for bit."""
     loop = prange if parallel else range
     jit = dict(_JIT, parallel=parallel)
+    clips = not (per0 and per1)
 
     # ======================================================================= dynamic mode
 
@@ -469,7 +475,7 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
         in cache) through all the steps before the next block's (particles are independent:
         the order changes no number). ``energy`` (:func:`_energy_terms`) on: each state's
         energy into its ``out`` as the state is made, at the state's lookup (:func:`_energy_at`)."""
-        g, per0, per1, clips, table, offsets = grid
+        g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         e_on, eout, em, evalues, espring, ewalls = energy
@@ -528,7 +534,7 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
         (B0), the adjoint of the initial force (as a step -1 that is only (B3)). The particles
         in ``lanes`` of ``blocks`` (lane ``l``: blocks ``lanes[l] .. lanes[l+1] - 1``), each lane
         with its own table gradient ``gtabs[l]`` (the caller sums them in lane order)."""
-        g, per0, per1, clips, table, offsets = grid
+        g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         for lane in loop(lanes.size - 1):
@@ -601,7 +607,7 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
         """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_quasistatic`, and
         up to ``stop = T`` then the final force ``F_T = F(X_T) + F_ext[T]`` (as a step T that is
         only (Q1)), a block of particles at a time (as :func:`_dynamic_steps`)."""
-        g, per0, per1, clips, table, offsets = grid
+        g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         T = x.shape[0] - 1
@@ -627,7 +633,7 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
     def _quasistatic_adjoint_steps(x, f, gx, has_gx, start, stop, mu, xbar, want_mubar, mubar, want_force, gforce,
                                    grid, nih1, gtab, want_values, spring, want_k, gk, want_c, gc, walls):
         """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_quasistatic`."""
-        g, per0, per1, clips, table, offsets = grid
+        g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         for n in range(stop - 1, start - 1, -1):
@@ -656,9 +662,16 @@ def _make_kernels(wraps: bool, parallel: bool = False) -> SimpleNamespace:
 
 
 #: The compiled loops without a spring's minimum image (False) and with it (True).
-KERNELS = {wraps: _make_kernels(wraps) for wraps in (False, True)}
+#: Keyed by ``(wraps, per0, per1)``: the minimum image and the grid's topology.
+KERNELS = {(wraps, per0, per1): _make_kernels(wraps, per0, per1)
+           for wraps in (False, True) for per0 in (False, True) for per1 in (False, True)}
 #: The same on numba's threads (the dynamic loops; the quasistatic ones as in :data:`KERNELS`).
-PARALLEL_KERNELS = {wraps: _make_kernels(wraps, parallel=True) for wraps in (False, True)}
+PARALLEL_KERNELS = {key: _make_kernels(*key, parallel=True) for key in KERNELS}
+
+
+def kernels(wraps: bool, field, parallel: bool = False) -> SimpleNamespace:
+    """The loops of :data:`KERNELS` (:data:`PARALLEL_KERNELS`) for ``wraps`` and ``field``'s topology."""
+    return (PARALLEL_KERNELS if parallel else KERNELS)[bool(wraps), bool(field.periodic[0]), bool(field.periodic[1])]
 
 
 # =========================================================================== the energy of a trajectory
@@ -858,13 +871,13 @@ def _wraps(spring: tuple) -> bool:
 
 
 def _forward_terms(field, n: int):
-    """The forward kernels (:data:`KERNELS`) and their grid, spring and walls arguments: the
-    spring only where the NumPy path builds its kernel (some nonzero ``k``), its minimum
-    image where it pulls."""
+    """Whether the forward kernels take the minimum image (``wraps``, the key of
+    :func:`kernels`) and their grid, spring and walls arguments: the spring only where the
+    NumPy path builds its kernel (some nonzero ``k``), its minimum image where it pulls."""
     grid = _grid(field, n, grid_table(field))
     axes = () if field.spring is None else spring_axes(field.spring[0])
     spring = _spring(field, n, bool(axes), axes)
-    return KERNELS[_wraps(spring)], grid, spring, _walls(field, n)
+    return _wraps(spring), grid, spring, _walls(field, n)
 
 
 class _Adjoint:
@@ -889,7 +902,7 @@ class _Adjoint:
         on = has_spring and bool(spring_axes(field.spring[0]) or self.want_k or self.want_c)
         self.spring = _spring(field, n, on, (0, 1))
         wraps = self.want_k and _wraps(self.spring)                  # the image only for k's gradient
-        self.kernels = (PARALLEL_KERNELS if parallel else KERNELS)[wraps]
+        self.kernels = kernels(wraps, field, parallel)
         self.gk = np.zeros((n, 2)) if self.want_k else _NONE2
         self.gc = np.zeros((n, 2)) if self.want_c else _NONE2
         self.walls = _walls(field, n)
@@ -989,10 +1002,9 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
     x[0], v[0] = x0, v0
     if energy is not None and field.offsets is not None:
         raise ValueError("a population's energy is not computed in its forward loop")
-    K, grid, spring, walls = _forward_terms(field, N)
+    wraps, grid, spring, walls = _forward_terms(field, N)
     energy = _energy_terms(field, N, mass, energy)
-    if energy[0] and energy_wraps(field):
-        K = KERNELS[True]
+    wraps = wraps or (energy[0] and energy_wraps(field))
     ext, has_fext = _c3(fext)
     a, c = step_coefficients(dt, mass, damping, N)
     damped = c is not None
@@ -1000,8 +1012,7 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
     c = c if damped else _NONE2
     parallel = N >= PARALLEL_MIN
     blocks = parallel_blocks(field, N) if parallel else _blocks(field, N)
-    if parallel:
-        K = PARALLEL_KERNELS[K is KERNELS[True]]
+    K = kernels(wraps, field, parallel)
     for start, stop in step_blocks(T, progress, "forward"):         # from step 0: F_0 first
         K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, float(dt), grid, spring,
                         walls, energy)
@@ -1046,7 +1057,8 @@ def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
     T, N = n_steps, x0.shape[0]
     x, v, f = trajectory_arrays(T, N, out)
     x[0] = x0
-    K, grid, spring, walls = _forward_terms(field, N)
+    wraps, grid, spring, walls = _forward_terms(field, N)
+    K = kernels(wraps, field)
     ext, has_fext = _c3(fext)
     mu = _as(mobility, N)
     blocks = _blocks(field, N)
