@@ -193,6 +193,16 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, table, nih1, offsets
     :func:`pes_ref.core.bilinear.cross_table` in its order, so the same number bit for bit
     (the forward's table serves the adjoint; no cross table is built)."""
     cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
+    return _vjp_at(q0, q1, i, cell, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, table, nih1, offsets, gtab, want_values,
+                   son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, (gc, walls))
+
+
+@njit(inline="always", **_JIT)
+def _vjp_at(q0, q1, i, cell, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, table, nih1, offsets, gtab, want_values,
+            son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, rest):
+    """:func:`_vjp` at the cell and fractions that :func:`_locate` gave for ``(q0, q1)``
+    (``rest``: ``(gc, walls)``, a tuple: numba inlines a function of at most 30 arguments)."""
+    gc, walls = rest
     row = _row(cell, i, offsets, table.shape[0])
     hcs = table[row, 2] * nih1
     if clips:
@@ -445,6 +455,24 @@ def table_grad_to_values(gtab: np.ndarray, h, shape: tuple, flat: bool = True) -
     return out.reshape(-1) if flat else out
 
 
+@njit(inline="always", **_JIT)
+def _keep(lkf, lki, n, i, q0, q1, cell, f0, f1, s0, s1):
+    """Keep state ``n``'s lookup of particle ``i`` at ``(q0, q1)``: ``lkf[n, i] = (q0, q1, f0,
+    f1)`` and ``lki[n, i] = 4 cell + 2 s0 + s1`` (the switches are 0 or 1)."""
+    lkf[n, i, 0] = q0
+    lkf[n, i, 1] = q1
+    lkf[n, i, 2] = f0
+    lkf[n, i, 3] = f1
+    lki[n, i] = cell * 4 + (2 if s0 != 0.0 else 0) + (1 if s1 != 0.0 else 0)
+
+
+@njit(inline="always", **_JIT)
+def _kept(lkf, lki, n, i):
+    """State ``n``'s lookup of particle ``i`` that :func:`_keep` kept: ``(cell, f0, f1, s0, s1)``."""
+    code = lki[n, i]
+    return code >> 2, lkf[n, i, 2], lkf[n, i, 3], 1.0 if code & 2 else 0.0, 1.0 if code & 1 else 0.0
+
+
 def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -> SimpleNamespace:
     """The compiled loops, with ``wraps`` a compile-time constant: True where a spring's
     minimum image is computed (a periodic axis where it pulls, or its gradient wanted). A
@@ -467,15 +495,17 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
 
     @njit(**jit)
     def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls,
-                       energy):
+                       energy, lookups):
         """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_dynamic`, and
         from ``start = 0`` the initial force ``F_0 = F(X_0) + F_ext[0]`` first (as a step -1
         that is only (S3): one copy of the force in the loop); the particles of each block
         (``blocks[b] .. blocks[b+1] - 1``: a population's member, whose grid's table then stays
         in cache) through all the steps before the next block's (particles are independent:
         the order changes no number). ``energy`` (:func:`_energy_terms`) on: each state's
-        energy into its ``out`` as the state is made, at the state's lookup (:func:`_energy_at`)."""
+        energy into its ``out`` as the state is made, at the state's lookup (:func:`_energy_at`).
+        ``lookups`` (:func:`_lookups`) on: each state's position and grid lookup kept for the adjoint."""
         g, _, _, _, table, offsets = grid          # (the topology: the closure's)
+        keep, lkf, lki = lookups
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         e_on, eout, em, evalues, espring, ewalls = energy
@@ -501,6 +531,8 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
                         p0 = p1 = 0.0
                     # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
                     cell, i0, j0, f0, f1, s0, s1 = _locate_ij(y0, y1, g, per0, per1, clips)
+                    if keep:
+                        _keep(lkf, lki, n + 1, i, y0, y1, cell, f0, f1, s0, s1)
                     F0, F1 = _force_at(y0, y1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0,
                                        swrap1, shalf, slen, won, wk, wlo, whi)
                     if has_fext:
@@ -528,13 +560,17 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
     @njit(**jit)
     def _dynamic_adjoint_steps(x, v, f, gx, has_gx, gv, has_gv, start, stop, a, inv_1pc, minus_c, damped, dt,
                                xbar, vbar, fbar, want_abar, abar, want_cbar, cbar, want_force, gforce,
-                               lanes, blocks, grid, nih1, gtabs, want_values, spring, want_k, gk, want_c, gc, walls):
+                               lanes, blocks, grid, nih1, gtabs, want_values, spring, want_k, gk, want_c, gc, walls,
+                               lookups):
         """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_dynamic`,
         (B4)-(B1) and the objective's direct terms, per particle; down to ``start = 0``, then
         (B0), the adjoint of the initial force (as a step -1 that is only (B3)). The particles
         in ``lanes`` of ``blocks`` (lane ``l``: blocks ``lanes[l] .. lanes[l+1] - 1``), each lane
-        with its own table gradient ``gtabs[l]`` (the caller sums them in lane order)."""
+        with its own table gradient ``gtabs[l]`` (the caller sums them in lane order).
+        ``lookups`` on: a state's grid lookup is the forward's (:func:`_kept`) where its position
+        is the one the forward looked up, else computed again (the same numbers either way)."""
         g, _, _, _, table, offsets = grid          # (the topology: the closure's)
+        keep, lkf, lki = lookups
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         for lane in loop(lanes.size - 1):
@@ -570,9 +606,14 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
                         if want_force:
                             gforce[n + 1, i, 0] = fb0
                             gforce[n + 1, i, 1] = fb1
-                        xb0, xb1 = _vjp(x[n + 1, i, 0], x[n + 1, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, table,
-                                        nih1, offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk,
-                                        want_c, gc, walls)
+                        q0, q1 = x[n + 1, i, 0], x[n + 1, i, 1]
+                        if keep and q0 == lkf[n + 1, i, 0] and q1 == lkf[n + 1, i, 1]:
+                            cell, f0, f1, s0, s1 = _kept(lkf, lki, n + 1, i)
+                        else:
+                            cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
+                        xb0, xb1 = _vjp_at(q0, q1, i, cell, f0, f1, s0, s1, fb0, fb1, xb0, xb1, clips, table, nih1,
+                                           offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
+                                           want_k, gk, want_c, (gc, walls))
                         if n < 0:
                             xbar[i, 0], xbar[i, 1] = xb0, xb1
                             continue
@@ -988,6 +1029,52 @@ def _give_back(buf: np.ndarray) -> None:
         _SPARE.append(buf)
 
 
+#: The grid lookups of the last dynamic forward run, ``(weakref to its x, its grid's lookup
+#: key, lkf, lki)``, or None (:func:`_lookups`): its adjoint reads them instead of looking
+#: each state up again, where the state's position is still the one looked up.
+_LOOKUPS = [None]
+#: A run keeps its lookups up to this many particle-states ((T+1) N; 40 bytes each): a small
+#: run's adjoint is bound by the lookup's divisions, a large one's by memory.
+LOOKUP_STATES = 1 << 18
+_NO_LOOKUPS = (False, np.zeros((1, 1, 4)), np.zeros((1, 1), dtype=np.int64))
+
+
+def _drop_lookups(ref) -> None:
+    entry = _LOOKUPS[0]
+    if entry is not None and entry[0] is ref:
+        _LOOKUPS[0] = None
+
+
+def _lookup_key(field, grid) -> tuple:
+    """What a state's lookup depends on besides its position: the grid's lookup constants
+    and topology (not its values); None for a population (rows offset per particle)."""
+    return None if field.offsets is not None else (grid[0].tobytes(), grid[1], grid[2])
+
+
+def _lookups(field, x: np.ndarray, grid) -> tuple:
+    """``(keep, lkf, lki)`` of a dynamic forward run over ``x`` (T+1, N, 2): arrays its loop
+    fills with each state's position and lookup (:func:`_keep`), kept in :data:`_LOOKUPS`
+    for its adjoint, when the run has at most :data:`LOOKUP_STATES` particle-states and one
+    grid; else placeholders and ``keep`` False."""
+    key = _lookup_key(field, grid)
+    if key is None or x.shape[0] * x.shape[1] > LOOKUP_STATES:
+        return _NO_LOOKUPS
+    lkf, lki = np.empty(x.shape[:2] + (4,)), np.empty(x.shape[:2], dtype=np.int64)
+    _LOOKUPS[0] = (weakref.ref(x, _drop_lookups), key, lkf, lki)
+    return True, lkf, lki
+
+
+def _kept_lookups(field, x: np.ndarray, grid) -> tuple:
+    """The lookups (:func:`_lookups`) of the forward run that made ``x``, on this grid's
+    lookup constants and topology, or placeholders. The adjoint loop reads a state's kept
+    lookup only where ``x`` holds the very position it was made at (:func:`_kept`), so
+    positions written since are looked up again."""
+    entry = _LOOKUPS[0]
+    if entry is None or entry[0]() is not x or entry[1] != _lookup_key(field, grid) or entry[2].shape[:2] != x.shape[:2]:
+        return _NO_LOOKUPS
+    return True, entry[2], entry[3]
+
+
 # =========================================================================== the steppers
 
 @reports_nonfinite
@@ -1013,9 +1100,10 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
     parallel = N >= PARALLEL_MIN
     blocks = parallel_blocks(field, N) if parallel else _blocks(field, N)
     K = kernels(wraps, field, parallel)
+    lookups = _lookups(field, x, grid)
     for start, stop in step_blocks(T, progress, "forward"):         # from step 0: F_0 first
         K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, float(dt), grid, spring,
-                        walls, energy)
+                        walls, energy, lookups)
     traj = Trajectory(x, v, f)
     if refuse_nonfinite:
         check_finite(traj, f"dt={dt!r}")
@@ -1042,10 +1130,11 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
     fbar = np.zeros((N, 2))
+    lookups = _kept_lookups(field, x, adj.grid)
     for done, after in step_blocks(T, progress, "adjoint"):
         adj.kernels.dynamic_adjoint_steps(x, v, f, gx_, has_gx, gv_, has_gv, T - after, T - done, a, inv_1pc, minus_c,
                                           damped, float(dt), xbar, vbar, fbar, want_abar, _or(abar), want_cbar,
-                                          _or(cbar), gforce is not None, _or3(gforce), *adj.lane_terms())
+                                          _or(cbar), gforce is not None, _or3(gforce), *adj.lane_terms(), lookups)
     return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c if damped else None, mass,
                                   want_damping, initial_force=False)      # (B0) was the loop's last
 

@@ -398,3 +398,37 @@ def test_the_spare_table_gradient_is_all_zeros_after_a_run():
     second = pr.value_and_grad(scene, X0, None, pr.Funnel(0.5, when="every_step"), backend="numba")[1]
     assert all(first[k].tobytes() == second[k].tobytes() for k in first)
     assert all(not buf.any() for buf in compiled._SPARE)
+
+
+@pytest.mark.parametrize("periodic", [(False, False), (True, True)])
+def test_the_adjoint_reads_the_forwards_lookups_only_where_the_positions_are_its_own(periodic):
+    """A small dynamic run keeps each state's grid lookup for its adjoint; a state whose
+    position was written since (here: some moved to other cells, then a state's axis-0
+    positions set to -0.0) is looked up again, so the compiled adjoint of any trajectory is
+    the NumPy adjoint's, bit for bit (the grid's within 1e-13)."""
+    from pes_ref.core import integrator
+    scene, x0 = _oracle_scene(periodic, 5)
+    field, dt, mass, damping = scene.field(), scene.dt, scene.mass, scene.damping
+    v0 = np.full((5, 2), 0.1)
+    traj = compiled.simulate_dynamic(field, x0, v0, None, dt, scene.n_steps, mass, damping)
+    assert compiled._LOOKUPS[0] is not None and compiled._LOOKUPS[0][0]() is traj.x
+    want = frozenset(("values", "x0", "v0", "force", "mass", "damping", "spring_k", "spring_center"))
+    gx = np.random.default_rng(9).standard_normal(traj.x.shape)
+    for edit in (None, "moved", "zero"):
+        if edit == "moved":
+            traj.x[5:12, 1:3] += 0.37
+        elif edit == "zero":
+            traj.x[3, :, 0] = -0.0
+        fast = compiled.adjoint_dynamic(field, traj, dt, mass, damping, gx, None, want)
+        ref = integrator.adjoint_dynamic(field, traj, dt, mass, damping, gx, None, want)
+        assert_gradients_agree({k: np.reshape(fast[k], np.shape(ref[k])) for k in ref}, ref)
+
+
+def test_a_large_run_keeps_no_lookups(monkeypatch):
+    monkeypatch.setattr(compiled, "LOOKUP_STATES", 10)
+    scene, x0 = _oracle_scene((False, True), 5)
+    field = scene.field()
+    traj = compiled.simulate_dynamic(field, x0, np.zeros((5, 2)), None, scene.dt, scene.n_steps, scene.mass,
+                                     scene.damping)
+    assert compiled._LOOKUPS[0] is None or compiled._LOOKUPS[0][0]() is not traj.x
+    assert compiled._kept_lookups(field, traj.x, compiled._grid(field, 5, compiled.grid_table(field)))[0] is False
