@@ -6,7 +6,7 @@ the objective's direct derivatives ``dL/dX``, ``dL/dV``, ``grad_force`` and the 
 adjoint's per-state tables; the oracle adds the case's ``force``, the energy and the
 result's copies. All of these scale with ``(T+1) N``, so a run needs about
 
-    bytes = ARRAYS[kind] * (T+1) * N * 2 * 8
+    bytes = ARRAYS[kind] * (T+1) * N * 2 * 8  (+ the kept lookups of a small run, LOOKUP_BYTES each)
 
 with :data:`ARRAYS` the number of (T+1, N, 2) float64 arrays alive at the run's peak
 (measured with ``tracemalloc`` and rounded up: ``tests/core/test_budget.py`` checks that the
@@ -46,7 +46,7 @@ import numpy as np
 
 from pes_ref.core import checks
 
-__all__ = ["ARRAYS", "GRID_ARRAYS", "RunTooLargeError", "RunEstimate", "StepCost", "TYPICAL_COST", "run_bytes",
+__all__ = ["ARRAYS", "LOOKUP_STATES", "LOOKUP_BYTES", "GRID_ARRAYS", "RunTooLargeError", "RunEstimate", "StepCost", "TYPICAL_COST", "run_bytes",
            "available_memory", "check_memory", "check_grid_memory", "step_cost", "estimate_seconds", "estimate"]
 
 #: The (T+1, N, 2) float64 arrays (or their size in other dtypes) alive at the peak of
@@ -56,6 +56,13 @@ __all__ = ["ARRAYS", "GRID_ARRAYS", "RunTooLargeError", "RunEstimate", "StepCost
 #: measured); ``case`` (an oracle run: that, the case's force, then the energy's
 #: temporaries and the result's copies: 19.9 measured).
 ARRAYS = {"simulate": 5, "value_and_grad": 15, "case": 21}
+
+#: A compiled dynamic run of at most this many particle-states ((T+1) N) keeps each state's
+#: grid lookup for its adjoint (:func:`pes_ref.core.compiled._lookups`), ``LOOKUP_BYTES``
+#: each (its position, two fractions, the cell and switches): at most 2.6 MB, which
+#: :func:`run_bytes` counts.
+LOOKUP_STATES = 1 << 16
+LOOKUP_BYTES = 40
 
 #: The grid-sized float64 arrays alive at the peak of a design's gradient iteration (the
 #: values, their gradient, the optimizer's moments, the surface's and the grid adjoint's
@@ -83,8 +90,11 @@ class RunEstimate(NamedTuple):
 
 
 def run_bytes(n_steps: int, n_particles: int, kind: str) -> int:
-    """``ARRAYS[kind] * (T+1) * N * 2 * 8``: the bytes a run of ``kind`` holds at its peak."""
-    return ARRAYS[kind] * (int(n_steps) + 1) * int(n_particles) * 2 * 8
+    """``ARRAYS[kind] * (T+1) * N * 2 * 8``: the bytes a run of ``kind`` holds at its peak,
+    plus ``LOOKUP_BYTES`` a particle-state for a run of at most :data:`LOOKUP_STATES` (the
+    lookups a compiled dynamic run keeps)."""
+    states = (int(n_steps) + 1) * int(n_particles)
+    return ARRAYS[kind] * states * 2 * 8 + (LOOKUP_BYTES * states if states <= LOOKUP_STATES else 0)
 
 
 def available_memory() -> int | None:

@@ -45,6 +45,7 @@ from types import SimpleNamespace
 import numpy as np
 from numba import njit, prange
 
+from pes_ref.core import budget
 from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, finish_quasistatic_adjoint,
                                      quasistatic_velocities, reports_nonfinite, step_coefficients, trajectory_arrays)
 from pes_ref.core.runtime.progress import blocks as step_blocks
@@ -1033,9 +1034,10 @@ def _give_back(buf: np.ndarray) -> None:
 #: key, lkf, lki)``, or None (:func:`_lookups`): its adjoint reads them instead of looking
 #: each state up again, where the state's position is still the one looked up.
 _LOOKUPS = [None]
-#: A run keeps its lookups up to this many particle-states ((T+1) N; 40 bytes each): a small
-#: run's adjoint is bound by the lookup's divisions, a large one's by memory.
-LOOKUP_STATES = 1 << 18
+#: A run keeps its lookups up to this many particle-states ((T+1) N; LOOKUP_BYTES = 40 each,
+#: which :func:`pes_ref.core.budget.run_bytes` counts): a small run's adjoint is bound by the
+#: lookup's divisions, a large one's by memory.
+LOOKUP_STATES = budget.LOOKUP_STATES
 _NO_LOOKUPS = (False, np.zeros((1, 1, 4)), np.zeros((1, 1), dtype=np.int64))
 
 
