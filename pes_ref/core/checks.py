@@ -13,6 +13,8 @@ array is not already a float64 array (and it is never written to by the core).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = [
@@ -106,10 +108,11 @@ def as_float_array(
         arr = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
         raise InputTypeError(name, f"{name} must be a real number array, got {_quote(value)} ({exc})") from None
-    if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
-        raise InputTypeError(name, f"{name} must be a real number array, got dtype {arr.dtype} ({_quote(value)})")
-    if np.iscomplexobj(arr):
-        raise InputTypeError(name, f"{name} must be real, got complex values {_quote(value)}")
+    if arr.dtype.kind not in "biuf":          # (bool, integers, floats: real numbers, no test needed)
+        if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
+            raise InputTypeError(name, f"{name} must be a real number array, got dtype {arr.dtype} ({_quote(value)})")
+        if np.iscomplexobj(arr):
+            raise InputTypeError(name, f"{name} must be real, got complex values {_quote(value)}")
     arr = np.array(arr, dtype=np.float64, copy=True)
     if ndim is not None and arr.ndim != ndim:
         raise InputError(name, f"{name} must have {ndim} dimension(s), got shape {arr.shape}")
@@ -127,11 +130,11 @@ def as_float_array(
             raise InputError(
                 name, f"{name} must broadcast to shape {tuple(broadcast_to)}, got shape {arr.shape}"
             ) from None
-    if finite and not np.all(np.isfinite(arr)):
+    if finite and not np.isfinite(arr).all():
         raise InputError(name, f"{name} must be finite, got {_quote(arr)}")
-    if positive and not np.all(arr > 0):
+    if positive and not (arr > 0).all():
         raise InputError(name, f"{name} must be > 0, got {_quote(arr)}")
-    if nonneg and not np.all(arr >= 0):
+    if nonneg and not (arr >= 0).all():
         raise InputError(name, f"{name} must be >= 0, got {_quote(arr)}")
     arr.setflags(write=False)
     return arr
@@ -162,7 +165,7 @@ def _as_scalar(name: str, value) -> float:
     arr = np.asarray(value)
     if arr.ndim != 0:
         raise InputError(name, f"{name} must be a scalar, got shape {arr.shape}")
-    if not (np.issubdtype(arr.dtype, np.number)) or np.iscomplexobj(arr):
+    if arr.dtype.kind not in "iuf" and (not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr)):
         raise InputTypeError(name, f"{name} must be a real number, got {_quote(value)}")
     return float(arr)
 
@@ -170,7 +173,7 @@ def _as_scalar(name: str, value) -> float:
 def as_finite_float(name: str, value) -> float:
     """A finite real scalar."""
     x = _as_scalar(name, value)
-    if not np.isfinite(x):
+    if not math.isfinite(x):
         raise InputError(name, f"{name} must be finite, got {x!r}")
     return x
 
@@ -197,7 +200,7 @@ def as_int_at_least(name: str, value, least: int) -> int:
     if isinstance(value, (bool, np.bool_)):
         raise InputTypeError(name, f"{name} must be an integer, got the bool {value!r}")
     arr = np.asarray(value)
-    if arr.ndim != 0 or not np.issubdtype(arr.dtype, np.integer):
+    if arr.ndim != 0 or not (arr.dtype.kind in "iu" or np.issubdtype(arr.dtype, np.integer)):
         raise InputTypeError(name, f"{name} must be an integer, got {_quote(value)}")
     x = int(arr)
     if x < least:
