@@ -59,10 +59,11 @@ ARRAYS = {"simulate": 5, "value_and_grad": 15, "case": 21}
 
 #: A compiled dynamic run of at most this many particle-states ((T+1) N) keeps each state's
 #: grid lookup for its adjoint (:func:`pes_ref.core.compiled._lookups`), ``LOOKUP_BYTES``
-#: each (its position, two fractions, the cell and switches): at most 2.6 MB, which
+#: each (its position, two fractions, the cell, its row and column and switches): at most
+#: 3.1 MB, which
 #: :func:`run_bytes` counts.
 LOOKUP_STATES = 1 << 16
-LOOKUP_BYTES = 40
+LOOKUP_BYTES = 48
 
 #: The grid-sized float64 arrays alive at the peak of a design's gradient iteration (the
 #: values, their gradient, the optimizer's moments, the surface's and the grid adjoint's

@@ -9,7 +9,9 @@ floating-point operation of the NumPy path is done here in the same order on the
 operands (IEEE double, no fused multiply-add: numba's default ``fastmath=False``), so:
 
 - the forward trajectory ``x, v, f`` is bit-identical to the NumPy path's, on the bilinear
-  grid (the same per-cell table, :func:`pes_ref.core.bilinear.coefficient_table`), springs
+  grid (the same per-cell coefficients, :func:`pes_ref.core.bilinear.coefficient_table`'s: a
+  population's loops and the quasistatic ones read the table, one grid's dynamic loops
+  compute a cell's row from the values as they step, :func:`_cell_coefficients`), springs
   (the minimum image by ``fmod`` as NumPy's ``np.mod`` computes it), walls, damping and the
   external force;
 - every gradient but two is bit-identical too; the grid gradient is accumulated per state
@@ -23,6 +25,10 @@ Each particle's operations are the same in the same order on any thread, so its 
 its own run's, bit for bit; the grid gradient, a sum over particles, is accumulated in
 :data:`LANES` lanes of consecutive blocks, each into its own table gradient, added in lane
 order: the partition is fixed by N, so no number depends on the thread count.
+
+A small dynamic run (:data:`LOOKUP_STATES`) keeps each state's grid lookup, which its adjoint
+reads where the state's position is still the one looked up (:func:`_lookups`): the lookup's
+divisions and floors, most of an adjoint step's time, are then done once.
 
 A population (:mod:`pes_ref.core.population`) runs with the grid offset of each particle
 added to its cell (``Field.offsets``). The bicubic grid and the GJF step are not compiled:
@@ -173,6 +179,44 @@ def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wrap
     row = _row(cell, i, offsets, table.shape[0])
     F0 = (table[row, 2] * f1 + table[row, 0]) * s0
     F1 = (table[row, 3] * f0 + table[row, 1]) * s1
+    return _terms_force(q0, q1, i, F0, F1, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, won, wk, wlo, whi)
+
+
+@njit(inline="always", **_JIT)
+def _cell_coefficients(values, i0, j0, nih0, nih1):
+    """Cell ``(i0, j0)``'s row ``(A0, A1, D0, D1)`` of :func:`_coefficient_table`, from the
+    grid's values: the same differences of the same nodes (the next ones wrapped), scaled
+    by ``-1/h`` in the same order, so the same numbers bit for bit."""
+    ip = i0 + 1
+    if ip == values.shape[0]:
+        ip = 0
+    jp = j0 + 1
+    if jp == values.shape[1]:
+        jp = 0
+    i, j, ip, jp = np.uint64(i0), np.uint64(j0), np.uint64(ip), np.uint64(jp)
+    d0a = values[ip, j] - values[i, j]
+    d1a = values[i, jp] - values[i, j]
+    return (d0a * nih0, d1a * nih1, ((values[ip, jp] - values[i, jp]) - d0a) * nih0,
+            ((values[ip, jp] - values[ip, j]) - d1a) * nih1)
+
+
+@njit(inline="always", **_JIT)
+def _cell_d0(values, i0, j0, nih0):
+    """Cell ``(i0, j0)``'s ``D0`` of :func:`_cell_coefficients` alone (the cross term's)."""
+    ip = i0 + 1
+    if ip == values.shape[0]:
+        ip = 0
+    jp = j0 + 1
+    if jp == values.shape[1]:
+        jp = 0
+    i, j, ip, jp = np.uint64(i0), np.uint64(j0), np.uint64(ip), np.uint64(jp)
+    return ((values[ip, jp] - values[i, jp]) - (values[ip, j] - values[i, j])) * nih0
+
+
+@njit(inline="always", **_JIT)
+def _terms_force(q0, q1, i, F0, F1, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, won, wk, wlo, whi):
+    """The grid's force ``(F0, F1)`` of particle ``i`` at ``(q0, q1)`` plus the spring's
+    ``-k delta`` and the walls' ``k (clip(q, a, b) - q)``, in that order."""
     if son:
         d0, d1 = _spring_d(q0, q1, i, sc, wraps, swrap0, swrap1, shalf, slen)
         F0 = F0 - sk[i, 0] * d0
@@ -194,18 +238,19 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, table, nih1, offsets
     :func:`pes_ref.core.bilinear.cross_table` in its order, so the same number bit for bit
     (the forward's table serves the adjoint; no cross table is built)."""
     cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
-    return _vjp_at(q0, q1, i, cell, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, table, nih1, offsets, gtab, want_values,
+    row = _row(cell, i, offsets, table.shape[0])
+    return _vjp_at(q0, q1, i, row, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, table[row, 2], nih1, gtab, want_values,
                    son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, (gc, walls))
 
 
 @njit(inline="always", **_JIT)
-def _vjp_at(q0, q1, i, cell, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, table, nih1, offsets, gtab, want_values,
+def _vjp_at(q0, q1, i, row, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, d0, nih1, gtab, want_values,
             son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, rest):
-    """:func:`_vjp` at the cell and fractions that :func:`_locate` gave for ``(q0, q1)``
-    (``rest``: ``(gc, walls)``, a tuple: numba inlines a function of at most 30 arguments)."""
+    """:func:`_vjp` at the table row (:func:`_row`), fractions and switches that :func:`_locate`
+    gave for ``(q0, q1)``, with the cell's ``d0`` (its coefficient table's ``D0``) (``rest``:
+    ``(gc, walls)``, a tuple: numba inlines a function of at most 30 arguments)."""
     gc, walls = rest
-    row = _row(cell, i, offsets, table.shape[0])
-    hcs = table[row, 2] * nih1
+    hcs = d0 * nih1
     if clips:
         hcs = hcs * s0 * s1
     xb0 = xb0 - hcs * w1
@@ -457,21 +502,24 @@ def table_grad_to_values(gtab: np.ndarray, h, shape: tuple, flat: bool = True) -
 
 
 @njit(inline="always", **_JIT)
-def _keep(lkf, lki, n, i, q0, q1, cell, f0, f1, s0, s1):
+def _keep(lkf, lki, n, i, q0, q1, cell, i0, j0, f0, f1, s0, s1):
     """Keep state ``n``'s lookup of particle ``i`` at ``(q0, q1)``: ``lkf[n, i] = (q0, q1, f0,
-    f1)`` and ``lki[n, i] = 4 cell + 2 s0 + s1`` (the switches are 0 or 1)."""
+    f1)``, ``lki[n, i] = (4 cell + 2 s0 + s1, 2^32 i0 + j0)`` (the switches are 0 or 1)."""
     lkf[n, i, 0] = q0
     lkf[n, i, 1] = q1
     lkf[n, i, 2] = f0
     lkf[n, i, 3] = f1
-    lki[n, i] = cell * 4 + (2 if s0 != 0.0 else 0) + (1 if s1 != 0.0 else 0)
+    lki[n, i, 0] = cell * 4 + (2 if s0 != 0.0 else 0) + (1 if s1 != 0.0 else 0)
+    lki[n, i, 1] = (i0 << 32) + j0
 
 
 @njit(inline="always", **_JIT)
 def _kept(lkf, lki, n, i):
-    """State ``n``'s lookup of particle ``i`` that :func:`_keep` kept: ``(cell, f0, f1, s0, s1)``."""
-    code = lki[n, i]
-    return code >> 2, lkf[n, i, 2], lkf[n, i, 3], 1.0 if code & 2 else 0.0, 1.0 if code & 1 else 0.0
+    """State ``n``'s lookup of particle ``i`` that :func:`_keep` kept: ``(cell, i0, j0, f0, f1, s0, s1)``."""
+    code = lki[n, i, 0]
+    ij = lki[n, i, 1]
+    return (code >> 2, ij >> 32, ij & 0xFFFFFFFF, lkf[n, i, 2], lkf[n, i, 3], 1.0 if code & 2 else 0.0,
+            1.0 if code & 1 else 0.0)
 
 
 def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -> SimpleNamespace:
@@ -496,7 +544,7 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
 
     @njit(**jit)
     def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls,
-                       energy, lookups):
+                       energy, lookups, direct):
         """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_dynamic`, and
         from ``start = 0`` the initial force ``F_0 = F(X_0) + F_ext[0]`` first (as a step -1
         that is only (S3): one copy of the force in the loop); the particles of each block
@@ -504,9 +552,14 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
         in cache) through all the steps before the next block's (particles are independent:
         the order changes no number). ``energy`` (:func:`_energy_terms`) on: each state's
         energy into its ``out`` as the state is made, at the state's lookup (:func:`_energy_at`).
-        ``lookups`` (:func:`_lookups`) on: each state's position and grid lookup kept for the adjoint."""
+        ``lookups`` (:func:`_lookups`) on: each state's position and grid lookup kept for the adjoint.
+        ``direct`` ``(on, values)`` on (one grid): a cell's coefficients from the grid's values
+        (:func:`_cell_coefficients`, the table's numbers), no table."""
         g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         keep, lkf, lki = lookups
+        from_values, values = direct
+        nih0 = -1.0 / g[2]                         # as coefficient_table's -1/h
+        nih1 = -1.0 / g[3]
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         e_on, eout, em, evalues, espring, ewalls = energy
@@ -533,9 +586,14 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
                     # (S3) force: F_{n+1} = F(X_{n+1}) + F_ext[n+1]
                     cell, i0, j0, f0, f1, s0, s1 = _locate_ij(y0, y1, g, per0, per1, clips)
                     if keep:
-                        _keep(lkf, lki, n + 1, i, y0, y1, cell, f0, f1, s0, s1)
-                    F0, F1 = _force_at(y0, y1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0,
-                                       swrap1, shalf, slen, won, wk, wlo, whi)
+                        _keep(lkf, lki, n + 1, i, y0, y1, cell, i0, j0, f0, f1, s0, s1)
+                    if from_values:
+                        A0, A1, D0, D1 = _cell_coefficients(values, i0, j0, nih0, nih1)
+                        F0, F1 = _terms_force(y0, y1, i, (D0 * f1 + A0) * s0, (D1 * f0 + A1) * s1, son, sk, sc, wraps,
+                                              swrap0, swrap1, shalf, slen, won, wk, wlo, whi)
+                    else:
+                        F0, F1 = _force_at(y0, y1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0,
+                                           swrap1, shalf, slen, won, wk, wlo, whi)
                     if has_fext:
                         F0 = F0 + fext[n + 1, i, 0]
                         F1 = F1 + fext[n + 1, i, 1]
@@ -562,16 +620,19 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
     def _dynamic_adjoint_steps(x, v, f, gx, has_gx, gv, has_gv, start, stop, a, inv_1pc, minus_c, damped, dt,
                                xbar, vbar, fbar, want_abar, abar, want_cbar, cbar, want_force, gforce,
                                lanes, blocks, grid, nih1, gtabs, want_values, spring, want_k, gk, want_c, gc, walls,
-                               lookups):
+                               lookups, direct):
         """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_dynamic`,
         (B4)-(B1) and the objective's direct terms, per particle; down to ``start = 0``, then
         (B0), the adjoint of the initial force (as a step -1 that is only (B3)). The particles
         in ``lanes`` of ``blocks`` (lane ``l``: blocks ``lanes[l] .. lanes[l+1] - 1``), each lane
         with its own table gradient ``gtabs[l]`` (the caller sums them in lane order).
         ``lookups`` on: a state's grid lookup is the forward's (:func:`_kept`) where its position
-        is the one the forward looked up, else computed again (the same numbers either way)."""
+        is the one the forward looked up, else computed again (the same numbers either way).
+        ``direct`` as in :func:`_dynamic_steps`: a cell's ``D0`` from the values (:func:`_cell_d0`)."""
         g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         keep, lkf, lki = lookups
+        from_values, values = direct
+        nih0 = -1.0 / g[2]
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
         for lane in loop(lanes.size - 1):
@@ -609,12 +670,18 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
                             gforce[n + 1, i, 1] = fb1
                         q0, q1 = x[n + 1, i, 0], x[n + 1, i, 1]
                         if keep and q0 == lkf[n + 1, i, 0] and q1 == lkf[n + 1, i, 1]:
-                            cell, f0, f1, s0, s1 = _kept(lkf, lki, n + 1, i)
+                            cell, i0, j0, f0, f1, s0, s1 = _kept(lkf, lki, n + 1, i)
                         else:
-                            cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
-                        xb0, xb1 = _vjp_at(q0, q1, i, cell, f0, f1, s0, s1, fb0, fb1, xb0, xb1, clips, table, nih1,
-                                           offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
-                                           want_k, gk, want_c, (gc, walls))
+                            cell, i0, j0, f0, f1, s0, s1 = _locate_ij(q0, q1, g, per0, per1, clips)
+                        if from_values:
+                            row = _row(cell, i, offsets, gtab.shape[0])
+                            d0 = _cell_d0(values, i0, j0, nih0)
+                        else:
+                            row = _row(cell, i, offsets, table.shape[0])
+                            d0 = table[row, 2]
+                        xb0, xb1 = _vjp_at(q0, q1, i, row, f0, f1, s0, s1, fb0, fb1, xb0, xb1, clips, d0, nih1, gtab,
+                                           want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk,
+                                           want_c, (gc, walls))
                         if n < 0:
                             xbar[i, 0], xbar[i, 1] = xb0, xb1
                             continue
@@ -797,6 +864,8 @@ _NONE2_RO.setflags(write=False)
 _NONE3_RO = _NONE3.copy()
 _NONE3_RO.setflags(write=False)
 _ONE_LANE = np.array([0, 1], dtype=np.intp)
+_NO_TABLE = np.zeros((1, 4))
+_NO_DIRECT = (False, _NONE2_RO)
 _NO_SPRING = (False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2))
 _NO_ENERGY_WALLS = (False, np.zeros(1), _NONE2, _NONE2)
 
@@ -912,11 +981,21 @@ def _wraps(spring: tuple) -> bool:
     return bool(spring[0] and (spring[3] or spring[4]))
 
 
-def _forward_terms(field, n: int):
+def _direct(field) -> tuple:
+    """``(on, values)``, the ``direct`` argument of the dynamic loops: on for one grid (no
+    population), whose loops then take a cell's coefficients from its values
+    (:func:`_cell_coefficients`: the table's numbers) and build no table."""
+    if field.offsets is None and field.values.ndim == 2:
+        return True, _readonly(field.values)
+    return _NO_DIRECT
+
+
+def _forward_terms(field, n: int, table: bool = True):
     """Whether the forward kernels take the minimum image (``wraps``, the key of
     :func:`kernels`) and their grid, spring and walls arguments: the spring only where the
-    NumPy path builds its kernel (some nonzero ``k``), its minimum image where it pulls."""
-    grid = _grid(field, n, grid_table(field))
+    NumPy path builds its kernel (some nonzero ``k``), its minimum image where it pulls;
+    the grid's coefficient table unless ``table`` is False (a placeholder then)."""
+    grid = _grid(field, n, grid_table(field) if table else _NO_TABLE)
     axes = () if field.spring is None else spring_axes(field.spring[0])
     spring = _spring(field, n, bool(axes), axes)
     return _wraps(spring), grid, spring, _walls(field, n)
@@ -929,14 +1008,16 @@ class _Adjoint:
     particle lanes (:func:`lanes_of`), each with its own table gradient (zeroed buffers of
     :func:`_zeroed`), summed in lane order by ``result()`` as it maps them to the grid."""
 
-    def __init__(self, field, xs: np.ndarray, want: frozenset, parallel: bool = False):
+    def __init__(self, field, xs: np.ndarray, want: frozenset, parallel: bool = False, direct=_NO_DIRECT):
         n = xs.shape[1]
         self.field, self.xs = field, xs
         self.want_values = "values" in want
-        self.grid = _grid(field, n, grid_table(field))
+        self.direct = direct                       # (a dynamic loop's: the cross term from the values, no table)
+        self.grid = _grid(field, n, _NO_TABLE if direct[0] else grid_table(field))
         self.nih1 = -1.0 / field.h[1]                         # as cross_table's: (D0 (-1/h0)) (-1/h1)
         self.lanes, self.blocks = lanes_of(n) if parallel else (_ONE_LANE, np.array([0, n], dtype=np.intp))
-        self.gtabs = _zeroed((self.lanes.size - 1, self.grid[4].shape[0], 4)) if self.want_values else _NONE3
+        rows = field.values.size if direct[0] else self.grid[4].shape[0]
+        self.gtabs = _zeroed((self.lanes.size - 1, rows, 4)) if self.want_values else _NONE3
         self.gtab = self.gtabs[0] if self.want_values else _NONE2
         has_spring = field.spring is not None
         self.want_k = has_spring and "spring_k" in want
@@ -1034,11 +1115,11 @@ def _give_back(buf: np.ndarray) -> None:
 #: key, lkf, lki)``, or None (:func:`_lookups`): its adjoint reads them instead of looking
 #: each state up again, where the state's position is still the one looked up.
 _LOOKUPS = [None]
-#: A run keeps its lookups up to this many particle-states ((T+1) N; LOOKUP_BYTES = 40 each,
+#: A run keeps its lookups up to this many particle-states ((T+1) N; LOOKUP_BYTES = 48 each,
 #: which :func:`pes_ref.core.budget.run_bytes` counts): a small run's adjoint is bound by the
 #: lookup's divisions, a large one's by memory.
 LOOKUP_STATES = budget.LOOKUP_STATES
-_NO_LOOKUPS = (False, np.zeros((1, 1, 4)), np.zeros((1, 1), dtype=np.int64))
+_NO_LOOKUPS = (False, np.zeros((1, 1, 4)), np.zeros((1, 1, 2), dtype=np.int64))
 
 
 def _drop_lookups(ref) -> None:
@@ -1061,7 +1142,7 @@ def _lookups(field, x: np.ndarray, grid) -> tuple:
     key = _lookup_key(field, grid)
     if key is None or x.shape[0] * x.shape[1] > LOOKUP_STATES:
         return _NO_LOOKUPS
-    lkf, lki = np.empty(x.shape[:2] + (4,)), np.empty(x.shape[:2], dtype=np.int64)
+    lkf, lki = np.empty(x.shape[:2] + (4,)), np.empty(x.shape[:2] + (2,), dtype=np.int64)
     _LOOKUPS[0] = (weakref.ref(x, _drop_lookups), key, lkf, lki)
     return True, lkf, lki
 
@@ -1091,7 +1172,8 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
     x[0], v[0] = x0, v0
     if energy is not None and field.offsets is not None:
         raise ValueError("a population's energy is not computed in its forward loop")
-    wraps, grid, spring, walls = _forward_terms(field, N)
+    direct = _direct(field)
+    wraps, grid, spring, walls = _forward_terms(field, N, table=not direct[0])
     energy = _energy_terms(field, N, mass, energy)
     wraps = wraps or (energy[0] and energy_wraps(field))
     ext, has_fext = _c3(fext)
@@ -1105,7 +1187,7 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
     lookups = _lookups(field, x, grid)
     for start, stop in step_blocks(T, progress, "forward"):         # from step 0: F_0 first
         K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, float(dt), grid, spring,
-                        walls, energy, lookups)
+                        walls, energy, lookups, direct)
     traj = Trajectory(x, v, f)
     if refuse_nonfinite:
         check_finite(traj, f"dt={dt!r}")
@@ -1118,7 +1200,7 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
     the grid's summed in another order, and in the grid's shape (n0, n1))."""
     x, v, f = (_kernel_array(a) for a in traj)
     T, N = x.shape[0] - 1, x.shape[1]
-    adj = _Adjoint(field, x, want, parallel=N >= PARALLEL_MIN)
+    adj = _Adjoint(field, x, want, parallel=N >= PARALLEL_MIN, direct=_direct(field))
     a, c = step_coefficients(dt, mass, damping, N)
     damped = c is not None
     inv_1pc, minus_c = (1.0 / (1.0 + c), -c) if damped else (_NONE2, _NONE2)
@@ -1136,7 +1218,8 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
     for done, after in step_blocks(T, progress, "adjoint"):
         adj.kernels.dynamic_adjoint_steps(x, v, f, gx_, has_gx, gv_, has_gv, T - after, T - done, a, inv_1pc, minus_c,
                                           damped, float(dt), xbar, vbar, fbar, want_abar, _or(abar), want_cbar,
-                                          _or(cbar), gforce is not None, _or3(gforce), *adj.lane_terms(), lookups)
+                                          _or(cbar), gforce is not None, _or3(gforce), *adj.lane_terms(), lookups,
+                                          adj.direct)
     return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c if damped else None, mass,
                                   want_damping, initial_force=False)      # (B0) was the loop's last
 

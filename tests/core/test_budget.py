@@ -98,7 +98,7 @@ def test_a_grid_that_cannot_fit_is_refused_before_it_is_made():
 def test_the_memory_formula():
     """bytes = arrays * (T+1) * N * 2 * 8, with the arrays each kind of run holds, and a small
     run's kept lookups."""
-    assert budget.run_bytes(99, 5, "simulate") == budget.ARRAYS["simulate"] * 100 * 5 * 2 * 8 + 40 * 100 * 5
+    assert budget.run_bytes(99, 5, "simulate") == budget.ARRAYS["simulate"] * 100 * 5 * 2 * 8 + 48 * 100 * 5
     big = budget.LOOKUP_STATES
     assert budget.run_bytes(big, 1, "case") == budget.ARRAYS["case"] * (big + 1) * 2 * 8
     assert budget.ARRAYS["simulate"] < budget.ARRAYS["value_and_grad"] < budget.ARRAYS["case"]

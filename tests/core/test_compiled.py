@@ -432,3 +432,16 @@ def test_a_large_run_keeps_no_lookups(monkeypatch):
                                      scene.damping)
     assert compiled._LOOKUPS[0] is None or compiled._LOOKUPS[0][0]() is not traj.x
     assert compiled._kept_lookups(field, traj.x, compiled._grid(field, 5, compiled.grid_table(field)))[0] is False
+
+
+@pytest.mark.parametrize("periodic", [(False, False), (False, True), (True, True)])
+def test_the_dynamic_loops_coefficients_from_the_values_are_the_tables(periodic, monkeypatch):
+    """On one grid the dynamic loops take a cell's coefficients from its values, no table:
+    the same trajectory, energy and gradients, bit for bit, as the loops that read the table."""
+    scene, x0 = _oracle_scene(periodic, 6)
+    case = case_from_scene(scene, x0, np.full((6, 2), 0.1), pr.Funnel(target=0.5, when="every_step"))
+    direct = oracle.run_case(case, backend="numba")
+    monkeypatch.setattr(compiled, "_direct", lambda field: compiled._NO_DIRECT)
+    table = oracle.run_case(case, backend="numba")
+    assert direct.keys() == table.keys()
+    assert all(direct[k].tobytes() == table[k].tobytes() for k in direct)
