@@ -21,7 +21,7 @@ import importlib
 import importlib.util
 from typing import NamedTuple
 
-from pes_ref.core import checks
+from pes_ref.core import checks, halves
 from pes_ref.core.steppers import Stepper, stepper as numpy_stepper
 
 __all__ = ["Backend", "BACKENDS", "DEFAULT_ORDER", "installed", "default_backend", "check_backend", "stepper",
@@ -91,9 +91,14 @@ def covers(backend: str, mode: str, integrator: str, interpolation: str) -> bool
     return interpolation in BACKENDS[backend].interpolations and (mode, integrator) in _steppers(backend)
 
 
-def stepper(backend: str, mode: str, integrator: str, interpolation: str) -> Stepper:
+def stepper(backend: str, mode: str, integrator: str, interpolation: str, n_particles: int | None = None) -> Stepper:
     """The stepper that runs ``(mode, integrator)`` on an ``interpolation`` grid for
-    ``backend`` (checked): its own when it covers the scene, else NumPy's."""
+    ``backend`` (checked): its own when it covers the scene, else NumPy's, which for a run of
+    ``n_particles`` >= :data:`pes_ref.core.halves.MIN_PARTICLES` runs the particles as two halves
+    on two threads (:func:`pes_ref.core.halves.stepper`; None: one thread, as a population's
+    stacked grids need)."""
     if backend != "numpy" and covers(backend, mode, integrator, interpolation):
         return _steppers(backend)[(mode, integrator)]
+    if n_particles is not None and n_particles >= halves.MIN_PARTICLES:
+        return halves.stepper(numpy_stepper(mode, integrator))
     return numpy_stepper(mode, integrator)

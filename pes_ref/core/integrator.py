@@ -54,7 +54,12 @@ __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasis
 
 
 class NonFiniteError(FloatingPointError):
-    """A trajectory left the finite numbers (usually: dt past the stability limit)."""
+    """A trajectory left the finite numbers (usually: dt past the stability limit); ``step``
+    is its first non-finite state, where :func:`check_finite` found it (else None)."""
+
+    def __init__(self, message: str, step: int | None = None):
+        super().__init__(message)
+        self.step = step
 
 
 class Trajectory(NamedTuple):
@@ -80,7 +85,7 @@ def check_finite(traj: Trajectory, step_name: str) -> None:
     if not (np.isfinite(traj.x[-1]).all() and np.isfinite(traj.v[-1]).all() and np.isfinite(traj.f[-1]).all()):
         finite = [np.isfinite(a).all(axis=(1, 2)) for a in traj]
         bad = int(np.argmax(~(finite[0] & finite[1] & finite[2])))
-        raise NonFiniteError(f"the trajectory became non-finite at step {bad} ({step_name})")
+        raise NonFiniteError(f"the trajectory became non-finite at step {bad} ({step_name})", step=bad)
 
 
 def reports_nonfinite(simulate_fn):

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field as dc_field
 
 import numpy as np
 
-from pes_ref.core import backends, budget, checks
+from pes_ref.core import backends, budget, checks, halves
 from pes_ref.core import stability
 from pes_ref.core.effects import all_zero, build_schedule, step_times
 from pes_ref.core.bilinear import BilinearForce
@@ -315,9 +315,9 @@ def _step_params(scene: Scene, progress=None, energy=None) -> StepParams:
                       progress, energy=energy)
 
 
-def _stepper(scene: Scene, backend: str):
-    """The stepper of ``scene`` on ``backend`` (:func:`pes_ref.core.backends.stepper`)."""
-    return backends.stepper(backend, scene.mode, scene.integrator, scene.surface.interpolation)
+def _stepper(scene: Scene, backend: str, n_particles: int):
+    """The stepper of a run of ``scene`` on ``backend`` (:func:`pes_ref.core.backends.stepper`)."""
+    return backends.stepper(backend, scene.mode, scene.integrator, scene.surface.interpolation, n_particles)
 
 
 @_explains_nonfinite
@@ -326,7 +326,7 @@ def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy", 
     """The run; ``energy`` an :class:`_EnergyOut` that its loop may fill (:attr:`StepParams.energy`),
     or None; ``field`` the scene's :meth:`Scene.field` when the caller has it already."""
     field = scene.field() if field is None else field
-    return _stepper(scene, backend).simulate(field, x0, v0, fext, _step_params(scene, progress, energy))
+    return _stepper(scene, backend, x0.shape[0]).simulate(field, x0, v0, fext, _step_params(scene, progress, energy))
 
 
 #: Particle-states per chunk of :func:`energy` on NumPy: its ~20 temporaries then stay in cache
@@ -496,9 +496,15 @@ class _EnergyOut:
     ``out`` (T+1, N), which the compiled loop fills (setting ``filled``), and :meth:`bind`, the
     NumPy loop's per-state energy at its force's own lookup."""
 
-    def __init__(self, scene: Scene, out: np.ndarray):
+    def __init__(self, scene: Scene, out: np.ndarray, mass=None):
         self.scene, self.out, self.filled = scene, out, False
+        self.mass = scene.mass if mass is None else mass
         self.errors_ignored = False      # computed under the NumPy loop's np.errstate (overflow ignored)
+
+    def part(self, sl: slice) -> "_EnergyOut":
+        """The sink of the particles ``sl`` of the run (a half, :mod:`pes_ref.core.halves`): its
+        columns of ``out``, with their masses."""
+        return _EnergyOut(self.scene, self.out[:, sl], halves.part(self.mass, sl, self.out.shape[1]))
 
     def bind(self, force, field: Field):
         """``step(x, v, row)``: the energy of one state (N, 2) into ``row`` (N,), right after
@@ -511,7 +517,7 @@ class _EnergyOut:
         grid = force.grid
         if not (isinstance(grid, BilinearForce) and field.offsets is None and self.out.shape[1] >= ENERGY_CHUNK):
             return None
-        terms = _BilinearEnergy(field, self.scene.mass, self.out.shape[1], 1)
+        terms = _BilinearEnergy(field, self.mass, self.out.shape[1], 1)
         cell, f, into = grid.buf["cell"], grid.buf["f"], terms.into
         self.filled = self.errors_ignored = True
 
@@ -584,7 +590,7 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
             _check_energy_out(energy_out, (scene.n_steps + 1, n))
     want = _wanted(scene, wrt)
     backend = backends.check_backend(backend)
-    stepper = _stepper(scene, backend)
+    stepper = _stepper(scene, backend, n)
     sink = None if energy_out is None else _EnergyOut(scene, energy_out)
     fld = scene.field()                                         # one for the run and its adjoint
     traj = _forward(scene, x0, v0, fext, progress, backend, sink, fld)

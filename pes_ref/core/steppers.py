@@ -41,7 +41,8 @@ class StepParams(NamedTuple):
     where a dynamic forward loop puts each state's total energy as it makes the state, at
     the state's own grid lookup: its ``out``, a float64 (T+1, N) array, which a loop that
     fills it marks ``filled``; the NumPy loop computes each state's by ``energy.bind(force,
-    field)`` (:func:`pes_ref.core.integrator.simulate_dynamic`). A loop that does not (the
+    field)`` (:func:`pes_ref.core.integrator.simulate_dynamic`), and ``energy.part(sl)`` is the
+    sink of the particles ``sl`` (:mod:`pes_ref.core.halves`). A loop that does not (the
     GJF and quasistatic steps, another grid) leaves it, and the energy to a pass after the
     run (:func:`pes_ref.core.scene.value_and_grad`).
     """

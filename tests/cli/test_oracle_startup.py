@@ -37,6 +37,7 @@ ORACLE_IMPORTS = {
     "pes_ref.core.scene", "pes_ref.core.stability", "pes_ref.core.steppers", "pes_ref.core.surface",
     "pes_ref.core.terms", "pes_ref.core.runtime", "pes_ref.core.runtime.files", "pes_ref.core.runtime.signals",
     "pes_ref.core.backends",                # the registry of loops: finds numba, never imports it here
+    "pes_ref.core.halves",                  # a large case's NumPy run, as two halves on two threads
     "argparse", "gettext", "locale", "_locale", "copy", "dataclasses",
     "zipfile", "shutil", "binascii", "zlib", "bz2", "_bz2", "lzma", "_lzma", "_compression",
     "encodings.ascii", "encodings.cp437",

@@ -109,11 +109,16 @@ def test_available_memory_is_read():
     assert avail is None or avail > 0
 
 
+@pytest.mark.parametrize("halved", [False, True], ids=["one-thread", "halves"])
 @pytest.mark.parametrize("kind", ["simulate", "value_and_grad", "case"])
-def test_the_estimate_bounds_the_measured_peak(kind):
+def test_the_estimate_bounds_the_measured_peak(kind, halved, monkeypatch):
     """The formula is an upper bound of what tracemalloc sees a run allocate (a scene with
-    every term, a force schedule and the oscillator objective: the largest measured)."""
+    every term, a force schedule and the oscillator objective: the largest measured), on one
+    thread and as two halves on two threads (:mod:`pes_ref.core.halves`)."""
     import tracemalloc
+    from pes_ref.core import halves
+    if halved:
+        monkeypatch.setattr(halves, "MIN_PARTICLES", 2)
     T, N = 2000, 30
     surf = pr.Surface(np.random.default_rng(0).uniform(0, 0.1, (12, 12)), (0, 0), (1, 1), (False, False))
     scene = pr.Scene(surf, dt=0.001, n_steps=T, damping=0.1, spring=pr.Spring(1.0, (0.5, 0.5)),
