@@ -35,10 +35,11 @@ from pes_ref.core.steppers import Stepper, StepParams
 
 __all__ = ["MIN_PARTICLES", "SUMMED", "split", "stepper", "part"]
 
-#: From this many particles on, a NumPy run is two halves on two threads
-#: (docs/performance.md, 'Every gradient through the oracle': at 4,096 particles the halves'
-#: operations are too short to gain from a second thread).
-MIN_PARTICLES = 8192
+#: From this many particles on, a NumPy run is two halves on two threads (docs/performance.md,
+#: 'Every gradient through the oracle': a run of 100 steps takes 0.78x its one-thread time at
+#: 32,768 particles and 0.68x at 65,536, but 0.95x at 16,384 and 1.09x at 8,192, where the
+#: halves' operations are too short to outweigh the threads' turns at the GIL).
+MIN_PARTICLES = 32768
 
 #: The raw gradients (:attr:`Stepper.adjoint`'s dict) that are sums over the particles: the
 #: halves' are added, the first's plus the second's. Every other is per particle, along axis 0
