@@ -183,17 +183,23 @@ def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wrap
 
 
 @njit(inline="always", **_JIT)
-def _cell_coefficients(values, i0, j0, nih0, nih1):
-    """Cell ``(i0, j0)``'s row ``(A0, A1, D0, D1)`` of :func:`_coefficient_table`, from the
-    grid's values: the same differences of the same nodes (the next ones wrapped), scaled
-    by ``-1/h`` in the same order, so the same numbers bit for bit."""
+def _cell_nodes(values, i0, j0):
+    """Cell ``(i0, j0)``'s nodes ``(i, j, ip, jp)``, the next ones wrapped, unsigned (as :func:`_row`)."""
     ip = i0 + 1
     if ip == values.shape[0]:
         ip = 0
     jp = j0 + 1
     if jp == values.shape[1]:
         jp = 0
-    i, j, ip, jp = np.uint64(i0), np.uint64(j0), np.uint64(ip), np.uint64(jp)
+    return np.uint64(i0), np.uint64(j0), np.uint64(ip), np.uint64(jp)
+
+
+@njit(inline="always", **_JIT)
+def _cell_coefficients(values, i0, j0, nih0, nih1):
+    """Cell ``(i0, j0)``'s row ``(A0, A1, D0, D1)`` of :func:`_coefficient_table`, from the
+    grid's values: the same differences of the same nodes (the next ones wrapped), scaled
+    by ``-1/h`` in the same order, so the same numbers bit for bit."""
+    i, j, ip, jp = _cell_nodes(values, i0, j0)
     d0a = values[ip, j] - values[i, j]
     d1a = values[i, jp] - values[i, j]
     return (d0a * nih0, d1a * nih1, ((values[ip, jp] - values[i, jp]) - d0a) * nih0,
@@ -203,13 +209,7 @@ def _cell_coefficients(values, i0, j0, nih0, nih1):
 @njit(inline="always", **_JIT)
 def _cell_d0(values, i0, j0, nih0):
     """Cell ``(i0, j0)``'s ``D0`` of :func:`_cell_coefficients` alone (the cross term's)."""
-    ip = i0 + 1
-    if ip == values.shape[0]:
-        ip = 0
-    jp = j0 + 1
-    if jp == values.shape[1]:
-        jp = 0
-    i, j, ip, jp = np.uint64(i0), np.uint64(j0), np.uint64(ip), np.uint64(jp)
+    i, j, ip, jp = _cell_nodes(values, i0, j0)
     return ((values[ip, jp] - values[i, jp]) - (values[ip, j] - values[i, j])) * nih0
 
 
