@@ -15,7 +15,6 @@ the same steps; each kernel compiles once for every scene (its arguments' types 
 change), and the oracle never imports numba unless asked (``tests/cli/test_oracle_startup.py``).
 """
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
