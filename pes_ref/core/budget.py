@@ -46,8 +46,8 @@ import numpy as np
 
 from pes_ref.core import checks
 
-__all__ = ["ARRAYS", "LOOKUP_STATES", "LOOKUP_BYTES", "GRID_ARRAYS", "RunTooLargeError", "RunEstimate", "StepCost", "TYPICAL_COST", "run_bytes",
-           "available_memory", "check_memory", "check_grid_memory", "step_cost", "estimate_seconds", "estimate"]
+__all__ = ["ARRAYS", "LOOKUP_STATES", "LOOKUP_BYTES", "GRID_ARRAYS", "RunTooLargeError", "RunEstimate", "StepCost",
+           "TYPICAL_COST", "run_bytes", "available_memory", "check_memory", "check_grid_memory", "step_cost", "estimate_seconds", "estimate"]
 
 #: The (T+1, N, 2) float64 arrays (or their size in other dtypes) alive at the peak of
 #: each kind of run, as measured with ``tracemalloc`` plus a margin: ``simulate`` (x, v,
@@ -60,8 +60,7 @@ ARRAYS = {"simulate": 5, "value_and_grad": 15, "case": 21}
 #: A compiled dynamic run of at most this many particle-states ((T+1) N) keeps each state's
 #: grid lookup for its adjoint (:func:`pes_ref.core.compiled._lookups`), ``LOOKUP_BYTES``
 #: each (its position, two fractions, the cell, its row and column and switches): at most
-#: 3.1 MB, which
-#: :func:`run_bytes` counts.
+#: 3.1 MB, which :func:`run_bytes` counts.
 LOOKUP_STATES = 1 << 16
 LOOKUP_BYTES = 48
 

@@ -759,8 +759,8 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
                     gforce[n, i, 0] = fb0
                     gforce[n, i, 1] = fb1
                 xb0, xb1 = _vjp(x[n, i, 0], x[n, i, 1], i, fb0, fb1, xb0, xb1, g, per0, per1, clips, table, nih1,
-                                offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c,
-                                gc, walls)
+                                offsets, gtab, want_values, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk,
+                                want_c, gc, walls)
                 if has_gx:
                     xb0 = xb0 + gx[n, i, 0]
                     xb1 = xb1 + gx[n, i, 1]
@@ -1153,7 +1153,8 @@ def _kept_lookups(field, x: np.ndarray, grid) -> tuple:
     lookup only where ``x`` holds the very position it was made at (:func:`_kept`), so
     positions written since are looked up again."""
     entry = _LOOKUPS[0]
-    if entry is None or entry[0]() is not x or entry[1] != _lookup_key(field, grid) or entry[2].shape[:2] != x.shape[:2]:
+    if (entry is None or entry[0]() is not x or entry[1] != _lookup_key(field, grid)
+            or entry[2].shape[:2] != x.shape[:2]):
         return _NO_LOOKUPS
     return True, entry[2], entry[3]
 
