@@ -45,6 +45,7 @@ from typing import NamedTuple
 import numpy as np
 
 from pes_ref.core import checks
+from pes_ref.core.runtime import pages
 
 __all__ = ["ARRAYS", "LOOKUP_STATES", "LOOKUP_BYTES", "GRID_ARRAYS", "RunTooLargeError", "RunEstimate", "StepCost",
            "TYPICAL_COST", "run_bytes", "available_memory", "check_memory", "check_grid_memory", "step_cost", "estimate_seconds", "estimate"]
@@ -99,7 +100,14 @@ def run_bytes(n_steps: int, n_particles: int, kind: str) -> int:
 
 def available_memory() -> int | None:
     """The memory a new run can take, in bytes: ``MemAvailable`` of ``/proc/meminfo``, or
-    the free physical pages (``os.sysconf``); None when neither is known."""
+    the free physical pages (``os.sysconf``), plus the idle maps that a new run reuses or gives
+    back first (:func:`pes_ref.core.runtime.pages.idle_bytes`); None when neither is known."""
+    system = _system_memory()
+    return None if system is None else system + pages.idle_bytes()
+
+
+def _system_memory() -> int | None:
+    """``MemAvailable`` of ``/proc/meminfo``, or the free physical pages; None when neither is known."""
     try:                                    # one read of the raw bytes (it is the third line)
         fd = os.open("/proc/meminfo", os.O_RDONLY)
         try:

@@ -54,6 +54,7 @@ from numba import njit, prange
 from pes_ref.core import budget
 from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, finish_quasistatic_adjoint,
                                      quasistatic_velocities, reports_nonfinite, step_coefficients, trajectory_arrays)
+from pes_ref.core.runtime import pages
 from pes_ref.core.runtime.progress import blocks as step_blocks
 from pes_ref.core.steppers import STEPPERS as NUMPY_STEPPERS, Stepper, StepParams
 from pes_ref.core.terms import spring_axes
@@ -841,7 +842,7 @@ def energy(field, x: np.ndarray, v: np.ndarray, mass, out=None) -> np.ndarray:
     x, v = _kernel_array(x), _kernel_array(v)
     T1, N = x.shape[0], x.shape[1]
     g, per0, per1, clips = _grid(field, N, _NONE2)[:4]
-    out = np.empty((T1, N)) if out is None else out
+    out = pages.empty((T1, N)) if out is None else out
     _, out, m, values, spring, walls = _energy_terms(field, N, mass, out)
     parallel = N >= PARALLEL_MIN
     ENERGY[parallel](x, v, m, particle_blocks(N) if parallel else np.array([0, N], dtype=np.intp),
@@ -1209,7 +1210,7 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
     want_abar, want_cbar = want_mass, want_damping or (want_mass and damped)
     abar = np.zeros((N, 2)) if want_abar else None
     cbar = np.zeros((N, 2)) if want_cbar else None
-    gforce = np.empty((T + 1, N, 2)) if "force" in want else None     # every state written
+    gforce = pages.empty((T + 1, N, 2)) if "force" in want else None     # every state written
     gx_, has_gx = _c3(gx)
     gv_, has_gv = _c3(gv)
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
@@ -1251,7 +1252,7 @@ def adjoint_quasistatic(field, traj: Trajectory, mobility, gx, want: frozenset, 
     x, f = _kernel_array(traj.x), _kernel_array(traj.f)
     T, N = x.shape[0] - 1, x.shape[1]
     adj = _Adjoint(field, x, want)
-    gforce = np.empty((T + 1, N, 2)) if "force" in want else None
+    gforce = pages.empty((T + 1, N, 2)) if "force" in want else None
     if gforce is not None:
         gforce[T] = 0.0                      # F_ext[T] moves nothing; the loop writes the others
     mubar = np.zeros(2) if "mobility" in want else None

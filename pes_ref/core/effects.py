@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
+from pes_ref.core.runtime import pages
 
 __all__ = ["Constant", "PerParticle", "Window", "Noise", "Schedule", "build_schedule", "step_times", "all_zero"]
 
@@ -167,7 +168,7 @@ def build_schedule(effects, n_particles: int, n_steps: int, dt: float, t0: float
     if not effects:
         return None
     if out is None:
-        sched = np.zeros((n_steps + 1, n_particles, 2))
+        sched = pages.zeros((n_steps + 1, n_particles, 2))
     else:
         sched = out
         sched.fill(0.0)

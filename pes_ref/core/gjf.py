@@ -32,6 +32,7 @@ import numpy as np
 from pes_ref.core.forces import Field, ForceAdjoint
 from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, reports_nonfinite, start_dynamic,
                                      step_coefficients)
+from pes_ref.core.runtime import pages
 from pes_ref.core.runtime.progress import reporting
 
 __all__ = ["simulate_gjf", "adjoint_gjf"]
@@ -112,7 +113,7 @@ def adjoint_gjf(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, dam
     abar = np.zeros((N, 2)) if want_mass else None                    # dL/da
     # dL/dc through d and e: d'(c) = -d^2, e'(c) = -2 d^2; sbar collects dL/dd + 2 dL/de
     sbar = np.zeros((N, 2)) if (want_damping or (want_mass and damped)) else None
-    gforce = np.empty((T + 1, N, 2)) if "force" in want else None    # every state written
+    gforce = pages.empty((T + 1, N, 2)) if "force" in want else None    # every state written
 
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()

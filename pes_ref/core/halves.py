@@ -31,6 +31,7 @@ import threading
 import numpy as np
 
 from pes_ref.core.integrator import NonFiniteError, Trajectory, trajectory_arrays
+from pes_ref.core.runtime import pages
 from pes_ref.core.steppers import Stepper, StepParams
 
 __all__ = ["MIN_PARTICLES", "SUMMED", "split", "stepper", "part"]
@@ -173,8 +174,16 @@ def stepper(inner: Stepper) -> Stepper:
             return run
 
         first, second = _both(half(0), half(1), p.progress)
-        return {name: (first[name] + second[name] if name in SUMMED
-                       else np.concatenate((first[name], second[name]), axis=PARTICLE_AXIS.get(name, 0)))
+        return {name: first[name] + second[name] if name in SUMMED else _joined(first[name], second[name], name)
                 for name in first}
 
     return Stepper(simulate, adjoint, inner.gradients)
+
+
+def _joined(first: np.ndarray, second: np.ndarray, name: str) -> np.ndarray:
+    """The two halves' per-particle gradient ``name`` as one array, in memory of its own
+    (:func:`pes_ref.core.runtime.pages.empty`: ``force``'s is as large as the trajectory)."""
+    axis = PARTICLE_AXIS.get(name, 0)
+    shape = list(first.shape)
+    shape[axis] += second.shape[axis]
+    return np.concatenate((first, second), axis=axis, out=pages.empty(tuple(shape)))

@@ -45,6 +45,7 @@ from typing import NamedTuple
 import numpy as np
 
 from pes_ref.core.forces import Field, ForceAdjoint, ForceKernel
+from pes_ref.core.runtime import pages
 from pes_ref.core.runtime.progress import reporting
 
 __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic",
@@ -113,12 +114,13 @@ def step_coefficients(dt: float, mass, damping, n: int):
 
 
 def trajectory_arrays(n_steps: int, n_particles: int, out=None) -> tuple:
-    """A run's (T+1, N, 2) arrays ``x, v, f``: fresh, or ``out``'s (a :class:`Trajectory` of
-    such arrays that a caller running many runs of one size reuses: fresh memory costs its
-    page faults on first touch, and a large run's arrays are fresh every time)."""
+    """A run's (T+1, N, 2) arrays ``x, v, f``: new ones (:func:`pes_ref.core.runtime.pages.empty`:
+    a large run's memory is that of the last run of its size, if its arrays are gone), or
+    ``out``'s (a :class:`Trajectory` of such arrays that a caller running many runs of one size
+    keeps)."""
     if out is None:
         shape = (n_steps + 1, n_particles, 2)
-        return np.empty(shape), np.empty(shape), np.empty(shape)
+        return pages.empty(shape), pages.empty(shape), pages.empty(shape)
     return out.x, out.v, out.f
 
 
@@ -257,7 +259,7 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
     want_mass, want_damping = "mass" in want, "damping" in want
     abar = np.zeros((N, 2)) if want_mass else None                   # dL/da
     cbar = np.zeros((N, 2)) if (want_damping or (want_mass and damped)) else None  # dL/dc
-    gforce = np.empty((T + 1, N, 2)) if "force" in want else None    # every state written
+    gforce = pages.empty((T + 1, N, 2)) if "force" in want else None    # every state written
 
     xbar = np.zeros((N, 2)) if gx is None else gx[T].copy()
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
@@ -373,10 +375,11 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
 
 
 def quasistatic_velocities(v: np.ndarray, out) -> np.ndarray:
-    """V of a quasistatic run, all zeros: ``out``'s array set to 0, or fresh zero pages
-    (nothing written) for a fresh run (``v`` from :func:`trajectory_arrays` is then dropped)."""
+    """V of a quasistatic run, all zeros: ``out``'s array set to 0, or new zeros
+    (:func:`pes_ref.core.runtime.pages.zeros`: a new map's zero pages are not written) for a run
+    without ``out`` (``v`` from :func:`trajectory_arrays` is then dropped)."""
     if out is None:
-        return np.zeros(v.shape)
+        return pages.zeros(v.shape)
     v.fill(0.0)
     return v
 
@@ -392,7 +395,7 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
     x, _, f = traj
     T, N = x.shape[0] - 1, x.shape[1]
     adj = ForceAdjoint(field, x, want)
-    gforce = np.empty((T + 1, N, 2)) if "force" in want else None
+    gforce = pages.empty((T + 1, N, 2)) if "force" in want else None
     if gforce is not None:
         gforce[T] = 0.0                      # F_ext[T] moves nothing; the loop writes the others
     mubar = np.zeros(2) if "mobility" in want else None

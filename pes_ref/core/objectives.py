@@ -20,6 +20,7 @@ from typing import Callable
 import numpy as np
 
 from pes_ref.core import checks
+from pes_ref.core.runtime import pages
 
 __all__ = ["Funnel", "Oscillator", "OscillatorCycle", "Quadratic", "Custom", "regularization", "OBJECTIVES"]
 
@@ -42,7 +43,7 @@ class Funnel:
     def value_and_grad(self, x, v, t):
         """Eq. (5) and its ``gx`` (``gv`` is None); the objective protocol of
         :mod:`pes_ref.core.objectives` (docs/spec.md section 6.1)."""
-        gx = np.zeros(x.shape)       # fresh zero pages (np.zeros_like would write every zero)
+        gx = pages.zeros(x.shape)       # np.zeros_like would write every zero of a new array
         if self.when == "final":
             e = x[-1, :, 0] - self.target
             gx[-1, :, 0] = 2.0 * e
@@ -81,8 +82,8 @@ class Oscillator:
         root = np.sqrt(s)
         scale = n_particles ** 2
         inv = np.divide(1.0, root * scale, out=np.zeros_like(root), where=root > 0)
-        gx = np.zeros(x.shape)
-        gv = np.zeros(v.shape)
+        gx = pages.zeros(x.shape)
+        gv = pages.zeros(v.shape)
         gx[:, :, 0] = ex * inv[:, None]
         gv[:, :, 0] = ev * inv[:, None]
         return float(np.sum(root) / scale), gx, gv
@@ -123,8 +124,8 @@ class OscillatorCycle:
         scale = n_particles ** 2
         inv = np.divide(1.0, root * scale, out=np.zeros_like(root), where=root > 0)
         de = np.divide(e * inv[:, None], r, out=np.zeros_like(r), where=r > 0)
-        gx = np.zeros(x.shape)
-        gv = np.zeros(v.shape)
+        gx = pages.zeros(x.shape)
+        gv = pages.zeros(v.shape)
         gx[:, :, 0] = de * x[:, :, 0]
         gv[:, :, 0] = de * v[:, :, 0] / (w * w)
         return float(np.sum(root) / scale), gx, gv

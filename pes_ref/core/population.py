@@ -33,6 +33,7 @@ from pes_ref.core import backends, budget, checks, stability
 from pes_ref.core.effects import all_zero, build_schedule
 from pes_ref.core.forces import Field
 from pes_ref.core.integrator import NonFiniteError, Trajectory
+from pes_ref.core.runtime import pages
 from pes_ref.core.scene import Scene, _check_state, _step_params
 from pes_ref.core.steppers import StepParams
 
@@ -140,11 +141,11 @@ def _workspace(workspace, n_steps: int, n: int) -> tuple:
     (a dict) between calls of one size, else fresh."""
     shape = (n_steps + 1, n, 2)
     if workspace is None:
-        return None, np.empty(shape)
+        return None, pages.empty(shape)
     if workspace.get("shape") != shape:
         workspace.clear()
-        workspace.update(shape=shape, out=Trajectory(np.empty(shape), np.empty(shape), np.empty(shape)),
-                         fext=np.empty(shape))
+        workspace.update(shape=shape, out=Trajectory(pages.empty(shape), pages.empty(shape), pages.empty(shape)),
+                         fext=pages.empty(shape))
     return workspace["out"], workspace["fext"]
 
 

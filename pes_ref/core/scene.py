@@ -30,6 +30,7 @@ from pes_ref.core.forces import Field, potential_energy
 from pes_ref.core.grid import Locator
 from pes_ref.core.integrator import NonFiniteError, Trajectory
 from pes_ref.core.objectives import regularization
+from pes_ref.core.runtime import pages
 from pes_ref.core.steppers import INTEGRATORS, MODES, STEPPERS, StepParams, mode_gradients, modes_of
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls, spring_energy, wall_bounds
@@ -350,7 +351,7 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy", out: np.ndarr
         from pes_ref.core import compiled
         return compiled.energy(fld, x, v, scene.mass, out)
     if out is None:
-        out = np.empty((T1, N))
+        out = pages.empty((T1, N))
     if fld.interpolation == "bilinear" and fld.offsets is None:
         return _bilinear_energy(fld, x, v, scene.mass, out)
     m = np.broadcast_to(scene.mass, (N, 2))

@@ -37,6 +37,7 @@ import numpy as np
 
 from pes_ref.core import backends, budget, checks, stability
 from pes_ref.core.runtime.files import ResultExistsError
+from pes_ref.core.runtime import pages
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene, gradient_names, value_and_grad
@@ -348,7 +349,7 @@ def _force(raw: Mapping, shape: tuple) -> np.ndarray:
     case's own array, checked finite a chunk at a time (a copy of a large run's force costs
     more than the run's additions of it); any other is converted, a copy."""
     if "force" not in raw:
-        return np.zeros(shape)
+        return pages.zeros(shape)
     force = _numeric("force", raw["force"])
     if force.shape != shape:
         raise CaseError("force", f"force must have shape (T+1, N, 2) = {shape}, got shape {force.shape}")
@@ -476,7 +477,7 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
     blame = "dt" if scene.mode == "dynamic" else "mobility"
     try:
         with np.errstate(over="raise", invalid="raise", divide="raise", under="ignore"):
-            e = np.empty((scene.n_steps + 1, vc.x0.shape[0]))
+            e = pages.empty((scene.n_steps + 1, vc.x0.shape[0]))
             loss, grads, traj = value_and_grad(scene, vc.x0, vc.v0, vc.objective,
                                                regularization_weight=vc.regularization,
                                                wrt=vc.grad_names, fext=vc.force, progress=progress, backend=backend,
@@ -496,7 +497,7 @@ def _own_array(a) -> np.ndarray:
     """``a`` as a float64 array of the result's own: the run's fresh arrays as they are (a copy of a
     trajectory costs a pass over it and its page faults), anything else (a view, a read-only or
     strided array, a scalar) copied."""
-    if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.base is None and a.flags.writeable \
+    if isinstance(a, np.ndarray) and a.dtype == np.float64 and pages.owns(a) and a.flags.writeable \
             and a.flags.c_contiguous:
         return a
     return np.array(a, dtype=np.float64)

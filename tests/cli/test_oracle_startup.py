@@ -38,6 +38,7 @@ ORACLE_IMPORTS = {
     "pes_ref.core.terms", "pes_ref.core.runtime", "pes_ref.core.runtime.files", "pes_ref.core.runtime.signals",
     "pes_ref.core.backends",                # the registry of loops: finds numba, never imports it here
     "pes_ref.core.halves",                  # a large case's NumPy run, as two halves on two threads
+    "pes_ref.core.runtime.pages", "mmap",   # a large run's arrays, mapped without huge-page stalls
     "argparse", "gettext", "locale", "_locale", "copy", "dataclasses",
     "zipfile", "shutil", "binascii", "zlib", "bz2", "_bz2", "lzma", "_lzma", "_compression",
     "encodings.ascii", "encodings.cp437",

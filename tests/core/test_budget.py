@@ -111,6 +111,21 @@ def test_available_memory_is_read():
     assert avail is None or avail > 0
 
 
+def test_the_idle_maps_count_as_available(monkeypatch):
+    """A new run reuses the idle maps of pes_ref.core.runtime.pages or gives them back first."""
+    from pes_ref.core.runtime import pages
+    monkeypatch.setattr(budget, "_system_memory", lambda: 1000)
+    pages.release()
+    held = pages.empty((pages.THRESHOLD // 8,))
+    assert budget.available_memory() == 1000           # held by an array: not available
+    del held
+    assert budget.available_memory() == 1000 + pages.THRESHOLD
+    pages.release()
+    assert budget.available_memory() == 1000
+    monkeypatch.setattr(budget, "_system_memory", lambda: None)
+    assert budget.available_memory() is None
+
+
 @pytest.mark.parametrize("halved", [False, True], ids=["one-thread", "halves"])
 @pytest.mark.parametrize("kind", ["simulate", "value_and_grad", "case"])
 def test_the_estimate_bounds_the_measured_peak(kind, halved, monkeypatch):
@@ -119,6 +134,7 @@ def test_the_estimate_bounds_the_measured_peak(kind, halved, monkeypatch):
     thread and as two halves on two threads (:mod:`pes_ref.core.halves`)."""
     import tracemalloc
     from pes_ref.core import halves
+    from pes_ref.core.runtime import pages
     if halved:
         monkeypatch.setattr(halves, "MIN_PARTICLES", 2)
     T, N = 2000, 30
@@ -132,6 +148,7 @@ def test_the_estimate_bounds_the_measured_peak(kind, halved, monkeypatch):
     run = {"simulate": lambda: pr.simulate(scene, x0),
            "value_and_grad": lambda: pr.value_and_grad(scene, x0, None, pr.Oscillator(0.3, 2.0)),
            "case": lambda: oracle.run_case(case)}[kind]
+    monkeypatch.setattr(pages, "_FLAGS", None)      # every array NumPy's, which tracemalloc sees
     tracemalloc.start()
     try:
         run()

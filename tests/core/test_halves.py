@@ -206,3 +206,16 @@ def test_a_floating_point_error_of_the_second_half_is_raised():
 
     with pytest.raises(FloatingPointError):
         halves._both(lambda report: None, second, None)
+
+
+def test_the_halves_per_particle_gradients_are_joined_in_memory_of_their_own():
+    """``force``'s gradient (as large as the trajectory) is joined along the particles into a
+    map of its own (pes_ref.core.runtime.pages); the other per-particle ones along axis 0."""
+    from pes_ref.core.runtime import pages
+    rng = np.random.default_rng(0)
+    first, second = rng.normal(size=(300, 1000, 2)), rng.normal(size=(300, 1024, 2))
+    joined = halves._joined(first, second, "force")
+    np.testing.assert_array_equal(joined, np.concatenate((first, second), axis=1))
+    assert isinstance(joined.base, pages.Pages) and pages.owns(joined)
+    small = halves._joined(first[0], second[0], "x0")
+    np.testing.assert_array_equal(small, np.concatenate((first[0], second[0])))

@@ -10,6 +10,7 @@ import pytest
 import pes_ref
 from pes_ref import cli
 from pes_ref.core import checks
+from pes_ref.core.runtime import pages
 from pes_ref.core.scene import gradient_names
 from pes_ref.oracle import case as oracle
 from pes_ref.oracle.conformance import LATEST, vectors_dir
@@ -90,6 +91,18 @@ def test_result_keys_and_shapes(entry):
 
 
 CASES = VALID + [e for e in INVALID if "file" not in e["flags"]]     # (a "file" vector is no case)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "numba"])
+def test_a_large_runs_arrays_are_returned_as_made(backend):
+    """A run's arrays of pages.THRESHOLD bytes or more are maps of their own (no huge-page
+    stalls: pes_ref.core.runtime.pages), returned as they are, not copied."""
+    n, T = 2048, 300
+    x0 = np.random.default_rng(3).uniform([0.2, 0.2], [0.8, 1.3], (n, 2))
+    got = oracle.run_case(base_case(x0=x0, v0=np.zeros((n, 2)), n_steps=np.int64(T)), backend=backend)
+    for key in ("x", "v", "energy", "grad_force"):
+        assert got[key].nbytes >= pages.THRESHOLD and isinstance(got[key].base, pages.Pages), key
+        assert pages.owns(got[key]) and got[key].flags.writeable, key
 
 
 @pytest.mark.parametrize("entry", CASES, ids=_ids(CASES))
