@@ -36,8 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import backends, budget, checks, stability
-from pes_ref.core.runtime.files import ResultExistsError
 from pes_ref.core.runtime import pages
+from pes_ref.core.runtime.files import ResultExistsError
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene, gradient_names, value_and_grad

@@ -23,11 +23,13 @@ of another size starts from nothing kept; :func:`idle_bytes` counts as available
 lock (both halves of :mod:`pes_ref.core.halves` allocate).
 
 An array of less than :data:`THRESHOLD` bytes, or any array on a system without anonymous
-maps, comes from NumPy as usual. :func:`owns` tells an array made here, which owns its memory
-as an array from :func:`numpy.empty` does.
+maps, comes from NumPy as usual. A map the system refuses raises :class:`MemoryError`, as
+NumPy's refusal does. :func:`owns` tells an array made here, which owns its memory as an array
+from :func:`numpy.empty` does.
 """
 from __future__ import annotations
 
+import errno
 import math
 import mmap
 import sys
@@ -82,7 +84,13 @@ def _mapped(shape, dtype, zero: bool):
         kept = next((m for m in _idle() if len(m) == nbytes), None)
         if kept is None:
             _release()
-            kept = Pages(-1, nbytes, flags=_FLAGS)
+            try:
+                kept = Pages(-1, nbytes, flags=_FLAGS)
+            except OSError as exc:              # the system's refusal, as NumPy says it
+                if exc.errno != errno.ENOMEM:
+                    raise
+                raise MemoryError(f"unable to map {nbytes} bytes for an array of shape {shape} and data type "
+                                  f"{dtype}") from None
             _MAPS.append(kept)
             zero = False                     # a new map's pages are zero pages
         a = np.ndarray(shape, dtype, buffer=kept)

@@ -140,6 +140,15 @@ def test_two_threads_never_share_a_map():
     assert not errors and len(set(seen)) <= 3      # reused: a map each, at most a third between
 
 
+@pytest.mark.parametrize("make", [pages.empty, pages.zeros], ids=["empty", "zeros"])
+def test_memory_the_system_refuses_is_a_memory_error(make):
+    """As NumPy's own refusal (which the oracle turns into its refusal naming n_steps), not an
+    OSError: 1 PiB is beyond any process's address space."""
+    with pytest.raises(MemoryError, match=r"unable to map 1125899906842624 bytes .* shape \(140737488355328,\)"):
+        make((1 << 47,))
+    assert pages.idle_bytes() == 0
+
+
 def test_owns():
     mapped, numpys = pages.empty((2, LARGE)), np.empty((2, 3))
     assert pages.owns(mapped) and pages.owns(numpys)
