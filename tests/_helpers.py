@@ -7,10 +7,19 @@ from pathlib import Path
 
 import numpy as np
 
+from pes_ref.core.runtime.progress import is_progress_line
 from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_RTOL
 from pes_ref.testing.finite_differences import central_gradient
 from pes_ref.testing.kinks import distance_to_kinks
+
+def without_progress(err: str) -> str:
+    """A command's stderr without its progress lines (:func:`pes_ref.core.runtime.progress.is_progress_line`),
+    which is what a test compares: a command that may run long prints a progress line once it
+    has run :data:`pes_ref.core.runtime.progress.LONG_RUN` seconds, so whether one is there depends on
+    the machine's speed and load, never on the command's answer (docs/testing.md)."""
+    return "".join(line for line in err.splitlines(keepends=True) if not is_progress_line(line.rstrip("\n")))
+
 
 #: A dot-product test whose VJP side is below this carries no information.
 NONTRIVIAL = 1e-8

@@ -293,9 +293,6 @@ def _run_dartgun(args) -> int:
 
 # =========================================================================== any device file
 
-#: Runs longer than LONG_RUN seconds print progress lines on stderr, at most one every PERIOD
-#: seconds.
-LONG_RUN, PERIOD = 3.0, 2.0
 #: The plot formats --plot writes (by the file's extension).
 PLOT_FORMATS = ("png", "pdf", "svg")
 #: The analyses' names of what the options set (errors name the option).
@@ -307,8 +304,9 @@ class _Progress:
     """Progress lines of a long analysis on stderr (:func:`pes_ref.core.runtime.progress.progress_line`):
     ``cam.toml: drive | percent 40/100 | 8.1 percent/s | elapsed 0:07 | left 0:10``. A callback ``progress(phase,
     done, total)`` (:mod:`pes_ref.core.runtime.progress`'s signature; ``done`` and ``total`` may be a
-    travel), silent for the first :data:`LONG_RUN` seconds, then at most one line every
-    :data:`PERIOD` seconds; the time left is the elapsed time scaled by the share still to do."""
+    travel), silent for the first :data:`pes_ref.core.runtime.progress.LONG_RUN` seconds, then at most one
+    line every :data:`pes_ref.core.runtime.progress.PERIOD` seconds; the time left is the elapsed time
+    scaled by the share still to do."""
 
     def __init__(self, label: str, clock=time.monotonic):
         from pes_ref.core.runtime.progress import ProgressWriter
@@ -318,11 +316,11 @@ class _Progress:
         self.phase, self.phase_start = None, self.start
 
     def __call__(self, phase: str, done, total) -> None:
-        from pes_ref.core.runtime.progress import Progress
+        from pes_ref.core.runtime import progress
         now = self.clock()
         if phase != self.phase:
             self.phase, self.phase_start = phase, now
-        if now - self.start < LONG_RUN or now - self.last < PERIOD:
+        if now - self.start < progress.LONG_RUN or now - self.last < progress.PERIOD:
             return
         self.last = now
         share = min(max(done / total, 0.0), 1.0) if total else 1.0
@@ -330,7 +328,7 @@ class _Progress:
         percent = round(100 * share)
         rate = percent / elapsed if elapsed > 0 else 0.0
         left = elapsed * (1.0 - share) / share if share > 0 else float("inf")
-        self.lines.show(Progress(self.label, phase, percent, 100, "percent", rate, now - self.start, left))
+        self.lines.show(progress.Progress(self.label, phase, percent, 100, "percent", rate, now - self.start, left))
 
 
 def _pair(option: str, text: str, cast=float) -> tuple:
@@ -463,8 +461,9 @@ def _run_file(args) -> int:
             start = check_drive(device, axis, load, args.mode, cycles, start, threshold)[4]  # before computing
             progress = _Progress(os.path.basename(path))
             try:
+                device.blocked(progress)
+                check_free(device, start)      # before the boundary and the distance: a refusal computes little
                 cs = device.cspace(progress)
-                check_free(device, start)
                 results = _drives(names, drive, device, axis, load, args.mode, cycles, start, threshold, progress)
                 stall = _stall(device, results)
             finally:

@@ -10,7 +10,8 @@ import os
 import time
 import zipfile
 
-from pes_ref.core.runtime.progress import Clock, Progress, ProgressWriter, clock_time
+from pes_ref.core.runtime import progress
+from pes_ref.core.runtime.progress import Clock, Progress, ProgressWriter
 from pes_ref.oracle.conformance import LATEST
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, input_file, output_file
 
@@ -50,19 +51,14 @@ def add_parser(sub) -> None:
     p.set_defaults(func=_run_oracle)
 
 
-#: Runs longer than this (seconds; estimated, or found so while running) print an estimate
-#: and progress lines on stderr.
-LONG_RUN = 3.0
-#: Seconds between two progress lines.
-PERIOD = 2.0
-
-
 class ProgressLines:
     """The progress of one oracle run on stderr, once it is long: the estimate first, then
     at most one line every ``period`` seconds (:func:`pes_ref.core.runtime.progress.progress_line`), e.g.
     ``case.npz: forward | steps 1200/3000 | 250 steps/s | elapsed 0:05 | left 0:12``.
 
     A progress callback of :mod:`pes_ref.core.runtime.progress` (called every few hundred steps).
+    ``period`` and ``after`` default to :data:`pes_ref.core.runtime.progress.PERIOD` and
+    :data:`pes_ref.core.runtime.progress.LONG_RUN`, read when the run starts.
     A run estimated longer than ``after`` seconds (:func:`pes_ref.core.budget.estimate`)
     prints its estimate at once; one estimated shorter starts printing if it runs past
     ``after`` seconds all the same. The time left is a :class:`pes_ref.core.runtime.progress.Clock`
@@ -71,10 +67,12 @@ class ProgressLines:
     timed is scaled from the one timed (the model's estimate until then).
     """
 
-    def __init__(self, label: str, estimate, period: float = PERIOD, clock=time.monotonic, after: float = LONG_RUN,
-                 lines: ProgressWriter | None = None):
+    def __init__(self, label: str, estimate, period: float | None = None, clock=time.monotonic,
+                 after: float | None = None, lines: ProgressWriter | None = None):
         from pes_ref.core import budget
-        self.label, self.period, self.clock, self.after = label, period, clock, after
+        self.label, self.clock = label, clock
+        self.period = progress.PERIOD if period is None else period
+        self.after = progress.LONG_RUN if after is None else after
         self.lines = ProgressWriter() if lines is None else lines      # in place at a terminal
         self.start = self.last = clock()
         self.run = estimate
@@ -84,13 +82,17 @@ class ProgressLines:
         T = estimate.n_steps
         self.pace = Clock([(0, T, share), (T, 2 * T, 1.0 - share)])
         self.ticked = (self.start, 0)                   # when the clock was last told, and the position then
-        self.started = estimate.seconds > after
+        self.started = estimate.seconds > self.after
         if self.started:
-            self._header(estimate.seconds)
+            self._header(0.0, estimate.seconds)
 
-    def _header(self, seconds: float) -> None:
-        self.lines.note(f"{self.label}: T = {self.run.n_steps}, N = {self.run.n_particles}: about "
-                        f"{clock_time(seconds)} ({self.run.gib:.2g} GiB); forward, then the adjoint")
+    def _header(self, elapsed: float, seconds: float) -> None:
+        """The run's estimate, as a progress line of its own that stays: ``case.npz: estimate | steps
+        0/3000 | N 64 | GiB 0.012 | ? steps/s | elapsed 0:00 | left 0:12`` (the steps are the
+        forward run's; the adjoint runs as many after it)."""
+        self.lines.note(progress.progress_line(Progress(
+            self.label, "estimate", 0, self.run.n_steps, "steps", 0.0, elapsed, seconds,
+            (("N", self.run.n_particles), ("GiB", float(self.run.gib))))))
 
     def __call__(self, phase: str, done: int, total: int) -> None:
         now = self.clock()
@@ -106,7 +108,7 @@ class ProgressLines:
             if elapsed < self.after:
                 return
             self.started = True
-            self._header(elapsed + left)
+            self._header(elapsed, left)
         if now - self.last < self.period:
             return
         self.last = now
@@ -116,7 +118,7 @@ class ProgressLines:
 
 def _monitor(label: str, lines: ProgressWriter):
     """The oracle's ``monitor``: the :class:`ProgressLines` of each run, shown by ``lines``."""
-    return lambda estimate: ProgressLines(label, estimate, period=PERIOD, after=LONG_RUN, lines=lines)
+    return lambda estimate: ProgressLines(label, estimate, lines=lines)
 
 
 def _result_name(case_path: str, out_dir: str) -> str:

@@ -411,9 +411,24 @@ class CSpaceGrid:
 
     def blocked(self, progress=None) -> np.ndarray:
         """Blocked nodes, (n0, n1) bool (:func:`blocked_mask`)."""
-        return blocked_mask(*self.poses(), self.periodic, progress)
+        return self.posed_blocked(progress)[1]
 
-    def compute(self, progress=None, reach: float | None = None) -> CSpace:
+    def posed_blocked(self, progress=None) -> tuple:
+        """The parts posed at every node and the blocked nodes (:func:`blocked_mask`), the
+        first and cheapest part of :meth:`compute`: ``(poses, mask, times)``, what
+        :meth:`compute` takes as ``blocked``. A refusal that needs only the mask (a C-space
+        with no free node) comes from it before the boundary and the distance are computed."""
+        progress = progress or _no_progress
+        times = {}
+        t = time.perf_counter()
+        poses = self.poses()
+        times["pose"] = time.perf_counter() - t
+        t = time.perf_counter()
+        mask = blocked_mask(*poses, self.periodic, progress)
+        times["blocked"] = time.perf_counter() - t
+        return poses, mask, times
+
+    def compute(self, progress=None, reach: float | None = None, blocked: tuple | None = None) -> CSpace:
         """The blocked nodes, the boundary between them and the signed distance to it.
 
         Parameters
@@ -424,19 +439,16 @@ class CSpaceGrid:
         reach : float, optional
             The distance is exact within ``reach`` of the boundary (C-space units; default
             :data:`pes_ref.devices.boundary.BAND` spacings), and within about h/2 beyond.
+        blocked : tuple, optional
+            What :meth:`posed_blocked` returned for this grid (computed here when None).
 
         Returns
         -------
         CSpace
         """
         progress = progress or _no_progress
-        times = {}
-        t = time.perf_counter()
-        poses = self.poses()
-        times["pose"] = time.perf_counter() - t
-        t = time.perf_counter()
-        mask = blocked_mask(*poses, self.periodic, progress)
-        times["blocked"] = time.perf_counter() - t
+        poses, mask, times = self.posed_blocked(progress) if blocked is None else blocked
+        times = dict(times)
         t = time.perf_counter()
         sub = _SubPoses(self.parts, (self.nodes(0), self.nodes(1)), self.spacing, self.tolerance)
         calls = [0]

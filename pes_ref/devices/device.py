@@ -147,13 +147,21 @@ class Device:
         """The grid's node spacing h, shape (2,) (C-space length or radians per axis)."""
         return self._grid.spacing
 
+    def blocked(self, progress=None) -> np.ndarray:
+        """The blocked nodes of the C-space grid (bool, the grid's shape), once per device: the
+        first part of :meth:`cspace`, enough to refuse a C-space with no free node."""
+        if "blocked" not in self._cache:
+            self._cache["blocked"] = self._grid.posed_blocked(progress)
+        return self._cache["blocked"][1]
+
     def cspace(self, progress=None) -> CSpace:
         """The computed C-space (:meth:`pes_ref.devices.cspace.CSpaceGrid.compute`), once per device;
         its distance is exact out to eq. (1)'s cut-off r_c and two spacings more."""
         if "cspace" not in self._cache:
             h = float(np.max(self.spacing))
             reach = max(BAND * h, self.r_c + 2.0 * h)
-            self._cache["cspace"] = self._grid.compute(progress, reach)
+            self.blocked(progress)
+            self._cache["cspace"] = self._grid.compute(progress, reach, self._cache["blocked"])
         return self._cache["cspace"]
 
     def surface(self, progress=None) -> Surface:

@@ -214,11 +214,12 @@ def check_drive(device: Device, axis: int, load: float, mode: str = "quasistatic
 def check_free(device: Device, start) -> None:
     """Refuse a drive that has nowhere to go (a keyed :class:`~pes_ref.core.checks.InputError`):
     a C-space blocked at every node (key ``cspace``), or a start inside blocked space, where
-    the posed parts' interiors overlap (key ``start``; a touch is free). Needs the computed
-    C-space (:meth:`Device.cspace`); the start is tested on the exact geometry."""
+    the posed parts' interiors overlap (key ``start``; a touch is free). Needs only the blocked
+    nodes (:meth:`Device.blocked`), not the distance: it refuses before the costly part of the
+    C-space is computed. The start is tested on the exact geometry."""
     from pes_ref.devices.geometry import interiors_overlap, posed_geometries
 
-    if device.cspace().blocked.all():
+    if device.blocked().all():
         raise checks.InputError("cspace", f"no configuration is free: the parts' interiors overlap at every node "
                                           f"of the C-space grid (q0 in [{device.lower[0]:g}, {device.upper[0]:g}], "
                                           f"q1 in [{device.lower[1]:g}, {device.upper[1]:g}], "

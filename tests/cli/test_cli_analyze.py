@@ -6,6 +6,8 @@ import sys
 import numpy as np
 import pytest
 
+from _helpers import without_progress
+
 from pes_ref.cli import EXIT_ERROR, EXIT_OK, main
 
 #: ``name: value unit``; names may carry a bracketed argument, values may be a range "a .. b".
@@ -13,9 +15,10 @@ LINE = re.compile(r"^[a-z_0-9]+(\[[a-z_]+=[-0-9.e+]+\]|\[[a-z-]+\])?: \S+( \.\. 
 
 
 def run(capsys, *argv):
+    """``analyze ARGV`` in this process: (exit status, stdout, stderr without its progress lines)."""
     code = main(["analyze", *argv])
     out, err = capsys.readouterr()
-    return code, out, err
+    return code, out, without_progress(err)
 
 
 @pytest.mark.parametrize("device, option", [("ratchet", "--torque"), ("dartgun", "--trigger-forces")])
@@ -147,13 +150,14 @@ def test_without_shapely_the_command_prints_the_pip_line(capsys, monkeypatch):
 
 def test_progress_lines_start_after_a_few_seconds_and_come_every_period(capsys):
     from pes_ref.cli import analyze
+    from pes_ref.core.runtime.progress import LONG_RUN, PERIOD, is_progress_line
     now = [0.0]
-    progress = analyze._Progress("cam.toml", clock=lambda: now[0])
-    for t, done in ((1.0, 1), (analyze.LONG_RUN + 0.1, 2), (analyze.LONG_RUN + 0.2, 3),
-                    (analyze.LONG_RUN + analyze.PERIOD + 0.2, 4)):
+    lines_of = analyze._Progress("cam.toml", clock=lambda: now[0])
+    for t, done in ((1.0, 1), (LONG_RUN + 0.1, 2), (LONG_RUN + 0.2, 3), (LONG_RUN + PERIOD + 0.2, 4)):
         now[0] = t
-        progress("drive", done, 8)
+        lines_of("drive", done, 8)
     lines = capsys.readouterr().err.splitlines()
+    assert all(is_progress_line(line) for line in lines), lines
     assert [line.split(" | ")[:2] + line.split(" | ")[-2:] for line in lines] == [
         ["cam.toml: drive", "percent 25/100", "elapsed 0:03", "left 0:06"],     # 2.1 s for the first quarter
         ["cam.toml: drive", "percent 50/100", "elapsed 0:05", "left 0:04"]]

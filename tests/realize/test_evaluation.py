@@ -74,12 +74,9 @@ def test_the_surface_engine_given_as_an_engine_gives_today_s_figures_bit_for_bit
 
 def test_the_rigid_evaluation_of_a_small_realized_design_is_bit_identical_on_repeat(problem, device_data):
     pytest.importorskip("pymunk")
-    import time
     device = _device(device_data)
     values = device.surface().values
-    start = time.perf_counter()
     out = evaluate_realized(problem, values, device, seed=5, n_particles=6, engines=("surface", "rigid"))
-    assert time.perf_counter() - start < 30.0                       # a few seconds on an idle core
     again = evaluate_realized(problem, values, device, seed=5, n_particles=6, engines=("surface", "rigid"))
     assert out == again
     assert out["dt"] == (problem.dt,) * 3 and out["n_steps"] == (problem.n_steps,) * 3

@@ -27,12 +27,13 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import sys
 from itertools import islice
 from typing import Callable, Iterable
 
-__all__ = ["EVERY", "WARMUP", "reporting", "blocks", "Progress", "Clock", "progress_line", "figure_text",
-           "clock_time", "ProgressWriter"]
+__all__ = ["EVERY", "WARMUP", "LONG_RUN", "PERIOD", "reporting", "blocks", "Progress", "Clock", "progress_line",
+           "is_progress_line", "figure_text", "clock_time", "ProgressWriter"]
 
 #: Steps between two calls of a progress callback (a callback that reads a clock reads it
 #: this rarely; at ~10 us a step that is every few milliseconds).
@@ -43,6 +44,12 @@ EVERY = 256
 #: allocating, that made the time left read 11-27 minutes at iteration 1 of runs that took
 #: 7-19 seconds.
 WARMUP = 1
+#: A command whose run may be short (an analysis, an oracle run) stays silent for its first
+#: LONG_RUN seconds, then prints at most one progress line every PERIOD seconds. Whether a
+#: line is printed therefore depends on the machine's speed: a test compares a command's
+#: stderr without its progress lines (:func:`is_progress_line`).
+LONG_RUN = 3.0
+PERIOD = 2.0
 
 
 def reporting(steps: Iterable, progress: Callable | None, phase: str, total: int) -> Iterable:
@@ -229,6 +236,20 @@ def progress_line(p: Progress) -> str:
     return " | ".join([head, f"{p.unit} {p.done}/{p.total}", *(f"{name} {figure_text(v)}" for name, v in p.figures),
                        f"{_rate(p.rate)} {p.unit}/s", f"elapsed {clock_time(p.elapsed)}",
                        f"left {clock_time(p.seconds_left)}"])
+
+
+_CLOCK = r"(?:\d+:\d\d|\?)"
+#: The shape of a progress line (compiled on first use: the oracle command's start-up pays nothing).
+_PROGRESS = r"(?!error: |warning: )[^\n|]+ \| \S+ -?\d+/\d+ \| (?:[^\n|]+ \| )*\S+ \S+/s \| elapsed " + _CLOCK + r" \| left " + _CLOCK
+
+
+def is_progress_line(line: str) -> bool:
+    """Whether ``line`` (without its newline) is one that :func:`progress_line` makes: a
+    head, ``unit done/total``, the figures, ``rate unit/s``, ``elapsed m:ss`` and ``left
+    m:ss``. What a command prints on stderr is its progress lines and then its own lines
+    (``error: ...``, ``warning: ...``, never taken for progress whatever follows); this tells
+    them apart."""
+    return re.fullmatch(_PROGRESS, line) is not None
 
 
 def _columns(stream) -> int:

@@ -5,8 +5,10 @@ import io
 import math
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from pes_ref.core.runtime.progress import Clock, Progress, ProgressWriter, clock_time, progress_line
+from pes_ref.core.runtime.progress import Clock, Progress, ProgressWriter, clock_time, is_progress_line, progress_line
 
 
 @pytest.mark.parametrize("seconds, text", [(0, "0:00"), (4.4, "0:04"), (59.6, "1:00"), (61, "1:01"),
@@ -123,3 +125,33 @@ def test_elsewhere_each_is_a_plain_line(stream, term, monkeypatch):
     w.show(two)
     w.end()
     assert stream.getvalue() == f"{progress_line(one)}\na note\n{progress_line(two)}\n"
+
+
+_TEXT = st.text(st.characters(blacklist_categories=("Cs", "Cc"), blacklist_characters="|"), min_size=1, max_size=12)
+_FIGURE = st.one_of(st.floats(allow_nan=False), st.integers(-10 ** 6, 10 ** 6), st.tuples(st.integers(1, 999), st.integers(1, 999)),
+                    _TEXT)
+
+
+@given(label=_TEXT.filter(lambda t: t.strip() == t and not t.startswith(("error: ", "warning: "))), stage=st.sampled_from(["", "stage 1/2", "forward", "estimate"]),
+       done=st.integers(0, 10 ** 6), total=st.integers(0, 10 ** 6), unit=st.sampled_from(["it", "steps", "percent"]),
+       rate=st.floats(0, 1e6), elapsed=st.floats(0, 1e5), left=st.one_of(st.floats(0, 1e5), st.just(math.inf)),
+       figures=st.lists(st.tuples(st.sampled_from(["loss", "grid", "N", "GiB"]), _FIGURE), max_size=3))
+def test_every_progress_line_is_recognized(label, stage, done, total, unit, rate, elapsed, left, figures):
+    """What a test leaves out of a command's stderr (tests/_helpers.without_progress) is every
+    line progress_line makes, whatever its figures."""
+    line = progress_line(Progress(label, stage, done, total, unit, rate, elapsed, left, tuple(figures)))
+    assert is_progress_line(line), line
+
+
+@pytest.mark.parametrize("line", [
+    "error: --start 0.45,0 is inside blocked space: the parts' interiors overlap there",
+    "warning: dev.toml: [energy] r_c = 0.1 is wider than the clearance | elapsed 0:03 | left 0:01",
+    "error: dev.toml: distance | percent 100/100 | 33 percent/s | elapsed 0:03 | left 0:00 (then refused)",
+    "error: dev.toml: distance | percent 100/100 | 33 percent/s | elapsed 0:03 | left 0:00",
+    "warning: cam.toml: drive | percent 40/100 | ? percent/s | elapsed 0:06 | left ?",
+    "wrote law.csv (motion law)",
+    "interrupted",
+    "",
+])
+def test_a_command_s_own_lines_are_not_progress_lines(line):
+    assert not is_progress_line(line)
