@@ -127,6 +127,8 @@ BAD_DEVICES = {
     "radius": ("radius = 0.1", "radius = -0.1"),
     "bowtie": ("minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }]",
                "minus = [{ polygon = [[0.0, 0.0], [0.3, 0.3], [0.3, 0.0], [0.0, 0.1]] }]"),
+    "bowtie0": ("minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }]",
+                "minus = [{ polygon = [[0.0, 0.0], [0.2, 0.2], [0.2, 0.0], [0.0, 0.2]] }]"),
     "empty": ("minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }]",
               "minus = [{ rectangle = { lower = [-2.0, -2.0], upper = [2.0, 2.0] } }]"),
     "grid": ("shape = [21, 21]", "shape = [21, 1]"),

@@ -475,6 +475,8 @@ def _run_file(args) -> int:
     result = next(iter(results.values()))
     for line in _drive_lines(device, results, stall):
         print(line)
+    for text in device.angle_warnings():
+        print(f"warning: {path}: {text}", file=sys.stderr)
     for finding in check_clearance(device, cs):
         text = finding.message if args.shape is None else \
             finding.message.replace(f"[cspace] shape = {list(device.shape)}", f"--shape {args.shape}") \

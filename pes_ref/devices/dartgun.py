@@ -255,7 +255,7 @@ class DartGunReport:
         lines = [
             f"reload_force: {self.reload_force:.6g} force",
             f"reload_time: {self.reload_time:.6g} s",
-            f"reload_latched: {self.reload_latched} bool",
+            f"reload_latched: {self.reload_latched}",
             f"latched_q0: {self.latched_state[0]:.6g} length",
             f"latched_q1: {self.latched_state[1]:.6g} length",
             f"min_reload_force: {self.min_reload_force:.6g} force (+/- {self.min_reload_force_tol:.2g})",

@@ -147,6 +147,20 @@ class Device:
         """The grid's node spacing h, shape (2,) (C-space length or radians per axis)."""
         return self._grid.spacing
 
+    def angle_warnings(self) -> list:
+        """A line per angle axis whose span is more than a turn (2 pi rad): angles are in radians,
+        and a span such as 0..360 is almost always meant in degrees. Taken as radians it is 57
+        turns, not periodic; a drive along it jams or runs off the grid, far from what was meant."""
+        out = []
+        for d, part in enumerate(self.parts):
+            span = float(self.upper[d] - self.lower[d])
+            if part.periodic and span > 2.0 * np.pi * (1.0 + 1e-6):
+                out.append(f"cspace: q{d} is an angle (part[{d}] rotates) spanning {self.lower[d]:g} .. "
+                           f"{self.upper[d]:g} = {span:g} rad, {span / (2.0 * np.pi):.3g} turns: angles are in "
+                           f"radians; if it was meant in degrees, write lower = {np.radians(self.lower[d]):.6g}, "
+                           f"upper = {np.radians(self.upper[d]):.6g} (a whole turn is periodic)")
+        return out
+
     def blocked(self, progress=None) -> np.ndarray:
         """The blocked nodes of the C-space grid (bool, the grid's shape), once per device: the
         first part of :meth:`cspace`, enough to refuse a C-space with no free node."""

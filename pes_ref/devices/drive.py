@@ -110,6 +110,7 @@ class DriveResult:
     q_out: np.ndarray = dc_field(repr=False)
     path: np.ndarray = dc_field(repr=False)
     seconds: float = 0.0
+    angle_input: bool = False       # the input part rotates: its travel is in rad, a whole turn or not
 
     def summary(self) -> dict:
         """The figures as plain JSON-able values."""
@@ -124,8 +125,9 @@ class DriveResult:
                 "seconds": self.seconds}
 
     def as_lines(self) -> list:
-        """``name: value unit`` lines."""
-        u_in = "rad" if self.periodic_input else "length"
+        """``name: value unit`` lines; a figure that is a name, a flag or text (the device, the axis,
+        the mode, jammed, the stop reason, the state q0,q1 where it stopped) has no unit."""
+        u_in = "rad" if self.periodic_input or self.angle_input else "length"
         stop = f"{self.stopped_at[0]:.6g},{self.stopped_at[1]:.6g}"
         if self.periodic_input:
             each = ",".join(f"{a:.6g}" for a in self.advance_per_cycle_each) or "none"
@@ -135,10 +137,10 @@ class DriveResult:
                    f"advance_per_cycle_each: {each} output-unit per cycle"]
         else:
             per = [f"advance_per_cycle: {self.advance_per_cycle:.6g} output-unit per length (over the travel achieved)"]
-        return [f"device: {self.device} name",
-                f"drive: q{self.drive} axis",
+        return [f"device: {self.device}",
+                f"drive: q{self.drive}",
                 f"load: {self.load:.6g} force-or-torque",
-                f"mode: {self.mode} mode",
+                f"mode: {self.mode}",
                 f"requested_travel: {self.requested_travel:.6g} {u_in}",
                 f"input_travel: {self.input_travel:.6g} {u_in}",
                 f"advance: {self.advance:.6g} output-unit over the input's travel"
@@ -146,9 +148,9 @@ class DriveResult:
                 *per,
                 f"moving_fraction: {self.moving_fraction:.6g} 1 (|dq_out/dq_in| > {self.threshold:g})",
                 f"max_ratio: {self.max_ratio:.6g} 1",
-                f"jammed: {self.jammed} bool",
-                f"stop_reason: {self.stop_reason} text",
-                f"stopped_at: {stop} q0,q1",
+                f"jammed: {self.jammed}",
+                f"stop_reason: {self.stop_reason}",
+                f"stopped_at: {stop}",
                 f"steps: {self.steps} steps",
                 f"time_drive: {self.seconds:.3g} s"]
 
@@ -321,7 +323,8 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     advance, per_cycle, each = _advances(s, q_out, bool(device.periodic[axis]), requested, jammed)
     return DriveResult(device.name, axis, load, mode, bool(device.periodic[axis]), requested, travel, advance,
                        per_cycle, each, moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold,
-                       steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall)
+                       steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall,
+                       bool(device.parts[axis].periodic))
 
 
 def _advances(s: np.ndarray, q_out: np.ndarray, periodic: bool, requested: float, jammed: bool) -> tuple:

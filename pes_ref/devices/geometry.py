@@ -96,17 +96,35 @@ class Polygon:
             raise checks.InputError("vertices", f"vertices must hold at least 3 corners, got shape {v.shape}")
         shapely = require_shapely()
         poly = shapely.Polygon(v)
-        if not poly.area > 1e-12 * max(1.0, float(np.max(np.abs(v)))) ** 2:
+        tiny = 1e-12 * max(1.0, float(np.max(np.abs(v)))) ** 2
+        if not shapely.convex_hull(poly).area > tiny:       # every corner on one line (or one point)
             raise checks.InputError("vertices", f"vertices must enclose a positive area, got area {poly.area:g}")
-        if not poly.is_valid:
-            raise checks.InputError("vertices", f"vertices must form a simple polygon "
-                                                f"({shapely.is_valid_reason(poly)})")
+        crossing = _self_crossing(shapely, v)
+        if crossing is not None:                            # a bow tie's halves can cancel to zero area
+            raise checks.InputError("vertices", f"vertices must form a simple polygon: the outline is self-crossing "
+                                                f"(its edges cross at ({crossing[0]:.6g}, {crossing[1]:.6g})); "
+                                                f"give the corners in order around the shape")
+        if not poly.area > tiny or not poly.is_valid:
+            raise checks.InputError("vertices", f"vertices must form a simple polygon with a positive area "
+                                                f"({shapely.is_valid_reason(poly)}, area {poly.area:g})")
         object.__setattr__(self, "vertices", v)
         object.__setattr__(self, "minus", _minus(self.minus))
 
     def geometry(self, tolerance: float):
         """The shapely geometry (circles in ``minus`` within ``tolerance``)."""
         return _cut(self, require_shapely().Polygon(self.vertices), tolerance)
+
+
+def _self_crossing(shapely, v: np.ndarray):
+    """Where the closed outline through ``v`` crosses (or runs back over) itself, as (x, y); None
+    if it is simple."""
+    ring = shapely.LinearRing(v)
+    if ring.is_simple:
+        return None
+    reason = shapely.is_valid_reason(shapely.Polygon(v))
+    if "[" in reason:                                       # 'Self-intersection[x y]'
+        return tuple(float(t) for t in reason[reason.index("[") + 1:reason.index("]")].split())
+    return tuple(float(t) for t in v[0])
 
 
 @dataclass(frozen=True)

@@ -104,9 +104,9 @@ def stated_lines(device, name: str) -> list:
 
 
 def fact_lines(facts: dict) -> list:
-    """``name: value unit`` lines of :func:`engine_facts`."""
-    units = {"engine": "name", "restitution": "1", "friction": "1"}
-    return [f"{k}: {v:.6g} {units[k]}" if isinstance(v, float) else f"{k}: {v} {units[k]}" for k, v in facts.items()]
+    """``name: value unit`` lines of :func:`engine_facts` (the engine's name has no unit)."""
+    units = {"engine": "", "restitution": " 1", "friction": " 1"}
+    return [f"{k}: {v:.6g}{units[k]}" if isinstance(v, float) else f"{k}: {v}{units[k]}" for k, v in facts.items()]
 
 
 # =========================================================================== motion laws

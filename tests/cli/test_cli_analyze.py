@@ -10,8 +10,12 @@ from _helpers import without_progress
 
 from pes_ref.cli import EXIT_ERROR, EXIT_OK, main
 
-#: ``name: value unit``; names may carry a bracketed argument, values may be a range "a .. b".
-LINE = re.compile(r"^[a-z_0-9]+(\[[a-z_]+=[-0-9.e+]+\]|\[[a-z-]+\])?: \S+( \.\. \S+)? \S+.*$")
+#: ``name: value unit``, or ``name: value`` where the value is a name, a flag or text; names may carry a
+#: bracketed argument, values may be a range "a .. b".
+LINE = re.compile(r"^[a-z_0-9]+(\[[a-z_]+=[-0-9.e+]+\]|\[[a-z-]+\])?: \S+( \.\. \S+)?( \S+.*)?$")
+#: A number's line has a unit; a type where a unit would go (``jammed: False bool``) is not one.
+NUMBER = re.compile(r"^[^:]+: [-+0-9.e]+(inf|nan)?$")
+TYPE_WORDS = (" bool", " text", " name", " mode", " axis", " q0,q1")
 
 
 def run(capsys, *argv):
@@ -68,6 +72,7 @@ def figures(capsys, *argv) -> dict:
     assert code == EXIT_OK and all(line.startswith("wrote ") for line in err.splitlines()), err
     lines = out.splitlines()
     assert all(LINE.match(line) for line in lines), lines
+    assert not [line for line in lines if NUMBER.match(line) or line.endswith(TYPE_WORDS)], lines
     return dict(line.split(": ", 1) for line in lines)
 
 
@@ -79,7 +84,7 @@ def test_ratchet_prints_one_line_per_figure(capsys):
 
 def test_dartgun_prints_one_line_per_figure(capsys):
     values = figures(capsys, "dartgun", "--smoke", "--trigger-forces", "30", "--search-tol", "20")
-    assert values["reload_latched"] == "True bool"
+    assert values["reload_latched"] == "True"
     assert float(values["exit_speed[trigger_force=30]"].split()[0]) > 0
     assert {"min_reload_force", "reload_bbox_q0", "fire_bbox_q1"} <= set(values)
 
@@ -118,7 +123,7 @@ def test_a_device_file_prints_the_drive_figures_and_writes_its_outputs(capsys, t
     values = figures(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--out", str(out),
                      "--plot", str(plot), "--json", str(js))
     assert {"input_travel", "advance_per_cycle", "moving_fraction", "max_ratio", "jammed", "stopped_at"} <= set(values)
-    assert values["jammed"] == "False bool"
+    assert values["jammed"] == "False"
     law = np.loadtxt(out / "motion_law.csv", delimiter=",", skiprows=1)
     assert (out / "motion_law.csv").read_text().startswith("q_in,q_out\n")
     assert law.shape[1] == 2 and np.all(np.diff(law[:, 0]) > 0)
@@ -248,7 +253,7 @@ def test_the_rigid_engine_writes_the_same_files_and_states_its_contact(capsys, t
     out, js = tmp_path / "cam", tmp_path / "cam.json"
     values = figures(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--engine", "rigid",
                      "--out", str(out), "--json", str(js))
-    assert values["engine"] == "rigid name" and values["restitution"] == "0 1" and values["friction"] == "0 1"
+    assert values["engine"] == "rigid" and values["restitution"] == "0 1" and values["friction"] == "0 1"
     assert (out / "motion_law.csv").read_text().startswith("q_in,q_out\n")
     summary = json.loads(js.read_text())
     assert (summary["engine"], summary["restitution"], summary["friction"]) == ("rigid", 0.0, 0.0)
@@ -290,7 +295,7 @@ def test_a_stall_of_the_grid_s_resolution_is_told_apart(capsys, tmp_path, engine
     path.write_text(YOKE)
     values = figures(capsys, str(path), "--drive", "0", "--load", "1", "--engine", engine)
     assert values["stall"] == verdict
-    assert values.get("stop_reason", values.get("stop_reason[surface]")) == "stalled text"
+    assert values.get("stop_reason", values.get("stop_reason[surface]")) == "stalled"
 
 
 def test_a_start_inside_the_rigid_parts_is_one_error_line_naming_start(capsys, tmp_path):
@@ -300,3 +305,46 @@ def test_a_start_inside_the_rigid_parts_is_one_error_line_naming_start(capsys, t
     assert code == EXIT_ERROR and out == "" and err.count("\n") == 1
     assert "--start" in err and "0.45" in err and "inside blocked space" in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_angle_spanning_more_than_a_turn_warns_that_it_looks_like_degrees(capsys, tmp_path):
+    """A rotating part's span typed in degrees (0..360) is taken as radians, 57 turns: the
+    analysis runs, its travel says rad, and one warning names the axis and the radians meant."""
+    device = tmp_path / "degrees.toml"
+    device.write_text(DEGREES)
+    code, out, err = run(capsys, str(device), "--drive", "0", "--load", "1")
+    assert code == EXIT_OK and "requested_travel: 360 rad" in out, out
+    warnings = [line for line in err.splitlines() if line.startswith("warning: ")]
+    assert len(warnings) == 1, err
+    assert f"{device}: cspace: q0 is an angle" in warnings[0] and "0 .. 360 = 360 rad" in warnings[0], warnings
+    assert "meant in degrees, write lower = 0, upper = 6.28319" in warnings[0], warnings
+    device.write_text(DEGREES.replace("upper = [360.0, 0.5]", "upper = [6.0, 0.5]"))        # less than a turn: quiet
+    code, out, err = run(capsys, str(device), "--drive", "0", "--load", "1")
+    assert code == EXIT_OK and "requested_travel: 6 rad" in out and "warning" not in err, err
+
+
+#: A pin on a crank (rotating about the origin) in a plate's hole, its angle's span typed in degrees.
+DEGREES = """format = 1
+[[part]]
+motion = "rotation"
+pivot = [0.0, 0.0]
+shapes = [{ circle = { center = [0.2, 0.0], radius = 0.1 } }]
+[[part]]
+motion = "translation"
+direction = [0.0, 1.0]
+shapes = [{ rectangle = { lower = [-1.0, -1.0], upper = [1.0, 1.0] }, minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }] }]
+[cspace]
+lower = [0.0, -0.5]
+upper = [360.0, 0.5]
+shape = [21, 21]
+[energy]
+v = 1e-4
+r_c = 0.1
+springs = [{ axis = 1, k = 1.0, center = 0.0 }]
+[dynamics]
+mass = [1.0, 1.0]
+damping = [1.0, 1.0]
+walls = { k = 100.0, margin = 0.01, edges = [[true, true], [true, true]] }
+[start]
+q = [0.0, 0.0]
+"""

@@ -55,6 +55,8 @@ FAULTS = [
           ("part[0].shapes[0].circle.radius: expected a number > 0, got -0.1",)),
     Fault("device-polygon-crossing", "analyze dev-bowtie.toml --drive 0 --load 1",
           ("part[1].shapes[0].minus[0].polygon", "simple polygon")),
+    Fault("device-polygon-crossing-zero-area", "analyze dev-bowtie0.toml --drive 0 --load 1",
+          ("part[1].shapes[0].minus[0].polygon", "self-crossing", "cross at (0.1, 0.1)"), absent=("positive area",)),
     Fault("device-cut-leaves-nothing", "analyze dev-empty.toml --drive 0 --load 1", ("part[1].shapes", "leave nothing")),
     Fault("device-shape-one", "analyze dev-grid.toml --drive 0 --load 1", ("cspace.shape[1]: expected an integer >= 2, got 1",)),
     Fault("device-upper-below-lower", "analyze dev-upper.toml --drive 0 --load 1", ("cspace.upper[0]: expected upper > lower",)),

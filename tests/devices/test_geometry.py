@@ -123,7 +123,8 @@ def test_interiors_overlap_is_every_pair_at_once():
 @pytest.mark.parametrize("vertices, match", [
     ([[0, 0], [1, 0]], "at least 3"),
     ([[0, 0], [1, 0], [2, 0]], "positive area"),
-    ([[0, 0], [3, 3], [3, 0], [0, 1]], "simple polygon"),
+    ([[0, 0], [3, 3], [3, 0], [0, 1]], r"simple polygon: the outline is self-crossing \(its edges cross at \(0.75, 0.75\)\)"),
+    ([[0, 0], [1, 1], [1, 0], [0, 1]], r"self-crossing \(its edges cross at \(0.5, 0.5\)\)"),   # a bow tie: zero net area
     ([[0, 0], [1, np.nan], [0, 1]], "finite"),
 ])
 def test_polygon_refuses_bad_vertices(vertices, match):
