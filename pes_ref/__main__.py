@@ -1,6 +1,6 @@
-"""``python -m pes_ref`` and the ``pes_ref`` console command: :func:`pes_ref.cli.main`.
+"""``python -m pes_ref`` and the ``pes_ref`` console command: [`pes_ref.cli.main`][pes_ref.cli.main].
 
-The command line is imported inside :func:`run`, so that Ctrl-C while it is still being
+The command line is imported inside `run`, so that Ctrl-C while it is still being
 imported ends as Ctrl-C does later: one line ``interrupted`` and exit status 130.
 """
 import sys

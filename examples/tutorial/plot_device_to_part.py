@@ -39,15 +39,16 @@ ROOT = Path(pes_ref.__file__).resolve().parent.parent          # the repository:
 WORK = Path(tempfile.mkdtemp(prefix="pes_ref_tutorial_"))
 
 
-def pes_ref_cmd(*args: str) -> str:
-    """Run ``python -m pes_ref ARGS`` in WORK; print the command and its output; return stdout."""
+def pes_ref_cmd(*args: str) -> None:
+    """Run ``python -m pes_ref ARGS`` in WORK; print the command, then what it printed on stdout
+    and stderr in the order it printed it (one stream, as a terminal shows them)."""
     print("$ python -m pes_ref " + " ".join(shlex.quote(a) for a in args))
-    proc = subprocess.run([sys.executable, "-m", "pes_ref", *args], cwd=WORK, capture_output=True, text=True,
-                          env=dict(os.environ, PYTHONPATH=str(ROOT)))
-    print(proc.stdout + proc.stderr)
+    proc = subprocess.run([sys.executable, "-m", "pes_ref", *args], cwd=WORK, stdout=subprocess.PIPE,
+                          stderr=subprocess.STDOUT, text=True,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1"))
+    print(proc.stdout.rstrip("\n"))
     if proc.returncode != 0:
         raise SystemExit(f"the command failed with exit status {proc.returncode}")
-    return proc.stdout
 
 
 def show(png: Path, title: str) -> None:

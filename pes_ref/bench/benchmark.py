@@ -4,7 +4,7 @@ Measures, on a 200 x 200 surface and in float64:
 
 - ``scaling``: forward, adjoint and forward+adjoint time per step and particle-steps per
   second for N in {1, 16, 256, 4096, 65536}, dynamic and quasistatic, and the ratio
-  adjoint / forward, on each installed backend (:data:`pes_ref.core.backends.BACKENDS`);
+  adjoint / forward, on each installed backend (`pes_ref.core.backends.BACKENDS`);
 - ``memory``: the peak of ``value_and_grad`` (``tracemalloc``) against the stored
   trajectory (x, v, f) plus the grid, and the trajectory-sized arrays a run fills with
   zeros beyond those that must hold zeros;
@@ -13,20 +13,22 @@ Measures, on a 200 x 200 surface and in float64:
   with zero coefficients (which must cost nothing) and a spring with a zero periodic axis
   (whose minimum image must not be computed);
 - ``exponents``: how time grows with N and with T (least-squares slopes in log-log);
-- ``design``: the funnel and oscillator design gradients (:mod:`pes_ref.bench.cases`) on
+- ``design``: the funnel and oscillator design gradients ([`pes_ref.bench.cases`][pes_ref.bench.cases]) on
   each backend against HIPS autograd and JAX where installed, each checked to agree with
   pes_ref's gradient (``GRAD_RTOL``) before it is timed, JAX's compile time apart; and the
   funnel at N = 4096 and N = 65536 against JAX;
 - ``every_gradient``: every gradient a case owes (values, x0, v0, force, mass, damping) through
-  :func:`pes_ref.oracle.case.run_case` on each backend against JAX's ``jit(value_and_grad)``
-  of the same inputs, the funnel at N = 64, 4096 and 65,536 (:mod:`pes_ref.bench.every_gradient`);
+  [`pes_ref.oracle.case.run_case`][pes_ref.oracle.case.run_case] on each backend against JAX's ``jit(value_and_grad)``
+  of the same inputs, the funnel at N = 64, 4096 and 65,536
+  ([`pes_ref.bench.every_gradient`][pes_ref.bench.every_gradient]);
 - ``runs``: the default oscillator design (``python -m pes_ref design oscillator``), whole,
   on each backend;
 - ``targets``: the targets of docs/performance.md, each with the measured number and met / not met.
 
 Every timing is the median of repeated wall-clock runs after one warm-up run, with its
-min and max. Nothing here is a test: :mod:`pes_ref.bench.targets` reads the targets off the
-results, :mod:`pes_ref.bench.report` prints them and :mod:`pes_ref.bench.outputs` writes them
+min and max. Nothing here is a test: [`pes_ref.bench.targets`][pes_ref.bench.targets] reads the targets off the
+results, [`pes_ref.bench.report`][pes_ref.bench.report] prints them and [`pes_ref.bench.outputs`][pes_ref.bench.outputs]
+writes them
 (JSON, with the machine, versions and date) and a scaling plot.
 """
 from __future__ import annotations
@@ -98,7 +100,7 @@ QUICK = Config(grid=12, sizes=(1, 4), particle_steps=40, min_steps=5, max_steps=
 
 
 def installed_backends() -> tuple:
-    """The backends this machine can run, in :data:`pes_ref.core.backends.BACKENDS` order."""
+    """The backends this machine can run, in `pes_ref.core.backends.BACKENDS` order."""
     return tuple(name for name in backends.BACKENDS if backends.installed(name))
 
 MODES = ("dynamic", "quasistatic")
@@ -119,7 +121,7 @@ def _timed(fn, repeats: int, warmup: bool = True, clock=time.perf_counter) -> di
 
 
 def _interleaved(fns: dict, repeats: int, clock=time.perf_counter) -> dict:
-    """:func:`_timed` of several functions, their runs interleaved (one run of each in turn,
+    """`_timed` of several functions, their runs interleaved (one run of each in turn,
     after one warm-up run of each), so that a slow spell of a shared machine falls on all of
     them alike: name -> timing."""
     for fn in fns.values():
@@ -203,7 +205,7 @@ def scaling(cfg: Config, log=print) -> list:
 
 def memory(cfg: Config) -> dict:
     """Peak traced memory of one value_and_grad against trajectory + grid (NumPy's loops,
-    then each other backend's), and the arrays zero-filled (:func:`zero_filled`).
+    then each other backend's), and the arrays zero-filled ([`zero_filled`][pes_ref.bench.benchmark.zero_filled]).
 
     The objective is the funnel at the final step; its derivative array dL/dX
     (T+1, N, 2), an input of the adjoint, is part of the peak (one third of a
@@ -235,13 +237,13 @@ _FILLED_MAKERS = ("zeros", "zeros_like", "ones", "ones_like", "full", "full_like
 
 #: The zero-filled (T+1, N, 2) arrays each run needs, because their entries stay 0: the
 #: final-step funnel's dL/dX (written at the last state only); quasistatic V (all zeros).
-#: An array of that size made by :data:`_FILLED_MAKERS` beyond these is a wasted pass.
+#: An array of that size made by `_FILLED_MAKERS` beyond these is a wasted pass.
 _ZEROS_NEEDED = {("dynamic", "simulate"): 0, ("dynamic", "value_and_grad"): 1,
                  ("quasistatic", "simulate"): 1, ("quasistatic", "value_and_grad"): 2}
 
 
 def _filled_arrays(run, n_bytes: int) -> list:
-    """The names of :data:`_FILLED_MAKERS` that made an array of at least ``n_bytes`` while
+    """The names of `_FILLED_MAKERS` that made an array of at least ``n_bytes`` while
     ``run()`` ran (NumPy's functions counted in place for the call, then restored)."""
     made, saved = [], {name: getattr(np, name) for name in _FILLED_MAKERS}
 
@@ -265,7 +267,7 @@ def _filled_arrays(run, n_bytes: int) -> list:
 def zero_filled(cfg: Config) -> list:
     """Per backend, mode and call (``simulate``; ``value_and_grad`` with every gradient of the
     scene and the final-step funnel): the (T+1, N, 2) arrays made filled, against
-    :data:`_ZEROS_NEEDED`."""
+    `_ZEROS_NEEDED`."""
     n, T = cfg.memory_case
     x0, v0 = _state(n)
     rows = []
@@ -346,7 +348,7 @@ def _nothing_scenes(cfg: Config, n: int, T: int) -> dict:
 def _effect_rows(scenes: dict, x0, v0, T: int, repeats: int, backend: str, clock=None) -> list:
     """Per scene: forward and forward+adjoint per step on ``backend``, and as multiples of the
     first scene (the bare one): medians, and the minima (the least disturbed runs). With a
-    ``clock``, the scenes' runs are interleaved (:func:`_interleaved`) and timed by it."""
+    ``clock``, the scenes' runs are interleaved (`_interleaved`) and timed by it."""
     rows = []
     if clock is not None:
         fwd = _interleaved({name: (lambda s=s: simulate(s, x0, v0, backend=backend)) for name, s in scenes.items()},
@@ -372,7 +374,7 @@ def _effect_rows(scenes: dict, x0, v0, T: int, repeats: int, backend: str, clock
 def effects(cfg: Config, log=print) -> dict:
     """Step time of the bare scene, a loop written for it alone (both on NumPy's loops), and
     each effect on each backend; then the terms named with zero coefficients
-    (:func:`_nothing_scenes`) on each backend."""
+    (`_nothing_scenes`) on each backend."""
     n, T = cfg.effects_case
     x0, v0 = _state(n)
     scenes = _effect_scenes(cfg, n, T)

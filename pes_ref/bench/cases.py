@@ -1,9 +1,10 @@
 """The two design gradients that the benchmark times: the paper's funnel and oscillator.
 
-A :class:`DesignCase` is one gradient evaluation written as plain arrays (surface,
+A [`DesignCase`][pes_ref.bench.cases.DesignCase] is one gradient evaluation written as plain arrays (surface,
 per-particle mass and damping, spring, walls, the realized external force schedule,
-initial state, objective), so that the reference (:func:`reference_gradient`) and the
-benchmark's autograd and JAX versions (:mod:`pes_ref.bench.spec`) compute exactly the same
+initial state, objective), so that the reference ([`reference_gradient`][pes_ref.bench.cases.reference_gradient]) and
+the
+benchmark's autograd and JAX versions ([`pes_ref.bench.spec`][pes_ref.bench.spec]) compute exactly the same
 thing from the same inputs. The scenes follow the paper's design problems (funnel: a
 plane, walls at the side edges, a constant downward force plus noise, eq. (5) summed
 over every step; oscillator: a cylinder, a spring along q0, low damping along q0 and
@@ -81,7 +82,7 @@ def funnel_case(n_particles: int = 64, n_steps: int = 400, grid: int = 200, seed
     """The funnel: plane [-1, 1] x [0, 2], walls at q0 = +-0.98, force (0, -1), noise 0.3,
     damping 1, dt 0.01; particles start across the top at q1 = 1.9; loss eq. (5) summed
     over every step with target 0. The surface is a valley ``0.3 q0^2`` plus a smooth
-    random one (:func:`smooth_surface`, amplitude 0.05)."""
+    random one ([`smooth_surface`][pes_ref.bench.cases.smooth_surface], amplitude 0.05)."""
     rng = np.random.default_rng(seed)
     N, T = n_particles, n_steps
     lower, upper = np.array([-1.0, 0.0]), np.array([1.0, 2.0])
@@ -99,7 +100,7 @@ def oscillator_case(n_particles: int = 64, n_steps: int = 500, grid: tuple = (32
     """The oscillator: cylinder [-2.5, 2.5] x [0, 2 pi) (q1 periodic), spring k = (1, 0) to
     q0 = 0, damping (0.05, 2), walls at q0 = +-2.45, torque -tau along q1 with tau uniform
     in [0.5, 1], dt 0.05; particles start at rest at q0 ~ 1.2, q1 = 0; loss eq. (6) with
-    amplitude 1, omega 1. The surface is a smooth random one (:func:`smooth_surface`,
+    amplitude 1, omega 1. The surface is a smooth random one ([`smooth_surface`][pes_ref.bench.cases.smooth_surface],
     amplitude 0.05)."""
     rng = np.random.default_rng(seed)
     N, T = n_particles, n_steps
@@ -118,7 +119,7 @@ CASES = {"funnel": funnel_case, "oscillator": oscillator_case}
 
 
 def reference_scene(case: DesignCase) -> Scene:
-    """The case as a :class:`pes_ref.Scene` (its external force is passed as ``fext``)."""
+    """The case as a [`pes_ref.Scene`][pes_ref.core.scene.Scene] (its external force is passed as ``fext``)."""
     spring = None if case.spring_k is None else Spring(case.spring_k, case.spring_center)
     return Scene(Surface(case.values, case.lower, case.upper, case.periodic), dt=case.dt, n_steps=case.n_steps,
                  mass=case.mass, damping=case.damping, spring=spring,
@@ -133,7 +134,7 @@ def reference_objective(case: DesignCase):
 
 def reference_gradient(case: DesignCase, scene: Scene | None = None, objective=None, backend: str | None = None):
     """``(loss, dL/dvalues)`` by pes_ref's adjoint (``value_and_grad(..., wrt="values")``) on
-    ``backend`` (None: the default, :func:`pes_ref.core.backends.default_backend`)."""
+    ``backend`` (None: the default, [`pes_ref.core.backends.default_backend`][pes_ref.core.backends.default_backend])."""
     scene = reference_scene(case) if scene is None else scene
     objective = reference_objective(case) if objective is None else objective
     loss, grads, _ = value_and_grad(scene, case.x0, case.v0, objective, wrt=("values",), fext=case.fext,

@@ -1,11 +1,12 @@
-"""Every gradient a case owes, through :func:`pes_ref.oracle.case.run_case`, against JAX.
+"""Every gradient a case owes, through [`pes_ref.oracle.case.run_case`][pes_ref.oracle.case.run_case], against JAX.
 
 An implementation checked against the oracle asks for every gradient of its case: ``values``,
 ``x0``, ``v0``, ``force``, ``mass`` and ``damping`` (and ``spring_k``, ``spring_center`` where
 the case has a spring). This module times ``run_case`` on the paper's funnel case (the
-benchmark's :func:`pes_ref.bench.cases.funnel_case` as case keys, its noise realized into
+benchmark's [`pes_ref.bench.cases.funnel_case`][pes_ref.bench.cases.funnel_case] as case keys, its noise realized into
 ``force``) against JAX's ``jit(value_and_grad)`` over the same inputs, all of them
-differentiated (:func:`jax_every_gradient`), in one process: the runs are interleaved (one
+differentiated ([`jax_every_gradient`][pes_ref.bench.every_gradient.jax_every_gradient]), in one process: the runs are
+interleaved (one
 of each per round), and the median wall time of each is reported with the ratio to JAX's.
 The ratio is of the medians; beside it the median [min-max] of the ratios round by round
 (each run against JAX's of the same round, so that a drift of a shared machine's speed
@@ -13,7 +14,8 @@ cancels). JAX's gradients are first checked against the oracle's (100 GRAD_RTOL 
 gradient's largest entry); a mismatch is reported and not timed.
 
 Run: ``python -m pes_ref.bench.every_gradient [--sizes 64,4096,65536] [--rounds R]``; ``make
-bench`` prints the same rows (:func:`measure`, :func:`format_rows`). The targets (docs/performance.md):
+bench`` prints the same rows ([`measure`][pes_ref.bench.every_gradient.measure],
+[`format_rows`][pes_ref.bench.every_gradient.format_rows]). The targets (docs/performance.md):
 compiled <= 0.5x JAX at N = 64 and < 1x at N = 4096 and 65,536; NumPy < 1x at N >= 4096.
 """
 from __future__ import annotations
@@ -42,7 +44,7 @@ GRADS = ("values", "x0", "v0", "force", "mass", "damping")
 
 
 def case_keys(c: DesignCase) -> dict:
-    """A :class:`DesignCase` (funnel, dynamic) as the keys of a case file (docs/spec.md section 8)."""
+    """A [`DesignCase`][pes_ref.bench.cases.DesignCase] (funnel, dynamic) as the keys of a case file (docs/spec.md section 8)."""
     return dict(values=c.values, lower=c.lower, upper=c.upper, periodic=np.array(c.periodic), dt=c.dt,
                 n_steps=np.int64(c.n_steps), mode="dynamic", mass=c.mass, damping=c.damping, x0=c.x0,
                 v0=c.v0, force=c.fext, wall_k=c.wall_k, wall_margin=c.wall_margin, walls=c.walls,
@@ -51,8 +53,8 @@ def case_keys(c: DesignCase) -> dict:
 
 def jax_every_gradient(c: DesignCase):
     """``run() -> (loss, {name: gradient})``: JAX's ``jit(value_and_grad)`` of the funnel's loss
-    with respect to every input the case owes a gradient of (:data:`GRADS`), written from the
-    contract as :mod:`pes_ref.bench.spec` writes it, with ``a = dt / 2m`` and ``c = dt gamma / 2m``
+    with respect to every input the case owes a gradient of (`GRADS`), written from the
+    contract as [`pes_ref.bench.spec`][pes_ref.bench.spec] writes it, with ``a = dt / 2m`` and ``c = dt gamma / 2m``
     computed from the differentiated mass and damping."""
     import jax
     jax.config.update("jax_enable_x64", True)

@@ -1,15 +1,15 @@
 """What the oracle's command line costs around its computation, on the paper-sized funnel.
 
-The funnel of :func:`pes_ref.bench.cases.funnel_case` (200 x 200 grid, 64 particles,
+The funnel of [`pes_ref.bench.cases.funnel_case`][pes_ref.bench.cases.funnel_case] (200 x 200 grid, 64 particles,
 400 steps, every gradient) is written as a case file; then the whole process
 ``python -m pes_ref oracle CASE RESULT`` is timed against its floor: a bare
-``python -c "import numpy"`` plus the computation (:func:`run_case` on the loaded case),
+``python -c "import numpy"`` plus the computation ([`run_case`][pes_ref.oracle.case.run_case] on the loaded case),
 timed both as the oracle process does it (the first call in a fresh process) and warm
 (in this process, which has made many calls). The processes are run in turns (one of each per
 round, so a busy machine slows all of them alike) with their bytecode cached, as an
 installed package has it; medians of wall and CPU (user + system) time are reported,
 with the parts in between: the oracle's start-up (its imports, its parser, the
-freezing of what they made: :func:`pes_ref.cli.main`), the computation, and writing the
+freezing of what they made: [`pes_ref.cli.main`][pes_ref.cli.main]), the computation, and writing the
 result stored (the default) or deflated (``--compress``). docs/performance.md has the
 numbers.
 
@@ -83,7 +83,7 @@ def time_call(fn) -> tuple:
     return time.perf_counter() - t, time.process_time() - c
 
 
-#: Prints the wall and CPU seconds of the first :func:`run_case` of a fresh process.
+#: Prints the wall and CPU seconds of the first `run_case` of a fresh process.
 _FIRST_CALL = """
 import sys, time
 from pes_ref.oracle.case import load_case, run_case
@@ -99,7 +99,7 @@ ROWS = ("bare numpy", "start-up of the oracle", "whole oracle process", "computa
 
 
 def measure(folder, repeats: int = 15, python: str = sys.executable) -> dict:
-    """Every row of :data:`ROWS`: name -> (wall seconds, CPU seconds), medians over
+    """Every row of `ROWS`: name -> (wall seconds, CPU seconds), medians over
     ``repeats`` rounds after a warm-up round; ``folder`` holds the files.
 
     Each round runs every process once and every in-process figure once, so that a

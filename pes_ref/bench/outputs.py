@@ -49,7 +49,8 @@ def _jsonable(o):
 
 
 def output_paths(json_path: str) -> tuple:
-    """The files :func:`write_outputs` writes for ``json_path``: it, and beside it the plot
+    """The files [`write_outputs`][pes_ref.bench.outputs.write_outputs] writes for ``json_path``: it, and beside it the
+    plot
     ``scaling.png`` (or ``<stem>-scaling.png``)."""
     folder = os.path.dirname(os.path.abspath(json_path))
     stem = os.path.splitext(os.path.basename(json_path))[0]
@@ -58,7 +59,7 @@ def output_paths(json_path: str) -> tuple:
 
 def write_outputs(res: dict, json_path: str, overwrite: bool) -> tuple:
     """Write the JSON and, beside it, ``scaling.png`` (or ``<stem>-scaling.png``), each
-    atomically (:func:`pes_ref.core.runtime.files.atomic_file`).
+    atomically ([`pes_ref.core.runtime.files.atomic_file`][pes_ref.core.runtime.files.atomic_file]).
 
     Refuses (FileExistsError) to replace an existing file unless ``overwrite``: both are
     checked before anything is written, and each again as it is published."""

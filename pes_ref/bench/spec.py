@@ -3,10 +3,10 @@
 The benchmark compares pes_ref's hand-derived adjoint with automatic differentiation of
 the same computation, written as directly as docs/spec.md states it (sections 2-6): a
 bilinear lookup per step, the damped Verlet step of eqs. (2)-(3), springs, walls, the
-realized external force and the objectives of eqs. (5)-(6). :func:`step_fn` and
-:func:`state_loss_fn` take the array module ``xp`` (``autograd.numpy`` or
-``jax.numpy``); :mod:`pes_ref.bench.with_autograd` drives them with a Python loop,
-:mod:`pes_ref.bench.with_jax` with ``jax.lax.scan`` under ``jax.jit``. Neither library is
+realized external force and the objectives of eqs. (5)-(6). [`step_fn`][pes_ref.bench.spec.step_fn] and
+[`state_loss_fn`][pes_ref.bench.spec.state_loss_fn] take the array module ``xp`` (``autograd.numpy`` or
+``jax.numpy``); [`pes_ref.bench.with_autograd`][pes_ref.bench.with_autograd] drives them with a Python loop,
+[`pes_ref.bench.with_jax`][pes_ref.bench.with_jax] with ``jax.lax.scan`` under ``jax.jit``. Neither library is
 imported here, and neither is a dependency of pes_ref.
 """
 from __future__ import annotations

@@ -58,7 +58,7 @@ def _compiled_targets(res: dict, add) -> None:
 def targets(res: dict) -> list:
     """The targets with the measured numbers: (name, measured, goal, met or None if not
     measured). First NumPy's loops' (the scaling, memory and effects of NumPy's
-    loops); then :func:`_compiled_targets`."""
+    loops); then `_compiled_targets`."""
     out = []
 
     def add(name, value, goal, met):

@@ -1,7 +1,7 @@
 """The benchmark's design gradient by HIPS autograd (the tool the paper used).
 
-Optional: autograd is imported only here, and only when :func:`available` says it is
-installed (the ``bench`` extra). The computation is :mod:`pes_ref.bench.spec` driven by a
+Optional: autograd is imported only here, and only when [`available`][pes_ref.bench.with_autograd.available] says it is
+installed (the ``bench`` extra). The computation is [`pes_ref.bench.spec`][pes_ref.bench.spec] driven by a
 Python loop over the steps, reverse-mode differentiated by ``autograd.grad``.
 """
 from __future__ import annotations

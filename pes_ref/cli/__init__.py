@@ -1,10 +1,10 @@
 """The ``pes_ref`` command line (``python -m pes_ref COMMAND ...``).
 
 One module per command, each with ``add_parser(subparsers)`` (which sets ``func``, a
-handler ``args -> exit code``); :data:`COMMANDS` names them, in the order ``--help``
+handler ``args -> exit code``); `COMMANDS` names them, in the order ``--help``
 shows them, with the module of each, which is imported only when its command runs (or
 when ``--help`` lists them all). Exit codes, the one-line error and the rule for a
-closed pipe are in :mod:`pes_ref.cli.common`.
+closed pipe are in [`pes_ref.cli.common`][pes_ref.cli.common].
 """
 from __future__ import annotations
 
@@ -41,8 +41,8 @@ def _chosen_command(argv) -> str | None:
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The argument parser with every command of :data:`COMMANDS`, or only with
-    ``command`` (one of their names): :func:`main` imports and builds just the command it
+    """The argument parser with every command of `COMMANDS`, or only with
+    ``command`` (one of their names): [`main`][pes_ref.cli.main] imports and builds just the command it
     runs, since importing and building all of them (their help, choices and defaults)
     would cost every run, ``oracle`` included, several milliseconds."""
     parser = Parser(
@@ -63,10 +63,10 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 def _freeze_start_up() -> None:
     """Move every object that start-up made (NumPy, the parser, ...) to the cyclic
-    collector's permanent generation (:func:`gc.freeze`): they live until the process
+    collector's permanent generation (`gc.freeze`): they live until the process
     ends, so the collector need not walk them again, during the run or at exit. A
     program's run only (``main()`` without ``argv``): ~15 ms, over a tenth, of ``python -m
-    pes_ref oracle`` on the paper-sized funnel (:mod:`pes_ref.bench.oracle_cli`)."""
+    pes_ref oracle`` on the paper-sized funnel ([`pes_ref.bench.oracle_cli`][pes_ref.bench.oracle_cli])."""
     gc.freeze()
 
 
@@ -75,9 +75,9 @@ def main(argv=None) -> int:
     interrupted, 141 closed pipe).
 
     No traceback reaches the user: Ctrl-C and SIGTERM end with 130 after the command has
-    saved what it can (while the command's modules are imported too: :mod:`pes_ref.__main__`);
+    saved what it can (while the command's modules are imported too: `pes_ref.__main__`);
     a closed pipe (``pes_ref evaluate F | head -1``) follows the one rule of
-    :func:`pes_ref.cli.common.watch_pipes`; anything unexpected is one ``error:`` line (set
+    [`pes_ref.cli.common.watch_pipes`][pes_ref.cli.common.watch_pipes]; anything unexpected is one ``error:`` line (set
     ``PES_REF_DEBUG=1`` to see the traceback).
     """
     with watch_pipes(program=argv is None) as pipes:

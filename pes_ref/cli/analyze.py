@@ -2,21 +2,21 @@
 
 - ``analyze DEVICE.toml --drive AXIS --load VALUE [--mode quasistatic|dynamic] [--cycles K]
   [--start Q0,Q1] [--threshold T] [--shape N0,N1] [--json FILE] [--plot FILE] [--out DIR] [--force] [--engine E]``:
-  the drive analysis of any device file (:mod:`pes_ref.devices.drive`, ``docs/devices.md``)
+  the drive analysis of any device file ([`pes_ref.devices.drive`][pes_ref.devices.drive], ``docs/devices.md``)
 - ``analyze ratchet [--torque T] [--duration S] [--search-hi T] [--search-tol T] [--smoke] [--engine E]``
 - ``analyze dartgun [--reload-force F] [--reload-time S] [--trigger-forces F1,F2,...]
   [--fire-time S] [--search-hi F] [--search-tol F] [--smoke] [--engine E]``
 
-Each takes ``--engine surface|rigid|both`` (:data:`pes_ref.rigid.engines.ENGINES`; default
+Each takes ``--engine surface|rigid|both`` (`pes_ref.rigid.engines.ENGINES`; default
 ``surface``): the rigid engine runs the same analysis with the parts in rigid contact and
 adds its ``engine``, ``restitution`` and ``friction``; ``both`` runs both and prints a line
 both engines print the same once, any other as ``name[surface]``, ``name[rigid]`` and
-``name[rigid-surface]`` (:func:`pes_ref.rigid.engines.side_by_side`). Each prints one
-``name: value unit`` line per figure (:mod:`pes_ref.devices.ratchet`,
-:mod:`pes_ref.devices.dartgun`), and on stderr one ``warning: ...`` line for each thing that
+``name[rigid-surface]`` ([`pes_ref.rigid.engines.side_by_side`][pes_ref.rigid.engines.side_by_side]). Each prints one
+``name: value unit`` line per figure ([`pes_ref.devices.ratchet`][pes_ref.devices.ratchet],
+[`pes_ref.devices.dartgun`][pes_ref.devices.dartgun]), and on stderr one ``warning: ...`` line for each thing that
 makes some figures mean something else than they say (a torque that overwhelms the
 ratchet's barrier, a reload that did not latch, a device file whose free channels are
-narrower than eq. (1)'s reach or than its grid resolves: :mod:`pes_ref.devices.clearance`).
+narrower than eq. (1)'s reach or than its grid resolves: [`pes_ref.devices.clearance`][pes_ref.devices.clearance]).
 Numbers are read as text and checked here, so a bad value is one line ``error: <message>``
 on stderr and exit status 2; so is a bad device file (naming its key), a device file's drive
 that has nowhere to go (no free configuration, a start inside blocked space) and a missing
@@ -39,7 +39,7 @@ from pes_ref.cli.common import (EXIT_ERROR, EXIT_OK, LazyDefault, add_command, e
 #: The ``--smoke`` presets (a smaller grid, shorter runs, coarser searches: for tests and a
 #: quick look; same geometry). An option given explicitly wins; an option neither given nor
 #: in the preset takes the analysis' default (``RATCHET_ANALYSIS``, ``DARTGUN_ANALYSIS`` of
-#: :mod:`pes_ref.devices.ratchet` and :mod:`pes_ref.devices.dartgun`).
+#: `pes_ref.devices.ratchet` and `pes_ref.devices.dartgun`).
 RATCHET_SMOKE = {"shape": (128, 128), "dt": 2e-3, "duration": "3.0", "search_tol": "0.1"}
 DARTGUN_SMOKE = {"shape": (121, 81), "dt": 5e-4, "trigger_forces": "10,30", "search_tol": "2.0"}
 #: The entries of a smoke preset that change the design (the rest are option texts).
@@ -301,11 +301,13 @@ DRIVE_FLAGS = {"axis": "--drive", "load": "--load", "cycles": "--cycles", "start
 
 
 class _Progress:
-    """Progress lines of a long analysis on stderr (:func:`pes_ref.core.runtime.progress.progress_line`):
+    """Progress lines of a long analysis on stderr
+    ([`pes_ref.core.runtime.progress.progress_line`][pes_ref.core.runtime.progress.progress_line]):
     ``cam.toml: drive | percent 40/100 | 8.1 percent/s | elapsed 0:07 | left 0:10``. A callback ``progress(phase,
-    done, total)`` (:mod:`pes_ref.core.runtime.progress`'s signature; ``done`` and ``total`` may be a
-    travel), silent for the first :data:`pes_ref.core.runtime.progress.LONG_RUN` seconds, then at most one
-    line every :data:`pes_ref.core.runtime.progress.PERIOD` seconds; the time left is the elapsed time
+    done, total)`` ([`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress]'s signature; ``done`` and ``total``
+    may be a
+    travel), silent for the first `pes_ref.core.runtime.progress.LONG_RUN` seconds, then at most one
+    line every `pes_ref.core.runtime.progress.PERIOD` seconds; the time left is the elapsed time
     scaled by the share still to do."""
 
     def __init__(self, label: str, clock=time.monotonic):
@@ -521,7 +523,7 @@ def _drives(names, drive, device, axis, load, mode, cycles, start, threshold, pr
 def _stall(device, results: dict):
     """What the rigid engine says of the surface drive's stall (None when it did not stall):
     the rigid drive of ``--engine both``, else a rigid run from the stall point
-    (:func:`pes_ref.rigid.engines.tell_stall`; unknown without pymunk)."""
+    ([`pes_ref.rigid.engines.tell_stall`][pes_ref.rigid.engines.tell_stall]; unknown without pymunk)."""
     from pes_ref.rigid.engines import stall_from_runs, tell_stall
     surface = results.get("surface")
     if surface is None or surface.stop_reason != "stalled":

@@ -1,6 +1,7 @@
 """The ``bench`` command of ``python -m pes_ref``.
 
-``bench [--quick] [--out FILE.json] [--force] [--no-autodiff]`` runs :mod:`pes_ref.bench.benchmark`, prints its
+``bench [--quick] [--out FILE.json] [--force] [--no-autodiff]`` runs
+[`pes_ref.bench.benchmark`][pes_ref.bench.benchmark], prints its
 tables and writes the results as JSON plus a scaling plot beside it. Without ``--out``
 the results go to ``bench/out/bench.json`` and ``bench/out/scaling.png``, the bench's own
 (git-ignored) output folder, replaced on every run; a file named with ``--out`` that

@@ -1,5 +1,5 @@
 """The ``check`` command: conformance of any program, in any language, through its
-command line (:mod:`pes_ref.testing.check`, docs/spec.md section 13)."""
+command line ([`pes_ref.testing.check`][pes_ref.testing.check], docs/spec.md section 13)."""
 from __future__ import annotations
 
 import os

@@ -1,6 +1,6 @@
 """What every command of the command line shares: exit codes, the one-line error (with
 the library's argument names turned into the command's flags), the rule for a closed pipe
-(:func:`watch_pipes`), the checks of input and output paths made before any computing,
+([`watch_pipes`][pes_ref.cli.common.watch_pipes]), the checks of input and output paths made before any computing,
 and how a command's parser is made (help with defaults and examples; a usage error is
 one line too)."""
 from __future__ import annotations
@@ -29,10 +29,10 @@ EXIT_PIPE = 141        #: stopped because the reader of stdout or stderr closed 
 
 
 def error(exc, flags: dict | None = None) -> int:
-    """Print exactly one line ``error: <message>`` to stderr; return :data:`EXIT_ERROR`.
+    """Print exactly one line ``error: <message>`` to stderr; return `EXIT_ERROR`.
 
     ``flags`` maps the library's argument names to the command's own (``{"n_particles":
-    "--particles"}``): see :func:`flag_message`.
+    "--particles"}``): see [`flag_message`][pes_ref.cli.common.flag_message].
     """
     print("error: " + " ".join(flag_message(exc, flags or {}).split()), file=sys.stderr)
     return EXIT_ERROR
@@ -40,7 +40,7 @@ def error(exc, flags: dict | None = None) -> int:
 
 def flag_message(exc, flags: dict) -> str:
     """The message of ``exc`` in the command's words: when ``exc`` is a keyed input error
-    (:class:`pes_ref.core.checks.InputError`), every whole-word mention of an argument it
+    ([`pes_ref.core.checks.InputError`][pes_ref.core.checks.InputError]), every whole-word mention of an argument it
     names (its ``names``: its key, and any other argument the message mentions) that
     ``flags`` maps becomes the flag (``n_particles must be >= 1, got 0`` ->
     ``--particles must be >= 1, got 0``)."""
@@ -55,7 +55,7 @@ def flag_message(exc, flags: dict) -> str:
 # =========================================================================== a closed pipe
 
 class _Watched:
-    """``sys.stdout`` or ``sys.stderr`` of a program run, as :func:`watch_pipes` watches it."""
+    """``sys.stdout`` or ``sys.stderr`` of a program run, as [`watch_pipes`][pes_ref.cli.common.watch_pipes] watches it."""
 
     def __init__(self, stream, pipes):
         self._stream, self._pipes = stream, pipes
@@ -84,7 +84,7 @@ class _Watched:
 
 
 class _Pipes:
-    """Whether a watched stream met a closed pipe (``closed``), and what follows (:func:`watch_pipes`)."""
+    """Whether a watched stream met a closed pipe (``closed``), and what follows ([`watch_pipes`][pes_ref.cli.common.watch_pipes])."""
 
     def __init__(self):
         self.closed = False
@@ -113,13 +113,13 @@ def watch_pipes(program: bool = True):
     Ctrl-C stops it: at its next safe point, keeping what it has saved and leaving no
     file half-written (a design saves its last finished iteration, an oracle result is
     whole or absent, a report is written whole or not at all), then exits with
-    :data:`EXIT_PIPE` (141, what a shell reports for a program that SIGPIPE ended)
+    `EXIT_PIPE` (141, what a shell reports for a program that SIGPIPE ended)
     without a message. A reader that closes its end after the command's last write
     (``head -1`` of a command that had printed everything) is not noticed, and the
     command exits as it would have.
 
     Yields the watcher, whose ``closed`` says whether a pipe closed. Only a program's
-    run (``program``: :func:`pes_ref.cli.main` without ``argv``) has its streams watched;
+    run (``program``: [`pes_ref.cli.main`][pes_ref.cli.main] without ``argv``) has its streams watched;
     a call's streams are its caller's.
     """
     pipes = _Pipes()
@@ -149,7 +149,7 @@ def input_file(path: str, what: str) -> str:
 
 
 def input_folder(path: str, what: str) -> str:
-    """``path`` if it is a folder to read; otherwise one refusal, worded as :func:`input_file`'s."""
+    """``path`` if it is a folder to read; otherwise one refusal, worded as [`input_file`][pes_ref.cli.common.input_file]'s."""
     if not os.path.exists(path):
         raise FileNotFoundError(f"{what} {path} does not exist")
     if not os.path.isdir(path):
@@ -219,7 +219,7 @@ class LazyDefault:
 @dataclasses.dataclass(frozen=True)
 class LazyChoices:
     """An option's choices: the keys of the table ``table`` in ``module`` (a registry), read
-    only when an argument is checked or the help is shown, as :class:`LazyDefault`."""
+    only when an argument is checked or the help is shown, as [`LazyDefault`][pes_ref.cli.common.LazyDefault]."""
 
     module: str
     table: str
@@ -256,13 +256,13 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message):
         """Print the usage error as one line naming the (sub)command and its ``--help``, and exit with
-        :data:`EXIT_ERROR`."""
+        `EXIT_ERROR`."""
         print(f"error: {self.prog}: {' '.join(message.split())} (see {self.prog} --help)", file=sys.stderr)
         sys.exit(EXIT_ERROR)
 
     def parse_args(self, args=None, namespace=None):
-        """:meth:`argparse.ArgumentParser.parse_args`, but an unknown argument is refused by the
-        innermost (sub)command it was given to, in that command's one-line :meth:`error`."""
+        """`argparse.ArgumentParser.parse_args`, but an unknown argument is refused by the
+        innermost (sub)command it was given to, in that command's one-line [`error`][pes_ref.cli.common.error]."""
         args, extras = self.parse_known_args(args, namespace)
         if extras:
             self._chosen(args).error(f"unrecognized arguments: {' '.join(extras)}")

@@ -9,8 +9,9 @@
   [--particles N] [--plan gait|overshoot|eq6] [--evaluations N] [--polish-particles N]
   [--workers N] [--backend numba|numpy] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
   run (or continue) a design, its gradient stage and then its polish if it has one
-  (:func:`pes_ref.synthesis.stages.run_stages`), and write its file
-  (:mod:`pes_ref.synthesis.design_file`). A progress line goes to stderr every ``--progress``
+  ([`pes_ref.synthesis.stages.run_stages`][pes_ref.synthesis.stages.run_stages]), and write its file
+  ([`pes_ref.synthesis.design_file`][pes_ref.synthesis.design_file]). A progress line goes to stderr every
+  ``--progress``
   seconds; Ctrl-C or SIGTERM finishes the iteration or generation, saves and exits 130;
   a run that goes non-finite, or whose grid steepens past the stability rule, saves its last good
   state and exits 1 (a fresh run that stops before finishing an iteration writes no file). A scene
@@ -28,7 +29,7 @@ import time
 from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error, input_file, output_file
 
 #: The names ``--set`` takes, per kind: the fields of each problem of
-#: :data:`pes_ref.synthesis.KINDS` that has one (tested equal), written out for the help text because
+#: `pes_ref.synthesis.KINDS` that has one (tested equal), written out for the help text because
 #: ``python -m pes_ref --help`` builds every command's parser, and building a parser imports
 #: nothing from the layers below the command line (tests/cli/test_oracle_startup.py).
 SET_NAMES = {
@@ -44,18 +45,18 @@ SET_NAMES = {
 }
 
 #: The library's names of what the options set, and the options (errors name the option):
-#: the plan's parameters here, each problem parameter ``NAME`` as ``--set NAME`` (:func:`_flags`).
+#: the plan's parameters here, each problem parameter ``NAME`` as ``--set NAME`` (`_flags`).
 PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-final", "clip": "--clip",
               "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed",
               "plan": "--plan", "evaluations": "--evaluations", "polish_particles": "--polish-particles",
               "backend": "--backend", "smoke": "--smoke", "set": "--set"}
 #: What a problem file's design names in its errors where a built-in kind names its ``--set`` fields.
 _FILE_FLAGS = {"problem": {"n_steps": "dynamics.duration / dt", "grid": "surface.shape"}}
-#: ``--plan`` choices: the keys of :data:`pes_ref.synthesis.plans.OSCILLATOR_PLANS` (tested equal;
-#: written out for the same reason as :data:`SET_NAMES`).
+#: ``--plan`` choices: the keys of `pes_ref.synthesis.plans.OSCILLATOR_PLANS` (tested equal;
+#: written out for the same reason as `SET_NAMES`).
 OSCILLATOR_PLAN_NAMES = ("gait", "overshoot", "eq6")
-#: The problem files shipped with the package, by name: :data:`pes_ref.synthesis.problem_file.SHIPPED_PROBLEMS`
-#: (tested equal; written out for the same reason as :data:`SET_NAMES`).
+#: The problem files shipped with the package, by name: `pes_ref.synthesis.problem_file.SHIPPED_PROBLEMS`
+#: (tested equal; written out for the same reason as `SET_NAMES`).
 SHIPPED_NAMES = ("funnel", "latch", "latch_contact")
 
 
@@ -156,7 +157,7 @@ DEFAULT_WORKERS = 2
 
 
 def polish_workers(workers, inputs, smoke: bool = False) -> int:
-    """The processes of a run's polish: ``workers`` when given, else :data:`DEFAULT_WORKERS`
+    """The processes of a run's polish: ``workers`` when given, else `DEFAULT_WORKERS`
     (at most the machine's cores) for a run with a polish stage, 1 for one without or under
     ``--smoke`` (its polish is a few generations of a few particles: a pool would cost more
     than it saves). The design does not depend on it."""

@@ -61,7 +61,7 @@ def add_parser(sub) -> None:
 
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"n_particles": "--particles", "seed": "--seed", "realized": "--realized", "engine": "--engine"}
-#: ``--engine NAME`` -> the engines (:data:`pes_ref.realize.evaluation.ENGINES`) that run the realized device.
+#: ``--engine NAME`` -> the engines (`pes_ref.realize.evaluation.ENGINES`) that run the realized device.
 ENGINE_CHOICES = {"surface": ("surface",), "rigid": ("rigid",), "both": ("surface", "rigid")}
 #: The figures that are no measure of the device (no difference line under ``--engine both``).
 _NO_DIFFERENCE = ("dt", "n_steps", "particles", "starts_blocked")
@@ -172,7 +172,7 @@ def _stem(path: str) -> str:
 
 
 def _picture(state, args) -> bytes:
-    """The PNG of ``--plot``: the held-out panels of the design (:func:`pes_ref.synthesis.kinds.held_out_panels`)."""
+    """The PNG of ``--plot``: the held-out panels of the design ([`pes_ref.synthesis.kinds.held_out_panels`][pes_ref.synthesis.kinds.held_out_panels])."""
     import io
     from pes_ref.synthesis import held_out_panels
     from pes_ref.synthesis.plots import paths_figure
@@ -192,7 +192,7 @@ def _write(path: str, data: bytes, force: bool, what: str) -> None:
 
 
 def _realized(state, args) -> dict:
-    """The design's figures beside the realized device's (:func:`pes_ref.realize.evaluation.evaluate_realized`)."""
+    """The design's figures beside the realized device's ([`pes_ref.realize.evaluation.evaluate_realized`][pes_ref.realize.evaluation.evaluate_realized])."""
     from pes_ref.core import checks
     from pes_ref.devices.device_file import load_device
     from pes_ref.realize.evaluation import evaluate_realized

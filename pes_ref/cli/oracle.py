@@ -53,17 +53,20 @@ def add_parser(sub) -> None:
 
 class ProgressLines:
     """The progress of one oracle run on stderr, once it is long: the estimate first, then
-    at most one line every ``period`` seconds (:func:`pes_ref.core.runtime.progress.progress_line`), e.g.
+    at most one line every ``period`` seconds
+    ([`pes_ref.core.runtime.progress.progress_line`][pes_ref.core.runtime.progress.progress_line]), e.g.
     ``case.npz: forward | steps 1200/3000 | 250 steps/s | elapsed 0:05 | left 0:12``.
 
-    A progress callback of :mod:`pes_ref.core.runtime.progress` (called every few hundred steps).
-    ``period`` and ``after`` default to :data:`pes_ref.core.runtime.progress.PERIOD` and
-    :data:`pes_ref.core.runtime.progress.LONG_RUN`, read when the run starts.
-    A run estimated longer than ``after`` seconds (:func:`pes_ref.core.budget.estimate`)
+    A progress callback of [`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress] (called every few hundred
+    steps).
+    ``period`` and ``after`` default to `pes_ref.core.runtime.progress.PERIOD` and
+    `pes_ref.core.runtime.progress.LONG_RUN`, read when the run starts.
+    A run estimated longer than ``after`` seconds ([`pes_ref.core.budget.estimate`][pes_ref.core.budget.estimate])
     prints its estimate at once; one estimated shorter starts printing if it runs past
-    ``after`` seconds all the same. The time left is a :class:`pes_ref.core.runtime.progress.Clock`
+    ``after`` seconds all the same. The time left is a
+    [`pes_ref.core.runtime.progress.Clock`][pes_ref.core.runtime.progress.Clock]
     over the two phases, the forward run and then the adjoint, each step costing the
-    model's share of its phase (:func:`pes_ref.core.budget.step_cost`): a phase not yet
+    model's share of its phase ([`pes_ref.core.budget.step_cost`][pes_ref.core.budget.step_cost]): a phase not yet
     timed is scaled from the one timed (the model's estimate until then).
     """
 
@@ -117,7 +120,7 @@ class ProgressLines:
 
 
 def _monitor(label: str, lines: ProgressWriter):
-    """The oracle's ``monitor``: the :class:`ProgressLines` of each run, shown by ``lines``."""
+    """The oracle's ``monitor``: the [`ProgressLines`][pes_ref.cli.oracle.ProgressLines] of each run, shown by ``lines``."""
     return lambda estimate: ProgressLines(label, estimate, lines=lines)
 
 
@@ -166,7 +169,7 @@ def _members(path: str) -> set:
 
 def _is_result_file(members: set) -> bool:
     """Whether a zip of these member names holds what every result has and no case does
-    (:data:`pes_ref.oracle.case.TRAJECTORY_KEYS`)."""
+    (`pes_ref.oracle.case.TRAJECTORY_KEYS`)."""
     from pes_ref.oracle.case import TRAJECTORY_KEYS
     return {key + ".npy" for key in TRAJECTORY_KEYS} <= members
 

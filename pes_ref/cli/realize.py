@@ -2,8 +2,8 @@
 [--rule level-set|visited|value] [--level E] [--pin-radius R] [--rim W] [--thickness T]
 [--drum-radius R] [--force]``.
 
-It turns a saved design into parts (:mod:`pes_ref.realize`, ``docs/realize.md``), writes
-``DIR/device.toml`` and the follower's files (:data:`pes_ref.realize.files.CONTACT_FILES`: a plane's
+It turns a saved design into parts ([`pes_ref.realize`][pes_ref.realize], ``docs/realize.md``), writes
+``DIR/device.toml`` and the follower's files (`pes_ref.realize.files.CONTACT_FILES`: a plane's
 ``plate.dxf``, ``plate.stl``, ``base.stl``; a cylinder's ``drum.dxf``, ``drum.stl``; both
 ``pin.stl`` and ``parts.png``; each checked before anything is written, an existing one kept
 unless ``--force``; the set made whole in a staging folder, ``device.toml`` written last),
@@ -14,7 +14,8 @@ area from the DXF against the device file's, and the STL meshes' watertightness 
 ``realize DESIGN.npz --as heightfield --out DIR [--g G] [--base B] [--seed S] [--particles N]
 [--steps N] [--force]`` writes ``DIR/heightfield.stl``, reads it back and prints the held-out
 figures of the design's particle, the rolling ball and the ball in MuJoCo
-(:func:`pes_ref.realize.heightfield.heightfield_check`; without the extra ``mujoco``, one
+([`pes_ref.realize.heightfield.heightfield_check`][pes_ref.realize.heightfield.heightfield_check]; without the extra
+``mujoco``, one
 ``mujoco: not run: ...`` line with its pip line).
 """
 from __future__ import annotations
@@ -35,12 +36,12 @@ DESTS = {name: flag[2:].replace("-", "_") for name, flag in FLAGS.items() if nam
 
 
 def _default(key: str) -> LazyDefault:
-    """``key``'s default, :data:`pes_ref.realize.contact.CONTACT_DEFAULTS` (read when needed)."""
+    """``key``'s default, `pes_ref.realize.contact.CONTACT_DEFAULTS` (read when needed)."""
     return LazyDefault("pes_ref.realize.contact", "CONTACT_DEFAULTS", key)
 
 
 def _hf_default(key: str) -> LazyDefault:
-    """``key``'s default, :data:`pes_ref.realize.heightfield.HEIGHTFIELD_DEFAULTS` (read when needed)."""
+    """``key``'s default, `pes_ref.realize.heightfield.HEIGHTFIELD_DEFAULTS` (read when needed)."""
     return LazyDefault("pes_ref.realize.heightfield", "HEIGHTFIELD_DEFAULTS", key)
 
 

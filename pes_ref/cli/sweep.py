@@ -1,7 +1,7 @@
 """The ``sweep`` command of ``python -m pes_ref``.
 
 - ``sweep SWEEP.toml [--out DIR] [--scheduler ADDRESS] [--workers N] [--progress SECONDS] [--quiet]``:
-  run every design of a sweep file (:mod:`pes_ref.sweep.spec`) as Dask tasks, on a local
+  run every design of a sweep file ([`pes_ref.sweep.spec`][pes_ref.sweep.spec]) as Dask tasks, on a local
   cluster (one single-threaded worker process per core) or on the cluster of
   ``--scheduler``; write ``DIR/results.csv`` and ``DIR/summary.png``. A progress line
   goes to stderr; the closing table (one line per run) to stdout. Running it again skips

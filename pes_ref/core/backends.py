@@ -1,18 +1,18 @@
 """The registry of backends: which code runs a scene's steps and their adjoints.
 
-- ``"numpy"``: the NumPy loops (:data:`pes_ref.core.steppers.STEPPERS`); every scene.
-- ``"numba"``: compiled loops (:mod:`pes_ref.core.compiled`, the optional extra ``fast``:
+- ``"numpy"``: the NumPy loops (`pes_ref.core.steppers.STEPPERS`); every scene.
+- ``"numba"``: compiled loops ([`pes_ref.core.compiled`][pes_ref.core.compiled], the optional extra ``fast``:
   ``pip install 'pes_ref[fast]'``), for the bilinear grid with the paper's dynamic step and
   the quasistatic step, springs, walls, damping and the external force. A scene it does not
   cover (the bicubic grid, the GJF step) runs on NumPy. Its forward trajectories are
   bit-identical to NumPy's; its gradients agree to 1e-13 of their largest entry (the grid
   gradient and the mobility's are sums in another order; the others are bit-identical).
 
-The default (``backend=None`` everywhere) is the first of :data:`DEFAULT_ORDER` that is
+The default (``backend=None`` everywhere) is the first of `DEFAULT_ORDER` that is
 installed: the compiled loops when numba is, else NumPy. Whether a backend is installed is
 read from the import system without importing it, so choosing the default imports nothing
 (``python -m pes_ref oracle`` asks for ``"numpy"`` and never imports numba).
-:func:`stepper` is the one dispatch point (``core/scene.py`` and ``core/population.py``).
+[`stepper`][pes_ref.core.backends.stepper] is the one dispatch point (``core/scene.py`` and ``core/population.py``).
 """
 from __future__ import annotations
 
@@ -62,14 +62,15 @@ def installed(name: str) -> bool:
 
 
 def default_backend() -> str:
-    """The first installed backend of :data:`DEFAULT_ORDER`."""
+    """The first installed backend of `DEFAULT_ORDER`."""
     return next(name for name in DEFAULT_ORDER if installed(name))
 
 
 def check_backend(backend) -> str:
-    """``backend`` checked at a public boundary: None gives :func:`default_backend`; a name
-    not in :data:`BACKENDS`, or one whose package is not installed, raises an
-    :class:`~pes_ref.core.checks.InputError` keyed ``"backend"``."""
+    """``backend`` checked at a public boundary: None gives [`default_backend`][pes_ref.core.backends.default_backend];
+    a name
+    not in `BACKENDS`, or one whose package is not installed, raises an
+    [`InputError`][pes_ref.core.checks.InputError] keyed ``"backend"``."""
     if backend is None:
         return default_backend()
     if not isinstance(backend, str) or backend not in BACKENDS:
@@ -94,8 +95,8 @@ def covers(backend: str, mode: str, integrator: str, interpolation: str) -> bool
 def stepper(backend: str, mode: str, integrator: str, interpolation: str, n_particles: int | None = None) -> Stepper:
     """The stepper that runs ``(mode, integrator)`` on an ``interpolation`` grid for
     ``backend`` (checked): its own when it covers the scene, else NumPy's, which for a run of
-    ``n_particles`` >= :data:`pes_ref.core.halves.MIN_PARTICLES` runs the particles as two halves
-    on two threads (:func:`pes_ref.core.halves.stepper`; None: one thread, as a population's
+    ``n_particles`` >= `pes_ref.core.halves.MIN_PARTICLES` runs the particles as two halves
+    on two threads ([`pes_ref.core.halves.stepper`][pes_ref.core.halves.stepper]; None: one thread, as a population's
     stacked grids need)."""
     if backend != "numpy" and covers(backend, mode, integrator, interpolation):
         return _steppers(backend)[(mode, integrator)]

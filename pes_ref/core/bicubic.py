@@ -24,16 +24,17 @@ reproduces every polynomial of degree <= 2 per axis exactly, up to the edges
 (``docs/variants.md``).
 
 Cells, fractions and the in-range switches are those of the bilinear rule
-(:mod:`pes_ref.core.grid`, docs/spec.md section 2): outside a non-periodic axis the surface
+([`pes_ref.core.grid`][pes_ref.core.grid], docs/spec.md section 2): outside a non-periodic axis the surface
 is constant along it and its slope along it is 0. The surface is C1 (value and slope
 continuous across cell edges), so the force no longer jumps at cell edges; its Hessian
 still does. Equation numbers refer to section 11 of ``docs/adjoint.md``.
 
 The functions are pure and vectorized over N points; the coefficient table
-(:func:`cell_coefficients`) depends on the grid only and is computed once per run. The
-point functions (``point_*``) and the kernels (:class:`BicubicForce`,
-:class:`BicubicAdjoint`) are this rule's entry in
-:data:`pes_ref.core.interpolations.INTERPOLATIONS`.
+([`cell_coefficients`][pes_ref.core.bicubic.cell_coefficients]) depends on the grid only and is computed once per run.
+The
+point functions (``point_*``) and the kernels ([`BicubicForce`][pes_ref.core.bicubic.BicubicForce],
+[`BicubicAdjoint`][pes_ref.core.bicubic.BicubicAdjoint]) are this rule's entry in
+`pes_ref.core.interpolations.INTERPOLATIONS`.
 """
 from __future__ import annotations
 
@@ -75,7 +76,7 @@ def _extend(g: np.ndarray, axis: int, periodic: bool) -> np.ndarray:
 
 
 def _extend_vjp(ebar: np.ndarray, axis: int, periodic: bool, n: int) -> np.ndarray:
-    """Transpose of :func:`_extend`: fold the extended cotangent back onto the n nodes (CB3)."""
+    """Transpose of `_extend`: fold the extended cotangent back onto the n nodes (CB3)."""
     ebar = np.moveaxis(ebar, axis, 0)
     if periodic:
         gbar = np.zeros((n,) + ebar.shape[1:])
@@ -97,7 +98,7 @@ def _stencil(e: np.ndarray, axis: int) -> np.ndarray:
 
 
 def _stencil_vjp(bbar: np.ndarray, axis: int) -> np.ndarray:
-    """Transpose of :func:`_stencil` (power axis last -> extended nodes along ``axis``)."""
+    """Transpose of `_stencil` (power axis last -> extended nodes along ``axis``)."""
     wbar = np.moveaxis(bbar @ CATMULL_ROM, axis, 0)                 # (m, ..., 4 nodes)
     m = wbar.shape[0]
     ebar = np.zeros((m + 3,) + wbar.shape[1:-1])
@@ -112,7 +113,7 @@ def cell_coefficients(values: np.ndarray, periodic) -> np.ndarray:
 
     A linear map of ``values`` (n0, n1): extend both axes, then apply K along each. On
     a non-periodic axis the last node starts no cell; its row (column) is zero, so the
-    table is indexed like the grid (flat cell ``i n1 + j``, as :class:`~pes_ref.core.grid.Locator`).
+    table is indexed like the grid (flat cell ``i n1 + j``, as [`Locator`][pes_ref.core.grid.Locator]).
     """
     n0, n1 = values.shape
     e = _extend(_extend(values, 0, bool(periodic[0])), 1, bool(periodic[1]))
@@ -123,7 +124,8 @@ def cell_coefficients(values: np.ndarray, periodic) -> np.ndarray:
 
 
 def cell_coefficients_vjp(abar: np.ndarray, periodic) -> np.ndarray:
-    """Transpose of :func:`cell_coefficients`, (CB3): a cotangent (n0, n1, 16) on the
+    """Transpose of [`cell_coefficients`][pes_ref.core.bicubic.cell_coefficients], (CB3): a cotangent (n0, n1, 16) on
+    the
     coefficients to the flat (n0*n1,) cotangent on the grid values."""
     n0, n1 = abar.shape[:2]
     m0, m1 = (n0 if periodic[0] else n0 - 1), (n1 if periodic[1] else n1 - 1)
@@ -155,7 +157,7 @@ def _monomials(f0: np.ndarray, f1: np.ndarray) -> np.ndarray:
 
 
 def _monomial_buffers(n: int):
-    """Work arrays of :func:`_monomials_into` for n points: powers (n, 2, 4), monomials (n, 16)."""
+    """Work arrays of `_monomials_into` for n points: powers (n, 2, 4), monomials (n, 16)."""
     p = np.empty((n, 2, 4))
     p[:, :, 0] = 1.0
     return p, np.empty((n, 16))
@@ -247,7 +249,7 @@ def _scatter(cell: np.ndarray, weights: np.ndarray, size: int) -> np.ndarray:
 # --------------------------------------------------------------------------- pure functions on Cells
 
 def grid_energy(coef: np.ndarray, c: Cells) -> np.ndarray:
-    """Bicubic energy (C2) at points located by :func:`pes_ref.core.grid.locate`, shape (N,)."""
+    """Bicubic energy (C2) at points located by [`pes_ref.core.grid.locate`][pes_ref.core.grid.locate], shape (N,)."""
     return _energy(coef[c.i0, c.j0], c.f0, c.f1)
 
 
@@ -276,14 +278,14 @@ def grid_slope_vjp_coefficients(h: np.ndarray, c: Cells, w: np.ndarray, shape: t
 def grid_slope_vjp_values(h: np.ndarray, c: Cells, w: np.ndarray, shape: tuple, periodic) -> np.ndarray:
     """Transpose of the slope's Jacobian with respect to the grid values applied to ``w``:
     (CB2) then (CB3). Returns the flat (n0*n1,) array, as
-    :func:`pes_ref.core.bilinear.grid_slope_vjp_values` does for the bilinear rule."""
+    [`pes_ref.core.bilinear.grid_slope_vjp_values`][pes_ref.core.bilinear.grid_slope_vjp_values] does for the bilinear rule."""
     return cell_coefficients_vjp(grid_slope_vjp_coefficients(h, c, w, tuple(shape)), periodic)
 
 
 # --------------------------------------------------------------------------- the force path
 
 def _switches(loc):
-    """s0, s1 from a :class:`~pes_ref.core.grid.Located` (1.0 on a torus)."""
+    """s0, s1 from a [`Located`][pes_ref.core.grid.Located] (1.0 on a torus)."""
     if loc.inside is None:
         return 1.0, 1.0
     return loc.inside[..., 0], loc.inside[..., 1]
@@ -297,7 +299,7 @@ def point_energy(values, lower, h, periodic, x) -> np.ndarray:
 
 
 def point_slope(values, lower, h, periodic, x) -> np.ndarray:
-    """The bicubic slope dE/dx at points x (N, 2), shape (N, 2): minus :func:`point_force`."""
+    """The bicubic slope dE/dx at points x (N, 2), shape (N, 2): minus [`point_force`][pes_ref.core.bicubic.point_force]."""
     out = point_force(values, lower, h, periodic, x, np.empty(x.shape))
     return np.negative(out, out=out)
 
@@ -308,7 +310,7 @@ def point_force(values, lower, h, periodic, x, out) -> np.ndarray:
 
 
 def point_force_vjp(values, lower, h, periodic, x, w, xbar, gvalues) -> None:
-    """Adjoint of :func:`point_force` at x for the cotangent ``w``: ``xbar -= H w`` and,
+    """Adjoint of [`point_force`][pes_ref.core.bicubic.point_force] at x for the cotangent ``w``: ``xbar -= H w`` and,
     if ``gvalues`` (flat n0*n1) is given, ``gvalues -= (d slope/dG)^T w`` ((CB1) with H by (C4), (CB2)-(CB3))."""
     adj = BicubicAdjoint.from_grid(values, lower, h, periodic, x[None], gvalues is not None)
     adj.vjp(0, w, xbar)
@@ -318,7 +320,7 @@ def point_force_vjp(values, lower, h, periodic, x, w, xbar, gvalues) -> None:
 
 class BicubicForce:
     """The bicubic grid force for N particles at a time, its slope table (C3) built once
-    (the forward hot loop; a :class:`~pes_ref.core.kernels.GridForce`).
+    (the forward hot loop; a [`GridForce`][pes_ref.core.kernels.GridForce]).
 
     ``call(x, out)``, bound once here: locate, one ``np.take`` of the (N, 2, 16) slope
     rows, the (N, 16) monomials, one batched matmul, the switches."""
@@ -329,7 +331,7 @@ class BicubicForce:
     @classmethod
     def from_grid(cls, values, lower, h, periodic, n_particles: int) -> "BicubicForce":
         """The force for ``n_particles`` from a grid's arrays (``values``, ``lower``, spacing ``h``,
-        ``periodic``) rather than a field: one-off calls (:func:`point_force`)."""
+        ``periodic``) rather than a field: one-off calls ([`point_force`][pes_ref.core.bicubic.point_force])."""
         self = cls.__new__(cls)
         self._setup(values, lower, h, periodic, n_particles)
         return self
@@ -363,13 +365,15 @@ class BicubicForce:
 
 
 class BicubicAdjoint:
-    """The adjoint of :class:`BicubicForce` over stored states ``xs`` (T+1, N, 2), (CB1)-(CB3)
-    (a :class:`~pes_ref.core.kernels.GridAdjoint`).
+    """The adjoint of [`BicubicForce`][pes_ref.core.bicubic.BicubicForce] over stored states ``xs`` (T+1, N, 2),
+    (CB1)-(CB3)
+    (a [`GridAdjoint`][pes_ref.core.kernels.GridAdjoint]).
 
     ``vjp(n, w, xbar)`` (states in descending order) does ``xbar -= H(x_n) w`` and keeps
     the coefficient weights of ``w``; they are scattered into the table's gradient with
     one ``np.bincount`` per ``CHUNK`` states, and mapped to the grid values once, by
-    :meth:`values_grad` (the map (C1) is linear and the same at every step).
+    [`values_grad`][pes_ref.core.bicubic.BicubicAdjoint.values_grad] (the map (C1) is linear and the same at every
+    step).
     """
 
     #: States whose coefficient weights are scattered together.
@@ -381,7 +385,7 @@ class BicubicAdjoint:
     @classmethod
     def from_grid(cls, values, lower, h, periodic, xs, want_values: bool) -> "BicubicAdjoint":
         """The adjoint over ``xs`` from a grid's arrays (``values``, ``lower``, spacing ``h``,
-        ``periodic``) rather than a field: one-off calls (:func:`point_force_vjp`)."""
+        ``periodic``) rather than a field: one-off calls ([`point_force_vjp`][pes_ref.core.bicubic.point_force_vjp])."""
         self = cls.__new__(cls)
         self._setup(values, lower, h, periodic, xs, want_values)
         return self

@@ -1,35 +1,38 @@
 """The bilinear rule of docs/spec.md section 2 (the paper's): energy, slope, force and their adjoints,
 pointwise and as the hot loop computes them.
 
-On the cell whose lower corner is node (i, j) (located by :mod:`pes_ref.core.grid`), with
+On the cell whose lower corner is node (i, j) (located by [`pes_ref.core.grid`][pes_ref.core.grid]), with
 corners ``g00 = G[i, j]``, ``g10 = G[i+1, j]``, ``g01 = G[i, j+1]``, ``g11 = G[i+1, j+1]``
 (indices wrapped on a periodic axis), fractions ``f0, f1`` and switches ``s0, s1``::
 
     E = (1-f0)(1-f1) g00 + f0(1-f1) g10 + (1-f0) f1 g01 + f0 f1 g11
 
-The textbook functions (:func:`grid_energy`, :func:`grid_slope`, :func:`grid_slope_vjp_q`,
-:func:`grid_slope_vjp_values`; ``docs/adjoint.md`` eqs. (A1)-(A3)) take located
-:class:`~pes_ref.core.grid.Cells`. The force of the bilinear energy is affine in the
+The textbook functions ([`grid_energy`][pes_ref.core.bilinear.grid_energy],
+[`grid_slope`][pes_ref.core.bilinear.grid_slope], [`grid_slope_vjp_q`][pes_ref.core.bilinear.grid_slope_vjp_q],
+[`grid_slope_vjp_values`][pes_ref.core.bilinear.grid_slope_vjp_values]; ``docs/adjoint.md`` eqs. (A1)-(A3)) take located
+[`Cells`][pes_ref.core.grid.Cells]. The force of the bilinear energy is affine in the
 fractions::
 
     F0 = s0 (A0 + f1 D0),   A0 = -(g10 - g00) / h0,   D0 = -((g11 - g01) - (g10 - g00)) / h0
     F1 = s1 (A1 + f0 D1),   A1 = -(g01 - g00) / h1,   D1 = -((g11 - g10) - (g01 - g00)) / h1
 
 and its Hessian has only the constant cross term ``Hc = s0 s1 (g11 - g10 - g01 + g00) /
-(h0 h1)`` (eq. (A2)). :func:`coefficient_table` computes ``[A0, A1, D0, D1]`` for every
-cell once per surface, so a step of the hot loop (:class:`BilinearForce`,
+(h0 h1)`` (eq. (A2)). [`coefficient_table`][pes_ref.core.bilinear.coefficient_table] computes ``[A0, A1, D0, D1]`` for
+every
+cell once per surface, so a step of the hot loop ([`BilinearForce`][pes_ref.core.bilinear.BilinearForce],
 ``docs/performance.md``) gathers one row of 4 numbers per particle instead of 4 corners
-and recomputing their differences. Its numbers equal those of :func:`grid_slope` up to
-rounding (a few ulp; the formula is regrouped); :func:`point_force` computes them without
+and recomputing their differences. Its numbers equal those of [`grid_slope`][pes_ref.core.bilinear.grid_slope] up to
+rounding (a few ulp; the formula is regrouped); [`point_force`][pes_ref.core.bilinear.point_force] computes them without
 a table, bit-identical to the kernel.
 
-The adjoint (:class:`BilinearAdjoint`) relocates a whole chunk of stored states at once,
+The adjoint ([`BilinearAdjoint`][pes_ref.core.bilinear.BilinearAdjoint]) relocates a whole chunk of stored states at
+once,
 does only ``xbar -= Hc (w1, w0)`` per step, and scatters the grid gradient once per
 chunk (``np.bincount`` or ``np.add.at``) into the coefficient table's gradient, mapped to
-the grid values once at the end (:func:`table_grad_to_values`).
+the grid values once at the end ([`table_grad_to_values`][pes_ref.core.bilinear.table_grad_to_values]).
 
 The point functions (``point_*``) and the kernels are this rule's entry in
-:data:`pes_ref.core.interpolations.INTERPOLATIONS`.
+`pes_ref.core.interpolations.INTERPOLATIONS`.
 """
 from __future__ import annotations
 
@@ -131,7 +134,8 @@ def grid_slope_vjp_values(h: np.ndarray, c: Cells, w: np.ndarray, n1: int, size:
 
 def _coefficients(g00, g10, g01, g11, h: np.ndarray, out: np.ndarray) -> np.ndarray:
     """``out[..., :] = [A0, A1, D0, D1]`` from the corner values of single cells (see the
-    module docstring); the same operations as :func:`coefficient_table`, so the forces
+    module docstring); the same operations as [`coefficient_table`][pes_ref.core.bilinear.coefficient_table], so the
+    forces
     of both are bit-identical."""
     nih0, nih1 = -1.0 / h[0], -1.0 / h[1]
     d0a, d0b = g10 - g00, g11 - g01
@@ -182,8 +186,10 @@ def cross_table(values: np.ndarray, h: np.ndarray) -> np.ndarray:
 
 def table_grad_to_values(gtab: np.ndarray, h: np.ndarray, shape: tuple) -> np.ndarray:
     """Chain a gradient with respect to the table ``[A0, A1, D0, D1]`` (n0*n1, 4) (the
-    layout of :func:`coefficient_table`; overwritten) to the grid values; returns the flat
-    (n0*n1,) gradient (the transpose of :func:`coefficient_table`, a 2x2 stencil per cell).
+    layout of [`coefficient_table`][pes_ref.core.bilinear.coefficient_table]; overwritten) to the grid values; returns
+    the flat
+    (n0*n1,) gradient (the transpose of [`coefficient_table`][pes_ref.core.bilinear.coefficient_table], a 2x2 stencil
+    per cell).
 
     Per cell, with ``a_d = -gA_d / h_d`` and ``d_d = -gD_d / h_d``, the corners receive
     ``g00: d0 + d1 - a0 - a1``, ``g10: a0 - d0 - d1``, ``g01: a1 - d0 - d1``, ``g11: d0 + d1``.
@@ -212,19 +218,19 @@ def table_grad_to_values(gtab: np.ndarray, h: np.ndarray, shape: tuple) -> np.nd
 # =========================================================================== one-off calls
 
 def point_energy(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, x: np.ndarray) -> np.ndarray:
-    """The bilinear grid energy at points x (N, 2), shape (N,) (:func:`grid_energy`)."""
+    """The bilinear grid energy at points x (N, 2), shape (N,) ([`grid_energy`][pes_ref.core.bilinear.grid_energy])."""
     return grid_energy(values, locate(x, lower, h, values.shape, periodic))
 
 
 def point_slope(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, x: np.ndarray) -> np.ndarray:
-    """The bilinear slope dE/dx at points x (N, 2), shape (N, 2) (:func:`grid_slope`)."""
+    """The bilinear slope dE/dx at points x (N, 2), shape (N, 2) ([`grid_slope`][pes_ref.core.bilinear.grid_slope])."""
     return grid_slope(values, h, locate(x, lower, h, values.shape, periodic))
 
 
 def point_force(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, x: np.ndarray,
                 out: np.ndarray) -> np.ndarray:
     """Grid force ``-dE/dx`` at points x (N, 2) into ``out``, without a table (for one-off
-    calls such as :func:`pes_ref.core.forces.force`); bit-identical to :class:`BilinearForce`."""
+    calls such as [`pes_ref.core.forces.force`][pes_ref.core.forces.force]); bit-identical to [`BilinearForce`][pes_ref.core.bilinear.BilinearForce]."""
     c = locate(x, lower, h, values.shape, periodic)
     coef = _coefficients(values[c.i0, c.j0], values[c.i1, c.j0], values[c.i0, c.j1], values[c.i1, c.j1],
                          h, np.empty(x.shape[:1] + (4,)))
@@ -238,7 +244,8 @@ def point_force(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, 
 
 def point_force_vjp(values: np.ndarray, lower: np.ndarray, h: np.ndarray, periodic, x: np.ndarray,
                     w: np.ndarray, xbar: np.ndarray, gvalues) -> None:
-    """Adjoint of :func:`point_force` at x for the cotangent ``w``: ``xbar -= H w`` and, if
+    """Adjoint of [`point_force`][pes_ref.core.bilinear.point_force] at x for the cotangent ``w``: ``xbar -= H w`` and,
+    if
     ``gvalues`` (flat n0*n1) is given, ``gvalues -= (d slope/dG)^T w`` (eqs. (A2)-(A3))."""
     cells = locate(x, lower, h, values.shape, periodic)
     xbar -= grid_slope_vjp_q(values, h, cells, w)
@@ -250,9 +257,9 @@ def point_force_vjp(values: np.ndarray, lower: np.ndarray, h: np.ndarray, period
 
 class BilinearForce:
     """The grid force for N particles at a time, with its table and buffers (the forward
-    hot loop; a :class:`~pes_ref.core.kernels.GridForce`).
+    hot loop; a [`GridForce`][pes_ref.core.kernels.GridForce]).
 
-    ``call(x, out)``, bound once here: the :class:`~pes_ref.core.grid.Locator` operations,
+    ``call(x, out)``, bound once here: the [`Locator`][pes_ref.core.grid.Locator] operations,
     one ``take`` of the (N, 4) coefficient rows, ``F0 = A0 + f1 D0`` and ``F1 = A1 + f0 D1``
     on columns and ``out = F s`` (a copy on a torus): 16 NumPy calls on a plane. Nothing is
     allocated. (Columns, not (N, 2) arrays with a swapped view: NumPy runs an operation on
@@ -300,11 +307,11 @@ class BilinearForce:
 
 
 class BilinearForce1:
-    """:class:`BilinearForce` for one particle, in Python floats.
+    """[`BilinearForce`][pes_ref.core.bilinear.BilinearForce] for one particle, in Python floats.
 
     At N = 1 each NumPy call costs about a microsecond whatever it computes, and the
     vectorized lookup takes ~16 of them; the same operations on Python floats
-    (:meth:`~pes_ref.core.grid.Locator.bind_scalar`, then the table row) take a few
+    ([`bind_scalar`][pes_ref.core.grid.Locator.bind_scalar], then the table row) take a few
     microseconds and give bit-identical forces. A non-finite position gives a NaN force.
     """
 
@@ -330,17 +337,17 @@ class BilinearForce1:
 
 
 class BilinearAdjoint:
-    """The adjoint of :class:`BilinearForce` over a stored trajectory (eqs. (A2)-(A3); a
-    :class:`~pes_ref.core.kernels.GridAdjoint`).
+    """The adjoint of [`BilinearForce`][pes_ref.core.bilinear.BilinearForce] over a stored trajectory (eqs. (A2)-(A3); a
+    [`GridAdjoint`][pes_ref.core.kernels.GridAdjoint]).
 
     Call ``vjp(n, w, xbar)`` (bound once here) for states in descending order (as a
     backward pass does): ``xbar += (dF/dx)^T w = -H(x_n) w``, and ``w`` is recorded for the
-    grid gradient, returned by :meth:`values_grad`. States
+    grid gradient, returned by [`values_grad`][pes_ref.core.bilinear.BilinearAdjoint.values_grad]. States
     are located a chunk at a time (``CHUNK_ELEMENTS // N`` states at once), with the
     cross term ``Hc s0 s1`` gathered for the whole chunk; per state only
     ``xbar -= Hc s0 s1 (w1, w0)`` remains, plus a copy of ``w`` when the grid gradient
     is wanted. At the end of a chunk the grid gradient is scattered per table column
-    over the chunk's cells (:meth:`_flush`).
+    over the chunk's cells (`_flush`).
     """
 
     def __init__(self, field, xs: np.ndarray, want_values: bool):
@@ -464,7 +471,8 @@ class BilinearAdjoint:
 
 
 def forward_kernel(field, n_particles: int):
-    """The forward grid force for ``n_particles`` (a :class:`~pes_ref.core.kernels.GridForce`):
-    :class:`BilinearForce1` for one particle on one grid, else :class:`BilinearForce`
+    """The forward grid force for ``n_particles`` (a [`GridForce`][pes_ref.core.kernels.GridForce]):
+    [`BilinearForce1`][pes_ref.core.bilinear.BilinearForce1] for one particle on one grid, else
+    [`BilinearForce`][pes_ref.core.bilinear.BilinearForce]
     (bit-identical)."""
     return (BilinearForce1 if n_particles == 1 and field.offsets is None else BilinearForce)(field, n_particles)

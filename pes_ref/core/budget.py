@@ -8,29 +8,30 @@ result's copies. All of these scale with ``(T+1) N``, so a run needs about
 
     bytes = ARRAYS[kind] * (T+1) * N * 2 * 8  (+ the kept lookups of a small run, LOOKUP_BYTES each)
 
-with :data:`ARRAYS` the number of (T+1, N, 2) float64 arrays alive at the run's peak
+with `ARRAYS` the number of (T+1, N, 2) float64 arrays alive at the run's peak
 (measured with ``tracemalloc`` and rounded up: ``tests/core/test_budget.py`` checks that the
 formula bounds the measured peak). The grid, the parameters and the per-particle buffers
 are small beside it and left out, except where a user chooses the grid's size (a design's
-``grid``): :func:`check_grid_memory` refuses a grid whose :data:`GRID_ARRAYS` copies
-cannot fit. :func:`check_memory` refuses a run whose estimate is
+``grid``): [`check_grid_memory`][pes_ref.core.budget.check_grid_memory] refuses a grid whose `GRID_ARRAYS` copies
+cannot fit. [`check_memory`][pes_ref.core.budget.check_memory] refuses a run whose estimate is
 more than the memory available (``MemAvailable`` of ``/proc/meminfo``, or
-``os.sysconf`` where there is none) with :class:`RunTooLargeError`, naming ``n_steps``,
+``os.sysconf`` where there is none) with [`RunTooLargeError`][pes_ref.core.budget.RunTooLargeError], naming ``n_steps``,
 N and the size, before anything of that size is allocated; it is called at the public
-boundary (:func:`pes_ref.simulate`, :func:`pes_ref.value_and_grad`,
-:func:`pes_ref.oracle.case.validate_case`).
+boundary ([`pes_ref.simulate`][pes_ref.core.scene.simulate],
+[`pes_ref.value_and_grad`][pes_ref.core.scene.value_and_grad],
+[`pes_ref.oracle.case.validate_case`][pes_ref.oracle.case.validate_case]).
 
 Time. A step costs about ``a + b N`` seconds forward and ``a' + b' N`` in the adjoint
 (the per-step overhead of the loop's calls, plus the work per particle), and a large
 run also pays for its memory the first time it touches it (the page faults of its
-:func:`run_bytes`, ``c`` seconds per byte; on a loaded machine this can dominate)::
+[`run_bytes`][pes_ref.core.budget.run_bytes], ``c`` seconds per byte; on a loaded machine this can dominate)::
 
     seconds = T (a + b N) + T (a' + b' N) + c * run_bytes(T, N, kind)
 
 (without the adjoint's term for ``kind = "simulate"``). The five constants are measured
-once per process, on first use, by :func:`step_cost` (a 64-step run at N = 1 and N = 256
-on a small grid, and filling a fresh 32 MiB array; ~50 ms); :func:`estimate_seconds`
-scales them to a run. A run that the documented constants :data:`TYPICAL_COST` put under
+once per process, on first use, by [`step_cost`][pes_ref.core.budget.step_cost] (a 64-step run at N = 1 and N = 256
+on a small grid, and filling a fresh 32 MiB array; ~50 ms); [`estimate_seconds`][pes_ref.core.budget.estimate_seconds]
+scales them to a run. A run that the documented constants `TYPICAL_COST` put under
 a second is estimated with those, so that a short run never pays for the measurement. It is an estimate (springs, walls, damping and the bicubic surface
 change the cost by tens of percent), used to decide whether a run is long enough to
 report its progress and to say roughly how long it will take.
@@ -59,9 +60,9 @@ __all__ = ["ARRAYS", "LOOKUP_STATES", "LOOKUP_BYTES", "GRID_ARRAYS", "RunTooLarg
 ARRAYS = {"simulate": 5, "value_and_grad": 15, "case": 21}
 
 #: A compiled dynamic run of at most this many particle-states ((T+1) N) keeps each state's
-#: grid lookup for its adjoint (:func:`pes_ref.core.compiled._lookups`), ``LOOKUP_BYTES``
+#: grid lookup for its adjoint (`pes_ref.core.compiled._lookups`), ``LOOKUP_BYTES``
 #: each (its position, two fractions, the cell, its row and column and switches): at most
-#: 3.1 MB, which :func:`run_bytes` counts.
+#: 3.1 MB, which `run_bytes` counts.
 LOOKUP_STATES = 1 << 16
 LOOKUP_BYTES = 48
 
@@ -77,12 +78,12 @@ _GIB = 2.0 ** 30
 
 class RunTooLargeError(checks.InputError):
     """A run whose arrays cannot fit in the available memory; ``key`` names what sets its
-    length (``"n_steps"`` unless the caller says otherwise, :func:`check_memory`)."""
+    length (``"n_steps"`` unless the caller says otherwise, [`check_memory`][pes_ref.core.budget.check_memory])."""
 
 
 class RunEstimate(NamedTuple):
     """What a run will cost: ``n_steps`` (T), ``n_particles`` (N), ``gib`` (its memory,
-    GiB, :func:`run_bytes`) and ``seconds`` (:func:`estimate_seconds`)."""
+    GiB, [`run_bytes`][pes_ref.core.budget.run_bytes]) and ``seconds`` ([`estimate_seconds`][pes_ref.core.budget.estimate_seconds])."""
 
     n_steps: int
     n_particles: int
@@ -92,7 +93,7 @@ class RunEstimate(NamedTuple):
 
 def run_bytes(n_steps: int, n_particles: int, kind: str) -> int:
     """``ARRAYS[kind] * (T+1) * N * 2 * 8``: the bytes a run of ``kind`` holds at its peak,
-    plus ``LOOKUP_BYTES`` a particle-state for a run of at most :data:`LOOKUP_STATES` (the
+    plus ``LOOKUP_BYTES`` a particle-state for a run of at most `LOOKUP_STATES` (the
     lookups a compiled dynamic run keeps)."""
     states = (int(n_steps) + 1) * int(n_particles)
     return ARRAYS[kind] * states * 2 * 8 + (LOOKUP_BYTES * states if states <= LOOKUP_STATES else 0)
@@ -101,7 +102,7 @@ def run_bytes(n_steps: int, n_particles: int, kind: str) -> int:
 def available_memory() -> int | None:
     """The memory a new run can take, in bytes: ``MemAvailable`` of ``/proc/meminfo``, or
     the free physical pages (``os.sysconf``), plus the idle maps that a new run reuses or gives
-    back first (:func:`pes_ref.core.runtime.pages.idle_bytes`); None when neither is known."""
+    back first ([`pes_ref.core.runtime.pages.idle_bytes`][pes_ref.core.runtime.pages.idle_bytes]); None when neither is known."""
     system = _system_memory()
     return None if system is None else system + pages.idle_bytes()
 
@@ -140,7 +141,8 @@ def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_s
     Raises
     ------
     RunTooLargeError
-        ``runs * run_bytes(n_steps, n_particles, kind)`` exceeds :func:`available_memory`; one
+        ``runs * run_bytes(n_steps, n_particles, kind)`` exceeds
+        [`available_memory`][pes_ref.core.budget.available_memory]; one
         line naming ``steps`` (its key), N and both sizes in GiB (a ``ValueError``).
     """
     need = runs * run_bytes(n_steps, n_particles, kind)
@@ -160,7 +162,8 @@ def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_s
 def check_grid_memory(shape: tuple, key: str, arrays: int = GRID_ARRAYS, length: str | None = None) -> int:
     """Refuse a grid of ``shape`` (n0, n1) whose ``arrays`` float64 copies cannot fit in the
     available memory; return their bytes. ``key`` names what sets the grid's size (a
-    design's ``grid``), in the one-line :class:`RunTooLargeError`; ``length`` says how it
+    design's ``grid``), in the one-line [`RunTooLargeError`][pes_ref.core.budget.RunTooLargeError]; ``length`` says how
+    it
     reads (default: ``key``, e.g. ``"grid = 100000"``)."""
     n0, n1 = (int(n) for n in shape)
     need = arrays * n0 * n1 * 8
@@ -187,10 +190,10 @@ class StepCost(NamedTuple):
 #: per particle, adjoint ~7 us + 70 ns per particle, ~2 ns per byte touched).
 TYPICAL_COST = StepCost(5e-6, 6e-8, 7e-6, 7e-8, 2e-9)
 
-#: Runs that :data:`TYPICAL_COST` puts under this many seconds are not measured.
+#: Runs that `TYPICAL_COST` puts under this many seconds are not measured.
 _MEASURE_ABOVE = 1.0
 
-#: The calibration of :func:`step_cost`: steps, the two particle counts, the fresh bytes touched.
+#: The calibration of `step_cost`: steps, the two particle counts, the fresh bytes touched.
 _CALIBRATION_STEPS, _CALIBRATION_N, _CALIBRATION_BYTES = 64, (1, 256), 32 * 2 ** 20
 
 
@@ -225,9 +228,9 @@ def step_cost() -> StepCost:
 
 
 def estimate_seconds(n_steps: int, n_particles: int, kind: str = "case") -> float:
-    """Roughly how long a run of ``kind`` (:data:`ARRAYS`) takes: its forward steps, its
+    """Roughly how long a run of ``kind`` (`ARRAYS`) takes: its forward steps, its
     adjoint's unless ``kind`` is ``"simulate"``, and its first touch of its memory (with
-    the measured :func:`step_cost`, or :data:`TYPICAL_COST` for a run that is short by it)."""
+    the measured [`step_cost`][pes_ref.core.budget.step_cost], or `TYPICAL_COST` for a run that is short by it)."""
     seconds = _seconds(TYPICAL_COST, n_steps, n_particles, kind)
     return seconds if seconds < _MEASURE_ABOVE else _seconds(step_cost(), n_steps, n_particles, kind)
 
@@ -240,6 +243,6 @@ def _seconds(c: StepCost, n_steps: int, n_particles: int, kind: str) -> float:
 
 
 def estimate(n_steps: int, n_particles: int, kind: str) -> RunEstimate:
-    """A :class:`RunEstimate` of a run of ``kind`` (see :data:`ARRAYS`)."""
+    """A [`RunEstimate`][pes_ref.core.budget.RunEstimate] of a run of ``kind`` (see `ARRAYS`)."""
     return RunEstimate(int(n_steps), int(n_particles), run_bytes(n_steps, n_particles, kind) / _GIB,
                        estimate_seconds(n_steps, n_particles, kind))

@@ -2,7 +2,8 @@
 
 Every public entry point converts its inputs here, once: to a float64 (or bool)
 NumPy array of the right shape, finite, with the sign it must have. A bad input
-raises one :class:`InputError` (a ``ValueError``) or :class:`InputTypeError` (also a
+raises one [`InputError`][pes_ref.core.checks.InputError] (a ``ValueError``) or
+[`InputTypeError`][pes_ref.core.checks.InputTypeError] (also a
 ``TypeError``) whose message names the argument and quotes the offending value, and
 whose ``key`` attribute is the argument's name, so a caller that maps arguments to its
 own names (the oracle's case keys) never parses a message. The numerical core after
@@ -55,7 +56,7 @@ class InputError(ValueError):
 
 class InputTypeError(InputError, TypeError):
     """An argument holding the wrong kind of data (a string where a number belongs, a
-    float count, an object array ...): both an :class:`InputError` and a ``TypeError``."""
+    float count, an object array ...): both an [`InputError`][pes_ref.core.checks.InputError] and a ``TypeError``."""
 
 
 def _quote(value, limit: int = 80) -> str:
@@ -87,7 +88,7 @@ def as_float_array(
         The argument's name, quoted in every error.
     value : array_like
         Real numbers (bool, int, float of any width). Complex, object and string
-        data are refused with a :class:`TypeError`.
+        data are refused with a `TypeError`.
     shape : tuple, optional
         The exact shape required; ``None`` entries match any length.
     broadcast_to : tuple, optional

@@ -1,17 +1,18 @@
 """Compiled loops: the paper's dynamic step, the quasistatic step and their adjoints as numba
-kernels (the backend ``"numba"`` of :data:`pes_ref.core.backends.BACKENDS`; the optional
+kernels (the backend ``"numba"`` of `pes_ref.core.backends.BACKENDS`; the optional
 extra ``fast``).
 
-They are an optimization of :mod:`pes_ref.core.integrator` (and, through it, of
-:mod:`pes_ref.core.reference`): the same sub-steps, (S1)-(S4) and (B1)-(B4), (Q1)-(Q2) and
+They are an optimization of [`pes_ref.core.integrator`][pes_ref.core.integrator] (and, through it, of
+[`pes_ref.core.reference`][pes_ref.core.reference]): the same sub-steps, (S1)-(S4) and (B1)-(B4), (Q1)-(Q2) and
 (QB1)-(QB2) of ``docs/adjoint.md``, written per particle instead of per array. Every
 floating-point operation of the NumPy path is done here in the same order on the same
 operands (IEEE double, no fused multiply-add: numba's default ``fastmath=False``), so:
 
 - the forward trajectory ``x, v, f`` is bit-identical to the NumPy path's, on the bilinear
-  grid (the same per-cell coefficients, :func:`pes_ref.core.bilinear.coefficient_table`'s: a
+  grid (the same per-cell coefficients,
+  [`pes_ref.core.bilinear.coefficient_table`][pes_ref.core.bilinear.coefficient_table]'s: a
   population's loops and the quasistatic ones read the table, one grid's dynamic loops
-  compute a cell's row from the values as they step, :func:`_cell_coefficients`), springs
+  compute a cell's row from the values as they step, `_cell_coefficients`), springs
   (the minimum image by ``fmod`` as NumPy's ``np.mod`` computes it), walls, damping and the
   external force;
 - every gradient but two is bit-identical too; the grid gradient is accumulated per state
@@ -19,27 +20,28 @@ operands (IEEE double, no fused multiply-add: numba's default ``fastmath=False``
   and the mobility's is summed particle by particle (NumPy's by ``einsum``): the same sums
   in another order, within 1e-13 of their largest entry (``tests/core/test_compiled.py``).
 
-From :data:`PARALLEL_MIN` particles on, the dynamic loops and :func:`energy` run their
-particles in blocks of :data:`BLOCK` on numba's threads (``prange``; :data:`PARALLEL_KERNELS`).
+From `PARALLEL_MIN` particles on, the dynamic loops and [`energy`][pes_ref.core.compiled.energy] run their
+particles in blocks of `BLOCK` on numba's threads (``prange``; `PARALLEL_KERNELS`).
 Each particle's operations are the same in the same order on any thread, so its numbers are
 its own run's, bit for bit; the grid gradient, a sum over particles, is accumulated in
-:data:`LANES` lanes of consecutive blocks, each into its own table gradient, added in lane
+`LANES` lanes of consecutive blocks, each into its own table gradient, added in lane
 order: the partition is fixed by N, so no number depends on the thread count.
 
-A small dynamic run (:data:`LOOKUP_STATES`) keeps each state's grid lookup, which its adjoint
-reads where the state's position is still the one looked up (:func:`_lookups`): the lookup's
+A small dynamic run (`LOOKUP_STATES`) keeps each state's grid lookup, which its adjoint
+reads where the state's position is still the one looked up (`_lookups`): the lookup's
 divisions and floors, most of an adjoint step's time, are then done once.
 
-A population (:mod:`pes_ref.core.population`) runs with the grid offset of each particle
+A population ([`pes_ref.core.population`][pes_ref.core.population]) runs with the grid offset of each particle
 added to its cell (``Field.offsets``). The bicubic grid and the GJF step are not compiled:
-:func:`pes_ref.core.backends.stepper` runs them on NumPy.
+[`pes_ref.core.backends.stepper`][pes_ref.core.backends.stepper] runs them on NumPy.
 
 The kernels take every array C-contiguous float64 of a fixed dimension (absent terms as
 placeholders with a flag), so each compiles once; numba caches the machine code on disk
 (``cache=True``: beside this file in ``__pycache__``, or in numba's user cache directory
 when the package is installed read-only, or in ``NUMBA_CACHE_DIR``). A run without a
-progress callback is one call; with one, a call per :data:`pes_ref.core.runtime.progress.EVERY`
-steps (:func:`pes_ref.core.runtime.progress.blocks`), so Ctrl-C and progress lines come between
+progress callback is one call; with one, a call per `pes_ref.core.runtime.progress.EVERY`
+steps ([`pes_ref.core.runtime.progress.blocks`][pes_ref.core.runtime.progress.blocks]), so Ctrl-C and progress lines
+come between
 them.
 """
 from __future__ import annotations
@@ -90,15 +92,15 @@ def _mod(a, length):
 
 @njit(inline="always", **_JIT)
 def _locate(q0, q1, g, per0, per1, clips):
-    """The lookup of :meth:`pes_ref.core.grid.Locator.bind` for one point, both axes:
-    ``(cell, f0, f1, s0, s1)`` (:func:`_locate_ij` without the cell's row and column)."""
+    """The lookup of [`pes_ref.core.grid.Locator.bind`][pes_ref.core.grid.Locator.bind] for one point, both axes:
+    ``(cell, f0, f1, s0, s1)`` (`_locate_ij` without the cell's row and column)."""
     cell, _, _, f0, f1, s0, s1 = _locate_ij(q0, q1, g, per0, per1, clips)
     return cell, f0, f1, s0, s1
 
 
 @njit(inline="always", **_JIT)
 def _locate_ij(q0, q1, g, per0, per1, clips):
-    """The lookup of :meth:`pes_ref.core.grid.Locator.bind` for one point, both axes:
+    """The lookup of [`pes_ref.core.grid.Locator.bind`][pes_ref.core.grid.Locator.bind] for one point, both axes:
     ``(cell, i0, j0, f0, f1, s0, s1)``, ``cell = i0 n1 + j0``. ``g`` holds ``lower0, lower1,
     h0, h1, n0 - 1, n1 - 1, n0 - 2, n1 - 2, n0, n1``. A periodic axis is neither clipped nor
     switched (a no-op there), a non-periodic one never wrapped (idem); a non-finite point
@@ -155,8 +157,8 @@ def _force(q0, q1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, 
            won, wk, wlo, whi):
     """``F(q)`` of particle ``i`` (N, 2 row): the grid's ``(A + f D) s`` from its table row,
     then ``-k delta`` of the spring, then the walls' ``k (clip(q, a, b) - q)``: the
-    operations of :class:`~pes_ref.core.forces.ForceKernel` in its order. (The arguments are
-    the unpacked tuples of :func:`_grid`, :func:`_spring` and :func:`_walls`: a kernel
+    operations of [`ForceKernel`][pes_ref.core.forces.ForceKernel] in its order. (The arguments are
+    the unpacked tuples of `_grid`, `_spring` and `_walls`: a kernel
     unpacks them once, outside its loops; ``wraps`` is its compile-time constant.)"""
     cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
     return _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf,
@@ -176,7 +178,7 @@ def _row(cell, i, offsets, rows):
 @njit(inline="always", **_JIT)
 def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
               won, wk, wlo, whi):
-    """:func:`_force` at the cell and fractions that :func:`_locate` gave for ``(q0, q1)``."""
+    """`_force` at the cell and fractions that `_locate` gave for ``(q0, q1)``."""
     row = _row(cell, i, offsets, table.shape[0])
     F0 = (table[row, 2] * f1 + table[row, 0]) * s0
     F1 = (table[row, 3] * f0 + table[row, 1]) * s1
@@ -185,7 +187,7 @@ def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wrap
 
 @njit(inline="always", **_JIT)
 def _cell_nodes(values, i0, j0):
-    """Cell ``(i0, j0)``'s nodes ``(i, j, ip, jp)``, the next ones wrapped, unsigned (as :func:`_row`)."""
+    """Cell ``(i0, j0)``'s nodes ``(i, j, ip, jp)``, the next ones wrapped, unsigned (as `_row`)."""
     ip = i0 + 1
     if ip == values.shape[0]:
         ip = 0
@@ -197,7 +199,7 @@ def _cell_nodes(values, i0, j0):
 
 @njit(inline="always", **_JIT)
 def _cell_coefficients(values, i0, j0, nih0, nih1):
-    """Cell ``(i0, j0)``'s row ``(A0, A1, D0, D1)`` of :func:`_coefficient_table`, from the
+    """Cell ``(i0, j0)``'s row ``(A0, A1, D0, D1)`` of `_coefficient_table`, from the
     grid's values: the same differences of the same nodes (the next ones wrapped), scaled
     by ``-1/h`` in the same order, so the same numbers bit for bit."""
     i, j, ip, jp = _cell_nodes(values, i0, j0)
@@ -209,7 +211,7 @@ def _cell_coefficients(values, i0, j0, nih0, nih1):
 
 @njit(inline="always", **_JIT)
 def _cell_d0(values, i0, j0, nih0):
-    """Cell ``(i0, j0)``'s ``D0`` of :func:`_cell_coefficients` alone (the cross term's)."""
+    """Cell ``(i0, j0)``'s ``D0`` of `_cell_coefficients` alone (the cross term's)."""
     i, j, ip, jp = _cell_nodes(values, i0, j0)
     return ((values[ip, jp] - values[i, jp]) - (values[ip, j] - values[i, j])) * nih0
 
@@ -233,10 +235,11 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, table, nih1, offsets
          son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, gc, walls):
     """(A6) at particle ``i``'s position for the cotangent ``w``: returns ``xbar + (dF/dx)^T w``
     (the grid's ``-Hc s0 s1 (w1, w0)``, the spring's ``-k w``, the walls' ``-k w`` where
-    active, in :class:`~pes_ref.core.forces.ForceAdjoint`'s order) and accumulates the
+    active, in [`ForceAdjoint`][pes_ref.core.forces.ForceAdjoint]'s order) and accumulates the
     grid's table gradient and the spring's, as wanted. The cross term ``Hc`` of a cell is
     its coefficient table's ``D0`` times ``nih1 = -1/h1``: the operations of
-    :func:`pes_ref.core.bilinear.cross_table` in its order, so the same number bit for bit
+    [`pes_ref.core.bilinear.cross_table`][pes_ref.core.bilinear.cross_table] in its order, so the same number bit for
+    bit
     (the forward's table serves the adjoint; no cross table is built)."""
     cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
     row = _row(cell, i, offsets, table.shape[0])
@@ -247,7 +250,7 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, table, nih1, offsets
 @njit(inline="always", **_JIT)
 def _vjp_at(q0, q1, i, row, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, d0, nih1, gtab, want_values,
             son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, rest):
-    """:func:`_vjp` at the table row (:func:`_row`), fractions and switches that :func:`_locate`
+    """`_vjp` at the table row (`_row`), fractions and switches that `_locate`
     gave for ``(q0, q1)``, with the cell's ``d0`` (its coefficient table's ``D0``) (``rest``:
     ``(gc, walls)``, a tuple: numba inlines a function of at most 30 arguments)."""
     gc, walls = rest
@@ -288,10 +291,12 @@ def _vjp_at(q0, q1, i, row, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, d0, nih1, g
 def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrapping, son, sk, sc, swrap0, swrap1,
                shalf, slen, won, hwk, wlo, whi):
     """Particle ``i``'s total energy at ``(q0, q1)`` with velocity ``(w0, w1)``, at its cell's
-    row and column and fractions of :func:`_locate_ij`: :func:`pes_ref.core.scene.energy`'s operations in its order,
-    the bilinear energy of :func:`pes_ref.core.bilinear.grid_energy`, plus the spring's
+    row and column and fractions of `_locate_ij`: [`pes_ref.core.scene.energy`][pes_ref.core.scene.energy]'s operations
+    in its order,
+    the bilinear energy of [`pes_ref.core.bilinear.grid_energy`][pes_ref.core.bilinear.grid_energy], plus the spring's
     ``0.5 (k0 d0 d0 + k1 d1 d1)`` (the minimum image on the axes ``swrap``, the periodic ones,
-    as :func:`pes_ref.core.terms.spring_delta`; ``wrapping``, a caller's compile-time constant,
+    as [`pes_ref.core.terms.spring_delta`][pes_ref.core.terms.spring_delta]; ``wrapping``, a caller's compile-time
+    constant,
     False leaves the image out of a loop whose caller passes no ``swrap``), plus the walls'
     ``(0.5 k) (b0 b0 + a0 a0 + (b1 b1 + a1 a1))``, plus ``0.5 (m0 v0 v0 + m1 v1 v1)``."""
     n0 = values.shape[0]
@@ -329,7 +334,7 @@ def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrappin
 
 @njit(inline="always", **_JIT)
 def _coefficient_row(values, i, ip, j, jp, nih0, nih1, out):
-    """Row ``i n1 + j`` of :func:`_coefficient_table`: cell (i, j) with its next nodes ``ip``, ``jp``."""
+    """Row ``i n1 + j`` of `_coefficient_table`: cell (i, j) with its next nodes ``ip``, ``jp``."""
     d0a = values[ip, j] - values[i, j]
     d1a = values[i, jp] - values[i, j]
     row = i * values.shape[1] + j
@@ -341,7 +346,8 @@ def _coefficient_row(values, i, ip, j, jp, nih0, nih1, out):
 
 @njit(**_JIT)
 def _coefficient_table(values, nih0, nih1, out):
-    """:func:`pes_ref.core.bilinear.coefficient_table` into ``out`` (n0 n1, 4): the same
+    """[`pes_ref.core.bilinear.coefficient_table`][pes_ref.core.bilinear.coefficient_table] into ``out`` (n0 n1, 4): the
+    same
     differences, wrapped, then scaled by ``-1/h`` (bit-identical). Each row's cells but the
     last in a loop without the wrap (which the compiler runs on SIMD lanes), the last wrapped."""
     n0, n1 = values.shape
@@ -354,8 +360,9 @@ def _coefficient_table(values, nih0, nih1, out):
 
 @njit(**_JIT)
 def _cross_table(values, nih0, nih1, out):
-    """:func:`pes_ref.core.bilinear.cross_table` into ``out`` (n0 n1,) (bit-identical; the
-    loops as :func:`_coefficient_table`'s)."""
+    """[`pes_ref.core.bilinear.cross_table`][pes_ref.core.bilinear.cross_table] into ``out`` (n0 n1,) (bit-identical;
+    the
+    loops as `_coefficient_table`'s)."""
     n0, n1 = values.shape
     for i in range(n0):
         ip = i + 1 if i + 1 < n0 else 0
@@ -366,7 +373,8 @@ def _cross_table(values, nih0, nih1, out):
 
 @njit(inline="always", **_JIT)
 def _table_grad_row(gtabs, i, n1, nih0, nih1, terms, clear):
-    """Row ``i``'s per-cell terms of :func:`pes_ref.core.bilinear.table_grad_to_values` into
+    """Row ``i``'s per-cell terms of
+    [`pes_ref.core.bilinear.table_grad_to_values`][pes_ref.core.bilinear.table_grad_to_values] into
     ``terms`` (3, n1): ``c10 = gA0 (-1/h0) - c11``, ``c01 = gA1 (-1/h1) - c11``, ``c11 = gD0
     (-1/h0) + gD1 (-1/h1)``, of the lanes' table gradients ``gtabs`` (L, n0 n1, 4) summed in
     lane order (``((g_0 + g_1) + g_2) ...``, one lane as it is). ``clear``: every entry read
@@ -401,7 +409,8 @@ def _table_grad_row(gtabs, i, n1, nih0, nih1, terms, clear):
 
 @njit(**_JIT)
 def _table_grad_to_values(gtabs, nih0, nih1, n0, n1, out, rows, clear):
-    """:func:`pes_ref.core.bilinear.table_grad_to_values` of the lanes' table gradients
+    """[`pes_ref.core.bilinear.table_grad_to_values`][pes_ref.core.bilinear.table_grad_to_values] of the lanes' table
+    gradients
     ``gtabs`` (L, n0 n1, 4) summed in lane order, into ``out`` (n0, n1): per node ``-c10 -
     c01 - c11`` of its own cell plus ``c10``, ``c01``, ``c11`` of the cells it is the other
     corner of (wrapped), in that order (bit-identical). The terms of a row of cells and of
@@ -427,7 +436,8 @@ def _cell_cross(a, b, j, jp):
 
 @njit(**_JIT)
 def _cross_curvature_max(values, per0, per1):
-    """``max over cells |((G11 - G10) - G01) + G00|`` of :func:`pes_ref.core.stability.grid_cross_curvature`
+    """``max over cells |((G11 - G10) - G01) + G00|`` of
+    [`pes_ref.core.stability.grid_cross_curvature`][pes_ref.core.stability.grid_cross_curvature]
     (a periodic axis's last cell wrapped to node 0). Finite values give no NaN here (a
     difference that overflows is an infinity, which the next finite term keeps), so the
     maximum is the same number in any order: four running maxima over a row's cells (four
@@ -462,14 +472,15 @@ def _cross_curvature_max(values, per0, per1):
 
 
 def cross_curvature_max(values: np.ndarray, periodic) -> float:
-    """:func:`_cross_curvature_max` of one grid (n0, n1): the numerator of
-    :func:`pes_ref.core.stability.grid_cross_curvature`, compiled, bit for bit."""
+    """`_cross_curvature_max` of one grid (n0, n1): the numerator of
+    [`pes_ref.core.stability.grid_cross_curvature`][pes_ref.core.stability.grid_cross_curvature], compiled, bit for bit."""
     return _cross_curvature_max(_readonly(values), bool(periodic[0]), bool(periodic[1]))
 
 
 def _stacked(values: np.ndarray, width: int) -> tuple:
     """``(out, grids, size)``: a per-cell table (``width`` columns, 0 for one) of a grid or of
-    a stack of grids, one after another (:func:`pes_ref.core.grid.stacked_table`), the grids
+    a stack of grids, one after another ([`pes_ref.core.grid.stacked_table`][pes_ref.core.grid.stacked_table]), the
+    grids
     (K, n0, n1) and the cells of one."""
     grids = values.reshape((-1,) + values.shape[-2:])
     size = grids.shape[1] * grids.shape[2]
@@ -478,7 +489,7 @@ def _stacked(values: np.ndarray, width: int) -> tuple:
 
 
 def coefficient_table(values: np.ndarray, h) -> np.ndarray:
-    """:func:`pes_ref.core.bilinear.coefficient_table` (of each grid of a stack), compiled."""
+    """[`pes_ref.core.bilinear.coefficient_table`][pes_ref.core.bilinear.coefficient_table] (of each grid of a stack), compiled."""
     out, grids, size = _stacked(values, 4)
     for c, grid in enumerate(grids):
         _coefficient_table(_readonly(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
@@ -486,7 +497,7 @@ def coefficient_table(values: np.ndarray, h) -> np.ndarray:
 
 
 def cross_table(values: np.ndarray, h) -> np.ndarray:
-    """:func:`pes_ref.core.bilinear.cross_table` (of each grid of a stack), compiled."""
+    """[`pes_ref.core.bilinear.cross_table`][pes_ref.core.bilinear.cross_table] (of each grid of a stack), compiled."""
     out, grids, size = _stacked(values, 0)
     for c, grid in enumerate(grids):
         _cross_table(_readonly(grid), -1.0 / h[0], -1.0 / h[1], out[c * size:(c + 1) * size])
@@ -494,7 +505,8 @@ def cross_table(values: np.ndarray, h) -> np.ndarray:
 
 
 def table_grad_to_values(gtab: np.ndarray, h, shape: tuple, flat: bool = True) -> np.ndarray:
-    """:func:`pes_ref.core.bilinear.table_grad_to_values` of one grid, compiled; flat (n0 n1,),
+    """[`pes_ref.core.bilinear.table_grad_to_values`][pes_ref.core.bilinear.table_grad_to_values] of one grid, compiled;
+    flat (n0 n1,),
     or in the grid's shape (an array of its own, not a view) unless ``flat``."""
     out = np.empty(shape)
     _table_grad_to_values(_kernel_array(gtab)[None], -1.0 / h[0], -1.0 / h[1], shape[0], shape[1], out,
@@ -516,7 +528,7 @@ def _keep(lkf, lki, n, i, q0, q1, cell, i0, j0, f0, f1, s0, s1):
 
 @njit(inline="always", **_JIT)
 def _kept(lkf, lki, n, i):
-    """State ``n``'s lookup of particle ``i`` that :func:`_keep` kept: ``(cell, i0, j0, f0, f1, s0, s1)``."""
+    """State ``n``'s lookup of particle ``i`` that `_keep` kept: ``(cell, i0, j0, f0, f1, s0, s1)``."""
     code = lki[n, i, 0]
     ij = lki[n, i, 1]
     return (code >> 2, ij >> 32, ij & 0xFFFFFFFF, lkf[n, i, 2], lkf[n, i, 3], 1.0 if code & 2 else 0.0,
@@ -546,16 +558,17 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
     @njit(**jit)
     def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls,
                        energy, lookups, direct):
-        """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_dynamic`, and
+        """Steps ``start .. stop - 1`` of
+        [`pes_ref.core.integrator.simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic], and
         from ``start = 0`` the initial force ``F_0 = F(X_0) + F_ext[0]`` first (as a step -1
         that is only (S3): one copy of the force in the loop); the particles of each block
         (``blocks[b] .. blocks[b+1] - 1``: a population's member, whose grid's table then stays
         in cache) through all the steps before the next block's (particles are independent:
-        the order changes no number). ``energy`` (:func:`_energy_terms`) on: each state's
-        energy into its ``out`` as the state is made, at the state's lookup (:func:`_energy_at`).
-        ``lookups`` (:func:`_lookups`) on: each state's position and grid lookup kept for the adjoint.
+        the order changes no number). ``energy`` (`_energy_terms`) on: each state's
+        energy into its ``out`` as the state is made, at the state's lookup (`_energy_at`).
+        ``lookups`` (`_lookups`) on: each state's position and grid lookup kept for the adjoint.
         ``direct`` ``(on, values)`` on (one grid): a cell's coefficients from the grid's values
-        (:func:`_cell_coefficients`, the table's numbers), no table."""
+        (`_cell_coefficients`, the table's numbers), no table."""
         g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         keep, lkf, lki = lookups
         from_values, values = direct
@@ -622,14 +635,15 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
                                xbar, vbar, fbar, want_abar, abar, want_cbar, cbar, want_force, gforce,
                                lanes, blocks, grid, nih1, gtabs, want_values, spring, want_k, gk, want_c, gc, walls,
                                lookups, direct):
-        """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_dynamic`,
+        """Steps ``stop - 1`` down to ``start`` of
+        [`pes_ref.core.integrator.adjoint_dynamic`][pes_ref.core.integrator.adjoint_dynamic],
         (B4)-(B1) and the objective's direct terms, per particle; down to ``start = 0``, then
         (B0), the adjoint of the initial force (as a step -1 that is only (B3)). The particles
         in ``lanes`` of ``blocks`` (lane ``l``: blocks ``lanes[l] .. lanes[l+1] - 1``), each lane
         with its own table gradient ``gtabs[l]`` (the caller sums them in lane order).
-        ``lookups`` on: a state's grid lookup is the forward's (:func:`_kept`) where its position
+        ``lookups`` on: a state's grid lookup is the forward's (`_kept`) where its position
         is the one the forward looked up, else computed again (the same numbers either way).
-        ``direct`` as in :func:`_dynamic_steps`: a cell's ``D0`` from the values (:func:`_cell_d0`)."""
+        ``direct`` as in `_dynamic_steps`: a cell's ``D0`` from the values (`_cell_d0`)."""
         g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         keep, lkf, lki = lookups
         from_values, values = direct
@@ -714,9 +728,10 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
 
     @njit(**_JIT)
     def _quasistatic_steps(x, f, fext, has_fext, start, stop, blocks, mu, grid, spring, walls):
-        """Steps ``start .. stop - 1`` of :func:`pes_ref.core.integrator.simulate_quasistatic`, and
+        """Steps ``start .. stop - 1`` of
+        [`pes_ref.core.integrator.simulate_quasistatic`][pes_ref.core.integrator.simulate_quasistatic], and
         up to ``stop = T`` then the final force ``F_T = F(X_T) + F_ext[T]`` (as a step T that is
-        only (Q1)), a block of particles at a time (as :func:`_dynamic_steps`)."""
+        only (Q1)), a block of particles at a time (as `_dynamic_steps`)."""
         g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
@@ -742,7 +757,7 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
     @njit(**_JIT)
     def _quasistatic_adjoint_steps(x, f, gx, has_gx, start, stop, mu, xbar, want_mubar, mubar, want_force, gforce,
                                    grid, nih1, gtab, want_values, spring, want_k, gk, want_c, gc, walls):
-        """Steps ``stop - 1`` down to ``start`` of :func:`pes_ref.core.integrator.adjoint_quasistatic`."""
+        """Steps ``stop - 1`` down to ``start`` of [`pes_ref.core.integrator.adjoint_quasistatic`][pes_ref.core.integrator.adjoint_quasistatic]."""
         g, _, _, _, table, offsets = grid          # (the topology: the closure's)
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
@@ -775,26 +790,26 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
 #: Keyed by ``(wraps, per0, per1)``: the minimum image and the grid's topology.
 KERNELS = {(wraps, per0, per1): _make_kernels(wraps, per0, per1)
            for wraps in (False, True) for per0 in (False, True) for per1 in (False, True)}
-#: The same on numba's threads (the dynamic loops; the quasistatic ones as in :data:`KERNELS`).
+#: The same on numba's threads (the dynamic loops; the quasistatic ones as in `KERNELS`).
 PARALLEL_KERNELS = {key: _make_kernels(*key, parallel=True) for key in KERNELS}
 
 
 def kernels(wraps: bool, field, parallel: bool = False) -> SimpleNamespace:
-    """The loops of :data:`KERNELS` (:data:`PARALLEL_KERNELS`) for ``wraps`` and ``field``'s topology."""
+    """The loops of `KERNELS` (`PARALLEL_KERNELS`) for ``wraps`` and ``field``'s topology."""
     return (PARALLEL_KERNELS if parallel else KERNELS)[bool(wraps), bool(field.periodic[0]), bool(field.periodic[1])]
 
 
 # =========================================================================== the energy of a trajectory
 
 def _make_energy(parallel: bool):
-    """The energy kernel of :func:`energy`; ``parallel``: its particle blocks run on numba's
+    """The energy kernel of [`energy`][pes_ref.core.compiled.energy]; ``parallel``: its particle blocks run on numba's
     threads (each entry is one particle-state's own arithmetic: no number depends on them)."""
     loop = prange if parallel else range
 
     @njit(parallel=parallel, **_JIT)
     def _energy(x, v, m, blocks, g, per0, per1, clips, values, son, sk, sc, swrap0, swrap1, shalf, slen,
                 won, hwk, wlo, whi, out):
-        """``out[n, i]``: :func:`_energy_at` of each particle-state (a spring's minimum image
+        """``out[n, i]``: `_energy_at` of each particle-state (a spring's minimum image
         on every periodic axis)."""
         for b in loop(blocks.size - 1):
             for n in range(x.shape[0]):
@@ -813,8 +828,8 @@ ENERGY = {parallel: _make_energy(parallel) for parallel in (False, True)}
 
 
 def _energy_terms(field, n: int, mass, out) -> tuple:
-    """``(on, out, mass, values, spring, walls)``: the energy arguments of :func:`_energy_at`
-    (:func:`_make_energy`'s kernel and the forward loop's), ``on`` False and placeholders of
+    """``(on, out, mass, values, spring, walls)``: the energy arguments of `_energy_at`
+    (`_make_energy`'s kernel and the forward loop's), ``on`` False and placeholders of
     the same types when ``out`` is None. The spring's minimum image on every periodic axis
     (``spring[3:5]``), the walls' ``0.5 k`` per particle."""
     if out is None:
@@ -836,9 +851,9 @@ def _energy_terms(field, n: int, mass, out) -> tuple:
 
 def energy(field, x: np.ndarray, v: np.ndarray, mass, out=None) -> np.ndarray:
     """Total energy per state and particle, (T+1, N), into ``out`` (fresh when None):
-    :func:`pes_ref.core.scene.energy`'s numbers bit for bit (bilinear grid, one grid),
-    compiled; the particles in blocks of :data:`BLOCK` on numba's threads from
-    :data:`PARALLEL_MIN` particles on."""
+    [`pes_ref.core.scene.energy`][pes_ref.core.scene.energy]'s numbers bit for bit (bilinear grid, one grid),
+    compiled; the particles in blocks of `BLOCK` on numba's threads from
+    `PARALLEL_MIN` particles on."""
     x, v = _kernel_array(x), _kernel_array(v)
     T1, N = x.shape[0], x.shape[1]
     g, per0, per1, clips = _grid(field, N, _NONE2)[:4]
@@ -851,7 +866,7 @@ def energy(field, x: np.ndarray, v: np.ndarray, mass, out=None) -> np.ndarray:
 
 
 def energy_wraps(field) -> bool:
-    """Whether :func:`_energy_at` takes a spring's minimum image in ``field`` (a spring and a
+    """Whether `_energy_at` takes a spring's minimum image in ``field`` (a spring and a
     periodic axis): a forward loop that computes the energy is then the one compiled with it."""
     return field.spring is not None and any(bool(p) for p in field.periodic)
 
@@ -885,13 +900,14 @@ LANES = 4
 
 
 def particle_blocks(n: int, width: int | None = None) -> np.ndarray:
-    """The starts of ``n`` particles' blocks of ``width`` (:data:`BLOCK`) and ``n`` last (intp)."""
+    """The starts of ``n`` particles' blocks of ``width`` (`BLOCK`) and ``n`` last (intp)."""
     return np.append(np.arange(0, n, width or BLOCK), n).astype(np.intp)
 
 
 def lanes_of(n: int) -> tuple:
     """``(lanes, blocks)`` of a threaded adjoint of ``n`` particles: the blocks of
-    :func:`particle_blocks` and :data:`LANES` runs of consecutive blocks (fewer if there are
+    [`particle_blocks`][pes_ref.core.compiled.particle_blocks] and `LANES` runs of consecutive blocks (fewer if there
+    are
     fewer blocks), ``lanes[l] .. lanes[l+1] - 1``."""
     blocks = particle_blocks(n)
     nb = blocks.size - 1
@@ -900,8 +916,8 @@ def lanes_of(n: int) -> tuple:
 
 
 def parallel_blocks(field, n: int) -> np.ndarray:
-    """The particle blocks of a threaded forward loop: each of :func:`_blocks`' cut into
-    pieces of at most :data:`BLOCK` particles."""
+    """The particle blocks of a threaded forward loop: each of `_blocks`' cut into
+    pieces of at most `BLOCK` particles."""
     out = [0]
     bounds = _blocks(field, n)
     for a, b in zip(bounds[:-1], bounds[1:]):
@@ -935,7 +951,7 @@ def _readonly(a) -> np.ndarray:
 
 
 def _c3(a):
-    """A (T+1, N, 2) input as the kernels take it, read-only (:func:`_readonly`; placeholder
+    """A (T+1, N, 2) input as the kernels take it, read-only (`_readonly`; placeholder
     and False when None)."""
     return (_NONE3_RO, False) if a is None else (_readonly(a), True)
 
@@ -978,14 +994,14 @@ def _blocks(field, n: int) -> np.ndarray:
 
 
 def _wraps(spring: tuple) -> bool:
-    """Whether the kernels for ``spring`` (:func:`_spring`) compute a minimum image."""
+    """Whether the kernels for ``spring`` (`_spring`) compute a minimum image."""
     return bool(spring[0] and (spring[3] or spring[4]))
 
 
 def _direct(field) -> tuple:
     """``(on, values)``, the ``direct`` argument of the dynamic loops: on for one grid (no
     population), whose loops then take a cell's coefficients from its values
-    (:func:`_cell_coefficients`: the table's numbers) and build no table."""
+    (`_cell_coefficients`: the table's numbers) and build no table."""
     if field.offsets is None and field.values.ndim == 2:
         return True, _readonly(field.values)
     return _NO_DIRECT
@@ -993,7 +1009,7 @@ def _direct(field) -> tuple:
 
 def _forward_terms(field, n: int, table: bool = True):
     """Whether the forward kernels take the minimum image (``wraps``, the key of
-    :func:`kernels`) and their grid, spring and walls arguments: the spring only where the
+    [`kernels`][pes_ref.core.compiled.kernels]) and their grid, spring and walls arguments: the spring only where the
     NumPy path builds its kernel (some nonzero ``k``), its minimum image where it pulls;
     the grid's coefficient table unless ``table`` is False (a placeholder then)."""
     grid = _grid(field, n, grid_table(field) if table else _NO_TABLE)
@@ -1005,9 +1021,10 @@ def _forward_terms(field, n: int, table: bool = True):
 class _Adjoint:
     """The force's adjoint over stored states: the compiled kernels' arguments (the grid's
     coefficient table, whose ``D0 (-1/h1)`` is the cross term, and its table gradients, the
-    spring's gradients) and ``result()``, for :func:`finish_dynamic_adjoint`. ``lanes``
-    particle lanes (:func:`lanes_of`), each with its own table gradient (zeroed buffers of
-    :func:`_zeroed`), summed in lane order by ``result()`` as it maps them to the grid."""
+    spring's gradients) and ``result()``, for
+    [`finish_dynamic_adjoint`][pes_ref.core.integrator.finish_dynamic_adjoint]. ``lanes``
+    particle lanes ([`lanes_of`][pes_ref.core.compiled.lanes_of]), each with its own table gradient (zeroed buffers of
+    `_zeroed`), summed in lane order by ``result()`` as it maps them to the grid."""
 
     def __init__(self, field, xs: np.ndarray, want: frozenset, parallel: bool = False, direct=_NO_DIRECT):
         n = xs.shape[1]
@@ -1044,7 +1061,7 @@ class _Adjoint:
     def result(self) -> dict:
         """The terms' gradients; the grid's (n0, n1), its own array, from the lanes' table
         gradients summed in lane order (the same sum whatever the threads), which the same
-        pass zeroes and hands back (:func:`_give_back`). Once: the lanes are then gone."""
+        pass zeroes and hands back (`_give_back`). Once: the lanes are then gone."""
         out = {}
         if self.want_values:
             h, shape = self.field.h, self.field.values.shape[-2:]
@@ -1064,7 +1081,7 @@ class _Adjoint:
 #: The last grid's coefficient table, ``(weakref to its values, h0, h1, table)``, or None:
 #: a run's forward builds it and its adjoint (and the next run on the same grid) reads it.
 #: Kept only for a values array that is read-only and owns its memory (a
-#: :class:`~pes_ref.core.surface.Surface`'s: a checked copy that nothing writes), and only
+#: `Surface`'s: a checked copy that nothing writes), and only
 #: while that array lives (the weak reference's callback drops it).
 _TABLE = [None]
 
@@ -1076,8 +1093,9 @@ def _forget(ref) -> None:
 
 
 def grid_table(field) -> np.ndarray:
-    """:func:`coefficient_table` of ``field``'s grid (or stack of grids): the one kept in
-    :data:`_TABLE` when it is this values array's at this spacing, else built (and kept,
+    """[`coefficient_table`][pes_ref.core.compiled.coefficient_table] of ``field``'s grid (or stack of grids): the one
+    kept in
+    `_TABLE` when it is this values array's at this spacing, else built (and kept,
     when the array is a read-only one that owns its memory)."""
     values = field.values
     h0, h1 = float(field.h[0]), float(field.h[1])
@@ -1090,9 +1108,9 @@ def grid_table(field) -> np.ndarray:
     return table
 
 
-#: Zeroed table-gradient buffers between runs (at most one, of at most :data:`SPARE_BYTES`):
-#: an adjoint takes one (:func:`_zeroed`) instead of zeroing fresh memory, and hands it
-#: back zeroed by the pass that reads it (:meth:`_Adjoint.result`).
+#: Zeroed table-gradient buffers between runs (at most one, of at most `SPARE_BYTES`):
+#: an adjoint takes one (`_zeroed`) instead of zeroing fresh memory, and hands it
+#: back zeroed by the pass that reads it (`_Adjoint.result`).
 _SPARE: list = []
 SPARE_BYTES = 1 << 24
 
@@ -1113,11 +1131,11 @@ def _give_back(buf: np.ndarray) -> None:
 
 
 #: The grid lookups of the last dynamic forward run, ``(weakref to its x, its grid's lookup
-#: key, lkf, lki)``, or None (:func:`_lookups`): its adjoint reads them instead of looking
+#: key, lkf, lki)``, or None (`_lookups`): its adjoint reads them instead of looking
 #: each state up again, where the state's position is still the one looked up.
 _LOOKUPS = [None]
 #: A run keeps its lookups up to this many particle-states ((T+1) N; LOOKUP_BYTES = 48 each,
-#: which :func:`pes_ref.core.budget.run_bytes` counts): a small run's adjoint is bound by the
+#: which `pes_ref.core.budget.run_bytes` counts): a small run's adjoint is bound by the
 #: lookup's divisions, a large one's by memory.
 LOOKUP_STATES = budget.LOOKUP_STATES
 _NO_LOOKUPS = (False, np.zeros((1, 1, 4)), np.zeros((1, 1, 2), dtype=np.int64))
@@ -1137,8 +1155,8 @@ def _lookup_key(field, grid) -> tuple:
 
 def _lookups(field, x: np.ndarray, grid) -> tuple:
     """``(keep, lkf, lki)`` of a dynamic forward run over ``x`` (T+1, N, 2): arrays its loop
-    fills with each state's position and lookup (:func:`_keep`), kept in :data:`_LOOKUPS`
-    for its adjoint, when the run has at most :data:`LOOKUP_STATES` particle-states and one
+    fills with each state's position and lookup (`_keep`), kept in `_LOOKUPS`
+    for its adjoint, when the run has at most `LOOKUP_STATES` particle-states and one
     grid; else placeholders and ``keep`` False."""
     key = _lookup_key(field, grid)
     if key is None or x.shape[0] * x.shape[1] > LOOKUP_STATES:
@@ -1149,9 +1167,9 @@ def _lookups(field, x: np.ndarray, grid) -> tuple:
 
 
 def _kept_lookups(field, x: np.ndarray, grid) -> tuple:
-    """The lookups (:func:`_lookups`) of the forward run that made ``x``, on this grid's
+    """The lookups (`_lookups`) of the forward run that made ``x``, on this grid's
     lookup constants and topology, or placeholders. The adjoint loop reads a state's kept
-    lookup only where ``x`` holds the very position it was made at (:func:`_kept`), so
+    lookup only where ``x`` holds the very position it was made at (`_kept`), so
     positions written since are looked up again."""
     entry = _LOOKUPS[0]
     if (entry is None or entry[0]() is not x or entry[1] != _lookup_key(field, grid)
@@ -1165,9 +1183,10 @@ def _kept_lookups(field, x: np.ndarray, grid) -> tuple:
 @reports_nonfinite
 def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping, progress=None,
                      refuse_nonfinite: bool = True, out=None, energy=None) -> Trajectory:
-    """:func:`pes_ref.core.integrator.simulate_dynamic`, compiled (same arguments, same numbers).
+    """[`pes_ref.core.integrator.simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic], compiled (same arguments,
+    same numbers).
     ``energy``: a C-contiguous float64 (T+1, N) array that the loop fills with each state's
-    total energy as it makes the state (:func:`pes_ref.core.scene.energy`'s numbers, bit for
+    total energy as it makes the state ([`pes_ref.core.scene.energy`][pes_ref.core.scene.energy]'s numbers, bit for
     bit; one grid), or None."""
     T, N = n_steps, x0.shape[0]
     x, v, f = trajectory_arrays(T, N, out)
@@ -1198,7 +1217,8 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
 
 def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, want: frozenset,
                     progress=None) -> dict:
-    """:func:`pes_ref.core.integrator.adjoint_dynamic`, compiled (same arguments and gradients;
+    """[`pes_ref.core.integrator.adjoint_dynamic`][pes_ref.core.integrator.adjoint_dynamic], compiled (same arguments
+    and gradients;
     the grid's summed in another order, and in the grid's shape (n0, n1))."""
     x, v, f = (_kernel_array(a) for a in traj)
     T, N = x.shape[0] - 1, x.shape[1]
@@ -1229,7 +1249,7 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
 @reports_nonfinite
 def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
                          refuse_nonfinite: bool = True, out=None) -> Trajectory:
-    """:func:`pes_ref.core.integrator.simulate_quasistatic`, compiled (same arguments, same numbers)."""
+    """[`pes_ref.core.integrator.simulate_quasistatic`][pes_ref.core.integrator.simulate_quasistatic], compiled (same arguments, same numbers)."""
     T, N = n_steps, x0.shape[0]
     x, v, f = trajectory_arrays(T, N, out)
     x[0] = x0
@@ -1247,7 +1267,8 @@ def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
 
 
 def adjoint_quasistatic(field, traj: Trajectory, mobility, gx, want: frozenset, progress=None) -> dict:
-    """:func:`pes_ref.core.integrator.adjoint_quasistatic`, compiled (the grid and mobility
+    """[`pes_ref.core.integrator.adjoint_quasistatic`][pes_ref.core.integrator.adjoint_quasistatic], compiled (the grid
+    and mobility
     gradients summed in another order; the grid's in the grid's shape (n0, n1))."""
     x, f = _kernel_array(traj.x), _kernel_array(traj.f)
     T, N = x.shape[0] - 1, x.shape[1]
@@ -1295,7 +1316,7 @@ def _adjoint_quasistatic(field, traj, p: StepParams, gx, gv, want):
     return adjoint_quasistatic(field, traj, p.mobility, gx, want, p.progress)
 
 
-#: The compiled steppers by ``(mode, integrator)``: what :data:`pes_ref.core.backends.BACKENDS`
+#: The compiled steppers by ``(mode, integrator)``: what `pes_ref.core.backends.BACKENDS`
 #: ``"numba"`` covers (the GJF step runs on NumPy).
 STEPPERS = {
     ("dynamic", "verlet"): Stepper(_simulate_verlet, _adjoint_verlet, NUMPY_STEPPERS[("dynamic", "verlet")].gradients),

@@ -1,6 +1,6 @@
 """External force effects and the schedule they build (docs/spec.md section 4).
 
-A scene lists the effects that push its particles; :func:`build_schedule` turns that
+A scene lists the effects that push its particles; [`build_schedule`][pes_ref.core.effects.build_schedule] turns that
 list into the realized external force ``F_ext`` of shape (T+1, N, 2), entry ``n``
 acting at ``t_n = t0 + n dt``. A scene with no effect has no schedule at all
 (``None``) and the integrator then adds nothing. Noise is drawn once, here, from
@@ -34,11 +34,11 @@ class Constant:
 
     def add_to(self, sched: np.ndarray, times: np.ndarray) -> None:
         """Add the force to every step and particle of ``sched`` (T+1, N, 2) in place; the effect
-        protocol of :func:`build_schedule` (docs/spec.md section 4)."""
+        protocol of [`build_schedule`][pes_ref.core.effects.build_schedule] (docs/spec.md section 4)."""
         sched += self.force
 
     def is_zero(self) -> bool:
-        """Whether the force is 0 (the effect protocol of :func:`all_zero`)."""
+        """Whether the force is 0 (the effect protocol of [`all_zero`][pes_ref.core.effects.all_zero])."""
         return not self.force.any()
 
 
@@ -53,7 +53,7 @@ class PerParticle:
 
     def add_to(self, sched, times) -> None:
         """Add each particle's force at every step of ``sched`` (T+1, N, 2) in place, refusing a
-        ``force`` not of N rows; the effect protocol of :func:`build_schedule` (docs/spec.md section 4)."""
+        ``force`` not of N rows; the effect protocol of [`build_schedule`][pes_ref.core.effects.build_schedule] (docs/spec.md section 4)."""
         if self.force.shape[0] != sched.shape[1]:
             raise ValueError(
                 f"PerParticle.force must have shape ({sched.shape[1]}, 2) for {sched.shape[1]} particles, "
@@ -61,7 +61,7 @@ class PerParticle:
         sched += self.force
 
     def is_zero(self) -> bool:
-        """Whether every particle's force is 0 (the effect protocol of :func:`all_zero`)."""
+        """Whether every particle's force is 0 (the effect protocol of [`all_zero`][pes_ref.core.effects.all_zero])."""
         return not self.force.any()
 
 
@@ -82,11 +82,11 @@ class Noise:
 
     def add_to(self, sched, times) -> None:
         """Add the draws ``default_rng(seed).standard_normal((T+1, N, 2)) * std`` to ``sched`` in place;
-        the effect protocol of :func:`build_schedule` (docs/spec.md section 4)."""
+        the effect protocol of [`build_schedule`][pes_ref.core.effects.build_schedule] (docs/spec.md section 4)."""
         sched += np.random.default_rng(self.seed).standard_normal(sched.shape) * self.std
 
     def is_zero(self) -> bool:
-        """Whether ``std`` is 0 on both axes (the effect protocol of :func:`all_zero`)."""
+        """Whether ``std`` is 0 on both axes (the effect protocol of [`all_zero`][pes_ref.core.effects.all_zero])."""
         return not self.std.any()
 
 
@@ -108,14 +108,14 @@ class Window:
 
     def add_to(self, sched, times) -> None:
         """Add the inner effect's force to ``sched`` (T+1, N, 2) at the steps whose ``times`` are in
-        ``[t_start, t_end)``; the effect protocol of :func:`build_schedule` (docs/spec.md section 4)."""
+        ``[t_start, t_end)``; the effect protocol of [`build_schedule`][pes_ref.core.effects.build_schedule] (docs/spec.md section 4)."""
         inner = np.zeros(sched.shape)
         self.effect.add_to(inner, times)
         on = (times >= self.t_start) & (times < self.t_end)
         sched[on] += inner[on]
 
     def is_zero(self) -> bool:
-        """Whether the inner effect is zero (the effect protocol of :func:`all_zero`)."""
+        """Whether the inner effect is zero (the effect protocol of [`all_zero`][pes_ref.core.effects.all_zero])."""
         return self.effect.is_zero()
 
 
@@ -132,13 +132,13 @@ class Schedule:
 
     def add_to(self, sched, times) -> None:
         """Add the stored schedule to ``sched`` in place, refusing one of another shape; the effect
-        protocol of :func:`build_schedule` (docs/spec.md section 4)."""
+        protocol of [`build_schedule`][pes_ref.core.effects.build_schedule] (docs/spec.md section 4)."""
         if self.force.shape != sched.shape:
             raise ValueError(f"force must have shape {sched.shape} (T+1, N, 2), got {self.force.shape}")
         sched += self.force
 
     def is_zero(self) -> bool:
-        """Whether the stored force is 0 everywhere (the effect protocol of :func:`all_zero`)."""
+        """Whether the stored force is 0 everywhere (the effect protocol of [`all_zero`][pes_ref.core.effects.all_zero])."""
         return not self.force.any()
 
 

@@ -1,16 +1,20 @@
 """The conservative force of a scene's energy terms, and its adjoint.
 
 ``F(q) = -dU/dq`` with ``U = U_grid + U_spring + U_wall`` (docs/spec.md section 3). A
-:class:`Field` holds plain arrays for exactly the terms a scene has: ``spring`` and
+[`Field`][pes_ref.core.forces.Field] holds plain arrays for exactly the terms a scene has: ``spring`` and
 ``walls`` are ``None`` when the scene lacks them, and then nothing of theirs is ever
-evaluated or built, in :func:`force`, :func:`force_vjp` or the hot loop's kernels.
+evaluated or built, in [`force`][pes_ref.core.forces.force], [`force_vjp`][pes_ref.core.forces.force_vjp] or the hot
+loop's kernels.
 
 The grid term is reached through the interpolation registry
-(:func:`pes_ref.core.interpolations.interpolation` of ``Field.interpolation``): its point
-functions for single calls (:func:`force`, :func:`force_vjp`, :func:`potential_energy`),
-its kernels for the integrator's loops. :class:`ForceKernel` and :class:`ForceAdjoint`
-chain the grid's kernel with the spring's and the walls' (:mod:`pes_ref.core.terms`),
-each holding its tables and buffers for a whole run (:mod:`pes_ref.core.kernels`).
+([`pes_ref.core.interpolations.interpolation`][pes_ref.core.interpolations.interpolation] of ``Field.interpolation``):
+its point
+functions for single calls ([`force`][pes_ref.core.forces.force], [`force_vjp`][pes_ref.core.forces.force_vjp],
+[`potential_energy`][pes_ref.core.forces.potential_energy]),
+its kernels for the integrator's loops. [`ForceKernel`][pes_ref.core.forces.ForceKernel] and
+[`ForceAdjoint`][pes_ref.core.forces.ForceAdjoint]
+chain the grid's kernel with the spring's and the walls' ([`pes_ref.core.terms`][pes_ref.core.terms]),
+each holding its tables and buffers for a whole run ([`pes_ref.core.kernels`][pes_ref.core.kernels]).
 """
 from __future__ import annotations
 
@@ -27,19 +31,19 @@ __all__ = ["Field", "force", "force_vjp", "potential_energy", "GradAccumulator",
 
 
 class Field(NamedTuple):
-    """Plain-array description of the energy terms (built by :class:`~pes_ref.core.scene.Scene`).
+    """Plain-array description of the energy terms (built by [`Scene`][pes_ref.core.scene.Scene]).
 
     ``values`` (n0, n1), ``lower``/``h``/``length`` (2,), ``periodic`` tuple of 2 bool;
     ``spring`` is ``(k, center)`` or None; ``walls`` is ``(k_w, lo, hi)`` or None
-    (see :func:`pes_ref.core.terms.wall_bounds`; ``k_w``, ``lo``, ``hi`` broadcastable to
+    (see [`pes_ref.core.terms.wall_bounds`][pes_ref.core.terms.wall_bounds]; ``k_w``, ``lo``, ``hi`` broadcastable to
     (N, 2)); ``interpolation`` names the grid interpolation (a key of
-    :data:`pes_ref.core.interpolations.INTERPOLATIONS`; ``"bilinear"`` is docs/spec.md
+    `pes_ref.core.interpolations.INTERPOLATIONS`; ``"bilinear"`` is docs/spec.md
     section 2).
 
-    A population (:mod:`pes_ref.core.population`) runs many grids of one shape at once:
+    A population ([`pes_ref.core.population`][pes_ref.core.population]) runs many grids of one shape at once:
     ``values`` is then a stack (K, n0, n1) and ``offsets`` (N,) intp holds each particle's
     grid as the row offset ``c n0 n1`` of grid ``c`` in the stacked per-cell tables
-    (:func:`pes_ref.core.grid.stacked_table`), added to the cell index after the lookup;
+    ([`pes_ref.core.grid.stacked_table`][pes_ref.core.grid.stacked_table]), added to the cell index after the lookup;
     None for a single grid. Only the forward kernels take a population.
     """
 
@@ -96,7 +100,7 @@ def _terms_add_force(field: Field, x: np.ndarray, out: np.ndarray) -> None:
 
 
 def force_vjp(field: Field, x: np.ndarray, w: np.ndarray, xbar: np.ndarray, acc: GradAccumulator) -> None:
-    """Adjoint of :func:`force` at ``x`` applied to the cotangent ``w`` (N, 2).
+    """Adjoint of [`force`][pes_ref.core.forces.force] at ``x`` applied to the cotangent ``w`` (N, 2).
 
     Adds ``(dF/dx)^T w = -H_U(x) w`` into ``xbar`` and the parameter cotangents
     ``(dF/dG)^T w = -(d slope/dG)^T w`` and the spring's into ``acc``
@@ -108,7 +112,7 @@ def force_vjp(field: Field, x: np.ndarray, w: np.ndarray, xbar: np.ndarray, acc:
 
 
 def _terms_force_vjp(field: Field, x, w, xbar, acc: GradAccumulator) -> None:
-    """The spring's and walls' part of :func:`force_vjp` (eqs. (A4)-(A5)), each only if present."""
+    """The spring's and walls' part of [`force_vjp`][pes_ref.core.forces.force_vjp] (eqs. (A4)-(A5)), each only if present."""
     if field.spring is not None:
         kbar, cbar = spring_force_vjp(x, field.spring[0], field.spring[1], field.length, field.periodic,
                                       w, xbar, acc.want_k, acc.want_center)
@@ -189,11 +193,11 @@ def _chain_adjoint(grid, vjps: tuple):
 
 class ForceKernel:
     """``F(x) = -dU/dx`` for a fixed number of particles, tables and buffers built once
-    (the integrator's forward loop). Same numbers as :func:`force`; the spring and wall
+    (the integrator's forward loop). Same numbers as [`force`][pes_ref.core.forces.force]; the spring and wall
     kernels are built only when the field has the term.
 
     ``call(x, out) -> out``, bound once here: the grid kernel's call (the interpolation's
-    :class:`~pes_ref.core.kernels.GridForce`), then each term's ``add_force``.
+    [`GridForce`][pes_ref.core.kernels.GridForce]), then each term's ``add_force``.
     """
 
     def __init__(self, field: Field, n_particles: int):
@@ -203,13 +207,14 @@ class ForceKernel:
 
 
 class ForceAdjoint:
-    """The adjoint of :class:`ForceKernel` over stored states ``xs`` (T+1, N, 2) (eq. (A6)).
+    """The adjoint of [`ForceKernel`][pes_ref.core.forces.ForceKernel] over stored states ``xs`` (T+1, N, 2) (eq. (A6)).
 
     ``vjp(n, w, xbar)``, bound once here, for states in descending order: adds
     ``(dF/dx)^T w`` at ``xs[n]`` into ``xbar`` (the grid's
-    :class:`~pes_ref.core.kernels.GridAdjoint`, then each term's
-    :class:`~pes_ref.core.kernels.TermAdjoint`) and accumulates the wanted parameter
-    gradients (``values``, ``spring_k``, ``spring_center``), returned by :meth:`result`.
+    [`GridAdjoint`][pes_ref.core.kernels.GridAdjoint], then each term's
+    [`TermAdjoint`][pes_ref.core.kernels.TermAdjoint]) and accumulates the wanted parameter
+    gradients (``values``, ``spring_k``, ``spring_center``), returned by
+    [`result`][pes_ref.core.forces.ForceAdjoint.result].
     """
 
     def __init__(self, field: Field, xs: np.ndarray, want: frozenset):

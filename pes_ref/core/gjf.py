@@ -39,7 +39,8 @@ __all__ = ["simulate_gjf", "adjoint_gjf"]
 
 
 def _coefficients(dt: float, mass: np.ndarray, damping, n: int):
-    """``a`` and ``c`` (:func:`pes_ref.core.integrator.step_coefficients`), and with damping
+    """``a`` and ``c`` ([`pes_ref.core.integrator.step_coefficients`][pes_ref.core.integrator.step_coefficients]), and
+    with damping
     ``d = 1/(1+c)``, ``e = (1-c) d``, all (N, 2); without damping c, d, e are None."""
     a, c = step_coefficients(dt, mass, damping, n)
     if c is None:
@@ -54,7 +55,8 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
                  out: Trajectory | None = None) -> Trajectory:
     """The Gronbech-Jensen-Farago step, deterministic part (``docs/adjoint.md`` (G1)-(G4)).
 
-    Parameters and return value as :func:`pes_ref.core.integrator.simulate_dynamic`: ``x0, v0``
+    Parameters and return value as
+    [`pes_ref.core.integrator.simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic]: ``x0, v0``
     (N, 2); ``fext`` (T+1, N, 2) or None; ``mass`` and ``damping`` broadcastable to
     (N, 2), ``damping=None`` for an undamped scene (then this is velocity Verlet);
     ``progress``, ``refuse_nonfinite``, ``out``.
@@ -96,9 +98,11 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
 
 def adjoint_gjf(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, damping,
                 gx, gv, want: frozenset, progress=None) -> dict:
-    """Backward pass of :func:`simulate_gjf`: (G1)-(G4) reversed (``docs/adjoint.md`` (GB1)-(GB4), (GP1)).
+    """Backward pass of [`simulate_gjf`][pes_ref.core.gjf.simulate_gjf]: (G1)-(G4) reversed (``docs/adjoint.md``
+    (GB1)-(GB4), (GP1)).
 
-    Parameters and return value as :func:`pes_ref.core.integrator.adjoint_dynamic`: ``gx, gv``
+    Parameters and return value as [`pes_ref.core.integrator.adjoint_dynamic`][pes_ref.core.integrator.adjoint_dynamic]:
+    ``gx, gv``
     (T+1, N, 2) or None are dL/dX_n, dL/dV_n; ``want`` names the gradients among
     ``values, x0, v0, force, mass, damping, spring_k, spring_center``. ``mass`` and
     ``damping`` come back as (N, 2), before reduction to the input's shape. With

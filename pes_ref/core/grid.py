@@ -14,11 +14,13 @@ Per axis, with ``u = (q - lower) / h``:
   ``i1 = i0 + 1``, switch ``s = 1`` if ``0 <= u <= n - 1`` else 0 (outside the span the
   surface is extended as a constant along that axis, so its slope there is zero).
 
-State positions are never wrapped; only the lookup wraps (:func:`wrap` is for display).
+State positions are never wrapped; only the lookup wraps ([`wrap`][pes_ref.core.grid.wrap] is for display).
 
-There is one implementation of this arithmetic, :meth:`Locator.bind` (both axes at once,
-into reusable buffers: the hot loop's lookup); :meth:`Locator.locate` and :func:`locate`
-are views of its result, and :meth:`Locator.bind_scalar` is the same operations on Python
+There is one implementation of this arithmetic, [`Locator.bind`][pes_ref.core.grid.Locator.bind] (both axes at once,
+into reusable buffers: the hot loop's lookup); [`Locator.locate`][pes_ref.core.grid.Locator.locate] and
+[`locate`][pes_ref.core.grid.locate]
+are views of its result, and [`Locator.bind_scalar`][pes_ref.core.grid.Locator.bind_scalar] is the same operations on
+Python
 floats for a single particle. The functions here trust their inputs.
 """
 from __future__ import annotations
@@ -57,7 +59,7 @@ class Cells(NamedTuple):
 
 
 class Located(NamedTuple):
-    """Cells of points of shape (..., 2) as the hot loop uses them (see :class:`Locator`).
+    """Cells of points of shape (..., 2) as the hot loop uses them (see [`Locator`][pes_ref.core.grid.Locator]).
 
     ``cell`` (...,) intp is the flat index ``i0 * n1 + j0`` of the cell's lower corner;
     ``f`` (..., 2) the fractions (f0, f1); ``inside`` (..., 2) the switches s0, s1 as
@@ -108,7 +110,7 @@ class Locator:
     Parameters
     ----------
     lower, h : array_like, shape (2,)
-        Lower corner and node spacing (:func:`spacing`).
+        Lower corner and node spacing ([`spacing`][pes_ref.core.grid.spacing]).
     shape : (n0, n1)
         Grid shape.
     periodic : sequence of 2 bool
@@ -142,14 +144,14 @@ class Locator:
 
     @staticmethod
     def head(buf: dict, m: int) -> dict:
-        """The first ``m`` rows (along the leading axis) of buffers from :meth:`buffers`."""
+        """The first ``m`` rows (along the leading axis) of buffers from [`buffers`][pes_ref.core.grid.Locator.buffers]."""
         out = {name: (a[:m] if isinstance(a, np.ndarray) and a.ndim else a) for name, a in buf.items()}
         out["k0"], out["k1"] = out["k"][..., 0], out["k"][..., 1]
         return out
 
     def bind(self, buf: dict):
         """``locate_into(x)``: the lookup of points ``x`` (``lead + (2,)``) into the buffers
-        ``buf`` (from :meth:`buffers`), read from ``buf["cell"]``, ``buf["f"]`` and
+        ``buf`` (from [`buffers`][pes_ref.core.grid.Locator.buffers]), read from ``buf["cell"]``, ``buf["f"]`` and
         ``buf["inside"]``; for a hot loop that calls it every step.
 
         The buffers, constants and ufuncs are closure locals (no dict lookup or attribute
@@ -186,7 +188,8 @@ class Locator:
         return locate_into
 
     def locate(self, x: np.ndarray, buf: dict | None = None) -> Located:
-        """Locate points ``x`` (..., 2) by :meth:`bind`; ``buf`` from :meth:`buffers`
+        """Locate points ``x`` (..., 2) by [`bind`][pes_ref.core.grid.Locator.bind]; ``buf`` from
+        [`buffers`][pes_ref.core.grid.Locator.buffers]
         (allocated if None). For one-off calls: a hot loop binds once."""
         if buf is None:
             buf = self.buffers(x.shape[:-1])
@@ -194,8 +197,8 @@ class Locator:
         return Located(buf["cell"], buf["f"], buf["inside"] if self.clips else None)
 
     def cells(self, x: np.ndarray) -> Cells:
-        """Locate points ``x`` (N, 2) as per-axis :class:`Cells` (the form of the
-        textbook functions): the nodes ``i0, j0`` are :meth:`locate`'s ``k``, ``i1, j1`` the
+        """Locate points ``x`` (N, 2) as per-axis [`Cells`][pes_ref.core.grid.Cells] (the form of the
+        textbook functions): the nodes ``i0, j0`` are [`locate`][pes_ref.core.grid.locate]'s ``k``, ``i1, j1`` the
         next nodes (wrapped on a periodic axis)."""
         buf = self.buffers(x.shape[:-1])
         loc = self.locate(x, buf)
@@ -213,7 +216,7 @@ class Locator:
         """``locate1(x) -> (cell, f0, f1, s0, s1)`` for a single point ``x`` (1, 2), in
         Python floats (``cell`` an int), or None when ``x`` is not finite.
 
-        The operations of :meth:`bind` in the same order on Python floats (IEEE double,
+        The operations of [`bind`][pes_ref.core.grid.Locator.bind] in the same order on Python floats (IEEE double,
         correctly rounded like NumPy's), so the cells, fractions and switches are
         bit-identical: at N = 1 each NumPy call costs about a microsecond whatever it
         computes, and this takes a few for the whole lookup."""

@@ -2,17 +2,18 @@
 
 Particles never interact, so a run of N particles is two runs, of particles ``0 .. N//2 - 1``
 and ``N//2 .. N - 1``, on the same grid. NumPy releases the GIL inside each whole-array
-operation, so from :data:`MIN_PARTICLES` on (where an operation on half the particles takes
+operation, so from `MIN_PARTICLES` on (where an operation on half the particles takes
 far longer than handing the GIL over) the two halves run side by side on the machine's two
-cores: the forward loops, then the adjoints. :func:`stepper` wraps a NumPy
-:class:`~pes_ref.core.steppers.Stepper` so; :func:`pes_ref.core.backends.stepper` is where a
+cores: the forward loops, then the adjoints. [`stepper`][pes_ref.core.halves.stepper] wraps a NumPy
+[`Stepper`][pes_ref.core.steppers.Stepper] so; [`pes_ref.core.backends.stepper`][pes_ref.core.backends.stepper] is where
+a
 run gets it.
 
 Each half runs the stepper's own loop on its particles, written into views of the whole run's
 arrays, so every per-particle number (the trajectory, the energy, the gradients of ``x0``,
 ``v0``, the force, the masses and dampings, a spring's ``k`` and centre per particle) is the
 one-thread run's, bit for bit. The gradients that are sums over particles (the grid's and the
-mobility's, :data:`SUMMED`) are each half's sum, the first half's plus the second's: the same
+mobility's, `SUMMED`) are each half's sum, the first half's plus the second's: the same
 sum in another order, and the same order on any machine (the halves are fixed by N, not by
 the threads).
 
@@ -21,7 +22,7 @@ caller's context (NumPy's ``errstate`` is a context variable). The caller's prog
 sees the first half's reports. A run that left the finite numbers is refused as the one-thread
 run refuses it, naming the first bad step of either half; an error in one half (Ctrl-C on the
 calling thread, a floating-point error the caller's ``errstate`` raises) stops the other at its
-next block of :data:`pes_ref.core.runtime.progress.EVERY` steps, and that error is raised.
+next block of `pes_ref.core.runtime.progress.EVERY` steps, and that error is raised.
 """
 from __future__ import annotations
 
@@ -42,9 +43,9 @@ __all__ = ["MIN_PARTICLES", "SUMMED", "split", "stepper", "part"]
 #: halves' operations are too short to outweigh the threads' turns at the GIL).
 MIN_PARTICLES = 32768
 
-#: The raw gradients (:attr:`Stepper.adjoint`'s dict) that are sums over the particles: the
+#: The raw gradients (`Stepper.adjoint`'s dict) that are sums over the particles: the
 #: halves' are added, the first's plus the second's. Every other is per particle, along axis 0
-#: but ``force``'s (T+1, N, 2), along axis 1 (:data:`PARTICLE_AXIS`).
+#: but ``force``'s (T+1, N, 2), along axis 1 (`PARTICLE_AXIS`).
 SUMMED = ("values", "mobility")
 
 #: The particle axis of a per-particle raw gradient, where it is not 0.
@@ -88,7 +89,8 @@ def _both(first, second, progress):
     caller's context, ``first`` here; ``report`` is each half's progress callback (the first
     half's passes its reports on to ``progress``). An error in either half stops the other at
     its next report and is raised once both have ended (the first half's if both failed),
-    except a :class:`NonFiniteError`, which ends a half only after its loop: the other half
+    except a [`NonFiniteError`][pes_ref.core.integrator.NonFiniteError], which ends a half only after its loop: the
+    other half
     runs on, and the error of the earlier bad step is raised (the one-thread run's)."""
     stop = threading.Event()
     results, errors = [None, None], [None, None]
@@ -133,7 +135,7 @@ def _views(arrays, sl: slice) -> Trajectory:
 
 def stepper(inner: Stepper) -> Stepper:
     """``inner`` (a NumPy stepper) with its forward loop and adjoint each run as two halves
-    on two threads; the same call signature (:class:`~pes_ref.core.steppers.Stepper`)."""
+    on two threads; the same call signature ([`Stepper`][pes_ref.core.steppers.Stepper])."""
 
     def simulate(field, x0, v0, fext, p: StepParams) -> Trajectory:
         n = x0.shape[0]
@@ -182,7 +184,7 @@ def stepper(inner: Stepper) -> Stepper:
 
 def _joined(first: np.ndarray, second: np.ndarray, name: str) -> np.ndarray:
     """The two halves' per-particle gradient ``name`` as one array, in memory of its own
-    (:func:`pes_ref.core.runtime.pages.empty`: ``force``'s is as large as the trajectory)."""
+    ([`pes_ref.core.runtime.pages.empty`][pes_ref.core.runtime.pages.empty]: ``force``'s is as large as the trajectory)."""
     axis = PARTICLE_AXIS.get(name, 0)
     shape = list(first.shape)
     shape[axis] += second.shape[axis]

@@ -1,20 +1,23 @@
 """The fast path of the time stepping (docs/spec.md section 5) and of its hand-derived
 adjoint: one fused loop per mode and direction.
 
-:func:`simulate_dynamic` and :func:`adjoint_dynamic`, :func:`simulate_quasistatic` and
-:func:`adjoint_quasistatic` are each one loop over the steps that does a whole step's
+[`simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic] and
+[`adjoint_dynamic`][pes_ref.core.integrator.adjoint_dynamic],
+[`simulate_quasistatic`][pes_ref.core.integrator.simulate_quasistatic] and
+[`adjoint_quasistatic`][pes_ref.core.integrator.adjoint_quasistatic] are each one loop over the steps that does a whole
+step's
 sub-steps inline, on preallocated buffers (nothing is allocated per step), with the force
-from a kernel built once per run (:class:`~pes_ref.core.forces.ForceKernel`,
-:class:`~pes_ref.core.forces.ForceAdjoint`); the GJF option's pair is
-:mod:`pes_ref.core.gjf`. The loop bodies mark the sub-steps with the equation numbers of
-``docs/adjoint.md``. They are an optimization of :mod:`pes_ref.core.reference`, which
+from a kernel built once per run ([`ForceKernel`][pes_ref.core.forces.ForceKernel],
+[`ForceAdjoint`][pes_ref.core.forces.ForceAdjoint]); the GJF option's pair is
+[`pes_ref.core.gjf`][pes_ref.core.gjf]. The loop bodies mark the sub-steps with the equation numbers of
+``docs/adjoint.md``. They are an optimization of [`pes_ref.core.reference`][pes_ref.core.reference], which
 writes each sub-step as a function beside its transpose; ``tests/core/test_reference.py``
 checks that the two agree entry by entry on random scenes of every topology, mode and
 effect (bit for bit on the bilinear grid, but for the grid gradient, summed in another
 order).
 
 Dynamic mode, the paper's eqs. (2)-(3), with ``a = dt/(2m)``, ``c = dt gamma/(2m)``
-(:func:`step_coefficients`)::
+([`step_coefficients`][pes_ref.core.integrator.step_coefficients])::
 
     (S1) half_kick  P       = V_n + a F_n
     (S2) drift      X_{n+1} = X_n + dt P                 = X_n + dt V_n + dt^2/(2m) F_n
@@ -35,7 +38,7 @@ Adjoint: (QB2) drift^T, (QB1) force^T.
 The functions here are the numerical core: they trust their (validated) inputs, and
 they evaluate only the effects they are given. ``damping=None`` means no damping
 arithmetic at all, ``fext=None`` no external force, and a
-:class:`~pes_ref.core.forces.Field` without spring or walls evaluates neither.
+[`Field`][pes_ref.core.forces.Field] without spring or walls evaluates neither.
 """
 from __future__ import annotations
 
@@ -56,7 +59,7 @@ __all__ = ["Trajectory", "simulate_dynamic", "adjoint_dynamic", "simulate_quasis
 
 class NonFiniteError(FloatingPointError):
     """A trajectory left the finite numbers (usually: dt past the stability limit); ``step``
-    is its first non-finite state, where :func:`check_finite` found it (else None)."""
+    is its first non-finite state, where [`check_finite`][pes_ref.core.integrator.check_finite] found it (else None)."""
 
     def __init__(self, message: str, step: int | None = None):
         super().__init__(message)
@@ -91,8 +94,8 @@ def check_finite(traj: Trajectory, step_name: str) -> None:
 
 def reports_nonfinite(simulate_fn):
     """Run a forward loop with overflow and invalid-operation warnings silenced, so that a
-    run past the stability limit always ends in :class:`NonFiniteError` (raised by
-    :func:`check_finite`) and never in a bare NumPy ``FloatingPointError`` or warning,
+    run past the stability limit always ends in [`NonFiniteError`][pes_ref.core.integrator.NonFiniteError] (raised by
+    [`check_finite`][pes_ref.core.integrator.check_finite]) and never in a bare NumPy ``FloatingPointError`` or warning,
     whatever the caller's ``np.errstate`` (docs/decisions.md, 'Non-finite runs')."""
     @functools.wraps(simulate_fn)
     def wrapper(*args, **kwargs):
@@ -107,16 +110,18 @@ def step_coefficients(dt: float, mass, damping, n: int):
     """The dynamic step's coefficients ``a = dt/(2m)`` and ``c = dt gamma/(2m)``
     (``docs/adjoint.md`` section 4), each a fresh (N, 2) array for ``n`` particles; ``c``
     is None for an undamped scene (``damping=None``). The one place they are computed:
-    both integrators and :mod:`pes_ref.core.reference` call it."""
+    both integrators and [`pes_ref.core.reference`][pes_ref.core.reference] call it."""
     a = np.broadcast_to(dt / (2.0 * mass), (n, 2)).copy()
     c = None if damping is None else np.broadcast_to(dt * damping / (2.0 * mass), (n, 2)).copy()
     return a, c
 
 
 def trajectory_arrays(n_steps: int, n_particles: int, out=None) -> tuple:
-    """A run's (T+1, N, 2) arrays ``x, v, f``: new ones (:func:`pes_ref.core.runtime.pages.empty`:
+    """A run's (T+1, N, 2) arrays ``x, v, f``: new ones
+    ([`pes_ref.core.runtime.pages.empty`][pes_ref.core.runtime.pages.empty]:
     a large run's memory is that of the last run of its size, if its arrays are gone), or
-    ``out``'s (a :class:`Trajectory` of such arrays that a caller running many runs of one size
+    ``out``'s (a [`Trajectory`][pes_ref.core.integrator.Trajectory] of such arrays that a caller running many runs of
+    one size
     keeps)."""
     if out is None:
         shape = (n_steps + 1, n_particles, 2)
@@ -125,9 +130,10 @@ def trajectory_arrays(n_steps: int, n_particles: int, out=None) -> tuple:
 
 
 def start_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, n_steps: int, out=None):
-    """A dynamic run's (T+1, N, 2) arrays x, v, f (:func:`trajectory_arrays`), with state 0
+    """A dynamic run's (T+1, N, 2) arrays x, v, f ([`trajectory_arrays`][pes_ref.core.integrator.trajectory_arrays]),
+    with state 0
     and its force ``F_0 = F(X_0) + F_ext[0]`` stored; return ``(x, v, f, force)`` with the
-    run's force kernel (shared by :func:`simulate_dynamic` and :func:`pes_ref.core.gjf.simulate_gjf`)."""
+    run's force kernel (shared by [`simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic] and [`pes_ref.core.gjf.simulate_gjf`][pes_ref.core.gjf.simulate_gjf])."""
     N = x0.shape[0]
     x, v, f = trajectory_arrays(n_steps, N, out)
     force = ForceKernel(field, N)
@@ -159,14 +165,16 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
     damping : ndarray broadcastable to (N, 2), or None for an undamped scene.
     progress : callable or None
         ``progress("forward", done, n_steps)`` every few hundred steps
-        (:func:`pes_ref.core.runtime.progress.reporting`).
+        ([`pes_ref.core.runtime.progress.reporting`][pes_ref.core.runtime.progress.reporting]).
     refuse_nonfinite : bool
-        Raise :class:`NonFiniteError` for a trajectory that left the finite numbers
-        (:func:`check_finite`); False returns it (a population checks each member's part).
+        Raise [`NonFiniteError`][pes_ref.core.integrator.NonFiniteError] for a trajectory that left the finite numbers
+        ([`check_finite`][pes_ref.core.integrator.check_finite]); False returns it (a population checks each member's
+        part).
     out : Trajectory or None
-        Arrays (T+1, N, 2) to run into instead of fresh ones (:func:`trajectory_arrays`).
+        Arrays (T+1, N, 2) to run into instead of fresh ones
+        ([`trajectory_arrays`][pes_ref.core.integrator.trajectory_arrays]).
     energy : object or None
-        Where each state's total energy goes as the state is made (:attr:`pes_ref.core.steppers.StepParams.energy`):
+        Where each state's total energy goes as the state is made (`pes_ref.core.steppers.StepParams.energy`):
         ``energy.bind(force, field)`` gives ``step(x_n, v_n, row_n)``, called right after the
         force at ``x_n``, whose lookup it reads, with the row ``n`` of ``energy.out``; or None
         (nothing is computed then).
@@ -225,12 +233,13 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
 
 def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray, damping,
                     gx, gv, want: frozenset, progress=None) -> dict:
-    """Backward pass of :func:`simulate_dynamic`: the same sub-steps reversed (eqs. (B1)-(B4)).
+    """Backward pass of [`simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic]: the same sub-steps reversed
+    (eqs. (B1)-(B4)).
 
     Parameters
     ----------
     field, dt, mass, damping
-        As given to :func:`simulate_dynamic`.
+        As given to [`simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic].
     traj : Trajectory
         Its output.
     gx, gv : ndarray (T+1, N, 2) or None
@@ -311,8 +320,8 @@ def adjoint_dynamic(field: Field, traj: Trajectory, dt: float, mass: np.ndarray,
 
 def finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c, mass, want_damping: bool,
                            initial_force: bool = True) -> dict:
-    """The last piece of a dynamic adjoint (shared by :func:`adjoint_dynamic`,
-    :func:`pes_ref.core.gjf.adjoint_gjf` and the compiled loops): (B0) the adjoint of the
+    """The last piece of a dynamic adjoint (shared by [`adjoint_dynamic`][pes_ref.core.integrator.adjoint_dynamic],
+    [`pes_ref.core.gjf.adjoint_gjf`][pes_ref.core.gjf.adjoint_gjf] and the compiled loops): (B0) the adjoint of the
     initial force ``F_0 = F(X_0) + F_ext[0]`` (unless ``initial_force`` is False: a loop that
     did it), then (P1) the chain rule from ``a = dt/2m`` and ``c = dt gamma/2m`` to the
     physical parameters, ``dL/dm = -(a^ a + c^ c)/m`` and ``dL/dgamma = c^ a``. ``abar`` is
@@ -347,7 +356,8 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
 
     ``mobility`` has shape (2,) (or (N, 2): a population's). V is all zeros. ``f[T]`` is
     the force at the final state (it moves nothing; it is kept so the trajectory has T+1
-    forces in both modes). ``progress``, ``refuse_nonfinite`` and ``out`` as in :func:`simulate_dynamic`.
+    forces in both modes). ``progress``, ``refuse_nonfinite`` and ``out`` as in
+    [`simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic].
     """
     T, N = n_steps, x0.shape[0]
     x, v, f = trajectory_arrays(T, N, out)
@@ -376,8 +386,9 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
 
 def quasistatic_velocities(v: np.ndarray, out) -> np.ndarray:
     """V of a quasistatic run, all zeros: ``out``'s array set to 0, or new zeros
-    (:func:`pes_ref.core.runtime.pages.zeros`: a new map's zero pages are not written) for a run
-    without ``out`` (``v`` from :func:`trajectory_arrays` is then dropped)."""
+    ([`pes_ref.core.runtime.pages.zeros`][pes_ref.core.runtime.pages.zeros]: a new map's zero pages are not written) for
+    a run
+    without ``out`` (``v`` from [`trajectory_arrays`][pes_ref.core.integrator.trajectory_arrays] is then dropped)."""
     if out is None:
         return pages.zeros(v.shape)
     v.fill(0.0)
@@ -386,11 +397,11 @@ def quasistatic_velocities(v: np.ndarray, out) -> np.ndarray:
 
 def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx, want: frozenset,
                         progress=None) -> dict:
-    """Backward pass of :func:`simulate_quasistatic` (eqs. (QB1)-(QB2)).
+    """Backward pass of [`simulate_quasistatic`][pes_ref.core.integrator.simulate_quasistatic] (eqs. (QB1)-(QB2)).
 
     Returns ``x0`` (N, 2), and as wanted ``values`` (flat), ``force`` (T+1, N, 2; the
     last entry is 0 since F_ext[T] moves nothing), ``mobility`` (2,), ``spring_k``,
-    ``spring_center`` (N, 2). ``progress`` as in :func:`adjoint_dynamic`.
+    ``spring_center`` (N, 2). ``progress`` as in [`adjoint_dynamic`][pes_ref.core.integrator.adjoint_dynamic].
     """
     x, _, f = traj
     T, N = x.shape[0] - 1, x.shape[1]
@@ -418,7 +429,8 @@ def adjoint_quasistatic(field: Field, traj: Trajectory, mobility: np.ndarray, gx
 
 
 def finish_quasistatic_adjoint(adj, xbar, gforce, mubar) -> dict:
-    """The gradients a quasistatic adjoint returns (shared by :func:`adjoint_quasistatic` and the
+    """The gradients a quasistatic adjoint returns (shared by
+    [`adjoint_quasistatic`][pes_ref.core.integrator.adjoint_quasistatic] and the
     compiled loops): ``x0``, the terms' (``adj.result()``), and ``force`` and ``mobility`` when
     asked for (not None)."""
     out = {"x0": xbar}

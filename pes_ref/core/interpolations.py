@@ -1,12 +1,12 @@
 """The registry of grid interpolations: the one place that maps a surface's
 ``interpolation`` name to the code that evaluates it.
 
-``"bilinear"`` is docs/spec.md section 2, the paper's rule (:mod:`pes_ref.core.bilinear`);
-``"bicubic"`` the C1 Catmull-Rom option (:mod:`pes_ref.core.bicubic`,
-``docs/variants.md``). :class:`~pes_ref.core.surface.Surface` validates its
-``interpolation`` against :data:`INTERPOLATIONS`, and
-:class:`~pes_ref.core.surface.Surface` and :mod:`pes_ref.core.forces` dispatch through
-:func:`interpolation`; adding a rule is adding an entry here.
+``"bilinear"`` is docs/spec.md section 2, the paper's rule ([`pes_ref.core.bilinear`][pes_ref.core.bilinear]);
+``"bicubic"`` the C1 Catmull-Rom option ([`pes_ref.core.bicubic`][pes_ref.core.bicubic],
+``docs/variants.md``). [`Surface`][pes_ref.core.surface.Surface] validates its
+``interpolation`` against `INTERPOLATIONS`, and
+[`Surface`][pes_ref.core.surface.Surface] and [`pes_ref.core.forces`][pes_ref.core.forces] dispatch through
+[`interpolation`][pes_ref.core.interpolations.interpolation]; adding a rule is adding an entry here.
 """
 from __future__ import annotations
 
@@ -32,9 +32,9 @@ class Interpolation(NamedTuple):
     point_force_vjp : ``(values, lower, h, periodic, x, w, xbar, gvalues) -> None``
         Its adjoint for the cotangent ``w``: ``xbar += (dF/dx)^T w`` and, if ``gvalues``
         (flat n0*n1) is not None, ``gvalues += (dF/dG)^T w``.
-    forward : ``(field, n_particles) ->`` :class:`~pes_ref.core.kernels.GridForce`
-        The hot loop's force kernel (``field`` a :class:`~pes_ref.core.forces.Field`).
-    adjoint : ``(field, xs, want_values) ->`` :class:`~pes_ref.core.kernels.GridAdjoint`
+    forward : ``(field, n_particles) ->`` [`GridForce`][pes_ref.core.kernels.GridForce]
+        The hot loop's force kernel (``field`` a [`Field`][pes_ref.core.forces.Field]).
+    adjoint : ``(field, xs, want_values) ->`` [`GridAdjoint`][pes_ref.core.kernels.GridAdjoint]
         The backward loop's kernel over the stored states ``xs`` (T+1, N, 2).
     """
 

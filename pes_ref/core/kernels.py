@@ -5,12 +5,15 @@ step, so it has exactly one way to be called: a callable attribute, usually a cl
 that the kernel binds once in ``__init__`` over its buffers (no attribute lookups per
 step; ``docs/performance.md``). The integrator's loops bind that attribute to a local.
 
-- :class:`GridForce`, :class:`GridAdjoint`: the grid term, one pair per interpolation
-  (:data:`pes_ref.core.interpolations.INTERPOLATIONS`).
-- :class:`TermForce`, :class:`TermAdjoint`: a spring or the walls
-  (:mod:`pes_ref.core.terms`).
+- [`GridForce`][pes_ref.core.kernels.GridForce], [`GridAdjoint`][pes_ref.core.kernels.GridAdjoint]: the grid term, one
+  pair per interpolation
+  (`pes_ref.core.interpolations.INTERPOLATIONS`).
+- [`TermForce`][pes_ref.core.kernels.TermForce], [`TermAdjoint`][pes_ref.core.kernels.TermAdjoint]: a spring or the
+  walls
+  ([`pes_ref.core.terms`][pes_ref.core.terms]).
 
-:class:`pes_ref.core.forces.ForceKernel` and :class:`pes_ref.core.forces.ForceAdjoint`
+[`pes_ref.core.forces.ForceKernel`][pes_ref.core.forces.ForceKernel] and
+[`pes_ref.core.forces.ForceAdjoint`][pes_ref.core.forces.ForceAdjoint]
 chain them for exactly the terms a scene has, and are called the same way: ``call(x,
 out)`` and ``vjp(n, w, xbar)``.
 """
@@ -33,7 +36,7 @@ class GridForce(Protocol):
 
 @runtime_checkable
 class GridAdjoint(Protocol):
-    """The adjoint of a :class:`GridForce` over stored states ``xs`` (T+1, N, 2), built as
+    """The adjoint of a [`GridForce`][pes_ref.core.kernels.GridForce] over stored states ``xs`` (T+1, N, 2), built as
     ``adjoint(field, xs, want_values)``."""
 
     def vjp(self, n: int, w: np.ndarray, xbar: np.ndarray) -> None:
@@ -54,7 +57,7 @@ class TermForce(Protocol):
 
 @runtime_checkable
 class TermAdjoint(Protocol):
-    """The adjoint of a :class:`TermForce` over stored states ``xs`` (T+1, N, 2)."""
+    """The adjoint of a [`TermForce`][pes_ref.core.kernels.TermForce] over stored states ``xs`` (T+1, N, 2)."""
 
     def force_vjp(self, n: int, w: np.ndarray, xbar: np.ndarray) -> None:
         """``xbar += (dF/dx)^T w`` at state ``xs[n]`` and the wanted parameter cotangents

@@ -9,8 +9,8 @@ taking the trajectory's positions and velocities (T+1, N, 2) and times (T+1,), a
 returning the scalar ``sum_n l_n`` with ``gx = dL/dX_n`` and ``gv = dL/dV_n`` as
 (T+1, N, 2) arrays (either may be ``None``, meaning zero, so an objective that ignores
 velocities costs the adjoint nothing there). A user's own objective is any object with
-that method, or a function wrapped in :class:`Custom`. The regularization of the
-paper's eq. (7) is :func:`regularization`.
+that method, or a function wrapped in [`Custom`][pes_ref.core.objectives.Custom]. The regularization of the
+paper's eq. (7) is [`regularization`][pes_ref.core.objectives.regularization].
 """
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ class Funnel:
 
     def value_and_grad(self, x, v, t):
         """Eq. (5) and its ``gx`` (``gv`` is None); the objective protocol of
-        :mod:`pes_ref.core.objectives` (docs/spec.md section 6.1)."""
+        [`pes_ref.core.objectives`][pes_ref.core.objectives] (docs/spec.md section 6.1)."""
         gx = pages.zeros(x.shape)       # np.zeros_like would write every zero of a new array
         if self.when == "final":
             e = x[-1, :, 0] - self.target
@@ -73,7 +73,7 @@ class Oscillator:
 
     def value_and_grad(self, x, v, t):
         """Eq. (6) with its ``gx`` and ``gv``; the objective protocol of
-        :mod:`pes_ref.core.objectives` (docs/spec.md section 6.2)."""
+        [`pes_ref.core.objectives`][pes_ref.core.objectives] (docs/spec.md section 6.2)."""
         n_particles = x.shape[1]
         A, w = self.amplitude, self.omega
         ex = x[:, :, 0] - (A * np.cos(w * t))[:, None]
@@ -114,7 +114,7 @@ class OscillatorCycle:
 
     def value_and_grad(self, x, v, t):
         """The cycle cost with its ``gx`` and ``gv``; the objective protocol of
-        :mod:`pes_ref.core.objectives`."""
+        [`pes_ref.core.objectives`][pes_ref.core.objectives]."""
         n_particles = x.shape[1]
         A, w = self.amplitude, self.omega
         on = (np.asarray(t) >= self.settle)[:, None]
@@ -155,7 +155,8 @@ class Quadratic:
 
     def value_and_grad(self, x, v, t):
         """The quadratic cost with its ``gx`` (and ``gv``, None when ``wv`` is 0 everywhere), after
-        :meth:`check_shape`; the objective protocol of :mod:`pes_ref.core.objectives` (docs/spec.md
+        [`check_shape`][pes_ref.core.objectives.Quadratic.check_shape]; the objective protocol of
+        [`pes_ref.core.objectives`][pes_ref.core.objectives] (docs/spec.md
         section 6.3)."""
         self.check_shape(x.shape)
         dx = x - self.xref
@@ -186,7 +187,7 @@ class Custom:
 
     def value_and_grad(self, x, v, t):
         """``fn(x, v, t)``, its value checked finite and ``gx``, ``gv`` checked of the states' shape;
-        the objective protocol of :mod:`pes_ref.core.objectives`."""
+        the objective protocol of [`pes_ref.core.objectives`][pes_ref.core.objectives]."""
         value, gx, gv = self.fn(x, v, t)
         value = checks.as_finite_float(f"{self.name} objective value", value)
         if gx is not None:

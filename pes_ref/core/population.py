@@ -2,19 +2,20 @@
 
 A search that evaluates many candidate surfaces on the same particles (a generation of the
 polish's CMA-ES, a parameter study) pays the hot loop's per-step cost once per run; at small
-N that cost is most of a run (``docs/performance.md``). :func:`simulate_batch` runs the
+N that cost is most of a run (``docs/performance.md``). [`simulate_batch`][pes_ref.core.population.simulate_batch] runs
+the
 scenes together instead: their grids are stacked, each particle carries its scene's grid as
 the row offset of that grid in the stacked per-cell tables (``Field.offsets``), added to the
 cell index after the lookup, and the springs, walls, mass, damping, mobility and external
 force become per-particle arrays, so each scene keeps its own. Particles never interact, so
-each member's trajectory is the one its own :func:`pes_ref.simulate` gives, bit for bit
+each member's trajectory is the one its own [`pes_ref.simulate`][pes_ref.core.scene.simulate] gives, bit for bit
 (``tests/core/test_population.py``; a member without a term another member has gets that
 term with a zero coefficient, which changes no value).
 
 The scenes share what one run shares: the grid's shape, domain, topology and
 interpolation, and ``dt``, ``n_steps``, ``mode``, ``integrator`` and ``t0``. The grid values,
 springs, walls, mass, damping, mobility, effects and the particles (their number too) may
-differ. Gradients are not batched: :func:`pes_ref.value_and_grad` runs one scene.
+differ. Gradients are not batched: [`pes_ref.value_and_grad`][pes_ref.core.scene.value_and_grad] runs one scene.
 
 Examples
 --------
@@ -69,7 +70,7 @@ def _check_scenes(scenes) -> tuple:
 
 
 def _states(scenes, x0s, v0s) -> list:
-    """``(x0, v0)`` of each scene, checked as :func:`pes_ref.simulate` checks them; an error
+    """``(x0, v0)`` of each scene, checked as [`pes_ref.simulate`][pes_ref.core.scene.simulate] checks them; an error
     names the member (``x0s[i]``)."""
     x0s = list(x0s)
     v0s = [None] * len(scenes) if v0s is None else list(v0s)
@@ -93,7 +94,7 @@ def _stack(arrays: list, counts: list) -> np.ndarray:
 
 
 def _population_field(scenes, counts) -> Field:
-    """One :class:`~pes_ref.core.forces.Field` for every member: stacked grids, each
+    """One [`Field`][pes_ref.core.forces.Field] for every member: stacked grids, each
     particle's grid offset, and the terms as per-particle arrays (zero where a member has
     no such term)."""
     fields = [scene.field() for scene in scenes]
@@ -122,7 +123,7 @@ def _population_params(scenes, counts, progress, out) -> StepParams:
 def _population_fext(scenes, counts, sched):
     """Each member's external force (its effects' schedule, zeros without or when they all
     push with 0) realized side by side into ``sched`` (T+1, N, 2); None when no member has
-    one (as :func:`pes_ref.simulate` gives the core none)."""
+    one (as [`pes_ref.simulate`][pes_ref.core.scene.simulate] gives the core none)."""
     if all(all_zero(scene.effects) for scene in scenes):
         return None
     start = 0
@@ -154,7 +155,7 @@ def _member(traj: Trajectory, start: int, stop: int) -> Trajectory:
 
 
 def _nonfinite(scene: Scene, i: int, traj: Trajectory):
-    """The :class:`NonFiniteError` of member ``i`` if its part left the finite numbers, else None."""
+    """The [`NonFiniteError`][pes_ref.core.integrator.NonFiniteError] of member ``i`` if its part left the finite numbers, else None."""
     last = (traj.x[-1], traj.v[-1], traj.f[-1])
     if all(np.isfinite(a).all() for a in last):
         return None
@@ -173,17 +174,17 @@ def simulate_batch(scenes, x0s, v0s=None, *, allow_unstable: bool = False, progr
     ----------
     scenes : sequence of Scene
         They share ``dt``, ``n_steps``, ``mode``, ``integrator``, ``t0`` and their surface's
-        shape, ``lower``, ``upper``, ``periodic`` and ``interpolation`` (:data:`SHARED`).
+        shape, ``lower``, ``upper``, ``periodic`` and ``interpolation`` (`SHARED`).
     x0s : sequence of array_like (N_i, 2)
         Each scene's initial positions.
     v0s : sequence of array_like (N_i, 2) or None, optional
         Each scene's initial velocities (zeros where None).
     allow_unstable, progress, backend
-        As in :func:`pes_ref.simulate` (each scene is checked against the stability rule;
+        As in [`pes_ref.simulate`][pes_ref.core.scene.simulate] (each scene is checked against the stability rule;
         the memory of the whole population is checked once).
     return_errors : bool
         A member whose trajectory leaves the finite numbers raises its
-        :class:`~pes_ref.core.integrator.NonFiniteError` (naming ``scenes[i]``); with True
+        [`NonFiniteError`][pes_ref.core.integrator.NonFiniteError] (naming ``scenes[i]``); with True
         the error takes its place in the list and the others are returned.
     workspace : dict, optional
         Keeps the population's (T+1, N, 2) arrays between calls (pass the same empty dict

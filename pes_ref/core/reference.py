@@ -2,8 +2,8 @@
 hand-derived adjoint, as plain NumPy functions of arrays, in the order and with the section
 and equation numbers of ``docs/adjoint.md``.
 
-The fast path (:mod:`pes_ref.core.integrator`, :mod:`~pes_ref.core.gjf`,
-:mod:`~pes_ref.core.forces`, :mod:`~pes_ref.core.bilinear`, :mod:`~pes_ref.core.bicubic`)
+The fast path ([`pes_ref.core.integrator`][pes_ref.core.integrator], [`gjf`][pes_ref.core.gjf],
+[`forces`][pes_ref.core.forces], [`bilinear`][pes_ref.core.bilinear], [`bicubic`][pes_ref.core.bicubic])
 computes the same numbers with per-surface tables, reusable buffers, chunked scatters
 and bound closures. This module has none of those: every named sub-step is a small
 function of arrays that returns new arrays, with its transpose (vector-Jacobian
@@ -19,10 +19,12 @@ transpose (B1)-(B4), then the forward loop and the backward loop with (B0), (P1)
 reduction of a broadcast gradient to its input's shape; 6. quasistatic mode, (Q1)-(Q2) and
 (QB1)-(QB2); 10. the Gronbech-Jensen-Farago option (G1)-(G4) / (GB1)-(GB4), (GP1); 11. the
 bicubic option (C1)-(C4) / (CB1)-(CB3). Sections 7-9 (objectives, kinks, cost) have no
-code here: the objectives are :mod:`pes_ref.core.objectives`'. :func:`simulate`,
-:func:`energy` and :func:`value_and_grad` at the end take a
-:class:`~pes_ref.core.scene.Scene` and have the signatures of the public ones (so the
-property checks of :mod:`pes_ref.testing` run on them too). Nothing is validated here:
+code here: the objectives are [`pes_ref.core.objectives`][pes_ref.core.objectives]'.
+[`simulate`][pes_ref.core.reference.simulate],
+[`energy`][pes_ref.core.reference.energy] and [`value_and_grad`][pes_ref.core.reference.value_and_grad] at the end take
+a
+[`Scene`][pes_ref.core.scene.Scene] and have the signatures of the public ones (so the
+property checks of [`pes_ref.testing`][pes_ref.testing] run on them too). Nothing is validated here:
 the Scene was, when it was built.
 
 Floating point. Where the fast path's order of operations is as readable as the
@@ -91,7 +93,7 @@ def terms_of(scene) -> Terms:
 
 # ========================================================== the grid lookup (docs/spec.md section 2.3)
 
-# Where points fall is the core's one record of a lookup, :class:`pes_ref.core.grid.Cells`:
+# Where points fall is the core's one record of a lookup, `pes_ref.core.grid.Cells`:
 # corner indices ``i0, i1`` (axis 0), ``j0, j1`` (axis 1), fractions ``f0, f1``, switches ``s0, s1``.
 
 def lookup(terms: Terms, q: np.ndarray) -> Cells:
@@ -149,7 +151,8 @@ def bilinear_force(terms: Terms, c: Cells) -> np.ndarray:
 
 
 def bilinear_force_T(terms: Terms, c: Cells, w: np.ndarray, xbar: np.ndarray, gvalues: np.ndarray) -> None:
-    """Transpose of :func:`bilinear_force` for the cotangent w (N, 2), accumulated in place.
+    """Transpose of [`bilinear_force`][pes_ref.core.reference.bilinear_force] for the cotangent w (N, 2), accumulated in
+    place.
 
     Position, (A2): inside a cell the Hessian is ``[[0, Hc], [Hc, 0]]`` with ``Hc = s0 s1
     (G11 - G10 - G01 + G00) / (h0 h1)``, so ``xbar += -H w = -(Hc w1, Hc w0)``.
@@ -221,7 +224,7 @@ def wall_force_T(terms: Terms, q, w, xbar) -> None:
 
 # ============================================================================ 3. the total force, (A6)
 
-# The grid term comes from :data:`GRID` (end of section 11): the bilinear rule of section 1 or
+# The grid term comes from `GRID` (end of section 11): the bilinear rule of section 1 or
 # the bicubic option of section 11.
 
 def potential_energy(terms: Terms, q: np.ndarray) -> np.ndarray:
@@ -246,7 +249,7 @@ def force(terms: Terms, q: np.ndarray, fext_n: np.ndarray) -> np.ndarray:
 
 
 def force_T(terms: Terms, q, w, xbar, acc: dict) -> np.ndarray:
-    """(B3)/(B0)/(QB1), the transpose of :func:`force` for the cotangent w (N, 2), eq. (A6):
+    """(B3)/(B0)/(QB1), the transpose of [`force`][pes_ref.core.reference.force] for the cotangent w (N, 2), eq. (A6):
     ``xbar += -H_U(q) w`` in place, the grid's and the spring's parameter cotangents into
     ``acc``; returns ``F_ext-bar[n] = w`` (the external force enters additively)."""
     GRID[terms.interpolation][2](terms, lookup(terms, q), w, xbar, acc["values"])
@@ -259,10 +262,11 @@ def force_T(terms: Terms, q, w, xbar, acc: dict) -> np.ndarray:
 
 # ======================== 4-5. dynamic mode: the sub-steps (S1)-(S4) beside their transposes (B1)-(B4)
 
-# (S3), the force sub-step, is :func:`force` (section 3) and its transpose (B3) :func:`force_T`.
+# (S3), the force sub-step, is `force` (section 3) and its transpose (B3) `force_T`.
 
 def coefficients(dt, mass, damping, n):
-    """``a = dt/(2m)``, ``c = dt gamma/(2m)`` (:func:`pes_ref.core.integrator.step_coefficients`),
+    """``a = dt/(2m)``, ``c = dt gamma/(2m)``
+    ([`pes_ref.core.integrator.step_coefficients`][pes_ref.core.integrator.step_coefficients]),
     ``d = 1/(1+c)``, ``e = (1-c) d``, each (N, 2); an undamped scene has ``gamma = 0``:
     ``c = 0``, ``d = e = 1``."""
     a, c = step_coefficients(dt, mass, 0.0 if damping is None else damping, n)
@@ -327,7 +331,7 @@ def forward_verlet(terms, x0, v0, fext, dt, mass, damping, mobility) -> Run:
 
 
 def _accumulators(terms: Terms, n: int) -> dict:
-    """Zeroed parameter cotangents that :func:`force_T` sums into."""
+    """Zeroed parameter cotangents that [`force_T`][pes_ref.core.reference.force_T] sums into."""
     acc = {"values": np.zeros(terms.values.shape)}
     if terms.spring is not None:
         acc["spring_k"], acc["spring_center"] = np.zeros((n, 2)), np.zeros((n, 2))
@@ -339,11 +343,11 @@ class BackwardStart(NamedTuple):
 
     run: Run            # the forward states x, v, f, each (T+1, N, 2)
     T: int              # the number of steps
-    a: np.ndarray       # the step's coefficients (:func:`coefficients`), each (N, 2)
+    a: np.ndarray       # the step's coefficients (`coefficients`), each (N, 2)
     c: np.ndarray
     d: np.ndarray
     e: np.ndarray
-    acc: dict           # the grid's and the spring's parameter cotangents (:func:`_accumulators`)
+    acc: dict           # the grid's and the spring's parameter cotangents (`_accumulators`)
     gforce: np.ndarray  # F_ext-bar[n], (T+1, N, 2), zeros until each step's (B3) fills it
     xbar: np.ndarray    # Xbar = dl_T/dX_T
     vbar: np.ndarray    # Vbar = dl_T/dV_T
@@ -400,7 +404,7 @@ def reduce_to_shape(g: np.ndarray, shape: tuple) -> np.ndarray:
 
 # ====================================================== 6. quasistatic mode: (Q1)-(Q2) and (QB1)-(QB2)
 
-# (Q1), the force sub-step, is :func:`force` (section 3) and its transpose (QB1) :func:`force_T`.
+# (Q1), the force sub-step, is `force` (section 3) and its transpose (QB1) `force_T`.
 
 def qs_drift(x, f, mu):
     """(Q2) ``X_{n+1} = X_n + mu F_n``."""
@@ -535,7 +539,7 @@ def cell_coefficients(terms: Terms) -> np.ndarray:
 
 
 def cell_coefficients_T(terms: Terms, abar: np.ndarray) -> np.ndarray:
-    """(CB3), the transpose of :func:`cell_coefficients`: ``Gbar = M0^T Abar M1`` (n0, n1)."""
+    """(CB3), the transpose of [`cell_coefficients`][pes_ref.core.reference.cell_coefficients]: ``Gbar = M0^T Abar M1`` (n0, n1)."""
     M0, M1 = _cell_maps(terms)
     return M0.T @ abar.transpose(0, 2, 1, 3).reshape(M0.shape[0], M1.shape[0]) @ M1
 
@@ -577,7 +581,8 @@ def bicubic_hessian(terms: Terms, c: Cells, A: np.ndarray):
 
 
 def bicubic_force_T(terms: Terms, c: Cells, w: np.ndarray, xbar: np.ndarray, gvalues: np.ndarray) -> None:
-    """Transpose of :func:`bicubic_force` for the cotangent w (N, 2), accumulated in place:
+    """Transpose of [`bicubic_force`][pes_ref.core.reference.bicubic_force] for the cotangent w (N, 2), accumulated in
+    place:
     (CB1) ``xbar += -H w`` with H by (C4); (CB2) the slope's transpose onto the cell
     coefficients, ``Abar``; (CB3) ``Abar`` onto the grid values, ``gvalues += -(d slope/dG)^T w``."""
     A = cell_coefficients(terms)[c.i0, c.j0]
@@ -607,14 +612,14 @@ STEPPERS = {("dynamic", "verlet"): (forward_verlet, backward_verlet),
 
 
 def forward(terms, x0, v0, fext, stepper, **params) -> Run:
-    """The forward loop of ``stepper`` (a key of :data:`STEPPERS`); ``params`` are
+    """The forward loop of ``stepper`` (a key of `STEPPERS`); ``params`` are
     ``dt, mass, damping, mobility``."""
     return STEPPERS[stepper][0](terms, x0, v0, fext, **params)
 
 
 def backward(terms, run, gx, gv, stepper, **params) -> dict:
     """The backward loop of ``stepper`` for the objective's direct derivatives ``gx, gv``
-    (T+1, N, 2): the raw gradients (per particle, before :func:`reduce_to_shape`)."""
+    (T+1, N, 2): the raw gradients (per particle, before [`reduce_to_shape`][pes_ref.core.reference.reduce_to_shape])."""
     return STEPPERS[stepper][1](terms, run, gx, gv, **params)
 
 
@@ -632,18 +637,18 @@ def _setup(scene, x0, v0, fext):
 
 
 def simulate(scene, x0, v0=None, *, fext="scene") -> Run:
-    """:func:`pes_ref.simulate`, by the reference."""
+    """[`pes_ref.simulate`][pes_ref.core.scene.simulate], by the reference."""
     terms, x0, v0, fext, stepper, params = _setup(scene, x0, v0, fext)
     return forward(terms, x0, v0, fext, stepper, **params)
 
 
 def energy(scene, run) -> np.ndarray:
-    """:func:`pes_ref.energy`: ``U(X_n) + sum_d m_d V_d^2 / 2`` per state and particle, (T+1, N)."""
+    """[`pes_ref.energy`][pes_ref.core.scene.energy]: ``U(X_n) + sum_d m_d V_d^2 / 2`` per state and particle, (T+1, N)."""
     return potential_energy(terms_of(scene), run.x) + 0.5 * np.sum(scene.mass * run.v * run.v, axis=-1)
 
 
 def value_and_grad(scene, x0, v0, objective, *, regularization_weight: float = 0.0, wrt=None, fext="scene"):
-    """:func:`pes_ref.value_and_grad`, by the reference: ``(loss, grads, run)``, every
+    """[`pes_ref.value_and_grad`][pes_ref.core.scene.value_and_grad], by the reference: ``(loss, grads, run)``, every
     gradient the scene has (or those named by ``wrt``), each shaped like its input."""
     terms, x0, v0, fext, stepper, params = _setup(scene, x0, v0, fext)
     run = forward(terms, x0, v0, fext, stepper, **params)

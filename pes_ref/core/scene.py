@@ -1,9 +1,9 @@
 """Scenes: the frozen, validated configuration layer over the numerical core.
 
-A :class:`Scene` names a surface and exactly the effects it has (springs, walls,
-damping, external force effects, per-particle mass); :func:`simulate` and
-:func:`value_and_grad` validate the initial state once, then run the pure core through
-the stepper registry (:mod:`pes_ref.core.steppers`), which evaluates nothing that the
+A [`Scene`][pes_ref.core.scene.Scene] names a surface and exactly the effects it has (springs, walls,
+damping, external force effects, per-particle mass); [`simulate`][pes_ref.core.scene.simulate] and
+[`value_and_grad`][pes_ref.core.scene.value_and_grad] validate the initial state once, then run the pure core through
+the stepper registry ([`pes_ref.core.steppers`][pes_ref.core.steppers]), which evaluates nothing that the
 scene does not name.
 
 Examples
@@ -41,14 +41,14 @@ __all__ = ["Scene", "simulate", "value_and_grad", "energy", "GRADIENT_NAMES", "g
 GRADIENT_NAMES = ("values", "x0", "v0", "force", "mass", "damping", "spring_k", "spring_center", "mobility")
 
 #: The gradients every scene has, and those a spring adds (a mode's own: its steppers'
-#: :attr:`~pes_ref.core.steppers.Stepper.gradients`).
+#: `gradients`).
 _ALWAYS_GRADIENTS = ("values", "x0", "force")
 _SPRING_GRADIENTS = ("spring_k", "spring_center")
 
 
 def gradient_names(mode: str, has_spring: bool) -> tuple:
     """The gradients of docs/spec.md section 7 that a scene of ``mode`` has, in
-    :data:`GRADIENT_NAMES` order: ``values``, ``x0`` and ``force`` always; ``v0``,
+    `GRADIENT_NAMES` order: ``values``, ``x0`` and ``force`` always; ``v0``,
     ``mass``, ``damping`` in dynamic mode; ``mobility`` in quasistatic mode; ``spring_k``,
     ``spring_center`` with a spring.
 
@@ -81,14 +81,14 @@ class Scene:
     walls : Walls or None
         Only on non-periodic axes.
     effects : effect or sequence of effects
-        External forces (:mod:`pes_ref.core.effects`); empty means none; a single
+        External forces ([`pes_ref.core.effects`][pes_ref.core.effects]); empty means none; a single
         effect is taken for a sequence of one.
     t0 : float
         Time of state 0.
     integrator : {"verlet", "gjf"}
         Dynamic mode's step: "verlet" (default) is the paper's eqs. (2)-(3); "gjf" is the
         second-order damped Gronbech-Jensen-Farago step (``docs/variants.md``). The pairs
-        ``(mode, integrator)`` are those of :data:`pes_ref.core.steppers.STEPPERS`.
+        ``(mode, integrator)`` are those of `pes_ref.core.steppers.STEPPERS`.
     """
 
     surface: Surface
@@ -164,7 +164,7 @@ class Scene:
         return self.damping is not None and bool(np.any(self.damping != 0))
 
     def field(self) -> Field:
-        """The plain-array energy terms for the core (:class:`pes_ref.core.forces.Field`)."""
+        """The plain-array energy terms for the core ([`pes_ref.core.forces.Field`][pes_ref.core.forces.Field])."""
         s = self.surface
         spring = None if self.spring is None else (self.spring.k, self.spring.center)
         walls = None
@@ -239,9 +239,9 @@ def simulate(scene: Scene, x0, v0=None, *, fext="scene", allow_unstable: bool = 
     progress : callable, optional
         ``progress(phase, done, total)``, called before the first step, every few
         hundred steps and after the last (``phase`` is ``"forward"``;
-        :mod:`pes_ref.core.runtime.progress`).
+        [`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress]).
     backend : {"numba", "numpy"} or None
-        Which loops run the steps (:data:`pes_ref.core.backends.BACKENDS`): None is the
+        Which loops run the steps (`pes_ref.core.backends.BACKENDS`): None is the
         compiled ones when the extra ``fast`` (numba) is installed, else NumPy's; a scene
         the compiled loops do not cover runs on NumPy. The trajectory is bit-identical
         whichever runs it.
@@ -255,11 +255,11 @@ def simulate(scene: Scene, x0, v0=None, *, fext="scene", allow_unstable: bool = 
     ------
     pes_ref.core.stability.UnstableStepError
         The step is past the stability limit of the scene's stiffest term
-        (:func:`pes_ref.core.stability.check_stable`, docs/spec.md section 10), unless
+        ([`pes_ref.core.stability.check_stable`][pes_ref.core.stability.check_stable], docs/spec.md section 10), unless
         ``allow_unstable``; a ``ValueError`` naming ``dt`` or ``mobility``.
     pes_ref.core.budget.RunTooLargeError
         The run's arrays cannot fit in the available memory
-        (:func:`pes_ref.core.budget.check_memory`); a ``ValueError`` naming ``n_steps``.
+        ([`pes_ref.core.budget.check_memory`][pes_ref.core.budget.check_memory]); a ``ValueError`` naming ``n_steps``.
     NonFiniteError
         The run left the finite numbers.
     """
@@ -272,9 +272,9 @@ def simulate(scene: Scene, x0, v0=None, *, fext="scene", allow_unstable: bool = 
 
 def _check_run(scene: Scene, n_particles: int, kind: str, allow_unstable, progress, backend: str = "numpy") -> None:
     """What the public boundary checks of a run before anything of its size is allocated:
-    the stability rule (:func:`pes_ref.core.stability.check_stable`), unless
+    the stability rule ([`pes_ref.core.stability.check_stable`][pes_ref.core.stability.check_stable]), unless
     ``allow_unstable`` (its grid's cross curvature on ``backend``, checked), and its memory
-    (:func:`pes_ref.core.budget.check_memory`)."""
+    ([`pes_ref.core.budget.check_memory`][pes_ref.core.budget.check_memory])."""
     if not isinstance(allow_unstable, (bool, np.bool_)):
         raise checks.InputTypeError("allow_unstable", f"allow_unstable must be True or False, got {allow_unstable!r}")
     if progress is not None and not callable(progress):
@@ -287,7 +287,7 @@ def _check_run(scene: Scene, n_particles: int, kind: str, allow_unstable, progre
 
 def _resolve_fext(scene, fext, n):
     """The external force the core gets, (T+1, N, 2), or None: for none, for effects that
-    all push with 0 (:func:`pes_ref.core.effects.all_zero`: nothing is realized), and for a
+    all push with 0 ([`pes_ref.core.effects.all_zero`][pes_ref.core.effects.all_zero]: nothing is realized), and for a
     given schedule that is 0 everywhere (adding it would change no value)."""
     if isinstance(fext, str) and fext == "scene":
         return None if all_zero(scene.effects) else scene.schedule(n)
@@ -298,8 +298,9 @@ def _resolve_fext(scene, fext, n):
 
 
 def _explains_nonfinite(forward):
-    """Re-raise the core's :class:`NonFiniteError` with the scene's stability limit and a
-    stable step (:func:`pes_ref.core.stability.advice`), in one line."""
+    """Re-raise the core's [`NonFiniteError`][pes_ref.core.integrator.NonFiniteError] with the scene's stability limit
+    and a
+    stable step ([`pes_ref.core.stability.advice`][pes_ref.core.stability.advice]), in one line."""
     @functools.wraps(forward)
     def wrapper(scene, *args, **kwargs):
         try:
@@ -317,20 +318,20 @@ def _step_params(scene: Scene, progress=None, energy=None) -> StepParams:
 
 
 def _stepper(scene: Scene, backend: str, n_particles: int):
-    """The stepper of a run of ``scene`` on ``backend`` (:func:`pes_ref.core.backends.stepper`)."""
+    """The stepper of a run of ``scene`` on ``backend`` ([`pes_ref.core.backends.stepper`][pes_ref.core.backends.stepper])."""
     return backends.stepper(backend, scene.mode, scene.integrator, scene.surface.interpolation, n_particles)
 
 
 @_explains_nonfinite
 def _forward(scene: Scene, x0, v0, fext, progress=None, backend: str = "numpy", energy=None,
              field: Field | None = None) -> Trajectory:
-    """The run; ``energy`` an :class:`_EnergyOut` that its loop may fill (:attr:`StepParams.energy`),
-    or None; ``field`` the scene's :meth:`Scene.field` when the caller has it already."""
+    """The run; ``energy`` an `_EnergyOut` that its loop may fill (`StepParams.energy`),
+    or None; ``field`` the scene's [`Scene.field`][pes_ref.core.scene.Scene.field] when the caller has it already."""
     field = scene.field() if field is None else field
     return _stepper(scene, backend, x0.shape[0]).simulate(field, x0, v0, fext, _step_params(scene, progress, energy))
 
 
-#: Particle-states per chunk of :func:`energy` on NumPy: its ~20 temporaries then stay in cache
+#: Particle-states per chunk of `energy` on NumPy: its ~20 temporaries then stay in cache
 #: (the whole trajectory at once costs a pass over memory for each of them).
 ENERGY_CHUNK = 1 << 14
 
@@ -340,8 +341,8 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy", out: np.ndarr
     ``out`` (a C-contiguous float64 (T+1, N) array; fresh when None).
 
     Kinetic ``sum_d m_d v_d^2 / 2`` plus ``U = U_grid + U_spring + U_wall``. On NumPy a
-    chunk of :data:`ENERGY_CHUNK` particle-states at a time; with ``backend="numba"`` (the
-    bilinear grid) the compiled loop :func:`pes_ref.core.compiled.energy`: the same numbers
+    chunk of `ENERGY_CHUNK` particle-states at a time; with ``backend="numba"`` (the
+    bilinear grid) the compiled loop [`pes_ref.core.compiled.energy`][pes_ref.core.compiled.energy]: the same numbers
     bit for bit.
     """
     x, v = traj.x, traj.v
@@ -371,9 +372,9 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy", out: np.ndarr
 
 
 def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass, out: np.ndarray) -> np.ndarray:
-    """:func:`energy` on the bilinear grid, a chunk of states at a time with the hot loop's
-    lookup (:class:`pes_ref.core.grid.Locator`: the cells and fractions of
-    :func:`pes_ref.core.grid.locate`), then :meth:`_BilinearEnergy.into`."""
+    """[`energy`][pes_ref.core.scene.energy] on the bilinear grid, a chunk of states at a time with the hot loop's
+    lookup ([`pes_ref.core.grid.Locator`][pes_ref.core.grid.Locator]: the cells and fractions of
+    [`pes_ref.core.grid.locate`][pes_ref.core.grid.locate]), then `_BilinearEnergy.into`."""
     T1, N = x.shape[0], x.shape[1]
     n0, n1 = fld.values.shape
     loc = Locator(fld.lower, fld.h, (n0, n1), fld.periodic)
@@ -398,12 +399,14 @@ def _bilinear_energy(fld: Field, x: np.ndarray, v: np.ndarray, mass, out: np.nda
 class _BilinearEnergy:
     """The total energy at located states (bilinear grid, one grid): a per-cell table of the
     four corner values, column by column, then the operations of
-    :func:`pes_ref.core.bilinear.grid_energy`, :func:`pes_ref.core.terms.spring_energy`,
-    :func:`pes_ref.core.terms.wall_energy` and the kinetic energy in their order, so the same
-    numbers bit for bit as :func:`energy`'s formula. (A sum over the axis of length 2 is
+    [`pes_ref.core.bilinear.grid_energy`][pes_ref.core.bilinear.grid_energy],
+    [`pes_ref.core.terms.spring_energy`][pes_ref.core.terms.spring_energy],
+    [`pes_ref.core.terms.wall_energy`][pes_ref.core.terms.wall_energy] and the kinetic energy in their order, so the
+    same
+    numbers bit for bit as [`energy`][pes_ref.core.scene.energy]'s formula. (A sum over the axis of length 2 is
     ``0 + a0 + a1``, which is ``a0 + a1`` here: every term is >= +0; a wall that is absent
-    adds +0 and is skipped.) For :func:`_bilinear_energy`'s chunks of states and for the
-    NumPy forward loop, one state at a time at its own lookup (:class:`_EnergyOut`); ``states``
+    adds +0 and is skipped.) For `_bilinear_energy`'s chunks of states and for the
+    NumPy forward loop, one state at a time at its own lookup (`_EnergyOut`); ``states``
     is the most states of N particles a call takes."""
 
     def __init__(self, fld: Field, mass, n: int, states: int):
@@ -493,8 +496,9 @@ class _BilinearEnergy:
 
 
 class _EnergyOut:
-    """:func:`value_and_grad`'s ``energy_out`` as a forward loop takes it (:attr:`StepParams.energy`):
-    ``out`` (T+1, N), which the compiled loop fills (setting ``filled``), and :meth:`bind`, the
+    """[`value_and_grad`][pes_ref.core.scene.value_and_grad]'s ``energy_out`` as a forward loop takes it
+    (`StepParams.energy`):
+    ``out`` (T+1, N), which the compiled loop fills (setting ``filled``), and `bind`, the
     NumPy loop's per-state energy at its force's own lookup."""
 
     def __init__(self, scene: Scene, out: np.ndarray, mass=None):
@@ -503,18 +507,18 @@ class _EnergyOut:
         self.errors_ignored = False      # computed under the NumPy loop's np.errstate (overflow ignored)
 
     def part(self, sl: slice) -> "_EnergyOut":
-        """The sink of the particles ``sl`` of the run (a half, :mod:`pes_ref.core.halves`): its
+        """The sink of the particles ``sl`` of the run (a half, [`pes_ref.core.halves`][pes_ref.core.halves]): its
         columns of ``out``, with their masses."""
         return _EnergyOut(self.scene, self.out[:, sl], halves.part(self.mass, sl, self.out.shape[1]))
 
     def bind(self, force, field: Field):
         """``step(x, v, row)``: the energy of one state (N, 2) into ``row`` (N,), right after
-        ``force`` (the loop's :class:`~pes_ref.core.forces.ForceKernel`) was called at ``x``,
+        ``force`` (the loop's [`ForceKernel`][pes_ref.core.forces.ForceKernel]) was called at ``x``,
         whose lookup it reads; None where the force has no such lookup (not the bilinear grid,
-        one particle, or a population) or a state has fewer than :data:`ENERGY_CHUNK`
+        one particle, or a population) or a state has fewer than `ENERGY_CHUNK`
         particles (the pass after the run then takes several states per NumPy call, where a
         call per state would cost more in calls than the lookup it saves), and the energy is
-        then left to :func:`energy`."""
+        then left to [`energy`][pes_ref.core.scene.energy]."""
         grid = force.grid
         if not (isinstance(grid, BilinearForce) and field.offsets is None and self.out.shape[1] >= ENERGY_CHUNK):
             return None
@@ -537,33 +541,34 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
     scene : Scene
     x0, v0 : array_like (N, 2)
     objective : object with ``value_and_grad(x, v, t)``
-        One of :mod:`pes_ref.core.objectives` or a user's own.
+        One of [`pes_ref.core.objectives`][pes_ref.core.objectives] or a user's own.
     regularization_weight : float >= 0
         R of the paper's eq. (7).
     wrt : iterable of str, optional
         Which gradients to compute (default: all that the scene uses; see
-        :data:`GRADIENT_NAMES`). Only those are accumulated.
+        `GRADIENT_NAMES`). Only those are accumulated.
     fext : "scene", None or ndarray (T+1, N, 2)
-        As in :func:`simulate`.
+        As in [`simulate`][pes_ref.core.scene.simulate].
     allow_unstable : bool
-        As in :func:`simulate`: by default a step past the stability limit of the
+        As in [`simulate`][pes_ref.core.scene.simulate]: by default a step past the stability limit of the
         scene's stiffest term is refused before the run.
     progress : callable, optional
-        As in :func:`simulate`, for the forward run (phase ``"forward"``) and then the
+        As in [`simulate`][pes_ref.core.scene.simulate], for the forward run (phase ``"forward"``) and then the
         adjoint (``"adjoint"``). A run that cannot fit in memory is refused as there.
     backend : {"numba", "numpy"} or None
-        As in :func:`simulate`. The compiled loops' gradients agree with NumPy's to 1e-13
+        As in [`simulate`][pes_ref.core.scene.simulate]. The compiled loops' gradients agree with NumPy's to 1e-13
         of their largest entry (the grid's and the mobility's are sums in another order;
         the others are bit-identical).
     checked : bool
         The caller has checked everything already, as the oracle's
-        :func:`pes_ref.oracle.case.validate_case` does: ``x0`` and ``v0`` are float64
+        [`pes_ref.oracle.case.validate_case`][pes_ref.oracle.case.validate_case] does: ``x0`` and ``v0`` are float64
         (N, 2) arrays, ``fext`` a float64 (T+1, N, 2) array or None, the weight a float
         >= 0, the objective has ``value_and_grad``, ``energy_out`` is as asked or None, and
         the run's stability and memory are checked. Nothing of it is done again
         (``allow_unstable`` is then moot).
     energy_out : ndarray (T+1, N), optional
-        A writable C-contiguous float64 array to fill with the run's :func:`energy` (the same numbers
+        A writable C-contiguous float64 array to fill with the run's [`energy`][pes_ref.core.scene.energy] (the same
+        numbers
         as ``energy(scene, traj)``): the compiled dynamic loop computes it as it makes each
         state, at the state's own grid lookup; the others after the run.
 
@@ -609,7 +614,7 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
 
 
 def _check_energy_out(out, shape: tuple) -> None:
-    """``energy_out`` of :func:`value_and_grad`: a writable C-contiguous float64 array of ``shape``."""
+    """``energy_out`` of [`value_and_grad`][pes_ref.core.scene.value_and_grad]: a writable C-contiguous float64 array of ``shape``."""
     if not (isinstance(out, np.ndarray) and out.dtype == np.float64 and out.shape == shape
             and out.flags.c_contiguous and out.flags.writeable):
         raise checks.InputError("energy_out", f"energy_out must be a writable C-contiguous float64 array of shape "

@@ -13,7 +13,8 @@ stiffness ``K`` (a force change per unit displacement):
   that crosses several cells sees their mean, so this is the worst case;
 - a C-space barrier of the paper's eq. (1), ``E = v/2 (1/r - 1/r_c)^2`` for
   ``r < r_c``, reaches the integrator only through the grid it is sampled onto (its
-  second differences above); :func:`pes_ref.devices.cspace.apf_curvature` gives its analytic
+  second differences above); [`pes_ref.devices.cspace.apf_curvature`][pes_ref.devices.cspace.apf_curvature] gives its
+  analytic
   curvature ``v (3/r^4 - 2/(r_c r^3))``, which grows without bound as ``r -> 0`` and
   is capped at ``r_min`` on the grid.
 
@@ -33,8 +34,9 @@ Quasistatic (``X_{n+1} = X_n + mu F_n``): stable iff ``mu_d K_d < 2`` on every a
 Because ``K`` bounds the stiffness from above, the limit is conservative: a scene may
 run stably somewhat past it (a particle that never reaches the stiffest cell). Past
 the true limit errors grow geometrically until the run leaves the finite numbers;
-:func:`pes_ref.simulate` then raises :class:`pes_ref.NonFiniteError` with
-:func:`advice`, which names this limit and a stable step.
+[`pes_ref.simulate`][pes_ref.core.scene.simulate] then raises
+[`pes_ref.NonFiniteError`][pes_ref.core.integrator.NonFiniteError] with
+[`advice`][pes_ref.core.stability.advice], which names this limit and a stable step.
 
 The refusal rule (docs/spec.md section 10) takes the terms one at a time instead, as
 the contract states it: per axis d the terms are a spring ``k_d`` (the largest over
@@ -48,13 +50,15 @@ stays bounded by the grid's largest slope. A scene is refused iff, over terms an
 
 and it takes at least one step (``n_steps > 0``).
 
-One stiffness table, one limit: :func:`term_stiffness` is each term's ``K`` per axis (the
-second differences too when asked), and :func:`stability_limit` takes a scene's
-:class:`StabilityLimit` under one of the :data:`BOUNDS`: ``"sum"`` (every term summed
+One stiffness table, one limit: [`term_stiffness`][pes_ref.core.stability.term_stiffness] is each term's ``K`` per axis
+(the
+second differences too when asked), and [`stability_limit`][pes_ref.core.stability.stability_limit] takes a scene's
+[`StabilityLimit`][pes_ref.core.stability.StabilityLimit] under one of the `BOUNDS`: ``"sum"`` (every term summed
 per axis, the conservative bound above) or ``"rule"`` (each term of the refusal rule
-alone). :func:`check_stable` applies the rule, raising :class:`UnstableStepError` that
+alone). [`check_stable`][pes_ref.core.stability.check_stable] applies the rule, raising
+[`UnstableStepError`][pes_ref.core.stability.UnstableStepError] that
 names ``dt`` or ``mobility``, the factor past the limit, the term and a stable value: the
-:attr:`StabilityLimit.suggestion` of the summed bound, which is within the per-term rule
+`StabilityLimit.suggestion` of the summed bound, which is within the per-term rule
 too (each term is at most the sum).
 """
 from __future__ import annotations
@@ -69,7 +73,7 @@ __all__ = ["StabilityLimit", "grid_cross_curvature", "grid_second_difference", "
            "term_stiffness", "stability_limit", "advice", "SAFETY", "BOUNDS",
            "RULE_TERMS", "RULE_DOC", "UnstableStepError", "check_stable"]
 
-#: The stable step :func:`advice` suggests, as a fraction of the limit: at
+#: The stable step `advice` suggests, as a fraction of the limit: at
 #: ``omega dt = 1`` velocity Verlet's energy error is ``(omega dt)^2 / 4`` of the
 #: oscillation energy, 25%; half the limit keeps a margin for the bound's looseness.
 SAFETY = 0.5
@@ -87,7 +91,8 @@ def grid_cross_curvature(surface, backend: str = "numpy") -> float:
     """``max over cells |G11 - G10 - G01 + G00| / (h0 h1)``: the bilinear surface's only
     second derivative inside a cell (its Hessian has eigenvalues +-this). ``backend="numba"``
     takes the maximum in one compiled pass over the grid
-    (:func:`pes_ref.core.compiled.cross_curvature_max`), without the temporaries: the same
+    ([`pes_ref.core.compiled.cross_curvature_max`][pes_ref.core.compiled.cross_curvature_max]), without the temporaries:
+    the same
     number bit for bit."""
     h = surface.spacing
     if backend == "numba":
@@ -116,7 +121,8 @@ def grid_second_difference(surface) -> np.ndarray:
 
 
 def grid_stiffness(surface) -> float:
-    """``max_d S_d`` (:func:`grid_second_difference`): the stiffest cell edge of the grid
+    """``max_d S_d`` ([`grid_second_difference`][pes_ref.core.stability.grid_second_difference]): the stiffest cell edge
+    of the grid
     along either axis, one number (e.g. to pick a stable quasistatic mobility)."""
     return float(np.max(grid_second_difference(surface)))
 
@@ -125,9 +131,10 @@ def term_stiffness(scene, edges: bool = True, backend: str = "numpy") -> dict:
     """Each term's stiffness ``K`` per axis, the one stiffness table of a scene: a dict of
     (2,) arrays ``grid_cross`` (the grid's cross curvature ``c``, the same on both axes),
     ``spring`` (the largest ``k_d`` over particles), ``walls`` (``k_w`` on an axis with a
-    wall) and, with ``edges``, ``grid_edges`` (:func:`grid_second_difference`, the
-    costliest; the refusal rule, which runs on every :func:`pes_ref.simulate`, leaves it out).
-    ``backend``: which loops take the cross curvature (:func:`grid_cross_curvature`)."""
+    wall) and, with ``edges``, ``grid_edges``
+    ([`grid_second_difference`][pes_ref.core.stability.grid_second_difference], the
+    costliest; the refusal rule, which runs on every [`pes_ref.simulate`][pes_ref.core.scene.simulate], leaves it out).
+    ``backend``: which loops take the cross curvature ([`grid_cross_curvature`][pes_ref.core.stability.grid_cross_curvature])."""
     table = {"grid_cross": np.full(2, grid_cross_curvature(scene.surface, backend)), "spring": np.zeros(2),
              "walls": np.zeros(2)}
     if scene.spring is not None:
@@ -140,14 +147,14 @@ def term_stiffness(scene, edges: bool = True, backend: str = "numpy") -> dict:
     return table
 
 
-#: The terms of the refusal rule, by their name in :func:`term_stiffness`'s table, with
+#: The terms of the refusal rule, by their name in `term_stiffness`'s table, with
 #: the name a message gives them (the second differences ``grid_edges`` are none).
 RULE_TERMS = {"grid_cross": "grid curvature", "spring": "spring", "walls": "wall"}
 
-#: The stiffness bounds a :class:`StabilityLimit` is taken under: ``"sum"``, every term of
-#: :func:`term_stiffness` summed per axis (``K_d = S_d + c + k_d + k_w``; conservative,
-#: what :func:`advice` and the suggested stable values use), and ``"rule"``, each term of
-#: :data:`RULE_TERMS` alone (the refusal rule of docs/spec.md section 10).
+#: The stiffness bounds a `StabilityLimit` is taken under: ``"sum"``, every term of
+#: `term_stiffness` summed per axis (``K_d = S_d + c + k_d + k_w``; conservative,
+#: what `advice` and the suggested stable values use), and ``"rule"``, each term of
+#: `RULE_TERMS` alone (the refusal rule of docs/spec.md section 10).
 BOUNDS = ("sum", "rule")
 
 #: The name of the summed bound's one term.
@@ -155,7 +162,7 @@ _SUM = "all terms"
 
 
 class StabilityLimit(NamedTuple):
-    """The stability limit of a scene under one of the :data:`BOUNDS` (see the module docstring).
+    """The stability limit of a scene under one of the `BOUNDS` (see the module docstring).
 
     Attributes
     ----------
@@ -164,12 +171,12 @@ class StabilityLimit(NamedTuple):
     key : str
         What the limit is on: ``"dt"`` (dynamic) or ``"mobility"`` (quasistatic).
     bound : str
-        One of :data:`BOUNDS`.
+        One of `BOUNDS`.
     terms : dict str -> ndarray (2,)
-        The stiffness of each term the bound takes (:func:`term_stiffness`); under
+        The stiffness of each term the bound takes ([`term_stiffness`][pes_ref.core.stability.term_stiffness]); under
         ``"sum"`` the limit is that of their sum per axis.
     term : str
-        The stiffest term's name (:data:`RULE_TERMS`' names; ``"all terms"`` under
+        The stiffest term's name (`RULE_TERMS`' names; ``"all terms"`` under
         ``"sum"``); ``""`` when the scene has no stiffness.
     axis : int
         The axis where it is stiffest (relative to the mass there, in dynamic mode).
@@ -182,9 +189,9 @@ class StabilityLimit(NamedTuple):
         ``dt / limit`` or ``mobility[axis] / limit``: the largest ``dt sqrt(K/m) / 2`` or
         ``mobility_d K / 2`` over terms and axes. Stable below 1.
     suggestion : float or ndarray (2,)
-        Dynamic: a stable dt, :data:`SAFETY` times the limit; quasistatic: a stable
+        Dynamic: a stable dt, `SAFETY` times the limit; quasistatic: a stable
         mobility per axis, ``SAFETY * 2 / K_d`` where the given one reaches past
-        :data:`SAFETY` of its axis's limit, else the given one.
+        `SAFETY` of its axis's limit, else the given one.
     """
 
     mode: str
@@ -240,10 +247,11 @@ def stability_limit(scene, bound: str = "sum", backend: str = "numpy") -> Stabil
     ----------
     scene : pes_ref.Scene
     bound : {"sum", "rule"}
-        :data:`BOUNDS`: every term summed per axis (conservative), or each term of the
-        refusal rule alone (what :func:`check_stable` applies).
+        `BOUNDS`: every term summed per axis (conservative), or each term of the
+        refusal rule alone (what [`check_stable`][pes_ref.core.stability.check_stable] applies).
     backend : {"numpy", "numba"}
-        Which loops take the grid's cross curvature (:func:`grid_cross_curvature`; the
+        Which loops take the grid's cross curvature
+        ([`grid_cross_curvature`][pes_ref.core.stability.grid_cross_curvature]; the
         same number); the caller has checked that it is installed.
 
     Returns
@@ -305,7 +313,7 @@ class UnstableStepError(checks.InputError):
     """A scene whose step is past the stability limit of its stiffest term (the rule of
     docs/spec.md section 10). ``key`` is ``"dt"`` (dynamic) or ``"mobility"`` (quasistatic);
     the message is one line naming the value, the factor past the limit, the term and a
-    stable value. A :class:`~pes_ref.core.checks.InputError`, so a ``ValueError``."""
+    stable value. A [`InputError`][pes_ref.core.checks.InputError], so a ``ValueError``."""
 
 
 def _beyond_float(scene, lim: StabilityLimit) -> UnstableStepError | None:
@@ -346,7 +354,7 @@ def check_stable(scene, backend: str = "numpy") -> StabilityLimit:
     ----------
     scene : pes_ref.Scene
     backend : {"numpy", "numba"}
-        As in :func:`stability_limit`.
+        As in [`stability_limit`][pes_ref.core.stability.stability_limit].
 
     Returns
     -------
@@ -357,7 +365,7 @@ def check_stable(scene, backend: str = "numpy") -> StabilityLimit:
     Raises
     ------
     UnstableStepError
-        ``n_steps > 0`` and :attr:`StabilityLimit.ratio` ``> 1``; it names ``dt`` or
+        ``n_steps > 0`` and `StabilityLimit.ratio` ``> 1``; it names ``dt`` or
         ``mobility``, the factor, the term and a stable value, in one line. Where the
         stiffest term is beyond float64, so that no step is stable, it names the input
         instead: ``values``, ``spring_k`` or ``wall_k`` for a stiffness that is not

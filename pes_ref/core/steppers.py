@@ -2,17 +2,18 @@
 to the forward loop and its adjoint.
 
 - ``("dynamic", "verlet")``: the paper's damped velocity Verlet, eqs. (2)-(3)
-  (:func:`pes_ref.core.integrator.simulate_dynamic`, docs/spec.md section 5);
+  ([`pes_ref.core.integrator.simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic], docs/spec.md section 5);
 - ``("dynamic", "gjf")``: the second-order damped Gronbech-Jensen-Farago step
-  (:mod:`pes_ref.core.gjf`, ``docs/variants.md``);
+  ([`pes_ref.core.gjf`][pes_ref.core.gjf], ``docs/variants.md``);
 - ``("quasistatic", "verlet")``: the overdamped step ``X_{n+1} = X_n + mu F_n``
-  (:func:`pes_ref.core.integrator.simulate_quasistatic`; quasistatic mode has one step,
+  ([`pes_ref.core.integrator.simulate_quasistatic`][pes_ref.core.integrator.simulate_quasistatic]; quasistatic mode has
+  one step,
   filed under the default integrator name).
 
-Every entry has the same call signature (:class:`Stepper`), with the scene's step
-parameters in a :class:`StepParams`; :data:`MODES` and :data:`INTEGRATORS` are read off
-the registry. :class:`~pes_ref.core.scene.Scene` validates against it and
-:mod:`pes_ref.core.scene` dispatches through :func:`stepper`.
+Every entry has the same call signature ([`Stepper`][pes_ref.core.steppers.Stepper]), with the scene's step
+parameters in a [`StepParams`][pes_ref.core.steppers.StepParams]; `MODES` and `INTEGRATORS` are read off
+the registry. [`Scene`][pes_ref.core.scene.Scene] validates against it and
+[`pes_ref.core.scene`][pes_ref.core.scene] dispatches through [`stepper`][pes_ref.core.steppers.stepper].
 """
 from __future__ import annotations
 
@@ -33,18 +34,21 @@ class StepParams(NamedTuple):
     broadcastable to (N, 2), or None for an undamped scene (no damping arithmetic at
     all); ``mobility`` (2,) in quasistatic mode, else None; ``progress`` a callback
     ``(phase, done, total)`` called every few hundred steps of the forward loop and of
-    the adjoint (:mod:`pes_ref.core.runtime.progress`), or None; ``refuse_nonfinite`` False returns
+    the adjoint ([`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress]), or None; ``refuse_nonfinite`` False
+    returns
     a trajectory that left the finite numbers instead of raising (a population checks each
-    member's part, :mod:`pes_ref.core.population`); ``out`` a
-    :class:`~pes_ref.core.integrator.Trajectory` of (T+1, N, 2) arrays to run into, or None
-    for fresh ones (:func:`pes_ref.core.integrator.trajectory_arrays`); ``energy`` None, or
+    member's part, [`pes_ref.core.population`][pes_ref.core.population]); ``out`` a
+    [`Trajectory`][pes_ref.core.integrator.Trajectory] of (T+1, N, 2) arrays to run into, or None
+    for fresh ones ([`pes_ref.core.integrator.trajectory_arrays`][pes_ref.core.integrator.trajectory_arrays]);
+    ``energy`` None, or
     where a dynamic forward loop puts each state's total energy as it makes the state, at
     the state's own grid lookup: its ``out``, a float64 (T+1, N) array, which a loop that
     fills it marks ``filled``; the NumPy loop computes each state's by ``energy.bind(force,
-    field)`` (:func:`pes_ref.core.integrator.simulate_dynamic`), and ``energy.part(sl)`` is the
-    sink of the particles ``sl`` (:mod:`pes_ref.core.halves`). A loop that does not (the
+    field)`` ([`pes_ref.core.integrator.simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic]), and
+    ``energy.part(sl)`` is the
+    sink of the particles ``sl`` ([`pes_ref.core.halves`][pes_ref.core.halves]). A loop that does not (the
     GJF and quasistatic steps, another grid) leaves it, and the energy to a pass after the
-    run (:func:`pes_ref.core.scene.value_and_grad`).
+    run ([`pes_ref.core.scene.value_and_grad`][pes_ref.core.scene.value_and_grad]).
     """
 
     dt: float
@@ -63,13 +67,14 @@ class Stepper(NamedTuple):
     gradients of the step's own inputs.
 
     simulate : ``(field, x0, v0, fext, params) -> Trajectory``
-        ``field`` a :class:`~pes_ref.core.forces.Field`; ``x0, v0`` (N, 2) (``v0`` unused
-        in quasistatic mode); ``fext`` (T+1, N, 2) or None; ``params`` a :class:`StepParams`.
+        ``field`` a [`Field`][pes_ref.core.forces.Field]; ``x0, v0`` (N, 2) (``v0`` unused
+        in quasistatic mode); ``fext`` (T+1, N, 2) or None; ``params`` a
+        [`StepParams`][pes_ref.core.steppers.StepParams].
     adjoint : ``(field, traj, params, gx, gv, want) -> dict``
         The backward pass over the forward's ``traj``, with the objective's direct
         derivatives ``gx, gv`` (T+1, N, 2) or None (``gv`` unused in quasistatic mode) and
         the wanted gradient names; returns the raw gradients (see
-        :func:`pes_ref.core.integrator.adjoint_dynamic`).
+        [`pes_ref.core.integrator.adjoint_dynamic`][pes_ref.core.integrator.adjoint_dynamic]).
     gradients : tuple of str
         The differentiable inputs of docs/spec.md section 7 that the step itself adds to those
         of every scene (``values``, ``x0``, ``force``, and a spring's): ``v0``, ``mass``,
@@ -124,7 +129,7 @@ INTEGRATORS = tuple(dict.fromkeys(integrator for _, integrator in STEPPERS))
 
 
 def mode_gradients(mode: str) -> tuple:
-    """The gradients the steps of ``mode`` add (:attr:`Stepper.gradients`, the same for
+    """The gradients the steps of ``mode`` add (`Stepper.gradients`, the same for
     every integrator of a mode); a ValueError that names ``mode`` if no stepper has it."""
     names = [g for (m, _), entry in STEPPERS.items() if m == mode for g in entry.gradients]
     if not names:

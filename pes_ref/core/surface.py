@@ -3,9 +3,9 @@
 docs/spec.md section 2; paper section "Simulating potential energy surfaces". A surface is a
 grid of energy values ``G`` of shape (n0, n1) on a plane, a cylinder (one axis
 periodic) or a torus (both periodic). Axis 0 of ``G`` is coordinate q0, axis 1 is q1.
-The lookup (spacing, cells and fractions, wrapping) is :mod:`pes_ref.core.grid`; the
+The lookup (spacing, cells and fractions, wrapping) is [`pes_ref.core.grid`][pes_ref.core.grid]; the
 energy and slope between the nodes are the surface's interpolation, dispatched through
-:mod:`pes_ref.core.interpolations` (the bilinear rule of docs/spec.md section 2 by default).
+[`pes_ref.core.interpolations`][pes_ref.core.interpolations] (the bilinear rule of docs/spec.md section 2 by default).
 """
 from __future__ import annotations
 
@@ -33,9 +33,9 @@ class Surface:
     periodic : sequence of 2 bool
         (False, False) plane, one True a cylinder, (True, True) a torus.
     interpolation : {"bilinear", "bicubic"}
-        A name in :data:`pes_ref.core.interpolations.INTERPOLATIONS`: "bilinear"
+        A name in `pes_ref.core.interpolations.INTERPOLATIONS`: "bilinear"
         (default) is docs/spec.md section 2, the paper's rule; "bicubic" the C1 Catmull-Rom
-        option of :mod:`pes_ref.core.bicubic` (``docs/variants.md``).
+        option of [`pes_ref.core.bicubic`][pes_ref.core.bicubic] (``docs/variants.md``).
     """
 
     values: np.ndarray
@@ -94,7 +94,7 @@ class Surface:
         return self.lower[axis] + self.spacing[axis] * np.arange(self.values.shape[axis])
 
     def locate(self, q) -> Cells:
-        """Cells, fractions and switches of points ``q`` (N, 2) (:func:`pes_ref.core.grid.locate`)."""
+        """Cells, fractions and switches of points ``q`` (N, 2) ([`pes_ref.core.grid.locate`][pes_ref.core.grid.locate])."""
         q = checks.as_float_array("q", q, shape=(None, 2))
         return locate(q, self.lower, self.spacing, self.values.shape, self.periodic)
 

@@ -2,12 +2,13 @@
 
 Each term is a small set of pure functions over plain arrays (energy, force added into
 a buffer, and the adjoint of that force), plus a frozen, validated config
-(:class:`Spring`, :class:`Walls`) that a :class:`~pes_ref.core.scene.Scene` names only when it
+([`Spring`][pes_ref.core.terms.Spring], [`Walls`][pes_ref.core.terms.Walls]) that a [`Scene`][pes_ref.core.scene.Scene]
+names only when it
 has the effect, plus the hot loop's kernels of the same arithmetic with buffers: a forward
-one (:class:`SpringKernel`, :class:`WallKernel`, each a
-:class:`~pes_ref.core.kernels.TermForce`) and an adjoint one over the stored states
-(:class:`SpringAdjoint`, :class:`WallAdjoint`, each a
-:class:`~pes_ref.core.kernels.TermAdjoint`). The force is ``-dU/dq``; the adjoints
+one ([`SpringKernel`][pes_ref.core.terms.SpringKernel], [`WallKernel`][pes_ref.core.terms.WallKernel], each a
+[`TermForce`][pes_ref.core.kernels.TermForce]) and an adjoint one over the stored states
+([`SpringAdjoint`][pes_ref.core.terms.SpringAdjoint], [`WallAdjoint`][pes_ref.core.terms.WallAdjoint], each a
+[`TermAdjoint`][pes_ref.core.kernels.TermAdjoint]). The force is ``-dU/dq``; the adjoints
 implement ``docs/adjoint.md`` eqs. (A4)-(A5).
 """
 from __future__ import annotations
@@ -117,10 +118,11 @@ def wall_force_vjp(q, k: float, lo, hi, w, xbar) -> None:
 
 class WallKernel:
     """The wall force for N particles, with a buffer (the integrator's hot loop; a
-    :class:`~pes_ref.core.kernels.TermForce`).
+    [`TermForce`][pes_ref.core.kernels.TermForce]).
 
     ``add_force(q, out)``, bound once here: ``out += k (clip(q, a, b) - q)``, which is
-    ``k (a - q)^+ - k (q - b)^+`` since ``a < b`` (bit-identical to :func:`wall_add_force`:
+    ``k (a - q)^+ - k (q - b)^+`` since ``a < b`` (bit-identical to
+    [`wall_add_force`][pes_ref.core.terms.wall_add_force]:
     one of the two terms is exactly 0): four whole-array operations per call instead of
     eight with temporaries. ``k``, ``lo`` and ``hi`` broadcast to (N, 2) (a population's
     walls differ per particle).
@@ -146,14 +148,14 @@ class WallKernel:
 
 
 class WallAdjoint:
-    """The adjoint of :class:`WallKernel` over stored states ``xs`` (T+1, N, 2) (eq. (A5);
-    a :class:`~pes_ref.core.kernels.TermAdjoint`; the walls have no parameter gradients).
+    """The adjoint of [`WallKernel`][pes_ref.core.terms.WallKernel] over stored states ``xs`` (T+1, N, 2) (eq. (A5);
+    a [`TermAdjoint`][pes_ref.core.kernels.TermAdjoint]; the walls have no parameter gradients).
 
     ``force_vjp(n, w, xbar)``, bound once here and called for states in descending order
     (a backward pass): ``xbar -= k w`` where a wall is active (``clip(q, a, b) != q``). The
     factors ``k s`` with ``s = (clip(q, a, b) != q)`` are computed a chunk of states at a
     time, so that a state costs ``xbar -= (k s) w``, two operations (bit-identical to
-    :func:`wall_force_vjp`: s is 0 or 1 and k > 0).
+    [`wall_force_vjp`][pes_ref.core.terms.wall_force_vjp]: s is 0 or 1 and k > 0).
     """
 
     #: Particle-states whose ``k s`` factors are computed at once: three whole-chunk
@@ -212,7 +214,8 @@ def spring_axes(k) -> tuple:
 
 
 def _delta_into(q, center, wrap, out) -> np.ndarray:
-    """:func:`spring_delta` into ``out``: ``q - c``, the minimum image on the axes of ``wrap``
+    """[`spring_delta`][pes_ref.core.terms.spring_delta] into ``out``: ``q - c``, the minimum image on the axes of
+    ``wrap``
     (``(d, L_d / 2, L_d)`` per periodic axis), the same operations."""
     np.subtract(q, center, out=out)
     for d, half, L in wrap:
@@ -234,11 +237,11 @@ def _spring_arrays(k, center, length, periodic, n_particles: int, axes=(0, 1)):
 
 class SpringKernel:
     """The spring force for N particles, with buffers (the hot loop; a
-    :class:`~pes_ref.core.kernels.TermForce`).
+    [`TermForce`][pes_ref.core.kernels.TermForce]).
 
     ``add_force(q, out)``, bound once here: ``out -= k delta``, the arithmetic of
-    :func:`spring_add_force` into preallocated buffers; the minimum image only on the
-    periodic axes where the spring pulls (:func:`spring_axes`): on an axis whose ``k`` is 0
+    [`spring_add_force`][pes_ref.core.terms.spring_add_force] into preallocated buffers; the minimum image only on the
+    periodic axes where the spring pulls ([`spring_axes`][pes_ref.core.terms.spring_axes]): on an axis whose ``k`` is 0
     everywhere ``out -= 0 delta`` changes no value, wrapped or not. Built only for a
     spring that pulls on some axis."""
 
@@ -259,12 +262,12 @@ class SpringKernel:
 
 
 class SpringAdjoint:
-    """The adjoint of :class:`SpringKernel` over stored states ``xs`` (T+1, N, 2) (eq. (A4);
-    a :class:`~pes_ref.core.kernels.TermAdjoint`).
+    """The adjoint of [`SpringKernel`][pes_ref.core.terms.SpringKernel] over stored states ``xs`` (T+1, N, 2) (eq. (A4);
+    a [`TermAdjoint`][pes_ref.core.kernels.TermAdjoint]).
 
     ``force_vjp(n, w, xbar)``, bound once here: ``xbar -= k w``, and as wanted
     ``spring_k += -delta w`` and ``spring_center += k w`` (N, 2), returned by
-    :meth:`gradients` (the arithmetic of :func:`spring_force_vjp` summed over the states).
+    `gradients` (the arithmetic of [`spring_force_vjp`][pes_ref.core.terms.spring_force_vjp] summed over the states).
     """
 
     def __init__(self, k, center, length, periodic, xs: np.ndarray, want_k: bool, want_center: bool):

@@ -2,21 +2,25 @@
 
 Eq. (1) needs r, the distance from a node to blocked space. The nodes alone say only
 which side they are on, so a distance taken from them (a Euclidean distance transform
-of the node mask, :func:`mask_distance`) is quantized to the grid: neighbouring nodes
+of the node mask, [`mask_distance`][pes_ref.devices.boundary.mask_distance]) is quantized to the grid: neighbouring
+nodes
 share a distance and a quasistatic drive stalls in a free channel. Here the boundary
 is located between the nodes instead:
 
 1. **Crossings.** On every grid edge whose two nodes differ (one blocked, one free),
    the point where the parts start to overlap is found by bisection on the exact
-   overlap test of the posed geometry (:func:`locate_crossings`, ``steps`` halvings:
+   overlap test of the posed geometry ([`locate_crossings`][pes_ref.devices.boundary.locate_crossings], ``steps``
+   halvings:
    within ``h / 2**(steps + 1)``).
 2. **Polyline.** Marching squares joins the crossings of each cell into segments
-   (:func:`boundary_segments`); in a cell with four crossings (two blocked corners on a
+   ([`boundary_segments`][pes_ref.devices.boundary.boundary_segments]); in a cell with four crossings (two blocked
+   corners on a
    diagonal) each blocked corner is cut off by its own segment. Where the polyline's
    neighbouring segments run straight into a cell from both sides and their lines meet
    inside it, that point is a corner of the obstacle and the cell's segment is bent there.
-3. **Distance.** Every node's distance to the nearest segment (:func:`grid_distance`),
-   exact within a band around the boundary (:data:`BAND` spacings, or eq. (1)'s cut-off
+3. **Distance.** Every node's distance to the nearest segment
+([`grid_distance`][pes_ref.devices.boundary.grid_distance]),
+   exact within a band around the boundary (`BAND` spacings, or eq. (1)'s cut-off
    r_c and two spacings more for a device) and propagated beyond, where it stays within
    about h/2 (measured: 0.6 h deep inside a large obstacle), negative at blocked nodes.
    Periodic axes use the minimum image.
@@ -103,7 +107,7 @@ def boundary_segments(mask, crossings, lower, spacing, periodic, corners: bool =
     its points may lie past ``upper`` there: unwrapped). A cell with two crossings gives
     one segment; one with four (two blocked corners on a diagonal) gives two, each cutting
     off one blocked corner. With ``corners``, a corner of the obstacle inside a cell is put
-    back (:func:`_corners`) instead of being cut off by the chord between the crossings.
+    back (`_corners`) instead of being cut off by the chord between the crossings.
 
     With ``return_ids`` (and ``corners`` False) it also returns the crossing each end point is
     (M, 2) int: ``axis * n0 * n1 + i * n1 + j`` for the crossing on the edge from node (i, j)
@@ -154,7 +158,7 @@ def _corners(seg, end_ids, cell, h) -> np.ndarray:
 
     Each segment's two end points are crossings shared with the neighbouring segments of the
     polyline. Where the polyline runs straight into this cell on both sides (the three
-    crossings before each end on one line, within :data:`STRAIGHT` spacings: a polygonal
+    crossings before each end on one line, within `STRAIGHT` spacings: a polygonal
     obstacle's edge over two cells or more), the two lines meet at the corner: if they meet
     ahead of both crossings, in the cell or one next to it (a corner may poke between two
     free nodes into the next cell), and no grid node lies between the chord and that point,
@@ -256,7 +260,7 @@ def grid_distance(segments, lower, spacing, shape, periodic, reach: float | None
     shape : (n0, n1)
     periodic : sequence of 2 bool
     reach : float, optional
-        Half-width of the exact band, in C-space units; default :data:`BAND` spacings of the
+        Half-width of the exact band, in C-space units; default `BAND` spacings of the
         coarser axis.
     return_nearest : bool
         Also return, shape (n0, n1), the index of the segment each node's exact distance is

@@ -2,31 +2,32 @@
 
 The surface of a device is eq. (1) of the C-space's distance to blocked space, sampled on
 the grid. Two things make it say something else than the parts do, and both show in the
-distance field of the computed C-space (:attr:`pes_ref.devices.cspace.CSpace.distance`):
+distance field of the computed C-space (`pes_ref.devices.cspace.CSpace.distance`):
 
 - **The barrier is wider than the clearance.** Where a free channel (a locked Geneva
   wheel's play, a pin in its slot) is narrower than ``2 r_c``, eq. (1) acts everywhere
   across it: no pose in it is free of the barrier, and the barriers of its two walls push
   the state along wherever the channel's width changes (a "locked" wheel is dragged). It
-  matters once a wall's push at the channel's centre is more than :data:`BARRIER_SHARE` of
+  matters once a wall's push at the channel's centre is more than `BARRIER_SHARE` of
   the barrier's force where it holds a load, which is below about 0.7 r_c.
 - **The grid cannot resolve the channel.** The surface is interpolated between nodes; a
-  channel whose half-width spans fewer than :data:`RESOLVE_CELLS` cells across it is a few
+  channel whose half-width spans fewer than `RESOLVE_CELLS` cells across it is a few
   nodes wide or none: the interpolated surface misplaces its walls, and a quasistatic drive
   may stall in it.
 
 The channels are found on the *ridge* of the distance field: the nodes where the distance
-peaks along a grid axis that crosses the channel steeply (:data:`CROSSING`). Across a
+peaks along a grid axis that crosses the channel steeply (`CROSSING`). Across a
 channel the distance is a tent whose peak is the channel's half-width ``w``, located between
-the nodes from the node and its two neighbours (:func:`ridge`); the tent's slope gives the
+the nodes from the node and its two neighbours ([`ridge`][pes_ref.devices.clearance.ridge]); the tent's slope gives the
 direction across the channel, and so the grid's cell extent across it,
 ``h_n = |n0| h0 + |n1| h1``. A ridge node is narrow when ``w < BARRIER_REACH r_c`` (the
 barrier) or ``w < RESOLVE_CELLS h_n`` (the grid). A corner of free space also has a ridge
 that narrows to nothing; a channel is long. So the narrow ridge nodes count only as
-stretches (8-connected, across a periodic seam) at least :data:`MIN_LENGTH` times their
-median half-width long, and no shorter than :data:`MIN_CELLS` cells.
+stretches (8-connected, across a periodic seam) at least `MIN_LENGTH` times their
+median half-width long, and no shorter than `MIN_CELLS` cells.
 
-:func:`check_clearance` returns one :class:`Finding` per kind, with the narrowest stretch, the
+[`check_clearance`][pes_ref.devices.clearance.check_clearance] returns one
+[`Finding`][pes_ref.devices.clearance.Finding] per kind, with the narrowest stretch, the
 numbers and what to change; ``analyze DEVICE.toml`` prints each as one ``warning:`` line.
 """
 from __future__ import annotations
@@ -166,7 +167,7 @@ def _stretches(mask, periodic):
 
 def _narrow(width, narrow, spacing, periodic) -> list:
     """The narrow stretches that count: (node indices i, j, their median half-width) of each
-    one at least :data:`MIN_LENGTH` times its median half-width and :data:`MIN_CELLS` cells long."""
+    one at least `MIN_LENGTH` times its median half-width and `MIN_CELLS` cells long."""
     labels = _stretches(narrow, periodic)
     out = []
     for lab in np.unique(labels[labels > 0]):
@@ -199,7 +200,8 @@ def _sig(x: float, digits: int = 2, up: bool = False) -> float:
 
 
 def check_clearance(device, cspace=None) -> list:
-    """Where the device's surface cannot be trusted: a list of :class:`Finding` (empty: none found).
+    """Where the device's surface cannot be trusted: a list of [`Finding`][pes_ref.devices.clearance.Finding] (empty:
+    none found).
 
     Parameters
     ----------
@@ -210,7 +212,7 @@ def check_clearance(device, cspace=None) -> list:
     Returns
     -------
     list of Finding
-        At most one per kind (:data:`KINDS`): the narrowest stretch of the kind.
+        At most one per kind (`KINDS`): the narrowest stretch of the kind.
     """
     cs = device.cspace() if cspace is None else cspace
     h = np.asarray(device.spacing, dtype=float)

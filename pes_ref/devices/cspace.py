@@ -8,20 +8,21 @@ energy by the artificial potential field
 with r the distance from a point to blocked space; the result is summed with the
 energies of the device's springs into one surface.
 
-Grid. A :class:`CSpaceGrid` samples the coordinates (q0, q1) of two parts on the nodes of
-a :class:`pes_ref.Surface` of the same ``lower``, ``upper``, shape and topology (periodic
+Grid. A [`CSpaceGrid`][pes_ref.devices.cspace.CSpaceGrid] samples the coordinates (q0, q1) of two parts on the nodes of
+a [`pes_ref.Surface`][pes_ref.core.surface.Surface] of the same ``lower``, ``upper``, shape and topology (periodic
 spacing ``L/n``, otherwise ``L/(n-1)``). Each part is posed once per node coordinate of
-its axis (:func:`pes_ref.devices.geometry.pose`); a node is blocked where the posed
+its axis ([`pes_ref.devices.geometry.pose`][pes_ref.devices.geometry.pose]); a node is blocked where the posed
 parts' interiors overlap (shapely's ``intersects`` on every pair, with part 0's poses
 prepared, then the DE-9IM test on the intersecting nodes next to a free one, where a
 mere touch is free).
 
-Distance. :meth:`CSpaceGrid.compute` locates the boundary between the nodes and takes
-the exact distance to it (:mod:`pes_ref.devices.boundary`): sub-cell accurate, so eq. (1)
+Distance. [`CSpaceGrid.compute`][pes_ref.devices.cspace.CSpaceGrid.compute] locates the boundary between the nodes and
+takes
+the exact distance to it ([`pes_ref.devices.boundary`][pes_ref.devices.boundary]): sub-cell accurate, so eq. (1)
 is smooth across the grid and a quasistatic drive does not stall in a free channel.
 
 Cap. Eq. (1) diverges at r = 0 and the grid cannot resolve r below about half a spacing,
-so :func:`apf_energy` uses eq. (1) only for ``r >= r_min`` (default ``min(h)/2``) and
+so [`apf_energy`][pes_ref.devices.cspace.apf_energy] uses eq. (1) only for ``r >= r_min`` (default ``min(h)/2``) and
 continues it *linearly* below, with the slope it has at ``r_min``:
 
     E(r) = E(r_min) + |E'(r_min)| (r_min - r)     for r < r_min (blocked nodes: r < 0).
@@ -63,7 +64,7 @@ def blocked_mask(poses0, poses1, periodic, progress=None) -> np.ndarray:
     ----------
     poses0, poses1 : ndarray of shapely geometries, shapes (n0,), (n1,)
         Part 0 at every node of axis 0, part 1 at every node of axis 1
-        (:func:`pes_ref.devices.geometry.pose`); ``poses0`` get prepared.
+        ([`pes_ref.devices.geometry.pose`][pes_ref.devices.geometry.pose]); ``poses0`` get prepared.
     periodic : sequence of 2 bool
         For the neighbours of a node across a seam.
     progress : callable, optional
@@ -105,7 +106,7 @@ def _next_to(mask: np.ndarray, periodic) -> np.ndarray:
 
 class _SubPoses:
     """Poses of each part between the nodes, made on demand (each at most once): the
-    bisection of :func:`pes_ref.devices.boundary.locate_crossings` asks for them."""
+    bisection of [`pes_ref.devices.boundary.locate_crossings`][pes_ref.devices.boundary.locate_crossings] asks for them."""
 
     def __init__(self, parts, nodes, spacing, tolerance):
         self.parts, self.nodes, self.h, self.tol = parts, nodes, spacing, tolerance
@@ -124,7 +125,7 @@ class _SubPoses:
 
 @dataclass(frozen=True)
 class CSpace:
-    """A C-space computed on its grid (:meth:`CSpaceGrid.compute`).
+    """A C-space computed on its grid ([`CSpaceGrid.compute`][pes_ref.devices.cspace.CSpaceGrid.compute]).
 
     Attributes
     ----------
@@ -145,7 +146,7 @@ class CSpace:
     times: dict = dc_field(default_factory=dict)
 
     def surface(self, v: float, r_c: float, springs=(), r_min=None) -> Surface:
-        """Eq. (1) of :attr:`distance` plus ``springs`` (:func:`build_surface`)."""
+        """Eq. (1) of [`distance`][pes_ref.devices.cspace.CSpaceGrid.distance] plus ``springs`` ([`build_surface`][pes_ref.devices.cspace.build_surface])."""
         g = self.grid
         return build_surface(self.distance, g.lower, g.upper, g.periodic, v, r_c, r_min, springs)
 
@@ -202,7 +203,7 @@ def apf_energy(r, v: float, r_c: float, r_min: float) -> np.ndarray:
     r_c : float > 0
         Cut-off distance.
     r_min : float, 0 < r_min < r_c
-        Smallest resolved distance (:func:`default_r_min`).
+        Smallest resolved distance ([`default_r_min`][pes_ref.devices.cspace.default_r_min]).
 
     Returns
     -------
@@ -212,12 +213,13 @@ def apf_energy(r, v: float, r_c: float, r_min: float) -> np.ndarray:
 
 
 def apf_slope(r, v: float, r_c: float, r_min: float) -> np.ndarray:
-    """dE/dr of :func:`apf_energy`: ``-v (1/r - 1/r_c) / r^2`` on [r_min, r_c), ``E'(r_min)`` below, 0 above."""
+    """dE/dr of [`apf_energy`][pes_ref.devices.cspace.apf_energy]: ``-v (1/r - 1/r_c) / r^2`` on [r_min, r_c), ``E'(r_min)`` below, 0 above."""
     return _apf(*_apf_args(r, v, r_c, r_min))[1]
 
 
 def apf_curvature(r, v: float, r_c: float, r_min: float) -> np.ndarray:
-    """d2E/dr2 of :func:`apf_energy`: ``v (3/r^4 - 2/(r_c r^3))`` on [r_min, r_c), else 0.
+    """d2E/dr2 of [`apf_energy`][pes_ref.devices.cspace.apf_energy]: ``v (3/r^4 - 2/(r_c r^3))`` on [r_min, r_c), else
+    0.
 
     Its largest value, at ``r = r_min``, is the barrier's stiffness for the explicit
     integrator's stability limit ``dt < 2 sqrt(m / k)``.
@@ -301,9 +303,9 @@ def build_surface(distance, lower, upper, periodic, v: float, r_c: float, r_min=
     Parameters
     ----------
     distance : array_like, shape (n0, n1)
-        Signed distance to blocked space at the nodes (:attr:`CSpace.distance`).
+        Signed distance to blocked space at the nodes (`CSpace.distance`).
     lower, upper, periodic
-        The surface's domain, as in :class:`pes_ref.Surface`.
+        The surface's domain, as in [`pes_ref.Surface`][pes_ref.core.surface.Surface].
     v, r_c : float
         Eq. (1)'s strength and cut-off.
     r_min : float, optional
@@ -342,7 +344,7 @@ class CSpaceGrid:
         A periodic axis must belong to a rotating part and span exactly 2 pi.
     tolerance : float, optional
         The circles' tolerance (a length); default
-        :func:`pes_ref.devices.geometry.default_tolerance` of this grid.
+        [`pes_ref.devices.geometry.default_tolerance`][pes_ref.devices.geometry.default_tolerance] of this grid.
     """
 
     part0: Part
@@ -398,7 +400,7 @@ class CSpaceGrid:
 
     @property
     def spacing(self) -> np.ndarray:
-        """Node spacing h, shape (2,) (the :class:`pes_ref.Surface` convention)."""
+        """Node spacing h, shape (2,) (the [`pes_ref.Surface`][pes_ref.core.surface.Surface] convention)."""
         return grid_spacing(self.lower, self.upper, self.shape, np.asarray(self.periodic))
 
     def nodes(self, axis: int) -> np.ndarray:
@@ -410,13 +412,16 @@ class CSpaceGrid:
         return tuple(pose(p, self.nodes(d), self.tolerance) for d, p in enumerate(self.parts))
 
     def blocked(self, progress=None) -> np.ndarray:
-        """Blocked nodes, (n0, n1) bool (:func:`blocked_mask`)."""
+        """Blocked nodes, (n0, n1) bool ([`blocked_mask`][pes_ref.devices.cspace.blocked_mask])."""
         return self.posed_blocked(progress)[1]
 
     def posed_blocked(self, progress=None) -> tuple:
-        """The parts posed at every node and the blocked nodes (:func:`blocked_mask`), the
-        first and cheapest part of :meth:`compute`: ``(poses, mask, times)``, what
-        :meth:`compute` takes as ``blocked``. A refusal that needs only the mask (a C-space
+        """The parts posed at every node and the blocked nodes ([`blocked_mask`][pes_ref.devices.cspace.blocked_mask]),
+        the
+        first and cheapest part of [`compute`][pes_ref.devices.cspace.CSpaceGrid.compute]: ``(poses, mask, times)``,
+        what
+        [`compute`][pes_ref.devices.cspace.CSpaceGrid.compute] takes as ``blocked``. A refusal that needs only the mask
+        (a C-space
         with no free node) comes from it before the boundary and the distance are computed."""
         progress = progress or _no_progress
         times = {}
@@ -438,9 +443,10 @@ class CSpaceGrid:
             per bisection step, ``"distance"`` once done.
         reach : float, optional
             The distance is exact within ``reach`` of the boundary (C-space units; default
-            :data:`pes_ref.devices.boundary.BAND` spacings), and within about h/2 beyond.
+            `pes_ref.devices.boundary.BAND` spacings), and within about h/2 beyond.
         blocked : tuple, optional
-            What :meth:`posed_blocked` returned for this grid (computed here when None).
+            What [`posed_blocked`][pes_ref.devices.cspace.CSpaceGrid.posed_blocked] returned for this grid (computed
+            here when None).
 
         Returns
         -------
@@ -475,9 +481,9 @@ class CSpaceGrid:
         return np.where(mask, -d, d)
 
     def distance(self) -> np.ndarray:
-        """Signed distance to the boundary, (n0, n1) (:meth:`compute`)."""
+        """Signed distance to the boundary, (n0, n1) ([`compute`][pes_ref.devices.cspace.CSpaceGrid.compute])."""
         return self.compute().distance
 
     def surface(self, v: float, r_c: float, springs=(), r_min=None) -> Surface:
-        """Eq. (1) of the distance plus ``springs`` (:func:`build_surface`)."""
+        """Eq. (1) of the distance plus ``springs`` ([`build_surface`][pes_ref.devices.cspace.build_surface])."""
         return self.compute().surface(v, r_c, springs, r_min)

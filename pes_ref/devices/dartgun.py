@@ -14,13 +14,14 @@ by its spring. The C-space is the plane.
   speed is the exit speed (the paper: "the horizontal speed the particle achieves when it
   exits the potential energy surface").
 
-The device is the shipped file ``pes_ref/devices/data/dartgun.toml`` (:func:`dartgun_device`):
+The device is the shipped file ``pes_ref/devices/data/dartgun.toml``
+([`dartgun_device`][pes_ref.devices.dartgun.dartgun_device]):
 its surface is eq. (1) of the C-space plus both springs baked into the grid
-(:mod:`pes_ref.devices.cspace`); its scenes have inertia, damping, walls on the edges the dart
+([`pes_ref.devices.cspace`][pes_ref.devices.cspace]); its scenes have inertia, damping, walls on the edges the dart
 and trigger must not leave (q0 upper, q1 lower and upper), and the pushes (Window effects).
 
 Every run goes through ``run(device, scene, x0) -> Trajectory`` (default: the surface model,
-:func:`pes_ref.core.scene.simulate` of the scene), so the same analysis runs on another
+[`pes_ref.core.scene.simulate`][pes_ref.core.scene.simulate] of the scene), so the same analysis runs on another
 engine (the rigid parts: ``pes_ref.rigid.engines.ENGINES["rigid"].run``).
 """
 from __future__ import annotations
@@ -47,7 +48,7 @@ __all__ = ["dartgun_device", "dartgun_start", "reload_scene", "fire_scene", "run
 def dartgun_device() -> Device:
     """The shipped dart gun (``pes_ref/devices/data/dartgun.toml``): the dart slides along +x by
     q0, the trigger along +y by q1; ``analysis`` holds the latch and stop positions
-    ``latch_q0``, ``stop_q0`` and the ``settle`` time of :func:`dartgun_start`."""
+    ``latch_q0``, ``stop_q0`` and the ``settle`` time of [`dartgun_start`][pes_ref.devices.dartgun.dartgun_start]."""
     return shipped_device("dartgun")
 
 
@@ -116,7 +117,7 @@ def run_reload(device: Device, forces, push_time: float = 1.0, duration: float =
     Latched where the run ends with the tooth up in the notch: ``q1 > 0`` (the tooth is
     above the dart's underside, which only the notch allows) and ``q0`` between the latch
     and the stop (within ``r_c``). From there the dart cannot leave; it comes to rest
-    against the notch's wall (:func:`latched_state` finds that equilibrium).
+    against the notch's wall ([`latched_state`][pes_ref.devices.dartgun.latched_state] finds that equilibrium).
     """
     a = _analysis(device)
     scene = reload_scene(device, forces, push_time, duration)
@@ -161,18 +162,18 @@ def run_fire(device: Device, trigger_forces, push_time: float = 0.3, duration: f
     return FireResult(traj, fired, speed, t_exit)
 
 
-#: Quasistatic steps per round of :func:`settle`, and the most rounds it takes.
+#: Quasistatic steps per round of `settle`, and the most rounds it takes.
 SETTLE_STEPS, SETTLE_ROUNDS = 4000, 50
 
 
 def settle(device: Device, state, tol: float = 0.05, run=None) -> np.ndarray:
-    """Relax ``state`` (1, 2) to the nearby equilibrium: rounds of :data:`SETTLE_STEPS`
+    """Relax ``state`` (1, 2) to the nearby equilibrium: rounds of `SETTLE_STEPS`
     quasistatic steps, with mobility ``0.5 / stiffness`` of the stiffest grid term so each
     step is stable, until the mean state of a round's second half moves by less than ``tol``
     grid spacings from the previous round's (a dart still bouncing in the notch after a
     reload needs several rounds; pressed into a corner, the state keeps chattering across
     cell lines, by up to a third of a spacing on a coarse grid); returns the last state,
-    or a ValueError after :data:`SETTLE_ROUNDS` rounds."""
+    or a ValueError after `SETTLE_ROUNDS` rounds."""
     mu = 0.5 / grid_stiffness(device.surface())
     scene = device.scene(SETTLE_STEPS, mode="quasistatic", mobility=(mu, mu))
     x = np.asarray(state, dtype=float).reshape(1, 2)
@@ -190,7 +191,7 @@ def settle(device: Device, state, tol: float = 0.05, run=None) -> np.ndarray:
 
 def latched_state(device: Device, start=None, run=None) -> np.ndarray:
     """The latched equilibrium (1, 2): the end of a reload with 1.5 x the static latch force
-    ``dart_k * latch_q0``, relaxed by :func:`settle`; a ValueError if that reload does not latch."""
+    ``dart_k * latch_q0``, relaxed by [`settle`][pes_ref.devices.dartgun.settle]; a ValueError if that reload does not latch."""
     force = 1.5 * _dart_k(device) * _analysis(device)["latch_q0"]
     res = run_reload(device, [force], start=start, run=run)
     if not res.latched[0]:
@@ -200,7 +201,7 @@ def latched_state(device: Device, start=None, run=None) -> np.ndarray:
 
 def min_reload_force(device: Device, push_time: float, hi: float, tol: float, start=None,
                      duration: float = 3.0, run=None) -> float:
-    """Smallest reload force that latches (:func:`pes_ref.devices.probes.threshold_search`)."""
+    """Smallest reload force that latches ([`pes_ref.devices.probes.threshold_search`][pes_ref.devices.probes.threshold_search])."""
     start = dartgun_start(device, run) if start is None else start
     return threshold_search(lambda f: run_reload(device, f, push_time, duration, start, run).latched, 0.0, hi, tol)
 
@@ -293,7 +294,8 @@ def analyze_dartgun(device: Device | None = None, reload_force: float = DARTGUN_
                     progress=None, run=None) -> DartGunReport:
     """Reload with ``reload_force`` for ``reload_time``, the smallest force that reloads, the exit
     speed for each trigger force (fired from the latched state), and the trajectories' bounding boxes
-    (``device`` default: :func:`dartgun_device`; ``progress`` is passed to its C-space; ``run``:
+    (``device`` default: [`dartgun_device`][pes_ref.devices.dartgun.dartgun_device]; ``progress`` is passed to its
+    C-space; ``run``:
     the engine of every run, default the surface model)."""
     device = dartgun_device() if device is None else device
     _analysis(device)

@@ -1,6 +1,7 @@
 """A device: two parts, the grid of their C-space, eq. (1), springs, dynamics and a start.
 
-A :class:`Device` is everything a device file says (:mod:`pes_ref.devices.device_file`,
+A [`Device`][pes_ref.devices.device.Device] is everything a device file says
+([`pes_ref.devices.device_file`][pes_ref.devices.device_file],
 ``docs/devices.md``), checked: it builds its C-space, its surface and the scenes that run
 on it. The C-space and the surface are computed once per device object, on first use.
 """
@@ -48,12 +49,13 @@ class Device:
         Eq. (1)'s cap (default half the finer spacing).
     walls : pes_ref.Walls, optional
     tolerance : float, optional
-        The circles' tolerance (default :func:`pes_ref.devices.geometry.default_tolerance`).
+        The circles' tolerance (default
+        [`pes_ref.devices.geometry.default_tolerance`][pes_ref.devices.geometry.default_tolerance]).
     name : str
     analysis : dict
         Settings of the device's own analysis (``analyze ratchet``, ``analyze dartgun``).
     restitution, friction : float
-        The rigid engine's contact (:mod:`pes_ref.rigid`): the coefficient of restitution in
+        The rigid engine's contact ([`pes_ref.rigid`][pes_ref.rigid]): the coefficient of restitution in
         [0, 1] (0: inelastic) and of friction (>= 0; 0: frictionless). The surface model has
         neither.
     """
@@ -163,13 +165,14 @@ class Device:
 
     def blocked(self, progress=None) -> np.ndarray:
         """The blocked nodes of the C-space grid (bool, the grid's shape), once per device: the
-        first part of :meth:`cspace`, enough to refuse a C-space with no free node."""
+        first part of [`cspace`][pes_ref.devices.device.Device.cspace], enough to refuse a C-space with no free node."""
         if "blocked" not in self._cache:
             self._cache["blocked"] = self._grid.posed_blocked(progress)
         return self._cache["blocked"][1]
 
     def cspace(self, progress=None) -> CSpace:
-        """The computed C-space (:meth:`pes_ref.devices.cspace.CSpaceGrid.compute`), once per device;
+        """The computed C-space
+        ([`pes_ref.devices.cspace.CSpaceGrid.compute`][pes_ref.devices.cspace.CSpaceGrid.compute]), once per device;
         its distance is exact out to eq. (1)'s cut-off r_c and two spacings more."""
         if "cspace" not in self._cache:
             h = float(np.max(self.spacing))
@@ -212,9 +215,9 @@ class Device:
         effects : effect or sequence of effects
         mode : {"dynamic", "quasistatic"}
         dt : float, optional
-            Default :meth:`stable_dt`.
+            Default [`stable_dt`][pes_ref.devices.device.Device.stable_dt].
         mobility : array_like (2,), optional
-            Quasistatic only; default :meth:`stable_mobility`.
+            Quasistatic only; default [`stable_mobility`][pes_ref.devices.device.Device.stable_mobility].
         """
         dt = self.stable_dt() if dt is None else dt
         if mode == "quasistatic":

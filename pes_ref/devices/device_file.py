@@ -1,12 +1,13 @@
-"""Device files: a TOML file (read with :mod:`tomllib`) that describes a device completely.
+"""Device files: a TOML file (read with `tomllib`) that describes a device completely.
 
 Every key, its unit and default is documented in ``docs/devices.md``; this module is the
 one place that reads them. A file is checked whole before anything is computed: an
-unknown key, a missing one, or a bad value raises one :class:`DeviceFileError` whose
+unknown key, a missing one, or a bad value raises one [`DeviceFileError`][pes_ref.devices.device_file.DeviceFileError]
+whose
 message names the file and the key (``ratchet.toml: part[1].shapes[0].circle.radius:
 expected a number > 0, got -1``).
 
-The format is versioned by the top-level key ``format`` (:data:`FORMAT`); a file of
+The format is versioned by the top-level key ``format`` (`FORMAT`); a file of
 another version is refused.
 """
 from __future__ import annotations
@@ -72,7 +73,7 @@ def _corners(r, v, w, k):
 
 
 class _Reader(KeyReader):
-    """Checks values and raises :class:`DeviceFileError` naming ``path`` and the key."""
+    """Checks values and raises [`DeviceFileError`][pes_ref.devices.device_file.DeviceFileError] naming ``path`` and the key."""
 
     error = DeviceFileError
     noun = "a device file"
@@ -103,7 +104,7 @@ MOTIONS = {
 
 
 # --------------------------------------------------------------------------- the keys
-# Each section's keys: type (:data:`pes_ref.core.runtime.keyfile.TYPES` and the reader's own),
+# Each section's keys: type (`pes_ref.core.runtime.keyfile.TYPES` and the reader's own),
 # default and unit; docs/devices.md documents every one (a test keeps the two equal).
 
 TOP_KEYS = {"format": Key("format"), "name": Key("text", None), "description": Key("text", ""),
@@ -136,7 +137,7 @@ ANALYSES = {
     "dartgun": {"latch_q0": Key("positive", unit="length"), "stop_q0": Key("positive", unit="length"),
                 "settle": Key("positive", unit="s")},
 }
-#: The device-file key of each argument of :class:`~pes_ref.devices.device.Device` whose refusal
+#: The device-file key of each argument of `Device` whose refusal
 #: names a key of its own (an argument not here is named as it is).
 FILE_KEYS = {"walls": "dynamics.walls", "upper": "cspace.upper", "lower": "cspace.lower", "shape": "cspace.shape",
              "periodic": "cspace.upper", "tolerance": "geometry.tolerance", "wall_margin": "dynamics.walls.margin",
@@ -233,7 +234,7 @@ def _analysis(r: _Reader, value) -> dict:
 # --------------------------------------------------------------------------- the file
 
 def parse_device(data: dict, path: str = "<device>") -> Device:
-    """Check the parsed TOML ``data`` of a device file and build its :class:`Device`."""
+    """Check the parsed TOML ``data`` of a device file and build its [`Device`][pes_ref.devices.device.Device]."""
     r = _Reader(path)
     top = r.table(data, "", TOP_KEYS)
     name = os.path.splitext(os.path.basename(path))[0] if top["name"] is None else top["name"]
@@ -271,7 +272,7 @@ def load_device(path) -> Device:
 
 
 def shipped_device(name: str) -> Device:
-    """A device shipped in the package (:data:`SHIPPED`), read from its file."""
+    """A device shipped in the package (`SHIPPED`), read from its file."""
     if name not in SHIPPED:
         raise checks.InputError("name", f"name must be one of {', '.join(SHIPPED)}, got {name!r}")
     with resources.as_file(resources.files("pes_ref.devices") / "data" / f"{name}.toml") as path:

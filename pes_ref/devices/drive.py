@@ -1,7 +1,7 @@
 """The drive analysis of any device: push one axis, follow the other.
 
 The first question about a mechanism: drive this axis, what does the other one do?
-:func:`drive` applies a constant force or torque ``load`` on the driven axis (the input)
+[`drive`][pes_ref.devices.drive.drive] applies a constant force or torque ``load`` on the driven axis (the input)
 of a device's surface and runs it, quasistatically (each step moves the state by the
 mobility times the net force, the paper's quasistatic mode) or dynamically (the device's
 masses, damping and step), until the input has travelled the requested distance or
@@ -19,7 +19,7 @@ travel (where the input first gets there), sampled every half input spacing, and
   turn, see ``advance``); for a translation, the change per unit of the travel achieved;
 - ``moving_fraction``: the share of the input's travel during which
   ``|dq_out/dq_in| > threshold`` (default 0.05), the ratio taken across
-  :data:`RATIO_CELLS` input spacings;
+  `RATIO_CELLS` input spacings;
 - ``max_ratio``: the largest ``|dq_out/dq_in|``;
 - ``jammed``: whether the input stopped short of the requested travel, and where.
 
@@ -27,9 +27,9 @@ Requested travel: ``cycles`` full turns of a periodic input; the distance from t
 to the grid's edge (in the load's direction) for a translation.
 
 Stall. The run goes in chunks; the input has stalled when, over the last stretch of
-steps in which it would move :data:`JAM_CELLS` input spacings without resistance, it
-advanced less than :data:`JAM_FRACTION` of a spacing (it moves at under 1% of its free
-speed). A run that reaches :data:`MAX_FREE_FACTOR` times the steps of a free run over the
+steps in which it would move `JAM_CELLS` input spacings without resistance, it
+advanced less than `JAM_FRACTION` of a spacing (it moves at under 1% of its free
+speed). A run that reaches `MAX_FREE_FACTOR` times the steps of a free run over the
 requested travel also stops, as jammed.
 """
 from __future__ import annotations
@@ -57,7 +57,7 @@ JAM_CELLS = 10.0
 JAM_FRACTION = 0.1
 #: A run stops (jammed) after this many times the steps a free run needs for the requested travel.
 MAX_FREE_FACTOR = 200.0
-#: States drawn per chunk of steps (the path of :class:`DriveResult`).
+#: States drawn per chunk of steps (the path of `DriveResult`).
 PATH_PER_CHUNK = 64
 #: Motion-law samples per input spacing.
 SAMPLES_PER_CELL = 2
@@ -67,7 +67,7 @@ RATIO_CELLS = 4
 
 
 def _ratio(q_in: np.ndarray, q_out: np.ndarray) -> np.ndarray:
-    """``dq_out/dq_in`` at every sample, by differences across :data:`RATIO_CELLS` input spacings
+    """``dq_out/dq_in`` at every sample, by differences across `RATIO_CELLS` input spacings
     (one-sided near the ends); empty for fewer than two samples."""
     if q_in.size < 2:
         return np.empty(0)
@@ -79,14 +79,14 @@ def _ratio(q_in: np.ndarray, q_out: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class DriveResult:
-    """The outcome of :func:`drive`.
+    """The outcome of [`drive`][pes_ref.devices.drive.drive].
 
     Attributes
     ----------
     q_in, q_out : ndarray, shape (S,)
         The motion law: the output where the input first reaches each sample of its travel.
     path : ndarray, shape (P, 2)
-        The states, thinned to :data:`PATH_PER_CHUNK` per chunk of steps (for drawing).
+        The states, thinned to `PATH_PER_CHUNK` per chunk of steps (for drawing).
     """
 
     device: str
@@ -193,8 +193,8 @@ def _requested(device: Device, axis: int, sign: float, start: np.ndarray, cycles
 
 def check_drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cycles=None, start=None,
                 threshold: float = THRESHOLD) -> tuple:
-    """The arguments of :func:`drive`, checked without computing anything (a keyed
-    :class:`~pes_ref.core.checks.InputError` for a bad one): ``(axis, load, mode, requested
+    """The arguments of [`drive`][pes_ref.devices.drive.drive], checked without computing anything (a keyed
+    [`InputError`][pes_ref.core.checks.InputError] for a bad one): ``(axis, load, mode, requested
     travel, start (2,), threshold)``."""
     axis = checks.as_nonneg_int("axis", axis)
     if axis > 1:
@@ -214,10 +214,11 @@ def check_drive(device: Device, axis: int, load: float, mode: str = "quasistatic
 
 
 def check_free(device: Device, start) -> None:
-    """Refuse a drive that has nowhere to go (a keyed :class:`~pes_ref.core.checks.InputError`):
+    """Refuse a drive that has nowhere to go (a keyed [`InputError`][pes_ref.core.checks.InputError]):
     a C-space blocked at every node (key ``cspace``), or a start inside blocked space, where
     the posed parts' interiors overlap (key ``start``; a touch is free). Needs only the blocked
-    nodes (:meth:`Device.blocked`), not the distance: it refuses before the costly part of the
+    nodes ([`Device.blocked`][pes_ref.devices.device.Device.blocked]), not the distance: it refuses before the costly
+    part of the
     C-space is computed. The start is tested on the exact geometry."""
     from pes_ref.devices.geometry import interiors_overlap, posed_geometries
 
@@ -258,8 +259,8 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
         Steps per chunk.
     engine : callable, optional
         ``engine(device, scene, x, v) -> Trajectory`` runs each chunk; default the surface
-        model (:func:`pes_ref.core.scene.simulate` of the device's scene). The rigid engine
-        (:func:`pes_ref.rigid.engine.simulate`) runs the parts in rigid contact instead.
+        model ([`pes_ref.core.scene.simulate`][pes_ref.core.scene.simulate] of the device's scene). The rigid engine
+        ([`pes_ref.rigid.engine.simulate`][pes_ref.rigid.engine.simulate]) runs the parts in rigid contact instead.
 
     Returns
     -------
@@ -268,8 +269,9 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     Raises
     ------
     pes_ref.core.checks.InputError
-        A bad argument (:func:`check_drive`), a C-space with no free node or a start inside
-        blocked space (:func:`check_free`).
+        A bad argument ([`check_drive`][pes_ref.devices.drive.check_drive]), a C-space with no free node or a start
+        inside
+        blocked space ([`check_free`][pes_ref.devices.drive.check_free]).
     """
     t_wall = time.perf_counter()
     axis, load, mode, requested, start, threshold = check_drive(device, axis, load, mode, cycles, start, threshold)
@@ -344,12 +346,13 @@ def _advances(s: np.ndarray, q_out: np.ndarray, periodic: bool, requested: float
 
 
 def drive_scene(device: Device, axis: int, load: float, mode: str, n_steps: int) -> tuple:
-    """The scene :func:`drive` runs (the constant ``load`` on ``axis``, in ``mode``, ``n_steps``
+    """The scene [`drive`][pes_ref.devices.drive.drive] runs (the constant ``load`` on ``axis``, in ``mode``,
+    ``n_steps``
     steps) and the steps in which the unresisted input moves one input spacing: ``(scene,
     steps_per_spacing)``: quasistatically, a spacing over the mobility's step; dynamically, the
-    longer of the damped drift's and the free fall's time per spacing from rest. :func:`drive`
+    longer of the damped drift's and the free fall's time per spacing from rest. [`drive`][pes_ref.devices.drive.drive]
     runs it, and so does a run that goes on from a drive's state (the rigid engine's look at a
-    stall, :mod:`pes_ref.rigid.engines`)."""
+    stall, [`pes_ref.rigid.engines`][pes_ref.rigid.engines])."""
     h = float(device.spacing[axis])
     force = np.zeros(2)
     force[axis] = load

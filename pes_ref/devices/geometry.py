@@ -1,27 +1,31 @@
 """Planar parts: shapes that move with one degree of freedom, posed and tested through shapely 2.
 
-A :class:`Part` is the union of its shapes (:class:`Polygon`, :class:`Circle`,
-:class:`Rectangle`, each optionally with shapes cut from it, ``minus``), which may be
+A [`Part`][pes_ref.devices.geometry.Part] is the union of its shapes ([`Polygon`][pes_ref.devices.geometry.Polygon],
+[`Circle`][pes_ref.devices.geometry.Circle],
+[`Rectangle`][pes_ref.devices.geometry.Rectangle], each optionally with shapes cut from it, ``minus``), which may be
 several disjoint pieces (a crank's pin and its locking disc), plus one motion relative
-to the frame: a :class:`Translation` along a direction, a :class:`Rotation` about a
-pivot, or a :class:`Drum`: a part drawn on a drum's surface unrolled, which turning the
+to the frame: a [`Translation`][pes_ref.devices.geometry.Translation] along a direction, a
+[`Rotation`][pes_ref.devices.geometry.Rotation] about a
+pivot, or a [`Drum`][pes_ref.devices.geometry.Drum]: a part drawn on a drum's surface unrolled, which turning the
 drum moves along the circumference (the drum cam of a pin moving along the drum's axis). Two parts and their coordinates (q0, q1) are a point of a 2D configuration space
 (paper, section "Synthesis of higher kinematic pair devices via configuration spaces");
 the point is *blocked* where the posed parts' interiors overlap (touching is free).
 
 The planar geometry is shapely 2's (GEOS): unions and differences build a part once,
-:func:`pose` moves it to many coordinates in one vectorized call, and
-:func:`interiors_overlap` decides many pose pairs at once. shapely is the optional extra
+[`pose`][pes_ref.devices.geometry.pose] moves it to many coordinates in one vectorized call, and
+[`interiors_overlap`][pes_ref.devices.geometry.interiors_overlap] decides many pose pairs at once. shapely is the
+optional extra
 ``devices`` (``pip install 'pes_ref[devices]'``); without it, building a shape raises
-:class:`MissingExtraError` naming that line.
+[`MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] naming that line.
 
 Circles. A circle becomes a regular polygon whose vertices lie just outside it, so that
 its edge is within ``tolerance`` (a length) of the true circle everywhere: n sides with
 ``cos(pi / n) >= (r - tol) / (r + tol)``, vertices at radius ``2 r / (1 + cos(pi / n))``.
 The C-space boundary then moves by at most ``tolerance`` divided by the contact's
 separation per unit of q (1 for a translation along the contact normal, the lever arm
-for a rotation, the drum's radius for a drum). :class:`~pes_ref.devices.cspace.CSpaceGrid`
-chooses the tolerance from its grid (:func:`default_tolerance`): the error stays below h/20
+for a rotation, the drum's radius for a drum). [`CSpaceGrid`][pes_ref.devices.cspace.CSpaceGrid]
+chooses the tolerance from its grid ([`default_tolerance`][pes_ref.devices.geometry.default_tolerance]): the error stays
+below h/20
 wherever that lever is at least the smallest circle's radius (a drum's lever is its radius).
 """
 from __future__ import annotations
@@ -46,7 +50,7 @@ class MissingExtraError(ImportError):
 
 
 def require_shapely():
-    """The ``shapely`` module (version 2 or later), or :class:`MissingExtraError` with the pip line."""
+    """The ``shapely`` module (version 2 or later), or [`MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] with the pip line."""
     try:
         import shapely
     except ImportError:
@@ -238,7 +242,7 @@ class Drum:
     frame (a follower's pin on the line y = 0) sits at ``(x, radius q)`` of the drawing, as a pin
     at (q0, q1) sits in a plate sliding along -y. The drawing repeats every turn: a pose holds
     the copies of the drawing, a turn apart, that cover y in ``[-2 pi radius, 2 pi radius]``
-    at every q (:meth:`tiled`), so a follower within a turn of y = 0 meets all of them."""
+    at every q ([`tiled`][pes_ref.devices.geometry.Drum.tiled]), so a follower within a turn of y = 0 meets all of them."""
 
     radius: float
 
@@ -333,7 +337,7 @@ class Part:
         return self._cache[tolerance]
 
     def posable(self, tolerance: float):
-        """What :func:`pose` moves: :meth:`geometry`, tiled a turn apart for a drum (:meth:`Drum.tiled`)."""
+        """What [`pose`][pes_ref.devices.geometry.pose] moves: `geometry`, tiled a turn apart for a drum ([`Drum.tiled`][pes_ref.devices.geometry.Drum.tiled])."""
         key = ("posable", tolerance)
         if key not in self._cache:
             geom = self.geometry(tolerance)
@@ -343,9 +347,10 @@ class Part:
 
 def check_drum_drawing(part: Part, tolerance: float = 1e-3) -> None:
     """Refuse a drum's drawing that spans more than one turn: its shapes must lie within y in
-    ``[0, 2 pi R]`` (:class:`Drum`; a circle's polygon may stray ``tolerance`` beyond), else the
+    ``[0, 2 pi R]`` ([`Drum`][pes_ref.devices.geometry.Drum]; a circle's polygon may stray ``tolerance`` beyond), else
+    the
     copies a turn apart overlap each other and the drum is not what was drawn. A keyed
-    :class:`~pes_ref.core.checks.InputError` (``shapes``) naming the span; nothing for another motion."""
+    [`InputError`][pes_ref.core.checks.InputError] (``shapes``) naming the span; nothing for another motion."""
     if not isinstance(part.motion, Drum):
         return
     period = part.motion.circumference
@@ -373,7 +378,8 @@ def default_tolerance(parts, spacing) -> float:
 
 def tolerance_bound(parts, spacing) -> float:
     """The largest circles' tolerance a grid of ``spacing`` (2,) accepts: ``min_d h_d l_d``, 20 times
-    :func:`default_tolerance`: a circle's polygon then moves the C-space boundary by less than one
+    [`default_tolerance`][pes_ref.devices.geometry.default_tolerance]: a circle's polygon then moves the C-space
+    boundary by less than one
     grid spacing where the contact's lever is at least ``l_d``. Infinite without circles (the
     tolerance is not used)."""
     if not any(p.circles for p in parts):
@@ -381,7 +387,7 @@ def tolerance_bound(parts, spacing) -> float:
     return 20.0 * default_tolerance(parts, spacing)
 
 
-#: The lever of each motion (:func:`default_tolerance`): motion, smallest circle radius -> length per unit q.
+#: The lever of each motion (`default_tolerance`): motion, smallest circle radius -> length per unit q.
 _LEVERS = {Translation: lambda motion, radius: 1.0, Rotation: lambda motion, radius: radius,
            Drum: lambda motion, radius: motion.radius}
 
@@ -395,7 +401,7 @@ def pose(part: Part, q, tolerance: float) -> np.ndarray:
     q : array_like, shape (K,)
         Translation distances or rotation angles (radians; a drum's too).
     tolerance : float
-        The circles' tolerance (:meth:`Part.geometry`).
+        The circles' tolerance ([`Part.geometry`][pes_ref.devices.geometry.Part.geometry]).
 
     Returns
     -------

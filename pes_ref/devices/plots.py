@@ -2,7 +2,7 @@
 
 The figure scripts and ``python -m pes_ref analyze DEVICE.toml --plot`` draw through these
 helpers; they only turn what the library computed into pictures (call them with a
-matplotlib axes; :func:`drive_figure` makes a whole figure on the Agg backend).
+matplotlib axes; [`drive_figure`][pes_ref.devices.plots.drive_figure] makes a whole figure on the Agg backend).
 """
 from __future__ import annotations
 
@@ -157,7 +157,7 @@ def drive_figure(device, result, title: str = ""):
     return fig
 
 
-#: The colour of each engine's path and motion law (:func:`engines_figure`).
+#: The colour of each engine's path and motion law (`engines_figure`).
 ENGINE_COLORS = {"surface": "#1f77b4", "rigid": "#9467bd"}   # the boundary is red
 
 

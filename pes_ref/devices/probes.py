@@ -1,10 +1,12 @@
 """The probes the device analyses share: how hard a device must be pushed.
 
-:func:`threshold_search` finds the smallest push for which a monotone test passes (the
+[`threshold_search`][pes_ref.devices.probes.threshold_search] finds the smallest push for which a monotone test passes
+(the
 ratchet's smallest advancing torque, the dart gun's smallest reload force), running each
-round's candidates as one batch of particles. :func:`steepest_slope` is the largest push
+round's candidates as one batch of particles. [`steepest_slope`][pes_ref.devices.probes.steepest_slope] is the largest
+push
 a grid can hold back at all. (The stiffest barrier on a device's grid, which sets its
-stable step, is :func:`pes_ref.core.stability.grid_stiffness`.)
+stable step, is [`pes_ref.core.stability.grid_stiffness`][pes_ref.core.stability.grid_stiffness].)
 """
 from __future__ import annotations
 
@@ -26,7 +28,7 @@ def threshold_search(passes, lo: float, hi: float, tol: float, batch: int = 7) -
     ``passes(values) -> bool array`` once, so a simulator can run them as one batch of
     particles): the bracket shrinks by ``batch + 1`` per round. Returns ``hi`` when the
     test fails everywhere below it; ``passes(hi)`` must hold (else a ValueError). A ``tol``
-    below :data:`RESOLUTION` times ``hi`` is refused (a ValueError naming ``tol``): the bracket
+    below `RESOLUTION` times ``hi`` is refused (a ValueError naming ``tol``): the bracket
     could never shrink to it.
     """
     lo, hi, tol = float(lo), float(hi), checks.as_positive_float("tol", tol)

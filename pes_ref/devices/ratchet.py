@@ -12,12 +12,13 @@ at the top of the wheel and its arm runs to the pivot on the +x side, so that
 - a torque -tau drives a steep face into the hook along the arm, which pushes the pawl
   deeper (q1 increases): the wheel is blocked.
 
-The device is the shipped file ``pes_ref/devices/data/ratchet.toml`` (:func:`ratchet_device`):
-the surface is eq. (1) of the C-space (:mod:`pes_ref.devices.cspace`) plus the pawl's torsion
+The device is the shipped file ``pes_ref/devices/data/ratchet.toml``
+([`ratchet_device`][pes_ref.devices.ratchet.ratchet_device]):
+the surface is eq. (1) of the C-space ([`pes_ref.devices.cspace`][pes_ref.devices.cspace]) plus the pawl's torsion
 spring baked into the grid; the scene adds only the torque, inertia and damping.
 
 Every run goes through ``run(device, scene, x0) -> Trajectory`` (default: the surface model,
-:func:`pes_ref.core.scene.simulate` of the scene), so the same analysis runs on another
+[`pes_ref.core.scene.simulate`][pes_ref.core.scene.simulate] of the scene), so the same analysis runs on another
 engine (the rigid parts: ``pes_ref.rigid.engines.ENGINES["rigid"].run``).
 """
 from __future__ import annotations
@@ -43,7 +44,7 @@ __all__ = ["ratchet_device", "ratchet_start", "ratchet_scene", "run_ratchet",
 def ratchet_device() -> Device:
     """The shipped ratchet (``pes_ref/devices/data/ratchet.toml``): the wheel turns by q0 about
     the origin, the pawl by q1 about its pivot; ``analysis`` holds the tooth ``pitch`` and the
-    ``settle`` time of :func:`ratchet_start`."""
+    ``settle`` time of [`ratchet_start`][pes_ref.devices.ratchet.ratchet_start]."""
     return shipped_device("ratchet")
 
 
@@ -163,7 +164,8 @@ def analyze_ratchet(device: Device | None = None, torque: float = RATCHET_ANALYS
                     search_tol: float = RATCHET_ANALYSIS["search_tol"],
                     search_duration: float = RATCHET_ANALYSIS["duration"], progress=None, run=None) -> RatchetReport:
     """Net rotation under +/- ``torque``, the pawl's swing, and the smallest advancing torque
-    (``device`` default: :func:`ratchet_device`; ``progress`` is passed to its C-space; ``run``:
+    (``device`` default: [`ratchet_device`][pes_ref.devices.ratchet.ratchet_device]; ``progress`` is passed to its
+    C-space; ``run``:
     the engine of every run, default the surface model)."""
     device = ratchet_device() if device is None else device
     pitch = _pitch(device)

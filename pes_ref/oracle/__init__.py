@@ -1,13 +1,14 @@
 """The oracle: the case and result ``.npz`` interchange format of docs/spec.md, the
 contract's tolerances, and the versioned conformance vectors.
 
-- :mod:`pes_ref.oracle.case`         case validation, running a case, result keys
-- :mod:`pes_ref.oracle.from_scene`   a Scene, state and objective as a case
-- :mod:`pes_ref.oracle.errors`       CaseError (a keyed input error)
-- :mod:`pes_ref.oracle.npz`          reading and writing .npz without pickle (atomically: pes_ref.core.runtime.files)
-- :mod:`pes_ref.oracle.compare`      a result against the reference, by the tolerances
-- :mod:`pes_ref.oracle.tolerances`   the tolerances of the contract
-- :mod:`pes_ref.oracle.conformance`  the shipped vectors and their generator
+- [`pes_ref.oracle.case`][pes_ref.oracle.case]         case validation, running a case, result keys
+- [`pes_ref.oracle.from_scene`][pes_ref.oracle.from_scene]   a Scene, state and objective as a case
+- [`pes_ref.oracle.errors`][pes_ref.oracle.errors]       CaseError (a keyed input error)
+- [`pes_ref.oracle.npz`][pes_ref.oracle.npz]          reading and writing .npz without pickle (atomically:
+  pes_ref.core.runtime.files)
+- [`pes_ref.oracle.compare`][pes_ref.oracle.compare]      a result against the reference, by the tolerances
+- [`pes_ref.oracle.tolerances`][pes_ref.oracle.tolerances]   the tolerances of the contract
+- [`pes_ref.oracle.conformance`][pes_ref.oracle.conformance]  the shipped vectors and their generator
 """
 from pes_ref.oracle.case import (CASE_KEYS, KEY_GROUPS, OBJECTIVE_PARAMS, OPTIONAL_KEYS, REQUIRED_KEYS,
                                  CaseError, CaseTypeError, ResultExistsError, ValidCase, load_case, read_npz,

@@ -5,12 +5,13 @@ regularization weight; the oracle runs it with the reference engine and writes a
 *result* ``.npz`` holding the trajectory, the energy, the loss and one ``grad_<name>``
 per differentiable input the case uses. Any implementation, in any language, can read
 and write both, so a case is the unit of cross-implementation testing (the shipped
-conformance vectors of :mod:`pes_ref.oracle.conformance` are cases plus their results).
+conformance vectors of [`pes_ref.oracle.conformance`][pes_ref.oracle.conformance] are cases plus their results).
 
 The format is ``docs/spec.md`` sections 8-9 (``docs/oracle.md`` keeps the history of its decisions).
 This module holds the format (which keys, which kinds of data), the validation of a
 case and running it; the ``.npz`` files are read and written by
-:mod:`pes_ref.oracle.npz`, and its errors are those of :mod:`pes_ref.oracle.errors`.
+[`pes_ref.oracle.npz`][pes_ref.oracle.npz], and its errors are those of
+[`pes_ref.oracle.errors`][pes_ref.oracle.errors].
 
 Examples
 --------
@@ -76,7 +77,7 @@ KEY_GROUPS = (("spring_k", "spring_center"), ("wall_k", "wall_margin", "walls"))
 #: Every key a case may hold (docs/spec.md section 8.2): required, optional, objective parameters.
 CASE_KEYS = REQUIRED_KEYS + OPTIONAL_KEYS + tuple(p for ps in OBJECTIVE_PARAMS.values() for p in ps)
 
-#: The names the core's errors carry (:attr:`pes_ref.core.checks.InputError.key`) that
+#: The names the core's errors carry (`pes_ref.core.checks.InputError.key`) that
 #: are not case keys, and the case key each stands for. The core names every argument
 #: the oracle hands it after its case key (``wall_margin``, ``walls``, ``spring_k`` ...),
 #: so only the names of whole objects, which a case never holds, need translating.
@@ -92,7 +93,7 @@ CORE_NAME_TO_CASE_KEY = {
 def load_case(path) -> dict:
     """Read a case file: ``np.load(path, allow_pickle=False)`` into a plain dict.
 
-    The arrays are not validated here; see :func:`validate_case`.
+    The arrays are not validated here; see [`validate_case`][pes_ref.oracle.case.validate_case].
 
     Raises
     ------
@@ -108,9 +109,9 @@ def save_case(path, *, overwrite: bool = False, compress: bool = True, **keys) -
     """Write a case file from keyword arrays (strings stored as 0-d unicode arrays).
 
     The keys are written as given and not validated, so that invalid cases can be
-    written too (the conformance vectors need them); run :func:`validate_case` first to
-    check a case. Like :func:`write_result`, an existing file is refused
-    (:class:`ResultExistsError`) unless ``overwrite``.
+    written too (the conformance vectors need them); run [`validate_case`][pes_ref.oracle.case.validate_case] first to
+    check a case. Like [`write_result`][pes_ref.oracle.case.write_result], an existing file is refused
+    ([`ResultExistsError`][pes_ref.core.runtime.files.ResultExistsError]) unless ``overwrite``.
 
     Examples
     --------
@@ -135,7 +136,7 @@ class ValidCase:
     objective : Funnel, Oscillator or Quadratic
     regularization : float
     grad_names : tuple of str
-        The differentiable inputs the case uses, in :data:`pes_ref.GRADIENT_NAMES` order.
+        The differentiable inputs the case uses, in `pes_ref.GRADIENT_NAMES` order.
     """
 
     scene: Scene
@@ -154,9 +155,9 @@ class ValidCase:
 
 @contextmanager
 def _core_checks():
-    """Turn the core's keyed :class:`~pes_ref.core.checks.InputError` into a
-    :class:`CaseError` naming the case key (:data:`CORE_NAME_TO_CASE_KEY`); a
-    :class:`~pes_ref.core.checks.InputTypeError` becomes a :class:`CaseTypeError`."""
+    """Turn the core's keyed [`InputError`][pes_ref.core.checks.InputError] into a
+    [`CaseError`][pes_ref.oracle.errors.CaseError] naming the case key (`CORE_NAME_TO_CASE_KEY`); a
+    [`InputTypeError`][pes_ref.core.checks.InputTypeError] becomes a [`CaseTypeError`][pes_ref.oracle.errors.CaseTypeError]."""
     try:
         yield
     except CaseError:
@@ -265,7 +266,7 @@ def _check_key_rules(raw: Mapping, mode: str, objective: str) -> None:
 
 def _state(raw: Mapping):
     """x0 (N, 2) with N >= 1 and v0 like it, as float64: the initial state is no part of a
-    scene, so it is checked here (with :func:`pes_ref.core.checks.as_float_array`)."""
+    scene, so it is checked here (with [`pes_ref.core.checks.as_float_array`][pes_ref.core.checks.as_float_array])."""
     with _core_checks():
         x0 = checks.as_float_array("x0", _numeric("x0", raw["x0"]), shape=(None, 2))
         if x0.shape[0] < 1:
@@ -313,8 +314,9 @@ def _walls(raw: Mapping):
 
 def _scene(raw: Mapping, mode: str, n: int) -> Scene:
     """The scene; its keys' kinds and N-shapes are checked in the order of the arguments
-    below, their values by :class:`Surface`, :class:`Spring`, :class:`Walls` as each is
-    built and then by :class:`Scene` (dt, n_steps, t0, mass, damping, mobility, walls)."""
+    below, their values by [`Surface`][pes_ref.core.surface.Surface], [`Spring`][pes_ref.core.terms.Spring],
+    [`Walls`][pes_ref.core.terms.Walls] as each is
+    built and then by [`Scene`][pes_ref.core.scene.Scene] (dt, n_steps, t0, mass, damping, mobility, walls)."""
     return Scene(_surface(raw), dt=_scalar("dt", raw["dt"]), n_steps=_integer("n_steps", raw["n_steps"]),
                  mode=mode, mass=_per_particle("mass", raw["mass"], n),
                  damping=_per_particle("damping", raw["damping"], n),
@@ -368,7 +370,7 @@ TRAJECTORY_KEYS = ("x", "v", "energy", "loss")
 
 
 def result_keys(grad_names) -> tuple:
-    """The keys of a result: :data:`TRAJECTORY_KEYS` and ``grad_<name>`` per name."""
+    """The keys of a result: `TRAJECTORY_KEYS` and ``grad_<name>`` per name."""
     return TRAJECTORY_KEYS + tuple("grad_" + g for g in grad_names)
 
 
@@ -380,20 +382,21 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False, backend: str = 
     ``n_steps``, bool flags, 0-d unicode strings) and the shapes that the case's N and
     T set. The values themselves (finite, signs, shapes of the grid and the domain,
     walls on periodic axes ...) are checked once, by the core's own constructors
-    (:class:`~pes_ref.Surface`, :class:`~pes_ref.Spring`, :class:`~pes_ref.Walls`,
-    :class:`~pes_ref.Scene`, the objectives), whose keyed errors name the case key.
+    ([`Surface`][pes_ref.core.surface.Surface], [`Spring`][pes_ref.core.terms.Spring],
+    [`Walls`][pes_ref.core.terms.Walls],
+    [`Scene`][pes_ref.core.scene.Scene], the objectives), whose keyed errors name the case key.
 
     Parameters
     ----------
     raw : mapping of str -> array_like
-        As read by :func:`load_case` (or built in memory; a Python ``str`` is accepted
+        As read by [`load_case`][pes_ref.oracle.case.load_case] (or built in memory; a Python ``str`` is accepted
         wherever a 0-d unicode array is).
     allow_unstable : bool
         Accept a case past the stability rule (docs/spec.md section 10). Not part of the
         contract: a conforming program refuses such a case; this is for studying the
         unstable scheme on purpose.
     backend : {"numpy", "numba"}
-        The loops that will run the case (:func:`run_case`); the stability rule takes the
+        The loops that will run the case ([`run_case`][pes_ref.oracle.case.run_case]); the stability rule takes the
         grid's cross curvature on them too (the same number). Checked first.
 
     Returns
@@ -403,15 +406,15 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False, backend: str = 
     Raises
     ------
     CaseError
-        The first rule the case breaks, naming its key (a :class:`CaseTypeError`, also
+        The first rule the case breaks, naming its key (a [`CaseTypeError`][pes_ref.oracle.errors.CaseTypeError], also
         a ``TypeError``, when the key holds the wrong kind of data). Keys are checked
         in a fixed order: names (unknown, then missing), mode and objective, the key
         rules (objective parameters, mobility, groups), the initial state, the scene's
         keys, the force, the objective's parameters, the regularization; last the
-        stability rule (:func:`pes_ref.core.stability.check_stable`), naming ``dt`` or
+        stability rule ([`pes_ref.core.stability.check_stable`][pes_ref.core.stability.check_stable]), naming ``dt`` or
         ``mobility``. Right after the scene's keys, before any array of the run's size
         is built, a run that cannot fit in the available memory is refused naming
-        ``n_steps`` (:func:`pes_ref.core.budget.check_memory`; not part of the contract).
+        ``n_steps`` ([`pes_ref.core.budget.check_memory`][pes_ref.core.budget.check_memory]; not part of the contract).
     """
     backend = backends.check_backend(backend)
     if not isinstance(raw, Mapping):
@@ -445,14 +448,14 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
     case : mapping, str or os.PathLike
         A case dict, or the path of a case file.
     allow_unstable : bool
-        Run a case past the stability rule anyway (see :func:`validate_case`).
+        Run a case past the stability rule anyway (see [`validate_case`][pes_ref.oracle.case.validate_case]).
     monitor : callable, optional
         Called once, after the case is validated and before it runs, with the run's
-        :class:`pes_ref.core.budget.RunEstimate` (steps, particles, memory, seconds); it
+        [`pes_ref.core.budget.RunEstimate`][pes_ref.core.budget.RunEstimate] (steps, particles, memory, seconds); it
         returns a progress callback ``(phase, done, total)`` for the run's forward loop
-        and adjoint (:mod:`pes_ref.core.runtime.progress`), or None for no reports.
+        and adjoint ([`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress]), or None for no reports.
     backend : {"numpy", "numba"}
-        The loops that run it (:data:`pes_ref.core.backends.BACKENDS`): NumPy's by default,
+        The loops that run it (`pes_ref.core.backends.BACKENDS`): NumPy's by default,
         so that the oracle imports no compiler; the compiled ones give the same trajectory
         and gradients to 1e-13 of their largest entry.
 
@@ -460,7 +463,8 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
     -------
     dict of str -> ndarray (float64)
         ``x``, ``v`` (T+1, N, 2), ``energy`` (T+1, N), ``loss`` (0-d) and
-        ``grad_<name>`` for every name of :func:`pes_ref.core.scene.gradient_names`, each shaped like its
+        ``grad_<name>`` for every name of [`pes_ref.core.scene.gradient_names`][pes_ref.core.scene.gradient_names], each
+        shaped like its
         input (``grad_force`` (T+1, N, 2)).
 
     Raises
@@ -521,11 +525,11 @@ def write_result(result: Mapping, path, overwrite: bool = False, compress: bool 
 def run_case_file(case_path, result_path, overwrite: bool = False, compress: bool = False, *,
                   allow_unstable: bool = False, monitor=None, backend: str = "numpy") -> dict:
     """Run the case file ``case_path`` and write its result to ``result_path``
-    (deflated if ``compress``; see :func:`write_result`).
+    (deflated if ``compress``; see [`write_result`][pes_ref.oracle.case.write_result]).
 
     Nothing is written when the case is refused, when its run fails, or when
     ``result_path`` exists and ``overwrite`` is False. ``allow_unstable``, ``monitor`` and
-    ``backend`` as in :func:`run_case`.
+    ``backend`` as in [`run_case`][pes_ref.oracle.case.run_case].
 
     Returns
     -------

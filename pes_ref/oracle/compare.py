@@ -1,7 +1,8 @@
 """Comparing arrays: the one relative error, and a result against the reference by the
 contract's tolerances.
 
-:func:`relative_error` is ``max |got - want| / scale``, one number per compared array:
+[`relative_error`][pes_ref.oracle.compare.relative_error] is ``max |got - want| / scale``, one number per compared
+array:
 by default one scale for the whole array, its largest ``|want|`` (how finite
 differences, rounding and the benchmark's autodiff backends are judged); the contract
 gives every entry its own scale instead.
@@ -9,13 +10,13 @@ gives every entry its own scale instead.
 The contract: ``|got - want| <= atol + rtol |want|`` per entry: trajectory keys (``x``, ``v``,
 ``energy``, ``loss``) use ``TRAJ_RTOL``/``TRAJ_ATOL``; gradients use ``GRAD_RTOL`` and
 ``GRAD_ATOL * max|want|`` (the largest entry of that gradient, or 1 for an all-zero
-one) (:mod:`pes_ref.oracle.tolerances`). The single number per array is the relative
-error with the scale ``atol/rtol + |want|`` per entry (:func:`array_error`); the array
+one) ([`pes_ref.oracle.tolerances`][pes_ref.oracle.tolerances]). The single number per array is the relative
+error with the scale ``atol/rtol + |want|`` per entry ([`array_error`][pes_ref.oracle.compare.array_error]); the array
 passes when it is ``<= rtol``.
 
 Used by the generator's check of regenerated vectors
-(:mod:`pes_ref.oracle.conformance.generate`) and by the conformance checks that other
-implementations run (:mod:`pes_ref.testing.conformance`).
+([`pes_ref.oracle.conformance.generate`][pes_ref.oracle.conformance.generate]) and by the conformance checks that other
+implementations run ([`pes_ref.testing.conformance`][pes_ref.testing.conformance]).
 """
 from __future__ import annotations
 
@@ -66,7 +67,7 @@ def _tolerance(name: str, want: np.ndarray):
 
 
 def array_error(name: str, got, want) -> float:
-    """The normalized error of array ``name``: :func:`relative_error` with the scale
+    """The normalized error of array ``name``: [`relative_error`][pes_ref.oracle.compare.relative_error] with the scale
     ``atol/rtol + |want|`` per entry, ``max |got - want| / (atol/rtol + |want|)``
     (``inf`` when ``got`` is not a real array of ``want``'s shape, or holds NaN/inf)."""
     want = np.asarray(want, dtype=np.float64)
@@ -100,8 +101,8 @@ def compare_results(got, want, names=None) -> dict:
     Returns
     -------
     dict of str -> float
-        :func:`array_error` per key (``inf`` when ``got`` lacks the key); within the
-        contract when :func:`passes`.
+        [`array_error`][pes_ref.oracle.compare.array_error] per key (``inf`` when ``got`` lacks the key); within the
+        contract when [`passes`][pes_ref.oracle.compare.passes].
     """
     names = list(want) if names is None else list(names)
     return {k: (array_error(k, got[k], want[k]) if k in got else float("inf")) for k in names}

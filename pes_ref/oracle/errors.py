@@ -1,8 +1,9 @@
 """The oracle's errors: a refused case names its key.
 
-:class:`CaseError` is a :class:`pes_ref.core.checks.InputError` (so a ``ValueError``)
+[`CaseError`][pes_ref.oracle.errors.CaseError] is a [`pes_ref.core.checks.InputError`][pes_ref.core.checks.InputError]
+(so a ``ValueError``)
 whose ``key`` is the case key at fault; the core's own keyed errors become case errors
-without any parsing of their messages (:mod:`pes_ref.oracle.case`).
+without any parsing of their messages ([`pes_ref.oracle.case`][pes_ref.oracle.case]).
 """
 from __future__ import annotations
 
@@ -31,4 +32,4 @@ class CaseError(InputError):
 
 class CaseTypeError(CaseError, InputTypeError):
     """A case key holding the wrong kind of data (a string where a number belongs, a
-    float ``n_steps``, an object array ...). Both a :class:`CaseError` and a ``TypeError``."""
+    float ``n_steps``, an object array ...). Both a [`CaseError`][pes_ref.oracle.errors.CaseError] and a ``TypeError``."""

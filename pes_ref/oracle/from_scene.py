@@ -1,11 +1,12 @@
 """A scene, its initial state and an objective as a case of the interchange format.
 
-:func:`case_from_scene` is the inverse of :func:`pes_ref.oracle.validate_case`: it turns
-what a Python user builds (a :class:`pes_ref.Scene`, ``x0``, ``v0``, an objective) into
+[`case_from_scene`][pes_ref.oracle.from_scene.case_from_scene] is the inverse of
+[`pes_ref.oracle.validate_case`][pes_ref.oracle.case.validate_case]: it turns
+what a Python user builds (a [`pes_ref.Scene`][pes_ref.core.scene.Scene], ``x0``, ``v0``, an objective) into
 the keys of docs/spec.md section 8, so the same run can be handed to another
 implementation. The scene's external force effects (constant, per-particle, noise,
 windows, schedules) are realized into the case's ``force`` array, exactly as
-:func:`pes_ref.simulate` realizes them.
+[`pes_ref.simulate`][pes_ref.core.scene.simulate] realizes them.
 
 Examples
 --------
@@ -62,7 +63,7 @@ def case_from_scene(scene: Scene, x0, v0, objective, *, regularization: float = 
     Returns
     -------
     dict of str -> ndarray
-        Strings as 0-d unicode arrays; ready for :func:`pes_ref.oracle.save_case`.
+        Strings as 0-d unicode arrays; ready for [`pes_ref.oracle.save_case`][pes_ref.oracle.case.save_case].
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a pes_ref.Scene, got {type(scene).__name__}")

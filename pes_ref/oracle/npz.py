@@ -1,9 +1,10 @@
 """``.npz`` archives of named arrays: read without pickle, written reproducibly and atomically.
 
-The case and result files of the oracle (:mod:`pes_ref.oracle.case`) are such archives;
-any other ``.npz`` the package writes (design files) goes through :func:`write_npz` too,
+The case and result files of the oracle ([`pes_ref.oracle.case`][pes_ref.oracle.case]) are such archives;
+any other ``.npz`` the package writes (design files) goes through [`write_npz`][pes_ref.oracle.npz.write_npz] too,
 which writes through the package's one atomic writer,
-:func:`pes_ref.core.runtime.files.atomic_file`: a reader never sees half a file, and an existing
+[`pes_ref.core.runtime.files.atomic_file`][pes_ref.core.runtime.files.atomic_file]: a reader never sees half a file, and
+an existing
 file is never replaced unless asked.
 """
 from __future__ import annotations
@@ -89,7 +90,8 @@ def write_npz(path, arrays: Mapping, *, overwrite: bool = False, compress: bool 
               what: str = "result") -> None:
     """Write named arrays to an ``.npz`` file atomically and reproducibly.
 
-    The archive is written through :func:`~pes_ref.core.runtime.files.atomic_file`, so a reader never sees half a
+    The archive is written through [`atomic_file`][pes_ref.core.runtime.files.atomic_file], so a reader never sees half
+    a
     file and an existing file is never replaced unless ``overwrite``. Every member
     carries the same fixed date, so the same arrays always give the same bytes.
 
@@ -100,11 +102,12 @@ def write_npz(path, arrays: Mapping, *, overwrite: bool = False, compress: bool 
     arrays : mapping of str -> array_like
         Python strings become 0-d unicode arrays; object arrays are refused.
     overwrite : bool
-        Replace an existing file; otherwise raise :class:`~pes_ref.core.runtime.files.ResultExistsError`.
+        Replace an existing file; otherwise raise [`ResultExistsError`][pes_ref.core.runtime.files.ResultExistsError].
     compress : bool
         Deflate the members (``np.load`` reads both).
     what : str
-        What the file is ("result", "design", ...), for the message of :class:`~pes_ref.core.runtime.files.ResultExistsError`.
+        What the file is ("result", "design", ...), for the message of
+        [`ResultExistsError`][pes_ref.core.runtime.files.ResultExistsError].
 
     Raises
     ------

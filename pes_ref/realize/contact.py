@@ -1,20 +1,21 @@
 """A contact realization: a design's blocked region as rigid parts, and what the parts keep and lose.
 
-:func:`realize_contact` chooses the blocked region (:func:`pes_ref.realize.regions.contact_region`,
+[`realize_contact`][pes_ref.realize.contact.realize_contact] chooses the blocked region
+([`pes_ref.realize.regions.contact_region`][pes_ref.realize.regions.contact_region],
 by a stated rule), turns it into the two parts of the topology's follower
-(:data:`pes_ref.realize.followers.FOLLOWERS`) and writes their device file's tables:
+(`pes_ref.realize.followers.FOLLOWERS`) and writes their device file's tables:
 
 - ``[energy]``: eq. (1) of the distance to the parts' C-space obstacle, with the design
-  kind's contact parameters (:func:`pes_ref.realize.hooks.contact_parameters`: the
+  kind's contact parameters ([`pes_ref.realize.hooks.contact_parameters`][pes_ref.realize.hooks.contact_parameters]: the
   funnel's ``contact_v``, ``contact_r_c``, ``contact_r_min``, a realizable design's own
   eq. (1); a problem file's ``[surface.contact]``; the oscillator's from its grid), and the
   design's springs (its scene's per-axis spring);
 - ``[dynamics]``: the design scene's masses, damping and walls;
-- ``[start]``: the design kind's start point (:func:`pes_ref.realize.hooks.start_point`).
+- ``[start]``: the design kind's start point ([`pes_ref.realize.hooks.start_point`][pes_ref.realize.hooks.start_point]).
 
-What the parts cannot have is listed in :attr:`ContactRealization.lost`, in words: the
+What the parts cannot have is listed in `ContactRealization.lost`, in words: the
 energies below the contact level (flat on the device beyond ``r_c`` of an obstacle), and the
-area the pin's disc cannot keep (:attr:`pes_ref.realize.followers.Parts.lost_share`).
+area the pin's disc cannot keep (`pes_ref.realize.followers.Parts.lost_share`).
 """
 from __future__ import annotations
 
@@ -34,8 +35,8 @@ __all__ = ["ContactRealization", "realize_contact", "CONTACT_DEFAULTS"]
 #: The defaults of the contact realization's settings (C-space length units): the pin's
 #: radius, the plate's rim beyond its cut-out (a drum's walls' beyond the drawn box at its
 #: ends), the plate's (and pin's, and a drum's walls') thickness in the STL, a drum cam's
-#: radius (:data:`pes_ref.realize.followers.DRUM_RADIUS`) and the pin's clearance (how much
-#: larger than its cut-out the pin is made, :attr:`pes_ref.realize.followers.Parts.clearance`).
+#: radius (`pes_ref.realize.followers.DRUM_RADIUS`) and the pin's clearance (how much
+#: larger than its cut-out the pin is made, `pes_ref.realize.followers.Parts.clearance`).
 CONTACT_DEFAULTS = {"pin_radius": 0.02, "rim": 0.1, "thickness": 0.1, "drum_radius": DRUM_RADIUS, "clearance": 0.0}
 
 
@@ -73,11 +74,11 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
                     clearance: float | None = None, restitution: float | None = None
                     ) -> ContactRealization:
     """Realize design ``values`` of ``problem`` by contact (module docstring); ``drum_radius``
-    (a cylinder's drum cam only) defaults to :data:`pes_ref.realize.followers.DRUM_RADIUS`.
+    (a cylinder's drum cam only) defaults to `pes_ref.realize.followers.DRUM_RADIUS`.
     ``clearance``: the pin is made that much larger than part 1 is cut for; ``restitution``:
     the parts' coefficient of restitution, written to the device file's ``[rigid]`` table (the
     rigid engine's). Either None: what the design's problem states (a problem file's
-    ``[surface.contact]``, :attr:`pes_ref.synthesis.kinds.Realizable.parts`), else no clearance
+    ``[surface.contact]``, `pes_ref.synthesis.kinds.Realizable.parts`), else no clearance
     and no ``[rigid]`` table (inelastic)."""
     stated = kind_of(problem).realizable.parts(problem)
     clearance = stated.get("clearance", CONTACT_DEFAULTS["clearance"]) if clearance is None else clearance

@@ -14,7 +14,7 @@ POSITIONS = (0.0, 0.35, 1.0)
 
 def parts_figure(realization, path):
     """A two-panel Agg figure: the design's surface with the contact level's contour, and the
-    plate (or drum) with the pin at :data:`POSITIONS` along ``path`` ((T+1, 2) states of one
+    plate (or drum) with the pin at `POSITIONS` along ``path`` ((T+1, 2) states of one
     held-out particle; the pin is drawn where the particle is, up to where it leaves the grid's
     domain along a non-periodic axis)."""
     from matplotlib.figure import Figure

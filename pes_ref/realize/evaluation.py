@@ -1,31 +1,35 @@
 """The design's own held-out evaluation on a realized device (``evaluate DESIGN.npz --realized DEVICE.toml``).
 
-The realized device is rebuilt from its file (:func:`pes_ref.devices.device_file.load_device`):
+The realized device is rebuilt from its file
+([`pes_ref.devices.device_file.load_device`][pes_ref.devices.device_file.load_device]):
 its C-space from the exported parts and eq. (1) of the distance to it give the surface, and
-its kept springs (``[energy] springs``) act as the scene's linear springs (:func:`device_spring`;
+its kept springs (``[energy] springs``) act as the scene's linear springs
+([`device_spring`][pes_ref.realize.evaluation.device_spring];
 the device analyses bake them into the grid, where a stiff spring's force becomes a staircase
 of the grid's cells); everything else is the design's (its forces, noise, damping, masses and walls,
 its held-out starts and its figures). The realized surface's barriers are stiffer than the
 design's smooth slopes, so the run takes the step the stability rule allows
-(:func:`pes_ref.core.stability.check_stable`, ``docs/spec.md`` section 10):
+([`pes_ref.core.stability.check_stable`][pes_ref.core.stability.check_stable], ``docs/spec.md`` section 10):
 
 - the design's own ``dt`` where the rule accepts it on the realized scene;
-- otherwise :data:`pes_ref.core.stability.SAFETY` times the limit of the realized scene's
+- otherwise `pes_ref.core.stability.SAFETY` times the limit of the realized scene's
   stiffest term, with the number of steps raised to cover the design's duration
   (``ceil(n_steps dt / dt_realized)``) and the noise's per-step std scaled by
   ``sqrt(dt / dt_realized)``, so that the noise's diffusion (its variance per unit time) is
   the design's.
 
-The same held-out evaluation runs on the parts in rigid contact too (:func:`rigid_problem`,
-the rigid engine :func:`pes_ref.rigid.simulate` as the kinds' ``engine``): the same starts,
+The same held-out evaluation runs on the parts in rigid contact too
+([`rigid_problem`][pes_ref.realize.evaluation.rigid_problem],
+the rigid engine [`pes_ref.rigid.simulate`][pes_ref.rigid.engine.simulate] as the kinds' ``engine``): the same starts,
 force schedules and noise draws, steps and figures, with the parts' contact in place of
 eq. (1). That engine needs no step for the barriers (it cuts each step into substeps that
 move no part more than half a C-space cell), so it runs at the design's own ``dt`` unless the
 springs, walls or damping need less by the same rule (the rule applied to the scene on a flat
-surface). :data:`ENGINES` names both; :func:`evaluate_realized` runs the ones asked for.
+surface). `ENGINES` names both; [`evaluate_realized`][pes_ref.realize.evaluation.evaluate_realized] runs the ones asked
+for.
 
 What a realization needs of each kind of design is its kind's entry,
-:attr:`pes_ref.synthesis.kinds.DesignKind.realizable`.
+`pes_ref.synthesis.kinds.DesignKind.realizable`.
 """
 from __future__ import annotations
 
@@ -45,7 +49,7 @@ class RealizedRun(NamedTuple):
     """The design's problem on the realized device: ``problem`` (the design's, at the step the
     rule allows), the grid ``values`` its scenes are built on, the step ``dt`` and ``n_steps``
     it takes, and the ``engine`` that runs its scenes (None: the surface model; see
-    :func:`pes_ref.synthesis.kinds.evaluate`)."""
+    [`pes_ref.synthesis.kinds.evaluate`][pes_ref.synthesis.kinds.evaluate])."""
 
     problem: object
     values: np.ndarray
@@ -102,8 +106,9 @@ def device_spring(device):
 def rigid_problem(problem, device) -> RealizedRun:
     """The design ``problem`` on ``device``'s parts in rigid contact (module docstring): the
     design's scenes, at its own ``dt`` unless the springs, walls or damping need less, run by
-    :func:`pes_ref.rigid.simulate`. The device's springs act in the engine
-    (:meth:`pes_ref.devices.cspace.GridSpring.force`), so the scenes have none of their own;
+    [`pes_ref.rigid.simulate`][pes_ref.rigid.engine.simulate]. The device's springs act in the engine
+    ([`pes_ref.devices.cspace.GridSpring.force`][pes_ref.devices.cspace.GridSpring.force]), so the scenes have none of
+    their own;
     their surface (flat) is not used."""
     from pes_ref.rigid import require_pymunk
     require_pymunk()                           # refused before any run, with the pip line
@@ -121,7 +126,7 @@ class RigidRuns:
 
     A start where the parts overlap (a design's start inside what the parts block: the
     surface model pushes it out, a rigid part cannot be put there) is not run: its path is
-    NaN throughout, so it passes no test, and :attr:`blocked` counts such starts."""
+    NaN throughout, so it passes no test, and `blocked` counts such starts."""
 
     def __init__(self, device):
         self.device = device
@@ -164,7 +169,7 @@ ENGINES = {"surface": RealizedEngine("realized_", realized_problem),
 def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: int | None = None,
                       engines=("surface",)) -> dict:
     """The design's figures and the realized device's under each of ``engines`` (names of
-    :data:`ENGINES`), side by side: ``{name: (design, engine 1, ...)}``, plus ``dt`` and the
+    `ENGINES`), side by side: ``{name: (design, engine 1, ...)}``, plus ``dt`` and the
     held-out run's steps ``n_steps`` of each (a realized run's as its engine's rule allows).
     The flat surface's figures (the same for all) are left out."""
     runs = [ENGINES[checks.as_choice("engine", name, set(ENGINES))].run(problem, device) for name in engines]
@@ -180,7 +185,7 @@ def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: i
 
 
 def headline_scores(problem, values, device, seed: int = 12345, n_particles: int | None = None) -> dict:
-    """The design's headline figure (its kind's, :data:`pes_ref.synthesis.kinds.KINDS`) on held-out
+    """The design's headline figure (its kind's, `pes_ref.synthesis.kinds.KINDS`) on held-out
     ``seed`` beside the parts' under eq. (1) (``realized_``) and in rigid contact (``rigid_``; without
     pymunk its value says it was not run, with the pip line), with ``score_seed`` and ``score_particles``."""
     from pes_ref.devices.geometry import MissingExtraError

@@ -1,7 +1,7 @@
 """Writing a realization's files and reading them back (``docs/realize.md``).
 
 - ``device.toml``: the device-file format (``docs/devices.md``, written with tomli-w), so
-  that every device tool (``analyze``, :func:`pes_ref.load_device`) applies to it;
+  that every device tool (``analyze``, [`pes_ref.load_device`][pes_ref.devices.device_file.load_device]) applies to it;
 - ``plate.dxf``: the plate's outline and cut-outs as closed LWPOLYLINEs on layer ``CUT``
   (ezdxf), in the C-space's length unit (``$INSUNITS`` 0, unitless), for laser cutting;
 - ``plate.stl``, ``base.stl``, ``pin.stl``: the plate's pieces extruded to its thickness, the
@@ -10,10 +10,12 @@
   Delaunay triangulation), for 3D printing;
 - ``drum.dxf``, ``drum.stl``: a drum cam's walls on its surface unrolled (the same DXF: a
   template to cut and wrap round the drum), and the drum as one solid, its walls standing
-  proud of a cylinder (:func:`drum_mesh`).
+  proud of a cylinder ([`drum_mesh`][pes_ref.realize.exports.drum_mesh]).
 
-Every file is written atomically (:func:`pes_ref.core.runtime.files.atomic_file`). The readers
-(:func:`read_dxf_plate`, :func:`read_stl`) rebuild what a check needs from the files alone.
+Every file is written atomically ([`pes_ref.core.runtime.files.atomic_file`][pes_ref.core.runtime.files.atomic_file]).
+The readers
+([`read_dxf_plate`][pes_ref.realize.exports.read_dxf_plate], [`read_stl`][pes_ref.realize.exports.read_stl]) rebuild
+what a check needs from the files alone.
 """
 from __future__ import annotations
 
@@ -44,12 +46,12 @@ def write_bytes(path, data: bytes, overwrite: bool, what: str) -> None:
 
 
 def write_text(path, text: str, overwrite: bool, what: str) -> None:
-    """``text`` into ``path`` as UTF-8, atomically (:func:`write_bytes`)."""
+    """``text`` into ``path`` as UTF-8, atomically ([`write_bytes`][pes_ref.realize.exports.write_bytes])."""
     write_bytes(path, text.encode("utf-8"), overwrite, what)
 
 
 def write_dxf(path, plate, overwrite: bool) -> None:
-    """The plate's rings (outlines and holes) as closed polylines on :data:`DXF_LAYER`."""
+    """The plate's rings (outlines and holes) as closed polylines on `DXF_LAYER`."""
     import ezdxf
     doc = ezdxf.new("R2010")
     doc.header["$INSUNITS"] = 0
@@ -65,7 +67,7 @@ def write_dxf(path, plate, overwrite: bool) -> None:
 
 
 def read_dxf_plate(path):
-    """The plate rebuilt from a DXF file: its closed polylines on :data:`DXF_LAYER`, each ring
+    """The plate rebuilt from a DXF file: its closed polylines on `DXF_LAYER`, each ring
     inside an odd number of others a hole (even-odd), as one shapely geometry."""
     import ezdxf
     import shapely
@@ -141,7 +143,8 @@ def drum_mesh(walls, radius: float, thickness: float, cell: float):
 
 
 def drum_volume(walls, radius: float, thickness: float) -> float:
-    """The volume of the exact drum :func:`drum_mesh` samples: the cylinder ``pi R^2 L`` (L the
+    """The volume of the exact drum [`drum_mesh`][pes_ref.realize.exports.drum_mesh] samples: the cylinder ``pi R^2 L``
+    (L the
     walls' length along x) and the walls, each unit of their unrolled area a shell
     ``thickness (1 + thickness / (2 R))`` thick."""
     x0, _, x1, _ = walls.bounds
@@ -149,7 +152,7 @@ def drum_volume(walls, radius: float, thickness: float) -> float:
 
 
 def write_stl(path, mesh, overwrite: bool) -> None:
-    """A trimesh ``mesh`` into ``path`` as binary STL, atomically (:func:`write_bytes`)."""
+    """A trimesh ``mesh`` into ``path`` as binary STL, atomically ([`write_bytes`][pes_ref.realize.exports.write_bytes])."""
     write_bytes(path, mesh.export(file_type="stl"), overwrite, "STL")
 
 

@@ -1,12 +1,15 @@
 """The optional extras of realization: ``realize``, shapely >= 2.1 (the parts' geometry and
 their triangulation), contourpy (the blocked region's contour), ezdxf (DXF) and trimesh (STL);
-and ``mujoco``, the heightfield's check in MuJoCo (:mod:`pes_ref.realize.mujoco_ball`).
+and ``mujoco``, the heightfield's check in MuJoCo ([`pes_ref.realize.mujoco_ball`][pes_ref.realize.mujoco_ball]).
 
-:func:`require_realize` imports shapely and finds the others without importing them (each is
+[`require_realize`][pes_ref.realize.extra.require_realize] imports shapely and finds the others without importing them
+(each is
 imported where it is used; importing ezdxf and trimesh takes longer than refusing a bad
-option), or raises :class:`pes_ref.devices.geometry.MissingExtraError` with the pip line,
-which the command line prints as its one error line. :func:`require_mujoco` imports mujoco or
-raises the same error with the extra's pip line (:data:`MUJOCO_PIP_LINE`).
+option), or raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] with the
+pip line,
+which the command line prints as its one error line. [`require_mujoco`][pes_ref.realize.extra.require_mujoco] imports
+mujoco or
+raises the same error with the extra's pip line (`MUJOCO_PIP_LINE`).
 """
 from __future__ import annotations
 
@@ -28,7 +31,7 @@ _MODULES = (("contourpy", "contours"), ("ezdxf", "DXF files"), ("trimesh", "STL 
 
 def require_realize() -> dict:
     """``{"shapely": the module}`` once every module of the extra is found, or
-    :class:`~pes_ref.devices.geometry.MissingExtraError` naming the missing one and the pip line."""
+    [`MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] naming the missing one and the pip line."""
     try:
         out = {"shapely": require_shapely()}
     except MissingExtraError:
@@ -44,8 +47,8 @@ def require_realize() -> dict:
 
 
 def require_mujoco():
-    """The ``mujoco`` module (>= :data:`MUJOCO_MIN`), or
-    :class:`~pes_ref.devices.geometry.MissingExtraError` with :data:`MUJOCO_PIP_LINE`."""
+    """The ``mujoco`` module (>= `MUJOCO_MIN`), or
+    [`MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] with `MUJOCO_PIP_LINE`."""
     try:
         import mujoco
     except ImportError:

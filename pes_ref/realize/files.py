@@ -1,12 +1,16 @@
 """A realization's files: named per follower, written as one set, read back and checked.
 
-:data:`CONTACT_FILES` names a contact realization's files per follower and
-:data:`HEIGHTFIELD_FILES` the heightfield's, known before anything is computed (the command
-checks every path first). :func:`write_contact` makes the drawings and meshes whole in a
+`CONTACT_FILES` names a contact realization's files per follower and
+`HEIGHTFIELD_FILES` the heightfield's, known before anything is computed (the command
+checks every path first). [`write_contact`][pes_ref.realize.files.write_contact] makes the drawings and meshes whole in
+a
 staging folder beside them and moves them into place
-(:func:`pes_ref.core.runtime.files.move_into`), then writes the set's index, ``device.toml``,
-last and atomically, so that a stop part-way leaves no half file; :func:`check_contact` reads
-every file back. :func:`write_heightfield` writes the plate's STL and reads it back.
+([`pes_ref.core.runtime.files.move_into`][pes_ref.core.runtime.files.move_into]), then writes the set's index,
+``device.toml``,
+last and atomically, so that a stop part-way leaves no half file; [`check_contact`][pes_ref.realize.files.check_contact]
+reads
+every file back. [`write_heightfield`][pes_ref.realize.files.write_heightfield] writes the plate's STL and reads it
+back.
 """
 from __future__ import annotations
 
@@ -19,7 +23,7 @@ import numpy as np
 
 __all__ = ["CONTACT_FILES", "HEIGHTFIELD_FILES", "MESHES", "write_contact", "check_contact", "write_heightfield"]
 
-#: A contact realization's files, per follower (:data:`pes_ref.realize.followers.FOLLOWERS`' names):
+#: A contact realization's files, per follower (`pes_ref.realize.followers.FOLLOWERS`' names):
 #: output key -> (file name, what it is, for refusals).
 CONTACT_FILES = {
     "pin-in-plate": {"device": ("device.toml", "device"), "dxf": ("plate.dxf", "DXF"),
@@ -66,7 +70,7 @@ MESHES = {
 
 def write_contact(real, problem, values, outputs: dict, force: bool) -> None:
     """Write a contact realization ``real`` of design ``values`` of ``problem`` to ``outputs``
-    (output key -> path, :data:`CONTACT_FILES`' keys) as one set (module docstring); the
+    (output key -> path, `CONTACT_FILES`' keys) as one set (module docstring); the
     drawing shows the pin along one of the design's paths (the ``visited`` rule's seed)."""
     from pes_ref.core.runtime.files import move_into
     from pes_ref.realize import exports

@@ -1,16 +1,18 @@
-"""Blocked C-space into parts: the follower a realization builds, per topology (:data:`FOLLOWERS`).
+"""Blocked C-space into parts: the follower a realization builds, per topology (`FOLLOWERS`).
 
-A plane (translation-translation) becomes a **pin in a plate** (:func:`pin_in_plate`): a pin
+A plane (translation-translation) becomes a **pin in a plate**
+([`pin_in_plate`][pes_ref.realize.followers.pin_in_plate]): a pin
 of radius ``r`` (part 0) slides along x by q0; a plate (part 1) slides along -y by q1, so
 the pin's centre sits at (q0, q1) in the plate's own frame and the C-space obstacle is the
 plate's material grown by the pin's radius (the Minkowski sum with a disc of radius r). So
 the plate is the blocked region shrunk by r: the plate is a frame ``rim`` wide around the
 drawn box less the free region grown by r (the pin's cut-out). What is blocked then is the
 *closing* of the design's free region by the pin's disc: a blocked sliver thinner than the
-pin's diameter, and a sharp free corner, cannot be kept; :attr:`Parts.lost_share` is the
+pin's diameter, and a sharp free corner, cannot be kept; `Parts.lost_share` is the
 share of the grid's area that changes side.
 
-A cylinder (q0 a translation, q1 an angle) becomes a **drum cam** (:func:`drum_cam`): a drum
+A cylinder (q0 a translation, q1 an angle) becomes a **drum cam** ([`drum_cam`][pes_ref.realize.followers.drum_cam]): a
+drum
 of a stated radius R (part 1, ``motion = "drum"``, ``docs/devices.md``) turns by q1; a pin of
 radius r (part 0) slides along the drum's axis by q0. On the drum's surface unrolled (x along
 its axis, y the arc length round it, one turn ``2 pi R`` long) the pin's centre sits at
@@ -37,7 +39,7 @@ __all__ = ["Parts", "Follower", "pin_in_plate", "drum_cam", "FOLLOWERS", "follow
 #: the angle q1 itself, so the pin's disc is as round in (q0, q1) as on the drum and the C-space
 #: distance of eq. (1) is the distance on the drum's surface.
 DRUM_RADIUS = 1.0
-#: The followers' names (:attr:`Parts.follower`; the realize command's files are keyed by them).
+#: The followers' names (`Parts.follower`; the realize command's files are keyed by them).
 PIN_IN_PLATE, DRUM_CAM = "pin-in-plate", "drum-cam"
 
 
@@ -56,7 +58,7 @@ class Parts:
     Attributes
     ----------
     follower : str
-        :data:`FOLLOWERS`' name.
+        `FOLLOWERS`' name.
     pin_radius : float
         The pin's radius (C-space length).
     plate : shapely (Multi)Polygon
@@ -79,7 +81,8 @@ class Parts:
         modulo ``y_period`` on a drum.
     clearance : float
         How much larger than ``pin_radius`` (the radius part 1 is cut for) the pin is made
-        (:attr:`pin_made`): the parts' C-space obstacle is then the region grown by it, so a
+        ([`pin_made`][pes_ref.realize.followers.Parts.pin_made]): the parts' C-space obstacle is then the region grown
+        by it, so a
         rigid pin stands that far off the walls as eq. (1)'s barrier holds a particle off them.
     """
 
@@ -182,8 +185,9 @@ def pin_in_plate(region: Region, pin_radius: float, rim: float, open_edges=(), d
 
     ``open_edges`` lists the ``(axis, side)`` edges through which the design's particles leave
     the domain (no wall there): the free region along them runs on out through the rim, as the
-    design's surface runs on beyond its edge. ``drum_radius`` is a drum cam's (:class:`Follower`'s
-    common signature); :func:`pes_ref.realize.contact.realize_contact` refuses it for a plane."""
+    design's surface runs on beyond its edge. ``drum_radius`` is a drum cam's
+    ([`Follower`][pes_ref.realize.followers.Follower]'s
+    common signature); [`pes_ref.realize.contact.realize_contact`][pes_ref.realize.contact.realize_contact] refuses it for a plane."""
     from pes_ref.realize.extra import require_realize
     shapely = require_realize()["shapely"]
     if any(region.periodic):
@@ -207,8 +211,8 @@ def pin_in_plate(region: Region, pin_radius: float, rim: float, open_edges=(), d
 
 def drum_cam(region: Region, pin_radius: float, rim: float, open_edges=(), drum_radius=None) -> Parts:
     """A pin of radius ``pin_radius`` in the groove of a drum of radius ``drum_radius`` (default
-    :data:`DRUM_RADIUS`), whose walls run ``rim`` beyond the drawn box at the drum's ends
-    (module docstring). ``open_edges`` as for :func:`pin_in_plate` (the drum's ends only)."""
+    `DRUM_RADIUS`), whose walls run ``rim`` beyond the drawn box at the drum's ends
+    (module docstring). ``open_edges`` as for [`pin_in_plate`][pes_ref.realize.followers.pin_in_plate] (the drum's ends only)."""
     from pes_ref.realize.extra import require_realize
     shapely = require_realize()["shapely"]
     if tuple(region.periodic) != (False, True):
@@ -236,7 +240,7 @@ def drum_cam(region: Region, pin_radius: float, rim: float, open_edges=(), drum_
                  {"motion": "drum", "radius": radius}, "drum", radius, turn)
 
 
-#: The follower of each topology: periodic axes -> :class:`Follower`.
+#: The follower of each topology: periodic axes -> `Follower`.
 FOLLOWERS = {(False, False): Follower(PIN_IN_PLATE, pin_in_plate), (False, True): Follower(DRUM_CAM, drum_cam)}
 
 

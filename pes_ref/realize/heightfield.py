@@ -7,21 +7,24 @@ from the design's particle (``docs/realize.md``):
 
 - **Rolling inertia.** A solid ball rolling without slipping has kinetic energy
   ``(1/2)(m + I/r^2) |v|^2`` with ``I = (2/5) m r^2``: every force moves it as a mass of
-  :data:`ROLLING` ``= 7/5`` times m (the design's push, a tilt of the plate, too).
+  `ROLLING` ``= 7/5`` times m (the design's push, a tilt of the plate, too).
 - **The slope.** Constrained to the surface, the horizontal part of gravity is
   ``-m g grad h / (1 + |grad h|^2)`` (the normal force tilts with the surface): the
   small-slope picture overstates it by ``|grad h|^2``, 1% at a slope of 0.1.
 
-:func:`rolling_paths` runs the design's held-out particles as balls: the design's scene with
-the mass ``7/5 m`` (pes_ref's own integrator, :func:`pes_ref.simulate`), and with the slope
+[`rolling_paths`][pes_ref.realize.heightfield.rolling_paths] runs the design's held-out particles as balls: the design's
+scene with
+the mass ``7/5 m`` (pes_ref's own integrator, [`pes_ref.simulate`][pes_ref.core.scene.simulate]), and with the slope
 too (the same damped velocity Verlet, docs/spec.md section 5.1, with the surface's force
 scaled by ``1 / (1 + |grad h|^2)`` at each state; the terms of the second order in the
 velocity, ``v^T H v grad h / (1 + |grad h|^2)``, are left out). The surface is rebuilt from
-the exported STL (:func:`heights_from_mesh`).
+the exported STL ([`heights_from_mesh`][pes_ref.realize.heightfield.heights_from_mesh]).
 
-:func:`heightfield_check` gives the figures of ``realize --as heightfield``: the design's
+[`heightfield_check`][pes_ref.realize.heightfield.heightfield_check] gives the figures of ``realize --as heightfield``:
+the design's
 particle, the rolling ball with and without the slope, and the same balls in MuJoCo
-(:mod:`pes_ref.realize.mujoco_ball`, the optional extra ``mujoco``), on the same held-out starts,
+([`pes_ref.realize.mujoco_ball`][pes_ref.realize.mujoco_ball], the optional extra ``mujoco``), on the same held-out
+starts,
 pushes and noise draws, over the design's horizon or ``n_steps`` given.
 """
 from __future__ import annotations
@@ -151,7 +154,7 @@ def heights_from_mesh(mesh, like: HeightField) -> np.ndarray:
 def rolling_paths(problem, energy, seed: int, n_particles: int, g: float | None = None,
                   n_steps: int | None = None) -> Trajectory:
     """Held-out funnel particles as rolling balls on grid ``energy``: the design's batch from
-    ``default_rng(seed)`` with every mass :data:`ROLLING` times the design's; with ``g`` the
+    ``default_rng(seed)`` with every mass `ROLLING` times the design's; with ``g`` the
     surface's force is also scaled by ``1 / (1 + |grad h|^2)``, ``h = E / (m g)`` (module docstring).
     ``n_steps`` of the design's ``dt`` (default the design's own)."""
     batch = problem.plain().batch(np.asarray(energy, dtype=np.float64), np.random.default_rng(seed),
@@ -164,7 +167,8 @@ def rolling_paths(problem, energy, seed: int, n_particles: int, g: float | None 
 
 
 def _sloped(scene, x0, v0, weight: float) -> Trajectory:
-    """The damped velocity Verlet of :func:`pes_ref.core.integrator.simulate_dynamic`, the
+    """The damped velocity Verlet of
+    [`pes_ref.core.integrator.simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic], the
     surface's force scaled by ``1 / (1 + |F_surface / weight|^2)`` (``weight = m g``)."""
     field = scene.field()
     surface_only = field._replace(spring=None, walls=None)
@@ -205,7 +209,8 @@ def heightfield_check(problem, values, hf: HeightField, seed: int, n_particles: 
     against the rolling ball, ``mujoco_dt`` its timestep, ``mujoco_radius`` the ball's radius,
     ``mujoco_seconds`` its run's wall time), each on ``n_particles`` of held-out seed ``seed`` over
     ``n_steps`` of the design's ``dt`` (default the design's). ``mujoco``: True runs MuJoCo (its
-    absence raises :class:`pes_ref.devices.geometry.MissingExtraError`), False leaves it out,
+    absence raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError]), False
+    leaves it out,
     None runs it when it is installed and otherwise sets ``mujoco`` to the line that installs it.
     ``exited`` counts the particles that reach the exit edge within the horizon: the in-band
     fraction is at most it."""

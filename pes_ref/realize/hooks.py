@@ -1,7 +1,7 @@
 """What a realization needs of each kind of design, read off its entry's realization hooks.
 
-Each kind of design (:data:`pes_ref.synthesis.kinds.KINDS`) states, in its ``realizable``
-(:class:`pes_ref.synthesis.kinds.Realizable`), where its particles go (the paths the
+Each kind of design (`pes_ref.synthesis.kinds.KINDS`) states, in its ``realizable``
+([`pes_ref.synthesis.kinds.Realizable`][pes_ref.synthesis.kinds.Realizable]), where its particles go (the paths the
 ``visited`` contact rule and the drawing read), where an analysis of its device starts, and the
 eq. (1) its parts' surface takes; the contact realization and the drawing ask here.
 """

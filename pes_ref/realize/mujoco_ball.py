@@ -1,10 +1,12 @@
 """The heightfield check in a real engine: balls rolling on the plate in MuJoCo.
 
-:func:`mujoco_paths` runs the design's held-out funnel particles as solid balls on a MuJoCo
+[`mujoco_paths`][pes_ref.realize.mujoco_ball.mujoco_paths] runs the design's held-out funnel particles as solid balls on
+a MuJoCo
 heightfield geom (``hfield``) whose nodes carry the plate's heights
-``h = (E - min E) / (m g)`` (:class:`pes_ref.realize.heightfield.HeightField`, read back from
+``h = (E - min E) / (m g)`` ([`pes_ref.realize.heightfield.HeightField`][pes_ref.realize.heightfield.HeightField], read
+back from
 the exported STL's top). Everything else is the design's, taken from its own held-out batch
-(``problem.plain().batch``, the sampler of :func:`pes_ref.synthesis.kinds.evaluate` with
+(``problem.plain().batch``, the sampler of [`pes_ref.synthesis.kinds.evaluate`][pes_ref.synthesis.kinds.evaluate] with
 ``default_rng(seed)``):
 
 - **the starts**: each ball's centre over the particle's start, resting on the plate, its
@@ -16,7 +18,7 @@ the exported STL's top). Everything else is the design's, taken from its own hel
   held over the substeps of that step. A force at the centre of a rolling ball is what a
   tilt of the plate gives (gravity acts at the centre), as the rolling-ball model has it;
 - **the walls**: the design's side walls (a stiff spring, ``Walls``) act as the same force
-  (:func:`pes_ref.core.terms.wall_add_force`), evaluated at every substep;
+  ([`pes_ref.core.terms.wall_add_force`][pes_ref.core.terms.wall_add_force]), evaluated at every substep;
 - **the damping**: the design's ``-gamma v`` on the horizontal velocity (MuJoCo's
   ``dof_damping`` on the free joint's x and y, integrated implicitly);
 - **gravity** ``g`` of the heightfield, the mass ``m`` of the design's particle (a solid
@@ -27,21 +29,23 @@ The balls share one model and never touch each other: each ball's geom has ``con
 ``conaffinity`` 0, the plate's ``contype`` 0 and ``conaffinity`` 1 (MuJoCo collides two geoms
 when one's ``contype`` shares a bit with the other's ``conaffinity``).
 
-What MuJoCo adds over the rolling-ball model (:func:`pes_ref.realize.heightfield.rolling_paths`):
-the contact is a sphere of radius :data:`BALL_RADIUS_SHARE` of a grid cell on the plate's
+What MuJoCo adds over the rolling-ball model
+([`pes_ref.realize.heightfield.rolling_paths`][pes_ref.realize.heightfield.rolling_paths]):
+the contact is a sphere of radius `BALL_RADIUS_SHARE` of a grid cell on the plate's
 triangles (two per cell, as the STL's), so its centre follows the surface offset by the
 radius and it touches at a point not under its centre; the full slope and curvature terms;
-sliding friction :data:`SLIDING_FRICTION` (rolling is not imposed: the ball rolls because
-friction holds its contact point) with :data:`CONDIM` 3 (no rolling resistance, as the
+sliding friction `SLIDING_FRICTION` (rolling is not imposed: the ball rolls because
+friction holds its contact point) with `CONDIM` 3 (no rolling resistance, as the
 rolling-ball model has none). MuJoCo's contact is soft: a time constant
-:data:`CONTACT_TIMECONST` (``solref``; :func:`contact_timeconst`), far below the design's step.
+`CONTACT_TIMECONST` (``solref``; [`contact_timeconst`][pes_ref.realize.mujoco_ball.contact_timeconst]), far below the
+design's step.
 
-The plate is padded by :data:`PAD` of its size on every side with its edge heights (the
+The plate is padded by `PAD` of its size on every side with its edge heights (the
 design's surface extends as a constant beyond its grid), so a ball that leaves the grid
 (through the exit edge) rolls on before it falls. The paths are sampled at the design's
-steps (a :class:`pes_ref.core.integrator.Trajectory` of the balls' horizontal centres and
+steps (a [`pes_ref.core.integrator.Trajectory`][pes_ref.core.integrator.Trajectory] of the balls' horizontal centres and
 velocities, its ``f`` the schedule's and the walls' force at each state), so
-:func:`pes_ref.synthesis.exit_positions` reads their exits as the design's.
+[`pes_ref.synthesis.exit_positions`][pes_ref.synthesis.funnel.exit_positions] reads their exits as the design's.
 """
 from __future__ import annotations
 
@@ -73,13 +77,13 @@ SLIDING_FRICTION = 1.0
 #: has no rolling resistance either (a hard ball on a hard plate has little: condim 6 would add it).
 CONDIM = 3
 #: The contact's time constant (s, MuJoCo's ``solref[0]``; damping ratio 1) under gravity
-#: :data:`CONTACT_G`. A ball sinks into the plate by about ``g tc^2`` times a factor of the
-#: impedance, and the plate's drag grows with the sink (:data:`CONTACT_IMPEDANCE`): at g = 98.1
+#: `CONTACT_G`. A ball sinks into the plate by about ``g tc^2`` times a factor of the
+#: impedance, and the plate's drag grows with the sink (`CONTACT_IMPEDANCE`): at g = 98.1
 #: and 0.002 s the balls of a flat plate exit 15 design steps late, at 0.0006 s one. So under a
-#: stronger gravity the time constant shrinks as ``1 / sqrt(g)`` (:func:`contact_timeconst`),
+#: stronger gravity the time constant shrinks as ``1 / sqrt(g)`` (`contact_timeconst`),
 #: keeping the sink; under a weaker one it stays. MuJoCo needs a timestep at most half of it.
 CONTACT_TIMECONST = 0.002
-#: The gravity (length / time^2) at which :data:`CONTACT_TIMECONST` holds.
+#: The gravity (length / time^2) at which `CONTACT_TIMECONST` holds.
 CONTACT_G = 9.81
 #: The contact's impedance (MuJoCo's ``solimp``: d0, d_width, width). MuJoCo's heightfield is
 #: a row of triangular prisms; a ball sunk a depth p into the plate meets the next prism's side
@@ -99,14 +103,14 @@ PAD = 0.1
 
 
 def contact_timeconst(g: float) -> float:
-    """The contact's time constant under gravity ``g``: :data:`CONTACT_TIMECONST`, shorter by
-    ``sqrt(CONTACT_G / g)`` when ``g`` is stronger than :data:`CONTACT_G`."""
+    """The contact's time constant under gravity ``g``: `CONTACT_TIMECONST`, shorter by
+    ``sqrt(CONTACT_G / g)`` when ``g`` is stronger than `CONTACT_G`."""
     return CONTACT_TIMECONST * math.sqrt(min(1.0, CONTACT_G / g))
 
 
 def substeps(dt: float, g: float) -> int:
     """MuJoCo's steps per design step of ``dt`` under gravity ``g``: enough for a timestep at
-    most :data:`TIMESTEP_SHARE` of the contact's time constant, and at least :data:`SUBSTEPS`."""
+    most `TIMESTEP_SHARE` of the contact's time constant, and at least `SUBSTEPS`."""
     return max(SUBSTEPS, math.ceil(dt / (TIMESTEP_SHARE * contact_timeconst(g)) - 1e-9))
 
 
@@ -120,7 +124,7 @@ def _mujoco():
 
 
 def plate_model(hf, n_balls: int, mass: float, radius: float, timestep: float, damping):
-    """The MuJoCo model: the plate's heightfield (``hf``'s heights padded by :data:`PAD`) and
+    """The MuJoCo model: the plate's heightfield (``hf``'s heights padded by `PAD`) and
     ``n_balls`` balls of ``mass`` and ``radius``, each on a free joint whose horizontal dofs
     carry ``damping`` (2,)."""
     mujoco = _mujoco()
@@ -180,7 +184,7 @@ def mujoco_paths(problem, hf, seed: int, n_particles: int, n_steps: int | None =
     """Held-out funnel particles as balls on heightfield ``hf`` in MuJoCo (module docstring):
     the design's batch from ``default_rng(seed)`` of ``n_particles``, run for ``n_steps`` of the
     design's ``dt`` (default its own ``n_steps``) with ``steps_per_step`` MuJoCo steps each
-    (default :func:`substeps`); the
+    (default [`substeps`][pes_ref.realize.mujoco_ball.substeps]); the
     balls' radius is ``radius_share`` of the grid's finer spacing. Returns the balls'
     horizontal centres, velocities and the schedule's and walls' force at the design's steps."""
     mujoco = _mujoco()

@@ -1,6 +1,6 @@
 """The realizations of a saved design, by name: what each writes, its own options, how it is
 prepared (everything checked and computed, nothing written) and how it is written, read back
-and checked (:data:`REALIZATIONS`; ``python -m pes_ref realize DESIGN.npz --as NAME``).
+and checked (`REALIZATIONS`; ``python -m pes_ref realize DESIGN.npz --as NAME``).
 
 Options are the library's names (``pin_radius``, ``n_steps`` ...); an option that is None was
 not given and takes the realization's default. A realization's report is a list of ``(name,
@@ -99,7 +99,7 @@ def _write_heightfield(job, state, outputs: dict, options: dict, force: bool) ->
     return list(figures.items())
 
 
-#: The realizations: ``--as NAME`` -> :class:`Realization` (``docs/realize.md``).
+#: The realizations: ``--as NAME`` -> `Realization` (``docs/realize.md``).
 REALIZATIONS = {
     "contact": Realization(("rule", "level", "pin_radius", "rim", "thickness", "drum_radius", "clearance",
                             "restitution"), _contact_files, _prepare_contact, _write_contact),

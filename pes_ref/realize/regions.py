@@ -3,25 +3,26 @@
 A contact realization keeps the design's energy above a *contact level* ``E_c`` as blocked
 space (a part's material) and eq. (1) of the distance to it as the energy; everything
 below the level is flat, except the springs and walls the design's scene has. The level is
-chosen by a stated rule, :data:`CONTACT_RULES` (``docs/realize.md``):
+chosen by a stated rule, `CONTACT_RULES` (``docs/realize.md``):
 
 - ``"level-set"`` (the default for a design made realizable, ``--set realizable=true``):
-  the design's own shape, ``{values + r_c < 0}`` (:mod:`pes_ref.synthesis.level_set`); its
+  the design's own shape, ``{values + r_c < 0}`` ([`pes_ref.synthesis.level_set`][pes_ref.synthesis.level_set]); its
   level is eq. (1)'s energy at distance 0, and the surface it simulated is eq. (1) of this
   very region;
 - ``"visited"`` (the default otherwise): the highest energy the design's own particles
-  reach, the :data:`VISITED_QUANTILE` quantile of the surface's energy over every state of
-  the paths of :data:`VISITED_SEED` (never a held-out seed): rigid contact there leaves what
+  reach, the `VISITED_QUANTILE` quantile of the surface's energy over every state of
+  the paths of `VISITED_SEED` (never a held-out seed): rigid contact there leaves what
   the particles do on the design untouched, and everything they do below it is lost;
 - ``"value"``: a level given (``--level VALUE``).
 
-Each rule also gives its neighbouring levels (:attr:`Region.neighbours`), which the command
+Each rule also gives its neighbouring levels (`Region.neighbours`), which the command
 reports beside the chosen one: how much of the C-space changes side.
 
 The region is the set ``{phi < 0}`` of a level function ``phi`` on the surface's grid
 (``E_c - E``, or the level set plus ``r_c``), its boundary the zero contour of ``phi``
 interpolated linearly along the grid's edges (contourpy's filled contours, the same
-marching squares as :func:`pes_ref.devices.boundary.boundary_segments` apart from the
+marching squares as [`pes_ref.devices.boundary.boundary_segments`][pes_ref.devices.boundary.boundary_segments] apart
+from the
 choice in a cell with two blocked corners on a diagonal), drawn past the grid's edges by
 repeating the edge values (a surface extends as a constant beyond a non-periodic edge) and
 round a periodic axis by wrapping. Nodes a problem holds (its design mask is 0) are free.
@@ -55,7 +56,7 @@ class Region:
     Attributes
     ----------
     rule : str
-        The rule that chose the level (:data:`CONTACT_RULES`).
+        The rule that chose the level (`CONTACT_RULES`).
     level : float
         The contact level ``E_c`` (energy).
     phi : ndarray (n0, n1)

@@ -2,7 +2,8 @@
 on every device file and every realized design (``docs/rigid.md``).
 
 The optional extra ``rigid`` (``pip install 'pes_ref[rigid]'``); without it, building the
-bodies raises :class:`pes_ref.devices.geometry.MissingExtraError` naming that line.
+bodies raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] naming that
+line.
 """
 from pes_ref.rigid.bodies import MOTION_BODIES, RigidParts, require_pymunk, rigid_parts
 from pes_ref.rigid.engine import StartBlockedError, blocked_starts, simulate

@@ -1,22 +1,23 @@
 """A device's two parts as rigid bodies in pymunk (Chipmunk2D): the rigid engine's model.
 
-Each part of a device file (:class:`pes_ref.devices.geometry.Part`) becomes one pymunk body
+Each part of a device file ([`pes_ref.devices.geometry.Part`][pes_ref.devices.geometry.Part]) becomes one pymunk body
 holding the part's own geometry (the same shapely geometry, circles within the same
 tolerance, that the surface model's C-space is computed from), cut into convex pieces
-(shapely's constrained Delaunay triangles merged while convex, :func:`convex_pieces`;
+(shapely's constrained Delaunay triangles merged while convex, [`convex_pieces`][pes_ref.rigid.bodies.convex_pieces];
 pymunk collides convex pieces), and held to
 its one degree of freedom:
 
 - a **translation** slides on a groove joint along its direction; its mass is the axis's
   mass and it cannot turn (infinite moment);
 - a **rotation** turns on a pivot joint; its moment of inertia is the axis's inertia;
-- a **drum** is unrolled: its drawing, tiled a turn apart (:meth:`pes_ref.devices.geometry.Drum.tiled`),
+- a **drum** is unrolled: its drawing, tiled a turn apart
+  ([`pes_ref.devices.geometry.Drum.tiled`][pes_ref.devices.geometry.Drum.tiled]),
   slides along -y by the arc length ``R q`` on a groove joint, with the mass ``I / R^2``
   that gives the drum's kinetic energy ``I q'^2 / 2``; the body is moved back by a whole
   turn whenever it leaves the turn ``(-2 pi R, 0]`` (the drawing repeats, so nothing moves)
   and the turns are counted, so the coordinate stays unwrapped.
 
-Each motion is one entry of :data:`MOTION_BODIES` (motion type -> how its body is made, read
+Each motion is one entry of `MOTION_BODIES` (motion type -> how its body is made, read
 and pushed), so the engine never asks which motion it has. Contact is frictionless and
 inelastic by default; a device's ``[rigid]`` table states its restitution and friction
 (pymunk multiplies the two shapes' values, so each shape gets the square root).
@@ -38,7 +39,7 @@ __all__ = ["PIP_LINE", "require_pymunk", "MOTION_BODIES", "RigidParts", "rigid_p
 #: The pip line that installs the rigid engine.
 PIP_LINE = "pip install 'pes_ref[rigid]'"
 #: pymunk's allowed overlap (its collision slop), as a share of the C-space cell in length
-#: (:attr:`RigidParts.cell`): the contact rests this far inside the wall.
+#: (`RigidParts.cell`): the contact rests this far inside the wall.
 SLOP_SHARE = 1e-3
 #: The share of an overlap the contact leaves after one second (pymunk's collision bias; its
 #: default 0.9^60 takes a tenth of a second to push out an overlap). 0: each step pushes the
@@ -52,7 +53,7 @@ ITERATIONS = 20
 
 
 def require_pymunk():
-    """The ``pymunk`` module (version 7), or :class:`pes_ref.devices.geometry.MissingExtraError` with the pip line."""
+    """The ``pymunk`` module (version 7), or [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] with the pip line."""
     try:
         import pymunk
     except ImportError:
@@ -124,7 +125,8 @@ def convex_pieces(geom) -> list:
 
 @functools.lru_cache(maxsize=64)
 def _pieces(wkb: bytes) -> tuple:
-    """:func:`convex_pieces` of a geometry given as WKB, once per geometry (every space of a run,
+    """[`convex_pieces`][pes_ref.rigid.bodies.convex_pieces] of a geometry given as WKB, once per geometry (every space
+    of a run,
     and every chunk of a drive, builds the same parts)."""
     return tuple(convex_pieces(require_shapely().from_wkb(wkb)))
 
@@ -279,7 +281,8 @@ def _reach(geom, pivot) -> float:
 
 @dataclass(frozen=True, eq=False)
 class RigidParts:
-    """A device's parts as pymunk bodies, one pymunk space per particle (:meth:`space`).
+    """A device's parts as pymunk bodies, one pymunk space per particle
+    ([`space`][pes_ref.rigid.bodies.RigidParts.space]).
 
     Attributes
     ----------
@@ -305,8 +308,8 @@ class RigidParts:
     levers: np.ndarray
 
     def space(self):
-        """A new space holding both parts, and what :meth:`place`, :meth:`read`, :meth:`push`
-        and :meth:`rewrap` need of it."""
+        """A new space holding both parts, and what `place`, `read`, `push`
+        and `rewrap` need of it."""
         pymunk = require_pymunk()
         space = pymunk.Space()
         space.iterations = ITERATIONS

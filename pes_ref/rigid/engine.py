@@ -1,27 +1,29 @@
 """The rigid engine: a scene's run with the device's parts in rigid contact instead of eq. (1).
 
-:func:`simulate` runs the particles of a scene as the device's two parts in pymunk
-(:mod:`pes_ref.rigid.bodies`), one space per particle. Everything but the contact is the
+[`simulate`][pes_ref.rigid.engine.simulate] runs the particles of a scene as the device's two parts in pymunk
+([`pes_ref.rigid.bodies`][pes_ref.rigid.bodies]), one space per particle. Everything but the contact is the
 scene's and is applied as a generalized force on each axis, held over each step:
 
 - the external force of the scene's effects (pushes and noise: the same draws as the
-  surface model's run, :meth:`pes_ref.core.scene.Scene.schedule`, so a noise force held over
+  surface model's run, [`pes_ref.core.scene.Scene.schedule`][pes_ref.core.scene.Scene.schedule], so a noise force held
+  over
   a step is the same impulse ``F dt``), or a given schedule ``fext``;
-- the device's springs (``[energy] springs``, :meth:`pes_ref.devices.cspace.GridSpring.force`)
+- the device's springs (``[energy] springs``,
+  [`pes_ref.devices.cspace.GridSpring.force`][pes_ref.devices.cspace.GridSpring.force])
   and the scene's linear spring, its walls and its damping (``-c q'``).
 
 The scene's surface is not used: the parts' contact replaces eq. (1) of the distance to
 blocked space. The dynamic step is pymunk's (semi-implicit Euler with the contact solved as
 velocity constraints, inelastic and frictionless unless the device's ``[rigid]`` table says
 otherwise) at the scene's ``dt``, cut into substeps so that no point of a part moves more than
-:data:`SUBSTEP_SHARE` of a C-space cell (:attr:`pes_ref.rigid.bodies.RigidParts.cell`) in one:
+`SUBSTEP_SHARE` of a C-space cell (`pes_ref.rigid.bodies.RigidParts.cell`) in one:
 the parts cannot pass through each other. The quasistatic step gives each part, in every
 substep, the force that brings it to the velocity the mobility gives the force
 (``q' = mobility F``), and the contact takes away what the parts forbid before the parts move
 (pymunk moves the bodies with the velocities its last contact solve left; the bodies'
 masses are the inverse mobilities). Consecutive quasistatic steps under one external force
-that together move a part by at most :data:`BLOCK_SHARE` of a cell are one pymunk step
-(:func:`_block`): the scene's mobility is the surface's stable one, far smaller than the
+that together move a part by at most `BLOCK_SHARE` of a cell are one pymunk step
+(`_block`): the scene's mobility is the surface's stable one, far smaller than the
 rigid parts need.
 """
 from __future__ import annotations
@@ -43,7 +45,7 @@ __all__ = ["simulate", "blocked_starts", "SUBSTEP_SHARE", "MAX_SUBSTEPS", "BLOCK
 #: The largest move of a part's point in one substep, as a share of the C-space cell.
 SUBSTEP_SHARE = 0.5
 #: How far the parts may overlap at a start, as a share of the C-space cell: a substep's
-#: move (:data:`SUBSTEP_SHARE`). Pymunk finds a contact once the parts overlap, within the
+#: move (`SUBSTEP_SHARE`). Pymunk finds a contact once the parts overlap, within the
 #: substep that brought them together, and pushes them apart in the next one: a run stopped
 #: there (a drive's chunk) leaves an overlap of up to a substep's move, which the run that
 #: goes on from that state must accept.
@@ -90,7 +92,7 @@ def _forces(device, scene, q, v, lo_hi, out) -> np.ndarray:
 
 def blocked_starts(device, x0, allowance: float | None = None) -> np.ndarray:
     """(N,) bool: where the parts posed at ``x0`` (N, 2) overlap by more than ``allowance`` (a
-    length; default :data:`START_ALLOWANCE` of the C-space cell): the starts the engine refuses."""
+    length; default `START_ALLOWANCE` of the C-space cell): the starts the engine refuses."""
     shapely = require_shapely()
     x0 = np.asarray(x0, dtype=float)
     if allowance is None:
@@ -104,7 +106,7 @@ def blocked_starts(device, x0, allowance: float | None = None) -> np.ndarray:
 def check_start(device, x0, allowance: float) -> None:
     """Refuse starts where the posed parts overlap by more than ``allowance`` (a length: the
     contact's own overlap, so that a run can go on from where another stopped)
-    (:class:`StartBlockedError` naming ``x0``)."""
+    ([`StartBlockedError`][pes_ref.rigid.engine.StartBlockedError] naming ``x0``)."""
     bad = np.nonzero(blocked_starts(device, x0, allowance))[0]
     if bad.size:
         i = int(bad[0])
@@ -162,7 +164,7 @@ def simulate(device, scene, x0, v0=None, *, fext="scene", progress=None) -> Traj
 
 def _block(qdot, reach, dt: float, left: int, changes, k: int) -> int:
     """How many quasistatic steps from step ``k`` one pymunk step spans: as many as keep every
-    part's free move within :data:`BLOCK_SHARE` of a cell (at most :data:`MAX_BLOCK`, the steps
+    part's free move within `BLOCK_SHARE` of a cell (at most `MAX_BLOCK`, the steps
     ``left``, and up to the next step at which the external force changes, ``changes``)."""
     per_step = float(np.max(np.sum(np.abs(qdot) * reach, axis=1))) * dt * SUBSTEP_SHARE / BLOCK_SHARE
     b = MAX_BLOCK if per_step * MAX_BLOCK <= 1.0 else max(1, int(1.0 / per_step))

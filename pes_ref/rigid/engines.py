@@ -1,18 +1,18 @@
 """The engines a device's analysis runs on, by name, and one analysis on two engines side by side.
 
 An *engine* runs a scene of a device: ``run(device, scene, x0, v0=None) -> Trajectory``
-(:class:`pes_ref.core.integrator.Trajectory`). :data:`ENGINES` holds them by name:
+([`pes_ref.core.integrator.Trajectory`][pes_ref.core.integrator.Trajectory]). `ENGINES` holds them by name:
 
 - ``surface``: the potential energy surface, eq. (1) of the C-space plus the springs
-  (:func:`pes_ref.core.scene.simulate` of the scene; the device is not read);
-- ``rigid``: the parts in rigid contact (:func:`pes_ref.rigid.engine.simulate`, pymunk).
+  ([`pes_ref.core.scene.simulate`][pes_ref.core.scene.simulate] of the scene; the device is not read);
+- ``rigid``: the parts in rigid contact ([`pes_ref.rigid.engine.simulate`][pes_ref.rigid.engine.simulate], pymunk).
 
-``both`` (:data:`BOTH`) runs an analysis on each engine and states the two side by side
-(:func:`side_by_side`) with their difference; for a drive also the difference of the two
-motion laws (:func:`compare_laws`).
+``both`` (`BOTH`) runs an analysis on each engine and states the two side by side
+([`side_by_side`][pes_ref.rigid.engines.side_by_side]) with their difference; for a drive also the difference of the two
+motion laws ([`compare_laws`][pes_ref.rigid.engines.compare_laws]).
 
 A quasistatic surface drive that stalls is looked at with the rigid engine
-(:func:`tell_stall`): from the stall point, the rigid parts under the same load either
+([`tell_stall`][pes_ref.rigid.engines.tell_stall]): from the stall point, the rigid parts under the same load either
 pass (the stall came from the grid's resolution: the barrier of a channel the grid
 cannot resolve holds the input) or stop too (a jam of the geometry).
 """
@@ -49,7 +49,8 @@ def _nothing() -> None:
 @dataclass(frozen=True)
 class Engine:
     """An engine: ``run(device, scene, x0, v0=None) -> Trajectory``; ``require()`` raises
-    :class:`pes_ref.devices.geometry.MissingExtraError` (with its pip line) when the engine's
+    [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] (with its pip line) when
+    the engine's
     extra is not installed; ``contact``: its figures state the engine and the contact's
     restitution and friction; ``native``: the analyses' own runs (an analysis on it is called
     as it always was, without a ``run``)."""
@@ -68,13 +69,13 @@ class Engine:
 #: The engines by name (``analyze --engine NAME``).
 ENGINES = {"surface": Engine("surface", _surface_run, _nothing, False, native=True),
            "rigid": Engine("rigid", _rigid_run, require_pymunk, True)}
-#: The choice that runs every engine of :data:`ENGINES` and states them side by side.
+#: The choice that runs every engine of `ENGINES` and states them side by side.
 BOTH = "both"
 
 
 def engine_names(choice: str) -> tuple:
-    """The engines ``choice`` runs: every one for :data:`BOTH`, else the one named (a keyed
-    :class:`~pes_ref.core.checks.InputError` naming ``engine`` for another word)."""
+    """The engines ``choice`` runs: every one for `BOTH`, else the one named (a keyed
+    [`InputError`][pes_ref.core.checks.InputError] naming ``engine`` for another word)."""
     if choice == BOTH:
         return tuple(ENGINES)
     if choice not in ENGINES:
@@ -98,13 +99,14 @@ def engine_facts(device, name: str) -> dict:
 
 
 def stated_lines(device, name: str) -> list:
-    """The lines an engine adds to an analysis' own: :func:`engine_facts` for an engine that
+    """The lines an engine adds to an analysis' own: [`engine_facts`][pes_ref.rigid.engines.engine_facts] for an engine
+    that
     states its contact (the rigid one), none for the surface (its lines as they always were)."""
     return fact_lines(engine_facts(device, name)) if ENGINES[name].contact else []
 
 
 def fact_lines(facts: dict) -> list:
-    """``name: value unit`` lines of :func:`engine_facts` (the engine's name has no unit)."""
+    """``name: value unit`` lines of [`engine_facts`][pes_ref.rigid.engines.engine_facts] (the engine's name has no unit)."""
     units = {"engine": "", "restitution": " 1", "friction": " 1"}
     return [f"{k}: {v:.6g}{units[k]}" if isinstance(v, float) else f"{k}: {v}{units[k]}" for k, v in facts.items()]
 
@@ -113,7 +115,7 @@ def fact_lines(facts: dict) -> list:
 
 def cycle_advances(result) -> np.ndarray:
     """The output's change over each whole turn of a periodic input: the drive's own
-    ``advance_per_cycle_each`` (:class:`pes_ref.devices.drive.DriveResult`; empty for a
+    ``advance_per_cycle_each`` ([`pes_ref.devices.drive.DriveResult`][pes_ref.devices.drive.DriveResult]; empty for a
     translation input or a run shorter than a turn)."""
     return np.asarray(result.advance_per_cycle_each, dtype=float)
 
@@ -154,7 +156,7 @@ class LawDifference:
     rms_centred: float
 
     def share(self, value: float) -> float:
-        """``value`` as a share of :attr:`output_travel` (nan for no travel)."""
+        """``value`` as a share of `output_travel` (nan for no travel)."""
         return value / self.output_travel if self.output_travel > 0 else float("nan")
 
     def summary(self) -> dict:
@@ -166,7 +168,8 @@ class LawDifference:
 
 
 def compare_laws(a, b) -> LawDifference:
-    """The difference ``b - a`` of two drives' motion laws (:class:`LawDifference`) on the
+    """The difference ``b - a`` of two drives' motion laws ([`LawDifference`][pes_ref.rigid.engines.LawDifference]) on
+    the
     samples both reached; after the first turn when both made two turns or more of a periodic
     input (the start's transient left out: parts that start apart, or a part set down at the
     barrier's standoff that the rigid parts do not keep, settle within it)."""
@@ -185,7 +188,7 @@ def compare_laws(a, b) -> LawDifference:
 
 
 def law_lines(diff: LawDifference, label: str) -> list:
-    """``name[label]: value unit`` lines of a :class:`LawDifference`."""
+    """``name[label]: value unit`` lines of a [`LawDifference`][pes_ref.rigid.engines.LawDifference]."""
     t = diff.output_travel
     return [f"motion_law_rms[{label}]: {diff.rms:.6g} output-unit ({diff.share(diff.rms):.3g} of the output's "
             f"travel {t:.6g})",
@@ -244,7 +247,7 @@ def side_by_side(lines: dict) -> list:
 #: rigid parts touch: that much is no passing) ...
 PASS_CELLS = 2.0
 #: ... or is still moving at the end of this many of the drive's stall windows (the steps in
-#: which the unresisted input would move :data:`pes_ref.devices.drive.JAM_CELLS` spacings):
+#: which the unresisted input would move `pes_ref.devices.drive.JAM_CELLS` spacings):
 #: still moving by the drive's own test of a stall.
 PROBE_WINDOWS = 4
 
@@ -276,14 +279,14 @@ class Stall:
 
 
 def _passing(device, axis: int) -> float:
-    """How far past a stall point the rigid input must get to pass it (:data:`PASS_CELLS`)."""
+    """How far past a stall point the rigid input must get to pass it (`PASS_CELLS`)."""
     return PASS_CELLS * float(device.spacing[axis]) + float(device.r_c)
 
 
 def stall_from_runs(device, surface, rigid) -> Stall:
     """The stall of the surface drive ``surface`` told apart by a whole rigid drive ``rigid`` from
     the same start: resolution when the rigid drive went the whole way or its input got
-    :data:`PASS_CELLS` spacings and r_c past where the surface input stalled."""
+    `PASS_CELLS` spacings and r_c past where the surface input stalled."""
     past = float(rigid.input_travel - surface.input_travel)
     passed = rigid.stop_reason == "done" or past >= _passing(device, surface.drive)
     return Stall("resolution" if passed else "jam", past)
@@ -291,8 +294,8 @@ def stall_from_runs(device, surface, rigid) -> Stall:
 
 def tell_stall(device, result) -> Stall:
     """The stall of the surface drive ``result`` told apart by the rigid engine: the rigid parts
-    run from the stall point under the same load and mode for :data:`PROBE_WINDOWS` stall
-    windows; they pass when their input gets :data:`PASS_CELLS` input spacings and r_c on, or
+    run from the stall point under the same load and mode for `PROBE_WINDOWS` stall
+    windows; they pass when their input gets `PASS_CELLS` input spacings and r_c on, or
     is still moving in the last window (it has not stalled by the drive's test)."""
     try:
         require_pymunk()

@@ -1,12 +1,13 @@
 """The shipped devices driven on both engines, against each other and the analytic answers:
 the table of ``docs/rigid.md`` (``make rigid-devices``).
 
-Each entry of :data:`DRIVES` is one drive of a shipped device (the Geneva, cam-follower and
+Each entry of `DRIVES` is one drive of a shipped device (the Geneva, cam-follower and
 drum-cam examples, the ratchet and the dart gun) with what is known of its answer in closed
-form. :func:`measure` runs it on the surface and the rigid engine in one mode and states the
+form. [`measure`][pes_ref.rigid.shipped.measure] runs it on the surface and the rigid engine in one mode and states the
 steady advance per cycle (the mean over the turns after the first,
-:func:`pes_ref.rigid.engines.steady_advance`), the difference of the two motion laws after
-the first turn (:func:`pes_ref.rigid.engines.compare_laws`; its mean is the surface
+[`pes_ref.rigid.engines.steady_advance`][pes_ref.rigid.engines.steady_advance]), the difference of the two motion laws
+after
+the first turn ([`pes_ref.rigid.engines.compare_laws`][pes_ref.rigid.engines.compare_laws]; its mean is the surface
 barrier's standoff, stated apart), each engine's law against the analytic one where there
 is one, and both run times.
 """
@@ -139,9 +140,9 @@ def _advance(result):
 
 
 def _bar(row: dict) -> str:
-    """Which parts of the bar a row meets: the advances within :data:`ADVANCE_BAR` (or 1% of the
+    """Which parts of the bar a row meets: the advances within `ADVANCE_BAR` (or 1% of the
     output's travel per cycle, the larger) of each other and of the analytic one, the laws
-    within :data:`RMS_BAR` of the travel (RMS, the standoff removed)."""
+    within `RMS_BAR` of the travel (RMS, the standoff removed)."""
     tol = max(ADVANCE_BAR, 0.01 * row["output_travel"])
     adv = [row["advance_surface"], row["advance_rigid"]]
     if row["advance_analytic"] is not None:
@@ -185,13 +186,13 @@ def markdown_table(rows: list) -> str:
     return "\n".join(out)
 
 
-#: The lines of docs/rigid.md between which :func:`markdown_table`'s table goes.
+#: The lines of docs/rigid.md between which `markdown_table`'s table goes.
 BEGIN = "<!-- rigid-devices:begin (make rigid-devices writes what follows) -->"
 END = "<!-- rigid-devices:end -->"
 
 
 def rewrite(text: str, block: str) -> str:
-    """``text`` with the lines between :data:`BEGIN` and :data:`END` replaced by ``block``
+    """``text`` with the lines between `BEGIN` and `END` replaced by ``block``
     (a ValueError when either line is missing, twice, or they are out of order)."""
     lines = text.split("\n")
     at = {m: [i for i, line in enumerate(lines) if line.strip() == m] for m in (BEGIN, END)}

@@ -2,12 +2,12 @@
 
 The package behind ``python -m pes_ref sweep``, one idea per module:
 
-- :mod:`.options`: design options (the ``design`` command's flags) to a problem and a plan;
-- :mod:`.spec`: a sweep file read and checked into its runs;
-- :mod:`.task`: one run on a worker: design (resumable from its design file), then evaluate;
-- :mod:`.runner`: the runs as Dask tasks: retries, resume, interruption, progress;
-- :mod:`.results`: ``results.csv`` and ``summary.png``;
-- :mod:`.cluster`: a local cluster or an existing scheduler.
+- [`.options`][pes_ref.sweep.options]: design options (the ``design`` command's flags) to a problem and a plan;
+- [`.spec`][pes_ref.sweep.spec]: a sweep file read and checked into its runs;
+- [`.task`][pes_ref.sweep.task]: one run on a worker: design (resumable from its design file), then evaluate;
+- [`.runner`][pes_ref.sweep.runner]: the runs as Dask tasks: retries, resume, interruption, progress;
+- [`.results`][pes_ref.sweep.results]: ``results.csv`` and ``summary.png``;
+- [`.cluster`][pes_ref.sweep.cluster]: a local cluster or an existing scheduler.
 
 Dask (``pip install 'pes_ref[sweep]'``) is imported only where a cluster is used; this
 package imports without it. See ``docs/sweeps.md``.

@@ -1,12 +1,13 @@
 """Where a sweep runs: a Dask ``LocalCluster`` on this machine, or an existing cluster.
 
-Dask is the optional extra ``sweep`` (``pip install 'pes_ref[sweep]'``): :func:`require_dask`
-says so in one line when it is missing. :func:`open_client` yields a
+Dask is the optional extra ``sweep`` (``pip install 'pes_ref[sweep]'``):
+[`require_dask`][pes_ref.sweep.cluster.require_dask]
+says so in one line when it is missing. [`open_client`][pes_ref.sweep.cluster.open_client] yields a
 ``distributed.Client``: connected to ``scheduler`` when one is given, else to a new
 ``LocalCluster`` with one single-threaded worker process per core (``OMP_NUM_THREADS=1``
 and friends in the workers, so that NumPy does not oversubscribe the cores), its
 dashboard on a free port of 127.0.0.1, and a scheduler that gives up on a task at the first worker that dies while
-running it (the sweep then retries it once itself, see :mod:`pes_ref.sweep.runner`).
+running it (the sweep then retries it once itself, see [`pes_ref.sweep.runner`][pes_ref.sweep.runner]).
 Local workers ignore SIGINT: Ctrl-C in the terminal reaches the whole process group, and
 it is the sweep's to handle (it asks the running designs to save and stop).
 """
@@ -31,7 +32,7 @@ LOCAL_SCHEDULER_CONFIG = {"distributed.scheduler.allowed-failures": 0,
 
 
 def require_dask() -> None:
-    """Raise :class:`ImportError` with :data:`INSTALL_HINT` when ``distributed`` is not installed."""
+    """Raise `ImportError` with `INSTALL_HINT` when ``distributed`` is not installed."""
     try:
         import distributed  # noqa: F401
     except ImportError:
@@ -40,7 +41,7 @@ def require_dask() -> None:
 
 def _local_worker_setup(client) -> None:
     """Make the local workers, present and restarted, ignore SIGINT
-    (:func:`pes_ref.core.runtime.signals.ignore_interrupts`, run in each worker's main thread)."""
+    ([`pes_ref.core.runtime.signals.ignore_interrupts`][pes_ref.core.runtime.signals.ignore_interrupts], run in each worker's main thread)."""
     from distributed import WorkerPlugin
 
     class IgnoreSigint(WorkerPlugin):

@@ -1,9 +1,11 @@
 """A sweep file's options, typed: which value each option and scene parameter takes.
 
-A sweep file names each run's *design options* (:data:`pes_ref.synthesis.runs.DESIGN_OPTIONS`,
+A sweep file names each run's *design options* (`pes_ref.synthesis.runs.DESIGN_OPTIONS`,
 the flags of ``python -m pes_ref design``) and the problem's parameters as TOML values; these
-check that each has its type (:func:`typed_sets` for a built-in kind's scene parameters). What
-the options then mean is :func:`pes_ref.synthesis.runs.design_inputs`, the design command's own.
+check that each has its type ([`typed_sets`][pes_ref.sweep.options.typed_sets] for a built-in kind's scene parameters).
+What
+the options then mean is [`pes_ref.synthesis.runs.design_inputs`][pes_ref.synthesis.runs.design_inputs], the design
+command's own.
 """
 from __future__ import annotations
 
@@ -21,7 +23,8 @@ BUILT_IN_KINDS = tuple(name for name, kind in KINDS.items() if kind.default_prob
 
 
 def run_inputs(kind: str, options: Mapping, problem=None) -> DesignInputs:
-    """What a sweep run's ``options`` resolve to (:func:`pes_ref.synthesis.runs.design_inputs`):
+    """What a sweep run's ``options`` resolve to
+    ([`pes_ref.synthesis.runs.design_inputs`][pes_ref.synthesis.runs.design_inputs]):
     a built-in ``kind``'s scene parameters typed as its fields, or a problem file's dotted keys
     on ``problem``."""
     sets = {k: v for k, v in options.items() if k not in DESIGN_OPTIONS}
@@ -31,7 +34,7 @@ def run_inputs(kind: str, options: Mapping, problem=None) -> DesignInputs:
 
 
 def scene_parameters(kind: str) -> dict:
-    """The scene parameters of the built-in ``kind``: field name -> :class:`dataclasses.Field` of its problem."""
+    """The scene parameters of the built-in ``kind``: field name -> `dataclasses.Field` of its problem."""
     return {f.name: f for f in dataclasses.fields(kind_named(kind).default_problem)}
 
 

@@ -11,7 +11,7 @@ when it resumed its design file), ``iterations_done``, ``error`` (every failed a
 ``repr`` (exact); a missing value is empty.
 
 A row whose status is ``ok`` and whose held-out seeds and particles are the sweep's is a
-finished run (:func:`is_finished`); the sweep keeps it and does not run it again.
+finished run ([`is_finished`][pes_ref.sweep.results.is_finished]); the sweep keeps it and does not run it again.
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def new_row(run, sweep, design_file: str) -> dict:
 
 
 def record(row: dict, outcome: dict, attempts: int) -> dict:
-    """``row`` updated with a task's outcome (:func:`pes_ref.sweep.task.run_task`)."""
+    """``row`` updated with a task's outcome ([`pes_ref.sweep.task.run_task`][pes_ref.sweep.task.run_task])."""
     stale = {k.split("@")[0] for k in row if "@" in k}
     row = {k: v for k, v in row.items() if "@" not in k and k not in stale}
     row.update(status=outcome["status"], error=outcome.get("error", ""), attempts=attempts,
@@ -107,7 +107,7 @@ def _text(value) -> str:
 
 
 def write_results(path, sweep, rows) -> None:
-    """Write ``rows`` to the CSV at ``path`` atomically (:func:`pes_ref.core.runtime.files.atomic_file`)."""
+    """Write ``rows`` to the CSV at ``path`` atomically ([`pes_ref.core.runtime.files.atomic_file`][pes_ref.core.runtime.files.atomic_file])."""
     cols = columns(sweep, rows)
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
@@ -152,7 +152,7 @@ def _axis(values):
 def plot_summary(path, sweep, rows) -> None:
     """Each figure (mean over held-out seeds) against each axis of the sweep; runs not ``ok`` left out.
 
-    The axes are the variants (when several) and the grid's options (:attr:`Sweep.axes`),
+    The axes are the variants (when several) and the grid's options (`Sweep.axes`),
     or the seed when the file sweeps nothing else. One panel per figure and axis: with one
     axis, the figures' panels in rows of three; with several, one row of panels per
     figure and one column per axis.

@@ -1,14 +1,15 @@
 """Running a sweep on a Dask client: one task per run, retries, resume, interruption.
 
-:func:`run_sweep` submits every run not finished earlier (``results.csv`` says which,
-:func:`pes_ref.sweep.results.is_finished`) as one task (:func:`pes_ref.sweep.task.run_task`),
+[`run_sweep`][pes_ref.sweep.runner.run_sweep] submits every run not finished earlier (``results.csv`` says which,
+[`pes_ref.sweep.results.is_finished`][pes_ref.sweep.results.is_finished]) as one task
+([`pes_ref.sweep.task.run_task`][pes_ref.sweep.task.run_task]),
 collects the outcomes as they come, and rewrites ``results.csv`` after each. A run that
 fails (an exception, a design that goes non-finite, a worker that dies under it) is
 recorded with its error and submitted once more, on another worker when there is one;
 its second outcome is final. Every run ends in the table, so the sweep always finishes.
 
-Ctrl-C (:class:`KeyboardInterrupt`) asks the running tasks to save their design and
-return (:func:`pes_ref.sweep.task.request_stop` on every worker), waits up to
+Ctrl-C (`KeyboardInterrupt`) asks the running tasks to save their design and
+return ([`pes_ref.sweep.task.request_stop`][pes_ref.sweep.task.request_stop] on every worker), waits up to
 ``stop_grace`` seconds for them, records them as ``interrupted`` and the runs not
 started as ``pending``; run the same sweep again to resume (a second Ctrl-C stops at once).
 """
@@ -54,7 +55,7 @@ class SweepReport:
 
 def run_sweep(sweep, out_dir, client, *, task: Callable = run_task, progress: Callable | None = None,
               progress_every: float = 2.0, stop_grace: float = 60.0, plot: bool = True) -> SweepReport:
-    """Run ``sweep`` (:class:`pes_ref.sweep.spec.Sweep`) on ``client``; results into ``out_dir``.
+    """Run ``sweep`` ([`pes_ref.sweep.spec.Sweep`][pes_ref.sweep.spec.Sweep]) on ``client``; results into ``out_dir``.
 
     Parameters
     ----------
@@ -63,9 +64,11 @@ def run_sweep(sweep, out_dir, client, *, task: Callable = run_task, progress: Ca
         Gets ``results.csv``, ``summary.png`` and ``runs/<run id>.npz`` (the design files).
     client : distributed.Client
     task : callable
-        ``payload -> outcome dict``, :func:`pes_ref.sweep.task.run_task` (replaceable for tests).
+        ``payload -> outcome dict``, [`pes_ref.sweep.task.run_task`][pes_ref.sweep.task.run_task] (replaceable for
+        tests).
     progress : callable, optional
-        Called with a :class:`pes_ref.core.runtime.progress.Progress` every ``progress_every``
+        Called with a [`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] every
+        ``progress_every``
         seconds and at the end: ``done`` counts the runs ok (this time or earlier) out of
         all, its figures ``running`` (executing on a worker now) and ``failed`` (failed
         twice); the time left is this session's pace (``inf`` before a run ends).
@@ -258,7 +261,7 @@ class _Sweeper:
 
 
 def _executing_keys(dask_worker) -> list:
-    """The keys this worker is executing (run on every worker by :meth:`_Sweeper._running`)."""
+    """The keys this worker is executing (run on every worker by `_Sweeper._running`)."""
     return [ts.key for ts in dask_worker.state.executing]
 
 

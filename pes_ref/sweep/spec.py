@@ -1,6 +1,6 @@
 """Sweep files: a TOML file read into the list of runs it names.
 
-A sweep file (read with :mod:`tomllib`)::
+A sweep file (read with `tomllib`)::
 
     description = "funnel: learning rate x seed"    # optional
     kind = "funnel"                                  # "funnel" or "oscillator"; or instead:
@@ -20,13 +20,13 @@ A sweep file (read with :mod:`tomllib`)::
     name = "big_batch"
     particles = 128
 
-An *option* is a design option (:data:`pes_ref.synthesis.runs.DESIGN_OPTIONS`, the flags
+An *option* is a design option (`pes_ref.synthesis.runs.DESIGN_OPTIONS`, the flags
 of ``python -m pes_ref design`` without the dashes, ``-`` as ``_``) or a scene parameter
 of the kind (what ``--set NAME=VALUE`` sets; for a problem file, any of its keys by its
 dotted name, quoted: ``"dynamics.dt" = 0.005``). The runs are every variant (or one run of
 ``[base]`` alone) times every grid point times every seed; a run's options are
 ``[base]``, then its variant's, then its grid point's. Every run is checked here, once:
-a bad file raises one :class:`SweepFileError` whose message names the file and the key.
+a bad file raises one [`SweepFileError`][pes_ref.sweep.spec.SweepFileError] whose message names the file and the key.
 """
 from __future__ import annotations
 
@@ -62,7 +62,8 @@ class Run:
     seed: int
 
     def payload(self, sweep: "Sweep", design_file: str) -> dict:
-        """The plain data a worker needs to do this run (see :func:`pes_ref.sweep.task.run_task`);
+        """The plain data a worker needs to do this run (see
+        [`pes_ref.sweep.task.run_task`][pes_ref.sweep.task.run_task]);
         a problem file travels as its text, so a worker on another machine needs no file."""
         return {"id": self.id, "kind": self.kind, "options": self.options, "seed": self.seed,
                 "eval_seeds": list(sweep.eval_seeds), "eval_particles": sweep.eval_particles,

@@ -3,35 +3,47 @@ followed, for the oscillator, by a gradient-free polish.
 
 Modules, one idea each, in import order:
 
-- :mod:`.optimizers`  RMSprop and Adam on the grid values
-- :mod:`.gait`        the oscillator's prescribed-gait shooting cost and its starts
-- :mod:`.exits`       where a funnel particle leaves the domain, and eq. (5) charged there
-- :mod:`.problems`    the funnel and oscillator design problems (scene, objective, sampler, metric)
-- :mod:`.plans`       how a problem is optimized (:class:`Plan`, :class:`PolishPlan`) and the defaults
-- :mod:`.resampling`  bilinear resampling of a grid between coarse-to-fine stages
-- :mod:`.file_keys`   the keys of a problem file: types, defaults, units, and their reader
-- :mod:`.objective_terms` the objective terms of a problem file (registry kind -> class)
-- :mod:`.success`     the per-particle success tests of a problem file (registry kind -> class), each with its surrogate
-- :mod:`.surrogates`  the objective a problem without ``[[objective]]`` derives from its success tests
-- :mod:`.design_problem` a design problem stated by a problem file (:class:`DesignProblem`)
-- :mod:`.refusals`    what a design run refuses before it starts (unstable scene, memory)
-- :mod:`.kinds`       the kinds of design as one interface (:data:`KINDS`) and :func:`evaluate` for every kind
-- :mod:`.design_state` a design run's state (:class:`DesignState`) and :func:`new_design`
-- :mod:`.training`    the loop of a run's gradient stage (:func:`run_design`)
-- :mod:`.analysis`    held-out particles, cycle figures, each kind's figures and panels
-- :mod:`.polish`      the polish stage: CMA-ES on a smooth correction, capture-test fitness
-- :mod:`.stages`      a run's stages one after the other (:func:`run_stages`)
-- :mod:`.escapement`  the hand-drawn escapement surface, a reference for the oscillator
-- :mod:`.problem_file` problem files: reading, checking, changing keys, writing
-- :mod:`.design_file` design runs in ``.npz`` files
-- :mod:`.runs`        a run from what a user names: options resolved (:func:`design_inputs`), started or
-                      resumed (:func:`start_design`)
-- :mod:`.plots`       held-out paths drawn on a design's surface (``evaluate --plot``; imported when
+- [`.optimizers`][pes_ref.synthesis.optimizers]  RMSprop and Adam on the grid values
+- [`.gait`][pes_ref.synthesis.gait]        the oscillator's prescribed-gait shooting cost and its starts
+- [`.exits`][pes_ref.synthesis.exits]       where a funnel particle leaves the domain, and eq. (5) charged there
+- [`.problems`][pes_ref.synthesis.problems]    the funnel and oscillator design problems (scene, objective, sampler,
+  metric)
+- [`.plans`][pes_ref.synthesis.plans]       how a problem is optimized ([`Plan`][pes_ref.synthesis.plans.Plan],
+  [`PolishPlan`][pes_ref.synthesis.plans.PolishPlan]) and the defaults
+- [`.resampling`][pes_ref.synthesis.resampling]  bilinear resampling of a grid between coarse-to-fine stages
+- [`.file_keys`][pes_ref.synthesis.file_keys]   the keys of a problem file: types, defaults, units, and their reader
+- [`.objective_terms`][pes_ref.synthesis.objective_terms] the objective terms of a problem file (registry kind -> class)
+- [`.success`][pes_ref.synthesis.success]     the per-particle success tests of a problem file (registry kind -> class),
+  each with its surrogate
+- [`.surrogates`][pes_ref.synthesis.surrogates]  the objective a problem without ``[[objective]]`` derives from its
+  success tests
+- [`.design_problem`][pes_ref.synthesis.design_problem] a design problem stated by a problem file
+  ([`DesignProblem`][pes_ref.synthesis.design_problem.DesignProblem])
+- [`.refusals`][pes_ref.synthesis.refusals]    what a design run refuses before it starts (unstable scene, memory)
+- [`.kinds`][pes_ref.synthesis.kinds]       the kinds of design as one interface (`KINDS`) and
+  [`evaluate`][pes_ref.synthesis.kinds.evaluate] for every kind
+- [`.design_state`][pes_ref.synthesis.design_state] a design run's state
+  ([`DesignState`][pes_ref.synthesis.design_state.DesignState]) and
+  [`new_design`][pes_ref.synthesis.design_state.new_design]
+- [`.training`][pes_ref.synthesis.training]    the loop of a run's gradient stage
+  ([`run_design`][pes_ref.synthesis.training.run_design])
+- [`.analysis`][pes_ref.synthesis.analysis]    held-out particles, cycle figures, each kind's figures and panels
+- [`.polish`][pes_ref.synthesis.polish]      the polish stage: CMA-ES on a smooth correction, capture-test fitness
+- [`.stages`][pes_ref.synthesis.stages]      a run's stages one after the other
+  ([`run_stages`][pes_ref.synthesis.stages.run_stages])
+- [`.escapement`][pes_ref.synthesis.escapement]  the hand-drawn escapement surface, a reference for the oscillator
+- [`.problem_file`][pes_ref.synthesis.problem_file] problem files: reading, checking, changing keys, writing
+- [`.design_file`][pes_ref.synthesis.design_file] design runs in ``.npz`` files
+- [`.runs`][pes_ref.synthesis.runs]        a run from what a user names: options resolved
+  ([`design_inputs`][pes_ref.synthesis.runs.design_inputs]), started or
+                      resumed ([`start_design`][pes_ref.synthesis.runs.start_design])
+- [`.plots`][pes_ref.synthesis.plots]       held-out paths drawn on a design's surface (``evaluate --plot``; imported
+  when
                       it draws, with matplotlib, never here)
 
 
-The names below are the public synthesis API (with :class:`Progress`, what the loops'
-callbacks receive, from :mod:`pes_ref.core.runtime.progress`).
+The names below are the public synthesis API (with [`Progress`][pes_ref.core.runtime.progress.Progress], what the loops'
+callbacks receive, from [`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress]).
 """
 from pes_ref.core.runtime.progress import Progress
 from pes_ref.synthesis.optimizers import Adam, RMSprop, make_optimizer

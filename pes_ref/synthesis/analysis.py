@@ -1,21 +1,26 @@
 """Held-out analysis of each kind of design: paths, torque sweeps, phase space, cycle figures, figures, panels.
 
 Held-out particles come from seeds training never uses. The funnel's figures are where its
-particles exit (:func:`pes_ref.synthesis.funnel.exit_positions`); the oscillator's are
-per-particle amplitude, period and drift over the last :data:`ANALYSIS_PERIODS` periods
-(:func:`cycle_figures`), and whether a particle reaches the target cycle; a problem file's,
+particles exit ([`pes_ref.synthesis.funnel.exit_positions`][pes_ref.synthesis.funnel.exit_positions]); the oscillator's
+are
+per-particle amplitude, period and drift over the last `ANALYSIS_PERIODS` periods
+([`cycle_figures`][pes_ref.synthesis.analysis.cycle_figures]), and whether a particle reaches the target cycle; a
+problem file's,
 its success tests. ``evaluate_KIND`` gives one kind's figures of several held-out seeds, their
 runs (design and flat surface, every seed) as one population
-(:func:`pes_ref.core.population.simulate_batch`: each run's numbers are its own), and
+([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch]: each run's numbers are its own),
+and
 ``KIND_panels`` the same held-out particles' paths, each with whether it passed, for
-``evaluate --plot`` (:mod:`pes_ref.synthesis.plots`). :mod:`pes_ref.synthesis.kinds` holds
-them as each kind's entry, and its :func:`~pes_ref.synthesis.kinds.evaluate` serves every kind.
+``evaluate --plot`` ([`pes_ref.synthesis.plots`][pes_ref.synthesis.plots]).
+[`pes_ref.synthesis.kinds`][pes_ref.synthesis.kinds] holds
+them as each kind's entry, and its [`evaluate`][pes_ref.synthesis.kinds.evaluate] serves every kind.
 
 The ``evaluate_KIND`` functions take an ``engine``: what runs the scenes on the design's
 surface, ``engine(scenes, x0s, v0s) -> [Trajectory]`` (as
-:func:`pes_ref.core.population.simulate_batch`, one trajectory per scene), the surface model
+[`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch], one trajectory per scene), the
+surface model
 when None. A layer above supplies another, such as parts in rigid contact
-(:mod:`pes_ref.realize.evaluation`); the figures are computed from its trajectories as from the
+([`pes_ref.realize.evaluation`][pes_ref.realize.evaluation]); the figures are computed from its trajectories as from the
 surface's.
 """
 from __future__ import annotations
@@ -73,7 +78,7 @@ class TorqueSweep(NamedTuple):
 
 
 def _funnel_run(problem: FunnelProblem, values, n_particles: int, seed: int, n_steps: int | None = None):
-    """``(scene, x0, v0)`` of :func:`funnel_paths`."""
+    """``(scene, x0, v0)`` of [`funnel_paths`][pes_ref.synthesis.analysis.funnel_paths]."""
     batch = problem.batch(np.asarray(values, dtype=np.float64), np.random.default_rng(seed), n_particles,
                           n_steps=n_steps)
     return batch.scene, batch.x0, batch.v0
@@ -99,7 +104,7 @@ def oscillator_torque_sweep(problem: OscillatorProblem, values, n_particles: int
 
 
 def _torque_sweep_run(problem: OscillatorProblem, values, n_particles: int, periods, seed: int):
-    """``(torques, x0, scene)`` of :func:`oscillator_torque_sweep`."""
+    """``(torques, x0, scene)`` of [`oscillator_torque_sweep`][pes_ref.synthesis.analysis.oscillator_torque_sweep]."""
     periods = problem.eval_periods if periods is None else periods
     torques = np.linspace(problem.torque_min, problem.torque_max, n_particles)
     q0 = problem.amplitude * (1.0 + problem.kick) + problem.start_noise * \
@@ -119,7 +124,7 @@ def oscillator_grid_starts(problem: OscillatorProblem, values, periods: float | 
 
 
 def _grid_starts_run(problem: OscillatorProblem, values, periods, n: int):
-    """``(x0, scene)`` of :func:`oscillator_grid_starts`."""
+    """``(x0, scene)`` of [`oscillator_grid_starts`][pes_ref.synthesis.analysis.oscillator_grid_starts]."""
     periods = problem.eval_periods if periods is None else periods
     a = np.linspace(-1.5 * problem.amplitude, 1.5 * problem.amplitude, n)
     b = np.arange(n) * (problem.upper[1] - problem.lower[1]) / n
@@ -141,7 +146,7 @@ def cycle_figures(problem: OscillatorProblem, traj: Trajectory):
     of q0 over the window; period the mean spacing of upward crossings of q0's window mean
     (linearly interpolated; NaN with fewer than two); drift ``|a_last - a_first| / A``
     between the window's first and last period; captured where amplitude and period are
-    within :data:`CYCLE_TOLERANCE` of the targets and drift below :data:`CYCLE_DRIFT`.
+    within `CYCLE_TOLERANCE` of the targets and drift below `CYCLE_DRIFT`.
     """
     per = int(round(problem.period / problem.dt))
     q = traj.x[-ANALYSIS_PERIODS * per - 1:, :, 0]
@@ -187,7 +192,8 @@ def _crossing_periods(c: np.ndarray, dt: float) -> np.ndarray:
 def q1_advance(problem: OscillatorProblem, traj: Trajectory) -> np.ndarray:
     """(N,) how far q1 runs down per target period over the last ``ANALYSIS_PERIODS`` periods (rad).
 
-    ``-(q1_end - q1_start) / ANALYSIS_PERIODS`` over the window of :func:`cycle_figures`: an
+    ``-(q1_end - q1_start) / ANALYSIS_PERIODS`` over the window of
+    [`cycle_figures`][pes_ref.synthesis.analysis.cycle_figures]: an
     escapement holds it to its gait's advance whatever the torque; a free-running q1 turns at
     ``tau / damping1`` per unit time.
     """
@@ -219,9 +225,9 @@ def _population(runs: dict, engine=None) -> dict:
 def evaluate_funnel(problem: FunnelProblem, values, seeds: tuple, n: int, engine=None) -> dict:
     """The funnel's held-out figures: seed -> figures of ``n`` particles per seed, on the design
     and on the flat surface (``flat_``): the share of particles that exit in the band
-    (:meth:`~pes_ref.synthesis.funnel.FunnelProblem.in_band`), that exit at all, and the
+    ([`in_band`][pes_ref.synthesis.funnel.FunnelProblem.in_band]), that exit at all, and the
     standard deviation of the exit q0; every run one population. ``engine`` runs the design's
-    scenes (:func:`pes_ref.synthesis.kinds.evaluate`; the flat surface's stay on the surface model)."""
+    scenes ([`pes_ref.synthesis.kinds.evaluate`][pes_ref.synthesis.kinds.evaluate]; the flat surface's stay on the surface model)."""
     runs = {(prefix, seed): _funnel_run(problem, vals, n, seed)
             for prefix, vals in _surfaces(problem, values) for seed in seeds}
     paths = _population(runs, engine)
@@ -255,7 +261,7 @@ def evaluate_oscillator(problem: OscillatorProblem, values, seeds: tuple, n: int
 
 
 def _oscillator_figures(problem: OscillatorProblem, runs: dict, n: int) -> dict:
-    """The figures of :func:`evaluate` from the torque sweep's and the grid's trajectories,
+    """The figures of `evaluate` from the torque sweep's and the grid's trajectories,
     per surface prefix."""
     out = {}
     for prefix, (sweep_traj, grid_traj) in runs.items():
@@ -290,7 +296,7 @@ def evaluate_problem(problem: DesignProblem, values, seeds: tuple, n: int, engin
     """A problem file's held-out figures: seed -> figures of ``n`` particles: the success
     fraction (every test) and each test's, each share criterion and whether it is met, each
     objective term's value, each scenario's success fraction and the flat surface's.
-    ``engine`` runs the design's scenes (:func:`pes_ref.synthesis.kinds.evaluate`)."""
+    ``engine`` runs the design's scenes ([`pes_ref.synthesis.kinds.evaluate`][pes_ref.synthesis.kinds.evaluate])."""
     return {seed: _evaluate_problem_seed(problem, values, seed, n, engine) for seed in seeds}
 
 
@@ -320,7 +326,7 @@ def _evaluate_problem_seed(problem: DesignProblem, values, seed: int, n: int, en
 
 
 def funnel_panels(problem: FunnelProblem, values, seed: int, n: int) -> list:
-    """The held-out funnel paths of ``seed``, each with whether it exits in the band (one :class:`Panel`)."""
+    """The held-out funnel paths of ``seed``, each with whether it exits in the band (one [`Panel`][pes_ref.synthesis.analysis.Panel])."""
     scene, x0, v0 = _funnel_run(problem, values, n, seed)
     traj = simulate(scene, x0, v0)
     band = problem.in_band(exit_positions(problem, traj))
@@ -329,7 +335,7 @@ def funnel_panels(problem: FunnelProblem, values, seed: int, n: int) -> list:
 
 def oscillator_panels(problem: OscillatorProblem, values, seed: int, n: int) -> list:
     """The torque sweep of ``seed`` and the 5 x 5 grid of starts, each path with whether it
-    reaches the target cycle (two :class:`Panel`)."""
+    reaches the target cycle (two [`Panel`][pes_ref.synthesis.analysis.Panel])."""
     _, x0, scene = _torque_sweep_run(problem, values, n, None, seed)
     sweep = simulate(scene, x0)
     x0, scene = _grid_starts_run(problem, values, None, 5)
@@ -339,7 +345,8 @@ def oscillator_panels(problem: OscillatorProblem, values, seed: int, n: int) -> 
 
 
 def problem_panels(problem: DesignProblem, values, seed: int, n: int) -> list:
-    """The held-out paths of ``seed``: one :class:`Panel` with whether each passes every success
+    """The held-out paths of ``seed``: one [`Panel`][pes_ref.synthesis.analysis.Panel] with whether each passes every
+    success
     test, then one per test (a start group's test: its group's paths only)."""
     held = problem.run(values, seed, n)
     every, each = passes_all([test for _, test in problem.tests], held.traj.x, held.traj.v, held.times)

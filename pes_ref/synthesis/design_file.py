@@ -4,7 +4,7 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 
 ==================  =====================================================================
 ``format``          the string ``"pes_ref.design"``
-``version``         int, :data:`VERSION`
+``version``         int, `VERSION`
 ``kind``            ``"funnel"``, ``"oscillator"`` or ``"problem"`` (a problem file's design)
 ``problem``         JSON text of the problem's fields (the scene parameters); for kind
                     ``"problem"``, the TOML text of its problem file (``docs/problems.md``)
@@ -16,7 +16,7 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 ``metric``          (iteration,) float64, design metric per iteration
 ``status``          ``"done"``, ``"interrupted"``, ``"non-finite: ..."``, ...
 ``elapsed``         float, wall seconds spent so far (information only)
-``opt_<name>``      the optimizer's :meth:`state_dict` entries
+``opt_<name>``      the optimizer's `state_dict` entries
 ``method``          ``"gradient"`` or ``"gradient+polish"`` (version 2)
 ``stage``           the stage the run is in, ``"gradient"`` or ``"polish"`` (version 2)
 ``polish``          JSON text of the polish plan's fields, ``null`` without one (version 2)
@@ -25,9 +25,9 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 ``polish_evals``    (G,) int64, evaluations after the start and each polish generation
 ``polish_fitness``  (G,) float64, the best fitness at those counts
 ``backend``         the loops that ran it, ``"numba"`` or ``"numpy"`` (version 3;
-                    :data:`pes_ref.core.backends.BACKENDS`): a run resumes on its own
+                    `pes_ref.core.backends.BACKENDS`): a run resumes on its own
 ``valid_iters``     (V,) int64, the iterations after which the grid was validated (version 4;
-                    :mod:`pes_ref.synthesis.validation`)
+                    [`pes_ref.synthesis.validation`][pes_ref.synthesis.validation])
 ``valid_success``   (V,) float64, the validation success there
 ``best_iteration``  int, the best validation's iteration (-1: none yet)
 ``best_success``    float, its success (NaN: none yet)
@@ -37,11 +37,11 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 Version 1 files (before the polish stage) are read as gradient-only runs, version 1
 and 2 files (before the compiled loops) as runs of the ``"numpy"`` backend, and version 1-3
 files (before validation) as runs with no validation made. Version 5 adds no key: its plan may
-hold ``smoothing`` and ``smoothing_draws`` (:class:`~pes_ref.synthesis.plans.Plan`), which a
+hold ``smoothing`` and ``smoothing_draws`` ([`Plan`][pes_ref.synthesis.plans.Plan]), which a
 version 1-4 file's plan reads as 0 and 4 (no smoothing).
 
 The members are stored uncompressed. The file is written by the package's one atomic
-``.npz`` writer (:func:`write_npz`): a crash never leaves half a design, and the writer,
+``.npz`` writer ([`write_npz`][pes_ref.oracle.npz.write_npz]): a crash never leaves half a design, and the writer,
 not a check here beforehand, refuses an existing file unless ``overwrite=True``.
 """
 from __future__ import annotations
@@ -130,7 +130,7 @@ def design_arrays(state: DesignState) -> dict:
 
 
 def load_design(path) -> DesignState:
-    """Read a design file back into a :class:`~pes_ref.synthesis.design_state.DesignState` (bit-exact).
+    """Read a design file back into a [`DesignState`][pes_ref.synthesis.design_state.DesignState] (bit-exact).
 
     Raises
     ------

@@ -1,17 +1,22 @@
 """A design problem stated by a problem file: any surface, dynamics, starts, force schedule and
 sum of objective terms, with the per-particle success test it is judged by.
 
-:class:`DesignProblem` is what :mod:`pes_ref.synthesis.problem_file` reads a problem file into
+[`DesignProblem`][pes_ref.synthesis.design_problem.DesignProblem] is what
+[`pes_ref.synthesis.problem_file`][pes_ref.synthesis.problem_file] reads a problem file into
 (or a dict of the same shape, built in code); it plays the part the funnel and the oscillator
-play (:mod:`pes_ref.synthesis.problems`) for the whole design machinery: :meth:`~DesignProblem.batch`
-draws a training batch, :meth:`~DesignProblem.batch_metric` scores it, and
-:meth:`~DesignProblem.run` simulates held-out particles for ``evaluate``. Its parts:
+play ([`pes_ref.synthesis.problems`][pes_ref.synthesis.problems]) for the whole design machinery:
+[`batch`][pes_ref.synthesis.design_problem.DesignProblem.batch]
+draws a training batch, [`batch_metric`][pes_ref.synthesis.design_problem.DesignProblem.batch_metric] scores it, and
+[`run`][pes_ref.synthesis.design_problem.DesignProblem.run] simulates held-out particles for ``evaluate``. Its parts:
 
-- :class:`Starts`: where particles start (a uniform box, or a list of points) and at what velocity;
-- :class:`Force`: one entry of the force schedule (:data:`FORCES`: constant, noise, per-particle),
-  on for a time window if it has one (:class:`pes_ref.core.effects.Window`): windows give a
+- [`Starts`][pes_ref.synthesis.design_problem.Starts]: where particles start (a uniform box, or a list of points) and at
+  what velocity;
+- [`Force`][pes_ref.synthesis.design_problem.Force]: one entry of the force schedule (`FORCES`: constant, noise,
+  per-particle),
+  on for a time window if it has one ([`pes_ref.core.effects.Window`][pes_ref.core.effects.Window]): windows give a
   problem its phases;
-- :class:`Scenario`: another force schedule the design is checked under (does a latch hold
+- [`Scenario`][pes_ref.synthesis.design_problem.Scenario]: another force schedule the design is checked under (does a
+  latch hold
   when nobody pulls the trigger?).
 
 Every random draw of a batch comes from the generator it is given, in a fixed order: the
@@ -48,8 +53,9 @@ def _uniform(rng, lower, upper, n: int) -> np.ndarray:
 class Starts(NamedTuple):
     """Where particles start: uniform in ``box`` (lower, upper), or particle ``i`` at
     ``points[i % len(points)]``; velocities uniform in ``velocity`` (lower, upper). Or in start
-    ``groups``, each a :class:`StartGroup`: a batch's particles in consecutive blocks, one per
-    group, sized by the groups' shares (:meth:`counts`)."""
+    ``groups``, each a [`StartGroup`][pes_ref.synthesis.design_problem.StartGroup]: a batch's particles in consecutive
+    blocks, one per
+    group, sized by the groups' shares ([`counts`][pes_ref.synthesis.design_problem.Starts.counts])."""
 
     box: tuple | None
     points: tuple | None
@@ -86,7 +92,7 @@ class Starts(NamedTuple):
 
 
 class StartGroup(NamedTuple):
-    """One start group (``[[starts.group]]``): its ``name``, ``share`` of a batch and :class:`Starts`."""
+    """One start group (``[[starts.group]]``): its ``name``, ``share`` of a batch and [`Starts`][pes_ref.synthesis.design_problem.Starts]."""
 
     name: str
     share: float
@@ -104,7 +110,7 @@ FORCES = {
 
 
 class Force(NamedTuple):
-    """One force of the schedule: its ``kind`` (:data:`FORCES`), checked ``keys``, optional
+    """One force of the schedule: its ``kind`` (`FORCES`), checked ``keys``, optional
     ``name``, and the window ``[start, end)`` it is on for (None: always)."""
 
     kind: str
@@ -142,7 +148,8 @@ class HeldOut(NamedTuple):
 
 class DesignProblem(_Problem):
     """A design problem from a problem file (``docs/problems.md``); build one with
-    :func:`pes_ref.synthesis.problem_file.load_problem` or :func:`~pes_ref.synthesis.problem_file.parse_problem`.
+    [`pes_ref.synthesis.problem_file.load_problem`][pes_ref.synthesis.problem_file.load_problem] or
+    [`parse_problem`][pes_ref.synthesis.problem_file.parse_problem].
 
     Two problems are equal when their data (the file's parsed tables) are. ``regularization``
     is 0: eq. (7) is a grid term of the objective here (``[[objective]] kind =
@@ -150,7 +157,7 @@ class DesignProblem(_Problem):
     """
 
     kind: ClassVar[str] = "problem"
-    #: The name of :meth:`batch_metric` in progress lines and summaries.
+    #: The name of `batch_metric` in progress lines and summaries.
     metric_name: ClassVar[str] = "success"
     regularization = 0.0
 
@@ -221,7 +228,7 @@ class DesignProblem(_Problem):
 
     def initial_values(self, rng, shape: tuple) -> np.ndarray:
         """Small random values (std ``init_scale``); a realizable design's: the level set of the
-        shapes ``[surface.contact] blocked`` (:mod:`pes_ref.synthesis.problem_contact`)."""
+        shapes ``[surface.contact] blocked`` ([`pes_ref.synthesis.problem_contact`][pes_ref.synthesis.problem_contact])."""
         if self.level_set is None:
             return super().initial_values(rng, shape)
         spacing = grid_spacing(np.asarray(self.lower, dtype=np.float64), np.asarray(self.upper, dtype=np.float64),
@@ -240,7 +247,7 @@ class DesignProblem(_Problem):
         return out
 
     def with_spring(self, spring) -> "DesignProblem":
-        """This problem with ``spring`` (a :class:`pes_ref.core.terms.Spring`, or None) for its
+        """This problem with ``spring`` (a [`pes_ref.core.terms.Spring`][pes_ref.core.terms.Spring], or None) for its
         scene's ``[dynamics] spring``: a realized device's springs."""
         out = copy.copy(self)
         out.scene_keys = {**self.scene_keys, "spring": spring}
@@ -267,7 +274,7 @@ class DesignProblem(_Problem):
         return total, grad
 
     def batch(self, values, rng, n_particles: int, n_steps: int | None = None, forces: tuple | None = None) -> Batch:
-        """Particles from :attr:`starts`, then the force schedule (``forces``, default the problem's), drawn
+        """Particles from `starts`, then the force schedule (``forces``, default the problem's), drawn
         from ``rng``; scored by the sum of the state terms, the grid terms as the batch's ``grid_cost``."""
         x0, v0 = self.starts.sample(rng, n_particles)
         effects = tuple(f.effect(rng, n_particles) for f in (self.forces if forces is None else forces))
@@ -296,7 +303,7 @@ class DesignProblem(_Problem):
     def run(self, values, seed: int, n_particles: int, scenario: Scenario | None = None, engine=None) -> HeldOut:
         """Held-out particles: the training sampler with ``default_rng(seed)`` under the problem's
         schedule, or ``scenario``'s; run by ``engine(scenes, x0s, v0s) -> [Trajectory]`` if given
-        (:mod:`pes_ref.synthesis.analysis`), else the surface model."""
+        ([`pes_ref.synthesis.analysis`][pes_ref.synthesis.analysis]), else the surface model."""
         n_steps, forces = (None, None) if scenario is None else (scenario.n_steps, scenario.forces)
         batch = self.batch(np.asarray(values, dtype=np.float64), np.random.default_rng(seed), n_particles, n_steps,
                            forces)

@@ -1,10 +1,13 @@
 """The state of one design run, and how a fresh one starts.
 
-A :class:`DesignState` is one run in progress (problem, plan, seed, grid values, optimizer
+A [`DesignState`][pes_ref.synthesis.design_state.DesignState] is one run in progress (problem, plan, seed, grid values,
+optimizer
 state, iteration, loss history, and the optional polish stage's plan and progress), which
-:mod:`pes_ref.synthesis.design_file` saves and loads; :func:`new_design` starts one, after
-the refusals of :mod:`pes_ref.synthesis.refusals`. :mod:`pes_ref.synthesis.training` advances
-its gradient stage and :mod:`pes_ref.synthesis.stages` runs both stages.
+[`pes_ref.synthesis.design_file`][pes_ref.synthesis.design_file] saves and loads;
+[`new_design`][pes_ref.synthesis.design_state.new_design] starts one, after
+the refusals of [`pes_ref.synthesis.refusals`][pes_ref.synthesis.refusals].
+[`pes_ref.synthesis.training`][pes_ref.synthesis.training] advances
+its gradient stage and [`pes_ref.synthesis.stages`][pes_ref.synthesis.stages] runs both stages.
 """
 from __future__ import annotations
 
@@ -34,25 +37,26 @@ class DesignState:
     """One design run: problem, plan, seed, grid values, optimizer, iteration, history, polish.
 
     Mutable on purpose (it is what the design loop advances); every field is plain data
-    that :mod:`pes_ref.synthesis.design_file` writes and reads back bit-exactly. ``history`` maps
+    that [`pes_ref.synthesis.design_file`][pes_ref.synthesis.design_file] writes and reads back bit-exactly. ``history``
+    maps
     ``"loss"`` and ``"metric"`` to lists with one float per finished iteration;
-    ``status`` is ``"running"``, ``"done"``, ``"interrupted"``, or one of :data:`STOPPED`
+    ``status`` is ``"running"``, ``"done"``, ``"interrupted"``, or one of `STOPPED`
     followed by ``": iteration k: <reason>"``.
 
-    ``polish`` is the :class:`~pes_ref.synthesis.plans.PolishPlan` of the stage that follows
-    the gradient iterations (None: none). ``stage`` is the stage the run is in (:data:`STAGES`);
+    ``polish`` is the [`PolishPlan`][pes_ref.synthesis.plans.PolishPlan] of the stage that follows
+    the gradient iterations (None: none). ``stage`` is the stage the run is in (`STAGES`);
     in the polish stage ``base_values`` holds the gradient stage's final grid (where the polish
     starts), ``values`` the best polished grid so far, ``evaluations`` the fitness evaluations
     made and ``polish_history`` maps ``"evaluations"`` and ``"fitness"`` to the count and the
     best fitness after the start and each generation.
 
-    ``backend`` names the loops that run it (:data:`pes_ref.core.backends.BACKENDS`): the
+    ``backend`` names the loops that run it (`pes_ref.core.backends.BACKENDS`): the
     gradients, hence the design, depend on it in their last bits, so a run keeps its own
     (the same backend reproduces a design bit for bit).
 
     ``validation`` maps ``"iteration"`` and ``"success"`` to the iterations after which a plan
     that validates judged the grid and the validation success there; ``best`` is the best of
-    them so far (:class:`pes_ref.synthesis.validation.Best`, None before the first).
+    them so far ([`pes_ref.synthesis.validation.Best`][pes_ref.synthesis.validation.Best], None before the first).
     """
 
     problem: object
@@ -92,16 +96,16 @@ class DesignState:
 def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
                backend: str | None = None, **params) -> DesignState:
     """A fresh run of a problem ``kind`` (a problem object: a
-    :class:`~pes_ref.synthesis.design_problem.DesignProblem` from a problem file or built in code,
-    a :class:`~pes_ref.synthesis.funnel.FunnelProblem` or
-    :class:`~pes_ref.synthesis.oscillator.OscillatorProblem`), or of a built-in kind by its name
+    [`DesignProblem`][pes_ref.synthesis.design_problem.DesignProblem] from a problem file or built in code,
+    a [`FunnelProblem`][pes_ref.synthesis.funnel.FunnelProblem] or
+    [`OscillatorProblem`][pes_ref.synthesis.oscillator.OscillatorProblem]), or of a built-in kind by its name
     (``"funnel"``, ``"oscillator"``) with problem overrides ``params``.
 
     Without ``plan`` the run has its kind's default plan (a problem file's own: its ``[train]``
     section, or the default plan of a file without one) and, unless ``polish`` is given, its
-    default polish stage (:attr:`pes_ref.synthesis.kinds.DesignKind.default_polish`); with a
+    default polish stage (`pes_ref.synthesis.kinds.DesignKind.default_polish`); with a
     ``plan`` it has the ``polish`` given (None: the gradient stage alone). ``backend`` (None:
-    :func:`pes_ref.core.backends.default_backend`) runs it.
+    [`pes_ref.core.backends.default_backend`][pes_ref.core.backends.default_backend]) runs it.
     """
     seed = checks.as_nonneg_int("seed", seed)
     backend = backends.check_backend(backend)

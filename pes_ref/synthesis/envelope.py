@@ -1,27 +1,33 @@
 """A realizable funnel's start made by design: the convex envelope of a smooth funnel's paths.
 
-A level set moves only its contour (:mod:`pes_ref.synthesis.level_set`), so from two thin side
+A level set moves only its contour ([`pes_ref.synthesis.level_set`][pes_ref.synthesis.level_set]), so from two thin side
 strips gradient descent cannot grow the funnel's walls 0.8 inward (``docs/realize.md``). The
-``"envelope"`` start (``init_shape`` of :class:`pes_ref.synthesis.funnel.FunnelProblem`) is a
+``"envelope"`` start (``init_shape`` of
+[`pes_ref.synthesis.funnel.FunnelProblem`][pes_ref.synthesis.funnel.FunnelProblem]) is a
 shape no one draws, made in four steps from the problem itself:
 
 1. **a smooth funnel**: the same problem with ``realizable`` off, designed by the funnel's
-   default plan (:data:`pes_ref.synthesis.plans.FUNNEL_PLAN`, the run of ``design funnel``;
-   :func:`smooth_funnel`);
-2. **its paths' envelope**: :data:`ENVELOPE_PARTICLES` of its particles (the training sampler),
+   default plan (`pes_ref.synthesis.plans.FUNNEL_PLAN`, the run of ``design funnel``;
+   [`smooth_funnel`][pes_ref.synthesis.envelope.smooth_funnel]);
+2. **its paths' envelope**: `ENVELOPE_PARTICLES` of its particles (the training sampler),
    of which those that exit in the band; on every grid row of q1 the q0 range their states
-   cover, trimmed by the quantile :data:`ENVELOPE_TRIM` at each end (:func:`path_envelope`);
-3. **convex walls**: each side's edge replaced by its hull (:func:`convex_walls`: the left edge
+   cover, trimmed by the quantile `ENVELOPE_TRIM` at each end
+   ([`path_envelope`][pes_ref.synthesis.envelope.path_envelope]);
+3. **convex walls**: each side's edge replaced by its hull ([`convex_walls`][pes_ref.synthesis.envelope.convex_walls]:
+the left edge
    by its convex minorant in q1, the right by its concave majorant), so the free region is one
    convex channel with no pocket to hold a particle;
 4. **the feet in the band**: each wall moved along q0 until its foot, where it meets the exit
-   edge, is :data:`FOOT_INSET` inside the band's edge (:func:`feet_in_band`). A particle that
+   edge, is `FOOT_INSET` inside the band's edge ([`feet_in_band`][pes_ref.synthesis.envelope.feet_in_band]). A particle
+   that
    slides down a rigid wall leaves at its foot (eq. (1) holds it off the wall, a rigid wall
    does not), so a foot outside the band sends every particle that touched that wall out of it;
    a foot far inside makes a narrow exit that particles reach late.
 
-The blocked region is everything outside that channel (:func:`interval_distance`). A design
-that starts from it finishes with :func:`convex_channel`: the level set's free channel after
+The blocked region is everything outside that channel
+([`interval_distance`][pes_ref.synthesis.envelope.interval_distance]). A design
+that starts from it finishes with [`convex_channel`][pes_ref.synthesis.envelope.convex_channel]: the level set's free
+channel after
 the gradient stage, made convex with its feet in the band again (gradient steps notch a level
 set's walls, and a rigid pin stops in the notches).
 """
@@ -48,7 +54,8 @@ FOOT_INSET = 0.02
 
 def smooth_funnel(problem, seed: int, plan=FUNNEL_PLAN, backend: str | None = None) -> np.ndarray:
     """The grid of ``problem`` (a funnel with ``realizable`` off) designed by ``plan`` from run seed
-    ``seed``: the iterations of :func:`pes_ref.synthesis.training.run_design` (its particles
+    ``seed``: the iterations of [`pes_ref.synthesis.training.run_design`][pes_ref.synthesis.training.run_design] (its
+    particles
     ``default_rng([seed, k])``, initial draw ``default_rng([seed, 2**32])``, the stages'
     resampling and the optimizer's reset), for a plan without validation or smoothing: the
     grid ``design funnel --seed SEED`` writes for the same problem."""
@@ -155,8 +162,9 @@ def convex_channel(problem, values) -> np.ndarray:
     grid values, ``phi = values + r_c``, free where ``phi >= 0``) the free run of nodes around
     ``problem.target`` (the nearest free node where the target's is blocked) with its ends
     interpolated linearly between nodes (a run to the grid's edge ends ``min(phi, r_c)`` beyond it,
-    the signed distance ``phi`` holds there), both edges made convex (:func:`convex_walls`) and their
-    feet put in the band (:func:`feet_in_band`); returned
+    the signed distance ``phi`` holds there), both edges made convex
+    ([`convex_walls`][pes_ref.synthesis.envelope.convex_walls]) and their
+    feet put in the band ([`feet_in_band`][pes_ref.synthesis.envelope.feet_in_band]); returned
     as the level set's grid values of that channel (``problem.level_set.from_distance``), zero
     where the problem holds them. A row with no free node keeps the whole width."""
     phi = np.asarray(values, dtype=np.float64) + problem.contact_r_c

@@ -1,8 +1,8 @@
 """Where a funnel particle leaves the domain, and eq. (5) charged there.
 
 A particle *exits* at the first state at or below the bottom edge ``q1 <= level``
-(:func:`exit_steps`). The held-out evaluation measures its q0 there (:func:`exit_positions`,
-``in_band_fraction``), and :class:`FunnelExit` trains on the same quantity: the paper's
+([`exit_steps`][pes_ref.synthesis.exits.exit_steps]). The held-out evaluation measures its q0 there (`exit_positions`,
+``in_band_fraction``), and [`FunnelExit`][pes_ref.synthesis.exits.FunnelExit] trains on the same quantity: the paper's
 eq. (5), ``sum_i (x_i - x_0)^2``, with ``x_i`` read as the q0 at which particle ``i``
 leaves the domain ("x_0 is the desired x value of particles exiting the domain"), not its
 q0 at the end of the run, after it has coasted on below the edge. ``docs/synthesis.md``
@@ -37,7 +37,7 @@ def exit_steps(x: np.ndarray, level: float, axis: int = 1, side: str = "lower") 
 class FunnelExit:
     """Eq. (5) at each particle's exit: ``L = sum_i (X_{n_i, i, 0} - target)^2``.
 
-    ``n_i`` is particle ``i``'s exit step (:func:`exit_steps` at ``level``), or the last
+    ``n_i`` is particle ``i``'s exit step ([`exit_steps`][pes_ref.synthesis.exits.exit_steps] at ``level``), or the last
     state T if it never exits, where the cost is eq. (5) at the final step. The exit step
     is piecewise constant in the grid values, so away from the values where some ``n_i``
     changes (a particle crossing ``level`` exactly on a step) the derivative is
@@ -50,7 +50,7 @@ class FunnelExit:
     which walls, unlike gentle slopes, easily do; this term pays it for letting the particle
     go (``docs/realize.md``). Its derivative is ``linger dt`` on ``X_{n, i, 1}`` for
     ``n <= n_i`` (``dt`` the spacing of ``t``).
-    ``value_and_grad(x, v, t)`` follows :mod:`pes_ref.core.objectives`.
+    ``value_and_grad(x, v, t)`` follows [`pes_ref.core.objectives`][pes_ref.core.objectives].
     """
 
     target: float = 0.0
@@ -64,7 +64,7 @@ class FunnelExit:
 
     def value_and_grad(self, x, v, t):
         """The exit cost and its ``gx`` (``gv`` is None); the objective protocol of
-        :mod:`pes_ref.core.objectives`."""
+        [`pes_ref.core.objectives`][pes_ref.core.objectives]."""
         step, _ = exit_steps(x, self.level)
         particle = np.arange(x.shape[1])
         e = x[step, particle, 0] - self.target

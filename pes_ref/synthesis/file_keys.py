@@ -1,11 +1,12 @@
 """The keys of a problem file: each key's type, default and unit, and the one reader that checks them.
 
 A section of a problem file (``[surface]``, one ``[[objective]]`` term, ...) is declared as
-a dict ``name -> Key`` (:class:`pes_ref.core.runtime.keyfile.Key`, as every input file's);
-:meth:`Reader.table` checks a TOML table against it: an unknown key, a missing required one
-or a value of the wrong type raises one :class:`ProblemFileError` whose message names the
+a dict ``name -> Key`` ([`pes_ref.core.runtime.keyfile.Key`][pes_ref.core.runtime.keyfile.Key], as every input file's);
+`Reader.table` checks a TOML table against it: an unknown key, a missing required one
+or a value of the wrong type raises one [`ProblemFileError`][pes_ref.synthesis.file_keys.ProblemFileError] whose message
+names the
 file and the key (``latch.toml: objective[2].weight: expected a number >= 0, got -1``). The
-converters are looked up by the key's type in :data:`TYPES` (dispatch by data): every file's
+converters are looked up by the key's type in `TYPES` (dispatch by data): every file's
 and a problem file's own. ``docs/problems.md`` documents every key; a test keeps the two equal.
 """
 from __future__ import annotations
@@ -24,7 +25,7 @@ class ProblemFileError(KeyFileError):
 
 
 class Reader(KeyReader):
-    """Checks the values of one file and raises :class:`ProblemFileError` naming ``path`` and the key."""
+    """Checks the values of one file and raises [`ProblemFileError`][pes_ref.synthesis.file_keys.ProblemFileError] naming ``path`` and the key."""
 
     error = ProblemFileError
     noun = "a problem file"
@@ -113,7 +114,7 @@ def _shapes(r, v, w, k):
 
 
 #: Key type -> converter ``(reader, value, where, key) -> value``: every file's
-#: (:data:`pes_ref.core.runtime.keyfile.TYPES`) and a problem file's own.
+#: (`pes_ref.core.runtime.keyfile.TYPES`) and a problem file's own.
 TYPES = {
     **FILE_TYPES,
     "points": _points,

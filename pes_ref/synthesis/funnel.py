@@ -1,9 +1,10 @@
 """The funnel of the paper's Figs. 6-7: particles pushed down a plane to exit near a target.
 
-Its design metric is the share of the batch that exits within :data:`IN_BAND_SHARE` of the
-domain width from the target (:func:`exit_positions`); its objective is eq. (5), charged where
-each particle leaves the domain by default (:data:`FUNNEL_OBJECTIVES`). Made realizable, its
-grid values are a level set that starts from one of :data:`INIT_SHAPES`.
+Its design metric is the share of the batch that exits within `IN_BAND_SHARE` of the
+domain width from the target ([`exit_positions`][pes_ref.synthesis.funnel.exit_positions]); its objective is eq. (5),
+charged where
+each particle leaves the domain by default (`FUNNEL_OBJECTIVES`). Made realizable, its
+grid values are a level set that starts from one of `INIT_SHAPES`.
 """
 from __future__ import annotations
 
@@ -40,30 +41,32 @@ class FunnelProblem(_Problem):
     q1 plus Gaussian noise of std ``noise`` per step and axis push them down; walls of
     stiffness ``wall_k`` stand ``wall_margin`` inside the two side edges (q0). The
     objective is eq. (5) with weight-``regularization`` eq. (7) added, charged where it is
-    chosen by ``when`` (:data:`FUNNEL_OBJECTIVES`): ``"exit"`` (the default) at the q0 where
-    each particle leaves the domain (:class:`pes_ref.synthesis.exits.FunnelExit`), ``"final"``
+    chosen by ``when`` (`FUNNEL_OBJECTIVES`): ``"exit"`` (the default) at the q0 where
+    each particle leaves the domain ([`pes_ref.synthesis.exits.FunnelExit`][pes_ref.synthesis.exits.FunnelExit]),
+    ``"final"``
     at the last step, ``"every_step"`` summed over every step. A strip of depth ``exit_zone``
     at the bottom is held at zero energy (0 by default: none). ``"final"`` needs one
     (docs/synthesis.md measures it with ``exit_zone = 0.05``): the surface extends as a constant beyond
     the bottom edge, so without it a design charged at the last step can keep steering
     particles after they leave the domain. Grid axis 0 is q0, axis 1 is q1; ``grid`` nodes
     per axis. ``linger`` weighs a term of the exit cost on the time particles spend above the
-    exit edge (:class:`pes_ref.synthesis.exits.FunnelExit`).
+    exit edge ([`pes_ref.synthesis.exits.FunnelExit`][pes_ref.synthesis.exits.FunnelExit]).
 
     ``realizable`` makes the design realizable as designed (``docs/realize.md``): the grid
-    values become a level set (:class:`pes_ref.synthesis.level_set.LevelSet`), the shape
+    values become a level set ([`pes_ref.synthesis.level_set.LevelSet`][pes_ref.synthesis.level_set.LevelSet]), the
+    shape
     ``{values + contact_r_c < 0}``, and the surface is eq. (1) with strength ``contact_v``,
     cut-off ``contact_r_c`` and cap ``contact_r_min`` of the exact distance to that shape, on
     the ``grid`` x ``grid`` surface whatever the stage's grid of values. The shape starts as
-    ``init_shape`` (:data:`INIT_SHAPES`): the convex envelope of a smooth funnel's paths, made
-    by design (``"envelope"``, the default: :mod:`pes_ref.synthesis.envelope`), two strips
+    ``init_shape`` (`INIT_SHAPES`): the convex envelope of a smooth funnel's paths, made
+    by design (``"envelope"``, the default: [`pes_ref.synthesis.envelope`][pes_ref.synthesis.envelope]), two strips
     ``init_strip`` wide along the walled sides (``"strips"``), or a V whose gap at the exit edge
     is ``2 init_gap`` wide (``"vee"``). A design from the envelope ends on its channel with
-    convex walls (:meth:`final_values`).
+    convex walls ([`final_values`][pes_ref.synthesis.funnel.FunnelProblem.final_values]).
     """
 
     kind: ClassVar[str] = "funnel"
-    #: The name of :meth:`batch_metric` in progress lines and summaries.
+    #: The name of `batch_metric` in progress lines and summaries.
     metric_name: ClassVar[str] = "in_band"
     grid: int = 200
     width: float = 2.0
@@ -130,10 +133,10 @@ class FunnelProblem(_Problem):
 
     def initial_values(self, rng, shape: tuple) -> np.ndarray:
         """Small random values (std ``init_scale``); with ``realizable``, the starting shape
-        ``init_shape`` (:data:`INIT_SHAPES`) below the start strip (a level set's shape only
+        ``init_shape`` (`INIT_SHAPES`) below the start strip (a level set's shape only
         moves where its contour is: the walls grow from it). The ``"envelope"`` designs a
         smooth funnel first, from seeds drawn from ``rng``
-        (:func:`pes_ref.synthesis.envelope.envelope_start`)."""
+        ([`pes_ref.synthesis.envelope.envelope_start`][pes_ref.synthesis.envelope.envelope_start])."""
         if not self.realizable:
             return super().initial_values(rng, shape)
         if self.init_shape == "envelope":
@@ -146,7 +149,7 @@ class FunnelProblem(_Problem):
 
     def final_values(self, values) -> np.ndarray:
         """The grid a finished run delivers: ``values``, or for a design from the ``"envelope"``
-        its free channel with convex walls (:func:`pes_ref.synthesis.envelope.convex_channel`)."""
+        its free channel with convex walls ([`pes_ref.synthesis.envelope.convex_channel`][pes_ref.synthesis.envelope.convex_channel])."""
         if self.realizable and self.init_shape == "envelope":
             return convex_channel(self, values)
         return values
@@ -165,7 +168,7 @@ class FunnelProblem(_Problem):
                      effects=tuple(effects))
 
     def objective(self):
-        """Eq. (5) charged where ``when`` says (:data:`FUNNEL_OBJECTIVES`)."""
+        """Eq. (5) charged where ``when`` says (`FUNNEL_OBJECTIVES`)."""
         return FUNNEL_OBJECTIVES[self.when](self)
 
     def batch(self, values, rng, n_particles: int, n_steps: int | None = None) -> Batch:
@@ -186,11 +189,11 @@ class FunnelProblem(_Problem):
 
     @property
     def band(self) -> float:
-        """The band's half-width: an exit is in band within :data:`IN_BAND_SHARE` of the width from the target."""
+        """The band's half-width: an exit is in band within `IN_BAND_SHARE` of the width from the target."""
         return IN_BAND_SHARE * self.width
 
     def in_band(self, exits: np.ndarray) -> np.ndarray:
-        """Where an exit q0 is within :data:`IN_BAND_SHARE` of the width from the target (False for NaN)."""
+        """Where an exit q0 is within `IN_BAND_SHARE` of the width from the target (False for NaN)."""
         with np.errstate(invalid="ignore"):
             return np.abs(exits - self.target) < self.band
 
@@ -209,7 +212,7 @@ def _vee(p: FunnelProblem, q0, q1):
 
 
 #: The starting shapes of a realizable funnel: name -> signed distance (> 0 free) on the nodes
-#: (None: made by design, :func:`pes_ref.synthesis.envelope.envelope_start`).
+#: (None: made by design, `pes_ref.synthesis.envelope.envelope_start`).
 INIT_SHAPES = {"envelope": None, "strips": _strips, "vee": _vee}
 
 
@@ -221,7 +224,7 @@ def exit_positions(problem: FunnelProblem, traj: Trajectory) -> np.ndarray:
 
 
 #: The funnel's objective for each ``when``: eq. (5) at each particle's exit (the default), at
-#: the final step, or summed over every step (:class:`pes_ref.core.objectives.Funnel`).
+#: the final step, or summed over every step (`pes_ref.core.objectives.Funnel`).
 FUNNEL_OBJECTIVES = {
     "exit": lambda p: FunnelExit(target=p.target, level=p.lower[1], linger=p.linger),
     "final": lambda p: Funnel(target=p.target, when="final"),

@@ -2,14 +2,16 @@
 
 Every training particle starts *on* the target cycle at a random phase ``theta``, on a random
 tooth ``k`` of a prescribed gait of q1 (an advance of ``delta`` per target period, like an
-escapement's tooth), with a random torque from the whole range (:func:`sample_gait_starts`).
-It runs for one target period and is charged :class:`GaitShooting`, the distance to where
+escapement's tooth), with a random torque from the whole range
+([`sample_gait_starts`][pes_ref.synthesis.gait.sample_gait_starts]).
+It runs for one target period and is charged [`GaitShooting`][pes_ref.synthesis.gait.GaitShooting], the distance to
+where
 the gait says it should be. Each run is short, so its gradient through the adjoint is
 informative (over several periods of chaotic motion it is not), and tying q1 to the phase
 breaks the q1 symmetry that makes on-cycle starts with a random q1 pure noise.
 
 The plan that optimizes it (Adam, 16 x 16 then 32 x 32) is ``OSCILLATOR_PLANS["gait"]``
-in :mod:`pes_ref.synthesis.plans`; ``docs/synthesis.md`` ("The oscillator") has the formulas
+in [`pes_ref.synthesis.plans`][pes_ref.synthesis.plans]; ``docs/synthesis.md`` ("The oscillator") has the formulas
 and the measurements.
 """
 from __future__ import annotations
@@ -38,7 +40,7 @@ class GaitShooting:
     with ``dz(d) = d - clip(d, -h, h)`` a dead zone of half-width ``h`` (``dead_zone``;
     ``delta / 4`` lets an escapement's stop-and-go cost nothing). The value is the mean of
     ``l`` over the ``T + 1`` states and ``N`` particles; ``value_and_grad(x, v, t)`` follows
-    :mod:`pes_ref.core.objectives` and returns ``(value, dL/dX, dL/dV)``, each (T+1, N, 2).
+    [`pes_ref.core.objectives`][pes_ref.core.objectives] and returns ``(value, dL/dX, dL/dV)``, each (T+1, N, 2).
 
     Parameters
     ----------
@@ -47,7 +49,8 @@ class GaitShooting:
     delta : float
         The gait's advance of q1 per target period (rad).
     theta, q1_start : (N,) arrays
-        Each particle's phase and gait q1 at ``t = 0`` (:func:`sample_gait_starts`).
+        Each particle's phase and gait q1 at ``t = 0``
+        ([`sample_gait_starts`][pes_ref.synthesis.gait.sample_gait_starts]).
     w0, w1 : float
         Weights of the cycle and gait terms.
     dead_zone : float
@@ -85,7 +88,7 @@ class GaitShooting:
 
     def value_and_grad(self, x, v, t):
         """The mean gait distance with its ``gx`` and ``gv``; the objective protocol of
-        :mod:`pes_ref.core.objectives`; refuses a run of another particle count than ``theta``'s."""
+        [`pes_ref.core.objectives`][pes_ref.core.objectives]; refuses a run of another particle count than ``theta``'s."""
         n_states, n = x.shape[0], x.shape[1]
         if n != self.theta.size:
             raise ValueError(f"the gait cost was built for {self.theta.size} particles, the run has {n}")

@@ -1,15 +1,19 @@
-"""The kinds of design, as one interface: :data:`KINDS` (kind name -> :class:`DesignKind`).
+"""The kinds of design, as one interface: `KINDS` (kind name -> [`DesignKind`][pes_ref.synthesis.kinds.DesignKind]).
 
 A design's problem is one of three kinds: the paper's funnel and oscillator
-(:class:`~pes_ref.synthesis.funnel.FunnelProblem`, :class:`~pes_ref.synthesis.oscillator.OscillatorProblem`,
+([`FunnelProblem`][pes_ref.synthesis.funnel.FunnelProblem],
+[`OscillatorProblem`][pes_ref.synthesis.oscillator.OscillatorProblem],
 whose scene parameters are dataclass fields) or the problem a problem file states
-(:class:`~pes_ref.synthesis.design_problem.DesignProblem`, whose keys are the file's). What
-the rest of the package asks of a kind is one :class:`DesignKind` entry, as scipy's
+([`DesignProblem`][pes_ref.synthesis.design_problem.DesignProblem], whose keys are the file's). What
+the rest of the package asks of a kind is one [`DesignKind`][pes_ref.synthesis.kinds.DesignKind] entry, as scipy's
 ``solve_ivp`` looks up its ``METHODS``: its problem's text round trip (the design file), how
 its parameters are changed, its default plan and polish, its ``--smoke`` preset, its held-out
 evaluation (figures, steps, panels), its headline figure, and what realizing it needs
-(:class:`Realizable`). :func:`kind_of` finds a problem's entry; the held-out functions here
-(:func:`evaluate`, :func:`evaluate_seeds`, :func:`held_out_steps`, :func:`held_out_panels`)
+([`Realizable`][pes_ref.synthesis.kinds.Realizable]). [`kind_of`][pes_ref.synthesis.kinds.kind_of] finds a problem's
+entry; the held-out functions here
+([`evaluate`][pes_ref.synthesis.kinds.evaluate], [`evaluate_seeds`][pes_ref.synthesis.kinds.evaluate_seeds],
+[`held_out_steps`][pes_ref.synthesis.kinds.held_out_steps],
+[`held_out_panels`][pes_ref.synthesis.kinds.held_out_panels])
 serve every kind through it.
 """
 from __future__ import annotations
@@ -36,7 +40,7 @@ __all__ = ["DesignKind", "Realizable", "Smoke", "KINDS", "kind_of", "kind_named"
 
 
 class Realizable(NamedTuple):
-    """What realizing a design as parts needs of its kind (:mod:`pes_ref.realize`).
+    """What realizing a design as parts needs of its kind ([`pes_ref.realize`][pes_ref.realize]).
 
     - ``positions(problem, values, seed, n)``: every state (T+1, n, 2) of ``n`` of the design's
       own particles drawn from ``default_rng(seed)`` (the ``visited`` rule, the drawings);
@@ -46,7 +50,7 @@ class Realizable(NamedTuple):
     - ``at_step(problem, dt)``: the problem run at step ``dt``, its durations and the noise's
       diffusion per unit time kept;
     - ``with_spring(problem, spring)``: the problem with its scene's spring the device's
-      (a :class:`pes_ref.core.terms.Spring`, or None for none);
+      (a [`pes_ref.core.terms.Spring`][pes_ref.core.terms.Spring], or None for none);
     - ``parts(problem)``: what the problem states the parts are made with, ``{"clearance": C,
       "restitution": E}`` (either left out: the realization's defaults).
     """
@@ -105,8 +109,9 @@ class DesignKind:
         The ``--smoke`` preset.
     evaluate : callable
         ``(problem, values, seeds, n, engine) -> {seed: figures}``: the held-out figures
-        (:func:`evaluate_seeds`); ``engine`` runs the scenes on the design's surface (None: the
-        surface model; :mod:`pes_ref.synthesis.analysis`).
+        ([`evaluate_seeds`][pes_ref.synthesis.kinds.evaluate_seeds]); ``engine`` runs the scenes on the design's surface
+        (None: the
+        surface model; [`pes_ref.synthesis.analysis`][pes_ref.synthesis.analysis]).
     eval_particles : callable
         ``problem -> int``: the held-out particles by default.
     held_out_steps : callable
@@ -260,14 +265,14 @@ SMOKE_GRID = 12
 
 
 def _problem_smoke_scene(problem) -> dict:
-    """A problem file's ``--smoke`` overrides: its grid at most :data:`SMOKE_GRID` nodes along axis 0
+    """A problem file's ``--smoke`` overrides: its grid at most `SMOKE_GRID` nodes along axis 0
     (it keeps its dynamics and schedule: its phases)."""
     return {"surface.shape": list(problem.shape(min(SMOKE_GRID, problem.shape()[0])))}
 
 
 def _funnel_plan(problem):
-    """The funnel's default plan: :data:`pes_ref.synthesis.plans.FUNNEL_PLAN`, or for a realizable
-    funnel from the ``"envelope"`` start :data:`pes_ref.synthesis.plans.FUNNEL_ENVELOPE_PLAN`."""
+    """The funnel's default plan: `pes_ref.synthesis.plans.FUNNEL_PLAN`, or for a realizable
+    funnel from the ``"envelope"`` start `pes_ref.synthesis.plans.FUNNEL_ENVELOPE_PLAN`."""
     if problem.realizable and problem.init_shape == "envelope":
         return FUNNEL_ENVELOPE_PLAN
     return FUNNEL_PLAN
@@ -347,7 +352,8 @@ def evaluate(problem, values, seed: int = 12345, n_particles: int | None = None,
     ``sweep_captured_fraction``, ``grid_captured_fraction``, ``amplitude_error`` and
     ``period_error`` (relative, worst over the captured particles; NaN if none), their
     medians ``amplitude_error_median`` and ``period_error_median``, ``q1_advance_min``,
-    ``q1_advance_median`` and ``q1_advance_max`` (:func:`pes_ref.synthesis.analysis.q1_advance`
+    ``q1_advance_median`` and ``q1_advance_max``
+    ([`pes_ref.synthesis.analysis.q1_advance`][pes_ref.synthesis.analysis.q1_advance]
     over the captured particles of the sweep, rad per period; NaN if none) beside
     ``gait_advance`` (the problem's ``gait_delta``), and ``flat_captured_fraction``. A problem
     file's design: ``success_fraction``, one ``success_NAME`` per test, the share criteria, the
@@ -368,9 +374,9 @@ def _particles(problem, n_particles) -> int:
 
 
 def evaluate_seeds(problem, values, seeds, n_particles: int | None = None, engine=None) -> dict:
-    """:func:`evaluate` on each held-out seed of ``seeds``: seed -> figures, each the same
+    """[`evaluate`][pes_ref.synthesis.kinds.evaluate] on each held-out seed of ``seeds``: seed -> figures, each the same
     numbers as ``evaluate(problem, values, seed, n_particles, engine)``; the runs of every seed
-    (and of the flat surface) are one population (:func:`pes_ref.core.population.simulate_batch`)."""
+    (and of the flat surface) are one population ([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch])."""
     values = checks.as_float_array("values", values, ndim=2)
     seeds = tuple(dict.fromkeys(checks.as_nonneg_int("seed", s) for s in seeds))
     n = _particles(problem, n_particles)
@@ -387,8 +393,8 @@ def held_out_steps(problem) -> int:
 
 
 def held_out_panels(problem, values, seed: int = 12345, n_particles: int | None = None) -> list:
-    """The held-out particles of :func:`evaluate` (the same ones, on the design), as
-    :class:`~pes_ref.synthesis.analysis.Panel` s, each path with whether it passed: the
+    """The held-out particles of [`evaluate`][pes_ref.synthesis.kinds.evaluate] (the same ones, on the design), as
+    [`Panel`][pes_ref.synthesis.analysis.Panel] s, each path with whether it passed: the
     funnel's exits in the band or not; the oscillator's torque sweep and grid of starts
     captured by the cycle or not; a problem file's design, one panel per success test and one
     for all of them."""

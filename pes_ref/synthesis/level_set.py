@@ -3,24 +3,26 @@
 A design's grid of energies is a smooth surface that parts cannot have: a pin in a plate
 with cut-outs, or a follower in a drum's groove, gives eq. (1) of the distance to the
 blocked part of the C-space and nothing in between (``docs/realize.md``). With a
-:class:`LevelSet` the design variables are a *shape* instead:
+[`LevelSet`][pes_ref.synthesis.level_set.LevelSet] the design variables are a *shape* instead:
 
 - the grid values ``psi`` (one per node, like a design's energies) define the blocked
   region ``{phi < 0}``, ``phi = psi + r_c``, as the zero contour of ``phi`` interpolated
-  linearly along the grid's edges (marching squares, :func:`pes_ref.devices.boundary.boundary_segments`);
+  linearly along the grid's edges (marching squares,
+  [`pes_ref.devices.boundary.boundary_segments`][pes_ref.devices.boundary.boundary_segments]);
 - the surface is eq. (1) of the exact distance from every node to that contour
-  (:func:`pes_ref.devices.boundary.grid_distance`, negative at blocked nodes),
-  ``E = apf(d; v, r_c, r_min)`` (:func:`pes_ref.devices.cspace.apf_energy`).
+  ([`pes_ref.devices.boundary.grid_distance`][pes_ref.devices.boundary.grid_distance], negative at blocked nodes),
+  ``E = apf(d; v, r_c, r_min)`` ([`pes_ref.devices.cspace.apf_energy`][pes_ref.devices.cspace.apf_energy]).
 
 So the simulated surface is always eq. (1) of some geometry, the one
-:mod:`pes_ref.realize` turns into parts. A held grid value 0 is free (``phi = r_c``, at
+[`pes_ref.realize`][pes_ref.realize] turns into parts. A held grid value 0 is free (``phi = r_c``, at
 eq. (1)'s cut-off: no energy), so the flat surface, the held strips of a problem and
 coarse-to-fine resampling keep their meaning. Only the nodes next to the contour move the
 surface: a node's value moves the contour's crossing on each grid edge it ends, and the
 crossing moves the distance of every node whose nearest contour point is on a segment
 ending there.
 
-The gradient (:meth:`LevelSet.vjp`) is exact for that map: with ``t = phi_a / (phi_a -
+The gradient ([`LevelSet.vjp`][pes_ref.synthesis.level_set.LevelSet.vjp]) is exact for that map: with ``t = phi_a /
+(phi_a -
 phi_b)`` the crossing's fraction of a spacing on the edge a -> b, ``c`` a node's nearest
 point on segment (p, q) at parameter ``s`` (clipped to [0, 1]) and ``u`` the unit vector from
 ``c`` to the node, ``d dist / d p = -u (1 - s)`` and ``d dist / d q = -u s`` (the nearest
@@ -29,7 +31,7 @@ point's own motion is second order), ``d p / d phi_a = -h e phi_b / (phi_a - phi
 spacing). It is piecewise smooth: it has kinks where a node's nearest segment changes (the
 medial axis), where a nearest point reaches a segment's end, and where a node changes sign
 (the contour's topology), and it is zero away from the contour (the shape only moves; a wall
-appears only where the contour reaches: :meth:`LevelSet.initial_values` starts from one).
+appears only where the contour reaches: `LevelSet.initial_values` starts from one).
 """
 from __future__ import annotations
 
@@ -48,7 +50,8 @@ _LAST: dict = {}
 
 @dataclass(frozen=True)
 class LevelSetTape:
-    """What :meth:`LevelSet.vjp` needs of a forward map: phi, the blocked mask, the contour's
+    """What [`LevelSet.vjp`][pes_ref.synthesis.level_set.LevelSet.vjp] needs of a forward map: phi, the blocked mask,
+    the contour's
     segments and end crossings, each node's nearest segment (-1 beyond the band) and its
     signed distance."""
 
@@ -72,7 +75,7 @@ class LevelSet:
         Eq. (1)'s cut-off (C-space units): the barrier acts within r_c of blocked space.
     r_min : float, 0 < r_min < r_c
         Eq. (1)'s cap: below it the energy rises linearly with the slope it has there
-        (:func:`pes_ref.devices.cspace.apf_energy`).
+        ([`pes_ref.devices.cspace.apf_energy`][pes_ref.devices.cspace.apf_energy]).
     """
 
     v: float
@@ -89,7 +92,8 @@ class LevelSet:
 
     # ------------------------------------------------------------------ the map
     def forward(self, psi, lower, upper, periodic) -> LevelSetTape:
-        """:meth:`trace`, remembered for the last grid (a design iteration asks for its surface,
+        """[`trace`][pes_ref.synthesis.level_set.LevelSet.trace], remembered for the last grid (a design iteration asks
+        for its surface,
         then for the gradient through it)."""
         key = (self, tuple(np.asarray(lower, dtype=np.float64)), tuple(np.asarray(upper, dtype=np.float64)),
                tuple(bool(p) for p in periodic))
@@ -135,7 +139,8 @@ class LevelSet:
         return apf_energy(self.forward(psi, lower, upper, periodic).distance, self.v, self.r_c, self.r_min)
 
     def vjp(self, psi, grad_energy, lower, upper, periodic) -> np.ndarray:
-        """dL/dpsi from dL/dE (both shaped like the grid): the exact gradient of :meth:`energy`
+        """dL/dpsi from dL/dE (both shaped like the grid): the exact gradient of
+        [`energy`][pes_ref.synthesis.level_set.LevelSet.energy]
         (module docstring), transposed."""
         from pes_ref.devices.cspace import apf_slope
         lower = np.asarray(lower, dtype=np.float64)

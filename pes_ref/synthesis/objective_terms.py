@@ -1,24 +1,25 @@
 """The objective terms of a problem file: what each ``[[objective]]`` entry charges, and its derivative.
 
-A *state term* is a frozen object with the objective method of :mod:`pes_ref.core.objectives`,
+A *state term* is a frozen object with the objective method of [`pes_ref.core.objectives`][pes_ref.core.objectives],
 ``value_and_grad(x, v, t) -> (value, gx, gv)`` on a trajectory's positions and velocities
 (T+1, N, 2) and times (T+1,); a *grid term* has ``grid_value_and_grad(values) -> (value,
 grad)`` on the grid values instead (eq. (7)). A problem's objective is the sum of its
-terms (:class:`TermSum` for the state terms). :data:`OBJECTIVE_TERMS` maps a kind to its
-class (dispatch by data): a class declares its file keys (``KEYS``, :mod:`.file_keys`) and
+terms ([`TermSum`][pes_ref.synthesis.objective_terms.TermSum] for the state terms). `OBJECTIVE_TERMS` maps a kind to its
+class (dispatch by data): a class declares its file keys (``KEYS``, [`.file_keys`][pes_ref.synthesis.file_keys]) and
 builds itself from them (``from_keys``), so a new kind of term, on the states or on the
 grid, is one more entry.
 
 Every term is a sum over the particles, like the paper's eq. (5) (``cycle`` keeps eq. (6)'s
 own normalization), times its ``weight``. Positions are the unwrapped states of the
 simulation; a difference along a periodic axis is taken the short way round (the minimum
-image, :meth:`Domain.wrap`). Where a term is not smooth in the states the paper's maths
+image, [`Domain.wrap`][pes_ref.synthesis.objective_terms.Domain.wrap]). Where a term is not smooth in the states the
+paper's maths
 leaves a choice, and the term takes the smooth penalty form:
 
 - ``stay_in`` charges the squared distance to the box (zero inside it), whose derivative is
   continuous at the box's faces, rather than an indicator;
 - ``exit`` is eq. (5) at the state where a particle first crosses the edge
-  (:func:`pes_ref.synthesis.exits.exit_steps`); that step is piecewise constant in the
+  ([`pes_ref.synthesis.exits.exit_steps`][pes_ref.synthesis.exits.exit_steps]); that step is piecewise constant in the
   grid values, so the derivative holds away from the values where it changes (the
   funnel's exit charge, ``docs/synthesis.md`` decision 8);
 - a time (``position_at``, ``speed_at``, a window's ends) is taken at the state nearest to it.
@@ -69,7 +70,7 @@ class Domain(NamedTuple):
         return d - length * np.round(d / length)
 
     def edge(self, name: str) -> tuple:
-        """``(axis, side, level)`` of edge ``name`` (:data:`EDGES`)."""
+        """``(axis, side, level)`` of edge ``name`` (`EDGES`)."""
         axis, side = EDGES[name]
         return axis, side, (self.lower if side == "lower" else self.upper)[axis]
 
@@ -124,7 +125,7 @@ class FinalPosition:
 
     def value_and_grad(self, x, v, t):
         """The term and its ``gx`` (``gv`` is None); a state term: the objective protocol of
-        :mod:`pes_ref.core.objectives` (this module's docstring)."""
+        [`pes_ref.core.objectives`][pes_ref.core.objectives] (this module's docstring)."""
         return _position_cost(x, -1, self.target, self.weight, self.domain)
 
 
@@ -147,7 +148,7 @@ class PositionAt:
 
     def value_and_grad(self, x, v, t):
         """The term and its ``gx`` (``gv`` is None; 0 and no derivative when ``time`` is after the run's end);
-        a state term: the objective protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
+        a state term: the objective protocol of [`pes_ref.core.objectives`][pes_ref.core.objectives] (this module's docstring)."""
         n = step_at(t, self.time)
         if n is None:
             return 0.0, None, None
@@ -195,7 +196,7 @@ class StayIn:
 
     def value_and_grad(self, x, v, t):
         """The term and its ``gx`` (``gv`` is None; 0 and no derivative when the window holds no state);
-        a state term: the objective protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
+        a state term: the objective protocol of [`pes_ref.core.objectives`][pes_ref.core.objectives] (this module's docstring)."""
         w = window_steps(t, self.start, self.end)
         states = x[w]
         if states.shape[0] == 0:
@@ -228,7 +229,7 @@ class SpeedAt:
 
     def value_and_grad(self, x, v, t):
         """The term and its ``gv`` (``gx`` is None; 0 and no derivative when ``time`` is after the run's end);
-        a state term: the objective protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
+        a state term: the objective protocol of [`pes_ref.core.objectives`][pes_ref.core.objectives] (this module's docstring)."""
         n = step_at(t, self.time)
         if n is None:
             return 0.0, None, None
@@ -241,7 +242,7 @@ class SpeedAt:
 @dataclass(frozen=True)
 class Cycle:
     """The paper's eq. (6) on ``axis``, times ``weight``: every state is charged its RMS distance
-    in phase space from the undamped cycle ``A cos(w t)`` (:class:`pes_ref.core.objectives.Oscillator`)."""
+    in phase space from the undamped cycle ``A cos(w t)`` ([`pes_ref.core.objectives.Oscillator`][pes_ref.core.objectives.Oscillator])."""
 
     KIND: ClassVar[str] = "cycle"
     KEYS: ClassVar[dict] = {"amplitude": Key("positive", unit="length"), "omega": Key("positive", unit="rad/time"),
@@ -259,7 +260,7 @@ class Cycle:
 
     def value_and_grad(self, x, v, t):
         """Eq. (6) on ``axis`` times ``weight``, with its ``gx`` and ``gv``; a state term: the objective
-        protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
+        protocol of [`pes_ref.core.objectives`][pes_ref.core.objectives] (this module's docstring)."""
         # eq. (6) is on axis 0: give the chosen axis that place (a view), and the derivative back
         order = slice(None) if self.axis == 0 else slice(None, None, -1)
         value, gx, gv = Oscillator(self.amplitude, self.omega).value_and_grad(x[..., order], v[..., order], t)
@@ -272,7 +273,8 @@ class Exit:
     its position along the edge at its exit step lies outside ``[center - halfwidth,
     center + halfwidth]`` (``halfwidth`` 0: the paper's ``(x_i - x_0)^2``).
 
-    The exit step is the first state at or past the edge (:func:`pes_ref.synthesis.exits.exit_steps`),
+    The exit step is the first state at or past the edge
+    ([`pes_ref.synthesis.exits.exit_steps`][pes_ref.synthesis.exits.exit_steps]),
     or the last state for a particle that never leaves; ``dL/dX`` is ``2 weight e_i`` along the
     edge at that state and zero elsewhere, away from the grid values where an exit step changes.
     """
@@ -298,13 +300,13 @@ class Exit:
 
 
     def steps(self, x: np.ndarray):
-        """Each particle's exit step and whether it exits (:func:`pes_ref.synthesis.exits.exit_steps`)."""
+        """Each particle's exit step and whether it exits ([`pes_ref.synthesis.exits.exit_steps`][pes_ref.synthesis.exits.exit_steps])."""
         axis, side, level = self.domain.edge(self.edge)
         return exit_steps(x, level, axis, side)
 
     def value_and_grad(self, x, v, t):
         """The term and its ``gx`` (``gv`` is None); a state term: the objective protocol of
-        :mod:`pes_ref.core.objectives` (this module's docstring)."""
+        [`pes_ref.core.objectives`][pes_ref.core.objectives] (this module's docstring)."""
         step, _ = self.steps(x)
         along = 1 - EDGES[self.edge][0]
         particle = np.arange(x.shape[1])
@@ -320,7 +322,8 @@ class CustomTermError(ValueError):
 
 def call_user(label: str, fn, *args):
     """``fn(*args)`` of a user's own object, whatever it raises reworded as one
-    :class:`CustomTermError` that starts with ``label``; a FloatingPointError (a non-finite run,
+    [`CustomTermError`][pes_ref.synthesis.objective_terms.CustomTermError] that starts with ``label``; a
+    FloatingPointError (a non-finite run,
     which a design stops on) passes as it is."""
     try:
         return fn(*args)
@@ -334,10 +337,13 @@ def call_user(label: str, fn, *args):
 @dataclass(frozen=True)
 class CustomTerm:
     """A user's own objective, ``object.value_and_grad(x, v, t) -> (value, gx, gv)``, times
-    ``weight``; its shapes are checked on every call (:class:`pes_ref.core.objectives.Custom`).
+    ``weight``; its shapes are checked on every call
+    ([`pes_ref.core.objectives.Custom`][pes_ref.core.objectives.Custom]).
     In a file ``object`` is ``"module:object"`` (imported and checked when the file is read,
-    :mod:`.file_keys`); in code, the object itself. Whatever the object raises comes out as one
-    :class:`CustomTermError` naming the term by ``label`` (``objective[1] (custom 'spread',
+    [`.file_keys`][pes_ref.synthesis.file_keys]); in code, the object itself. Whatever the object raises comes out as
+    one
+    [`CustomTermError`][pes_ref.synthesis.objective_terms.CustomTermError] naming the term by ``label`` (``objective[1]
+    (custom 'spread',
     mymod:SPREAD)``), except a FloatingPointError: a non-finite run, which the design stops on."""
 
     KIND: ClassVar[str] = "custom"
@@ -354,9 +360,11 @@ class CustomTerm:
         return cls(keys["object"], keys["weight"])
 
     def value_and_grad(self, x, v, t):
-        """The object's ``value_and_grad`` checked as :class:`pes_ref.core.objectives.Custom` checks it, each
-        part times ``weight``; what it raises as one :class:`CustomTermError`; a state term: the objective
-        protocol of :mod:`pes_ref.core.objectives` (this module's docstring)."""
+        """The object's ``value_and_grad`` checked as [`pes_ref.core.objectives.Custom`][pes_ref.core.objectives.Custom]
+        checks it, each
+        part times ``weight``; what it raises as one
+        [`CustomTermError`][pes_ref.synthesis.objective_terms.CustomTermError]; a state term: the objective
+        protocol of [`pes_ref.core.objectives`][pes_ref.core.objectives] (this module's docstring)."""
         value, gx, gv = call_user(self.label, Custom(self.obj.value_and_grad, self.name).value_and_grad, x, v, t)
         w = self.weight
         return w * value, None if gx is None else w * gx, None if gv is None else w * gv
@@ -366,7 +374,7 @@ class CustomTerm:
 
 @dataclass(frozen=True)
 class Regularization:
-    """The paper's eq. (7) on the grid values, ``R sum_ij G_ij^2`` (:func:`pes_ref.core.objectives.regularization`)."""
+    """The paper's eq. (7) on the grid values, ``R sum_ij G_ij^2`` ([`pes_ref.core.objectives.regularization`][pes_ref.core.objectives.regularization])."""
 
     KIND: ClassVar[str] = "regularization"
     KEYS: ClassVar[dict] = {"R": Key("nonneg", unit="1/energy")}
@@ -396,14 +404,14 @@ def is_grid_term(term) -> bool:
 
 class TermSum:
     """The sum of state terms: one objective (``value_and_grad``) for the adjoint, and each
-    term's value on its own (:meth:`values`)."""
+    term's value on its own ([`values`][pes_ref.synthesis.objective_terms.TermSum.values])."""
 
     def __init__(self, terms):
         self.terms = tuple(terms)
 
     def value_and_grad(self, x, v, t):
         """The sum of the terms' values and derivatives (None where every term's is None); the objective
-        protocol of :mod:`pes_ref.core.objectives`."""
+        protocol of [`pes_ref.core.objectives`][pes_ref.core.objectives]."""
         total, gx, gv = 0.0, None, None
         for term in self.terms:
             value, tx, tv = term.value_and_grad(x, v, t)

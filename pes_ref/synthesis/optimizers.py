@@ -5,8 +5,8 @@ values ``G`` of the potential energy surface; it gives no hyper-parameters, so t
 defaults here are the usual ones (``docs/synthesis.md``, "Optimizers").
 
 Every optimizer is a small stateful object whose whole state is a dict of plain NumPy
-arrays and Python numbers (:meth:`state_dict` / :meth:`load_state_dict`), so a run can be
-saved to a ``.npz`` design file and resumed bit-exactly. One :meth:`step` takes the
+arrays and Python numbers (`state_dict` / `load_state_dict`), so a run can be
+saved to a ``.npz`` design file and resumed bit-exactly. One `step` takes the
 parameter array ``p`` (any shape, float64) and its gradient ``g`` and returns the updated
 parameters as a new array; ``p`` and ``g`` are never modified.
 
@@ -96,7 +96,7 @@ class _Optimizer:
         return out
 
     def load_state_dict(self, state: dict) -> None:
-        """Restore :meth:`state_dict`'s output (bit-exact)."""
+        """Restore `state_dict`'s output (bit-exact)."""
         kind = str(np.asarray(state["kind"]))
         if kind != self.kind:
             raise ValueError(f"optimizer state is for {kind!r}, not {self.kind!r}")
@@ -180,7 +180,7 @@ def make_optimizer(kind: str, **hyper):
 
 
 def optimizer_from_state(state: dict):
-    """Rebuild an optimizer, moments included, from :meth:`state_dict`'s output."""
+    """Rebuild an optimizer, moments included, from `state_dict`'s output."""
     kind = str(np.asarray(state["kind"]))
     cls = OPTIMIZERS.get(kind)
     if cls is None:

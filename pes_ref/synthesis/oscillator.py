@@ -1,8 +1,9 @@
 """The oscillator of the paper's Figs. 8-11: particles held to a target cycle along q0 while q1 turns.
 
 Its design metric is the relative amplitude error over the batch's last simulated period; it
-trains on one of :data:`OSCILLATOR_COSTS` (prescribed-gait shooting by default, the paper's
-eq. (6), its phase-free form, or eq. (6) then the phase-free form: :class:`PhaseThenCycle`).
+trains on one of `OSCILLATOR_COSTS` (prescribed-gait shooting by default, the paper's
+eq. (6), its phase-free form, or eq. (6) then the phase-free form:
+[`PhaseThenCycle`][pes_ref.synthesis.oscillator.PhaseThenCycle]).
 """
 from __future__ import annotations
 
@@ -33,23 +34,26 @@ class OscillatorProblem(_Problem):
     frequency ``sqrt(spring_k / mass)``); damping ``damping0`` along q0 is much lower than
     ``damping1`` along q1; each particle feels a constant torque ``-tau`` along q1 with
     ``tau`` uniform in ``[torque_min, torque_max]``. Walls stand ``wall_margin`` inside the
-    q0 edges. The held-out evaluation (:mod:`pes_ref.synthesis.analysis`) starts particles at
+    q0 edges. The held-out evaluation ([`pes_ref.synthesis.analysis`][pes_ref.synthesis.analysis]) starts particles at
     rest and always measures against ``amplitude`` and ``omega``.
 
-    ``cost`` names the objective it trains on (:data:`OSCILLATOR_COSTS`; each named training
-    plan of ``design oscillator --plan``, :data:`pes_ref.synthesis.plans.OSCILLATOR_PLANS`,
+    ``cost`` names the objective it trains on (`OSCILLATOR_COSTS`; each named training
+    plan of ``design oscillator --plan``, `pes_ref.synthesis.plans.OSCILLATOR_PLANS`,
     sets it):
 
     - ``"gait"`` (the default): prescribed-gait multiple shooting. Each batch starts on the
       target cycle and on a gait of q1 advancing ``gait_delta`` per period
-      (:func:`pes_ref.synthesis.gait.sample_gait_starts`), runs ``shooting_periods`` target
-      periods and is charged :class:`pes_ref.synthesis.gait.GaitShooting` with weights
+      ([`pes_ref.synthesis.gait.sample_gait_starts`][pes_ref.synthesis.gait.sample_gait_starts]), runs
+      ``shooting_periods`` target
+      periods and is charged [`pes_ref.synthesis.gait.GaitShooting`][pes_ref.synthesis.gait.GaitShooting] with weights
       ``gait_w0``, ``gait_w1`` and a dead zone of ``gait_dead_zone * gait_delta`` on q1.
     - ``"eq6"`` (the paper's): particles start at rest at ``q1 = 0``,
       ``q0 = amplitude (1 + kick) + start_noise * normal``, and eq. (6) is summed over every
-      step of ``n_steps``; ``"cycle"`` (:class:`pes_ref.core.objectives.OscillatorCycle`, the
+      step of ``n_steps``; ``"cycle"``
+      ([`pes_ref.core.objectives.OscillatorCycle`][pes_ref.core.objectives.OscillatorCycle], the
       phase-free distance to the target ellipse, counted from ``settle_periods`` periods on)
-      and ``"phase_then_cycle"`` (:class:`PhaseThenCycle`: eq. (6) before ``settle_periods``,
+      and ``"phase_then_cycle"`` ([`PhaseThenCycle`][pes_ref.synthesis.oscillator.PhaseThenCycle]: eq. (6) before
+      ``settle_periods``,
       the cycle cost after) start the same way. ``stratified`` draws one torque per equal
       slice of the range; ``spread_share`` of each batch starts at rest anywhere in
       ``[-1.5 A, 1.5 A] x [0, 2 pi)`` like the 5 x 5 grid.
@@ -60,7 +64,7 @@ class OscillatorProblem(_Problem):
     """
 
     kind: ClassVar[str] = "oscillator"
-    #: The name of :meth:`batch_metric` in progress lines and summaries.
+    #: The name of `batch_metric` in progress lines and summaries.
     metric_name: ClassVar[str] = "amp_err"
     grid0: int = 32
     grid1: int = 32
@@ -140,7 +144,7 @@ class OscillatorProblem(_Problem):
                      effects=tuple(effects))
 
     def objective(self):
-        """The training cost named by ``cost`` (:data:`OSCILLATOR_COSTS`), aimed at ``amplitude * target_scale``.
+        """The training cost named by ``cost`` (`OSCILLATOR_COSTS`), aimed at ``amplitude * target_scale``.
 
         The gait cost depends on each batch's starts: it is ``batch(...).objective``.
         """
@@ -158,7 +162,7 @@ class OscillatorProblem(_Problem):
                                settle=self.settle_periods * self.period)
 
     def gait_cost(self, starts: GaitStarts) -> GaitShooting:
-        """The gait cost of a batch drawn by :func:`pes_ref.synthesis.gait.sample_gait_starts`."""
+        """The gait cost of a batch drawn by [`pes_ref.synthesis.gait.sample_gait_starts`][pes_ref.synthesis.gait.sample_gait_starts]."""
         return GaitShooting(amplitude=self.amplitude * self.target_scale, omega=self.omega, delta=self.gait_delta,
                             theta=starts.theta, q1_start=starts.q1_start, w0=self.gait_w0, w1=self.gait_w1,
                             dead_zone=self.gait_dead_zone * self.gait_delta)
@@ -170,7 +174,7 @@ class OscillatorProblem(_Problem):
 
     def torque_effect(self, torques) -> PerParticle:
         """A constant torque ``-torques[i]`` along q1 on particle ``i`` (a
-        :class:`~pes_ref.core.effects.PerParticle` effect)."""
+        [`PerParticle`][pes_ref.core.effects.PerParticle] effect)."""
         torques = np.asarray(torques, dtype=np.float64)
         return PerParticle(np.stack([np.zeros_like(torques), -torques], axis=1))
 
@@ -192,7 +196,7 @@ class OscillatorProblem(_Problem):
         return _BATCHES.get(self.cost, OscillatorProblem.rest_batch)(self, values, rng, n_particles, n_steps)
 
     def gait_batch(self, values, rng, n_particles: int, n_steps: int | None = None) -> Batch:
-        """Starts on the target cycle and on the gait (:func:`pes_ref.synthesis.gait.sample_gait_starts`)."""
+        """Starts on the target cycle and on the gait ([`pes_ref.synthesis.gait.sample_gait_starts`][pes_ref.synthesis.gait.sample_gait_starts])."""
         starts = sample_gait_starts(self, rng, n_particles, self.gait_delta, self.amplitude * self.target_scale)
         scene = self.scene(values, (self.torque_effect(starts.torques),),
                            self.shooting_steps if n_steps is None else n_steps)
@@ -223,7 +227,8 @@ class OscillatorProblem(_Problem):
 
 @dataclass(frozen=True)
 class PhaseThenCycle:
-    """Eq. (6) on the steps before ``cycle.settle``, the phase-free :class:`OscillatorCycle` from then on.
+    """Eq. (6) on the steps before ``cycle.settle``, the phase-free
+    [`OscillatorCycle`][pes_ref.core.objectives.OscillatorCycle] from then on.
 
     Early on every particle is still near the reference's phase (all start at rest near
     ``q0 = A (1 + kick)``, the reference's phase 0), so eq. (6) is a well-aimed signal there;
@@ -235,7 +240,7 @@ class PhaseThenCycle:
 
     def value_and_grad(self, x, v, t):
         """The two costs summed, with their ``gx`` and ``gv``; the objective protocol of
-        :mod:`pes_ref.core.objectives`."""
+        [`pes_ref.core.objectives`][pes_ref.core.objectives]."""
         k = int(np.searchsorted(np.asarray(t), self.cycle.settle, side="left"))   # steps with t < settle
         value, gx, gv = self.cycle.value_and_grad(x, v, t)
         if k:
@@ -247,7 +252,7 @@ class PhaseThenCycle:
 
 
 #: The oscillator's training costs by name (``OscillatorProblem.cost``): the paper's eq. (6), its
-#: phase-free form (``OscillatorCycle``) and eq. (6) then the phase-free form (:class:`PhaseThenCycle`).
+#: phase-free form (``OscillatorCycle``) and eq. (6) then the phase-free form (`PhaseThenCycle`).
 _COST_BUILDERS = {
     "eq6": OscillatorProblem.eq6_cost,
     "cycle": OscillatorProblem.cycle_cost,

@@ -1,13 +1,14 @@
 """Plans: how a design problem is optimized, and the project's default plans.
 
-A :class:`Plan` holds the gradient stage: the optimizer, its learning-rate schedule, the
+A [`Plan`][pes_ref.synthesis.plans.Plan] holds the gradient stage: the optimizer, its learning-rate schedule, the
 coarse-to-fine grid and horizon stages, and the particles per iteration; it does not depend
 on the run's total length, so a run stopped early and resumed follows the same schedule. A
-:class:`PolishPlan` holds the optional gradient-free stage that follows it
-(:mod:`pes_ref.synthesis.polish`). :data:`OSCILLATOR_PLANS` (problem overrides and plan)
-and :data:`OSCILLATOR_POLISH` are the oscillator's named training plans of ``design oscillator
---plan NAME``, :func:`default_plan` the plan of a problem file without ``[train]``; each kind's
-default is its entry in :data:`pes_ref.synthesis.kinds.KINDS`. Measured in ``docs/synthesis.md``, "Results".
+[`PolishPlan`][pes_ref.synthesis.plans.PolishPlan] holds the optional gradient-free stage that follows it
+([`pes_ref.synthesis.polish`][pes_ref.synthesis.polish]). `OSCILLATOR_PLANS` (problem overrides and plan)
+and `OSCILLATOR_POLISH` are the oscillator's named training plans of ``design oscillator
+--plan NAME``, [`default_plan`][pes_ref.synthesis.plans.default_plan] the plan of a problem file without ``[train]``;
+each kind's
+default is its entry in `pes_ref.synthesis.kinds.KINDS`. Measured in ``docs/synthesis.md``, "Results".
 """
 from __future__ import annotations
 
@@ -55,7 +56,8 @@ class Plan:
         0 (the problem's own grid when ``grid`` is 0) and the training runs have ``n_steps``
         steps (the problem's own when 0 or omitted: a short horizon early is cheaper and
         its gradient less chaotic). The values are resampled bilinearly
-        (:func:`pes_ref.synthesis.resampling.resample`) and the optimizer's moments reset at each change. The learning
+        ([`pes_ref.synthesis.resampling.resample`][pes_ref.synthesis.resampling.resample]) and the optimizer's moments
+        reset at each change. The learning
         rate of a stage is multiplied by ``(first stage's grid / this stage's grid)``: RMSprop
         moves every node by about ``lr`` whatever its gradient's size, so on a grid ``r``
         times finer the same ``lr`` would roughen the surface ``r`` times more per cell
@@ -67,7 +69,7 @@ class Plan:
     validate_every : int
         0 (off), or before the first iteration, every this many and after the run's last, the design, resampled
         to the problem's grid, is judged on ``validation_particles`` fixed validation particles
-        (:mod:`pes_ref.synthesis.validation`) by the problem's success share; the run keeps
+        ([`pes_ref.synthesis.validation`][pes_ref.synthesis.validation]) by the problem's success share; the run keeps
         the best such grid and ends on it.
     validation_particles : int
     target : float or None
@@ -144,7 +146,7 @@ class Plan:
         return self.stage_at(iteration)[2] or None
 
     def stage_list(self, problem, total: int) -> list:
-        """The :class:`Stage` list a run of ``problem`` to ``total`` iterations goes through
+        """The [`Stage`][pes_ref.synthesis.plans.Stage] list a run of ``problem`` to ``total`` iterations goes through
         (a plan with one stage: ``"1/1"``)."""
         starts = [st for st in self.stages if st[0] < total] or [self.stages[0]]
         ends = [st[0] for st in starts[1:]] + [total]
@@ -166,11 +168,11 @@ class Plan:
 
     def make_optimizer(self):
         """A fresh optimizer of the plan: ``optimizer`` with ``lr`` and ``clip``
-        (:func:`pes_ref.synthesis.optimizers.make_optimizer`)."""
+        ([`pes_ref.synthesis.optimizers.make_optimizer`][pes_ref.synthesis.optimizers.make_optimizer])."""
         return make_optimizer(self.optimizer, lr=self.lr, clip=self.clip)
 
 
-#: Gradient-free searches of the polish stage (:class:`PolishPlan` ``method``): pycma's CMA-ES and
+#: Gradient-free searches of the polish stage (`PolishPlan` ``method``): pycma's CMA-ES and
 #: scipy's differential evolution (measured in docs/synthesis.md; CMA-ES is the default).
 POLISH_METHODS = ("cma", "de")
 
@@ -179,10 +181,12 @@ POLISH_METHODS = ("cma", "de")
 class PolishPlan:
     """The polish stage: a gradient-free search over ``coef`` in ``values + B coef``.
 
-    ``B`` (:func:`pes_ref.synthesis.polish.legendre_fourier_basis`) is ``legendre_terms``
+    ``B`` ([`pes_ref.synthesis.polish.legendre_fourier_basis`][pes_ref.synthesis.polish.legendre_fourier_basis]) is
+    ``legendre_terms``
     Legendre polynomials in ``q0 / q0_extent`` times ``1, cos k q1, sin k q1`` for
     ``k <= fourier_order`` (72 terms by default); ``values`` is the gradient stage's grid.
-    The fitness (:func:`pes_ref.synthesis.polish.capture_fitness`) runs ``n_particles`` fixed
+    The fitness ([`pes_ref.synthesis.polish.capture_fitness`][pes_ref.synthesis.polish.capture_fitness]) runs
+    ``n_particles`` fixed
     training particles for ``periods`` target periods (None: the problem's
     ``eval_periods``) and judges them with the capture test of ``evaluate``.
 
@@ -197,7 +201,8 @@ class PolishPlan:
         Candidates per generation (16 is pycma's own default for 72 terms; for ``"de"`` the
         population is the nearest multiple of the term count, at least one).
     n_particles, rest_share, center_share, center_std, rest_max_share : int, float, float, float, float
-        The training particles (:func:`pes_ref.synthesis.polish.polish_particles`).
+        The training particles
+        ([`pes_ref.synthesis.polish.polish_particles`][pes_ref.synthesis.polish.polish_particles]).
     margin_weight : float
         Weight of the smooth margin term of the fitness.
     strictness : float in (0, 1]
@@ -207,7 +212,8 @@ class PolishPlan:
         Stop early once the best fitness is at or below it.
     validation_particles : int
         0 (off), or the fixed validation particles the best candidate is judged on
-        (:func:`pes_ref.synthesis.polish.validation_particles`: shaped like the held-out torque
+        ([`pes_ref.synthesis.polish.validation_particles`][pes_ref.synthesis.polish.validation_particles]: shaped like
+        the held-out torque
         sweep and grid of starts, from their own seed) by the share the capture test of
         ``evaluate`` passes.
     validate_every : int
@@ -269,10 +275,10 @@ class PolishPlan:
 
 #: The oscillator's named training plans (``design oscillator --plan NAME``): the problem
 #: overrides that choose the objective it trains on (``cost``), its aim and weight, and the Plan.
-#: "gait" (the default) is prescribed-gait multiple shooting (:mod:`pes_ref.synthesis.gait`):
+#: "gait" (the default) is prescribed-gait multiple shooting (`pes_ref.synthesis.gait`):
 #: Adam, lr 1e-2 -> 1e-4 geometric over the 3000 iterations (no grid scaling), 128 starts on the
 #: cycle and the gait per iteration, one-period runs, 16 x 16 until 1500 then the scene's 32 x 32;
-#: its polish follows (:data:`OSCILLATOR_POLISH`: up to 3000 evaluations, stopped once the best
+#: its polish follows (`OSCILLATOR_POLISH`: up to 3000 evaluations, stopped once the best
 #: candidate captures 0.96 of its validation particles). "eq6" is the paper's setting, eq. (6) + eq. (7)
 #: aimed at the target amplitude A, and "overshoot" (the best eq. (6) plan of docs/synthesis.md)
 #: aims the same cost at 1.4 A; these two share the plan: RMSprop, lr 5e-4 -> 5e-5, 16 particles,
@@ -301,16 +307,16 @@ FUNNEL_PLAN = Plan(iterations=500, lr=0.002, lr_final=0.0005, decay_iterations=4
 #: measured in docs/realize.md, "The candidates"): 100 iterations of RMSprop at lr 5e-4 on the
 #: problem's own grid (a coarse grid would not hold the start), validated every 10 on 200
 #: particles, ending on the best validated grid (its channel made convex:
-#: :func:`pes_ref.synthesis.envelope.convex_channel`).
+#: `pes_ref.synthesis.envelope.convex_channel`).
 FUNNEL_ENVELOPE_PLAN = Plan(iterations=100, lr=0.0005, lr_final=0.0005, decay_iterations=100, stages=((0, 0),),
                             n_particles=64, validate_every=10, validation_particles=200)
 
 
-#: The grids (nodes along axis 0) of :func:`coarse_to_fine`'s stages below the final grid: each
+#: The grids (nodes along axis 0) of `coarse_to_fine`'s stages below the final grid: each
 #: about twice the last, so a stage refines the one before by resampling (5, 9, 17, ...).
 COARSE_GRIDS = (5, 9, 17)
 #: The plan of a problem file without ``[train]`` (its measured comparison is in
-#: docs/problems.md, "The default plan"): :func:`coarse_to_fine` stages, RMSprop from ``lr`` to
+#: docs/problems.md, "The default plan"): `coarse_to_fine` stages, RMSprop from ``lr`` to
 #: ``lr_final`` over the run, and validation every ``validate_every`` iterations with an early
 #: stop at ``target`` (no randomized smoothing: measured there, it did not pay for its time).
 DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.005, "n_particles": 128,
@@ -318,14 +324,14 @@ DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.005, "n_parti
 
 
 def coarse_to_fine(n0: int, iterations: int) -> tuple:
-    """Stages of equal shares of ``iterations`` on the :data:`COARSE_GRIDS` below ``n0`` nodes,
+    """Stages of equal shares of ``iterations`` on the `COARSE_GRIDS` below ``n0`` nodes,
     then the final grid: ``((0, 5), (75, 9), (150, 17), (225, 0))`` for 300 iterations on a grid of 40."""
     grids = [g for g in COARSE_GRIDS if g < n0] + [0]
     return tuple((iterations * i // len(grids), g) for i, g in enumerate(grids))
 
 
 def default_plan(shape, coarse: bool = True, iterations: int | None = None) -> Plan:
-    """The plan of a problem file without ``[train]``, on a final grid of ``shape`` (:data:`DEFAULT_FILE_PLAN`),
+    """The plan of a problem file without ``[train]``, on a final grid of ``shape`` (`DEFAULT_FILE_PLAN`),
     its stages shared out over ``iterations`` (None: the plan's 300; ``--iterations``).
 
     ``coarse=False`` (a design that starts from drawn shapes, a realizable contact's ``blocked``)

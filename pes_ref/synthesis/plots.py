@@ -1,10 +1,10 @@
 """Drawing a design's held-out particles on its surface, for ``python -m pes_ref evaluate --plot``.
 
-One panel per :class:`pes_ref.synthesis.analysis.Panel` (what passing means there: the
+One panel per [`pes_ref.synthesis.analysis.Panel`][pes_ref.synthesis.analysis.Panel] (what passing means there: the
 funnel's band, the oscillator's capture by the cycle, each success test of a problem file
 and all of them): the design's energy as a heat map on its domain, each held-out path
 drawn over it in green if it passed and red if it did not, with the counts in the legend.
-It only turns what :func:`pes_ref.synthesis.kinds.held_out_panels` computed into a
+It only turns what [`pes_ref.synthesis.kinds.held_out_panels`][pes_ref.synthesis.kinds.held_out_panels] computed into a
 picture; matplotlib is imported when a figure is made, never by ``import pes_ref``.
 """
 from __future__ import annotations

@@ -1,22 +1,28 @@
 """The polish stage: a gradient-free search on a smooth correction of a designed surface.
 
 After the gradient stage (prescribed-gait shooting for the oscillator) the design is close;
-the polish searches ``coef`` in ``values + B coef`` (:func:`legendre_fourier_basis`, 72
+the polish searches ``coef`` in ``values + B coef``
+([`legendre_fourier_basis`][pes_ref.synthesis.polish.legendre_fourier_basis], 72
 terms by default) with pycma's CMA-ES (or scipy's differential evolution, for the
-comparison), on a forward-only fitness (:func:`capture_fitness`): the capture test of
-``python -m pes_ref evaluate`` (:func:`pes_ref.synthesis.analysis.cycle_figures`) on a fixed
-set of training particles (:func:`polish_particles`) drawn from their own seed, disjoint
-from every held-out set. :func:`polish` runs it. The candidates of a generation are run
-as one population (:func:`pes_ref.core.population.simulate_batch`, :func:`capture_fitnesses`):
+comparison), on a forward-only fitness ([`capture_fitness`][pes_ref.synthesis.polish.capture_fitness]): the capture test
+of
+``python -m pes_ref evaluate`` ([`pes_ref.synthesis.analysis.cycle_figures`][pes_ref.synthesis.analysis.cycle_figures])
+on a fixed
+set of training particles ([`polish_particles`][pes_ref.synthesis.polish.polish_particles]) drawn from their own seed,
+disjoint
+from every held-out set. [`polish`][pes_ref.synthesis.polish.polish] runs it. The candidates of a generation are run
+as one population ([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch],
+[`capture_fitnesses`][pes_ref.synthesis.polish.capture_fitnesses]):
 each candidate's trajectory, hence its fitness, is bit-identical to its own run, at a
 fraction of the per-step cost. They are independent, so an executor (anything with ``map``,
-e.g. a :class:`concurrent.futures.ProcessPoolExecutor` or a Dask client's
+e.g. a `concurrent.futures.ProcessPoolExecutor` or a Dask client's
 ``get_executor()``) can evaluate a generation in ``tasks`` parts in parallel, with the same
 result as serial.
 
 With validation (the plan's ``validation_particles``), the best candidate so far is judged
 every few generations on fixed validation particles shaped like the held-out sets
-(:func:`validation_particles`) by the share the capture test passes, and the search stops
+([`validation_particles`][pes_ref.synthesis.polish.validation_particles]) by the share the capture test passes, and the
+search stops
 once that share reaches the plan's ``validation_target``: the training fitness keeps
 falling after the held-out share has stopped rising, so a budget of evaluations alone
 either stops too early for some seeds or runs long past the point for others.
@@ -114,7 +120,7 @@ def validation_particles(problem, rng: np.random.Generator, n: int = 150) -> Pol
     """Validation particles shaped like the two held-out sets of ``evaluate``, drawn afresh:
     two thirds start like the torque sweep (stratified torques over the range), one third at
     rest anywhere in ``[-1.5 A, 1.5 A] x [0, 2 pi)`` with the maximum torque, like the 5 x 5
-    grid (:func:`polish_particles` with that mix)."""
+    grid ([`polish_particles`][pes_ref.synthesis.polish.polish_particles] with that mix)."""
     return polish_particles(problem, rng, n, rest_share=1 / 3, center_share=0.0, rest_max_share=1.0)
 
 
@@ -137,23 +143,26 @@ def capture_fitness(problem, values, particles: PolishParticles, periods: float 
     """Forward-only fitness of a grid (lower is better): the share *not* captured plus a smooth margin.
 
     Each particle runs ``periods`` target periods (default ``problem.eval_periods``) and
-    :func:`pes_ref.synthesis.analysis.cycle_figures` judges its last periods exactly as
+    [`pes_ref.synthesis.analysis.cycle_figures`][pes_ref.synthesis.analysis.cycle_figures] judges its last periods
+    exactly as
     ``evaluate`` does. The margin term ``margin_weight * mean(min(3, m_i))``, with ``m_i``
     the largest of ``amp_err / 0.25``, ``per_err / 0.25`` and ``drift / 0.05`` (3 without a
     measurable period), ranks candidates that capture as many and keeps the captured ones
     away from the test's edges. With ``strictness < 1`` a particle counts as captured only
     when also ``m_i < strictness`` (the test's tolerances times ``strictness``). A run that
     leaves the finite numbers scores ``1 + margin_weight * 3``, the worst. ``backend`` as in
-    :func:`pes_ref.simulate` (the fitness does not depend on it).
+    [`pes_ref.simulate`][pes_ref.core.scene.simulate] (the fitness does not depend on it).
     """
     return capture_fitnesses(problem, [values], particles, periods, margin_weight, strictness, backend)[0]
 
 
 def capture_fitnesses(problem, grids, particles: PolishParticles, periods: float | None = None,
                       margin_weight: float = 0.05, strictness: float = 1.0, backend: str | None = None) -> list:
-    """:func:`capture_fitness` of each grid of ``grids``, their runs as one population
-    (:func:`pes_ref.core.population.simulate_batch`): each value is bit-identical to the grid's
-    own :func:`capture_fitness`."""
+    """[`capture_fitness`][pes_ref.synthesis.polish.capture_fitness] of each grid of ``grids``, their runs as one
+    population
+    ([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch]): each value is bit-identical to
+    the grid's
+    own [`capture_fitness`][pes_ref.synthesis.polish.capture_fitness]."""
     periods = problem.eval_periods if periods is None else periods
     scenes = [problem.torque_scene(values, particles.torques, periods) for values in grids]
     workspace = _WORKSPACES.__dict__.setdefault("arrays", {})
@@ -163,13 +172,14 @@ def capture_fitnesses(problem, grids, particles: PolishParticles, periods: float
     return [_fitness(problem, run, margin_weight, strictness) for run in runs]
 
 
-#: Each thread's population arrays, kept between generations (see :func:`simulate_batch`'s
+#: Each thread's population arrays, kept between generations (see `simulate_batch`'s
 #: ``workspace``): a generation's trajectories are consumed before the next one runs.
 _WORKSPACES = threading.local()
 
 
 def _fitness(problem, traj, margin_weight: float, strictness: float) -> float:
-    """The fitness of one candidate's run (a :class:`Trajectory`, or the error of one that
+    """The fitness of one candidate's run (a [`Trajectory`][pes_ref.core.integrator.Trajectory], or the error of one
+    that
     left the finite numbers)."""
     if not isinstance(traj, Trajectory):
         return 1.0 + margin_weight * MARGIN_CAP
@@ -186,7 +196,8 @@ def _fitness(problem, traj, margin_weight: float, strictness: float) -> float:
 
 @dataclass(frozen=True)
 class Fitness:
-    """:func:`capture_fitness` of one candidate grid (a call) or of several (:meth:`batch`),
+    """[`capture_fitness`][pes_ref.synthesis.polish.capture_fitness] of one candidate grid (a call) or of several
+    ([`batch`][pes_ref.synthesis.polish.Fitness.batch]),
     picklable for executors."""
 
     problem: object
@@ -200,13 +211,14 @@ class Fitness:
         return self.batch([values])[0]
 
     def batch(self, grids) -> list:
-        """The fitness of each grid, their runs as one population (:func:`capture_fitnesses`)."""
+        """The fitness of each grid, their runs as one population ([`capture_fitnesses`][pes_ref.synthesis.polish.capture_fitnesses])."""
         return capture_fitnesses(self.problem, grids, self.particles, self.periods, self.margin_weight,
                                  self.strictness, self.backend)
 
 
 class PolishStep(NamedTuple):
-    """What :func:`polish`'s callback receives after each generation: evaluations so far, the best
+    """What [`polish`][pes_ref.synthesis.polish.polish]'s callback receives after each generation: evaluations so far,
+    the best
     fitness, the start's fitness, the best coefficients and the last validation share (NaN
     before the first)."""
 
@@ -218,7 +230,7 @@ class PolishStep(NamedTuple):
 
 
 class PolishResult(NamedTuple):
-    """What :func:`polish` found.
+    """What [`polish`][pes_ref.synthesis.polish.polish] found.
 
     ``coef`` the best coefficients (zeros if nothing beat the start), ``fitness_start`` the
     start's fitness, ``fitness`` the best, ``evaluations`` fitness evaluations made (the start
@@ -315,7 +327,7 @@ def _search_de(evaluate, n: int, plan: PolishPlan, rng: np.random.Generator, tra
                            updating="deferred", workers=generation, callback=halt)
 
 
-#: The searches by :attr:`PolishPlan.method`.
+#: The searches by `PolishPlan.method`.
 _SEARCHES = {"cma": _search_cma, "de": _search_de}
 
 
@@ -351,7 +363,7 @@ def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, execu
     stop : callable, optional
         ``stop() -> bool``, asked after each generation (Ctrl-C).
     backend : {"numba", "numpy"} or None
-        Which loops run the candidates (:func:`pes_ref.simulate`); the result does not
+        Which loops run the candidates ([`pes_ref.simulate`][pes_ref.core.scene.simulate]); the result does not
         depend on it.
     """
     values = checks.as_float_array("values", values, ndim=2)

@@ -5,7 +5,8 @@ A problem file may state the contact its designs are realized by (``docs/problem
 parts' ``clearance`` (the pin made that much larger than its cut-out) and ``restitution`` (the
 rigid engine's), what the realized parts are made with. With
 ``realizable = true`` the design's grid values are a level set
-(:class:`pes_ref.synthesis.level_set.LevelSet`): the simulated surface is always eq. (1) of
+([`pes_ref.synthesis.level_set.LevelSet`][pes_ref.synthesis.level_set.LevelSet]): the simulated surface is always eq.
+(1) of
 the shape ``{values + r_c < 0}``, and the design starts from the shapes ``blocked`` (drawn as
 a device file's shapes, in the surface's coordinates), since a level set's shape only moves
 where it has a contour: a wall grows only from a wall.
@@ -23,7 +24,8 @@ __all__ = ["Contact", "signed_distance"]
 
 class Contact(NamedTuple):
     """``[surface.contact]``: eq. (1)'s ``v``, ``r_c``, ``r_min``, whether the design is a level set
-    (``realizable``), its starting shapes ``blocked`` (:mod:`pes_ref.devices.geometry` shapes; ``()``: none),
+    (``realizable``), its starting shapes ``blocked`` ([`pes_ref.devices.geometry`][pes_ref.devices.geometry] shapes;
+    ``()``: none),
     and the realized parts' ``clearance`` and ``restitution`` (None: not stated)."""
 
     v: float

@@ -1,15 +1,18 @@
-"""Problem files: a TOML file (read with :mod:`tomllib`) that states a design problem completely.
+"""Problem files: a TOML file (read with `tomllib`) that states a design problem completely.
 
 Every key, its unit and default is documented in ``docs/problems.md``; this module is the
-one place that reads them (the key tables, :mod:`.file_keys` for their types). A file is
+one place that reads them (the key tables, [`.file_keys`][pes_ref.synthesis.file_keys] for their types). A file is
 checked whole before anything runs: an unknown key, a missing one or a bad value raises
-one :class:`~pes_ref.synthesis.file_keys.ProblemFileError` whose message names the file and
+one [`ProblemFileError`][pes_ref.synthesis.file_keys.ProblemFileError] whose message names the file and
 the key (``latch.toml: objective[2].weight: expected a number >= 0, got -1``). The format is
-versioned by the top-level key ``format`` (:data:`FORMAT`); a file of another version is refused.
+versioned by the top-level key ``format`` (`FORMAT`); a file of another version is refused.
 
-The same tables, as a dict, state a problem in code (:func:`parse_problem`), where a
-``custom`` term's ``object`` may be the object itself. :func:`with_sets` changes keys of a
-problem by their dotted names (``--set dynamics.dt=0.005``); :func:`problem_text` is the
+The same tables, as a dict, state a problem in code ([`parse_problem`][pes_ref.synthesis.problem_file.parse_problem]),
+where a
+``custom`` term's ``object`` may be the object itself. [`with_sets`][pes_ref.synthesis.problem_file.with_sets] changes
+keys of a
+problem by their dotted names (``--set dynamics.dt=0.005``);
+[`problem_text`][pes_ref.synthesis.problem_file.problem_text] is the
 TOML text a design file embeds (the file's own text when nothing was changed).
 """
 from __future__ import annotations
@@ -81,7 +84,7 @@ STARTS_KEYS = {"box": Key("box", None, unit="length"), "points": Key("points", N
                "velocity": Key("velocity", ((0.0, 0.0), (0.0, 0.0)), unit="length/time")}
 #: ``[[starts.group]]``: a group's name and share of a batch beside the starts' own keys.
 GROUP_KEYS = {"name": Key("text"), "share": Key("positive", 1.0)}
-#: Keys every ``[[forces]]`` entry may have beside its kind's own (:data:`pes_ref.synthesis.design_problem.FORCES`).
+#: Keys every ``[[forces]]`` entry may have beside its kind's own (`pes_ref.synthesis.design_problem.FORCES`).
 FORCE_KEYS = {"kind": Key("choice", choices=tuple(FORCES)), "name": Key("text", ""),
               "from": Key("nonneg", None, unit="time"), "to": Key("positive", None, unit="time")}
 #: Keys every ``[[objective]]`` term and ``[[evaluate.success]]`` test may have beside its kind's own.
@@ -104,7 +107,7 @@ TRAIN_KEYS = {
     "smoothing": Key("nonneg", 0.0, unit="energy"), "smoothing_draws": Key("count", 4),
 }
 #: Without ``train.stages``: a coarse grid of this many nodes along axis 0 (if the final grid is
-#: finer) for the first :data:`COARSE_SHARE` of the iterations, then the final grid.
+#: finer) for the first `COARSE_SHARE` of the iterations, then the final grid.
 COARSE_GRID = 25
 COARSE_SHARE = 0.8
 #: A ``Scene`` argument named in a refusal, and the problem-file key that sets it.
@@ -133,7 +136,7 @@ def problem_from_text(text: str, path: str = "<problem>") -> DesignProblem:
 
 
 def shipped_problem(name: str) -> str:
-    """The path of the problem file ``name`` (:data:`SHIPPED_PROBLEMS`) shipped with the package."""
+    """The path of the problem file ``name`` (`SHIPPED_PROBLEMS`) shipped with the package."""
     if name not in SHIPPED_PROBLEMS:
         raise ValueError(f"no shipped problem {name!r}; expected one of {', '.join(SHIPPED_PROBLEMS)}")
     return str(resources.files("pes_ref.synthesis").joinpath("data", f"{name}.toml"))
@@ -397,7 +400,7 @@ def _forces(r: Reader, value, where: str, duration: float) -> tuple:
 def _tests(r: Reader, value, where: str, domain: Domain, duration: float, dt: float, starts: Starts,
            key: str = "success") -> tuple:
     """The tests ``(name, test)`` of a list of test tables; a test with ``group`` judges that start
-    group's particles only (:class:`pes_ref.synthesis.success.GroupTest`)."""
+    group's particles only ([`pes_ref.synthesis.success.GroupTest`][pes_ref.synthesis.success.GroupTest])."""
     entries = _list(r, value, where, required=True)
     out = [_test(r, entry, f"{where}[{i}]", domain, duration, dt, starts) for i, entry in enumerate(entries)]
     return tuple(zip(_unique([n for n, _ in out]), (t for _, t in out)))
@@ -431,7 +434,8 @@ def _test(r: Reader, entry: dict, at: str, domain: Domain, duration: float, dt: 
 
 def _train(r: Reader, table, shape, coarse: bool) -> tuple:
     """The plan and initial grid's scale: ``[train]``'s, or without the table the default plan
-    (:func:`pes_ref.synthesis.plans.default_plan`; ``coarse``: it may start on coarse grids, False
+    ([`pes_ref.synthesis.plans.default_plan`][pes_ref.synthesis.plans.default_plan]; ``coarse``: it may start on coarse
+    grids, False
     for a design that starts from drawn shapes) and ``init_scale``."""
     if table is None:
         return default_plan(shape, coarse), TRAIN_KEYS["init_scale"].default
@@ -452,7 +456,7 @@ def _train(r: Reader, table, shape, coarse: bool) -> tuple:
 
 def default_stages(shape, iterations: int) -> tuple:
     """The stages of a file without ``train.stages``, for a run of ``iterations``: a grid of
-    :data:`COARSE_GRID` nodes along axis 0 (if ``shape`` is finer) for :data:`COARSE_SHARE` of
+    `COARSE_GRID` nodes along axis 0 (if ``shape`` is finer) for `COARSE_SHARE` of
     them, then the final grid."""
     coarse = min(COARSE_GRID, shape[0])
     return ((0, 0),) if coarse == shape[0] else ((0, coarse), (max(1, int(COARSE_SHARE * iterations)), 0))

@@ -1,13 +1,13 @@
 """What the paper's two design problems share: a training batch, the base class and the fields' checks.
 
 A *problem* is a frozen dataclass holding the physics of one scene (domain, forces,
-damping, objective, particle sampler) at a final grid resolution; :data:`pes_ref.synthesis.kinds.KINDS`
-holds them as kinds of design. Each problem draws a training batch (:class:`Batch`) from a
+damping, objective, particle sampler) at a final grid resolution; `pes_ref.synthesis.kinds.KINDS`
+holds them as kinds of design. Each problem draws a training batch ([`Batch`][pes_ref.synthesis.problems.Batch]) from a
 generator it is given, with the objective that scores it, and scores a batch's trajectory with
-its design metric (``batch_metric``). The funnel is :mod:`pes_ref.synthesis.funnel`, the
-oscillator :mod:`pes_ref.synthesis.oscillator`, a problem file's problem
-:mod:`pes_ref.synthesis.design_problem`. How a problem is optimized is a plan
-(:mod:`pes_ref.synthesis.plans`); see ``docs/synthesis.md`` for the choices the paper leaves open.
+its design metric (``batch_metric``). The funnel is [`pes_ref.synthesis.funnel`][pes_ref.synthesis.funnel], the
+oscillator [`pes_ref.synthesis.oscillator`][pes_ref.synthesis.oscillator], a problem file's problem
+[`pes_ref.synthesis.design_problem`][pes_ref.synthesis.design_problem]. How a problem is optimized is a plan
+([`pes_ref.synthesis.plans`][pes_ref.synthesis.plans]); see ``docs/synthesis.md`` for the choices the paper leaves open.
 """
 from __future__ import annotations
 
@@ -38,21 +38,21 @@ class Batch(NamedTuple):
 class _Problem:
     """What both problems share: the initial grid, the flat surface, the design mask, and
     how the grid values become the surface (the values themselves, unless the problem's
-    :attr:`level_set` makes them a shape: :mod:`pes_ref.synthesis.level_set`)."""
+    `level_set` makes them a shape: [`pes_ref.synthesis.level_set`][pes_ref.synthesis.level_set])."""
 
     #: None: the grid values are the surface's energies.
     level_set = None
 
     def surface_values(self, values) -> np.ndarray:
         """The surface's grid values of design ``values``: the values, or with a level set
-        eq. (1) of their shape on the problem's own grid (:meth:`shape`)."""
+        eq. (1) of their shape on the problem's own grid (`shape`)."""
         if self.level_set is None:
             return values
         fine = resample(values, self.lower, self.upper, self.periodic, self.shape())
         return self.level_set.energy(fine, self.lower, self.upper, self.periodic)
 
     def values_grad(self, values, grad_surface) -> np.ndarray:
-        """dL/d(design values) from dL/d(surface values) (:meth:`surface_values` transposed)."""
+        """dL/d(design values) from dL/d(surface values) (`surface_values` transposed)."""
         if self.level_set is None:
             return grad_surface
         fine = resample(values, self.lower, self.upper, self.periodic, self.shape())
@@ -92,7 +92,7 @@ _POSITIVE_FIELDS = ("width", "height", "dt", "wall_k", "q0_extent", "amplitude",
 
 def _check_fields(problem) -> None:
     """Validate every numeric field: ints > 0 (grid node counts >= 2), floats finite and
-    >= 0 (> 0 for :data:`_POSITIVE_FIELDS`; ``target`` any finite)."""
+    >= 0 (> 0 for `_POSITIVE_FIELDS`; ``target`` any finite)."""
     for f in dataclasses.fields(problem):
         val = getattr(problem, f.name)
         if isinstance(f.default, bool) or isinstance(f.default, str):

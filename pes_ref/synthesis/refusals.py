@@ -1,9 +1,10 @@
 """What a design run refuses before it starts: a scene past the stability rule, and
 iterations that cannot fit in the memory there is.
 
-Both take a :class:`~pes_ref.synthesis.design_state.DesignState` (a fresh one, or one
+Both take a [`DesignState`][pes_ref.synthesis.design_state.DesignState] (a fresh one, or one
 resumed with a changed plan) and raise a keyed error naming what to change; the
-``design`` command and :func:`pes_ref.synthesis.new_design` call them before anything
+``design`` command and [`pes_ref.synthesis.new_design`][pes_ref.synthesis.design_state.new_design] call them before
+anything
 is written or run.
 """
 from __future__ import annotations
@@ -16,7 +17,7 @@ __all__ = ["check_stable_design", "check_design_memory", "check_run_memory"]
 
 def check_stable_design(state) -> None:
     """Refuse a run whose scene is past the stability rule (docs/spec.md section 10) on its
-    current grid, before it runs: :class:`~pes_ref.core.stability.UnstableStepError` naming
+    current grid, before it runs: [`UnstableStepError`][pes_ref.core.stability.UnstableStepError] naming
     ``dt`` (e.g. a ``dt`` or ``wall_k`` override too large for the problem's springs and
     walls). Every iteration checks its own scene again as the grid changes."""
     check_stable(state.problem.scene(state.values))
@@ -24,7 +25,7 @@ def check_stable_design(state) -> None:
 
 def check_design_memory(state) -> None:
     """Refuse a run whose training iterations cannot fit in the available memory, before it
-    runs: :class:`~pes_ref.core.budget.RunTooLargeError` naming the grid's size (``grid``,
+    runs: [`RunTooLargeError`][pes_ref.core.budget.RunTooLargeError] naming the grid's size (``grid``,
     ``grid0`` or ``grid1``; or ``stages``, when a stage's grid is the largest), or ``n_steps``
     (or ``stages``, when a stage's horizon is the longest) and ``n_particles`` (the plan's
     particles per iteration)."""
@@ -32,8 +33,9 @@ def check_design_memory(state) -> None:
 
 
 def check_run_memory(problem, plan, polish) -> None:
-    """:func:`check_design_memory` of a run of ``problem`` by ``plan`` and ``polish``
-    (a :class:`~pes_ref.synthesis.plans.PolishPlan` or None), before its grid exists."""
+    """[`check_design_memory`][pes_ref.synthesis.refusals.check_design_memory] of a run of ``problem`` by ``plan`` and
+    ``polish``
+    (a [`PolishPlan`][pes_ref.synthesis.plans.PolishPlan] or None), before its grid exists."""
     shapes = {st[1]: problem.shape(st[1] or None) for st in plan.stages}
     grid = max(shapes, key=lambda g: shapes[g][0] * shapes[g][1])
     key = "stages" if grid else max(("grid", "grid0", "grid1"), key=lambda k: getattr(problem, k, 0))

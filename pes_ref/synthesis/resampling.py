@@ -35,7 +35,8 @@ def resample(values, lower, upper, periodic, shape) -> np.ndarray:
 
 
 def resample_vjp(grad, shape_old, periodic) -> np.ndarray:
-    """The transpose of :func:`resample` from ``shape_old``: the gradient with respect to the
+    """The transpose of [`resample`][pes_ref.synthesis.resampling.resample] from ``shape_old``: the gradient with
+    respect to the
     old grid's values of a function of the resampled ones, given its gradient ``grad`` there."""
     out = np.asarray(grad, dtype=np.float64)
     for d in (1, 0):

@@ -1,14 +1,17 @@
 """A design run from what a user names: its options resolved, then started or resumed.
 
 One design run is named by *design options*, the flags of ``python -m pes_ref design``
-(:data:`DESIGN_OPTIONS`: ``iterations``, ``lr``, ``plan``, ``smoke``, ...), and by the
+(`DESIGN_OPTIONS`: ``iterations``, ``lr``, ``plan``, ``smoke``, ...), and by the
 *problem's parameters* it changes (``--set NAME=VALUE``: a built-in kind's fields, a problem
-file's dotted keys). :func:`design_inputs` resolves them against the problem and its kind
-(:data:`pes_ref.synthesis.kinds.KINDS`) into the problem, the plan and the polish plan;
-:func:`start_design` starts the run, or resumes a saved one after checking that it is the run
+file's dotted keys). [`design_inputs`][pes_ref.synthesis.runs.design_inputs] resolves them against the problem and its
+kind
+(`pes_ref.synthesis.kinds.KINDS`) into the problem, the plan and the polish plan;
+[`start_design`][pes_ref.synthesis.runs.start_design] starts the run, or resumes a saved one after checking that it is
+the run
 asked for. The ``design`` command, every run of a sweep and the studies go through both, so a
 sweep file's options mean exactly what the same flags mean on the command line.
-:func:`run_to_file` runs a design to its end in its design file (claimed first, checkpointed,
+[`run_to_file`][pes_ref.synthesis.runs.run_to_file] runs a design to its end in its design file (claimed first,
+checkpointed,
 never left holding nothing).
 """
 from __future__ import annotations
@@ -47,7 +50,7 @@ _SMOKE_TRAIN_KEYS = {"iterations": "train.iterations", "n_particles": "train.par
 
 
 class DesignInputs(NamedTuple):
-    """What a run's options resolve to (:func:`design_inputs`).
+    """What a run's options resolve to ([`design_inputs`][pes_ref.synthesis.runs.design_inputs]).
 
     ``problem`` is the run's problem: ``base`` (the kind's default problem, a problem file's,
     or a resumed design's own) with the parameters ``sets`` (the named plan's and the smoke
@@ -66,7 +69,7 @@ class DesignInputs(NamedTuple):
     smoke: bool = False
 
     def plan(self) -> Plan:
-        """The run's plan: :attr:`base_plan` with :attr:`plan_overrides`."""
+        """The run's plan: `base_plan` with [`plan_overrides`][pes_ref.synthesis.runs.plan_overrides]."""
         return dataclasses.replace(self.base_plan, **self.plan_overrides)
 
     def polish(self):
@@ -104,7 +107,7 @@ def design_inputs(base, options: Mapping, sets: Mapping | None = None) -> Design
     ``[train]``, with the ``train.*`` keys of ``sets``), or the named ``plan`` (its problem
     overrides, plan and polish); then the ``smoke`` preset; then the explicit options and
     ``sets``, which win over both. A problem file without ``train.stages`` has the default stages
-    of the run's iteration count (:func:`pes_ref.synthesis.plan_for`).
+    of the run's iteration count ([`pes_ref.synthesis.plan_for`][pes_ref.synthesis.problem_file.plan_for]).
 
     Raises
     ------
@@ -200,7 +203,7 @@ def start_design(inputs: DesignInputs, *, seed: int | None = None, backend: str 
     """The run ``inputs`` names: a fresh one (seed ``seed``, default 0), or ``resume`` continued.
 
     A resumed run keeps its problem, seed, optimizer and backend (each given one must be its
-    own: :func:`check_resume`) and its plan and polish, with the options given applied
+    own: [`check_resume`][pes_ref.synthesis.runs.check_resume]) and its plan and polish, with the options given applied
     (``--iterations``, ``--lr`` ...); it is checked again for stability and memory. With
     ``exact`` (a sweep's run, which names every option) the resumed design must be this very
     run: the same problem, plan, seed and backend.
@@ -239,7 +242,8 @@ def start_design(inputs: DesignInputs, *, seed: int | None = None, backend: str 
 
 
 def run_to_file(state: DesignState, out, *, fresh: bool, overwrite: bool, **run_options) -> DesignState:
-    """Run ``state``'s stages to its plan's end (:func:`pes_ref.synthesis.stages.run_stages` with
+    """Run ``state``'s stages to its plan's end
+    ([`pes_ref.synthesis.stages.run_stages`][pes_ref.synthesis.stages.run_stages] with
     ``run_options``), its design file ``out`` claimed before the long run, checkpointed and
     written at the end (the package's atomic writer).
 

@@ -1,8 +1,9 @@
 """A design run's stages, one after the other: the gradient iterations, then the polish.
 
-:func:`run_stages` is what ``python -m pes_ref design`` runs:
-:func:`pes_ref.synthesis.training.run_design` up to the plan's iterations, then, if the run
-has a polish plan, :func:`pes_ref.synthesis.polish.polish` from the gradient stage's grid.
+[`run_stages`][pes_ref.synthesis.stages.run_stages] is what ``python -m pes_ref design`` runs:
+[`pes_ref.synthesis.training.run_design`][pes_ref.synthesis.training.run_design] up to the plan's iterations, then, if
+the run
+has a polish plan, [`pes_ref.synthesis.polish.polish`][pes_ref.synthesis.polish.polish] from the gradient stage's grid.
 Progress, checkpoints and Ctrl-C work the same in both.
 
 Resuming: the gradient stage continues bit-exactly from the saved optimizer state. The
@@ -97,16 +98,18 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
     """Run every stage of ``state`` that is not done: the gradient iterations up to ``iterations``
     (default: the plan's), then the polish (if ``state.polish``).
 
-    ``callback`` receives a :class:`pes_ref.core.runtime.progress.Progress` during both stages
+    ``callback`` receives a [`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] during
+    both stages
     (its stage ``"stage 1/2"`` ... in the gradient stage, ``"polish"`` in the polish, with
     the ``fitness``, its ``start`` and, once judged, the best's ``validation`` share among
     the figures), every ``progress_every`` seconds
     and at the end of each; ``checkpoint(state)`` is called every ``checkpoint_every``
     seconds. Ctrl-C stops either stage after its current iteration or generation with
     ``status = "interrupted"``; a gradient stage that goes non-finite stops as
-    :func:`pes_ref.synthesis.training.run_design` says, and the polish does not start.
+    [`pes_ref.synthesis.training.run_design`][pes_ref.synthesis.training.run_design] says, and the polish does not
+    start.
     ``executor`` evaluates the polish's candidates in ``tasks`` parts (see
-    :func:`pes_ref.synthesis.polish.polish`); both stages run on ``state.backend``.
+    [`pes_ref.synthesis.polish.polish`][pes_ref.synthesis.polish.polish]); both stages run on ``state.backend``.
     """
     total = state.plan.iterations if iterations is None else checks.as_nonneg_int("iterations", iterations)
     with StopFlag() as flag:

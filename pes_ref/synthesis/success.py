@@ -3,8 +3,9 @@
 A test is a frozen object with ``passes(x, v, t) -> (N,) bool`` on a trajectory's positions
 and velocities (T+1, N, 2) and times (T+1,). A particle succeeds when it passes every test
 of its problem; ``evaluate`` prints the share that does (``success_fraction``) and the share
-passing each test. :data:`SUCCESS_TESTS` maps a kind to its class (dispatch by data); the
-kinds mirror the objective terms of :mod:`pes_ref.synthesis.objective_terms`, each with a
+passing each test. `SUCCESS_TESTS` maps a kind to its class (dispatch by data); the
+kinds mirror the objective terms of [`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms], each with
+a
 tolerance where the term has a target. Differences along a periodic axis are taken the short
 way round, times at the nearest state, as there.
 
@@ -14,7 +15,7 @@ fraction of the test's tolerance: its radius, half-width or half-size) and grows
 squared distance, in tolerances, from passing; ``gx``, ``gv`` (either None) are the
 derivatives of ``sum(c)``, each particle's only in its own column. A problem file without
 ``[[objective]]`` is designed on the sum of its tests' surrogates
-(:mod:`pes_ref.synthesis.surrogates`).
+([`pes_ref.synthesis.surrogates`][pes_ref.synthesis.surrogates]).
 """
 from __future__ import annotations
 
@@ -79,17 +80,17 @@ class FinalPositionTest:
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
         the problem file's reader builds every test, as it builds the objective terms
-        (:mod:`pes_ref.synthesis.objective_terms`)."""
+        ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["target"], keys["radius"], domain)
 
     def passes(self, x, v, t):
         """Whether each particle's last state lies within ``radius`` of ``target``, (N,) bool; the
-        success-test protocol of :mod:`pes_ref.synthesis.success`."""
+        success-test protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         return _near(x[-1], self.target, self.radius, self.domain)
 
     def cost(self, x, v, t, margin: float):
         """The squared distance of the last state from the disc of radius ``radius (1 - margin)`` about
-        ``target``, in radii; the surrogate protocol of :mod:`pes_ref.synthesis.success`."""
+        ``target``, in radii; the surrogate protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         c, g = _disc_cost(x[-1], self.target, self.radius, margin, self.domain)
         return _at_states(x, -1, c, g)
 
@@ -110,13 +111,13 @@ class PositionAtTest:
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
         the problem file's reader builds every test, as it builds the objective terms
-        (:mod:`pes_ref.synthesis.objective_terms`)."""
+        ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["time"], keys["target"], keys["radius"], domain)
 
     def passes(self, x, v, t):
         """Whether the state nearest ``time`` lies within ``radius`` of ``target``, (N,) bool (every particle
         fails when ``time`` is after the run's end); the success-test protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         n = step_at(t, self.time)
         if n is None:
             return _none(x)
@@ -125,7 +126,7 @@ class PositionAtTest:
     def cost(self, x, v, t, margin: float):
         """The squared distance of the state nearest ``time`` from the disc of radius ``radius (1 - margin)``
         about ``target``, in radii (0 when ``time`` is after the run's end); the surrogate protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         n = step_at(t, self.time)
         if n is None:
             return np.zeros(x.shape[1]), None, None
@@ -145,12 +146,12 @@ class StayInTest:
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
         the problem file's reader builds every test, as it builds the objective terms
-        (:mod:`pes_ref.synthesis.objective_terms`)."""
+        ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(StayIn(keys["lower"], keys["upper"], keys["from"], keys["to"], 1.0, domain))
 
     def passes(self, x, v, t):
         """Whether every state of the window lies in the box, (N,) bool (every particle fails when the
-        window holds no state); the success-test protocol of :mod:`pes_ref.synthesis.success`."""
+        window holds no state); the success-test protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         states = x[window_steps(t, self.box.start, self.box.end)]
         if states.shape[0] == 0:
             return _none(x)
@@ -186,13 +187,13 @@ class WithinTest:
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
         the problem file's reader builds every test, as it builds the objective terms
-        (:mod:`pes_ref.synthesis.objective_terms`)."""
+        ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["center"], keys["radius"], keys["from"], keys["to"], domain)
 
     def passes(self, x, v, t):
         """Whether every state of the window lies within ``radius`` of ``center``, (N,) bool (every particle
         fails when the window holds no state); the success-test protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         states = x[window_steps(t, self.start, self.end)]
         if states.shape[0] == 0:
             return _none(x)
@@ -201,7 +202,7 @@ class WithinTest:
     def cost(self, x, v, t, margin: float):
         """The mean over the window of the squared distance from the disc of radius ``radius (1 - margin)``
         about ``center``, in radii (0 when the window holds no state); the surrogate protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         w = window_steps(t, self.start, self.end)
         if x[w].shape[0] == 0:
             return np.zeros(x.shape[1]), None, None
@@ -228,14 +229,14 @@ class ExitTest:
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
         the problem file's reader builds every test, as it builds the objective terms
-        (:mod:`pes_ref.synthesis.objective_terms`)."""
+        ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(Exit(keys["edge"], keys["center"], keys["halfwidth"], 1.0, domain), keys["min_speed"],
                    keys["from"], keys["to"])
 
     def passes(self, x, v, t):
         """Whether each particle leaves by the edge within ``halfwidth`` of ``center``, between ``from`` and
         ``to``, at least ``min_speed`` fast across it, (N,) bool; the success-test protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         step, exited = self.edge.steps(x)
         axis = EDGES[self.edge.edge][0]
         particle = np.arange(x.shape[1])
@@ -293,7 +294,7 @@ class CrossTest:
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
         the problem file's reader builds every test, as it builds the objective terms
-        (:mod:`pes_ref.synthesis.objective_terms`)."""
+        ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["a"], keys["b"], keys["from"], keys["to"], domain)
 
     def _states(self, x, t):
@@ -317,7 +318,7 @@ class CrossTest:
 
     def passes(self, x, v, t):
         """Whether some step's move within the window meets the segment, (N,) bool (every particle fails
-        when the window holds no state); the success-test protocol of :mod:`pes_ref.synthesis.success`."""
+        when the window holds no state); the success-test protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         _, p, r = self._states(x, t)
         if r.shape[0] == 0:
             return _none(x)
@@ -368,13 +369,13 @@ class SpeedAtTest:
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
         the problem file's reader builds every test, as it builds the objective terms
-        (:mod:`pes_ref.synthesis.objective_terms`)."""
+        ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["time"], keys["axis"], keys["min"], keys["max"])
 
     def passes(self, x, v, t):
         """Whether the velocity along ``axis`` at the state nearest ``time`` lies in ``[min, max]``, (N,) bool
         (every particle fails when ``time`` is after the run's end); the success-test protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         n = step_at(t, self.time)
         if n is None:
             return _none(x)
@@ -391,7 +392,7 @@ class SpeedAtTest:
     def cost(self, x, v, t, margin: float):
         """The squared amount by which that velocity lies outside the range narrowed by ``margin`` tolerances,
         in tolerances (half the range, or a one-sided bound's size); ``gx`` is None, and the cost 0 when
-        ``time`` is after the run's end; the surrogate protocol of :mod:`pes_ref.synthesis.success`."""
+        ``time`` is after the run's end; the surrogate protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         n = step_at(t, self.time)
         if n is None:
             return np.zeros(x.shape[1]), None, None
@@ -418,18 +419,18 @@ class AnyOfTest:
     @classmethod
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         """The test from its entry's checked keys, its ``tests`` already built by the reader
-        (:attr:`CHILDREN`); how the problem file's reader builds every test
-        (:mod:`pes_ref.synthesis.objective_terms`)."""
+        (`CHILDREN`); how the problem file's reader builds every test
+        ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(tuple(keys["tests"]))
 
     def passes(self, x, v, t):
         """Whether any one of ``tests`` passes, (N,) bool; the success-test protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         return np.logical_or.reduce([test.passes(x, v, t) for test in self.tests])
 
     def cost(self, x, v, t, margin: float):
         """Each particle's cheapest surrogate among ``tests``, with that one's derivatives; the surrogate
-        protocol of :mod:`pes_ref.synthesis.success`."""
+        protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         costs = [test.cost(x, v, t, margin) for test in self.tests]
         c = np.stack([k[0] for k in costs])
         best = np.argmin(c, axis=0)
@@ -449,7 +450,7 @@ class CustomTest:
     """A user's own test: ``object.passes(x, v, t) -> (N,) bool`` and, for a design without
     ``[[objective]]``, ``object.cost(x, v, t, margin) -> (c, gx, gv)`` (this module's surrogate
     protocol). In a file ``object`` is ``"module:object"`` (imported and checked when the file is
-    read, :mod:`.file_keys`, from the file's folder first); in code, the object itself."""
+    read, [`.file_keys`][pes_ref.synthesis.file_keys], from the file's folder first); in code, the object itself."""
 
     KIND: ClassVar[str] = "custom"
     KEYS: ClassVar[dict] = {"object": Key("test_object")}
@@ -465,7 +466,7 @@ class CustomTest:
     def from_keys(cls, keys: dict, domain: Domain, duration: float):
         """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
         the problem file's reader builds every test, as it builds the objective terms
-        (:mod:`pes_ref.synthesis.objective_terms`)."""
+        ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["object"])
 
     @property
@@ -475,8 +476,8 @@ class CustomTest:
 
     def passes(self, x, v, t):
         """The object's ``passes(x, v, t)`` as (N,) bool, refusing another shape; what it raises as one
-        :class:`~pes_ref.synthesis.objective_terms.CustomTermError`; the success-test protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`CustomTermError`][pes_ref.synthesis.objective_terms.CustomTermError]; the success-test protocol of
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         ok = np.asarray(call_user(self.label, self.obj.passes, x, v, t))
         if ok.shape != (x.shape[1],):
             raise CustomTermError(f"{self.label}: passes returned shape {ok.shape}, expected ({x.shape[1]},)")
@@ -484,8 +485,8 @@ class CustomTest:
 
     def cost(self, x, v, t, margin: float):
         """The object's ``cost(x, v, t, margin)``, ``c`` as float64; what it raises as one
-        :class:`~pes_ref.synthesis.objective_terms.CustomTermError`; the surrogate protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`CustomTermError`][pes_ref.synthesis.objective_terms.CustomTermError]; the surrogate protocol of
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         c, gx, gv = call_user(self.label, self.obj.cost, x, v, t, margin)
         return np.asarray(c, dtype=np.float64), gx, gv
 
@@ -506,12 +507,12 @@ class GroupTest:
 
     def passes(self, x, v, t):
         """``test``'s verdict for the group's particles, True for the others, (N,) bool; the success-test
-        protocol of :mod:`pes_ref.synthesis.success`."""
+        protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         return ~self.members(x.shape[1]) | self.test.passes(x, v, t)
 
     def cost(self, x, v, t, margin: float):
         """``test``'s surrogate for the group's particles, 0 (and no derivative) for the others; the surrogate
-        protocol of :mod:`pes_ref.synthesis.success`."""
+        protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         mine = self.members(x.shape[1])
         c, gx, gv = self.test.cost(x, v, t, margin)
         return (np.where(mine, c, 0.0), None if gx is None else np.where(mine[:, None], gx, 0.0),
@@ -539,7 +540,7 @@ class ShareCriterion:
     def cost(self, x, v, t, margin: float):
         """``test``'s surrogate for the failing particles cheapest to mend, as many as the share lacks of
         ``low``; 0 (and no derivative) for every other particle; the surrogate protocol of
-        :mod:`pes_ref.synthesis.success`."""
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         c, gx, gv = self.test.cost(x, v, t, margin)
         judged = applies(self.test, x.shape[1])
         lacking = math.ceil(self.low * np.count_nonzero(judged) - 1e-9) - np.count_nonzero(judged & (c == 0.0))

@@ -1,8 +1,9 @@
 """The objective a problem derives from its success tests, when its file states none.
 
 A problem file may leave out ``[[objective]]``: it is then designed on what success means.
-Each ``[[evaluate.success]]`` test becomes one state term, :class:`Surrogate`, that charges
-the test's smooth surrogate (:mod:`pes_ref.synthesis.success`, each test's ``cost``) summed
+Each ``[[evaluate.success]]`` test becomes one state term, [`Surrogate`][pes_ref.synthesis.surrogates.Surrogate], that
+charges
+the test's smooth surrogate ([`pes_ref.synthesis.success`][pes_ref.synthesis.success], each test's ``cost``) summed
 over the particles: zero for a particle that passes with room to spare (``[evaluate]
 margin``, a fraction of each test's tolerance), growing with the squared distance from
 passing in units of the test's tolerance, so the terms of tests of different sizes are
@@ -30,7 +31,7 @@ class Surrogate:
 
     def value_and_grad(self, x, v, t):
         """``sum(c)`` of the test's ``cost`` with ``margin``, and its ``gx``, ``gv``; the objective
-        protocol of :mod:`pes_ref.core.objectives`."""
+        protocol of [`pes_ref.core.objectives`][pes_ref.core.objectives]."""
         c, gx, gv = self.test.cost(x, v, t, self.margin)
         return float(np.sum(c)), gx, gv
 

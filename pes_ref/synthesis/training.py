@@ -1,12 +1,15 @@
 """The loop of a design run's gradient stage.
 
-:func:`run_design` advances a :class:`~pes_ref.synthesis.design_state.DesignState`, one
+[`run_design`][pes_ref.synthesis.training.run_design] advances a
+[`DesignState`][pes_ref.synthesis.design_state.DesignState], one
 optimizer step on the adjoint gradient of the batch's objective per iteration
-(:mod:`pes_ref.synthesis.stages` runs the polish after it). It reports a
-:class:`pes_ref.core.runtime.progress.Progress` with the stage, its grid and horizon, the loss,
-the metric, the rate and the time left (a :class:`pes_ref.core.runtime.progress.Clock` over the
+([`pes_ref.synthesis.stages`][pes_ref.synthesis.stages] runs the polish after it). It reports a
+[`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] with the stage, its grid and horizon,
+the loss,
+the metric, the rate and the time left (a [`pes_ref.core.runtime.progress.Clock`][pes_ref.core.runtime.progress.Clock]
+over the
 plan's stages); Ctrl-C and SIGTERM stop it between two iterations
-(:class:`pes_ref.core.runtime.signals.StopFlag`).
+([`pes_ref.core.runtime.signals.StopFlag`][pes_ref.core.runtime.signals.StopFlag]).
 
 Iteration ``k`` of a run with seed ``s`` draws its particles (start positions, noise,
 torques) from ``numpy.random.default_rng([s, k])`` only, so a run stopped after ``k``
@@ -39,8 +42,8 @@ def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_
     Returns ``(loss, grad, traj, x0)``; the particles come from ``default_rng([seed, iteration])``
     (``[seed, iteration, draw]`` for one of a smoothed iteration's draws) and the objective with them (``batch.objective``, plus the batch's ``grid_cost`` of the values
     if it has one); ``n_steps`` overrides the problem's;
-    ``backend`` as in :func:`pes_ref.value_and_grad`.
-    Raises :class:`pes_ref.NonFiniteError` when the run leaves the finite numbers.
+    ``backend`` as in [`pes_ref.value_and_grad`][pes_ref.core.scene.value_and_grad].
+    Raises [`pes_ref.NonFiniteError`][pes_ref.core.integrator.NonFiniteError] when the run leaves the finite numbers.
     """
     rng = np.random.default_rng([seed, iteration] if draw is None else [seed, iteration, draw])
     batch = problem.batch(values, rng, n_particles, n_steps)
@@ -63,9 +66,10 @@ SMOOTHING_STREAM = 2 ** 32 + 3
 
 def smoothed_step(problem, values, seed: int, iteration: int, plan: Plan, backend: str | None = None):
     """Loss, masked gradient and metric of iteration ``iteration`` of a run on ``plan``: one
-    :func:`design_step`, or with ``plan.smoothing`` the mean over ``plan.smoothing_draws`` grids
+    [`design_step`][pes_ref.synthesis.training.design_step], or with ``plan.smoothing`` the mean over
+    ``plan.smoothing_draws`` grids
     ``values + smoothing z_j`` (``z_j`` normal, zero where the problem holds the grid), draw ``j``
-    with its share of the particles (:class:`~pes_ref.synthesis.plans.Plan`). Returns
+    with its share of the particles ([`Plan`][pes_ref.synthesis.plans.Plan]). Returns
     ``(loss, grad, metric)``."""
     n_steps = plan.steps_at(iteration)
     if not plan.smoothing:
@@ -114,7 +118,8 @@ def _values_on_stage_grid(state: DesignState, shape: tuple) -> np.ndarray:
 
 
 def _validate(state: DesignState) -> None:
-    """Judge the run's grid on its validation particles (:mod:`pes_ref.synthesis.validation`):
+    """Judge the run's grid on its validation particles
+    ([`pes_ref.synthesis.validation`][pes_ref.synthesis.validation]):
     one more entry of ``state.validation``, and ``state.best`` if it is the best so far (the
     first of equals)."""
     success, final = validation_success(state.problem, state.values, state.seed, state.plan.validation_particles,
@@ -152,13 +157,14 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     iteration, to the last grid whose run was finite and stable; resuming it repeats that
     iteration, so change the plan (a smaller ``lr``, ``clip``) first.
 
-    A plan that validates (``validate_every``, :mod:`pes_ref.synthesis.validation`) judges the
+    A plan that validates (``validate_every``, [`pes_ref.synthesis.validation`][pes_ref.synthesis.validation]) judges
+    the
     grid before the first iteration, every that many and after the last, keeps the best (``state.best``), stops
     early once one reaches the plan's ``target``, and a run that is done ends on the best grid
     (``state.values``); resuming a done run for more iterations continues from that grid. A
     run that is done ends on its problem's ``final_values`` of that grid (the grid itself,
     except a realizable funnel from the ``"envelope"`` start: its channel made convex again,
-    :func:`pes_ref.synthesis.envelope.convex_channel`). The
+    [`pes_ref.synthesis.envelope.convex_channel`][pes_ref.synthesis.envelope.convex_channel]). The
     validations are part of the state a design file holds, so a stopped run resumes bit-exactly.
     """
     total = state.plan.iterations if iterations is None else checks.as_nonneg_int("iterations", iterations)

@@ -1,6 +1,6 @@
 """Validation of a design run: a grid judged by the problem's success on fixed particles, and the best kept.
 
-A plan with ``validate_every > 0`` (:class:`pes_ref.synthesis.plans.Plan`) judges the run's
+A plan with ``validate_every > 0`` ([`pes_ref.synthesis.plans.Plan`][pes_ref.synthesis.plans.Plan]) judges the run's
 grid before its first iteration and every that many iterations: the grid resampled to the problem's own (what the run would
 deliver, whatever its stage's grid), run on ``validation_particles`` particles drawn by the
 training sampler from ``numpy.random.default_rng([seed, VALIDATION_STREAM])`` and scored by

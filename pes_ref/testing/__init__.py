@@ -1,26 +1,27 @@
 """Helpers that other implementations import to test themselves against pes_ref.
 
-- :mod:`pes_ref.oracle.tolerances` the contract's tolerances as named constants
-- :mod:`pes_ref.testing.check` ``python -m pes_ref check``: any program against the vectors
-- :mod:`pes_ref.testing.conformance` run your simulate/gradient on the shipped vectors
-- :mod:`pes_ref.testing.check` ``pes_ref check``: any program against the vectors and
+- [`pes_ref.oracle.tolerances`][pes_ref.oracle.tolerances] the contract's tolerances as named constants
+- [`pes_ref.testing.check`][pes_ref.testing.check] ``python -m pes_ref check``: any program against the vectors
+- [`pes_ref.testing.conformance`][pes_ref.testing.conformance] run your simulate/gradient on the shipped vectors
+- [`pes_ref.testing.check`][pes_ref.testing.check] ``pes_ref check``: any program against the vectors and
   fresh random cases
-- :mod:`pes_ref.testing.draws` the distribution of random valid scenes, over a NumPy
+- [`pes_ref.testing.draws`][pes_ref.testing.draws] the distribution of random valid scenes, over a NumPy
   Generator or any other source of draws
-- :mod:`pes_ref.testing.strategies` the same as hypothesis strategies (needs the
+- [`pes_ref.testing.strategies`][pes_ref.testing.strategies] the same as hypothesis strategies (needs the
   ``test`` extra: hypothesis)
-- :mod:`pes_ref.testing.finite_differences` central differences and dot-product checks
+- [`pes_ref.testing.finite_differences`][pes_ref.testing.finite_differences] central differences and dot-product checks
 
 and the plain properties, one topic per module, that take any ``simulate`` /
-``value_and_grad`` with the signatures of :func:`pes_ref.simulate` and
-:func:`pes_ref.value_and_grad`, run them on a :class:`pes_ref.Scene`, and return numbers
+``value_and_grad`` with the signatures of [`pes_ref.simulate`][pes_ref.core.scene.simulate] and
+[`pes_ref.value_and_grad`][pes_ref.core.scene.value_and_grad], run them on a
+[`pes_ref.Scene`][pes_ref.core.scene.Scene], and return numbers
 (errors, ratios, distances) that a test compares with a tolerance:
 
-- :mod:`pes_ref.testing.energy` energy drift, its budget and its order in dt
-- :mod:`pes_ref.testing.kinks` where the force is not smooth, and how far a run stays from it
-- :mod:`pes_ref.testing.symmetries` periodic shift and grid roll
-- :mod:`pes_ref.testing.gradient_check` gradients against finite differences, kink-aware
-- :mod:`pes_ref.testing.chaos` a chaotic scene and the gradient's growth rate
+- [`pes_ref.testing.energy`][pes_ref.testing.energy] energy drift, its budget and its order in dt
+- [`pes_ref.testing.kinks`][pes_ref.testing.kinks] where the force is not smooth, and how far a run stays from it
+- [`pes_ref.testing.symmetries`][pes_ref.testing.symmetries] periodic shift and grid roll
+- [`pes_ref.testing.gradient_check`][pes_ref.testing.gradient_check] gradients against finite differences, kink-aware
+- [`pes_ref.testing.chaos`][pes_ref.testing.chaos] a chaotic scene and the gradient's growth rate
 
 An implementation under test wraps its own entry points::
 
@@ -38,9 +39,9 @@ and the properties then read, for example::
                               simulate_fn=my_simulate)
     assert check.valid and check.max_error < FD_RTOL
 
-The names below (the properties', the tolerances and :func:`relative_error`) are
+The names below (the properties', the tolerances and [`relative_error`][pes_ref.oracle.compare.relative_error]) are
 importable from ``pes_ref.testing`` itself; the strategies, which need hypothesis, from
-:mod:`pes_ref.testing.strategies`.
+[`pes_ref.testing.strategies`][pes_ref.testing.strategies].
 """
 from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import FD_EPS, FD_RTOL, GRAD_ATOL, GRAD_RTOL, TRAJ_ATOL, TRAJ_RTOL

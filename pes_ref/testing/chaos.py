@@ -19,7 +19,7 @@ def chaotic_case(dt: float = 0.02):
     The smooth torus potential ``cos q0 + cos q1 + cos(q0 + 2 q1) / 2`` sampled on
     16 x 16 nodes (2 pi periods), one particle with more kinetic energy than any
     barrier: the gradient of its final state with respect to its start grows like
-    ``exp(lambda t)`` (:func:`gradient_growth_rate`).
+    ``exp(lambda t)`` ([`gradient_growth_rate`][pes_ref.testing.chaos.gradient_growth_rate]).
     """
     n = 16
     q = np.arange(n) * 2 * np.pi / n

@@ -4,20 +4,22 @@
 the interchange format (docs/spec.md sections 8-9) and judges what it does by the rules
 of docs/spec.md sections 11 and 13:
 
-- **the shipped vectors** (:mod:`pes_ref.oracle.conformance`): each valid case must be
+- **the shipped vectors** ([`pes_ref.oracle.conformance`][pes_ref.oracle.conformance]): each valid case must be
   run and its result must match the shipped one within the tolerances of section 11
-  (:func:`pes_ref.testing.conformance.binding_keys`: on a kink the gradients bind to the
+  ([`pes_ref.testing.conformance.binding_keys`][pes_ref.testing.conformance.binding_keys]: on a kink the gradients bind
+  to the
   one-sided results the manifest lists); each invalid case must end with a non-zero exit
   status, write no result, and say which key is at fault (the last line it prints on
-  stderr for the case names it, :func:`pes_ref.testing.conformance.names_key`; or, with
+  stderr for the case names it, [`pes_ref.testing.conformance.names_key`][pes_ref.testing.conformance.names_key]; or,
+  with
   ``{refusals}``, its record does);
-- **fresh random cases** (``--random N --seed S``): drawn by :mod:`pes_ref.testing.draws`
-  from a :class:`numpy.random.Generator` seeded with ``[S, attempt]`` (no hypothesis
+- **fresh random cases** (``--random N --seed S``): drawn by [`pes_ref.testing.draws`][pes_ref.testing.draws]
+  from a `numpy.random.Generator` seeded with ``[S, attempt]`` (no hypothesis
   needed), every topology, mode, effect, objective and broadcast shape, and at the odds
-  :data:`pes_ref.testing.draws.CHECK_ODDS` a single wall's margin past half its axis,
+  `pes_ref.testing.draws.CHECK_ODDS` a single wall's margin past half its axis,
   positions snapped near cell edges and flags stored as 0/1 integers; pes_ref runs each
   and so does the program. Only well-conditioned cases are kept: a perturbation of
-  ``x0`` by :data:`PROBE` (relative) must grow by at most :data:`CONDITION_BOUND`
+  ``x0`` by `PROBE` (relative) must grow by at most `CONDITION_BOUND`
   anywhere in the trajectory, so that two correct programs, which may differ by an ulp
   per operation, agree within the trajectory tolerance. Long runs on rough bilinear
   grids amplify such differences by about 1.4x per step; the filter keeps them out.
@@ -41,7 +43,7 @@ Strict mode also compares every gradient of a kink vector with the reference's o
 one-sided choice. ``--lenient-messages`` skips only the check that the refusal names the
 key (for programs that conform at levels S and G only).
 
-The same check runs on a Python function (:func:`check` with ``runner`` a callable
+The same check runs on a Python function ([`check`][pes_ref.testing.check.check] with ``runner`` a callable
 ``case dict -> result dict`` that raises ``ValueError``/``TypeError`` on an invalid case,
 naming the key); vectors whose case file itself is broken (docs/spec.md 8.1) test reading
 a file, which a function of a dict does not do, and are left out for it.
@@ -114,7 +116,7 @@ class CaseOutcome:
         What happened, in words.
     seconds : float or None
         The wall time of the case's own process (or function call); None when it ran in
-        a process with other cases (the batch's time is in :attr:`CheckReport.batches`).
+        a process with other cases (the batch's time is in `CheckReport.batches`).
     errors : dict of str -> float
         Every array compared and its normalized error.
     """
@@ -187,7 +189,7 @@ def _finite(data):
 # =========================================================================== drawing fresh cases
 
 def condition_number(case: dict) -> float:
-    """How much a relative perturbation :data:`PROBE` of ``x0`` grows over the run.
+    """How much a relative perturbation `PROBE` of ``x0`` grows over the run.
 
     ``max_n |x'_n - x_n| / (PROBE * scale)`` over positions and velocities, with ``x'``
     the run from ``x0 (1 + PROBE)`` (plus ``PROBE`` times the domain length where x0 is
@@ -207,9 +209,9 @@ def condition_number(case: dict) -> float:
 def draw_cases(n: int, seed: int, *, bound: float = CONDITION_BOUND, max_draws: int | None = None) -> list:
     """``n`` fresh valid cases, each with conditioning <= ``bound``.
 
-    Attempt ``i`` draws one case from :mod:`pes_ref.testing.draws` with
+    Attempt ``i`` draws one case from [`pes_ref.testing.draws`][pes_ref.testing.draws] with
     ``numpy.random.default_rng([seed, i])``, with the odds of
-    :data:`~pes_ref.testing.draws.CHECK_ODDS` (wide margins of a single wall, near-edge
+    `CHECK_ODDS` (wide margins of a single wall, near-edge
     positions, flags as int8 or uint8), so the cases are the same for the same seed on any
     machine, and one attempt does not depend on another. Returns a list of
     ``(case_id, case dict, condition)``.
@@ -421,7 +423,7 @@ def _message_for(stderr: str, case_path: str, alone: bool) -> str:
 
 
 class _Runner:
-    """Runs a :class:`Program` on :class:`_Item` s in a scratch folder and judges them."""
+    """Runs a [`Program`][pes_ref.testing.check.Program] on `_Item` s in a scratch folder and judges them."""
 
     def __init__(self, program: Program, tmp: Path, report: CheckReport, items: list, *, strict: bool,
                  lenient: bool):
@@ -550,7 +552,7 @@ def check(runner, *, vectors: bool = True, random: int = 0, seed: int = 0, timeo
     only : iterable of str, optional
         Run only the vectors with these ids (the random cases are drawn all the same).
     progress : callable, optional
-        Called with each :class:`CaseOutcome` as it is decided.
+        Called with each [`CaseOutcome`][pes_ref.testing.check.CaseOutcome] as it is decided.
     strict : bool
         docs/spec.md section 11's strict mode: on a kink, the gradients are compared with
         the reference's one-sided choice only; a refusal must declare the manifest's

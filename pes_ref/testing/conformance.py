@@ -1,21 +1,25 @@
 """Check another implementation against the shipped conformance vectors.
 
-The vectors (:mod:`pes_ref.oracle.conformance`) are oracle cases with their reference results
+The vectors ([`pes_ref.oracle.conformance`][pes_ref.oracle.conformance]) are oracle cases with their reference results
 (docs/spec.md sections 8-9). An implementation plugs in one function per check:
 
-- :func:`check_simulate`: ``simulate_fn(case) -> {"x", "v", "energy"}``
-- :func:`check_gradients`: ``grad_fn(case) -> {"loss", "grad_<name>", ...}``
-- :func:`check_invalid`: ``load_fn(path)`` must refuse every invalid case file with a
+- [`check_simulate`][pes_ref.testing.conformance.check_simulate]: ``simulate_fn(case) -> {"x", "v", "energy"}``
+- [`check_gradients`][pes_ref.testing.conformance.check_gradients]: ``grad_fn(case) -> {"loss", "grad_<name>", ...}``
+- [`check_invalid`][pes_ref.testing.conformance.check_invalid]: ``load_fn(path)`` must refuse every invalid case file
+  with a
   ``ValueError`` or ``TypeError`` whose message names the key at fault (and accept
   every valid one)
 
 where ``case`` is a dict of NumPy arrays as read by ``np.load(path, allow_pickle=False)``
-(strings are 0-d unicode arrays). Each check returns a list of :class:`VectorReport`
+(strings are 0-d unicode arrays). Each check returns a list of
+[`VectorReport`][pes_ref.testing.conformance.VectorReport]
 and raises ``AssertionError`` listing every failing vector. The rules that decide a
-verdict live here once and ``pes_ref check`` (:mod:`pes_ref.testing.check`) uses them too:
-which arrays bind on a vector (:func:`binding_keys`), the one-sided gradients accepted on
-a kink (:func:`one_sided_results`, :func:`compare_vector`), and whether a refusal's
-message names the key at fault (:func:`names_key`).
+verdict live here once and ``pes_ref check`` ([`pes_ref.testing.check`][pes_ref.testing.check]) uses them too:
+which arrays bind on a vector ([`binding_keys`][pes_ref.testing.conformance.binding_keys]), the one-sided gradients
+accepted on
+a kink ([`one_sided_results`][pes_ref.testing.conformance.one_sided_results],
+[`compare_vector`][pes_ref.testing.conformance.compare_vector]), and whether a refusal's
+message names the key at fault ([`names_key`][pes_ref.testing.conformance.names_key]).
 
 Examples
 --------
@@ -23,8 +27,10 @@ Examples
 >>> from pes_ref.testing import conformance
 >>> reports = conformance.check_gradients(oracle.run_case)   # doctest: +SKIP
 
-The comparison is :mod:`pes_ref.oracle.compare` (re-exported here: :func:`compare_results`,
-:func:`passes`, :data:`TRAJECTORY_KEYS`). Tolerances (:mod:`pes_ref.oracle.tolerances`): an entry passes when
+The comparison is [`pes_ref.oracle.compare`][pes_ref.oracle.compare] (re-exported here:
+[`compare_results`][pes_ref.oracle.compare.compare_results],
+[`passes`][pes_ref.oracle.compare.passes], `TRAJECTORY_KEYS`). Tolerances
+([`pes_ref.oracle.tolerances`][pes_ref.oracle.tolerances]): an entry passes when
 ``|got - want| <= atol + rtol |want|``. Trajectory keys (``x``, ``v``, ``energy``,
 ``loss``) use ``TRAJ_RTOL``/``TRAJ_ATOL``; gradients use ``GRAD_RTOL`` and
 ``GRAD_ATOL * max|want|`` (the largest entry of that gradient, or 1 for an all-zero one).
@@ -133,9 +139,11 @@ def binding_keys(entry: dict, want: dict, *, strict: bool = False) -> list:
 
 
 def compare_vector(got: dict, want: dict, names, alternatives=()) -> dict:
-    """:func:`compare_results` of ``names``, where each gradient entry may instead match
+    """[`compare_results`][pes_ref.oracle.compare.compare_results] of ``names``, where each gradient entry may instead
+    match
     the same entry of any of ``alternatives`` (the other one-sided results of a kink,
-    :func:`one_sided_results`): per entry, the closest of the accepted values is the one
+    [`one_sided_results`][pes_ref.testing.conformance.one_sided_results]): per entry, the closest of the accepted values
+    is the one
     compared."""
     errors = compare_results(got, want, names)
     for k in names:
@@ -187,7 +195,8 @@ def iter_vectors(version: str = LATEST, kind: str = "valid", *, directory=None):
         The manifest entry (``id``, ``comment``, ``kind``, ``flags``, ``case``, and
         ``result`` (and ``one_sided``) or ``key`` and ``error``).
     case : dict of str -> ndarray, or None
-        None for a vector whose case file is not a readable case (:func:`is_file_vector`).
+        None for a vector whose case file is not a readable case
+        ([`is_file_vector`][pes_ref.testing.conformance.is_file_vector]).
     expected : dict of str -> ndarray, or None for an invalid vector
     """
     if kind not in ("valid", "invalid", "all"):
@@ -342,7 +351,8 @@ def check_invalid(load_fn, version: str = LATEST, *, directory=None, require_key
         ``lambda p: my_load(dict(np.load(p)))``). It must raise ``ValueError`` or
         ``TypeError`` on an invalid case.
     require_key : bool
-        The one-line message must name the key at fault (:func:`names_key`, docs/spec.md
+        The one-line message must name the key at fault ([`names_key`][pes_ref.testing.conformance.names_key],
+        docs/spec.md
         section 8.7).
     strict_types : bool
         Also require the manifest's error type (``TypeError`` for data of the wrong

@@ -1,17 +1,17 @@
 """The distribution of random valid scenes, states and objectives, over any source of draws.
 
-The property tests draw from it through hypothesis (:mod:`pes_ref.testing.strategies`,
+The property tests draw from it through hypothesis ([`pes_ref.testing.strategies`][pes_ref.testing.strategies],
 which replays and shrinks a failing example); ``pes_ref check --random`` draws from it
-with a seeded :class:`numpy.random.Generator` (:class:`GeneratorDraws`), so that the
+with a seeded `numpy.random.Generator` ([`GeneratorDraws`][pes_ref.testing.draws.GeneratorDraws]), so that the
 checker runs on a plain install, without the ``test`` extra. Both go through the same
 functions below, so the two see one distribution: every topology, both modes, springs,
 walls, damping, external forces (constant, per particle, noise, windows), broadcast
 shapes, every objective and regularization.
 
-A *source of draws* (:class:`Draws`) gives an ``integer(lo, hi)`` (inclusive), a
+A *source of draws* ([`Draws`][pes_ref.testing.draws.Draws]) gives an ``integer(lo, hi)`` (inclusive), a
 ``real(lo, hi)``, a ``flag()``, a ``choice(options)``, a ``sample(options, min_size,
 max_size)`` (with repetition), a ``subset(options, min_size)`` (distinct options), a
-``seed()`` for :func:`numpy.random.default_rng`, and ``nested(fn, ...)``, which draws
+``seed()`` for `numpy.random.default_rng`, and ``nested(fn, ...)``, which draws
 ``fn(source, ...)`` as one unit (hypothesis shrinks it as a nested strategy). Bulk arrays
 are filled from ``numpy.random.default_rng(source.seed())``, never from NumPy's global
 random state.
@@ -19,14 +19,14 @@ random state.
 Every draw is small, cheap and numerically tame: grids of 2..12 nodes per axis, a
 handful of particles, short runs, bounded grid values, and a time step (or mobility)
 safely inside the explicit stability limit of the stiffest term (see
-:func:`pes_ref.testing.energy.max_frequency`).
+[`pes_ref.testing.energy.max_frequency`][pes_ref.testing.energy.max_frequency]).
 
 Three valid inputs that a uniform draw almost never reaches are drawn with odds of their
-own, which ``pes_ref check --random`` sets (:data:`CHECK_ODDS`) and the hypothesis
+own, which ``pes_ref check --random`` sets (`CHECK_ODDS`) and the hypothesis
 strategies leave at 0 unless asked: a wall margin of 0.5 to 1.25 times the length of an
 axis that has one wall (``scene(wide_margin=)``), positions snapped 1e-8 to 2.5e-8 cells
 below or above cell edges (``state(near_edge=)``), and flags stored as 0/1 integers
-(:func:`flag_dtype`).
+([`flag_dtype`][pes_ref.testing.draws.flag_dtype]).
 """
 from __future__ import annotations
 
@@ -46,17 +46,17 @@ __all__ = ["Draws", "GeneratorDraws", "TOPOLOGIES", "SEED_MAX", "OBJECTIVE_KINDS
 
 #: The four topologies as ``periodic`` pairs: plane, the two cylinders, torus.
 TOPOLOGIES = ((False, False), (True, False), (False, True), (True, True))
-#: The largest seed drawn for :func:`numpy.random.default_rng` (and for :class:`pes_ref.Noise`).
+#: The largest seed drawn for `numpy.random.default_rng` (and for `pes_ref.Noise`).
 SEED_MAX = 2**32 - 1
-#: The objectives :func:`objective` draws among.
+#: The objectives `objective` draws among.
 OBJECTIVE_KINDS = ("funnel_final", "funnel_every_step", "oscillator", "quadratic")
 #: The odds ``pes_ref check --random`` draws the rarely reached inputs with (docs/spec.md
 #: 13.1): ``wide_margin``, of a scene whose walls leave an axis with one wall, a margin of
-#: 0.5 to 1.25 times that axis's length (:func:`scene`); ``near_edge``, of a case, positions
-#: snapped near cell edges (:func:`state`); ``integer_flags``, of a case, ``periodic`` and
-#: ``walls`` stored as int8 or uint8 (:func:`flag_dtype`).
+#: 0.5 to 1.25 times that axis's length (`scene`); ``near_edge``, of a case, positions
+#: snapped near cell edges (`state`); ``integer_flags``, of a case, ``periodic`` and
+#: ``walls`` stored as int8 or uint8 (`flag_dtype`).
 CHECK_ODDS = {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5}
-#: How far, in cells, :func:`state` snaps a coordinate from a cell edge: at least 100 times
+#: How far, in cells, `state` snaps a coordinate from a cell edge: at least 100 times
 #: the perturbation by which ``check`` measures a case's conditioning (so that it does not
 #: cross the edge), and below half a float32 ulp of every ``u >= 1`` (2**-25), so that a
 #: ``u`` rounded to float32 lands on the edge.
@@ -79,13 +79,13 @@ class Draws(Protocol):
     def subset(self, options: Sequence, min_size: int = 1) -> list:
         """At least ``min_size`` distinct entries of ``options``."""
     def seed(self) -> int:
-        """A seed for :func:`numpy.random.default_rng`, in ``[0, SEED_MAX]``."""
+        """A seed for `numpy.random.default_rng`, in ``[0, SEED_MAX]``."""
     def nested(self, fn, *args, **kwargs):
         """``fn(source, *args, **kwargs)`` drawn as one unit (under hypothesis, a nested strategy)."""
 
 
 class GeneratorDraws:
-    """Draws from a :class:`numpy.random.Generator`: uniform integers, reals and choices.
+    """Draws from a `numpy.random.Generator`: uniform integers, reals and choices.
 
     The same generator state gives the same draws, bit for bit.
     """
@@ -94,38 +94,38 @@ class GeneratorDraws:
         self.rng = rng
 
     def integer(self, lo: int, hi: int) -> int:
-        """:class:`Draws`' ``integer``: uniform in ``[lo, hi]``."""
+        """[`Draws`][pes_ref.testing.draws.Draws]' ``integer``: uniform in ``[lo, hi]``."""
         return int(self.rng.integers(lo, hi + 1))
 
     def real(self, lo: float, hi: float) -> float:
-        """:class:`Draws`' ``real``: uniform in ``[lo, hi)``."""
+        """[`Draws`][pes_ref.testing.draws.Draws]' ``real``: uniform in ``[lo, hi)``."""
         return float(self.rng.uniform(lo, hi))
 
     def flag(self) -> bool:
-        """:class:`Draws`' ``flag``: True or False with even odds."""
+        """[`Draws`][pes_ref.testing.draws.Draws]' ``flag``: True or False with even odds."""
         return bool(self.rng.integers(2))
 
     def choice(self, options: Sequence):
-        """:class:`Draws`' ``choice``: each option with even odds."""
+        """[`Draws`][pes_ref.testing.draws.Draws]' ``choice``: each option with even odds."""
         options = tuple(options)
         return options[int(self.rng.integers(len(options)))]
 
     def sample(self, options: Sequence, min_size: int, max_size: int) -> list:
-        """:class:`Draws`' ``sample``: a uniform size, then each entry by :meth:`choice`."""
+        """[`Draws`][pes_ref.testing.draws.Draws]' ``sample``: a uniform size, then each entry by `choice`."""
         return [self.choice(options) for _ in range(self.integer(min_size, max_size))]
 
     def subset(self, options: Sequence, min_size: int = 1) -> list:
-        """:class:`Draws`' ``subset``: a uniform size, then that many options of a random permutation."""
+        """[`Draws`][pes_ref.testing.draws.Draws]' ``subset``: a uniform size, then that many options of a random permutation."""
         options = tuple(options)
         k = self.integer(min_size, len(options))
         return [options[i] for i in self.rng.permutation(len(options))[:k]]
 
     def seed(self) -> int:
-        """:class:`Draws`' ``seed``: uniform in ``[0, SEED_MAX]``."""
+        """[`Draws`][pes_ref.testing.draws.Draws]' ``seed``: uniform in ``[0, SEED_MAX]``."""
         return int(self.rng.integers(0, SEED_MAX, endpoint=True))
 
     def nested(self, fn, *args, **kwargs):
-        """:class:`Draws`' ``nested``: ``fn(self, *args, **kwargs)``."""
+        """[`Draws`][pes_ref.testing.draws.Draws]' ``nested``: ``fn(self, *args, **kwargs)``."""
         return fn(self, *args, **kwargs)
 
 
@@ -153,12 +153,12 @@ def flag_dtype(d: Draws, integer_flags: float = 0.0) -> np.dtype:
 
 def surface(d: Draws, topology=None, *, min_nodes: int = 2, max_nodes: int = 12, constant: bool = False,
             min_amplitude: float = 0.0, max_amplitude: float = 2.0) -> Surface:
-    """A valid :class:`pes_ref.Surface` on a small grid.
+    """A valid [`pes_ref.Surface`][pes_ref.core.surface.Surface] on a small grid.
 
     Parameters
     ----------
     topology : tuple of 2 bool, optional
-        The ``periodic`` pair; drawn from :data:`TOPOLOGIES` when None.
+        The ``periodic`` pair; drawn from `TOPOLOGIES` when None.
     min_nodes, max_nodes : int
         Nodes per axis, each drawn in ``[min_nodes, max_nodes]`` (``min_nodes >= 2``).
     constant : bool
@@ -214,7 +214,7 @@ def state(d: Draws, surface: Surface, n_particles: int, *, margin: float = 0.1, 
         The probability that positions are snapped near cell edges: then each coordinate
         on an axis with an interior cell edge (every edge of a periodic axis, the seam
         too; the edges between the first and last node of another) is, with probability
-        1/2, moved to :data:`NEAR_EDGE` cells below or above one (half each), where the
+        1/2, moved to `NEAR_EDGE` cells below or above one (half each), where the
         cell ``floor`` picks from the float64 ``u`` is the one a float32 ``u`` misses
         (docs/spec.md 2.3).
     """
@@ -232,7 +232,7 @@ def state(d: Draws, surface: Surface, n_particles: int, *, margin: float = 0.1, 
 
 
 def _near_edges(x0: np.ndarray, surface: Surface, rng: np.random.Generator) -> np.ndarray:
-    """``x0`` with each coordinate, with probability 1/2, snapped :data:`NEAR_EDGE` cells
+    """``x0`` with each coordinate, with probability 1/2, snapped `NEAR_EDGE` cells
     below or above an interior cell edge of its axis (axes of 2 nodes that are not
     periodic have none)."""
     x0 = x0.copy()
@@ -262,13 +262,13 @@ def scene(d: Draws, n_particles: int = 1, *, topology=None, mode=None, damped=No
           min_amplitude: float = 0.0, max_amplitude: float = 2.0,
           dt_range=(0.01, 0.2), max_omega_dt: float = 0.5, omega_dt=None, surface=None,
           wide_margin: float = 0.0) -> Scene:
-    """A full valid :class:`pes_ref.Scene` for N particles.
+    """A full valid [`pes_ref.Scene`][pes_ref.core.scene.Scene] for N particles.
 
     Any subset of the effects may be drawn: a spring (stiffness and centre shaped
     (), (2,), (N, 1) or (N, 2)), walls on the allowed (non-periodic) edges, damping,
-    per-particle mass, and external force effects (:class:`~pes_ref.Constant`,
-    :class:`~pes_ref.PerParticle`, :class:`~pes_ref.Noise`, each possibly inside a
-    :class:`~pes_ref.Window`).
+    per-particle mass, and external force effects ([`Constant`][pes_ref.core.effects.Constant],
+    [`PerParticle`][pes_ref.core.effects.PerParticle], [`Noise`][pes_ref.core.effects.Noise], each possibly inside a
+    [`Window`][pes_ref.core.effects.Window]).
 
     Parameters
     ----------
@@ -285,7 +285,7 @@ def scene(d: Draws, n_particles: int = 1, *, topology=None, mode=None, damped=No
         A constant grid (no grid slope), so only springs and walls act; with
         ``damped=False, effects=False`` the dynamics conserves energy up to the
         O(dt^2) error of velocity Verlet. (A spring on a periodic axis still has its
-        minimum-image seam; :func:`scene_case` keeps particles below that seam's energy.)
+        minimum-image seam; [`scene_case`][pes_ref.testing.draws.scene_case] keeps particles below that seam's energy.)
     spring, walls, effects, noise, per_particle_mass : bool, optional
         Force the effect on (True) or off (False); None draws. ``effects`` governs all
         external force effects, ``noise`` only the Noise effect among them. Walls on a
@@ -293,12 +293,12 @@ def scene(d: Draws, n_particles: int = 1, *, topology=None, mode=None, damped=No
     n_steps : int, optional
         Fix T; else drawn in ``[min_steps, max_steps]``.
     min_nodes, max_nodes, min_amplitude, max_amplitude
-        Grid size per axis and value amplitude (see :func:`surface`).
+        Grid size per axis and value amplitude (see [`surface`][pes_ref.testing.draws.surface]).
     dt_range : (float, float)
         The time step is drawn in this range ...
     max_omega_dt : float
         ... and then cut to ``max_omega_dt / omega_max``, where ``omega_max``
-        (:func:`~pes_ref.testing.energy.max_frequency`) bounds the frequency of the
+        ([`max_frequency`][pes_ref.testing.energy.max_frequency]) bounds the frequency of the
         stiffest term (velocity Verlet is stable for ``omega_max dt < 2``). Quasistatic
         mobility is ``mu_d = r / K`` with ``r <= max_omega_dt`` and ``K`` the largest
         stiffness (stable for ``mu K < 2``).
@@ -458,14 +458,14 @@ def scene_case(d: Draws, *, min_particles: int = 1, max_particles: int = 3, max_
     min_particles, max_particles : int
         N is drawn in this range.
     max_speed : float
-        Initial speeds per axis are at most this (see :func:`state`).
+        Initial speeds per axis are at most this (see [`state`][pes_ref.testing.draws.state]).
     max_periods : int
         Periodic coordinates start up to this many whole periods away from the domain
-        (see :func:`state`; 0 keeps them near it, which also keeps rounding small).
+        (see [`state`][pes_ref.testing.draws.state]; 0 keeps them near it, which also keeps rounding small).
     near_edge : float
-        The probability that positions are snapped near cell edges (see :func:`state`).
+        The probability that positions are snapped near cell edges (see [`state`][pes_ref.testing.draws.state]).
     **scene_kw
-        Passed to :func:`scene` (``topology``, ``mode``, ``damped``, ``smooth_only``,
+        Passed to [`scene`][pes_ref.testing.draws.scene] (``topology``, ``mode``, ``damped``, ``smooth_only``,
         ``spring``, ``walls``, ``effects``, ``noise``, ``n_steps``, ``max_steps``, ...).
         With ``smooth_only=True`` the state is also kept below the minimum-image seam
         of every periodic spring (the seam is a kink of the spring force).
@@ -494,7 +494,7 @@ def objective(d: Draws, scene: Scene, n_particles: int, *, kinds=OBJECTIVE_KINDS
         The objective's parameters are drawn on the scale of its domain and run.
     n_particles : int
     kinds : sequence of str
-        Among :data:`OBJECTIVE_KINDS`.
+        Among `OBJECTIVE_KINDS`.
     regularization : bool, optional
         True: ``R`` in [1e-3, 1]; False: ``R = 0``; None: either.
 

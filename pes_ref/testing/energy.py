@@ -1,11 +1,14 @@
 """Energy conservation, for any ``simulate``: how far a run's energy strays, the
 leading-order budget of that error, and how it scales when ``dt`` is halved.
 
-:func:`energy_drift` runs ``simulate_fn(scene, x0, v0)`` and measures its energy error
-(:class:`EnergyDrift`); :func:`drift_ratio` does it at ``dt`` and ``dt / 2`` (about 4
-for a second-order error, 2 for a first-order one); :func:`energy_error_budget` bounds it
-from the run's crossings of kinks (:mod:`pes_ref.testing.kinks`) and the scene's fastest
-mode (:func:`max_frequency`); :func:`max_speed` bounds a particle's speed, for a step
+[`energy_drift`][pes_ref.testing.energy.energy_drift] runs ``simulate_fn(scene, x0, v0)`` and measures its energy error
+([`EnergyDrift`][pes_ref.testing.energy.EnergyDrift]); [`drift_ratio`][pes_ref.testing.energy.drift_ratio] does it at
+``dt`` and ``dt / 2`` (about 4
+for a second-order error, 2 for a first-order one); [`energy_error_budget`][pes_ref.testing.energy.energy_error_budget]
+bounds it
+from the run's crossings of kinks ([`pes_ref.testing.kinks`][pes_ref.testing.kinks]) and the scene's fastest
+mode ([`max_frequency`][pes_ref.testing.energy.max_frequency]); [`max_speed`][pes_ref.testing.energy.max_speed] bounds a
+particle's speed, for a step
 short enough to resolve the grid's cells.
 """
 from __future__ import annotations
@@ -28,11 +31,12 @@ def max_frequency(scene: Scene) -> float:
     """An upper bound on the angular frequency of the stiffest mode, ``omega_max``.
 
     ``omega_max^2 = K / min m`` with ``K`` the sum over the smooth terms of
-    :func:`pes_ref.core.stability.term_stiffness` (the grid's cross curvature, the
+    [`pes_ref.core.stability.term_stiffness`][pes_ref.core.stability.term_stiffness] (the grid's cross curvature, the
     springs, the walls) of each one's largest stiffness: a bound of the summed
     Hessian's largest eigenvalue (Weyl's). It leaves out the slope's jumps at cell edges:
     they are kinks, which the energy tests budget for separately
-    (:func:`energy_error_budget`). Velocity Verlet is stable for ``omega_max dt < 2`` and
+    ([`energy_error_budget`][pes_ref.testing.energy.energy_error_budget]). Velocity Verlet is stable for ``omega_max dt
+    < 2`` and
     its O(dt^2) energy error scales with ``(omega_max dt)^2``. Zero for a scene with no
     position-dependent force.
     """
@@ -72,7 +76,8 @@ class EnergyDrift:
         ``sum_{i,d} max_n m v_{n,i,d}^2 / 2``: for springs, an upper bound of the
         oscillation energy of every particle and axis, the scale of the O(dt^2) error.
     trajectory : object
-        The run (what ``simulate_fn`` returned), e.g. for :func:`energy_error_budget`.
+        The run (what ``simulate_fn`` returned), e.g. for
+        [`energy_error_budget`][pes_ref.testing.energy.energy_error_budget].
     """
 
     energies: np.ndarray
@@ -109,7 +114,8 @@ def _upto(n: int, fraction: float) -> int:
 
 
 def energy_drift(simulate_fn, scene: Scene, x0, v0, *, energy_fn=None) -> EnergyDrift:
-    """Run ``simulate_fn(scene, x0, v0)`` and measure its energy error (:class:`EnergyDrift`).
+    """Run ``simulate_fn(scene, x0, v0)`` and measure its energy error
+    ([`EnergyDrift`][pes_ref.testing.energy.EnergyDrift]).
 
     Meaningful without external force (energy is conserved by the ODE only then). With
     ``damping = 0``, velocity Verlet keeps the error O(dt^2) and bounded on smooth
@@ -156,7 +162,8 @@ def energy_error_budget(scene: Scene, traj, *, smooth_c: float = 0.3) -> float:
       ``dE = dF (Delta/2 - s) + dt^2 (F_2^2 - F_1^2) / 8m``, with ``dF`` the jump,
       ``Delta`` the step's displacement and ``s`` where in it the jump lies. Bounded
       by ``|dF| (|Delta| / 2 + dt^2 F_max / 4m)``, with ``|dF| <= 2 S_d`` on the grid
-      (:func:`grid_slope_bound`) and ``k_d L_d`` at a seam. The budget adds this for
+      ([`grid_slope_bound`][pes_ref.testing.energy.grid_slope_bound]) and ``k_d L_d`` at a seam. The budget adds this
+      for
       every crossing (``kink_signature`` changes), a worst case: real errors have
       random signs and add up far less.
     - the smooth part, at most ``smooth_c (omega_max dt)^2 K`` (``K`` the kinetic
@@ -190,7 +197,8 @@ class DriftRatio:
     """Energy errors of a run at ``dt`` and at ``dt / 2`` over the same time interval.
 
     ``ratio = coarse.max_abs / fine.max_abs`` and ``ensemble_ratio`` (the same for the
-    particle-mean error :attr:`EnergyDrift.ensemble_error`): about 4 for a
+    particle-mean error [`EnergyDrift.ensemble_error`][pes_ref.testing.energy.EnergyDrift.ensemble_error]): about 4 for
+    a
     second-order error, about 2 for a first-order one. Use ``ratio`` on smooth
     terms, where ``E_n - E_0 = dt^2 g(t_n) + O(dt^4)`` for one fixed function g; use
     ``ensemble_ratio`` over many independent particles where the error comes from
@@ -222,7 +230,7 @@ def _ratio(a: float, b: float, zero: float = np.nan) -> float:
 
 def drift_ratio(simulate_fn, scene: Scene, x0, v0, *, energy_fn=None) -> DriftRatio:
     """Energy error at ``scene.dt`` over T steps and at ``dt / 2`` over 2T steps (the
-    same time interval), as a :class:`DriftRatio`."""
+    same time interval), as a [`DriftRatio`][pes_ref.testing.energy.DriftRatio]."""
     coarse = energy_drift(simulate_fn, scene, x0, v0, energy_fn=energy_fn)
     fine_scene = replace(scene, dt=scene.dt / 2.0, n_steps=2 * scene.n_steps)
     fine = energy_drift(simulate_fn, fine_scene, x0, v0, energy_fn=energy_fn)

@@ -1,8 +1,10 @@
 """Gradients against finite differences, for any ``value_and_grad``: the adjoint's
 gradient of every differentiable input of docs/spec.md section 7 against central
-differences of the loss (:func:`check_gradient_fd`), with the difference's own rounding
-noise estimated (:func:`loss_conditioning`) and every perturbed run's smooth piece
-compared with the base run's (:mod:`pes_ref.testing.kinks`), so that a difference across
+differences of the loss ([`check_gradient_fd`][pes_ref.testing.gradient_check.check_gradient_fd]), with the difference's
+own rounding
+noise estimated ([`loss_conditioning`][pes_ref.testing.gradient_check.loss_conditioning]) and every perturbed run's
+smooth piece
+compared with the base run's ([`pes_ref.testing.kinks`][pes_ref.testing.kinks]), so that a difference across
 a kink is reported, not counted.
 """
 from __future__ import annotations
@@ -62,7 +64,7 @@ def with_parameter(scene: Scene, x0, v0, fext, name: str, value):
 
 @dataclass
 class GradientCheck:
-    """The outcome of :func:`check_gradient_fd`.
+    """The outcome of [`check_gradient_fd`][pes_ref.testing.gradient_check.check_gradient_fd].
 
     Attributes
     ----------
@@ -79,7 +81,8 @@ class GradientCheck:
     noise : dict str -> float
         The estimated rounding error of the difference, ``eps_mach * kappa / h`` (four
         times that for the one-sided formula), with ``kappa`` the loss's
-        conditioning (:func:`loss_conditioning`) and ``h`` the step. Where the
+        conditioning ([`loss_conditioning`][pes_ref.testing.gradient_check.loss_conditioning]) and ``h`` the step. Where
+        the
         gradient is far larger than this (the usual case) ``errors`` equals
         ``raw_errors``; where it is not, no difference can resolve it to 1e-6.
     fd, adjoint : dict str -> float or ndarray
@@ -87,9 +90,10 @@ class GradientCheck:
         whole gradients when ``full``).
     crossed : dict str -> bool
         True where a perturbed run went through a different smooth piece than the base
-        run (:func:`kink_signature`): that name's finite difference is not a derivative.
+        run ([`kink_signature`][pes_ref.testing.kinks.kink_signature]): that name's finite difference is not a
+        derivative.
     kink_distance : float
-        :func:`kink_distance` of the base run.
+        [`kink_distance`][pes_ref.testing.kinks.kink_distance] of the base run.
     near_kink : bool
         The base run came within ``kink_margin`` of a kink; no difference was taken.
     loss : float
@@ -114,7 +118,7 @@ class GradientCheck:
 
     @property
     def max_error(self) -> float:
-        """The largest of :attr:`errors` (0 if none was taken)."""
+        """The largest of `errors` (0 if none was taken)."""
         return max(self.errors.values(), default=0.0)
 
 
@@ -186,18 +190,19 @@ def check_gradient_fd(value_and_grad_fn, scene: Scene, x0, v0, objective, names=
     ----------
     value_and_grad_fn : callable
         ``(scene, x0, v0, objective, *, regularization_weight, wrt, fext) -> (loss, grads, ...)``,
-        the signature of :func:`pes_ref.value_and_grad`; ``grads[name]`` shaped like the
+        the signature of [`pes_ref.value_and_grad`][pes_ref.core.scene.value_and_grad]; ``grads[name]`` shaped like the
         input (``fext`` is passed as the realized (T+1, N, 2) schedule).
     scene, x0, v0 : the case
-    objective : an object with ``value_and_grad(x, v, t)`` (:mod:`pes_ref.core.objectives`)
+    objective : an object with ``value_and_grad(x, v, t)`` ([`pes_ref.core.objectives`][pes_ref.core.objectives])
     names : sequence of str, optional
-        Gradients to check (default: all the scene has, :func:`pes_ref.core.scene.gradient_names`).
+        Gradients to check (default: all the scene has,
+        [`pes_ref.core.scene.gradient_names`][pes_ref.core.scene.gradient_names]).
     regularization_weight : float
         R of the paper's eq. (7); the differenced loss includes ``R sum G^2`` (for
         ``values``; for every other input it is a constant and left out, which only
         lowers the rounding noise).
     kink_margin : float
-        If the base run passes closer than this to a kink (:func:`kink_distance`), take
+        If the base run passes closer than this to a kink ([`kink_distance`][pes_ref.testing.kinks.kink_distance]), take
         no difference (``near_kink``; a hypothesis test then ``assume``-s it away).
     full : bool
         Entry by entry (2 runs per entry) instead of one random unit direction per name
@@ -212,7 +217,7 @@ def check_gradient_fd(value_and_grad_fn, scene: Scene, x0, v0, objective, names=
         one-sided second-order ``(-3 L(0) + 4 L(h) - L(2h)) / (2h)`` along ``|u|`` is used.
     simulate_fn : callable, optional
         The forward run for the differences, with the signature of
-        :func:`pes_ref.simulate` (default: ``pes_ref.simulate``). Pass your own so that
+        [`pes_ref.simulate`][pes_ref.core.scene.simulate] (default: ``pes_ref.simulate``). Pass your own so that
         your gradient is checked against differences of your own forward program.
 
     Returns

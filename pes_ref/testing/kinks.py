@@ -4,10 +4,11 @@ derivative.
 The discrete program is piecewise smooth: the bilinear slope jumps at cell edges
 (including the clip edges of a non-periodic axis, where the constant extension begins),
 a wall's force has a kink at its onset, and a spring on a periodic axis jumps at its
-minimum-image seam. :func:`kink_distance` measures how close a trajectory passes to any
-kink (for a cheap ``assume`` before a gradient check); :func:`kink_signature` records
+minimum-image seam. [`kink_distance`][pes_ref.testing.kinks.kink_distance] measures how close a trajectory passes to any
+kink (for a cheap ``assume`` before a gradient check); [`kink_signature`][pes_ref.testing.kinks.kink_signature] records
 which smooth piece every state is in, and
-:func:`pes_ref.testing.gradient_check.check_gradient_fd` compares it between the base and
+[`pes_ref.testing.gradient_check.check_gradient_fd`][pes_ref.testing.gradient_check.check_gradient_fd] compares it
+between the base and
 every perturbed run, so it knows exactly when a difference crossed a kink.
 """
 from __future__ import annotations
@@ -44,7 +45,7 @@ def kink_distance(scene: Scene, x, *, grid: bool = True) -> float:
     Returns
     -------
     float
-        :func:`distance_to_kinks` of the scene's grid, walls and spring.
+        [`distance_to_kinks`][pes_ref.testing.kinks.distance_to_kinks] of the scene's grid, walls and spring.
     """
     s = scene.surface
     walls = None if scene.walls is None else wall_bounds(s.lower, s.upper, scene.walls.margin, scene.walls.edges)
@@ -56,7 +57,7 @@ def kink_distance(scene: Scene, x, *, grid: bool = True) -> float:
 def distance_to_kinks(x, lower, h, shape, periodic, length, *, walls=None, spring=None,
                       grid: bool = True) -> float:
     """The smallest distance from any position in ``x`` to a kink of a force, given as
-    plain arrays (:func:`kink_distance` takes them from a scene; the unit tests of the
+    plain arrays ([`kink_distance`][pes_ref.testing.kinks.kink_distance] takes them from a scene; the unit tests of the
     force kernels from their plain-array description).
 
     Parameters
@@ -70,11 +71,11 @@ def distance_to_kinks(x, lower, h, shape, periodic, length, *, walls=None, sprin
     periodic : sequence of 2 bool
     walls : (lo, hi) of arrays (2,), optional
         The wall positions, ``-inf``/``inf`` where an axis has none
-        (:func:`pes_ref.core.terms.wall_bounds`).
+        ([`pes_ref.core.terms.wall_bounds`][pes_ref.core.terms.wall_bounds]).
     spring : (k, center), optional
         Broadcastable to (N, 2); a seam counts on a periodic axis where ``k_d != 0``.
     grid : bool
-        Count the grid's cell edges (see :func:`kink_distance`).
+        Count the grid's cell edges (see [`kink_distance`][pes_ref.testing.kinks.kink_distance]).
 
     Returns
     -------

@@ -3,16 +3,16 @@
 Another implementation (JAX, PyTorch, C++ through bindings, ...) imports these to run
 its own property tests on the same distribution of inputs that ``pes_ref`` is tested
 on, and compares with ``pes_ref`` or checks the plain properties of
-:mod:`pes_ref.testing`. Importing this module needs ``hypothesis`` (the
+[`pes_ref.testing`][pes_ref.testing]. Importing this module needs ``hypothesis`` (the
 ``test`` extra).
 
-The distribution itself is :mod:`pes_ref.testing.draws` (which ``pes_ref check --random``
+The distribution itself is [`pes_ref.testing.draws`][pes_ref.testing.draws] (which ``pes_ref check --random``
 draws from with a NumPy Generator, no hypothesis needed); each strategy here is one of its
 functions with hypothesis as the source of draws, so that a failing example replays and
 shrinks. Examples are small, cheap and numerically tame: grids of 2..12 nodes per axis, a
 handful of particles, short runs, bounded grid values, and a time step (or mobility)
 safely inside the explicit stability limit of the stiffest term (see
-:func:`pes_ref.testing.energy.max_frequency`). Random arrays are filled from
+[`pes_ref.testing.energy.max_frequency`][pes_ref.testing.energy.max_frequency]). Random arrays are filled from
 ``numpy.random.default_rng(seed)`` with the seed drawn by hypothesis (``st.integers``),
 never from NumPy's global random state.
 
@@ -40,7 +40,7 @@ TOPOLOGIES = draws.TOPOLOGIES
 
 
 def seeds():
-    """Seeds for ``numpy.random.default_rng`` (and for :class:`pes_ref.Noise`).
+    """Seeds for ``numpy.random.default_rng`` (and for [`pes_ref.Noise`][pes_ref.core.effects.Noise]).
 
     Returns
     -------
@@ -56,7 +56,7 @@ def topologies():
     Returns
     -------
     SearchStrategy[tuple[bool, bool]]
-        One of :data:`TOPOLOGIES`: ``(False, False)`` plane, ``(True, False)`` and
+        One of `TOPOLOGIES`: ``(False, False)`` plane, ``(True, False)`` and
         ``(False, True)`` the two cylinders, ``(True, True)`` torus. Shrinks toward the plane.
     """
     return st.sampled_from(TOPOLOGIES)
@@ -67,7 +67,7 @@ def _floats(lo, hi):
 
 
 class _Draws:
-    """hypothesis's ``draw`` as a source of draws of :mod:`pes_ref.testing.draws`."""
+    """hypothesis's ``draw`` as a source of draws of [`pes_ref.testing.draws`][pes_ref.testing.draws]."""
 
     def __init__(self, draw):
         self._draw = draw
@@ -98,7 +98,7 @@ class _Draws:
 
 
 def _strategy(fn):
-    """The hypothesis strategy of a function of :mod:`pes_ref.testing.draws`. (The name
+    """The hypothesis strategy of a function of [`pes_ref.testing.draws`][pes_ref.testing.draws]. (The name
     is a keyword default so that each strategy has its own label: hypothesis labels a
     composite by its code and defaults, and mutates examples span by label.)"""
     def definition(draw, *args, _draws_function=fn.__name__, **kwargs):
@@ -107,19 +107,19 @@ def _strategy(fn):
 
 
 surfaces = _strategy(draws.surface)
-surfaces.__doc__ = "Strategy of :func:`pes_ref.testing.draws.surface` (same parameters): a valid Surface."
+surfaces.__doc__ = "Strategy of `pes_ref.testing.draws.surface` (same parameters): a valid Surface."
 states = _strategy(draws.state)
-states.__doc__ = ("Strategy of :func:`pes_ref.testing.draws.state` (same parameters): initial positions and "
+states.__doc__ = ("Strategy of `pes_ref.testing.draws.state` (same parameters): initial positions and "
                   "velocities ``(x0, v0)``, each (N, 2).")
 scenes = _strategy(draws.scene)
-scenes.__doc__ = "Strategy of :func:`pes_ref.testing.draws.scene` (same parameters): a full valid Scene."
+scenes.__doc__ = "Strategy of `pes_ref.testing.draws.scene` (same parameters): a full valid Scene."
 scene_cases = _strategy(draws.scene_case)
-scene_cases.__doc__ = ("Strategy of :func:`pes_ref.testing.draws.scene_case` (same parameters): "
+scene_cases.__doc__ = ("Strategy of `pes_ref.testing.draws.scene_case` (same parameters): "
                        "``(scene, x0, v0)``.")
 objectives = _strategy(draws.objective)
-objectives.__doc__ = ("Strategy of :func:`pes_ref.testing.draws.objective` (same parameters): "
+objectives.__doc__ = ("Strategy of `pes_ref.testing.draws.objective` (same parameters): "
                       "``(objective, R)``, an objective of docs/spec.md section 6 and a regularization weight.")
-#: The strategy that draws each function of :mod:`pes_ref.testing.draws` nested in another.
+#: The strategy that draws each function of `pes_ref.testing.draws` nested in another.
 _STRATEGY = {draws.surface: surfaces, draws.state: states, draws.scene: scenes, draws.scene_case: scene_cases,
              draws.objective: objectives}
 
@@ -156,13 +156,13 @@ def _away(offset: np.ndarray, half, margin: float = TERM_MARGIN) -> np.ndarray:
 
 @st.composite
 def term_cases(draw, *, max_states: int = 7, max_particles: int = 3):
-    """A state term of a problem file (:data:`pes_ref.synthesis.objective_terms.OBJECTIVE_TERMS`,
+    """A state term of a problem file (`pes_ref.synthesis.objective_terms.OBJECTIVE_TERMS`,
     every kind but the grid's) on a random domain of any topology, with a trajectory away from
     its kinks: ``(term, x, v, t)``.
 
     Positions lie within 0.45 of a period of the term's target, box centre or edge centre (plus
     whole periods on a periodic axis, to exercise the minimum image), and no coordinate lies
-    within :data:`TERM_MARGIN` of a box face or an exit level; a time is one of the states' (or
+    within `TERM_MARGIN` of a box face or an exit level; a time is one of the states' (or
     after the run's end, where a term charges nothing).
     """
     from pes_ref.core.objectives import Quadratic

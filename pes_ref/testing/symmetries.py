@@ -1,6 +1,7 @@
 """Symmetries a run must keep, for any ``simulate``: a particle shifted by whole periods
 of a periodic axis, and the grid rolled along one with everything moved with it, give
-the same run up to the shift (:func:`check_periodic_shift`, :func:`check_grid_roll`).
+the same run up to the shift ([`check_periodic_shift`][pes_ref.testing.symmetries.check_periodic_shift],
+[`check_grid_roll`][pes_ref.testing.symmetries.check_grid_roll]).
 """
 from __future__ import annotations
 
@@ -47,17 +48,19 @@ def _shifted_difference(xa, xb, shift) -> float:
 
 @dataclass(frozen=True)
 class ShiftCheck:
-    """The outcome of :func:`check_periodic_shift` and :func:`check_grid_roll`.
+    """The outcome of [`check_periodic_shift`][pes_ref.testing.symmetries.check_periodic_shift] and
+    [`check_grid_roll`][pes_ref.testing.symmetries.check_grid_roll].
 
     Attributes
     ----------
     differences : dict str -> float
-        Relative errors (:func:`pes_ref.oracle.compare.relative_error`) of ``force0`` (the force at
+        Relative errors ([`pes_ref.oracle.compare.relative_error`][pes_ref.oracle.compare.relative_error]) of ``force0``
+        (the force at
         state 0), ``force``, ``x`` (after subtracting the shift; scaled by the largest
         position of either run), ``v`` and ``energy`` (per state and particle). All
         are rounding-level (~1e-13) unless a position lies within rounding of a kink.
     kink_distance : float
-        :func:`kink_distance` of the unshifted run: within rounding of a kink, the two
+        [`kink_distance`][pes_ref.testing.kinks.kink_distance] of the unshifted run: within rounding of a kink, the two
         lookups may pick different cells (either one-sided value is allowed there).
     """
 
@@ -66,7 +69,7 @@ class ShiftCheck:
 
     @property
     def max_difference(self) -> float:
-        """The largest of :attr:`differences`."""
+        """The largest of `differences`."""
         return max(self.differences.values())
 
 
@@ -112,7 +115,8 @@ def check_grid_roll(simulate_fn, scene: Scene, x0, v0, *, axis: int = 0, k: int 
     """Roll the grid by ``k`` nodes along a periodic axis and shift everything with it.
 
     ``values' = np.roll(values, k, axis)`` puts node ``i`` at ``i + k``; moving every
-    particle (and the spring centre, :func:`rolled_scene`) by ``k h`` along that axis
+    particle (and the spring centre, [`rolled_scene`][pes_ref.testing.symmetries.rolled_scene]) by ``k h`` along that
+    axis
     must give the same run, positions shifted by ``k h``.
 
     Returns

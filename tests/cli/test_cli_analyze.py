@@ -265,12 +265,12 @@ def test_both_engines_side_by_side_with_their_difference_in_lines_csv_json_and_p
     out, js, plot = tmp_path / "cam", tmp_path / "cam.json", tmp_path / "cam.png"
     values = figures(capsys, str(CAM), "--drive", "0", "--load", "0.5", *QUICK, "--engine", "both",
                      "--out", str(out), "--json", str(js), "--plot", str(plot))
-    assert values["device"] == "cam_follower name"                          # the same in both: once
+    assert values["device"] == "cam_follower"                          # the same in both: once
     s, r = (float(values[f"advance_per_cycle[{e}]"].split()[0]) for e in ("surface", "rigid"))
     assert float(values["advance_per_cycle[rigid-surface]"].split()[0]) == pytest.approx(r - s, abs=1e-5)
     # the surface's follower rides the barrier's standoff above the cam, the rigid one on it
     assert float(values["motion_law_offset[rigid-surface]"].split()[0]) < -0.03
-    assert values["engine[rigid]"] == "rigid name"
+    assert values["engine[rigid]"] == "rigid"
     text = (out / "motion_law.csv").read_text()
     assert text.startswith("q_in,q_out_surface,q_out_rigid\n")
     law = np.genfromtxt(out / "motion_law.csv", delimiter=",", skip_header=1)

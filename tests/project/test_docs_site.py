@@ -147,5 +147,29 @@ def test_the_site_builds_strictly(tmp_path):
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     output = proc.stdout + proc.stderr
     assert proc.returncode == 0 and not re.search(r"^WARNING\b", output, re.M), f"mkdocs build --strict:\n{output}"
+    assert "not included in the \"nav\"" not in output, output
     assert (tmp_path / "site" / "api" / "core" / "index.html").is_file()
     assert (tmp_path / "site" / "tutorial" / "plot_device_to_part" / "index.html").is_file()
+    raw = {str(page.relative_to(tmp_path / "site")): sorted(set(SPHINX_ROLE.findall(_text(page))))
+           for page in (tmp_path / "site").rglob("*.html")}
+    assert not {page: roles for page, roles in raw.items() if roles}, "raw Sphinx roles on the site"
+    core = (tmp_path / "site" / "api" / "core" / "index.html").read_text()
+    assert core.count('class="autorefs autorefs-internal"') >= 300    # the docstrings' cross-references, linked
+
+
+#: A Sphinx role (``:func:`name```), which mkdocstrings does not render: it would show as raw text.
+SPHINX_ROLE = re.compile(r":(?:py:)?(?:func|class|meth|attr|data|mod|exc|obj|const|ref):`?")
+
+
+def _text(page) -> str:
+    """The text of an HTML page as a reader sees it (tags and their attributes left out)."""
+    import html
+    return html.unescape(re.sub(r"<[^>]*>", " ", page.read_text()))
+
+
+def test_the_docstrings_use_no_sphinx_role():
+    """The docstrings are numpydoc for mkdocstrings: a cross-reference is ``[`name`][pes_ref.module.name]``,
+    which the strict build resolves, never a Sphinx role, which it would print as it is."""
+    found = [f"{path.relative_to(ROOT)}:{i}" for path in sorted((ROOT / "pes_ref").rglob("*.py"))
+             for i, line in enumerate(path.read_text().splitlines(), 1) if SPHINX_ROLE.search(line)]
+    assert not found, found

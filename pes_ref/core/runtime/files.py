@@ -2,7 +2,7 @@
 
 Every file the package writes for a user (results, cases, design files, manifests,
 check reports, a sweep's ``results.csv`` and ``summary.png``, the benchmark's JSON and
-plot) goes through :func:`atomic_file`: the bytes go to a temporary file in the
+plot) goes through [`atomic_file`][pes_ref.core.runtime.files.atomic_file]: the bytes go to a temporary file in the
 destination folder, which is then published under its name in one step, so a reader
 never sees half a file and a crash of the writing process leaves at most a hidden
 ``.<name>.<random>.tmp`` behind (the file is not synced to the disk: that would double
@@ -10,19 +10,20 @@ the time of writing the conformance vectors, and a power loss is not this writer
 concern). The published file has the mode any new file of the user gets (0o666 less
 the umask).
 
-- ``overwrite=True``: :func:`os.replace`, which swaps the name over atomically;
-- ``overwrite=False``: :func:`os.link` of the temporary file to the name, which the
+- ``overwrite=True``: `os.replace`, which swaps the name over atomically;
+- ``overwrite=False``: `os.link` of the temporary file to the name, which the
   file system refuses if the name exists, whoever made it and whenever (no
   check-then-replace race), then the temporary name is removed. On a file system
   without hard links the name is reserved with ``O_CREAT | O_EXCL`` (again refused if it
   exists) and the finished file replaces that empty reservation.
 
-An existing file that is not to be replaced raises :class:`ResultExistsError`.
+An existing file that is not to be replaced raises [`ResultExistsError`][pes_ref.core.runtime.files.ResultExistsError].
 
 A set of files that belong together (the conformance vectors and their manifest) is made
-whole in a staging folder beside the destination, then :func:`move_into` moves each into
-place with :func:`os.replace`; the caller writes the set's index last, through
-:func:`atomic_file`, so a stop part-way leaves the old set's index in place.
+whole in a staging folder beside the destination, then [`move_into`][pes_ref.core.runtime.files.move_into] moves each
+into
+place with `os.replace`; the caller writes the set's index last, through
+[`atomic_file`][pes_ref.core.runtime.files.atomic_file], so a stop part-way leaves the old set's index in place.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ from contextlib import contextmanager
 
 __all__ = ["atomic_file", "move_into", "ResultExistsError"]
 
-#: The errors of :func:`os.link` on a file system that has no hard links.
+#: The errors of `os.link` on a file system that has no hard links.
 _NO_HARD_LINKS = frozenset({errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.ENOSYS, errno.EMLINK})
 
 
@@ -64,11 +65,12 @@ def atomic_file(path, *, overwrite: bool = False, what: str = "result"):
     ----------
     path : str or os.PathLike
     overwrite : bool
-        Replace an existing file; otherwise raise :class:`ResultExistsError`, before
+        Replace an existing file; otherwise raise [`ResultExistsError`][pes_ref.core.runtime.files.ResultExistsError],
+        before
         writing anything if ``path`` exists already, and at publication if it appeared
         in the meantime (the file there is left as it is).
     what : str
-        What the file is, for the message of :class:`ResultExistsError`.
+        What the file is, for the message of [`ResultExistsError`][pes_ref.core.runtime.files.ResultExistsError].
 
     Yields
     ------
@@ -134,7 +136,7 @@ def _publish_without_links(tmp: str, path: str, what: str) -> None:
 
 def move_into(paths, directory) -> None:
     """Move each finished file of ``paths`` into ``directory`` under its own name, each
-    in one step (:func:`os.replace`, replacing a file of that name). ``paths`` must be on
+    in one step (`os.replace`, replacing a file of that name). ``paths`` must be on
     the file system of ``directory`` (a staging folder beside it)."""
     for path in paths:
         os.replace(path, os.path.join(directory, os.path.basename(path)))

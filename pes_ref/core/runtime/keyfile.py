@@ -3,12 +3,14 @@ in one line.
 
 Device files (``docs/devices.md``), problem files (``docs/problems.md``) and sweep files
 (``docs/sweeps.md``) are read the same way: the text (UTF-8), then the TOML, then every key
-checked, and every refusal is one :class:`KeyFileError` line naming the file and the key at
+checked, and every refusal is one [`KeyFileError`][pes_ref.core.runtime.keyfile.KeyFileError] line naming the file and
+the key at
 fault, ``"PATH: KEY: what was expected, got VALUE"``. A section of a file is declared as a
-dict ``name -> Key`` (the key's type, default and unit); :meth:`KeyReader.table` checks a TOML
+dict ``name -> Key`` (the key's type, default and unit);
+[`KeyReader.table`][pes_ref.core.runtime.keyfile.KeyReader.table] checks a TOML
 table against it: an unknown key, a missing required one or a value of the wrong type is
 refused naming the key. The converters are looked up by the key's type in the reader's
-:attr:`KeyReader.types` (dispatch by data): :data:`TYPES` here, which each kind of file
+`KeyReader.types` (dispatch by data): `TYPES` here, which each kind of file
 extends with its own (and subclasses the error and the reader).
 """
 from __future__ import annotations
@@ -35,8 +37,8 @@ REQUIRED = _Required()
 
 
 class Key(NamedTuple):
-    """One key of a section: its type (a name in the reader's :attr:`KeyReader.types`), default
-    (:data:`REQUIRED`: none), unit (for the docs) and, for ``"choice"`` keys, the choices."""
+    """One key of a section: its type (a name in the reader's `KeyReader.types`), default
+    (`REQUIRED`: none), unit (for the docs) and, for ``"choice"`` keys, the choices."""
 
     type: str
     default: object = REQUIRED
@@ -64,7 +66,7 @@ def _toml(value) -> str:
 
 def read_text(path, error: type, what: str) -> str:
     """The UTF-8 text of the ``what`` (e.g. ``"device file"``) at ``path``; ``error`` (a
-    :class:`KeyFileError`) for a missing file, a folder, or a file that cannot be read."""
+    [`KeyFileError`][pes_ref.core.runtime.keyfile.KeyFileError]) for a missing file, a folder, or a file that cannot be read."""
     path = os.fspath(path)
     try:
         with open(path, "rb") as fh:
@@ -86,7 +88,7 @@ def parse_toml(text: str, path: str, error: type) -> dict:
 
 
 class KeyReader:
-    """Checks the values of one file and raises :attr:`error` naming ``path`` and the key.
+    """Checks the values of one file and raises `error` naming ``path`` and the key.
 
     ``noun`` names the file's top level in a message about its keys (``"a device file"``)."""
 
@@ -97,7 +99,7 @@ class KeyReader:
         self.path = path
 
     def fail(self, key: str, message: str):
-        """Raise :attr:`error` with ``"PATH: KEY: message"``, the one line of every refusal."""
+        """Raise `error` with ``"PATH: KEY: message"``, the one line of every refusal."""
         raise self.error(f"{self.path}: {key}: {message}")
 
     def check_keys(self, value, where: str, allowed) -> dict:
@@ -147,7 +149,8 @@ class KeyReader:
     types: dict = {}
 
     def table(self, value, where: str, keys: dict, *, also=()) -> dict:
-        """The table ``value`` at ``where`` checked against ``keys`` (name -> :class:`Key`): every
+        """The table ``value`` at ``where`` checked against ``keys`` (name ->
+        [`Key`][pes_ref.core.runtime.keyfile.Key]): every
         key converted by its type, defaults filled in. ``also`` names further keys the caller
         reads itself."""
         self.check_keys(value, where, tuple(keys) + tuple(also))

@@ -1,6 +1,6 @@
 """The memory of a run's large arrays: anonymous maps of the system's base pages.
 
-A run's arrays scale with ``(T+1) N`` (:mod:`pes_ref.core.budget`): the trajectory, its
+A run's arrays scale with ``(T+1) N`` ([`pes_ref.core.budget`][pes_ref.core.budget]): the trajectory, its
 force schedule, the energy, ``dL/dX`` and ``grad_force`` are hundreds of megabytes each
 at N = 65,536. NumPy asks the kernel for 2 MiB pages (``madvise(MADV_HUGEPAGE)``) on
 every array of 4 MiB or more. Where transparent huge pages are set to ``madvise`` with
@@ -10,22 +10,27 @@ the machine's memory is: 0.1 to 1.3 s of system time for one oracle run at N = 6
 T = 100 on the reference machine, against a steady 0.35 s with base pages
 (docs/performance.md, "Large runs and huge pages").
 
-:func:`empty` and :func:`zeros` give such arrays from anonymous private maps
-(:mod:`mmap`), without that advice. And they reuse them: memory that is new costs a page
+[`empty`][pes_ref.core.runtime.pages.empty] and [`zeros`][pes_ref.core.runtime.pages.zeros] give such arrays from
+anonymous private maps
+(`mmap`), without that advice. And they reuse them: memory that is new costs a page
 fault per 4 KiB page on first touch (about 1.5 us each: 0.71-0.79 s a run at N = 65,536,
 T = 100, against 0.61 s in memory touched before). So a map whose arrays are all gone
 (nothing refers to it but this module, as its reference count tells) is kept, idle, and the
-next array of its size in bytes is made in it (zeroed first for :func:`zeros`). An
+next array of its size in bytes is made in it (zeroed first for [`zeros`][pes_ref.core.runtime.pages.zeros]). An
 allocation that finds no idle map of its size first gives every idle map back to the system
-(:func:`release`), so what is kept is at most the arrays of the last size of run, and a run
-of another size starts from nothing kept; :func:`idle_bytes` counts as available memory for
-:func:`pes_ref.core.budget.available_memory`. The maps are shared by every thread under one
-lock (both halves of :mod:`pes_ref.core.halves` allocate).
+([`release`][pes_ref.core.runtime.pages.release]), so what is kept is at most the arrays of the last size of run, and a
+run
+of another size starts from nothing kept; [`idle_bytes`][pes_ref.core.runtime.pages.idle_bytes] counts as available
+memory for
+[`pes_ref.core.budget.available_memory`][pes_ref.core.budget.available_memory]. The maps are shared by every thread
+under one
+lock (both halves of [`pes_ref.core.halves`][pes_ref.core.halves] allocate).
 
-An array of less than :data:`THRESHOLD` bytes, or any array on a system without anonymous
-maps, comes from NumPy as usual. A map the system refuses raises :class:`MemoryError`, as
-NumPy's refusal does. :func:`owns` tells an array made here, which owns its memory as an array
-from :func:`numpy.empty` does.
+An array of less than `THRESHOLD` bytes, or any array on a system without anonymous
+maps, comes from NumPy as usual. A map the system refuses raises `MemoryError`, as
+NumPy's refusal does. [`owns`][pes_ref.core.runtime.pages.owns] tells an array made here, which owns its memory as an
+array
+from `numpy.empty` does.
 """
 from __future__ import annotations
 
@@ -117,13 +122,13 @@ def idle_bytes() -> int:
 
 
 def empty(shape, dtype=np.float64) -> np.ndarray:
-    """A new C-contiguous array whose values are to be written, as :func:`numpy.empty`."""
+    """A new C-contiguous array whose values are to be written, as `numpy.empty`."""
     a = _mapped(shape, dtype, zero=False)
     return np.empty(shape, dtype) if a is None else a
 
 
 def zeros(shape, dtype=np.float64) -> np.ndarray:
-    """A new C-contiguous array of zeros, as :func:`numpy.zeros`."""
+    """A new C-contiguous array of zeros, as `numpy.zeros`."""
     a = _mapped(shape, dtype, zero=True)
     return np.zeros(shape, dtype) if a is None else a
 

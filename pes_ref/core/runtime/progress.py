@@ -1,27 +1,33 @@
 """Progress and time left: the one type every long loop reports, the one clock that
 estimates the time left, and the one line a command prints.
 
-- :class:`Progress`: where a loop is (what is done out of what total, in which stage),
+- [`Progress`][pes_ref.core.runtime.progress.Progress]: where a loop is (what is done out of what total, in which
+  stage),
   its rate, the time it has run and the time left, and the figures it shows (loss,
   metric, fitness ...). The design loop, the polish, a sweep and a long oracle run all
-  report one (:func:`pes_ref.synthesis.run_stages`, :func:`pes_ref.sweep.runner.run_sweep`,
+  report one ([`pes_ref.synthesis.run_stages`][pes_ref.synthesis.stages.run_stages],
+  [`pes_ref.sweep.runner.run_sweep`][pes_ref.sweep.runner.run_sweep],
   the ``oracle`` command).
-- :class:`Clock`: the rate of each segment of a loop (a stage of a design, the forward
+- [`Clock`][pes_ref.core.runtime.progress.Clock]: the rate of each segment of a loop (a stage of a design, the forward
   run and the adjoint of an oracle run) and the time left, summed over the segments
   still to run.
-- :func:`progress_line` and :func:`clock_time`: a :class:`Progress` as one line of text,
+- [`progress_line`][pes_ref.core.runtime.progress.progress_line] and
+  [`clock_time`][pes_ref.core.runtime.progress.clock_time]: a [`Progress`][pes_ref.core.runtime.progress.Progress] as
+  one line of text,
   and a duration as ``m:ss``, for every command.
-- :class:`ProgressWriter`: how a command shows those lines on stderr: at a terminal one
+- [`ProgressWriter`][pes_ref.core.runtime.progress.ProgressWriter]: how a command shows those lines on stderr: at a
+  terminal one
   line rewritten in place, elsewhere (a pipe, a file, a log) plain lines.
 
 The time-stepping loops (the forward run and its adjoint) report through a cheaper
 hook: an optional callback ``progress(phase, done, total)`` (``phase`` is ``"forward"``
-or ``"adjoint"``, ``done`` the steps finished out of ``total``). :func:`reporting`
+or ``"adjoint"``, ``done`` the steps finished out of ``total``). [`reporting`][pes_ref.core.runtime.progress.reporting]
 wraps a loop's iterable so that the callback is called once before the first step,
-then after every :data:`EVERY` steps and after the last: the loop body itself never
+then after every `EVERY` steps and after the last: the loop body itself never
 checks anything, and without a callback the iterable is returned unchanged, so a run
-without progress reports pays nothing; a compiled loop runs in :func:`blocks` of as many steps. A command that shows such a run turns the calls
-into :class:`Progress` (the ``oracle`` command's ``ProgressLines``).
+without progress reports pays nothing; a compiled loop runs in [`blocks`][pes_ref.core.runtime.progress.blocks] of as
+many steps. A command that shows such a run turns the calls
+into [`Progress`][pes_ref.core.runtime.progress.Progress] (the ``oracle`` command's ``ProgressLines``).
 """
 from __future__ import annotations
 
@@ -38,7 +44,7 @@ __all__ = ["EVERY", "WARMUP", "LONG_RUN", "PERIOD", "reporting", "blocks", "Prog
 #: Steps between two calls of a progress callback (a callback that reads a clock reads it
 #: this rarely; at ~10 us a step that is every few milliseconds).
 EVERY = 256
-#: Ticks at the start of each segment of a :class:`Clock` that are not timed: the first
+#: Ticks at the start of each segment of a `Clock` that are not timed: the first
 #: iteration of a design stage (or a polish generation, a sweep's first runs, an oracle
 #: run's first block of steps) carries one-off costs, compiling the loops, imports,
 #: allocating, that made the time left read 11-27 minutes at iteration 1 of runs that took
@@ -47,14 +53,14 @@ WARMUP = 1
 #: A command whose run may be short (an analysis, an oracle run) stays silent for its first
 #: LONG_RUN seconds, then prints at most one progress line every PERIOD seconds. Whether a
 #: line is printed therefore depends on the machine's speed: a test compares a command's
-#: stderr without its progress lines (:func:`is_progress_line`).
+#: stderr without its progress lines (`is_progress_line`).
 LONG_RUN = 3.0
 PERIOD = 2.0
 
 
 def reporting(steps: Iterable, progress: Callable | None, phase: str, total: int) -> Iterable:
     """``steps`` as they are, calling ``progress(phase, done, total)`` at 0, every
-    :data:`EVERY` steps and at ``total``; ``steps`` itself when ``progress`` is None.
+    `EVERY` steps and at ``total``; ``steps`` itself when ``progress`` is None.
 
     Parameters
     ----------
@@ -79,8 +85,8 @@ def _chunks(steps, progress, phase, total):
 def blocks(total: int, progress: Callable | None, phase: str) -> Iterable:
     """The steps ``0 .. total`` as ``(done, done_after)`` blocks for a loop that runs a
     block at a time (a compiled one): the whole run in one block when ``progress`` is
-    None, else :data:`EVERY` steps per block, with ``progress(phase, done, total)`` called
-    as :func:`reporting` calls it; a run of no steps is one empty block ``(0, 0)``."""
+    None, else `EVERY` steps per block, with ``progress(phase, done, total)`` called
+    as [`reporting`][pes_ref.core.runtime.progress.reporting] calls it; a run of no steps is one empty block ``(0, 0)``."""
     if progress is None:
         return iter([(0, total)])
     return _blocks(total, progress, phase)
@@ -117,7 +123,7 @@ class Progress:
         Estimated seconds to the end (``inf`` while unknown).
     figures : tuple of (name, value)
         What else the loop shows, in order: numbers, a grid shape (a tuple of ints) or
-        short text; :meth:`figure` reads one by name.
+        short text; [`figure`][pes_ref.core.runtime.progress.Progress.figure] reads one by name.
 
     A plain class with slots rather than a named tuple: every run of the ``oracle``
     command imports this module, and a named tuple's class would cost each run a few tenths
@@ -146,7 +152,7 @@ class Clock:
     A segment that has run is timed by its own units; one yet to run, by the seconds
     per cost unit of the latest segment timed, times its own cost. The first ``warmup``
     ticks of a segment that finish units (and the ticks before them) are its warm-up and
-    are not timed: they carry one-off costs (:data:`WARMUP`). Before anything is timed
+    are not timed: they carry one-off costs (`WARMUP`). Before anything is timed
     the time left is unknown (``inf``, shown as ``left ?``) and the rate 0 (``? it/s``).
 
     Parameters
@@ -156,7 +162,7 @@ class Clock:
         ``[start, end)``, each costing ``cost`` (default 1; any unit, only the ratios
         between segments count, e.g. a design stage's steps per training run).
     warmup : int
-        Ticks of each segment not timed (default :data:`WARMUP`).
+        Ticks of each segment not timed (default `WARMUP`).
     """
 
     def __init__(self, segments, warmup: int = WARMUP):
@@ -213,7 +219,8 @@ def clock_time(seconds: float) -> str:
 
 
 def figure_text(value) -> str:
-    """A figure of a :class:`Progress` as text: a grid shape as ``25x25``, a float to 4
+    """A figure of a [`Progress`][pes_ref.core.runtime.progress.Progress] as text: a grid shape as ``25x25``, a float to
+    4
     significant digits, anything else as ``str`` gives it."""
     if isinstance(value, tuple):                        # a grid shape
         return "x".join(str(n) for n in value)
@@ -229,7 +236,7 @@ def _rate(rate: float) -> str:
 
 
 def progress_line(p: Progress) -> str:
-    """One line of a :class:`Progress`, the same for every command, e.g.
+    """One line of a [`Progress`][pes_ref.core.runtime.progress.Progress], the same for every command, e.g.
     ``design funnel: stage 1/2 | it 30/300 | grid 25x25 | steps 200 | loss 0.1234 |
     in_band 0.4 | 5.2 it/s | elapsed 0:06 | left 1:10``."""
     head = f"{p.label}: {p.stage}" if p.stage else p.label
@@ -244,7 +251,8 @@ _PROGRESS = r"(?!error: |warning: )[^\n|]+ \| \S+ -?\d+/\d+ \| (?:[^\n|]+ \| )*\
 
 
 def is_progress_line(line: str) -> bool:
-    """Whether ``line`` (without its newline) is one that :func:`progress_line` makes: a
+    """Whether ``line`` (without its newline) is one that [`progress_line`][pes_ref.core.runtime.progress.progress_line]
+    makes: a
     head, ``unit done/total``, the figures, ``rate unit/s``, ``elapsed m:ss`` and ``left
     m:ss``. What a command prints on stderr is its progress lines and then its own lines
     (``error: ...``, ``warning: ...``, never taken for progress whatever follows); this tells
@@ -254,7 +262,7 @@ def is_progress_line(line: str) -> bool:
 
 def _columns(stream) -> int:
     """The width of the terminal ``stream`` writes to: ``COLUMNS`` if set (as
-    :func:`shutil.get_terminal_size` reads it), else the stream's own terminal (not
+    `shutil.get_terminal_size` reads it), else the stream's own terminal (not
     stdout's: ``design ... > log`` keeps stderr at the terminal), else 80."""
     try:
         columns = int(os.environ.get("COLUMNS", 0))
@@ -269,14 +277,17 @@ def _columns(stream) -> int:
 
 
 class ProgressWriter:
-    """How a command shows its progress lines (:func:`progress_line`) on stderr.
+    """How a command shows its progress lines ([`progress_line`][pes_ref.core.runtime.progress.progress_line]) on
+    stderr.
 
     At a terminal (``stream.isatty()``, and ``TERM`` not ``dumb``) each line replaces the
     one before in place: a carriage return, the cursor moved up over the rows a line
     wider than the terminal wrapped onto, the old text cleared (to the end of the line, or
     of the screen after a wrapped line), then the new line, without a newline. Anywhere
-    else (a pipe, a file, a CI log) each is a plain line, as before. :meth:`note` prints a
-    line of its own that stays (a change of stage), :meth:`end` ends the line in place
+    else (a pipe, a file, a CI log) each is a plain line, as before.
+    [`note`][pes_ref.core.runtime.progress.ProgressWriter.note] prints a
+    line of its own that stays (a change of stage), [`end`][pes_ref.core.runtime.progress.ProgressWriter.end] ends the
+    line in place
     with a newline; a command calls it before it prints anything else, so that its last
     progress line stays on the screen, whole.
 
@@ -303,7 +314,7 @@ class ProgressWriter:
             return False
 
     def show(self, p) -> None:
-        """Show ``p`` (a :class:`Progress`, or a line of text) in place of the last line."""
+        """Show ``p`` (a [`Progress`][pes_ref.core.runtime.progress.Progress], or a line of text) in place of the last line."""
         line = p if isinstance(p, str) else progress_line(p)
         out = self._out()
         if not self.in_place(out):

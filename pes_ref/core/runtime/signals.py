@@ -2,20 +2,25 @@
 
 Its rules, one function each:
 
-- :class:`StopFlag`: a long loop (a design's iterations, the polish's generations) turns
+- [`StopFlag`][pes_ref.core.runtime.signals.StopFlag]: a long loop (a design's iterations, the polish's generations)
+  turns
   SIGINT (Ctrl-C) and SIGTERM (a batch scheduler preempting the run) into a flag that it
   checks between two steps, so that it stops on a whole state it can save; a second
-  signal stops at once (:class:`KeyboardInterrupt`).
-- :func:`sigterm_interrupts`: anywhere else in a command, SIGTERM stops the process as
-  Ctrl-C does (:class:`KeyboardInterrupt`), so that the command's own clean-up runs.
-- :func:`note_interrupts`, :func:`interrupted`: Ctrl-C while the command line is still
+  signal stops at once (`KeyboardInterrupt`).
+- [`sigterm_interrupts`][pes_ref.core.runtime.signals.sigterm_interrupts]: anywhere else in a command, SIGTERM stops the
+  process as
+  Ctrl-C does (`KeyboardInterrupt`), so that the command's own clean-up runs.
+- [`note_interrupts`][pes_ref.core.runtime.signals.note_interrupts],
+  [`interrupted`][pes_ref.core.runtime.signals.interrupted]: Ctrl-C while the command line is still
   being imported, noted even where a C extension's import turns it into another error.
-- :func:`ignore_interrupts`: a worker process (a process pool of the polish, a Dask
+- [`ignore_interrupts`][pes_ref.core.runtime.signals.ignore_interrupts]: a worker process (a process pool of the polish,
+  a Dask
   worker of a sweep) ignores SIGINT: Ctrl-C in a terminal reaches the whole process
   group, and stopping is the main process's to decide.
 
 Handlers can be installed in the main thread only; elsewhere (a Dask worker's task
-thread) :class:`StopFlag` and :func:`sigterm_interrupts` leave the handlers as they are.
+thread) [`StopFlag`][pes_ref.core.runtime.signals.StopFlag] and
+[`sigterm_interrupts`][pes_ref.core.runtime.signals.sigterm_interrupts] leave the handlers as they are.
 """
 from __future__ import annotations
 
@@ -41,7 +46,7 @@ def _install(signum, handler):
 
 class StopFlag:
     """Turns SIGINT and SIGTERM into a flag (``stop``) that a loop checks between two
-    steps; a second signal raises :class:`KeyboardInterrupt` at once. The previous
+    steps; a second signal raises `KeyboardInterrupt` at once. The previous
     handlers are given back on exit, so nested flags each see their own signals.
 
     Examples
@@ -80,7 +85,7 @@ def _interrupt(signum, frame):
 
 @contextlib.contextmanager
 def sigterm_interrupts():
-    """Within the block, SIGTERM raises :class:`KeyboardInterrupt` (as Ctrl-C does); the
+    """Within the block, SIGTERM raises `KeyboardInterrupt` (as Ctrl-C does); the
     previous handler is given back after it."""
     old = _install(signal.SIGTERM, _interrupt)
     try:
@@ -107,8 +112,9 @@ def _note_interrupt(signum, frame):
 
 
 def note_interrupts() -> None:
-    """Handle Ctrl-C (SIGINT) as Python does, by :class:`KeyboardInterrupt`, and note that
-    it came (:func:`interrupted`): a C extension being imported (NumPy's) may turn the
+    """Handle Ctrl-C (SIGINT) as Python does, by `KeyboardInterrupt`, and note that
+    it came ([`interrupted`][pes_ref.core.runtime.signals.interrupted]): a C extension being imported (NumPy's) may turn
+    the
     KeyboardInterrupt into another error, which the command line then reports as the
     interruption it is. Python's own handler only is replaced (not a SIGINT ignored, as in a
     shell's background job)."""
@@ -117,5 +123,5 @@ def note_interrupts() -> None:
 
 
 def interrupted() -> bool:
-    """Whether Ctrl-C reached the handler of :func:`note_interrupts` in this process."""
+    """Whether Ctrl-C reached the handler of [`note_interrupts`][pes_ref.core.runtime.signals.note_interrupts] in this process."""
     return _INTERRUPTS["seen"]

@@ -3,13 +3,14 @@
 In the style of Project Wycheproof, each version folder (``v1/``, ...) holds a
 ``manifest.json`` and, per vector, ``<id>.case.npz`` and (for valid vectors)
 ``<id>.result.npz`` in the interchange format of docs/spec.md sections 8-9
-(:mod:`pes_ref.oracle.case`). Valid vectors pin down trajectories and gradients; invalid
+([`pes_ref.oracle.case`][pes_ref.oracle.case]). Valid vectors pin down trajectories and gradients; invalid
 vectors are cases that a conforming reader must refuse, naming the key at fault.
 
 A version, once shipped, is frozen: a change of docs/spec.md, of the format or of the
 vector set makes a new folder (the next ``v<k>/``), and old folders stay readable. The files are
-made by :mod:`pes_ref.oracle.conformance.generate` (``python -m pes_ref conformance --write``)
-and used by :mod:`pes_ref.testing.conformance`.
+made by [`pes_ref.oracle.conformance.generate`][pes_ref.oracle.conformance.generate] (``python -m pes_ref conformance
+--write``)
+and used by [`pes_ref.testing.conformance`][pes_ref.testing.conformance].
 """
 from pathlib import Path
 

@@ -56,7 +56,8 @@ def compare_dirs(want_dir, got_dir) -> list:
     -------
     list of (id, ok, max_error, detail)
         ``max_error`` is the largest normalized error of the result (see
-        :func:`pes_ref.oracle.compare.compare_results`); ``detail`` explains a failure.
+        [`pes_ref.oracle.compare.compare_results`][pes_ref.oracle.compare.compare_results]); ``detail`` explains a
+        failure.
     """
     want_dir, got_dir = Path(want_dir), Path(got_dir)
     want_m = json.loads((want_dir / "manifest.json").read_text(encoding="utf-8"))

@@ -1,9 +1,9 @@
 """The conformance vectors' families: every vector of the set, built from seeded generators.
 
-Every vector is built here from a seeded :class:`numpy.random.Generator` (the seed is
+Every vector is built here from a seeded `numpy.random.Generator` (the seed is
 derived from the vector's id, so adding or reordering vectors changes no other one); a
 vector is a case, its kind, flags and, if invalid, the key and error type the oracle must
-refuse it with (:mod:`pes_ref.oracle.conformance.writer` writes them and their results).
+refuse it with ([`pes_ref.oracle.conformance.writer`][pes_ref.oracle.conformance.writer] writes them and their results).
 
 Topologies use a node spacing of 0.25 on every axis, so node and seam positions are
 exact in binary and the edge-state vectors really sit on a node or a seam; the
@@ -60,7 +60,7 @@ class Vector:
     comment : str
         What it covers.
     case : dict
-        The case keys (as :func:`pes_ref.oracle.case.save_case` takes them).
+        The case keys (as [`pes_ref.oracle.case.save_case`][pes_ref.oracle.case.save_case] takes them).
     kind : {"valid", "invalid"}
     flags : list of str
         ``kink``: a state sits exactly on a kink (node, seam, clip edge, wall onset),

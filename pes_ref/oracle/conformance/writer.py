@@ -1,6 +1,6 @@
 """Writing a vector set: each vector's case file, its results from the oracle, and the manifest.
 
-Valid vectors are run through :func:`pes_ref.oracle.case.run_case` (the only source of
+Valid vectors are run through [`pes_ref.oracle.case.run_case`][pes_ref.oracle.case.run_case] (the only source of
 expected results); invalid ones through the oracle too, to check that it refuses them with
 the declared key and error type. Every file is made in a hidden folder beside the target and
 moved in once all are made, the manifest last.
