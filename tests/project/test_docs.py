@@ -106,7 +106,8 @@ def test_a_stale_reference_is_found():
 
 def test_check_transcripts_count_what_the_code_ships():
     """Each transcript of ``pes_ref check`` in docs/oracle.md closes with the number of cases
-    it runs: every vector of the newest set plus its random cases."""
+    it runs: every vector of the newest set, its random cases and the mixed batch, in three
+    processes (docs/spec.md 13.2)."""
     from pes_ref.testing.conformance import load_manifest
     n_vectors = len(load_manifest()["vectors"])
     transcripts = re.findall(r"```\n\$ (.*?)\n(.*?)```", (ROOT / "docs" / "oracle.md").read_text(), re.S)
@@ -114,9 +115,9 @@ def test_check_transcripts_count_what_the_code_ships():
     assert len(checks) == 2
     for cmd, out in checks:
         full = out.splitlines()[0] if cmd.startswith("make") else cmd
-        n = n_vectors + int(re.search(r"--random (\d+)", full).group(1))
+        n = n_vectors + int(re.search(r"--random (\d+)", full).group(1)) + 1
         assert out.rstrip().splitlines()[-1] == f"{n} passed, 0 failed", cmd
-        assert re.search(rf"^{n} cases in 2 processes of the program", out, re.M), cmd
+        assert re.search(rf"^{n} cases in 3 processes of the program", out, re.M), cmd
 
 
 # ------------------------------------------------------------------ the docs say what is, not how it came to be
@@ -151,6 +152,17 @@ def test_history_is_found():
             "<!-- t:begin (make t writes what follows) -->\nregenerated: 2026-11-28 04:54 UTC, commit `26790f3`\n"
             "<!-- t:end -->\nat 21:31 UTC; see the issue tracker, 15 issues in all.\n")
     assert history_in(text) == ["1: issues 4", "2: 05:35-05:38 UTC", "3: Issue 30", "7: 21:31 UTC"]
+
+
+def test_the_quick_start_is_the_same_in_the_readme_and_on_the_site():
+    """One quick start, shown twice: the README's and the site's first page's shell blocks are
+    the same lines."""
+    def block(path):
+        text = (ROOT / path).read_text()
+        after = text[text.index("## Quick start"):]
+        return re.search(r"```sh\n(.*?)```", after, re.S).group(1)
+    assert block("README.md") == block("docs/index.md")
+    assert block("README.md").splitlines()[0].startswith("make venv ")
 
 
 def test_every_docs_page_is_reachable_from_the_readme():
