@@ -33,8 +33,8 @@ import sys
 import time
 
 from pes_ref.core import checks
-from pes_ref.cli.common import (EXIT_ERROR, EXIT_OK, LazyDefault, add_command, error, option_text,  # noqa: F401
-                                output_file, output_folder)
+from pes_ref.cli.common import (EXIT_OK, LazyDefault, add_command, error, option_text, output_file,
+                                output_folder)
 
 #: The ``--smoke`` presets (a smaller grid, shorter runs, coarser searches: for tests and a
 #: quick look; same geometry). An option given explicitly wins; an option neither given nor

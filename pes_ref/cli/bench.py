@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import sys
 
-from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_OK, add_command, error, output_file  # noqa: F401
+from pes_ref.cli.common import EXIT_FAIL, EXIT_OK, add_command, error, output_file
 
 #: Where ``make bench`` leaves its results (git-ignored).
 DEFAULT_OUT = os.path.join("bench", "out", "bench.json")

@@ -33,7 +33,9 @@ class Backend(NamedTuple):
 
     ``module`` holds its ``STEPPERS`` (``(mode, integrator) -> Stepper``), imported on first
     use; ``requires`` the package it needs (None: NumPy alone) and ``extra`` the pip extra
-    that installs it; ``interpolations`` the grid rules its steppers compute. What it does not
+    that installs it; ``interpolations`` the grid rules its steppers compute; ``kernels`` the
+    whole-array operations its module has of its own (the energy of a trajectory, the grid's
+    largest cross curvature: [`kernel`][pes_ref.core.backends.kernel]). What it does not
     cover runs on ``"numpy"``.
     """
 
@@ -42,13 +44,18 @@ class Backend(NamedTuple):
     requires: str | None
     extra: str | None
     interpolations: tuple
+    kernels: tuple = ()
 
 
 #: Every backend by name.
 BACKENDS = {
     "numpy": Backend("numpy", "pes_ref.core.steppers", None, None, ("bilinear", "bicubic")),
-    "numba": Backend("numba", "pes_ref.core.compiled", "numba", "fast", ("bilinear",)),
+    "numba": Backend("numba", "pes_ref.core.compiled", "numba", "fast", ("bilinear",),
+                     ("energy", "cross_curvature_max")),
 }
+
+#: What runs every scene a backend does not cover.
+FALLBACK = "numpy"
 
 #: The default backend is the first of these that is installed.
 DEFAULT_ORDER = ("numba", "numpy")
@@ -59,6 +66,17 @@ def installed(name: str) -> bool:
     """Whether backend ``name``'s package can be imported (found, not imported)."""
     requires = BACKENDS[name].requires
     return requires is None or importlib.util.find_spec(requires) is not None
+
+
+def kernel(backend: str, name: str, interpolation: str = "bilinear"):
+    """Backend ``backend``'s own ``name`` (one of its ``kernels``: ``"energy"``,
+    ``"cross_curvature_max"``) for a grid of rule ``interpolation``, or None where it has none
+    or does not cover the rule: the caller then computes it with NumPy. The same numbers bit
+    for bit either way (each kernel's tests)."""
+    b = BACKENDS[backend]
+    if name not in b.kernels or interpolation not in b.interpolations:
+        return None
+    return getattr(importlib.import_module(b.module), name)
 
 
 def default_backend() -> str:
@@ -98,7 +116,7 @@ def stepper(backend: str, mode: str, integrator: str, interpolation: str, n_part
     ``n_particles`` >= `pes_ref.core.halves.MIN_PARTICLES` runs the particles as two halves
     on two threads ([`pes_ref.core.halves.stepper`][pes_ref.core.halves.stepper]; None: one thread, as a population's
     stacked grids need)."""
-    if backend != "numpy" and covers(backend, mode, integrator, interpolation):
+    if backend != FALLBACK and covers(backend, mode, integrator, interpolation):
         return _steppers(backend)[(mode, integrator)]
     if n_particles is not None and n_particles >= halves.MIN_PARTICLES:
         return halves.stepper(numpy_stepper(mode, integrator))

@@ -348,9 +348,9 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy", out: np.ndarr
     x, v = traj.x, traj.v
     T1, N = x.shape[0], x.shape[1]
     fld = scene.field()
-    if backend == "numba" and fld.interpolation == "bilinear":
-        from pes_ref.core import compiled
-        return compiled.energy(fld, x, v, scene.mass, out)
+    fast = backends.kernel(backend, "energy", fld.interpolation)
+    if fast is not None:
+        return fast(fld, x, v, scene.mass, out)
     if out is None:
         out = pages.empty((T1, N))
     if fld.interpolation == "bilinear" and fld.offsets is None:

@@ -94,10 +94,11 @@ def grid_cross_curvature(surface, backend: str = "numpy") -> float:
     ([`pes_ref.core.compiled.cross_curvature_max`][pes_ref.core.compiled.cross_curvature_max]), without the temporaries:
     the same
     number bit for bit."""
+    from pes_ref.core.backends import kernel         # here: the backends' registry imports the steppers
     h = surface.spacing
-    if backend == "numba":
-        from pes_ref.core import compiled
-        return float(np.float64(compiled.cross_curvature_max(surface.values, surface.periodic)) / (h[0] * h[1]))
+    fast = kernel(backend, "cross_curvature_max")
+    if fast is not None:
+        return float(np.float64(fast(surface.values, surface.periodic)) / (h[0] * h[1]))
     G = _closed(surface.values, surface.periodic)
     hc = np.abs(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1])
     return float(hc.max() / (h[0] * h[1]))

@@ -376,12 +376,13 @@ def polish(problem, values, seed: int, plan: PolishPlan = PolishPlan(), *, execu
                                  plan.rest_share, plan.center_share, plan.center_std, plan.rest_max_share)
     B = legendre_fourier_basis(problem, values.shape, plan.fourier_order, plan.legendre_terms)
     fitness = Fitness(problem, particles, plan.periods, plan.margin_weight, plan.strictness, backend)
-    validate = None
+    validate = None                 # the search's own validation: the captured share on held particles
     if plan.validation_particles:
         held = validation_particles(problem, np.random.default_rng([seed, VALIDATION_SEED]), plan.validation_particles)
 
-        def validate(coef):
+        def captured(coef):
             return captured_share(problem, values + B @ coef, held, plan.periods, backend)
+        validate = captured
 
     def evaluate(coefs):
         grids = [values + B @ np.asarray(c, dtype=np.float64) for c in coefs]

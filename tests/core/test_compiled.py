@@ -444,3 +444,13 @@ def test_the_dynamic_loops_coefficients_from_the_values_are_the_tables(periodic,
     table = oracle.run_case(case, backend="numba")
     assert direct.keys() == table.keys()
     assert all(direct[k].tobytes() == table[k].tobytes() for k in direct)
+
+
+def test_a_backend_s_own_kernels_are_found_by_name_in_its_registry_entry():
+    """The compiled energy and cross curvature come from the registry (no code asks for a backend
+    by its name): NumPy has none of its own, and a grid rule the backend does not cover has none."""
+    from pes_ref.core import backends, compiled
+    assert backends.kernel("numba", "energy") is compiled.energy
+    assert backends.kernel("numba", "cross_curvature_max") is compiled.cross_curvature_max
+    assert backends.kernel("numba", "energy", "bicubic") is None
+    assert backends.kernel("numpy", "energy") is None and backends.kernel("numpy", "cross_curvature_max") is None

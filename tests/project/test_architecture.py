@@ -76,3 +76,12 @@ def test_the_walk_of_a_case_names_what_exists():
         else:
             missing.append(name)
     assert missing == [], missing
+
+
+def test_no_code_asks_for_a_backend_by_its_name():
+    """What a backend computes of its own is in its entry of ``core.backends.BACKENDS``
+    (``kernels``), so a new backend is one entry: nothing compares a backend's name."""
+    import re
+    found = [f"{path.relative_to(ROOT)}:{i}" for path in sorted((ROOT / "pes_ref").rglob("*.py"))
+             for i, line in enumerate(path.read_text().splitlines(), 1) if re.search(r"backend\s*[=!]=\s*['\"]", line)]
+    assert not found, found
