@@ -157,7 +157,8 @@ class DesignProblem(_Problem):
     def __init__(self, *, data: dict, path: str, text: str | None, name: str, description: str, lower, upper,
                  periodic, grid_shape, interpolation, holds, scene_keys: dict, n_steps: int, starts: Starts,
                  forces: tuple, terms: tuple, term_names: tuple, grid_terms: tuple, tests: tuple, scenarios: tuple,
-                 eval_particles: int, plan, init_scale: float, contact=None, shares: tuple = ()):
+                 eval_particles: int, plan, init_scale: float, contact=None, shares: tuple = (),
+                 warnings: tuple = ()):
         self.data, self.path, self.source_text = data, path, text
         self.name, self.description = name, description
         self.lower, self.upper, self.periodic = tuple(lower), tuple(upper), tuple(periodic)
@@ -169,6 +170,8 @@ class DesignProblem(_Problem):
         self.tests, self.scenarios, self.shares = tuple(tests), tuple(scenarios), tuple(shares)
         self.eval_particles, self.plan, self.init_scale = eval_particles, plan, init_scale
         self.contact = contact
+        #: What the file's reader warns of (one line each, ``design`` prints them before the run).
+        self.warnings = tuple(warnings)
         self.level_set = None if contact is None else contact.level_set()
 
     def __eq__(self, other):

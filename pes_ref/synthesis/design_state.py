@@ -84,6 +84,15 @@ class DesignState:
         return "gradient" if self.polish is None else "gradient+polish"
 
     @property
+    def grid_iteration(self) -> int:
+        """The iteration whose grid the run holds as its design: a done run that validated delivers
+        its best validated grid (``best``), which may be an earlier iteration's than the last
+        (a polish starts from that grid); otherwise the last iteration's."""
+        if self.best is not None and (self.status == "done" or self.stage == "polish"):
+            return self.best.iteration
+        return self.iteration
+
+    @property
     def finished(self) -> bool:
         """Every stage of the run is done."""
         return self.status == "done" and (self.polish is None or self.stage == "polish")

@@ -39,7 +39,7 @@ from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader
 from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
 from pes_ref.synthesis.plans import Plan, default_plan
 from pes_ref.synthesis.problem_contact import Contact
-from pes_ref.synthesis.success import SUCCESS_TESTS, GroupTest, ShareCriterion
+from pes_ref.synthesis.success import SUCCESS_TESTS, GroupTest, ShareCriterion, outside_domain
 from pes_ref.synthesis.surrogates import DEFAULT_MARGIN, derived_terms, has_cost
 
 __all__ = ["FORMAT", "load_problem", "parse_problem", "problem_from_text", "problem_text", "with_sets",
@@ -181,7 +181,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
 
     scene_keys, n_steps = _dynamics(r, _section(r, data, "dynamics"), domain)
     duration = n_steps * scene_keys["dt"]
-    starts = _starts(r, _section(r, data, "starts"))
+    starts = _starts(r, _section(r, data, "starts"), domain)
     forces = _forces(r, data.get("forces", []), "forces", duration)
 
     evaluate = _section(r, data, "evaluate")
@@ -233,6 +233,11 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     if len({s.name for s in scenarios}) != len(scenarios):
         r.fail("evaluate.scenario", f"two scenarios have the same name: {[s.name for s in scenarios]}")
 
+    warnings = [f"{at} ({name}): its region {[[round(v, 9) for v in c] for c in region]} lies wholly outside the domain "
+                f"[{_plain(domain.lower)}, {_plain(domain.upper)}], where the surface is not designed: "
+                f"no particle is brought there"
+                for at, name, test in _located(tests, "evaluate.success", scenarios)
+                if (region := outside_domain(test, domain)) is not None]
     plan, init_scale = _train(r, data.get("train"), surface["shape"], _coarse(contact))
     problem = DesignProblem(
         data=data, path=path, text=text, name=name, description=top["description"], lower=surface["lower"],
@@ -241,9 +246,17 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         forces=forces, terms=[t for _, t in state], term_names=[n for n, _ in state] + [
             n for n, t in zip(names, terms) if is_grid_term(t)],
         grid_terms=grid_terms, tests=tests, shares=shares, scenarios=tuple(scenarios), eval_particles=ev["particles"], plan=plan,
-        init_scale=init_scale, contact=contact)
+        init_scale=init_scale, contact=contact, warnings=tuple(warnings))
     _check_scene(r, problem)
     return problem
+
+
+def _located(tests, where: str, scenarios) -> list:
+    """``(key, name, test)`` of every success test, the scenarios' too, by its place in the file."""
+    out = [(f"{where}[{i}]", name, test) for i, (name, test) in enumerate(tests)]
+    for j, sc in enumerate(scenarios):
+        out += [(f"evaluate.scenario[{j}].success[{i}]", name, test) for i, (name, test) in enumerate(sc.tests)]
+    return out
 
 
 def _custom_named(term: CustomTerm, name: str, i: int, obj) -> CustomTerm:
@@ -359,23 +372,37 @@ def _dynamics(r: Reader, table: dict, domain: Domain):
     return keys, n_steps
 
 
-def _starts(r: Reader, table: dict, where: str = "starts", groups: bool = True) -> Starts:
+def _starts(r: Reader, table: dict, domain: Domain, where: str = "starts", groups: bool = True) -> Starts:
     s = r.table(table, where, STARTS_KEYS, also=("group",) if groups else ())
     if groups and "group" in table:
         if s["box"] is not None or s["points"] is not None:
             r.fail(f"{where}.group", "give either start groups or the starts' box or points, not both")
+        if "velocity" in table:
+            r.fail(f"{where}.velocity", f"{_plain(table['velocity'])} beside start groups is given to no particle; "
+                                        f"give each [[starts.group]] its own velocity")
         out = []
         for i, entry in enumerate(_list(r, table["group"], f"{where}.group", required=True)):
             at = f"{where}.group[{i}]"
             keys = r.table(entry, at, GROUP_KEYS, also=tuple(STARTS_KEYS))
-            out.append(StartGroup(keys["name"], keys["share"],
-                                  _starts(r, {k: v for k, v in entry.items() if k not in GROUP_KEYS}, at, False)))
+            out.append(StartGroup(keys["name"], keys["share"], _starts(
+                r, {k: v for k, v in entry.items() if k not in GROUP_KEYS}, domain, at, False)))
         if len({g.name for g in out}) != len(out):
             r.fail(f"{where}.group", f"two groups have the same name: {[g.name for g in out]}")
         return Starts(None, None, s["velocity"], tuple(out))
     if (s["box"] is None) == (s["points"] is None):
         r.fail(f"{where}.box", "give exactly one of box and points" + (" (or start groups)" if groups else ""))
+    corners = (s["box"] if s["box"] is not None else s["points"])
+    key = "box" if s["box"] is not None else "points"
+    for point in corners:
+        if not _in_domain(point, domain):
+            r.fail(f"{where}.{key}", f"{_plain(point)} lies outside the domain [{_plain(domain.lower)}, "
+                                     f"{_plain(domain.upper)}]: particles start inside it")
     return Starts(s["box"], s["points"], s["velocity"])
+
+
+def _in_domain(point, domain: Domain) -> bool:
+    """Whether ``point`` lies in the domain (faces included) on its non-periodic axes."""
+    return all(p or lo <= q <= hi for q, lo, hi, p in zip(point, domain.lower, domain.upper, domain.periodic))
 
 
 def _forces(r: Reader, value, where: str, duration: float) -> tuple:

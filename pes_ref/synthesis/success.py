@@ -30,7 +30,7 @@ from pes_ref.synthesis.objective_terms import (EDGES, CustomTermError, Domain, E
 
 __all__ = ["SUCCESS_TESTS", "FinalPositionTest", "PositionAtTest", "StayInTest", "WithinTest", "ExitTest",
            "CrossTest", "SpeedAtTest", "AnyOfTest", "CustomTest", "GroupTest", "ShareCriterion", "passes_all",
-           "applies"]
+           "applies", "outside_domain"]
 
 _WINDOW = {"from": Key("nonneg", 0.0, unit="time"), "to": Key("nonneg", math.inf, unit="time")}
 
@@ -60,6 +60,26 @@ def _at_states(x: np.ndarray, n, c: np.ndarray, g: np.ndarray, mean: bool = Fals
     return c, gx, None
 
 
+def _disc_region(center, radius: float) -> tuple:
+    """``(lower, upper)`` of the box around the disc of ``radius`` about ``center``."""
+    return tuple(c - radius for c in center), tuple(c + radius for c in center)
+
+
+def outside_domain(test, domain: Domain):
+    """The region ``(lower, upper)`` ``test`` asks a particle to reach (its ``region()``) if it lies
+    wholly outside ``domain`` on a non-periodic axis, where the surface is not designed; else None
+    (and for a test with no region: an exit, a speed). A group's test is judged by its own."""
+    test = getattr(test, "test", test)
+    region = getattr(test, "region", None)
+    if region is None:
+        return None
+    lower, upper = region()
+    if any(not periodic and (hi < d_lo or lo > d_hi)
+           for lo, hi, d_lo, d_hi, periodic in zip(lower, upper, domain.lower, domain.upper, domain.periodic)):
+        return tuple(lower), tuple(upper)
+    return None
+
+
 def _none(x: np.ndarray):
     """Every particle fails (a time after the run's end)."""
     return np.zeros(x.shape[1], dtype=bool)
@@ -81,6 +101,10 @@ class FinalPositionTest:
         the problem file's reader builds every test, as it builds the objective terms
         (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["target"], keys["radius"], domain)
+
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box around the disc a particle must reach (the domain check's)."""
+        return _disc_region(self.target, self.radius)
 
     def passes(self, x, v, t):
         """Whether each particle's last state lies within ``radius`` of ``target``, (N,) bool; the
@@ -112,6 +136,10 @@ class PositionAtTest:
         the problem file's reader builds every test, as it builds the objective terms
         (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["time"], keys["target"], keys["radius"], domain)
+
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box around the disc a particle must reach (the domain check's)."""
+        return _disc_region(self.target, self.radius)
 
     def passes(self, x, v, t):
         """Whether the state nearest ``time`` lies within ``radius`` of ``target``, (N,) bool (every particle
@@ -147,6 +175,10 @@ class StayInTest:
         the problem file's reader builds every test, as it builds the objective terms
         (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(StayIn(keys["lower"], keys["upper"], keys["from"], keys["to"], 1.0, domain))
+
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box a particle must stay in (the domain check's)."""
+        return self.box.lower, self.box.upper
 
     def passes(self, x, v, t):
         """Whether every state of the window lies in the box, (N,) bool (every particle fails when the
@@ -188,6 +220,10 @@ class WithinTest:
         the problem file's reader builds every test, as it builds the objective terms
         (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["center"], keys["radius"], keys["from"], keys["to"], domain)
+
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box around the disc a particle must reach (the domain check's)."""
+        return _disc_region(self.center, self.radius)
 
     def passes(self, x, v, t):
         """Whether every state of the window lies within ``radius`` of ``center``, (N,) bool (every particle
@@ -295,6 +331,10 @@ class CrossTest:
         the problem file's reader builds every test, as it builds the objective terms
         (:mod:`pes_ref.synthesis.objective_terms`)."""
         return cls(keys["a"], keys["b"], keys["from"], keys["to"], domain)
+
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box around the segment a particle must cross (the domain check's)."""
+        return tuple(np.minimum(self.a, self.b).tolist()), tuple(np.maximum(self.a, self.b).tolist())
 
     def _states(self, x, t):
         w = window_steps(t, self.start, self.end)
