@@ -22,8 +22,9 @@ from pes_ref.synthesis.validation import Best
 __all__ = ["DesignState", "new_design", "STOPPED", "STAGES"]
 
 #: The statuses of a run that stopped on a failed iteration (rolled back to the last good state):
-#: its run left the finite numbers, or its grid steepened past the stability rule.
-STOPPED = ("non-finite", "unstable")
+#: its run left the finite numbers, or its grid steepened past the stability rule; or whose loss
+#: was 0 while particles of its batch failed their tests (nothing to follow: no step taken).
+STOPPED = ("non-finite", "unstable", "uncharged")
 
 #: A run's stages in order: gradient descent on the grid values, then (if it has a polish plan) the polish.
 STAGES = ("gradient", "polish")

@@ -94,6 +94,21 @@ def test_a_custom_test_from_a_module_is_read_and_its_surrogate_used():
     assert "_helpers:BAND_TEST" in problem_text(problem)
 
 
+def test_a_loss_of_zero_while_particles_fail_is_an_error_the_run_reports():
+    # every particle fails the test and its surrogate charges nothing: the gradient is 0, the run
+    # cannot move, so it stops at once rather than finishing "done" on its starting grid
+    data = {**SORTER, "evaluate": {"success": [{"kind": "custom", "object": "_helpers:UNCHARGED_TEST"}]},
+            "train": {"iterations": 3, "particles": 4, "validate_every": 1, "validation_particles": 4,
+                      "target": 0.9}}
+    state = synthesis.run_design(synthesis.new_design(parse_problem(data, "u.toml")))
+    assert state.status == ("uncharged: iteration 0: the loss is 0 while the batch's success is 0.000 and the best "
+                            "validation's 0.000, below the target 0.9: nothing charges what its particles fail")
+    assert state.status.startswith(synthesis.STOPPED) and state.iteration == 0
+    # charged, the same problem runs to its end
+    charged = {**data, "evaluate": {"success": [{"kind": "custom", "object": "_helpers:BAND_TEST"}]}}
+    assert synthesis.run_design(synthesis.new_design(parse_problem(charged, "c.toml"))).status == "done"
+
+
 BAD = [
     ({"starts": {"box": {"lower": [0, 0], "upper": [1, 1]}, "group": SORTER["starts"]["group"]}},
      "starts.group", "not both"),
