@@ -56,6 +56,23 @@ def test_shipped_problems_and_examples_read_and_design_at_smoke_size(path):
     assert 0.0 <= figures["success_fraction"] <= 1.0
 
 
+def _hand_made(problem, energy):
+    """The grid of ``energy(q0, q1)`` on ``problem``'s nodes: a surface drawn by hand."""
+    shape = problem.shape()
+    q0, q1 = np.meshgrid(*(np.linspace(problem.lower[a], problem.upper[a], shape[a]) for a in (0, 1)), indexing="ij")
+    return energy(q0, q1)
+
+
+def test_the_delay_example_is_achievable_by_a_hand_made_surface():
+    # a slope of 0.9 against the push of 2 slows the particles enough to leave between t = 2 and 3;
+    # on the flat surface every particle leaves too early
+    problem = load_problem(str(_helpers.ROOT / "examples" / "problems" / "delay.toml"))
+    values = _hand_made(problem, lambda q0, q1: 0.9 * (q0 + 1.0))
+    for seed in (12345, 9191):
+        figures = synthesis.evaluate(problem, values, seed=seed)
+        assert figures["success_fraction"] >= 0.95 and figures["flat_success_fraction"] == 0.0, (seed, figures)
+
+
 # --------------------------------------------------------------------------- refusals
 
 def _without(data, dotted):
