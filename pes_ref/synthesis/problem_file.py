@@ -36,7 +36,7 @@ from pes_ref.core.terms import Spring, Walls
 from pes_ref.synthesis.design_problem import FORCES, DesignProblem, Force, Scenario, StartGroup, Starts
 from pes_ref.core.runtime.keyfile import parse_toml, read_text, show
 from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader
-from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
+from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, TermSum, is_grid_term
 from pes_ref.synthesis.plans import Plan, default_plan
 from pes_ref.synthesis.problem_contact import Contact
 from pes_ref.synthesis.success import SUCCESS_TESTS, GroupTest, ShareCriterion, outside_domain
@@ -214,11 +214,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     state = [(n, _custom_named(t, n, i, entries[i]["object"]) if isinstance(t, CustomTerm) else t)
              for i, (n, t) in enumerate(zip(names, terms)) if not is_grid_term(t)]
     if "objective" not in data:           # designed on what success means: each test's surrogate
-        for i, (test_name, test) in enumerate(tests):
-            if not has_cost(test):
-                r.fail(f"evaluate.success[{i}].object", f"test {test_name!r} has no cost(x, v, t, margin) for the "
-                                                        f"objective derived from the tests; give it one, or "
-                                                        f"give [[objective]] terms")
+        _refuse_costless(r, tests, "evaluate.success")
         state = derived_terms(tests, ev["margin"]) + derived_terms(
             [(f"share_{n}", c) for n, c in shares if c.low > 0.0], ev["margin"])
     scenarios = []
@@ -229,7 +225,11 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         sc_duration = sc_steps * scene_keys["dt"]
         sc_forces = forces if "forces" not in sc else _forces(r, sc["forces"], f"{where}.forces", sc_duration)
         sc_tests = _tests(r, sc.get("success"), f"{where}.success", domain, sc_duration, scene_keys["dt"], starts)
-        scenarios.append(Scenario(keys["name"], sc_steps, sc_forces, sc_tests))
+        charged = None
+        if "objective" not in data:       # designed on its tests: the scenario's are charged too
+            _refuse_costless(r, sc_tests, f"{where}.success")
+            charged = TermSum([t for _, t in derived_terms(sc_tests, ev["margin"])])
+        scenarios.append(Scenario(keys["name"], sc_steps, sc_forces, sc_tests, charged))
     if len({s.name for s in scenarios}) != len(scenarios):
         r.fail("evaluate.scenario", f"two scenarios have the same name: {[s.name for s in scenarios]}")
 
@@ -249,6 +249,14 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         init_scale=init_scale, contact=contact, warnings=tuple(warnings))
     _check_scene(r, problem)
     return problem
+
+
+def _refuse_costless(r: Reader, tests, where: str) -> None:
+    """A problem designed on its tests needs each test's surrogate: a custom test without ``cost`` is refused."""
+    for i, (test_name, test) in enumerate(tests):
+        if not has_cost(test):
+            r.fail(f"{where}[{i}].object", f"test {test_name!r} has no cost(x, v, t, margin) for the objective "
+                                           f"derived from the tests; give it one, or give [[objective]] terms")
 
 
 def _located(tests, where: str, scenarios) -> list:

@@ -37,17 +37,24 @@ def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_
     """Loss, masked design gradient dL/dE and trajectory of iteration ``iteration``.
 
     Returns ``(loss, grad, traj, x0)``; the particles come from ``default_rng([seed, iteration])``
+    (the same particles, drawn again, run each scenario a problem charges: its surrogates join the loss)
     (``[seed, iteration, draw]`` for one of a smoothed iteration's draws) and the objective with them (``batch.objective``, plus the batch's ``grid_cost`` of the values
     if it has one); ``n_steps`` overrides the problem's;
     ``backend`` as in :func:`pes_ref.value_and_grad`.
     Raises :class:`pes_ref.NonFiniteError` when the run leaves the finite numbers.
     """
-    rng = np.random.default_rng([seed, iteration] if draw is None else [seed, iteration, draw])
-    batch = problem.batch(values, rng, n_particles, n_steps)
+    key = [seed, iteration] if draw is None else [seed, iteration, draw]
+    batch = problem.batch(values, np.random.default_rng(key), n_particles, n_steps)
     loss, grads, traj = value_and_grad(batch.scene, batch.x0, batch.v0, batch.objective,
                                        regularization_weight=problem.regularization, wrt=("values",),
                                        backend=backend)
     grad = problem.values_grad(values, grads["values"])
+    for scenario in getattr(problem, "charged_scenarios", ()):     # the same particles under its schedule
+        other = problem.scenario_batch(values, np.random.default_rng(key), n_particles, scenario, n_steps)
+        loss_s, grads_s, _ = value_and_grad(other.scene, other.x0, other.v0, other.objective, wrt=("values",),
+                                            backend=backend)
+        loss += loss_s
+        grad = grad + problem.values_grad(values, grads_s["values"])
     if batch.grid_cost is not None:
         cost, cost_grad = batch.grid_cost(values)
         loss += cost
