@@ -25,9 +25,10 @@ def add_parser(sub) -> None:
                     "[[evaluate.success]] test), success_NAME per test, objective_NAME per objective term, "
                     "scenario_NAME_success_fraction per [[evaluate.scenario]], flat_success_fraction. The "
                     "header lines name the design's kind (and problem), method (gradient, or gradient+polish), "
-                    "the stage it reached, its iterations, the iteration whose grid it scores (grid_iteration: a validated "
-                    "run delivers its best validated grid, maybe an earlier one) and polish evaluations. --json FILE writes the same "
-                    "header facts and figures (with the seed and the particles) as one JSON object; a figure that "
+                    "the stage it reached, its iterations, the iteration whose grid it scores (grid_iteration: "
+                    "a validated run delivers its best validated grid, maybe an earlier one) and polish "
+                    "evaluations. --json FILE writes the same header facts and figures (with the seed and the "
+                    "particles) as one JSON object; a figure that "
                     "is NaN (nothing to measure, e.g. amplitude_error when no particle is captured) is written as "
                     "null, so the file is valid JSON. --plot DIR draws the held-out paths on the design's surface, "
                     "green where a particle passed and red where it did not, one panel per test (docs/synthesis.md, "
@@ -49,8 +50,8 @@ def add_parser(sub) -> None:
                    help="held-out particles (funnel default 200; oscillator torque sweep default 50; a problem "
                         "file's: its [evaluate] particles)")
     p.add_argument("--json", default=None, metavar="FILE",
-                   help="also write the header facts (kind, problem, method, stage, iterations, grid_iteration, evaluations, "
-                        "status, "
+                   help="also write the header facts (kind, problem, method, stage, iterations, grid_iteration, "
+                        "evaluations, status, "
                         "seed, particles) and every figure to FILE as one JSON object; NaN is written as null")
     p.add_argument("--plot", default=None, metavar="DIR",
                    help="also draw the held-out paths on the design's surface into DIR/NAME_paths.png (NAME: the "

@@ -233,8 +233,8 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     if len({s.name for s in scenarios}) != len(scenarios):
         r.fail("evaluate.scenario", f"two scenarios have the same name: {[s.name for s in scenarios]}")
 
-    warnings = [f"{at} ({name}): its region {[[round(v, 9) for v in c] for c in region]} lies wholly outside the domain "
-                f"[{_plain(domain.lower)}, {_plain(domain.upper)}], where the surface is not designed: "
+    warnings = [f"{at} ({name}): its region {[[round(v, 9) for v in c] for c in region]} lies wholly outside "
+                f"the domain [{_plain(domain.lower)}, {_plain(domain.upper)}], where the surface is not designed: "
                 f"no particle is brought there"
                 for at, name, test in _located(tests, "evaluate.success", scenarios)
                 if (region := outside_domain(test, domain)) is not None]
