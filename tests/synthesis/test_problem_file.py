@@ -69,6 +69,13 @@ HAND_MADE = {
     # (depth 0.2, width 0.1) along q0 at each bin, where each class comes to rest
     "speed_sorter": lambda q0, q1: ((q1 - 0.3 * np.cos(2.0 * np.pi * (q0 + 0.3))) ** 2
                                     - 0.2 * sum(np.exp(-((q0 - b) / 0.1) ** 2) for b in (-0.3, 0.2, 0.7))),
+    # along the channel: a barrier of 0.3 at q0 = -0.2 (slow ones stop before it), a taller one of 0.8
+    # at q0 = 0.45 (only fast ones pass), a well of depth 0.3 at each bin (Gaussians of widths 0.08
+    # and 0.12), and 5 q1^2 across
+    "speed_sorter_barriers": lambda q0, q1: (0.3 * np.exp(-((q0 + 0.2) / 0.08) ** 2)
+                                             + 0.8 * np.exp(-((q0 - 0.45) / 0.08) ** 2)
+                                             - 0.3 * sum(np.exp(-((q0 - b) / 0.12) ** 2) for b in (-0.4, 0.2, 0.75))
+                                             + 5.0 * q1 ** 2),
     # a double well 10 (q1^2 - 0.25)^2: against the spring its minima are at q1 = +-0.35, and a
     # pulse tips the particles into one or the other
     "toggle": lambda q0, q1: 10.0 * (q1 ** 2 - 0.25) ** 2,
