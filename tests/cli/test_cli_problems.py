@@ -103,6 +103,20 @@ def test_a_success_region_outside_the_domain_is_one_warning_before_the_run(targe
                         f"designed: no particle is brought there"]
 
 
+def test_a_loss_of_zero_while_particles_fail_is_one_error_line_and_no_file(tmp_path, capsys):
+    path = tmp_path / "blind.toml"
+    path.write_text(_helpers.gather_problem(iterations=3, train_particles=4).replace(
+        '[[evaluate.success]]\nkind = "final_position"\ntarget = [0.3, -0.2]\nradius = 0.3',
+        '[[evaluate.success]]\nkind = "custom"\nobject = "_helpers:UNCHARGED_TEST"').replace(
+        '[[objective]]\nkind = "final_position"\ntarget = [0.3, -0.2]\n', ''))
+    code, out, err = run(capsys, "design", path, "--quiet", "--out", tmp_path / "blind.npz")
+    assert code == 1 and out == ""
+    assert err.splitlines() == ["error: the run stopped at its first iteration, so no design file was written: "
+                                "uncharged: iteration 0: the loss is 0 while the batch's success is 0.000: "
+                                "nothing charges what its particles fail"]
+    assert not (tmp_path / "blind.npz").exists()
+
+
 def test_set_train_keys_change_the_plan_the_design_runs(gather, tmp_path, capsys):
     out = tmp_path / "g.npz"
     code, stdout, err = run(capsys, "design", gather, "--set", "train.iterations=3", "--set", "train.particles=5",
