@@ -65,6 +65,13 @@ HAND_MADE = {
     # 2 (q0 - 0.5)^2 (a step of 0.5 up at q0 = 0) that catches what the overload throws; 2 q1^2 across
     "overload_release": lambda q0, q1: (-0.35 * np.exp(-((q0 + 0.5) / 0.2) ** 2)
                                         + np.where(q0 > 0.0, 2.0 * (q0 - 0.5) ** 2, 0.0) + 2.0 * q1 ** 2),
+    # the trap, a speed bump of 1 at q0 = 0.2 that takes the overload's momentum, a narrow well of
+    # depth 1 at the bin (width 0.08) and a ramp 12 (q0 - 0.55)^2 beyond it: with damping 1 a bowl
+    # alone lets the particles swing out again
+    "overload_release_light": lambda q0, q1: (-0.3 * np.exp(-((q0 + 0.5) / 0.15) ** 2)
+                                              + np.exp(-((q0 - 0.2) / 0.1) ** 2)
+                                              - np.exp(-((q0 - 0.5) / 0.08) ** 2)
+                                              + 12.0 * np.maximum(q0 - 0.55, 0.0) ** 2 + 2.0 * q1 ** 2),
     # a valley (q1 - 0.3 cos(2 pi (q0 + 0.3)))^2 winding through the three bins, and a shallow well
     # (depth 0.2, width 0.1) along q0 at each bin, where each class comes to rest
     "speed_sorter": lambda q0, q1: ((q1 - 0.3 * np.cos(2.0 * np.pi * (q0 + 0.3))) ** 2
