@@ -37,9 +37,9 @@ def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_
     """Loss, masked design gradient dL/dE and trajectory of iteration ``iteration``.
 
     Returns ``(loss, grad, traj, x0)``; the particles come from ``default_rng([seed, iteration])``
-    (the same particles, drawn again, run each scenario a problem charges: its surrogates join the loss)
     (``[seed, iteration, draw]`` for one of a smoothed iteration's draws) and the objective with them (``batch.objective``, plus the batch's ``grid_cost`` of the values
-    if it has one); ``n_steps`` overrides the problem's;
+    if it has one; the same particles, drawn again, run each scenario the problem charges, whose
+    surrogates join the loss); ``n_steps`` overrides the problem's;
     ``backend`` as in :func:`pes_ref.value_and_grad`.
     Raises :class:`pes_ref.NonFiniteError` when the run leaves the finite numbers.
     """
