@@ -312,7 +312,8 @@ class ExitTest:
         edge below ``min_speed (1 + margin)``, in ``min_speed``; the window: before ``from``, how far
         past the line ``margin halfwidth`` short of the edge each state lies (averaged over those
         states: too early), and by ``to``, how far the state deepest past the edge lies short of the
-        line ``margin halfwidth`` past it (too late, or never), both in half-widths; squared."""
+        line ``margin halfwidth`` past it (too late, or never; not charged in a run that ends before
+        ``from``, a stage's shorter horizon), both in half-widths; squared."""
         axis, toward, step, exited, along, past = self._judged(x)
         hw, t = self.edge.halfwidth, np.asarray(t)
         room = margin * hw
@@ -326,11 +327,12 @@ class ExitTest:
             e = np.maximum(past[before] + room, 0.0)
             c = c + np.mean(e * e, axis=0) / hw ** 2
             gx[before, :, axis] += 2.0 * toward * e / (hw ** 2 * before.size)
-        by_to = np.flatnonzero(t <= self.end)
-        deepest = by_to[np.argmax(past[by_to], axis=0)]
-        e = np.maximum(room - past[deepest, particle], 0.0)      # too late: not out by `to`
-        c = c + e * e / hw ** 2
-        gx[deepest, particle, axis] += -2.0 * toward * e / hw ** 2
+        if step_at(t, self.start) is not None:      # a run cut short of `from` (a stage's horizon) asks no exit
+            by_to = np.flatnonzero(t <= self.end)
+            deepest = by_to[np.argmax(past[by_to], axis=0)]
+            e = np.maximum(room - past[deepest, particle], 0.0)      # too late: not out by `to`
+            c = c + e * e / hw ** 2
+            gx[deepest, particle, axis] += -2.0 * toward * e / hw ** 2
         gv = None
         if self.min_speed > 0.0:
             slow = np.maximum(self.min_speed * (1.0 + margin) - toward * v[step, particle, axis], 0.0)

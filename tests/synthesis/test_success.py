@@ -2,6 +2,7 @@
 zero for a particle that passes with room to spare, positive for one that fails, and its
 derivative against central differences entry by entry on fixed cases (every kind, in a start
 group and in an any-of), and on random cases of every topology away from its kinks."""
+import dataclasses
 import math
 
 import numpy as np
@@ -110,6 +111,9 @@ def test_an_exits_window_is_charged_too_early_and_too_late():
     assert c[1] == pytest.approx(0.5 * (0.05 / 0.3) ** 2, rel=1e-12)
     # too late: the deepest state by t = 2 is 0.2 short of the edge
     assert c[2] == pytest.approx((0.2 / 0.3) ** 2, rel=1e-12)
+    # a run cut short of `from` (from 1.25, a stage's horizon t <= 0.5) charges leaving too early, not too late
+    short, _, _ = dataclasses.replace(test, start=1.25).cost(x[:2], v[:2], T[:2], 0.0)
+    assert short[1] == pytest.approx(0.5 * (0.05 / 0.3) ** 2, rel=1e-12) and np.all(short[[0, 2, 3]] == 0.0)
 
 
 def test_verdicts_by_hand():
