@@ -257,8 +257,8 @@ class WithinTest:
 @dataclass(frozen=True)
 class ExitTest:
     """The particle leaves by ``edge`` within ``halfwidth`` of ``center`` (strictly: the
-    funnel's in-band test), between ``from`` and ``to``, at a speed across the edge of at least
-    ``min_speed`` (at its first state past the edge)."""
+    funnel's in-band test), between ``from`` and ``to``, moving out across the edge at least
+    ``min_speed`` fast (at its first state past the edge)."""
 
     KIND: ClassVar[str] = "exit"
     KEYS: ClassVar[dict] = {"edge": Key("choice", choices=tuple(EDGES)), "center": Key("number", unit="length"),
@@ -290,7 +290,7 @@ class ExitTest:
 
     def passes(self, x, v, t, margin: float = 0.0):
         """Whether each particle leaves by the edge within ``halfwidth`` of ``center``, between ``from`` and
-        ``to``, at least ``min_speed`` fast across it, (N,) bool; the success-test protocol of
+        ``to``, moving out across it at least ``min_speed`` fast, (N,) bool; the success-test protocol of
         :mod:`pes_ref.synthesis.success`. With ``margin`` (room to spare, in the tolerances of
         :meth:`cost`): within ``halfwidth (1 - margin)``, at least ``min_speed (1 + margin)`` fast,
         every state before ``from`` short of the edge by ``margin halfwidth``, and some state by ``to``
