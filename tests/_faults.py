@@ -84,6 +84,12 @@ PROBLEM_FILES = {
                                       '[[evaluate.success]]\nkind = "position_at"\ntime = 5.0'),
     "nosuccess.toml": GOOD_PROBLEM.split("[[evaluate.success]]")[0] + "[train]\niterations = 2\n",
     "unstable.toml": GOOD_PROBLEM.replace("damping = 1.0", "damping = 1.0\nwalls = { k = 1e5, margin = 0.05 }"),
+    "groupvelocity.toml": GOOD_PROBLEM.replace(
+        "[starts]\nbox = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }",
+        '[starts]\nvelocity = [1.0, 0.0]\n[[starts.group]]\nname = "all"\n'
+        'box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }'),
+    "startsoutside.toml": GOOD_PROBLEM.replace("box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }",
+                                               "box = { lower = [1.5, -0.8], upper = [1.8, 0.8] }"),
 }
 
 #: A small valid device file (a pin in a plate's hole, on a plane) and the faults made of it:

@@ -146,7 +146,18 @@ class _BandWithCost(_Band):
         return e * e, gx, None
 
 
+class _Uncharged(_Band):
+    """A test no particle of the tests' problems passes (q0 ends beyond 5) whose cost charges nothing."""
+
+    def passes(self, x, v, t):
+        return x[-1, :, 0] > 5.0
+
+    def cost(self, x, v, t, margin):
+        return np.zeros(x.shape[1]), None, None
+
+
 BAND_TEST = _BandWithCost()
+UNCHARGED_TEST = _Uncharged()
 BAND_TEST_WITHOUT_COST = _Band()
 
 

@@ -217,6 +217,8 @@ def _run_design(args) -> int:
         output_file(out, "design", force=may_overwrite)
     except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, with its pip line
         return error(exc, flags)
+    for line in getattr(inputs.problem, "warnings", ()):       # a problem file's, before the run
+        print(f"warning: {inputs.problem.path}: {line}", file=sys.stderr)
 
     from pes_ref.core.runtime.progress import ProgressWriter, figure_text
 

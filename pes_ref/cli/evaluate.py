@@ -25,8 +25,10 @@ def add_parser(sub) -> None:
                     "[[evaluate.success]] test), success_NAME per test, objective_NAME per objective term, "
                     "scenario_NAME_success_fraction per [[evaluate.scenario]], flat_success_fraction. The "
                     "header lines name the design's kind (and problem), method (gradient, or gradient+polish), "
-                    "the stage it reached, its iterations and polish evaluations. --json FILE writes the same "
-                    "header facts and figures (with the seed and the particles) as one JSON object; a figure that "
+                    "the stage it reached, its iterations, the iteration whose grid it scores (grid_iteration: "
+                    "a validated run delivers its best validated grid, maybe an earlier one) and polish "
+                    "evaluations. --json FILE writes the same header facts and figures (with the seed and the "
+                    "particles) as one JSON object; a figure that "
                     "is NaN (nothing to measure, e.g. amplitude_error when no particle is captured) is written as "
                     "null, so the file is valid JSON. --plot DIR draws the held-out paths on the design's surface, "
                     "green where a particle passed and red where it did not, one panel per test (docs/synthesis.md, "
@@ -48,7 +50,8 @@ def add_parser(sub) -> None:
                    help="held-out particles (funnel default 200; oscillator torque sweep default 50; a problem "
                         "file's: its [evaluate] particles)")
     p.add_argument("--json", default=None, metavar="FILE",
-                   help="also write the header facts (kind, problem, method, stage, iterations, evaluations, status, "
+                   help="also write the header facts (kind, problem, method, stage, iterations, grid_iteration, "
+                        "evaluations, status, "
                         "seed, particles) and every figure to FILE as one JSON object; NaN is written as null")
     p.add_argument("--plot", default=None, metavar="DIR",
                    help="also draw the held-out paths on the design's surface into DIR/NAME_paths.png (NAME: the "
@@ -119,7 +122,7 @@ def _lines(state, figures: dict, engines: tuple = ("surface",)) -> list:
     if hasattr(state.problem, "name"):                  # a problem file's design: its problem's name
         lines.append(("problem", state.problem.name))
     lines += [("method", state.method), ("stage", state.stage), ("iterations", state.iteration),
-              ("evaluations", state.evaluations), ("status", state.status)]
+              ("grid_iteration", state.grid_iteration), ("evaluations", state.evaluations), ("status", state.status)]
     for name, value in figures.items():
         if isinstance(value, tuple):
             from pes_ref.realize.evaluation import ENGINES
@@ -133,7 +136,7 @@ def _lines(state, figures: dict, engines: tuple = ("surface",)) -> list:
 
 
 #: The header facts of ``evaluate --json`` (beside them: ``seed``, ``particles`` and the ``figures``).
-_HEADER = ("kind", "problem", "method", "stage", "iterations", "evaluations", "status")
+_HEADER = ("kind", "problem", "method", "stage", "iterations", "grid_iteration", "evaluations", "status")
 
 
 def _json(args, lines: list) -> bytes:

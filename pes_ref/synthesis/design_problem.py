@@ -130,12 +130,15 @@ class Force(NamedTuple):
 
 class Scenario(NamedTuple):
     """Another run the design is checked under: its ``name``, ``n_steps``, ``forces`` and the
-    success ``tests`` (name, test) it must pass."""
+    success ``tests`` (name, test) it must pass; ``objective`` (a
+    [`TermSum`][pes_ref.synthesis.objective_terms.TermSum] of its tests' surrogates, or None) charges
+    them in training: a problem designed on its tests charges its scenarios too."""
 
     name: str
     n_steps: int
     forces: tuple
     tests: tuple
+    objective: object = None
 
 
 class HeldOut(NamedTuple):
@@ -164,7 +167,8 @@ class DesignProblem(_Problem):
     def __init__(self, *, data: dict, path: str, text: str | None, name: str, description: str, lower, upper,
                  periodic, grid_shape, interpolation, holds, scene_keys: dict, n_steps: int, starts: Starts,
                  forces: tuple, terms: tuple, term_names: tuple, grid_terms: tuple, tests: tuple, scenarios: tuple,
-                 eval_particles: int, plan, init_scale: float, contact=None, shares: tuple = ()):
+                 eval_particles: int, plan, init_scale: float, contact=None, shares: tuple = (),
+                 warnings: tuple = ()):
         self.data, self.path, self.source_text = data, path, text
         self.name, self.description = name, description
         self.lower, self.upper, self.periodic = tuple(lower), tuple(upper), tuple(periodic)
@@ -176,6 +180,8 @@ class DesignProblem(_Problem):
         self.tests, self.scenarios, self.shares = tuple(tests), tuple(scenarios), tuple(shares)
         self.eval_particles, self.plan, self.init_scale = eval_particles, plan, init_scale
         self.contact = contact
+        #: What the file's reader warns of (one line each, ``design`` prints them before the run).
+        self.warnings = tuple(warnings)
         self.level_set = None if contact is None else contact.level_set()
 
     def __eq__(self, other):
@@ -283,8 +289,27 @@ class DesignProblem(_Problem):
 
     def batch_metric(self, traj) -> float:
         """Share of the batch that passes every success test."""
-        every, _ = passes_all([test for _, test in self.tests], traj.x, traj.v, self.times(traj.x.shape[0] - 1))
-        return float(np.mean(every))
+        return float(np.mean(self.batch_passes(traj)))
+
+    def batch_passes(self, traj, tests: tuple | None = None) -> np.ndarray:
+        """(N,) whether each particle of a run passes every one of ``tests`` (name, test), the problem's if None."""
+        every, _ = passes_all([test for _, test in (self.tests if tests is None else tests)], traj.x, traj.v,
+                              self.times(traj.x.shape[0] - 1))
+        return every
+
+    @property
+    def charged_scenarios(self) -> tuple:
+        """The scenarios training charges and validation judges (those with an ``objective``: a
+        problem designed on its tests'; a hand-written ``[[objective]]`` leaves its scenarios as checks)."""
+        return tuple(sc for sc in self.scenarios if sc.objective is not None)
+
+    def scenario_batch(self, values, rng, n_particles: int, scenario: Scenario, n_steps: int | None = None) -> Batch:
+        """The batch of [`batch`][pes_ref.synthesis.design_problem.DesignProblem.batch] under ``scenario``'s schedule,
+        scored by its ``objective``; ``n_steps``
+        (a stage's shorter horizon) caps its run."""
+        steps = scenario.n_steps if n_steps is None else min(n_steps, scenario.n_steps)
+        return self.batch(values, rng, n_particles, steps, scenario.forces)._replace(objective=scenario.objective,
+                                                                                      grid_cost=None)
 
     def phases(self, forces: tuple | None = None, n_steps: int | None = None) -> list:
         """The run's phases: the times where a force's window opens or closes cut it into

@@ -25,8 +25,9 @@ from pes_ref.synthesis.validation import Best
 __all__ = ["DesignState", "new_design", "STOPPED", "STAGES"]
 
 #: The statuses of a run that stopped on a failed iteration (rolled back to the last good state):
-#: its run left the finite numbers, or its grid steepened past the stability rule.
-STOPPED = ("non-finite", "unstable")
+#: its run left the finite numbers, or its grid steepened past the stability rule; or whose loss
+#: was 0 while particles of its batch failed their tests (nothing to follow: no step taken).
+STOPPED = ("non-finite", "unstable", "uncharged")
 
 #: A run's stages in order: gradient descent on the grid values, then (if it has a polish plan) the polish.
 STAGES = ("gradient", "polish")
@@ -86,6 +87,15 @@ class DesignState:
     def method(self) -> str:
         """``"gradient"`` or ``"gradient+polish"``: the stages this run has."""
         return "gradient" if self.polish is None else "gradient+polish"
+
+    @property
+    def grid_iteration(self) -> int:
+        """The iteration whose grid the run holds as its design: a done run that validated delivers
+        its best validated grid (``best``), which may be an earlier iteration's than the last
+        (a polish starts from that grid); otherwise the last iteration's."""
+        if self.best is not None and (self.status == "done" or self.stage == "polish"):
+            return self.best.iteration
+        return self.iteration
 
     @property
     def finished(self) -> bool:

@@ -39,10 +39,10 @@ from pes_ref.core.terms import Spring, Walls
 from pes_ref.synthesis.design_problem import FORCES, DesignProblem, Force, Scenario, StartGroup, Starts
 from pes_ref.core.runtime.keyfile import parse_toml, read_text, show
 from pes_ref.synthesis.file_keys import Key, ProblemFileError, Reader
-from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, is_grid_term
+from pes_ref.synthesis.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, TermSum, is_grid_term
 from pes_ref.synthesis.plans import Plan, default_plan
 from pes_ref.synthesis.problem_contact import Contact
-from pes_ref.synthesis.success import SUCCESS_TESTS, GroupTest, ShareCriterion
+from pes_ref.synthesis.success import SUCCESS_TESTS, GroupTest, ShareCriterion, outside_domain
 from pes_ref.synthesis.surrogates import DEFAULT_MARGIN, derived_terms, has_cost
 
 __all__ = ["FORMAT", "load_problem", "parse_problem", "problem_from_text", "problem_text", "with_sets",
@@ -184,7 +184,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
 
     scene_keys, n_steps = _dynamics(r, _section(r, data, "dynamics"), domain)
     duration = n_steps * scene_keys["dt"]
-    starts = _starts(r, _section(r, data, "starts"))
+    starts = _starts(r, _section(r, data, "starts"), domain)
     forces = _forces(r, data.get("forces", []), "forces", duration)
 
     evaluate = _section(r, data, "evaluate")
@@ -217,11 +217,7 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
     state = [(n, _custom_named(t, n, i, entries[i]["object"]) if isinstance(t, CustomTerm) else t)
              for i, (n, t) in enumerate(zip(names, terms)) if not is_grid_term(t)]
     if "objective" not in data:           # designed on what success means: each test's surrogate
-        for i, (test_name, test) in enumerate(tests):
-            if not has_cost(test):
-                r.fail(f"evaluate.success[{i}].object", f"test {test_name!r} has no cost(x, v, t, margin) for the "
-                                                        f"objective derived from the tests; give it one, or "
-                                                        f"give [[objective]] terms")
+        _refuse_costless(r, tests, "evaluate.success")
         state = derived_terms(tests, ev["margin"]) + derived_terms(
             [(f"share_{n}", c) for n, c in shares if c.low > 0.0], ev["margin"])
     scenarios = []
@@ -232,10 +228,19 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         sc_duration = sc_steps * scene_keys["dt"]
         sc_forces = forces if "forces" not in sc else _forces(r, sc["forces"], f"{where}.forces", sc_duration)
         sc_tests = _tests(r, sc.get("success"), f"{where}.success", domain, sc_duration, scene_keys["dt"], starts)
-        scenarios.append(Scenario(keys["name"], sc_steps, sc_forces, sc_tests))
+        charged = None
+        if "objective" not in data:       # designed on its tests: the scenario's are charged too
+            _refuse_costless(r, sc_tests, f"{where}.success")
+            charged = TermSum([t for _, t in derived_terms(sc_tests, ev["margin"])])
+        scenarios.append(Scenario(keys["name"], sc_steps, sc_forces, sc_tests, charged))
     if len({s.name for s in scenarios}) != len(scenarios):
         r.fail("evaluate.scenario", f"two scenarios have the same name: {[s.name for s in scenarios]}")
 
+    warnings = [f"{at} ({name}): its region {[[round(v, 9) for v in c] for c in region]} lies wholly outside "
+                f"the domain [{_plain(domain.lower)}, {_plain(domain.upper)}], where the surface is not designed: "
+                f"no particle is brought there"
+                for at, name, test in _located(tests, "evaluate.success", scenarios)
+                if (region := outside_domain(test, domain)) is not None]
     plan, init_scale = _train(r, data.get("train"), surface["shape"], _coarse(contact))
     problem = DesignProblem(
         data=data, path=path, text=text, name=name, description=top["description"], lower=surface["lower"],
@@ -244,9 +249,25 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
         forces=forces, terms=[t for _, t in state], term_names=[n for n, _ in state] + [
             n for n, t in zip(names, terms) if is_grid_term(t)],
         grid_terms=grid_terms, tests=tests, shares=shares, scenarios=tuple(scenarios), eval_particles=ev["particles"], plan=plan,
-        init_scale=init_scale, contact=contact)
+        init_scale=init_scale, contact=contact, warnings=tuple(warnings))
     _check_scene(r, problem)
     return problem
+
+
+def _refuse_costless(r: Reader, tests, where: str) -> None:
+    """A problem designed on its tests needs each test's surrogate: a custom test without ``cost`` is refused."""
+    for i, (test_name, test) in enumerate(tests):
+        if not has_cost(test):
+            r.fail(f"{where}[{i}].object", f"test {test_name!r} has no cost(x, v, t, margin) for the objective "
+                                           f"derived from the tests; give it one, or give [[objective]] terms")
+
+
+def _located(tests, where: str, scenarios) -> list:
+    """``(key, name, test)`` of every success test, the scenarios' too, by its place in the file."""
+    out = [(f"{where}[{i}]", name, test) for i, (name, test) in enumerate(tests)]
+    for j, sc in enumerate(scenarios):
+        out += [(f"evaluate.scenario[{j}].success[{i}]", name, test) for i, (name, test) in enumerate(sc.tests)]
+    return out
 
 
 def _custom_named(term: CustomTerm, name: str, i: int, obj) -> CustomTerm:
@@ -362,23 +383,37 @@ def _dynamics(r: Reader, table: dict, domain: Domain):
     return keys, n_steps
 
 
-def _starts(r: Reader, table: dict, where: str = "starts", groups: bool = True) -> Starts:
+def _starts(r: Reader, table: dict, domain: Domain, where: str = "starts", groups: bool = True) -> Starts:
     s = r.table(table, where, STARTS_KEYS, also=("group",) if groups else ())
     if groups and "group" in table:
         if s["box"] is not None or s["points"] is not None:
             r.fail(f"{where}.group", "give either start groups or the starts' box or points, not both")
+        if "velocity" in table:
+            r.fail(f"{where}.velocity", f"{_plain(table['velocity'])} beside start groups is given to no particle; "
+                                        f"give each [[starts.group]] its own velocity")
         out = []
         for i, entry in enumerate(_list(r, table["group"], f"{where}.group", required=True)):
             at = f"{where}.group[{i}]"
             keys = r.table(entry, at, GROUP_KEYS, also=tuple(STARTS_KEYS))
-            out.append(StartGroup(keys["name"], keys["share"],
-                                  _starts(r, {k: v for k, v in entry.items() if k not in GROUP_KEYS}, at, False)))
+            out.append(StartGroup(keys["name"], keys["share"], _starts(
+                r, {k: v for k, v in entry.items() if k not in GROUP_KEYS}, domain, at, False)))
         if len({g.name for g in out}) != len(out):
             r.fail(f"{where}.group", f"two groups have the same name: {[g.name for g in out]}")
         return Starts(None, None, s["velocity"], tuple(out))
     if (s["box"] is None) == (s["points"] is None):
         r.fail(f"{where}.box", "give exactly one of box and points" + (" (or start groups)" if groups else ""))
+    corners = (s["box"] if s["box"] is not None else s["points"])
+    key = "box" if s["box"] is not None else "points"
+    for point in corners:
+        if not _in_domain(point, domain):
+            r.fail(f"{where}.{key}", f"{_plain(point)} lies outside the domain [{_plain(domain.lower)}, "
+                                     f"{_plain(domain.upper)}]: particles start inside it")
     return Starts(s["box"], s["points"], s["velocity"])
+
+
+def _in_domain(point, domain: Domain) -> bool:
+    """Whether ``point`` lies in the domain (faces included) on its non-periodic axes."""
+    return all(p or lo <= q <= hi for q, lo, hi, p in zip(point, domain.lower, domain.upper, domain.periodic))
 
 
 def _forces(r: Reader, value, where: str, duration: float) -> tuple:

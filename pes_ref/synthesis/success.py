@@ -1,18 +1,21 @@
 """Per-particle success tests of a problem file (``[[evaluate.success]]``): did each particle do the job?
 
-A test is a frozen object with ``passes(x, v, t) -> (N,) bool`` on a trajectory's positions
-and velocities (T+1, N, 2) and times (T+1,). A particle succeeds when it passes every test
-of its problem; ``evaluate`` prints the share that does (``success_fraction``) and the share
-passing each test. `SUCCESS_TESTS` maps a kind to its class (dispatch by data); the
-kinds mirror the objective terms of [`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms], each with
-a
-tolerance where the term has a target. Differences along a periodic axis are taken the short
-way round, times at the nearest state, as there.
+A test is a frozen object with ``passes(x, v, t, margin=0) -> (N,) bool`` on a trajectory's
+positions and velocities (T+1, N, 2) and times (T+1,) (``margin``: whether each particle
+passes with that room to spare, the surrogate's notion below; a user's own test takes none).
+A particle succeeds when it passes every test of its problem; ``evaluate`` prints the share
+that does (``success_fraction``) and the share passing each test. `SUCCESS_TESTS` maps a
+kind to its class (dispatch by data); the kinds mirror the objective terms of
+[`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms], each with a tolerance where the term has a
+target.
+Differences along a periodic axis are taken the short way round, times at the nearest state,
+as there.
 
 Beside each test's ``passes`` is its smooth surrogate, ``cost(x, v, t, margin) -> (c, gx,
-gv)``: ``c`` (N,) is zero for a particle that passes with room to spare (``margin``, a
-fraction of the test's tolerance: its radius, half-width or half-size) and grows with the
-squared distance, in tolerances, from passing; ``gx``, ``gv`` (either None) are the
+gv)``: ``c`` (N,) is zero exactly for a particle that passes with room to spare (``passes(...,
+margin)``; ``margin`` a fraction of the test's tolerance: its radius, half-width or
+half-size) and grows with the squared distance, in tolerances, from passing: every clause
+of a test is charged, a window's ends included; ``gx``, ``gv`` (either None) are the
 derivatives of ``sum(c)``, each particle's only in its own column. A problem file without
 ``[[objective]]`` is designed on the sum of its tests' surrogates
 ([`pes_ref.synthesis.surrogates`][pes_ref.synthesis.surrogates]).
@@ -31,7 +34,7 @@ from pes_ref.synthesis.objective_terms import (EDGES, CustomTermError, Domain, E
 
 __all__ = ["SUCCESS_TESTS", "FinalPositionTest", "PositionAtTest", "StayInTest", "WithinTest", "ExitTest",
            "CrossTest", "SpeedAtTest", "AnyOfTest", "CustomTest", "GroupTest", "ShareCriterion", "passes_all",
-           "applies"]
+           "applies", "outside_domain"]
 
 _WINDOW = {"from": Key("nonneg", 0.0, unit="time"), "to": Key("nonneg", math.inf, unit="time")}
 
@@ -61,6 +64,26 @@ def _at_states(x: np.ndarray, n, c: np.ndarray, g: np.ndarray, mean: bool = Fals
     return c, gx, None
 
 
+def _disc_region(center, radius: float) -> tuple:
+    """``(lower, upper)`` of the box around the disc of ``radius`` about ``center``."""
+    return tuple(c - radius for c in center), tuple(c + radius for c in center)
+
+
+def outside_domain(test, domain: Domain):
+    """The region ``(lower, upper)`` ``test`` asks a particle to reach (its ``region()``) if it lies
+    wholly outside ``domain`` on a non-periodic axis, where the surface is not designed; else None
+    (and for a test with no region: an exit, a speed). A group's test is judged by its own."""
+    test = getattr(test, "test", test)
+    region = getattr(test, "region", None)
+    if region is None:
+        return None
+    lower, upper = region()
+    if any(not periodic and (hi < d_lo or lo > d_hi)
+           for lo, hi, d_lo, d_hi, periodic in zip(lower, upper, domain.lower, domain.upper, domain.periodic)):
+        return tuple(lower), tuple(upper)
+    return None
+
+
 def _none(x: np.ndarray):
     """Every particle fails (a time after the run's end)."""
     return np.zeros(x.shape[1], dtype=bool)
@@ -83,10 +106,14 @@ class FinalPositionTest:
         ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["target"], keys["radius"], domain)
 
-    def passes(self, x, v, t):
-        """Whether each particle's last state lies within ``radius`` of ``target``, (N,) bool; the
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box around the disc a particle must reach (the domain check's)."""
+        return _disc_region(self.target, self.radius)
+
+    def passes(self, x, v, t, margin: float = 0.0):
+        """Whether each particle's last state lies within ``radius (1 - margin)`` of ``target``, (N,) bool; the
         success-test protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
-        return _near(x[-1], self.target, self.radius, self.domain)
+        return _near(x[-1], self.target, self.radius * (1.0 - margin), self.domain)
 
     def cost(self, x, v, t, margin: float):
         """The squared distance of the last state from the disc of radius ``radius (1 - margin)`` about
@@ -114,14 +141,18 @@ class PositionAtTest:
         ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["time"], keys["target"], keys["radius"], domain)
 
-    def passes(self, x, v, t):
-        """Whether the state nearest ``time`` lies within ``radius`` of ``target``, (N,) bool (every particle
-        fails when ``time`` is after the run's end); the success-test protocol of
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box around the disc a particle must reach (the domain check's)."""
+        return _disc_region(self.target, self.radius)
+
+    def passes(self, x, v, t, margin: float = 0.0):
+        """Whether the state nearest ``time`` lies within ``radius (1 - margin)`` of ``target``, (N,) bool
+        (every particle fails when ``time`` is after the run's end); the success-test protocol of
         [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         n = step_at(t, self.time)
         if n is None:
             return _none(x)
-        return _near(x[n], self.target, self.radius, self.domain)
+        return _near(x[n], self.target, self.radius * (1.0 - margin), self.domain)
 
     def cost(self, x, v, t, margin: float):
         """The squared distance of the state nearest ``time`` from the disc of radius ``radius (1 - margin)``
@@ -149,13 +180,25 @@ class StayInTest:
         ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(StayIn(keys["lower"], keys["upper"], keys["from"], keys["to"], 1.0, domain))
 
-    def passes(self, x, v, t):
-        """Whether every state of the window lies in the box, (N,) bool (every particle fails when the
-        window holds no state); the success-test protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box a particle must stay in (the domain check's)."""
+        return self.box.lower, self.box.upper
+
+    def _outside(self, states, margin: float):
+        """How far each state lies outside the box shrunk by ``margin`` of its half-size, per axis, and the
+        larger half-size."""
+        lower, upper = np.asarray(self.box.lower), np.asarray(self.box.upper)
+        half = 0.5 * (upper - lower)
+        return excess(self.box.domain.wrap(states - 0.5 * (lower + upper)), half * (1.0 - margin)), float(half.max())
+
+    def passes(self, x, v, t, margin: float = 0.0):
+        """Whether every state of the window lies in the box (shrunk by ``margin`` of its half-size), (N,)
+        bool (every particle fails when the window holds no state); the success-test protocol of
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         states = x[window_steps(t, self.box.start, self.box.end)]
         if states.shape[0] == 0:
             return _none(x)
-        return np.all(self.box.offsets(states) == 0.0, axis=(0, 2))
+        return np.all(self._outside(states, margin)[0] == 0.0, axis=(0, 2))
 
     def cost(self, x, v, t, margin: float):
         """The mean over the window of the squared distance from the box shrunk by ``margin`` of
@@ -163,10 +206,8 @@ class StayInTest:
         w = window_steps(t, self.box.start, self.box.end)
         if x[w].shape[0] == 0:
             return np.zeros(x.shape[1]), None, None
-        lower, upper = np.asarray(self.box.lower), np.asarray(self.box.upper)
-        half = 0.5 * (upper - lower)
-        scale = float(half.max()) or 1.0
-        e = excess(self.box.domain.wrap(x[w] - 0.5 * (lower + upper)), half * (1.0 - margin))
+        e, scale = self._outside(x[w], margin)
+        scale = scale or 1.0
         return _at_states(x, w, np.sum(e * e, axis=-1) / scale ** 2, 2.0 * e / scale ** 2, mean=True)
 
 
@@ -190,14 +231,18 @@ class WithinTest:
         ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["center"], keys["radius"], keys["from"], keys["to"], domain)
 
-    def passes(self, x, v, t):
-        """Whether every state of the window lies within ``radius`` of ``center``, (N,) bool (every particle
-        fails when the window holds no state); the success-test protocol of
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box around the disc a particle must reach (the domain check's)."""
+        return _disc_region(self.center, self.radius)
+
+    def passes(self, x, v, t, margin: float = 0.0):
+        """Whether every state of the window lies within ``radius (1 - margin)`` of ``center``, (N,) bool
+        (every particle fails when the window holds no state); the success-test protocol of
         [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         states = x[window_steps(t, self.start, self.end)]
         if states.shape[0] == 0:
             return _none(x)
-        return np.all(_near(states, self.center, self.radius, self.domain), axis=0)
+        return np.all(_near(states, self.center, self.radius * (1.0 - margin), self.domain), axis=0)
 
     def cost(self, x, v, t, margin: float):
         """The mean over the window of the squared distance from the disc of radius ``radius (1 - margin)``
@@ -213,8 +258,8 @@ class WithinTest:
 @dataclass(frozen=True)
 class ExitTest:
     """The particle leaves by ``edge`` within ``halfwidth`` of ``center`` (strictly: the
-    funnel's in-band test), between ``from`` and ``to``, at a speed across the edge of at least
-    ``min_speed`` (at its first state past the edge)."""
+    funnel's in-band test), between ``from`` and ``to``, moving out across the edge at least
+    ``min_speed`` fast (at its first state past the edge)."""
 
     KIND: ClassVar[str] = "exit"
     KEYS: ClassVar[dict] = {"edge": Key("choice", choices=tuple(EDGES)), "center": Key("number", unit="length"),
@@ -233,36 +278,62 @@ class ExitTest:
         return cls(Exit(keys["edge"], keys["center"], keys["halfwidth"], 1.0, domain), keys["min_speed"],
                    keys["from"], keys["to"])
 
-    def passes(self, x, v, t):
-        """Whether each particle leaves by the edge within ``halfwidth`` of ``center``, between ``from`` and
-        ``to``, at least ``min_speed`` fast across it, (N,) bool; the success-test protocol of
-        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
-        step, exited = self.edge.steps(x)
-        axis = EDGES[self.edge.edge][0]
-        particle = np.arange(x.shape[1])
-        along = self.edge.domain.wrap_axis(x[step, particle, 1 - axis] - self.edge.center, 1 - axis)
-        when = np.asarray(t)[step]
-        return (exited & (np.abs(along) < self.edge.halfwidth) & (when >= self.start) & (when <= self.end)
-                & (np.abs(v[step, particle, axis]) >= self.min_speed))
-
-    def cost(self, x, v, t, margin: float):
-        """At the exit step (the last state for a particle that never leaves): the position along
-        the edge outside ``center +- halfwidth (1 - margin)``, how far short of the edge a particle
-        that never leaves ends, both in half-widths, and the speed towards the edge below
-        ``min_speed (1 + margin)``, in ``min_speed``; squared. The window ``from``-``to`` is judged,
-        not charged."""
+    def _judged(self, x):
+        """What the verdict and the surrogate share: ``(axis, toward, step, exited, along, past)``, ``along``
+        the exit step's position along the edge from ``center`` and ``past`` (T+1, N) how far each state
+        lies past the edge (negative short of it)."""
         step, exited = self.edge.steps(x)
         axis, side, level = self.edge.domain.edge(self.edge.edge)
-        hw = self.edge.halfwidth
-        particle = np.arange(x.shape[1])
-        along = excess(self.edge.domain.wrap_axis(x[step, particle, 1 - axis] - self.edge.center, 1 - axis),
-                       hw * (1.0 - margin))
         toward = 1.0 if side == "upper" else -1.0
-        short = np.where(exited, 0.0, np.maximum(toward * (level - x[step, particle, axis]), 0.0))
+        particle = np.arange(x.shape[1])
+        along = self.edge.domain.wrap_axis(x[step, particle, 1 - axis] - self.edge.center, 1 - axis)
+        return axis, toward, step, exited, along, toward * (x[..., axis] - level)
+
+    def passes(self, x, v, t, margin: float = 0.0):
+        """Whether each particle leaves by the edge within ``halfwidth`` of ``center``, between ``from`` and
+        ``to``, moving out across it at least ``min_speed`` fast, (N,) bool; the success-test protocol of
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]. With ``margin`` (room to spare, in the tolerances of
+        `cost`): within ``halfwidth (1 - margin)``, at least ``min_speed (1 + margin)`` fast,
+        every state before ``from`` short of the edge by ``margin halfwidth``, and some state by ``to``
+        past it by as much."""
+        axis, toward, step, exited, along, past = self._judged(x)
+        hw, t = self.edge.halfwidth, np.asarray(t)
+        room = margin * hw
+        early = np.all(past[t < self.start] < -room, axis=0)
+        by_to = past[t <= self.end]
+        late = np.any(by_to >= room, axis=0) if by_to.shape[0] else _none(x)
+        ok = exited & early & late & (np.abs(along) < hw * (1.0 - margin))
+        if self.min_speed > 0.0:
+            ok &= toward * v[step, np.arange(x.shape[1]), axis] >= self.min_speed * (1.0 + margin)
+        return ok
+
+    def cost(self, x, v, t, margin: float):
+        """At the exit step (the last state for a particle that never leaves): the position along the
+        edge outside ``center +- halfwidth (1 - margin)``, in half-widths, and the speed towards the
+        edge below ``min_speed (1 + margin)``, in ``min_speed``; the window: before ``from``, how far
+        past the line ``margin halfwidth`` short of the edge each state lies (averaged over those
+        states: too early), and by ``to``, how far the state deepest past the edge lies short of the
+        line ``margin halfwidth`` past it (too late, or never; not charged in a run that ends before
+        ``from``, a stage's shorter horizon), both in half-widths; squared."""
+        axis, toward, step, exited, along, past = self._judged(x)
+        hw, t = self.edge.halfwidth, np.asarray(t)
+        room = margin * hw
+        particle = np.arange(x.shape[1])
+        off = excess(along, hw * (1.0 - margin))
         gx = np.zeros_like(x)
-        gx[step, particle, 1 - axis] = 2.0 * along / hw ** 2
-        gx[step, particle, axis] = -2.0 * toward * short / hw ** 2
-        c = (along * along + short * short) / hw ** 2
+        gx[step, particle, 1 - axis] = 2.0 * off / hw ** 2
+        c = off * off / hw ** 2
+        before = np.flatnonzero(t < self.start)
+        if before.size:                     # too early: past the line short of the edge before `from`
+            e = np.maximum(past[before] + room, 0.0)
+            c = c + np.mean(e * e, axis=0) / hw ** 2
+            gx[before, :, axis] += 2.0 * toward * e / (hw ** 2 * before.size)
+        if step_at(t, self.start) is not None:      # a run cut short of `from` (a stage's horizon) asks no exit
+            by_to = np.flatnonzero(t <= self.end)
+            deepest = by_to[np.argmax(past[by_to], axis=0)]
+            e = np.maximum(room - past[deepest, particle], 0.0)      # too late: not out by `to`
+            c = c + e * e / hw ** 2
+            gx[deepest, particle, axis] += -2.0 * toward * e / hw ** 2
         gv = None
         if self.min_speed > 0.0:
             slow = np.maximum(self.min_speed * (1.0 + margin) - toward * v[step, particle, axis], 0.0)
@@ -297,6 +368,10 @@ class CrossTest:
         ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["a"], keys["b"], keys["from"], keys["to"], domain)
 
+    def region(self) -> tuple:
+        """``(lower, upper)``: the box around the segment a particle must cross (the domain check's)."""
+        return tuple(np.minimum(self.a, self.b).tolist()), tuple(np.maximum(self.a, self.b).tolist())
+
     def _states(self, x, t):
         w = window_steps(t, self.start, self.end)
         lower = np.asarray(self.domain.lower)
@@ -316,13 +391,14 @@ class CrossTest:
         lo = 0.5 * margin
         return (cross != 0.0) & (tau >= 0.0) & (tau <= 1.0) & (u >= lo) & (u <= 1.0 - lo)
 
-    def passes(self, x, v, t):
-        """Whether some step's move within the window meets the segment, (N,) bool (every particle fails
-        when the window holds no state); the success-test protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
+    def passes(self, x, v, t, margin: float = 0.0):
+        """Whether some step's move within the window meets the segment (shortened by ``margin / 2`` of its
+        length at each end), (N,) bool (every particle fails when the window holds no state); the
+        success-test protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         _, p, r = self._states(x, t)
         if r.shape[0] == 0:
             return _none(x)
-        return np.any(self._along(p[:-1], r, 0.0), axis=0)
+        return np.any(self._along(p[:-1], r, margin), axis=0)
 
     def cost(self, x, v, t, margin: float):
         """Zero for a path across the segment shrunk by ``margin / 2`` of its length at each end;
@@ -372,15 +448,15 @@ class SpeedAtTest:
         ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(keys["time"], keys["axis"], keys["min"], keys["max"])
 
-    def passes(self, x, v, t):
-        """Whether the velocity along ``axis`` at the state nearest ``time`` lies in ``[min, max]``, (N,) bool
-        (every particle fails when ``time`` is after the run's end); the success-test protocol of
-        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
+    def passes(self, x, v, t, margin: float = 0.0):
+        """Whether the velocity along ``axis`` at the state nearest ``time`` lies in ``[min, max]`` (narrowed
+        by ``margin`` tolerances, `cost`'s), (N,) bool (every particle fails when ``time`` is after
+        the run's end); the success-test protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
         n = step_at(t, self.time)
         if n is None:
             return _none(x)
-        speed = v[n, :, self.axis]
-        return (speed >= self.low) & (speed <= self.high)
+        speed, room = v[n, :, self.axis], margin * self._scale()
+        return (speed >= self.low + room) & (speed <= self.high - room)
 
     def _scale(self) -> float:
         """The test's tolerance: half the range, or a one-sided bound's size (1 for a bound of 0)."""
@@ -423,10 +499,10 @@ class AnyOfTest:
         ([`pes_ref.synthesis.objective_terms`][pes_ref.synthesis.objective_terms])."""
         return cls(tuple(keys["tests"]))
 
-    def passes(self, x, v, t):
-        """Whether any one of ``tests`` passes, (N,) bool; the success-test protocol of
+    def passes(self, x, v, t, margin: float = 0.0):
+        """Whether any one of ``tests`` passes (with ``margin``), (N,) bool; the success-test protocol of
         [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
-        return np.logical_or.reduce([test.passes(x, v, t) for test in self.tests])
+        return np.logical_or.reduce([test.passes(x, v, t, margin) for test in self.tests])
 
     def cost(self, x, v, t, margin: float):
         """Each particle's cheapest surrogate among ``tests``, with that one's derivatives; the surrogate
@@ -474,10 +550,10 @@ class CustomTest:
         """Whether the object has a ``cost`` (a surrogate): a design without ``[[objective]]`` needs one."""
         return callable(getattr(self.obj, "cost", None))
 
-    def passes(self, x, v, t):
+    def passes(self, x, v, t, margin: float = 0.0):
         """The object's ``passes(x, v, t)`` as (N,) bool, refusing another shape; what it raises as one
         [`CustomTermError`][pes_ref.synthesis.objective_terms.CustomTermError]; the success-test protocol of
-        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
+        [`pes_ref.synthesis.success`][pes_ref.synthesis.success]. A user's test has no room to spare: ``margin`` is not its."""
         ok = np.asarray(call_user(self.label, self.obj.passes, x, v, t))
         if ok.shape != (x.shape[1],):
             raise CustomTermError(f"{self.label}: passes returned shape {ok.shape}, expected ({x.shape[1]},)")
@@ -505,10 +581,10 @@ class GroupTest:
         """The kind of ``test``, the test it judges with."""
         return self.test.KIND
 
-    def passes(self, x, v, t):
-        """``test``'s verdict for the group's particles, True for the others, (N,) bool; the success-test
-        protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
-        return ~self.members(x.shape[1]) | self.test.passes(x, v, t)
+    def passes(self, x, v, t, margin: float = 0.0):
+        """``test``'s verdict (with ``margin``) for the group's particles, True for the others, (N,) bool; the
+        success-test protocol of [`pes_ref.synthesis.success`][pes_ref.synthesis.success]."""
+        return ~self.members(x.shape[1]) | self.test.passes(x, v, t, margin)
 
     def cost(self, x, v, t, margin: float):
         """``test``'s surrogate for the group's particles, 0 (and no derivative) for the others; the surrogate

@@ -41,16 +41,23 @@ def design_step(problem, values, seed: int, iteration: int, n_particles: int, n_
 
     Returns ``(loss, grad, traj, x0)``; the particles come from ``default_rng([seed, iteration])``
     (``[seed, iteration, draw]`` for one of a smoothed iteration's draws) and the objective with them (``batch.objective``, plus the batch's ``grid_cost`` of the values
-    if it has one); ``n_steps`` overrides the problem's;
+    if it has one; the same particles, drawn again, run each scenario the problem charges, whose
+    surrogates join the loss); ``n_steps`` overrides the problem's;
     ``backend`` as in [`pes_ref.value_and_grad`][pes_ref.core.scene.value_and_grad].
     Raises [`pes_ref.NonFiniteError`][pes_ref.core.integrator.NonFiniteError] when the run leaves the finite numbers.
     """
-    rng = np.random.default_rng([seed, iteration] if draw is None else [seed, iteration, draw])
-    batch = problem.batch(values, rng, n_particles, n_steps)
+    key = [seed, iteration] if draw is None else [seed, iteration, draw]
+    batch = problem.batch(values, np.random.default_rng(key), n_particles, n_steps)
     loss, grads, traj = value_and_grad(batch.scene, batch.x0, batch.v0, batch.objective,
                                        regularization_weight=problem.regularization, wrt=("values",),
                                        backend=backend)
     grad = problem.values_grad(values, grads["values"])
+    for scenario in getattr(problem, "charged_scenarios", ()):     # the same particles under its schedule
+        other = problem.scenario_batch(values, np.random.default_rng(key), n_particles, scenario, n_steps)
+        loss_s, grads_s, _ = value_and_grad(other.scene, other.x0, other.v0, other.objective, wrt=("values",),
+                                            backend=backend)
+        loss += loss_s
+        grad = grad + problem.values_grad(values, grads_s["values"])
     if batch.grid_cost is not None:
         cost, cost_grad = batch.grid_cost(values)
         loss += cost
@@ -130,6 +137,21 @@ def _validate(state: DesignState) -> None:
         state.best = Best(state.iteration, success, final)
 
 
+def _uncharged(state: DesignState, k: int, loss: float, metric: float) -> bool:
+    """Whether iteration ``k``'s batch fails its success tests while its loss is exactly 0 (so is
+    its gradient: the run cannot move) on the problem's whole run (a shorter stage's horizon
+    judges tests it does not reach), before a validation reached the plan's target."""
+    whole = state.plan.steps_at(k) in (None, getattr(state.problem, "n_steps", None))
+    return loss == 0.0 and metric < 1.0 and whole and not _reached_target(state)
+
+
+def _below_target(state: DesignState) -> str:
+    """`` and the best validation's ... below the target ...`` for a plan with a target, else ``""``."""
+    if state.plan.target is None or state.best is None:
+        return ""
+    return f" and the best validation's {state.best.success:.3f}, below the target {state.plan.target:g}"
+
+
 def _reached_target(state: DesignState) -> bool:
     """The plan's early stop: a validation has reached its target."""
     return state.plan.target is not None and state.best is not None and state.best.success >= state.plan.target
@@ -155,7 +177,10 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     ..."``), or an iteration whose grid has steepened past the stability rule
     (``"unstable: ..."``, docs/spec.md section 10), stops the run and rolls it back one
     iteration, to the last grid whose run was finite and stable; resuming it repeats that
-    iteration, so change the plan (a smaller ``lr``, ``clip``) first.
+    iteration, so change the plan (a smaller ``lr``, ``clip``) first. A batch whose loss is
+    exactly 0 while some of its particles fail their success tests (on the problem's whole
+    run, before the plan's target is reached) stops it too (``"uncharged: ..."``): its
+    gradient is 0, so the run could only end on the grid it has; what fails is not charged.
 
     A plan that validates (``validate_every``, [`pes_ref.synthesis.validation`][pes_ref.synthesis.validation]) judges
     the
@@ -225,6 +250,10 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
                 break
             if not (np.isfinite(loss_k) and np.isfinite(grad).all()):
                 roll_back(f"iteration {k}: the loss or its gradient is not finite")
+                break
+            if _uncharged(state, k, loss_k, metric):
+                state.status = (f"uncharged: iteration {k}: the loss is 0 while the batch's success is {metric:.3f}"
+                                + _below_target(state) + ": nothing charges what its particles fail")
                 break
             snapshot = (values, state.optimizer.state_dict())
             state.optimizer.lr = plan.lr_at(k, problem)

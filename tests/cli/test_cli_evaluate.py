@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
+import _helpers
 import pes_ref.synthesis
 from pes_ref.cli import EXIT_ERROR, EXIT_OK, main
 from pes_ref.synthesis import load_design
@@ -49,7 +50,7 @@ def test_json_holds_the_printed_lines(name, designs, tmp_path, capsys):
     data = _strict(path.read_text())
     printed = dict(line.split(": ", 1) for line in out.splitlines())
     assert data["seed"] == 9191 and data["particles"] == int(float(printed["particles"]))
-    header = ("kind", "problem", "method", "stage", "iterations", "evaluations", "status")
+    header = ("kind", "problem", "method", "stage", "iterations", "grid_iteration", "evaluations", "status")
     assert {key: str(data[key]) for key in header if key in printed} == {k: printed[k] for k in header if k in printed}
     assert (data["problem"] is None) == ("problem" not in printed)
     figures = {k: v for k, v in printed.items() if k not in header}
@@ -60,6 +61,22 @@ def test_json_holds_the_printed_lines(name, designs, tmp_path, capsys):
             assert value is None, key
         else:
             assert value == pytest.approx(float(text), rel=1e-5, abs=1e-12), key
+
+
+def test_a_validated_design_says_which_iterations_grid_it_scored(tmp_path, capsys):
+    # every particle passes on the starting grid, so the first validation (iteration 0) stays the
+    # best (the first of equals) and the design delivers that grid after 3 iterations
+    text = _helpers.gather_problem(radius=5.0, iterations=3).replace(
+        "particles = 6", "particles = 6\nvalidate_every = 1\nvalidation_particles = 4")
+    (tmp_path / "p.toml").write_text(text)
+    assert main(["design", str(tmp_path / "p.toml"), "--quiet", "--out", str(tmp_path / "d.npz")]) == EXIT_OK
+    capsys.readouterr()
+    code, out, err = run(capsys, "evaluate", tmp_path / "d.npz", *PARTICLES, "--json", tmp_path / "d.json")
+    assert code == EXIT_OK, err
+    printed = dict(line.split(": ", 1) for line in out.splitlines())
+    assert printed["iterations"] == "3" and printed["grid_iteration"] == "0"
+    data = _strict((tmp_path / "d.json").read_text())
+    assert data["iterations"] == 3 and data["grid_iteration"] == 0
 
 
 def test_a_nan_figure_is_null(designs, tmp_path, capsys):

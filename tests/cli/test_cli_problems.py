@@ -86,6 +86,37 @@ def test_a_shipped_problem_by_its_name(name, tmp_path, capsys):
     assert state.iteration == 6 and max(state.values.shape) <= 12
 
 
+@pytest.mark.parametrize("target, warned", [("[1.5, 0.2]", True), ("[0.9, 0.2]", False)])
+def test_a_success_region_outside_the_domain_is_one_warning_before_the_run(target, warned, tmp_path, capsys):
+    # the disc of radius 0.3 about (1.5, 0.2) lies wholly beyond q0 = 1; about (0.9, 0.2) it reaches in
+    path = tmp_path / "far.toml"
+    path.write_text(_helpers.gather_problem(iterations=1, train_particles=2).replace(
+        "target = [0.3, -0.2]\nradius", f"target = {target}\nradius"))
+    code, out, err = run(capsys, "design", path, "--quiet", "--out", tmp_path / "far.npz")
+    assert code == EXIT_OK, err
+    warnings = [line for line in err.splitlines() if line.startswith("warning:")]
+    if not warned:
+        assert warnings == []
+        return
+    assert warnings == [f"warning: {path}: evaluate.success[0] (final_position): its region [[1.2, -0.1], [1.8, 0.5]] "
+                        f"lies wholly outside the domain [[-1.0, -1.0], [1.0, 1.0]], where the surface is not "
+                        f"designed: no particle is brought there"]
+
+
+def test_a_loss_of_zero_while_particles_fail_is_one_error_line_and_no_file(tmp_path, capsys):
+    path = tmp_path / "blind.toml"
+    path.write_text(_helpers.gather_problem(iterations=3, train_particles=4).replace(
+        '[[evaluate.success]]\nkind = "final_position"\ntarget = [0.3, -0.2]\nradius = 0.3',
+        '[[evaluate.success]]\nkind = "custom"\nobject = "_helpers:UNCHARGED_TEST"').replace(
+        '[[objective]]\nkind = "final_position"\ntarget = [0.3, -0.2]\n', ''))
+    code, out, err = run(capsys, "design", path, "--quiet", "--out", tmp_path / "blind.npz")
+    assert code == 1 and out == ""
+    assert err.splitlines() == ["error: the run stopped at its first iteration, so no design file was written: "
+                                "uncharged: iteration 0: the loss is 0 while the batch's success is 0.000: "
+                                "nothing charges what its particles fail"]
+    assert not (tmp_path / "blind.npz").exists()
+
+
 def test_set_train_keys_change_the_plan_the_design_runs(gather, tmp_path, capsys):
     out = tmp_path / "g.npz"
     code, stdout, err = run(capsys, "design", gather, "--set", "train.iterations=3", "--set", "train.particles=5",

@@ -87,11 +87,72 @@ def test_design_gradient_of_the_derived_objective_matches_central_differences_en
     assert relative_error(step.grad, fd) < FD_RTOL
 
 
+#: The sorter with a scenario that pushes the other way, its tests charged with the run's.
+SCENARIO = {"name": "back", "forces": [{"kind": "constant", "force": [-0.5, -0.2]}, {"kind": "noise", "std": 0.05}],
+            "success": [{"name": "left", "kind": "within", "center": [-0.5, 0.0], "radius": 0.3, "from": 0.5},
+                        {"name": "out", "kind": "exit", "edge": "q0_lower", "center": 0.0, "halfwidth": 0.5,
+                         "from": 0.5, "to": 0.9}]}
+
+
+def _with_scenario(**changes):
+    tests = [t for t in SORTER["evaluate"]["success"] if t["kind"] != "any_of"]
+    return _sorter(evaluate={"particles": 9, "success": tests, "scenario": [SCENARIO]},
+                   forces=[{"kind": "constant", "force": [0.5, 0.2]}, {"kind": "noise", "std": 0.05}], **changes)
+
+
+def test_design_gradient_with_a_charged_scenario_matches_central_differences_entrywise():
+    problem = _with_scenario()
+    assert [sc.name for sc in problem.charged_scenarios] == ["back"]
+    values = 0.2 * np.random.default_rng(6).standard_normal(problem.shape())
+    step = synthesis.design_gradient(problem, values, seed=1, iteration=0, n_particles=6)
+    fd = central_gradient(lambda v: synthesis.design_gradient(problem, v, seed=1, iteration=0, n_particles=6).loss,
+                          values)
+    assert np.count_nonzero(fd) >= values.size // 2
+    assert relative_error(step.grad, fd) < FD_RTOL
+    # the loss is the run's plus the scenario's: without the scenario only the run's
+    alone = _sorter(evaluate={"particles": 9, "success": [t for t in SORTER["evaluate"]["success"]
+                                                          if t["kind"] != "any_of"]},
+                    forces=[{"kind": "constant", "force": [0.5, 0.2]}, {"kind": "noise", "std": 0.05}])
+    base = synthesis.design_gradient(alone, values, seed=1, iteration=0, n_particles=6).loss
+    assert step.loss > base > 0.0
+
+
+def test_a_scenario_of_a_hand_written_objective_is_a_check_not_charged():
+    problem = _with_scenario(objective=[{"kind": "final_position", "target": [0.5, 0.5]}])
+    assert problem.charged_scenarios == () and [sc.name for sc in problem.scenarios] == ["back"]
+
+
+def test_validation_judges_the_particles_in_the_run_and_in_each_charged_scenario():
+    from pes_ref.synthesis.validation import validation_success
+    import _helpers
+    problem = synthesis.load_problem(str(_helpers.ROOT / "examples" / "problems" / "toggle.toml"))
+    q1 = problem.nodes(problem.shape(), 1)[None, :] * np.ones(problem.shape())
+    values = 10.0 * (q1 - 0.5) ** 2         # one well, up: the run holds up, the reset scenario fails
+    figures = synthesis.evaluate(problem, values, seed=5)
+    assert figures["success_fraction"] >= 0.95 and figures["scenario_reset_success_fraction"] == 0.0
+    assert validation_success(problem, values, 0, 50)[0] == 0.0
+
+
 def test_a_custom_test_from_a_module_is_read_and_its_surrogate_used():
     data = {**SORTER, "evaluate": {"success": [{"kind": "custom", "object": "_helpers:BAND_TEST"}]}}
     problem = parse_problem(data, "c.toml")
     assert problem.term_names == ("surrogate_custom",)
     assert "_helpers:BAND_TEST" in problem_text(problem)
+
+
+def test_a_loss_of_zero_while_particles_fail_is_an_error_the_run_reports():
+    # every particle fails the test and its surrogate charges nothing: the gradient is 0, the run
+    # cannot move, so it stops at once rather than finishing "done" on its starting grid
+    data = {**SORTER, "evaluate": {"success": [{"kind": "custom", "object": "_helpers:UNCHARGED_TEST"}]},
+            "train": {"iterations": 3, "particles": 4, "validate_every": 1, "validation_particles": 4,
+                      "target": 0.9}}
+    state = synthesis.run_design(synthesis.new_design(parse_problem(data, "u.toml")))
+    assert state.status == ("uncharged: iteration 0: the loss is 0 while the batch's success is 0.000 and the best "
+                            "validation's 0.000, below the target 0.9: nothing charges what its particles fail")
+    assert state.status.startswith(synthesis.STOPPED) and state.iteration == 0
+    # charged, the same problem runs to its end
+    charged = {**data, "evaluate": {"success": [{"kind": "custom", "object": "_helpers:BAND_TEST"}]}}
+    assert synthesis.run_design(synthesis.new_design(parse_problem(charged, "c.toml"))).status == "done"
 
 
 BAD = [

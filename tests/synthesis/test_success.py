@@ -2,6 +2,7 @@
 zero for a particle that passes with room to spare, positive for one that fails, and its
 derivative against central differences entry by entry on fixed cases (every kind, in a start
 group and in an any-of), and on random cases of every topology away from its kinks."""
+import dataclasses
 import math
 
 import numpy as np
@@ -49,8 +50,8 @@ FIXED = {
     "position_at": PositionAtTest(1.0, (0.1, -0.2), 0.4, PLANE),
     "stay_in": StayInTest(StayIn((-0.2, -0.3), (0.4, 0.25), 0.5, 2.0, 1.0, PLANE)),
     "within": WithinTest((0.2, 0.1), 0.5, 1.0, 2.5, PLANE),
-    "exit": ExitTest(Exit("q1_lower", 0.1, 0.3, 1.0, Domain((-1.0, 0.0), (1.0, 2.0), (False, False))), 0.8, 0.0,
-                     math.inf),
+    "exit": ExitTest(Exit("q1_lower", 0.1, 0.3, 1.0, Domain((-1.0, 0.0), (1.0, 2.0), (False, False))), 0.8, 0.75,
+                     2.0),
     "cross": CrossTest((0.5, -0.2), (0.5, 0.3), 0.5, math.inf, PLANE),
     "speed_at": SpeedAtTest(1.5, 1, -0.2, 0.3),
     "any_of": AnyOfTest((FinalPositionTest((0.5, 0.5), 0.2, PLANE), FinalPositionTest((-0.5, -0.5), 0.2, PLANE))),
@@ -60,8 +61,8 @@ FIXED = {
 
 def _case(kind):
     x, v = X.copy(), V.copy()
-    if kind == "exit":                      # q1 falls through 0 at different steps; one particle never leaves
-        x[:, :, 1] = np.array([[1.5, 0.7, 0.9, 1.2], [0.8, 0.3, 0.6, 1.1], [0.2, -0.2, 0.4, 1.0],
+    if kind == "exit":      # q1 falls through 0 at different steps (too early, on time, too late), or never
+        x[:, :, 1] = np.array([[1.5, 0.7, 0.9, 1.2], [0.8, -0.05, 0.6, 1.1], [0.2, -0.2, 0.4, 1.0],
                                [-0.3, -0.5, 0.3, 0.9], [-0.6, -0.8, 0.2, 0.8], [-0.9, -0.9, -0.1, 0.7]])
     return x, v
 
@@ -89,12 +90,30 @@ def test_a_surrogate_is_zero_exactly_where_particles_pass_with_room_to_spare(kin
     x, v = _case(kind)
     c, _, _ = test.cost(x, v, T, MARGIN)
     assert c.shape == (x.shape[1],) and np.all(c >= 0)
-    # a particle with zero cost passes (with margin 0 the surrogate is zero exactly on passing ones,
-    # except for the tests whose surrogate does not charge a window: exit's and cross's time)
+    # zero exactly for the particles that pass with the margin; with margin 0, exactly for those that pass
     ok = test.passes(x, v, T)
     assert np.all(ok[c == 0.0]), (c, ok)
     c0, _, _ = test.cost(x, v, T, 0.0)
     assert np.all(c0[~ok] > 0.0), (c0, ok)
+    if kind != "custom":                    # a user's own test has no room to spare
+        assert np.array_equal(c == 0.0, test.passes(x, v, T, MARGIN)), (c, test.passes(x, v, T, MARGIN))
+
+
+def test_an_exits_window_is_charged_too_early_and_too_late():
+    test = FIXED["exit"]                    # from 0.75 to 2: particle 1 leaves at 0.5, 2 at 2.5, 3 never
+    x, v = _case("exit")
+    v[:, :, 1] = -1.0                       # fast enough everywhere: only the window and the band count
+    x[:, :, 0] = 0.1                        # on the band's centre
+    c, _, _ = test.cost(x, v, T, 0.0)
+    assert test.passes(x, v, T).tolist() == [True, False, False, False]
+    assert c[0] == 0.0 and np.all(c[1:] > 0.0), c
+    # too early by 0.05 past the edge at t = 0.5 (one of the two states before from), in half-widths
+    assert c[1] == pytest.approx(0.5 * (0.05 / 0.3) ** 2, rel=1e-12)
+    # too late: the deepest state by t = 2 is 0.2 short of the edge
+    assert c[2] == pytest.approx((0.2 / 0.3) ** 2, rel=1e-12)
+    # a run cut short of `from` (from 1.25, a stage's horizon t <= 0.5) charges leaving too early, not too late
+    short, _, _ = dataclasses.replace(test, start=1.25).cost(x[:2], v[:2], T[:2], 0.0)
+    assert short[1] == pytest.approx(0.5 * (0.05 / 0.3) ** 2, rel=1e-12) and np.all(short[[0, 2, 3]] == 0.0)
 
 
 def test_verdicts_by_hand():
@@ -182,6 +201,99 @@ def smooth_cases(draw):
         angle = rng.uniform(0, 2 * np.pi, (n_states, n))
         x = center + np.stack([r * np.cos(angle), r * np.sin(angle)], axis=-1) + laps
     return test, x, v, t, margin
+
+
+KINDS = ["final_position", "position_at", "within", "stay_in", "exit", "cross", "speed_at", "any_of", "group"]
+
+
+def _random_test(kind, rng, domain, t):
+    """A test of ``kind`` with random parameters (a window anywhere in the run) on ``domain``."""
+    lower, length = np.asarray(domain.lower), np.asarray(domain.upper) - np.asarray(domain.lower)
+    point = lambda: tuple(lower + rng.uniform(0.2, 0.8, 2) * length)        # noqa: E731
+    start, end = sorted(rng.uniform(0.0, t[-1], 2))
+    radius = float(rng.uniform(0.1, 0.5) * length.min())
+    if kind == "final_position":
+        return FinalPositionTest(point(), radius, domain)
+    if kind == "position_at":
+        return PositionAtTest(float(rng.choice(t)), point(), radius, domain)
+    if kind == "within":
+        return WithinTest(point(), radius, float(start), float(end), domain)
+    if kind == "stay_in":
+        c, half = np.asarray(point()), rng.uniform(0.1, 0.4, 2) * length
+        return StayInTest(StayIn(tuple(c - half), tuple(c + half), float(start), float(end), 1.0, domain))
+    if kind == "exit":                      # a wide band, a window that often holds the exit
+        return ExitTest(Exit("q0_upper", point()[1], 2.0 * radius, 1.0, domain), float(rng.choice([0.0, 0.5])),
+                        float(start) / 2, float(end) if rng.random() < 0.7 else math.inf)
+    if kind == "cross":                     # a long segment, mostly across q0
+        a = point()
+        return CrossTest((a[0], -0.8), (a[0] + rng.uniform(-0.3, 0.3), 0.8), float(start) / 2, float(end), domain)
+    if kind == "speed_at":
+        low, high = sorted(rng.normal(0.0, 1.0, 2))
+        return SpeedAtTest(float(rng.choice(t)), int(rng.integers(2)), float(low), float(high))
+    if kind == "any_of":
+        return AnyOfTest(tuple(_random_test(k, rng, domain, t) for k in rng.choice(KINDS[:7], 2)))
+    return GroupTest(_random_test(str(rng.choice(KINDS[:7])), rng, domain, t), "g", _members)
+
+
+@st.composite
+def random_cases(draw):
+    """A random test of every kind (windows, any-of, a group's) and random particles: paths that
+    wander from a random start with random steps (some through the exit edge q0 = upper)."""
+    kind = draw(st.sampled_from(KINDS))
+    rng = np.random.default_rng(draw(pst.seeds()))
+    domain = Domain((-1.0, -1.0), (1.0, 1.0), (False, False))
+    n_states, n = int(rng.integers(3, 9)), int(rng.integers(1, 7))
+    t = 0.25 * np.arange(n_states)
+    drift = np.array([rng.uniform(-0.1, 0.5), 0.0])          # towards the exit edge q0 = 1, or not
+    x = rng.uniform(-0.9, 0.9, (1, n, 2)) + np.cumsum(drift + rng.normal(0.0, 0.2, (n_states, n, 2)), axis=0)
+    x[0] = np.clip(x[0], -0.95, 0.95)
+    return _random_test(kind, rng, domain, t), x, rng.normal(0.0, 1.0, (n_states, n, 2)), t, float(rng.uniform(0, 0.5))
+
+
+@given(random_cases())
+def test_a_surrogate_is_zero_exactly_when_its_test_passes_with_the_margin(case):
+    test, x, v, t, margin = case
+    c, _, _ = test.cost(x, v, t, margin)
+    assert c.shape == (x.shape[1],) and np.all(c >= 0.0)
+    assert np.array_equal(c == 0.0, test.passes(x, v, t, margin)), (c, test.passes(x, v, t, margin))
+    c0, _, _ = test.cost(x, v, t, 0.0)
+    assert np.array_equal(c0 == 0.0, test.passes(x, v, t)), (c0, test.passes(x, v, t))
+
+
+@given(random_cases(), st.floats(1.1, 3.0))
+def test_a_surrogate_grows_with_the_distance_from_passing(case, stretch):
+    # a failing path moved further from passing costs more: scaled away from a path that passes with
+    # the margin (the region's centre; for an exit, a path out through the band's centre on time,
+    # moved along the edge or back from it), and for a crossing moved away across the segment's normal
+    test, x, v, t, margin = case
+    inner = getattr(test, "test", test)
+    if isinstance(inner, AnyOfTest):
+        return                              # the cheapest of two: each grows by its own test
+    base, _, _ = test.cost(x, v, t, margin)
+    if isinstance(inner, (FinalPositionTest, PositionAtTest, WithinTest, StayInTest)):
+        centre = np.mean(inner.region(), axis=0)
+        far_x, far_v = centre + stretch * (x - centre), v
+    elif isinstance(inner, SpeedAtTest):
+        mid = 0.5 * (max(inner.low, -5.0) + min(inner.high, 5.0))
+        far_x, far_v = x, v.copy()
+        far_v[..., inner.axis] = mid + stretch * (v[..., inner.axis] - mid)
+    elif isinstance(inner, CrossTest):
+        s = np.subtract(inner.b, inner.a)
+        normal = np.array([-s[1], s[0]]) / np.hypot(*s)
+        side = np.sign(np.sum((x - inner.a) * normal, axis=-1, keepdims=True))
+        if not np.all(side == side[:1]):
+            return                          # a path on both sides crosses the segment's line
+        far_x, far_v = x + (stretch - 1.0) * side * normal, v
+    else:                                   # an exit: along the edge from the band's centre
+        far_x, far_v = x.copy(), v
+        far_x[..., 1] = inner.edge.center + stretch * (x[..., 1] - inner.edge.center)
+    far, _, _ = test.cost(far_x, far_v, t, margin)
+    assert np.all(far >= base - 1e-12 * (1.0 + base)), (base, far)
+    grows = base > 0.0                      # every failing particle costs more further away ...
+    if isinstance(inner, ExitTest):         # ... an exit's where it leaves outside the band (its window
+        along = inner._judged(x)[4]         # and speed do not move with the stretch along the edge)
+        grows &= np.abs(along) > inner.edge.halfwidth * (1.0 - margin)
+    assert np.all(far[grows] > base[grows]), (base, far)
 
 
 @given(smooth_cases())
