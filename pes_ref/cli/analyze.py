@@ -30,7 +30,6 @@ import json
 import os
 import re
 import sys
-import time
 
 from pes_ref.core import checks
 from pes_ref.cli.common import (EXIT_OK, LazyDefault, add_command, error, option_text, output_file,
@@ -300,39 +299,6 @@ DRIVE_FLAGS = {"axis": "--drive", "load": "--load", "cycles": "--cycles", "start
                "threshold": "--threshold", "mode": "--mode", "engine": "--engine", "x0": "--start"}
 
 
-class _Progress:
-    """Progress lines of a long analysis on stderr
-    ([`pes_ref.core.runtime.progress.progress_line`][pes_ref.core.runtime.progress.progress_line]):
-    ``cam.toml: drive | percent 40/100 | 8.1 percent/s | elapsed 0:07 | left 0:10``. A callback ``progress(phase,
-    done, total)`` ([`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress]'s signature; ``done`` and ``total``
-    may be a
-    travel), silent for the first `pes_ref.core.runtime.progress.LONG_RUN` seconds, then at most one
-    line every `pes_ref.core.runtime.progress.PERIOD` seconds; the time left is the elapsed time
-    scaled by the share still to do."""
-
-    def __init__(self, label: str, clock=time.monotonic):
-        from pes_ref.core.runtime.progress import ProgressWriter
-        self.label, self.clock = label, clock
-        self.lines = ProgressWriter()   # in place at a terminal; ``end`` it before printing anything else
-        self.start = self.last = clock()
-        self.phase, self.phase_start = None, self.start
-
-    def __call__(self, phase: str, done, total) -> None:
-        from pes_ref.core.runtime import progress
-        now = self.clock()
-        if phase != self.phase:
-            self.phase, self.phase_start = phase, now
-        if now - self.start < progress.LONG_RUN or now - self.last < progress.PERIOD:
-            return
-        self.last = now
-        share = min(max(done / total, 0.0), 1.0) if total else 1.0
-        elapsed = now - self.phase_start
-        percent = round(100 * share)
-        rate = percent / elapsed if elapsed > 0 else 0.0
-        left = elapsed * (1.0 - share) / share if share > 0 else float("inf")
-        self.lines.show(progress.Progress(self.label, phase, percent, 100, "percent", rate, now - self.start, left))
-
-
 def _pair(option: str, text: str, cast=float) -> tuple:
     parts = text.split(",")
     if len(parts) != 2:
@@ -437,6 +403,7 @@ def _motion_law_csv(result) -> bytes:
 
 
 def _run_file(args) -> int:
+    from pes_ref.core.runtime.progress import ShareLines
     from pes_ref.devices.clearance import check_clearance
     from pes_ref.devices.drive import check_drive, check_free, drive
     from pes_ref.devices.device_file import load_device
@@ -461,7 +428,7 @@ def _run_file(args) -> int:
             device = _reshaped(device, shape, path, args.shape)
         try:
             start = check_drive(device, axis, load, args.mode, cycles, start, threshold)[4]  # before computing
-            progress = _Progress(os.path.basename(path))
+            progress = ShareLines(os.path.basename(path))
             try:
                 device.blocked(progress)
                 check_free(device, start)      # before the boundary and the distance: a refusal computes little

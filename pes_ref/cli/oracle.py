@@ -7,11 +7,9 @@ refused."""
 from __future__ import annotations
 
 import os
-import time
 import zipfile
 
-from pes_ref.core.runtime import progress
-from pes_ref.core.runtime.progress import Clock, Progress, ProgressWriter
+from pes_ref.core.runtime.progress import ProgressWriter
 from pes_ref.oracle.conformance import LATEST
 from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, input_file, output_file
 
@@ -49,79 +47,6 @@ def add_parser(sub) -> None:
                    help="the loops that run the cases: 'numpy' (default; imports no compiler) or 'numba' (compiled, "
                         "the extra 'fast'; the same trajectories, gradients to 1e-13 of their largest entry)")
     p.set_defaults(func=_run_oracle)
-
-
-class ProgressLines:
-    """The progress of one oracle run on stderr, once it is long: the estimate first, then
-    at most one line every ``period`` seconds
-    ([`pes_ref.core.runtime.progress.progress_line`][pes_ref.core.runtime.progress.progress_line]), e.g.
-    ``case.npz: forward | steps 1200/3000 | 250 steps/s | elapsed 0:05 | left 0:12``.
-
-    A progress callback of [`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress] (called every few hundred
-    steps).
-    ``period`` and ``after`` default to `pes_ref.core.runtime.progress.PERIOD` and
-    `pes_ref.core.runtime.progress.LONG_RUN`, read when the run starts.
-    A run estimated longer than ``after`` seconds ([`pes_ref.core.budget.estimate`][pes_ref.core.budget.estimate])
-    prints its estimate at once; one estimated shorter starts printing if it runs past
-    ``after`` seconds all the same. The time left is a
-    [`pes_ref.core.runtime.progress.Clock`][pes_ref.core.runtime.progress.Clock]
-    over the two phases, the forward run and then the adjoint, each step costing the
-    model's share of its phase ([`pes_ref.core.budget.step_cost`][pes_ref.core.budget.step_cost]): a phase not yet
-    timed is scaled from the one timed (the model's estimate until then).
-    """
-
-    def __init__(self, label: str, estimate, period: float | None = None, clock=time.monotonic,
-                 after: float | None = None, lines: ProgressWriter | None = None):
-        from pes_ref.core import budget
-        self.label, self.clock = label, clock
-        self.period = progress.PERIOD if period is None else period
-        self.after = progress.LONG_RUN if after is None else after
-        self.lines = ProgressWriter() if lines is None else lines      # in place at a terminal
-        self.start = self.last = clock()
-        self.run = estimate
-        forward = budget.estimate_seconds(estimate.n_steps, estimate.n_particles, "simulate")
-        total = budget.estimate_seconds(estimate.n_steps, estimate.n_particles, "case")
-        share = forward / total if total > 0 else 0.5
-        T = estimate.n_steps
-        self.pace = Clock([(0, T, share), (T, 2 * T, 1.0 - share)])
-        self.ticked = (self.start, 0)                   # when the clock was last told, and the position then
-        self.started = estimate.seconds > self.after
-        if self.started:
-            self._header(0.0, estimate.seconds)
-
-    def _header(self, elapsed: float, seconds: float) -> None:
-        """The run's estimate, as a progress line of its own that stays: ``case.npz: estimate | steps
-        0/3000 | N 64 | GiB 0.012 | ? steps/s | elapsed 0:00 | left 0:12`` (the steps are the
-        forward run's; the adjoint runs as many after it)."""
-        self.lines.note(progress.progress_line(Progress(
-            self.label, "estimate", 0, self.run.n_steps, "steps", 0.0, elapsed, seconds,
-            (("N", self.run.n_particles), ("GiB", float(self.run.gib))))))
-
-    def __call__(self, phase: str, done: int, total: int) -> None:
-        now = self.clock()
-        elapsed = now - self.start
-        position = done if phase == "forward" else self.run.n_steps + done
-        then, before = self.ticked
-        self.pace.tick(before, now - then, max(position - before, 0))
-        self.ticked = (now, position)
-        left = self.pace.seconds_left(position)
-        if not left < float("inf"):                     # nothing timed yet: the model's estimate
-            left = max(self.run.seconds - elapsed, 0.0)
-        if not self.started:
-            if elapsed < self.after:
-                return
-            self.started = True
-            self._header(elapsed, left)
-        if now - self.last < self.period:
-            return
-        self.last = now
-        i = self.pace.index(position)
-        self.lines.show(Progress(self.label, phase, done, total, "steps", self.pace.rate(i), elapsed, left))
-
-
-def _monitor(label: str, lines: ProgressWriter):
-    """The oracle's ``monitor``: the [`ProgressLines`][pes_ref.cli.oracle.ProgressLines] of each run, shown by ``lines``."""
-    return lambda estimate: ProgressLines(label, estimate, lines=lines)
 
 
 def _result_name(case_path: str, out_dir: str) -> str:
@@ -195,6 +120,7 @@ def _record_refusal(path: str, case_path: str, exc: Exception) -> None:
 
 def _run_oracle(args) -> int:
     from pes_ref.oracle import case as oracle
+    from pes_ref.oracle.monitor import monitor
     try:
         pairs = _pairs(args)
         if args.refusals is not None:
@@ -208,7 +134,7 @@ def _run_oracle(args) -> int:
             lines = ProgressWriter()
             try:
                 result = oracle.run_case(oracle.load_case(case_path), allow_unstable=args.allow_unstable,
-                                         monitor=_monitor(case_path, lines), backend=args.backend)
+                                         monitor=monitor(case_path, lines), backend=args.backend)
             finally:
                 lines.end()             # the last progress line stays, whole, before anything else is printed
             oracle.write_result(result, result_path, overwrite=args.force, compress=args.compress)

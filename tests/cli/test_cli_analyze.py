@@ -153,21 +153,6 @@ def test_without_shapely_the_command_prints_the_pip_line(capsys, monkeypatch):
     assert "internal error" not in err                           # refused as an input problem, not a crash
 
 
-def test_progress_lines_start_after_a_few_seconds_and_come_every_period(capsys):
-    from pes_ref.cli import analyze
-    from pes_ref.core.runtime.progress import LONG_RUN, PERIOD, is_progress_line
-    now = [0.0]
-    lines_of = analyze._Progress("cam.toml", clock=lambda: now[0])
-    for t, done in ((1.0, 1), (LONG_RUN + 0.1, 2), (LONG_RUN + 0.2, 3), (LONG_RUN + PERIOD + 0.2, 4)):
-        now[0] = t
-        lines_of("drive", done, 8)
-    lines = capsys.readouterr().err.splitlines()
-    assert all(is_progress_line(line) for line in lines), lines
-    assert [line.split(" | ")[:2] + line.split(" | ")[-2:] for line in lines] == [
-        ["cam.toml: drive", "percent 25/100", "elapsed 0:03", "left 0:06"],     # 2.1 s for the first quarter
-        ["cam.toml: drive", "percent 50/100", "elapsed 0:05", "left 0:04"]]
-
-
 def test_a_start_with_a_negative_first_number_is_a_value_and_each_cycle_is_reported(capsys, tmp_path):
     """``--start -0.1,0.6`` (argparse alone reads a word starting with '-' as an option); the
     first turn holds the follower's settling from 0.6, the headline is the last turn's."""

@@ -28,7 +28,7 @@ ROOT = Path(pes_ref.__file__).resolve().parent.parent
 #: below: add it only with its reason.
 ORACLE_IMPORTS = {
     "pes_ref", "pes_ref.cli", "pes_ref.cli.common", "pes_ref.cli.oracle",
-    "pes_ref.oracle", "pes_ref.oracle.case", "pes_ref.oracle.npz", "pes_ref.oracle.errors",
+    "pes_ref.oracle", "pes_ref.oracle.case", "pes_ref.oracle.monitor", "pes_ref.oracle.npz", "pes_ref.oracle.errors",
     "pes_ref.oracle.from_scene",            # re-exported by pes_ref.oracle
     "pes_ref.oracle.conformance",           # the shipped vectors' version, in the examples of --help
     "pes_ref.core", "pes_ref.core.bicubic", "pes_ref.core.bilinear", "pes_ref.core.budget", "pes_ref.core.checks",

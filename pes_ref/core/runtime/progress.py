@@ -39,7 +39,7 @@ from itertools import islice
 from typing import Callable, Iterable
 
 __all__ = ["EVERY", "WARMUP", "LONG_RUN", "PERIOD", "reporting", "blocks", "Progress", "Clock", "progress_line",
-           "is_progress_line", "figure_text", "clock_time", "ProgressWriter"]
+           "is_progress_line", "figure_text", "clock_time", "ProgressWriter", "ShareLines"]
 
 #: Steps between two calls of a progress callback (a callback that reads a clock reads it
 #: this rarely; at ~10 us a step that is every few milliseconds).
@@ -340,3 +340,35 @@ class ProgressWriter:
             out = self._out()
             out.write("\n")
             out.flush()
+
+
+class ShareLines:
+    """The progress lines of a run that knows only the share it has done (an analysis: its
+    C-space, then its drive), on stderr: ``cam.toml: drive | percent 40/100 | 8.1 percent/s |
+    elapsed 0:07 | left 0:10``. A callback ``progress(phase, done, total)`` (this module's
+    signature; ``done`` and ``total`` may be a travel), silent for the first
+    [`LONG_RUN`][pes_ref.core.runtime.progress.LONG_RUN] seconds, then at most one line every
+    [`PERIOD`][pes_ref.core.runtime.progress.PERIOD] seconds; the time left is the phase's elapsed
+    time scaled by the share still to do. ``lines`` shows them (in place at a terminal); ``end``
+    it before printing anything else."""
+
+    def __init__(self, label: str, clock=None):
+        import time
+        self.label, self.clock = label, time.monotonic if clock is None else clock
+        self.lines = ProgressWriter()
+        self.start = self.last = self.clock()
+        self.phase, self.phase_start = None, self.start
+
+    def __call__(self, phase: str, done, total) -> None:
+        now = self.clock()
+        if phase != self.phase:
+            self.phase, self.phase_start = phase, now
+        if now - self.start < LONG_RUN or now - self.last < PERIOD:
+            return
+        self.last = now
+        share = min(max(done / total, 0.0), 1.0) if total else 1.0
+        elapsed = now - self.phase_start
+        percent = round(100 * share)
+        rate = percent / elapsed if elapsed > 0 else 0.0
+        left = elapsed * (1.0 - share) / share if share > 0 else float("inf")
+        self.lines.show(Progress(self.label, phase, percent, 100, "percent", rate, now - self.start, left))

@@ -155,3 +155,17 @@ def test_every_progress_line_is_recognized(label, stage, done, total, unit, rate
 ])
 def test_a_command_s_own_lines_are_not_progress_lines(line):
     assert not is_progress_line(line)
+
+
+def test_progress_lines_start_after_a_few_seconds_and_come_every_period(capsys):
+    from pes_ref.core.runtime.progress import LONG_RUN, PERIOD, ShareLines, is_progress_line
+    now = [0.0]
+    lines_of = ShareLines("cam.toml", clock=lambda: now[0])
+    for t, done in ((1.0, 1), (LONG_RUN + 0.1, 2), (LONG_RUN + 0.2, 3), (LONG_RUN + PERIOD + 0.2, 4)):
+        now[0] = t
+        lines_of("drive", done, 8)
+    lines = capsys.readouterr().err.splitlines()
+    assert all(is_progress_line(line) for line in lines), lines
+    assert [line.split(" | ")[:2] + line.split(" | ")[-2:] for line in lines] == [
+        ["cam.toml: drive", "percent 25/100", "elapsed 0:03", "left 0:06"],     # 2.1 s for the first quarter
+        ["cam.toml: drive", "percent 50/100", "elapsed 0:05", "left 0:04"]]
