@@ -22,6 +22,7 @@ import importlib.util
 from typing import NamedTuple
 
 from pes_ref.core import checks, halves
+from pes_ref.core.runtime import extras
 from pes_ref.core.steppers import Stepper, stepper as numpy_stepper
 
 __all__ = ["Backend", "BACKENDS", "DEFAULT_ORDER", "installed", "default_backend", "check_backend", "stepper",
@@ -97,7 +98,7 @@ def check_backend(backend) -> str:
     if not installed(backend):
         b = BACKENDS[backend]
         raise checks.InputError("backend", f"backend={backend!r} needs {b.requires}, which is not installed: "
-                                           f"pip install 'pes_ref[{b.extra}]'")
+                                           f"{extras.pip_line(b.extra)}")
     return backend
 
 

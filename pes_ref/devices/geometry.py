@@ -16,7 +16,7 @@ The planar geometry is shapely 2's (GEOS): unions and differences build a part o
 [`interiors_overlap`][pes_ref.devices.geometry.interiors_overlap] decides many pose pairs at once. shapely is the
 optional extra
 ``devices`` (``pip install 'pes_ref[devices]'``); without it, building a shape raises
-[`MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] naming that line.
+[`MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] naming that line.
 
 Circles. A circle becomes a regular polygon whose vertices lie just outside it, so that
 its edge is within ``tolerance`` (a length) of the true circle everywhere: n sides with
@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
+from pes_ref.core.runtime.extras import MissingExtraError, pip_line, require
 
 __all__ = ["MissingExtraError", "require_shapely", "Polygon", "Circle", "Rectangle", "regular_polygon",
            "Translation", "Rotation", "Drum", "MOTIONS", "Part", "pose", "posed_geometries", "interiors_overlap", "overlap",
@@ -42,23 +43,13 @@ __all__ = ["MissingExtraError", "require_shapely", "Polygon", "Circle", "Rectang
            "check_drum_drawing", "tolerance_bound"]
 
 #: The pip line that installs what this module needs.
-PIP_LINE = "pip install 'pes_ref[devices]'"
-
-
-class MissingExtraError(ImportError):
-    """shapely 2 (the optional extra ``devices``) is not installed; the message says how to install it."""
+PIP_LINE = pip_line("devices")
 
 
 def require_shapely():
-    """The ``shapely`` module (version 2 or later), or [`MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] with the pip line."""
-    try:
-        import shapely
-    except ImportError:
-        raise MissingExtraError(f"part geometry needs shapely >= 2 (the optional extra 'devices'): "
-                                f"{PIP_LINE}") from None
-    if int(shapely.__version__.split(".")[0]) < 2:
-        raise MissingExtraError(f"part geometry needs shapely >= 2, found {shapely.__version__}: {PIP_LINE}")
-    return shapely
+    """The ``shapely`` module (version 2 or later), or [`MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError]
+    with the pip line."""
+    return require("shapely", "devices", "part geometry", least=(2,))
 
 
 # --------------------------------------------------------------------------- shapes

@@ -5,7 +5,7 @@ and ``mujoco``, the heightfield's check in MuJoCo ([`pes_ref.realize.mujoco_ball
 [`require_realize`][pes_ref.realize.extra.require_realize] imports shapely and finds the others without importing them
 (each is
 imported where it is used; importing ezdxf and trimesh takes longer than refusing a bad
-option), or raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] with the
+option), or raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] with the
 pip line,
 which the command line prints as its one error line. [`require_mujoco`][pes_ref.realize.extra.require_mujoco] imports
 mujoco or
@@ -13,16 +13,14 @@ raises the same error with the extra's pip line (`MUJOCO_PIP_LINE`).
 """
 from __future__ import annotations
 
-import importlib.util
-
-from pes_ref.devices.geometry import MissingExtraError, require_shapely
+from pes_ref.core.runtime.extras import MissingExtraError, found, pip_line, require
 
 __all__ = ["PIP_LINE", "MUJOCO_PIP_LINE", "require_realize", "require_mujoco"]
 
 #: The pip line that installs what realization needs.
-PIP_LINE = "pip install 'pes_ref[realize]'"
+PIP_LINE = pip_line("realize")
 #: The pip line that installs MuJoCo, the heightfield's second check.
-MUJOCO_PIP_LINE = "pip install 'pes_ref[mujoco]'"
+MUJOCO_PIP_LINE = pip_line("mujoco")
 #: The oldest MuJoCo whose Python bindings the check uses (the extra's pin).
 MUJOCO_MIN = (3, 2)
 #: The modules of the extra beyond shapely, and what each is for.
@@ -31,30 +29,17 @@ _MODULES = (("contourpy", "contours"), ("ezdxf", "DXF files"), ("trimesh", "STL 
 
 def require_realize() -> dict:
     """``{"shapely": the module}`` once every module of the extra is found, or
-    [`MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] naming the missing one and the pip line."""
-    try:
-        out = {"shapely": require_shapely()}
-    except MissingExtraError:
-        raise MissingExtraError(f"realization needs shapely >= 2 (the optional extra 'realize'): {PIP_LINE}") from None
+    [`MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] naming the missing one and the pip line."""
+    out = {"shapely": require("shapely", "realize", "realization", least=(2,))}
     if not hasattr(out["shapely"], "constrained_delaunay_triangles"):
         raise MissingExtraError(f"realization needs shapely >= 2.1 (its triangulation), found "
                                 f"{out['shapely'].__version__}: {PIP_LINE}")
     for name, what in _MODULES:
-        if importlib.util.find_spec(name) is None:
-            raise MissingExtraError(f"realization needs {name} for its {what} (the optional extra 'realize'): "
-                                    f"{PIP_LINE}")
+        found(name, "realize", f"realization's {what}")
     return out
 
 
 def require_mujoco():
     """The ``mujoco`` module (>= `MUJOCO_MIN`), or
-    [`MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] with `MUJOCO_PIP_LINE`."""
-    try:
-        import mujoco
-    except ImportError:
-        raise MissingExtraError(f"the MuJoCo check needs mujoco >= 3.2 (the optional extra 'mujoco'): "
-                                f"{MUJOCO_PIP_LINE}") from None
-    version = tuple(int(part) for part in mujoco.__version__.split(".")[:2] if part.isdigit())
-    if version < MUJOCO_MIN:
-        raise MissingExtraError(f"the MuJoCo check needs mujoco >= 3.2, found {mujoco.__version__}: {MUJOCO_PIP_LINE}")
-    return mujoco
+    [`MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] with `MUJOCO_PIP_LINE`."""
+    return require("mujoco", "mujoco", "the MuJoCo check", least=MUJOCO_MIN)

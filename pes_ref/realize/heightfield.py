@@ -209,7 +209,7 @@ def heightfield_check(problem, values, hf: HeightField, seed: int, n_particles: 
     against the rolling ball, ``mujoco_dt`` its timestep, ``mujoco_radius`` the ball's radius,
     ``mujoco_seconds`` its run's wall time), each on ``n_particles`` of held-out seed ``seed`` over
     ``n_steps`` of the design's ``dt`` (default the design's). ``mujoco``: True runs MuJoCo (its
-    absence raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError]), False
+    absence raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError]), False
     leaves it out,
     None runs it when it is installed and otherwise sets ``mujoco`` to the line that installs it.
     ``exited`` counts the particles that reach the exit edge within the horizon: the in-band

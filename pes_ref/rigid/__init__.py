@@ -2,7 +2,7 @@
 on every device file and every realized design (``docs/rigid.md``).
 
 The optional extra ``rigid`` (``pip install 'pes_ref[rigid]'``); without it, building the
-bodies raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] naming that
+bodies raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] naming that
 line.
 """
 from pes_ref.rigid.bodies import MOTION_BODIES, RigidParts, require_pymunk, rigid_parts

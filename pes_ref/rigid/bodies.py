@@ -31,13 +31,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import checks
-from pes_ref.devices.geometry import Drum, MissingExtraError, Rotation, Translation, require_shapely
+from pes_ref.core.runtime.extras import pip_line, require
+from pes_ref.devices.geometry import Drum, Rotation, Translation, require_shapely
 
 __all__ = ["PIP_LINE", "require_pymunk", "MOTION_BODIES", "RigidParts", "rigid_parts", "convex_pieces", "SLOP_SHARE",
            "COLLISION_BIAS", "ITERATIONS"]
 
 #: The pip line that installs the rigid engine.
-PIP_LINE = "pip install 'pes_ref[rigid]'"
+PIP_LINE = pip_line("rigid")
 #: pymunk's allowed overlap (its collision slop), as a share of the C-space cell in length
 #: (`RigidParts.cell`): the contact rests this far inside the wall.
 SLOP_SHARE = 1e-3
@@ -53,14 +54,8 @@ ITERATIONS = 20
 
 
 def require_pymunk():
-    """The ``pymunk`` module (version 7), or [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] with the pip line."""
-    try:
-        import pymunk
-    except ImportError:
-        raise MissingExtraError(f"the rigid engine needs pymunk 7 (the optional extra 'rigid'): {PIP_LINE}") from None
-    if int(pymunk.version.split(".")[0]) != 7:
-        raise MissingExtraError(f"the rigid engine needs pymunk 7, found {pymunk.version}: {PIP_LINE}")
-    return pymunk
+    """The ``pymunk`` module (version 7), or [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] with the pip line."""
+    return require("pymunk", "rigid", "the rigid engine", major=7, version="version")
 
 
 def _triangles(geom) -> list:

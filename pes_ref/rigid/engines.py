@@ -49,7 +49,7 @@ def _nothing() -> None:
 @dataclass(frozen=True)
 class Engine:
     """An engine: ``run(device, scene, x0, v0=None) -> Trajectory``; ``require()`` raises
-    [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.devices.geometry.MissingExtraError] (with its pip line) when
+    [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] (with its pip line) when
     the engine's
     extra is not installed; ``contact``: its figures state the engine and the contact's
     restitution and friction; ``native``: the analyses' own runs (an analysis on it is called

@@ -17,12 +17,13 @@ import contextlib
 import logging
 import os
 
+from pes_ref.core.runtime.extras import require
 from pes_ref.core.runtime.signals import ignore_interrupts
 
-__all__ = ["require_dask", "open_client", "local_cluster", "INSTALL_HINT", "WORKER_ENV"]
+__all__ = ["require_dask", "open_client", "local_cluster", "NEEDS", "WORKER_ENV"]
 
-#: The one line a missing extra gets.
-INSTALL_HINT = "the sweep command needs Dask distributed: pip install 'pes_ref[sweep]' (or pip install 'dask[distributed]')"
+#: What a missing extra's one line says needs it.
+NEEDS = "the sweep command"
 #: Environment of every local worker process: one thread each for the numerical libraries.
 WORKER_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 #: Scheduler settings of a local cluster: a task whose worker dies is not run again by Dask (the
@@ -32,11 +33,9 @@ LOCAL_SCHEDULER_CONFIG = {"distributed.scheduler.allowed-failures": 0,
 
 
 def require_dask() -> None:
-    """Raise `ImportError` with `INSTALL_HINT` when ``distributed`` is not installed."""
-    try:
-        import distributed  # noqa: F401
-    except ImportError:
-        raise ImportError(INSTALL_HINT) from None
+    """Raise a [`MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] (an ``ImportError``)
+    with the pip line when Dask's ``distributed`` is not installed."""
+    require("distributed", "sweep", NEEDS)
 
 
 def _local_worker_setup(client) -> None:
