@@ -1,6 +1,6 @@
 """The faults of `evaluate`: each row refused in one line naming its argument, the folder left as it was
 (the harness and the assets: ``tests/_faults.py``)."""
-from _faults import Fault, fault_table
+from _faults import Fault, Works, fault_table, works_table
 
 FAULTS = [
     # ------------------------------------------------------------------ evaluate
@@ -41,3 +41,12 @@ FAULTS = [
 
 
 outcomes, test_fault = fault_table(FAULTS)
+
+#: A realized design of every feature of a problem file evaluates (``groups.toml``, ``tests/_faults.py``).
+WORKS = [
+    Works("evaluate-realized-start-groups", "evaluate groups.npz --realized gparts/device.toml --engine both",
+          ("rigid_success_out: ", "rigid_share_exits: ", "rigid_scenario_still_success_fraction: ",
+           "rigid_starts_blocked: ")),
+]
+
+worked, test_works = works_table(WORKS)

@@ -1,6 +1,6 @@
 """The faults of `realize`: each row refused in one line naming its argument, the folder left as it was
 (the harness and the assets: ``tests/_faults.py``)."""
-from _faults import Fault, fault_table
+from _faults import Fault, Works, fault_table, works_table
 
 FAULTS = [
     # ------------------------------------------------------------------ realize
@@ -89,3 +89,13 @@ FAULTS = [
 
 
 outcomes, test_fault = fault_table(FAULTS)
+
+#: Designs of every feature of a problem file realize and evaluate (``groups.toml``, ``tests/_faults.py``:
+#: start groups, ``any_of``, a share, a scenario): each row was a crash or a refusal before its fix.
+WORKS = [
+    Works("realize-start-groups", "realize groups.npz --as contact --out rp --particles 4",
+          ("rule: level-set", "success_fraction: ", "realized_success_fraction: ", "rigid_success_fraction: "),
+          made=("rp",)),
+]
+
+worked, test_works = works_table(WORKS)
