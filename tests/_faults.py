@@ -92,7 +92,7 @@ share = 3
 box = { lower = [-0.9, -0.9], upper = [-0.7, 0.2] }
 [[starts.group]]
 name = "high"
-points = [[-0.8, 0.7], [-0.8, 0.8]]
+points = [[-0.8, 0.7], [0.25, 0.45]]
 [[forces]]
 kind = "constant"
 force = [1.0, 0.0]
@@ -212,6 +212,8 @@ BAD_DEVICES = {
     "drumspan": ("motion = \"translation\"\ndirection = [0.0, 1.0]", "motion = \"drum\"\nradius = 0.1"),
     "margin": ("margin = 0.01", "margin = 5.0"),
     "rcsmall": ("r_c = 0.1", "r_c = 0.01"),
+    "realizedkey": ("[start]", "[realized]\ndesign = \"sha256:0\"\nseed = 1\n[start]"),
+    "realizeddesign": ("[start]", "[realized]\ndesign = 12\n[start]"),
 }
 #: Devices whose C-space is a straight free channel along q1 (the plate's hole made a slot for the
 #: pin, with no spring or walls on q1: a drive along it runs free to the grid's edge, in well under
@@ -251,7 +253,7 @@ def make_assets(folder: Path) -> Path:
     assert cli.main(["design", str(folder / "groups.toml"), "--quiet", "--seed", "1",
                      "--out", str(folder / "groups1.npz")]) == 0
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        assert cli.main(["realize", str(folder / "groups.npz"), "--as", "contact", "--particles", "2",
+        assert cli.main(["realize", str(folder / "groups.npz"), "--as", "contact", "--particles", "4",
                          "--out", str(folder / "gparts")]) == 0
     (folder / "text.npz").write_text("values = [[0, 1], [1, 0]]\nmode = dynamic\n")
     (folder / "notes.txt").write_text("a user's own notes\n")

@@ -10,7 +10,9 @@ by a stated rule), turns it into the two parts of the topology's follower
   eq. (1); a problem file's ``[surface.contact]``; the oscillator's from its grid), and the
   design's springs (its scene's per-axis spring);
 - ``[dynamics]``: the design scene's masses, damping and walls;
-- ``[start]``: the design kind's start point (:func:`pes_ref.realize.hooks.start_point`).
+- ``[start]``: the design kind's start point (:func:`pes_ref.realize.hooks.start_point`);
+- ``[realized] design``: the design's hash (:func:`design_hash`), which ``evaluate --realized``
+  checks the design it is given against.
 
 What the parts cannot have is listed in :attr:`ContactRealization.lost`, in words: the
 energies below the contact level (flat on the device beyond ``r_c`` of an obstacle), and the
@@ -19,6 +21,7 @@ area the pin's disc cannot keep (:attr:`pes_ref.realize.followers.Parts.lost_sha
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +32,7 @@ from pes_ref.synthesis.kinds import kind_of
 from pes_ref.realize.followers import DRUM_CAM, DRUM_RADIUS, Parts, follower_for
 from pes_ref.realize.regions import Region, contact_region
 
-__all__ = ["ContactRealization", "realize_contact", "CONTACT_DEFAULTS"]
+__all__ = ["ContactRealization", "realize_contact", "CONTACT_DEFAULTS", "design_hash"]
 
 #: The defaults of the contact realization's settings (C-space length units): the pin's
 #: radius, the plate's rim beyond its cut-out (a drum's walls' beyond the drawn box at its
@@ -54,6 +57,19 @@ class ContactRealization:
     lost: tuple
     sensitivity: tuple
     thickness: float
+
+
+def design_hash(problem, values) -> str:
+    """``"sha256:<hex>"`` of a design: its kind, its problem's text (the design file's,
+    :attr:`pes_ref.synthesis.kinds.DesignKind.to_text`) and its grid values (shape and float64
+    bytes, little-endian). Two designs with the same hash run the same."""
+    kind = kind_of(problem)
+    grid = np.ascontiguousarray(values, dtype="<f8")
+    digest = hashlib.sha256()
+    for part in (kind.name, kind.to_text(problem), repr(grid.shape)):
+        digest.update(part.encode("utf-8") + b"\0")
+    digest.update(grid.tobytes())
+    return "sha256:" + digest.hexdigest()
 
 
 def _springs(scene) -> list:
@@ -139,6 +155,7 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
         "energy": {"v": v, "r_c": r_c, "r_min": r_min, "springs": _springs(scene)},
         "dynamics": dynamics,
         "start": {"q": start_point(problem)},
+        "realized": {"design": design_hash(problem, values)},
     }
     if restitution is not None:
         device["rigid"] = {"restitution": restitution}

@@ -93,9 +93,12 @@ outcomes, test_fault = fault_table(FAULTS)
 #: Designs of every feature of a problem file realize and evaluate (``groups.toml``, ``tests/_faults.py``:
 #: start groups, ``any_of``, a share, a scenario): each row was a crash or a refusal before its fix.
 WORKS = [
-    Works("realize-start-groups", "realize groups.npz --as contact --out rp --particles 4",
+    Works("realize-start-groups", "realize groups.npz --as contact --out rp --particles 8",
           ("rule: level-set", "success_fraction: ", "realized_success_fraction: ", "rigid_success_fraction: "),
           made=("rp",)),
+    # a start inside the parts is not run in rigid contact: realize says how many beside its figures
+    Works("realize-says-starts-inside-the-parts", "realize groups.npz --as contact --out rp --particles 8",
+          ("rigid_starts_blocked: 2 of 16 starts lie inside the parts",), made=("rp",)),
 ]
 
 worked, test_works = works_table(WORKS)
