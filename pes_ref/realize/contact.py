@@ -39,7 +39,8 @@ __all__ = ["ContactRealization", "realize_contact", "CONTACT_DEFAULTS", "design_
 #: ends), the plate's (and pin's, and a drum's walls') thickness in the STL, a drum cam's
 #: radius (:data:`pes_ref.realize.followers.DRUM_RADIUS`) and the pin's clearance (how much
 #: larger than its cut-out the pin is made, :attr:`pes_ref.realize.followers.Parts.clearance`).
-CONTACT_DEFAULTS = {"pin_radius": 0.02, "rim": 0.1, "thickness": 0.1, "drum_radius": DRUM_RADIUS, "clearance": 0.0}
+CONTACT_DEFAULTS = {"pin_radius": 0.02, "rim": 0.1, "thickness": 0.1, "drum_radius": DRUM_RADIUS, "clearance": 0.0,
+                    "units": "mm"}
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,10 @@ class ContactRealization:
 
     ``sensitivity`` holds, for each level beside the chosen one, ``(label, level,
     blocked_share, changed_share)``: the share of the grid blocked at that level and the share
-    whose side differs from the chosen level's.
+    whose side differs from the chosen level's. ``units``: what one C-space length unit is in
+    the DXF (:data:`pes_ref.realize.exports.DXF_UNITS`); ``dowels``: the centres of the dowel
+    holes of radius ``dowel_radius`` that locate a plate's pieces on its base
+    (:func:`pes_ref.realize.exports.dowel_holes`; none for one piece or a drum).
     """
 
     region: Region
@@ -57,6 +61,9 @@ class ContactRealization:
     lost: tuple
     sensitivity: tuple
     thickness: float
+    units: str = "mm"
+    dowels: tuple = ()
+    dowel_radius: float = 0.0
 
 
 def design_hash(problem, values) -> str:
@@ -86,15 +93,18 @@ def _springs(scene) -> list:
 def realize_contact(problem, values, rule: str | None = None, level: float | None = None, *, name: str = "design",
                     pin_radius: float = CONTACT_DEFAULTS["pin_radius"], rim: float = CONTACT_DEFAULTS["rim"],
                     thickness: float = CONTACT_DEFAULTS["thickness"], drum_radius: float | None = None,
-                    clearance: float | None = None, restitution: float | None = None
-                    ) -> ContactRealization:
+                    clearance: float | None = None, restitution: float | None = None,
+                    units: str = CONTACT_DEFAULTS["units"]) -> ContactRealization:
     """Realize design ``values`` of ``problem`` by contact (module docstring); ``drum_radius``
     (a cylinder's drum cam only) defaults to :data:`pes_ref.realize.followers.DRUM_RADIUS`.
     ``clearance``: the pin is made that much larger than part 1 is cut for; ``restitution``:
     the parts' coefficient of restitution, written to the device file's ``[rigid]`` table (the
     rigid engine's). Either None: what the design's problem states (a problem file's
     ``[surface.contact]``, :attr:`pes_ref.synthesis.kinds.Realizable.parts`), else no clearance
-    and no ``[rigid]`` table (inelastic)."""
+    and no ``[rigid]`` table (inelastic). ``units``: what one C-space length unit is in the DXF
+    (:data:`pes_ref.realize.exports.DXF_UNITS`)."""
+    from pes_ref.realize.exports import DOWEL_RIM_SHARE, DXF_UNITS, dowel_holes
+    units = checks.as_choice("units", units, set(DXF_UNITS))
     stated = kind_of(problem).realizable.parts(problem)
     clearance = stated.get("clearance", CONTACT_DEFAULTS["clearance"]) if clearance is None else clearance
     restitution = stated.get("restitution") if restitution is None else restitution
@@ -174,4 +184,6 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     blocked = region.phi < 0
     sensitivity = tuple((label, float(e), float(np.mean(phi < 0)), float(np.mean((phi < 0) != blocked)))
                         for label, e, phi in region.neighbours)
-    return ContactRealization(region, parts, device, tuple(lost), sensitivity, thickness)
+    dowel_radius = DOWEL_RIM_SHARE * rim
+    dowels = () if follower.name == DRUM_CAM else tuple(dowel_holes(parts.plate, dowel_radius))
+    return ContactRealization(region, parts, device, tuple(lost), sensitivity, thickness, units, dowels, dowel_radius)
