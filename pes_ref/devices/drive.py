@@ -14,17 +14,22 @@ travel (where the input first gets there), sampled every half input spacing, and
 - ``advance_per_cycle_each``: for a periodic input, the output's change over each full
   turn (2 pi of travel) the input completed, in order;
 - ``advance_per_cycle``: the steady advance: for a periodic input the last full turn's
-  (the first one holds the start's transient, so ``cycles >= 2`` gives the steady one),
-  NaN when the input did not complete a turn (a jam: never extrapolated from part of a
-  turn, see ``advance``); for a translation, the change per unit of the travel achieved;
-- ``moving_fraction``: the share of the input's travel during which
+  (the first one holds the start's transient: the parts settle from the file's start into
+  their play, so the default of :data:`DEFAULT_CYCLES` turns gives a steady one), NaN when
+  the input did not complete a turn (a jam: never extrapolated from part of a turn, see
+  ``advance``); for a translation, the change per unit of the travel achieved;
+- ``moving_fraction``: the share of the input's steady travel during which
   ``|dq_out/dq_in| > threshold`` (default 0.05), the ratio taken across
   :data:`RATIO_CELLS` input spacings;
-- ``max_ratio``: the largest ``|dq_out/dq_in|``;
+- ``max_ratio``: the largest ``|dq_out/dq_in|`` over the steady travel;
+- ``steady_from``: where the steady travel starts: a periodic input that completed two
+  turns or more leaves its first turn out of ``moving_fraction`` and ``max_ratio`` (a
+  follower set down at the surface's standoff drops onto a rigid cam at the start, a ratio
+  far above the law's); otherwise 0, and the lines say the figures include the start;
 - ``jammed``: whether the input stopped short of the requested travel, and where.
 
-Requested travel: ``cycles`` full turns of a periodic input; the distance from the start
-to the grid's edge (in the load's direction) for a translation.
+Requested travel: ``cycles`` full turns of a periodic input (default :data:`DEFAULT_CYCLES`);
+the distance from the start to the grid's edge (in the load's direction) for a translation.
 
 Stall. The run goes in chunks; the input has stalled when, over the last stretch of
 steps in which it would move :data:`JAM_CELLS` input spacings without resistance, it
@@ -45,12 +50,15 @@ from pes_ref.core.scene import simulate
 from pes_ref.devices.device import Device
 
 __all__ = ["DriveResult", "drive", "check_drive", "check_free", "drive_scene", "MODES", "JAM_CELLS", "JAM_FRACTION",
-           "THRESHOLD"]
+           "THRESHOLD", "DEFAULT_CYCLES"]
 
 #: The drive's modes.
 MODES = ("quasistatic", "dynamic")
 #: |dq_out/dq_in| above which the output counts as moving.
 THRESHOLD = 0.05
+#: The turns of a periodic input a drive makes by default: the first holds the start's
+#: transient, the second is steady (module docstring).
+DEFAULT_CYCLES = 2
 #: The stall window: the steps in which the unresisted input would move this many spacings ...
 JAM_CELLS = 10.0
 #: ... in which the input advanced less than this share of one spacing.
@@ -110,6 +118,16 @@ class DriveResult:
     q_out: np.ndarray = dc_field(repr=False)
     path: np.ndarray = dc_field(repr=False)
     seconds: float = 0.0
+    steady_from: float = 0.0
+
+    def _steady_words(self) -> str:
+        """Which travel ``moving_fraction`` and ``max_ratio`` are over."""
+        cycles = len(self.advance_per_cycle_each)
+        if self.steady_from > 0.0:
+            return f"over cycles 2-{cycles} of {cycles}: the first, the start's transient, left out"
+        if self.periodic_input:
+            return "over the whole travel: it includes the start's transient (--cycles 2 or more leaves it out)"
+        return "over the whole travel from the start"
 
     def summary(self) -> dict:
         """The figures as plain JSON-able values."""
@@ -121,7 +139,7 @@ class DriveResult:
                 "moving_fraction": self.moving_fraction, "moving_threshold": self.threshold,
                 "max_ratio": self.max_ratio, "jammed": self.jammed, "stop_reason": self.stop_reason,
                 "stopped_at": list(self.stopped_at), "steps": self.steps, "samples": int(self.q_in.size),
-                "seconds": self.seconds}
+                "steady_from": self.steady_from, "seconds": self.seconds}
 
     def as_lines(self) -> list:
         """``name: value unit`` lines."""
@@ -129,9 +147,11 @@ class DriveResult:
         stop = f"{self.stopped_at[0]:.6g},{self.stopped_at[1]:.6g}"
         if self.periodic_input:
             each = ",".join(f"{a:.6g}" for a in self.advance_per_cycle_each) or "none"
+            n = len(self.advance_per_cycle_each)
             per = [f"advance_per_cycle: {self.advance_per_cycle:.6g} output-unit per cycle ("
-                   + (f"the last of {len(self.advance_per_cycle_each)} full cycles)" if self.advance_per_cycle_each
-                      else "no full cycle: the input stopped short of a turn; see advance)"),
+                   + (f"cycle {n} of {n}; cycle 1, the start's transient, left out)" if n >= 2
+                      else "cycle 1 of 1: it includes the start's transient; --cycles 2 or more gives a steady one)"
+                      if n == 1 else "no full cycle: the input stopped short of a turn; see advance)"),
                    f"advance_per_cycle_each: {each} output-unit per cycle"]
         else:
             per = [f"advance_per_cycle: {self.advance_per_cycle:.6g} output-unit per length (over the travel achieved)"]
@@ -144,8 +164,9 @@ class DriveResult:
                 f"advance: {self.advance:.6g} output-unit over the input's travel"
                 + (" (jammed: not extrapolated)" if self.jammed else ""),
                 *per,
-                f"moving_fraction: {self.moving_fraction:.6g} 1 (|dq_out/dq_in| > {self.threshold:g})",
-                f"max_ratio: {self.max_ratio:.6g} 1",
+                f"moving_fraction: {self.moving_fraction:.6g} 1 (|dq_out/dq_in| > {self.threshold:g}; "
+                f"{self._steady_words()})",
+                f"max_ratio: {self.max_ratio:.6g} 1 ({self._steady_words()})",
                 f"jammed: {self.jammed} bool",
                 f"stop_reason: {self.stop_reason} text",
                 f"stopped_at: {stop} q0,q1",
@@ -176,7 +197,7 @@ class _Law:
 
 def _requested(device: Device, axis: int, sign: float, start: np.ndarray, cycles):
     if device.periodic[axis]:
-        cycles = 1 if cycles is None else checks.as_positive_int("cycles", cycles)
+        cycles = DEFAULT_CYCLES if cycles is None else checks.as_positive_int("cycles", cycles)
         return 2.0 * np.pi * cycles
     if cycles is not None:
         raise checks.InputError("cycles", f"cycles counts turns of a periodic input; q{axis} is not periodic "
@@ -313,14 +334,15 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     q_in = start[axis] + sign * s
     q_out = np.array(law.out)
     travel = float(sign * (x[0, axis] - start[axis]))
-    ratio = _ratio(q_in, q_out)
-    moving = float(np.mean(np.abs(ratio) > threshold)) if ratio.size else 0.0
-    max_ratio = float(np.max(np.abs(ratio))) if ratio.size else 0.0
     jammed = reason != "done"
     advance, per_cycle, each = _advances(s, q_out, bool(device.periodic[axis]), requested, jammed)
+    steady_from = 2.0 * np.pi if len(each) >= 2 else 0.0
+    ratio = _ratio(q_in, q_out)[s >= steady_from * (1 - 1e-9)]      # the steady travel (module docstring)
+    moving = float(np.mean(np.abs(ratio) > threshold)) if ratio.size else 0.0
+    max_ratio = float(np.max(np.abs(ratio))) if ratio.size else 0.0
     return DriveResult(device.name, axis, load, mode, bool(device.periodic[axis]), requested, travel, advance,
                        per_cycle, each, moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold,
-                       steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall)
+                       steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall, steady_from)
 
 
 def _advances(s: np.ndarray, q_out: np.ndarray, periodic: bool, requested: float, jammed: bool) -> tuple:
