@@ -79,6 +79,29 @@ def design_hash(problem, values) -> str:
     return "sha256:" + digest.hexdigest()
 
 
+def _free_start(parts, region, q) -> tuple:
+    """The device's ``[start]``: the design kind's start ``q``, or where the parts block it (a
+    start group's box centre inside a drawn shape), the nearest grid node whose pin stands at
+    least half a cell clear of the parts; ``(start, line)``, ``line`` saying so (None: kept)."""
+    import shapely
+    h = float(np.min(region.spacing))
+    obstacle = parts.realized_blocked.buffer(parts.clearance) if parts.clearance else parts.realized_blocked
+    if not obstacle.buffer(0.5 * h).contains(shapely.Point(parts.in_frame(np.asarray(q, dtype=float)))):
+        return q, None
+    axes = [np.linspace(region.lower[d], region.upper[d], region.phi.shape[d], endpoint=not region.periodic[d])
+            for d in range(2)]
+    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
+    at = parts.in_frame(nodes)
+    free = ~shapely.contains_xy(obstacle.buffer(0.5 * h), at[:, 0], at[:, 1])
+    if not free.any():
+        return q, None
+    gap = np.hypot(*(nodes - np.asarray(q, dtype=float)).T)
+    best = nodes[np.flatnonzero(free)[np.argmin(gap[free])]]
+    start = [float(x) for x in best]
+    return start, (f"the problem's start ({q[0]:.6g}, {q[1]:.6g}) lies inside the parts: the device file's [start] "
+                   f"is the nearest free grid node ({start[0]:.6g}, {start[1]:.6g})")
+
+
 def _springs(scene) -> list:
     spring = scene.spring
     if spring is None:
@@ -148,6 +171,7 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     open_edges = [(d, side) for d in range(2) for side in range(2) if not region.periodic[d] and not walled[d, side]]
     parts = follower.build(region, pin_radius, rim, open_edges, drum_radius)
     parts = dataclasses.replace(parts, clearance=clearance)
+    start, moved = _free_start(parts, region, start_point(problem))
     damping = np.broadcast_to(scene.damping if scene.damping is not None else 0.0, (2,))
     mass = np.broadcast_to(scene.mass, (2,))
     dynamics = {"mass": [float(m) for m in mass], "damping": [float(d) for d in damping]}
@@ -164,7 +188,7 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
                    "shape": [int(n) for n in problem.shape()]},
         "energy": {"v": v, "r_c": r_c, "r_min": r_min, "springs": _springs(scene)},
         "dynamics": dynamics,
-        "start": {"q": start_point(problem)},
+        "start": {"q": start},
         "realized": {"design": design_hash(problem, values)},
     }
     if restitution is not None:
@@ -178,6 +202,8 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
                     f"{r_c:g} of the {parts.part_name}")
     lost.append(f"{parts.lost_share:.2%} of the domain changes side (blocked slivers thinner than the pin's "
                 f"diameter {2 * parts.pin_radius:g}, sharp free corners)")
+    if moved is not None:
+        lost.append(moved)
     if clearance > 0:
         lost.append(f"the pin is made {clearance:g} larger (radius {parts.pin_made:g}) than the {parts.part_name} "
                     f"is cut for: the blocked region grows by {clearance:g} on every side")
