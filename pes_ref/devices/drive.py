@@ -36,6 +36,17 @@ steps in which it would move :data:`JAM_CELLS` input spacings without resistance
 advanced less than :data:`JAM_FRACTION` of a spacing (it moves at under 1% of its free
 speed). A run that reaches :data:`MAX_FREE_FACTOR` times the steps of a free run over the
 requested travel also stops, as jammed.
+
+Creases. The surface is bilinear in each cell, so its slope along an axis is constant across
+a cell and jumps at the cell's edge; near a stiff barrier the jump can pass the load, and a
+quasistatic input then stops on the edge where the parts pass (the ratchet's pawl at a tooth's
+tip: ``dU/dq0`` 0.40 before the edge, 3.05 after it, under a load of 1; docs/rigid.md). So a
+quasistatic drive on the surface that stalls looks again from the stall point with eq. (1) of
+the exact distance to the C-space's boundary polyline (:attr:`pes_ref.devices.cspace.CSpace.segments`)
+in place of the grid, and the same other forces (:func:`pes_ref.devices.forces.scene_forces`):
+if the input gets :data:`CREASE_CELLS` spacings past the stall point within a stall window, the
+drive goes on from there on the surface (``crease_passes`` counts such passes; the states of the
+pass are the law's there); otherwise the stall stands.
 """
 from __future__ import annotations
 
@@ -50,12 +61,15 @@ from pes_ref.core.scene import simulate
 from pes_ref.devices.device import Device
 
 __all__ = ["DriveResult", "drive", "check_drive", "check_free", "drive_scene", "MODES", "JAM_CELLS", "JAM_FRACTION",
-           "THRESHOLD", "DEFAULT_CYCLES"]
+           "THRESHOLD", "DEFAULT_CYCLES", "CREASE_CELLS"]
 
 #: The drive's modes.
 MODES = ("quasistatic", "dynamic")
 #: |dq_out/dq_in| above which the output counts as moving.
 THRESHOLD = 0.05
+#: How far past a stall point (input spacings) a pass on eq. (1) of the exact distance must get
+#: for the stall to be the grid's crease (module docstring).
+CREASE_CELLS = 2.0
 #: The turns of a periodic input a drive makes by default: the first holds the start's
 #: transient, the second is steady (module docstring).
 DEFAULT_CYCLES = 2
@@ -119,6 +133,7 @@ class DriveResult:
     path: np.ndarray = dc_field(repr=False)
     seconds: float = 0.0
     steady_from: float = 0.0
+    crease_passes: int = 0
 
     def _steady_words(self) -> str:
         """Which travel ``moving_fraction`` and ``max_ratio`` are over."""
@@ -139,7 +154,7 @@ class DriveResult:
                 "moving_fraction": self.moving_fraction, "moving_threshold": self.threshold,
                 "max_ratio": self.max_ratio, "jammed": self.jammed, "stop_reason": self.stop_reason,
                 "stopped_at": list(self.stopped_at), "steps": self.steps, "samples": int(self.q_in.size),
-                "steady_from": self.steady_from, "seconds": self.seconds}
+                "steady_from": self.steady_from, "crease_passes": self.crease_passes, "seconds": self.seconds}
 
     def as_lines(self) -> list:
         """``name: value unit`` lines."""
@@ -170,6 +185,8 @@ class DriveResult:
                 f"jammed: {self.jammed} bool",
                 f"stop_reason: {self.stop_reason} text",
                 f"stopped_at: {stop} q0,q1",
+                *([f"crease_passes: {self.crease_passes} passes (where the surface's bilinear slope held the "
+                   f"input, eq. (1) of the exact distance to the boundary carried it on)"] if self.crease_passes else []),
                 f"steps: {self.steps} steps",
                 f"time_drive: {self.seconds:.3g} s"]
 
@@ -303,7 +320,7 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     v = np.zeros((1, 2))
     history = [0.0]                          # progress at the end of each chunk (for the stall test)
     path = [x.copy()]
-    steps, reason = 0, "done"
+    steps, reason, creases = 0, "done", 0
     every = max(1, chunk // PATH_PER_CHUNK)  # states between two drawn ones
     while True:
         traj = simulate(scene, x, v) if engine is None else engine(device, scene, x, v)
@@ -324,8 +341,19 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
             progress("drive", min(law.best, requested), requested)
         back = int(np.ceil(window / chunk))
         if len(history) > back and history[-1] - history[-1 - back] < JAM_FRACTION * h:
-            reason = "stalled"
-            break
+            passed = _crease_pass(device, scene, x, axis, sign, load, h, window) \
+                if engine is None and mode == "quasistatic" else None
+            if passed is None:
+                reason = "stalled"
+                break
+            p = sign * (passed[:, axis] - start[axis])
+            law.feed(p, passed[:, out_axis])
+            path.append(passed[1::every])
+            steps += passed.shape[0] - 1
+            creases += 1
+            x, v = passed[-1][None, :], np.zeros((1, 2))
+            history = [float(p[-1])]              # a new stall window from here
+            continue
         if steps >= max_steps:
             reason = "step limit"
             break
@@ -342,7 +370,79 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     max_ratio = float(np.max(np.abs(ratio))) if ratio.size else 0.0
     return DriveResult(device.name, axis, load, mode, bool(device.periodic[axis]), requested, travel, advance,
                        per_cycle, each, moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold,
-                       steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall, steady_from)
+                       steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall, steady_from, creases)
+
+
+def _exact_distance_each(segments, q, length, periodic) -> tuple:
+    """The distance from ``q`` (2,) to each segment of ``segments`` (M, 2, 2), the nearest image
+    across a periodic axis, and the vector from the segment's nearest point to ``q``: (M,), (M, 2)."""
+    a, ab = segments[:, 0], segments[:, 1] - segments[:, 0]
+    ab2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    dist, vec = np.full(segments.shape[0], np.inf), np.zeros((segments.shape[0], 2))
+    for k0 in ((-1, 0, 1) if periodic[0] else (0,)):
+        for k1 in ((-1, 0, 1) if periodic[1] else (0,)):
+            qq = q + np.array([k0, k1]) * length
+            t = np.clip(np.einsum("ij,ij->i", qq - a, ab) / ab2, 0.0, 1.0)
+            diff = qq - (a + t[:, None] * ab)
+            d = np.hypot(diff[:, 0], diff[:, 1])
+            closer = d < dist
+            dist[closer], vec[closer] = d[closer], diff[closer]
+    return dist, vec
+
+
+def _exact_distance(segments, q, length, periodic) -> tuple:
+    """The distance from ``q`` (2,) to the polyline ``segments`` and its gradient, the unit vector
+    from the nearest point to ``q``."""
+    dist, vec = _exact_distance_each(segments, q, length, periodic)
+    i = int(np.argmin(dist))
+    return float(dist[i]), vec[i] / max(float(dist[i]), 1e-300)
+
+
+def _crease_pass(device: Device, scene, x, axis: int, sign: float, load: float, h: float, window: int):
+    """Quasistatic steps from the stall state ``x`` (1, 2) on eq. (1) of the exact distance to the
+    C-space's boundary, the load and the scene's other forces (module docstring, "Creases"):
+    the states (K, 2) up to the first one :data:`CREASE_CELLS` input spacings past ``x``, or
+    None when the input does not get there within ``window`` steps (the stall stands), or the
+    state leaves free space."""
+    from pes_ref.core.surface import Surface
+    from pes_ref.devices.cspace import apf_slope, default_r_min
+    from pes_ref.devices.forces import scene_forces, scene_wall_bounds
+    cspace = device.cspace()
+    if cspace.segments.size == 0:
+        return None
+    side = Surface(cspace.distance, device.lower, device.upper, device.periodic)   # the grid's signed distance
+    length = np.asarray(device.upper, dtype=float) - np.asarray(device.lower, dtype=float)
+    periodic = tuple(bool(p) for p in device.periodic)
+    r_min = device.r_min if device.r_min is not None else default_r_min(device.spacing)
+    mobility = np.broadcast_to(np.asarray(scene.mobility, dtype=float).reshape(-1), (2,))
+    lo_hi = scene_wall_bounds(scene)
+    push = np.zeros(2)
+    push[axis] = load
+    q = np.array(x[0], dtype=float)
+    # the segments that eq. (1) can see (within r_c) of any state within ``margin`` of ``ref``,
+    # chosen again once the state has moved farther
+    margin = (CREASE_CELLS + 2.0) * float(np.max(device.spacing))
+    ref = q.copy()
+    segments = cspace.segments[_exact_distance_each(cspace.segments, q, length, periodic)[0] <= device.r_c + margin]
+    goal = sign * q[axis] + CREASE_CELLS * h
+    states, other = [q.copy()], np.zeros((1, 2))
+    for _ in range(window):
+        if np.hypot(*(q - ref)) > margin:
+            ref = q.copy()
+            segments = cspace.segments[_exact_distance_each(cspace.segments, q, length, periodic)[0] <= device.r_c + margin]
+        if segments.size == 0:                  # nothing within r_c: eq. (1) is flat here
+            d, grad = np.inf, np.zeros(2)
+        else:
+            d, grad = _exact_distance(segments, q, length, periodic)
+        if d <= 0.0 or float(side.energy(q[None, :])[0]) < -0.5 * h:      # on or into blocked space
+            return None
+        slope = float(apf_slope(np.array([d]), device.v, device.r_c, r_min)[0]) if np.isfinite(d) else 0.0
+        scene_forces(device, scene, q[None, :], np.zeros((1, 2)), lo_hi, other)
+        q = q + mobility * (push + other[0] - slope * grad)
+        states.append(q.copy())
+        if sign * q[axis] >= goal:
+            return np.array(states)
+    return None
 
 
 def _advances(s: np.ndarray, q_out: np.ndarray, periodic: bool, requested: float, jammed: bool) -> tuple:

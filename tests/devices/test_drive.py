@@ -245,3 +245,16 @@ def test_the_moving_share_and_the_largest_ratio_leave_the_first_turn_out(cam_two
     one = drive(load_device(CAM).replace(shape=(160, 41)), 0, 0.5, cycles=1, start=(0.0, 0.6))
     assert one.steady_from == 0.0 and one.max_ratio == np.max(np.abs(_ratio(one.q_in, one.q_out)))
     assert "it includes the start's transient" in "\n".join(one.as_lines()).split("max_ratio: ")[1]
+
+
+def test_a_quasistatic_drive_is_not_held_at_a_crease_of_the_bilinear_grid():
+    """The ratchet's pawl at a tooth's tip: the surface's slope along q0 jumps past the load at a
+    cell's edge (the stall sat on one at every resolution), where eq. (1) of the exact distance
+    passes; the drive goes on (the rigid pawl rides every tooth, docs/rigid.md) and returns the
+    pawl each turn, while a jam of the geometry still stops it (tests/rigid/test_engines.py)."""
+    from pes_ref.devices.device_file import shipped_device
+    device = shipped_device("ratchet").replace(shape=(128, 128))
+    r = drive(device, 0, 1.0, "quasistatic", 1, start=(0.0, -0.26))     # the pawl in, as it settles
+    assert r.stop_reason == "done" and r.crease_passes >= 10            # at least one pass per tooth
+    assert abs(r.advance) < np.radians(1.0)                             # the pawl back where it started
+    assert any(line.startswith("crease_passes: ") for line in r.as_lines())
