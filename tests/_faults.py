@@ -11,6 +11,10 @@ command
 - leaves the folder as it was: every file there before is there after with the same
   bytes, and no file (not even a hidden temporary one) is added.
 
+A :class:`Works` row is the other kind: a run whose fault was a crash (or a refusal of valid
+input), which must now succeed: exit 0, its figures on stdout, no error line, only the files
+it makes added (:func:`works_table`).
+
 A table's rows run in parallel on a small thread pool (:func:`run_rows`; each is a process
 of its own); every refusal comes before any computing, so a table takes seconds. Rows that
 need a read-only folder run without the capability that lets root write anywhere
