@@ -13,6 +13,10 @@ command
 - leaves the folder as it was: every file there before is there after with the same
   bytes, and no file (not even a hidden temporary one) is added.
 
+A :class:`Works` row is the other kind: a run whose fault was a crash (or a refusal of valid
+input), which must now succeed: exit 0, its figures on stdout, no error line, only the files
+it makes added (:func:`works_table`).
+
 A table's rows run in parallel on a small thread pool (:func:`run_rows`; each is a process
 of its own); every refusal comes before any computing, so a table takes seconds. Rows that
 need a read-only folder run without the capability that lets root write anywhere
@@ -21,6 +25,8 @@ per test process (``tests/cli/conftest.py``).
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import shlex
@@ -65,6 +71,73 @@ class Fault(NamedTuple):
     needs_permissions: bool = False     # run without root's power to ignore file permissions
     absent: tuple = ()                  # words the error line must not hold
 
+#: A problem file with every feature a realization must carry (``docs/problems.md``): start
+#: groups (a box and points, unequal shares), an ``any_of`` test and a group's test, a share,
+#: a scenario, and ``[surface.contact]`` made realizable from a drawn shape; its designs are
+#: realized by the rows of ``tests/cli/test_faults_realize.py``.
+GROUPS_PROBLEM = """format = 1
+name = "gate"
+[surface]
+lower = [-1.0, -1.0]
+upper = [1.0, 1.0]
+shape = [12, 12]
+[surface.contact]
+v = 1e-3
+r_c = 0.2
+realizable = true
+blocked = [{ rectangle = { lower = [0.1, 0.3], upper = [0.4, 0.6] } }]
+[dynamics]
+dt = 0.05
+duration = 2.0
+damping = 1.0
+walls = { k = 100.0, margin = 0.05, edges = [[true, false], [true, true]] }
+[starts]
+[[starts.group]]
+name = "low"
+share = 3
+box = { lower = [-0.9, -0.9], upper = [-0.7, 0.2] }
+[[starts.group]]
+name = "high"
+points = [[-0.8, 0.7], [0.25, 0.45]]
+[[forces]]
+kind = "constant"
+force = [1.0, 0.0]
+[[forces]]
+kind = "noise"
+std = 0.1
+[evaluate]
+particles = 8
+[[evaluate.success]]
+name = "out"
+group = "low"
+kind = "any_of"
+tests = [{ kind = "exit", edge = "q0_upper", center = 0.0, halfwidth = 0.5 },
+         { kind = "final_position", target = [0.8, 0.0], radius = 0.3 }]
+[[evaluate.success]]
+name = "bin"
+group = "high"
+kind = "stay_in"
+lower = [-1.0, 0.5]
+upper = [1.0, 1.0]
+[[evaluate.share]]
+name = "exits"
+min = 0.3
+test = { kind = "exit", edge = "q0_upper", center = 0.0, halfwidth = 1.0 }
+[[evaluate.scenario]]
+name = "still"
+duration = 1.0
+[[evaluate.scenario.forces]]
+kind = "noise"
+std = 0.05
+[[evaluate.scenario.success]]
+kind = "stay_in"
+lower = [-1.0, -1.0]
+upper = [0.0, 1.0]
+[train]
+iterations = 2
+particles = 4
+"""
+
 #: A problem file (particles gather at a point) and its malformed versions, for the rows above.
 GOOD_PROBLEM = _helpers.gather_problem(name=None, iterations=2, train_particles=4)
 PROBLEM_FILES = {
@@ -90,6 +163,7 @@ PROBLEM_FILES = {
         'box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }'),
     "startsoutside.toml": GOOD_PROBLEM.replace("box = { lower = [-0.8, -0.8], upper = [0.8, 0.8] }",
                                                "box = { lower = [1.5, -0.8], upper = [1.8, 0.8] }"),
+    "groups.toml": GROUPS_PROBLEM,
 }
 
 #: A small valid device file (a pin in a plate's hole, on a plane) and the faults made of it:
@@ -152,6 +226,8 @@ BAD_DEVICES = {
     "drumspan": ("motion = \"translation\"\ndirection = [0.0, 1.0]", "motion = \"drum\"\nradius = 0.1"),
     "margin": ("margin = 0.01", "margin = 5.0"),
     "rcsmall": ("r_c = 0.1", "r_c = 0.01"),
+    "realizedkey": ("[start]", "[realized]\ndesign = \"sha256:0\"\nseed = 1\n[start]"),
+    "realizeddesign": ("[start]", "[realized]\ndesign = 12\n[start]"),
 }
 #: Devices whose C-space is a straight free channel along q1 (the plate's hole made a slot for the
 #: pin, with no spring or walls on q1: a drive along it runs free to the grid's edge, in well under
@@ -187,6 +263,12 @@ def make_assets(folder: Path) -> Path:
     for name, text in PROBLEM_FILES.items():
         (folder / name).write_text(text)
     assert cli.main(["design", str(folder / "good.toml"), "--quiet", "--out", str(folder / "problem.npz")]) == 0
+    assert cli.main(["design", str(folder / "groups.toml"), "--quiet", "--out", str(folder / "groups.npz")]) == 0
+    assert cli.main(["design", str(folder / "groups.toml"), "--quiet", "--seed", "1",
+                     "--out", str(folder / "groups1.npz")]) == 0
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        assert cli.main(["realize", str(folder / "groups.npz"), "--as", "contact", "--particles", "4",
+                         "--out", str(folder / "gparts")]) == 0
     (folder / "text.npz").write_text("values = [[0, 1], [1, 0]]\nmode = dynamic\n")
     (folder / "notes.txt").write_text("a user's own notes\n")
     (folder / "b-scaling.png").write_bytes(b"a plot the user keeps")
@@ -285,6 +367,44 @@ def changes(before: dict, after: dict) -> str:
     lost = sorted(set(before) - set(after))
     changed = sorted(k for k in set(before) & set(after) if before[k] != after[k])
     return f"added {added}, lost {lost}, changed {changed}"
+
+
+class Works(NamedTuple):
+    """A run that must succeed (a row whose fault was a crash or a refusal of valid input):
+    exit 0, no traceback and no ``error:`` line, every token on stdout, and of the folder's
+    files only those under ``made`` added (none changed or lost)."""
+
+    id: str
+    argv: str
+    tokens: tuple
+    made: tuple = ()
+
+
+def check_works(row: Works, got: Outcome) -> None:
+    """The run of ``row`` succeeded as :class:`Works` says."""
+    assert "Traceback" not in got.err and "error:" not in got.err, got.err
+    assert got.status == cli.EXIT_OK, got.err
+    for token in row.tokens:
+        assert token in got.out, f"{token!r} is not in {got.out!r}"
+    kept = {k: v for k, v in got.before.items() if got.after.get(k) != v}
+    assert not kept, f"changed or lost: {sorted(kept)}"
+    added = {k.split("/")[0] for k in set(got.after) - set(got.before)}
+    assert added <= set(row.made), f"left {sorted(added - set(row.made))}"
+
+
+def works_table(rows: list):
+    """A table of :class:`Works` rows as pytest sees it, as :func:`fault_table` gives one of refusals."""
+    import pytest
+
+    @pytest.fixture(scope="module")
+    def worked(fault_assets, tmp_path_factory):
+        return run_rows(rows, fault_assets, tmp_path_factory.mktemp("works"), workers=2)
+
+    @pytest.mark.parametrize("row", rows, ids=[r.id for r in rows])
+    def test_works(row, worked):
+        check_works(row, worked[row.id])
+
+    return worked, test_works
 
 
 class Warned(NamedTuple):

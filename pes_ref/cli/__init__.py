@@ -16,7 +16,8 @@ import os
 import sys
 
 from pes_ref import __version__
-from pes_ref.cli.common import EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, EXIT_PIPE, Parser, error, watch_pipes
+from pes_ref.cli.common import (DEBUG_VARIABLE, EXIT_ERROR, EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, EXIT_PIPE, Parser,
+                                error, watch_pipes)
 from pes_ref.core.runtime.signals import interrupted, sigterm_interrupts
 
 __all__ = ["main", "build_parser", "command_module", "COMMANDS", "EXIT_OK", "EXIT_FAIL", "EXIT_ERROR",
@@ -91,7 +92,7 @@ def main(argv=None) -> int:
         except Exception as exc:        # the last line of defence: no traceback for a user
             if interrupted():           # Ctrl-C, which an extension's import turned into another error
                 status = _interrupted(pipes)
-            elif os.environ.get("PES_REF_DEBUG"):
+            elif os.environ.get(DEBUG_VARIABLE, "") not in ("", "0"):
                 raise
             else:
                 status = error(f"internal error ({type(exc).__name__}: {exc}); please report it, with the "

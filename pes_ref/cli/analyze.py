@@ -142,8 +142,9 @@ def add_parser(sub) -> None:
     f.add_argument("--mode", default="quasistatic", choices=("quasistatic", "dynamic"),
                    help="quasistatic: steps along the net force; dynamic: the device's masses, damping and dt")
     f.add_argument("--cycles", default=None, metavar="K",
-                   help="full turns of a periodic input (integer >= 1; default 1); not for a translation, "
-                        "which travels to the grid's edge")
+                   help="full turns of a periodic input (integer >= 1; default 2: the first holds the start's "
+                        "transient, and advance_per_cycle, moving_fraction and max_ratio are the later turns'); not "
+                        "for a translation, which travels to the grid's edge")
     f.add_argument("--start", default=None, metavar="Q0,Q1",
                    help="where the drive starts, a free configuration (default: the file's [start]); "
                         "a negative first number is fine: --start -0.1,0.3")

@@ -16,7 +16,8 @@ import sys
 import textwrap
 import threading
 
-__all__ = ["EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_PIPE", "error", "flag_message",
+__all__ = ["EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_PIPE", "DEBUG_VARIABLE", "error",
+           "flag_message",
            "watch_pipes", "add_command",
            "HelpFormatter", "Parser", "input_file", "input_folder", "output_file", "output_folder", "LazyDefault",
            "option_text"]
@@ -28,12 +29,22 @@ EXIT_INTERRUPTED = 130  #: stopped by Ctrl-C (SIGINT) or SIGTERM, as shells expe
 EXIT_PIPE = 141        #: stopped because the reader of stdout or stderr closed the pipe (128 + SIGPIPE)
 
 
+#: The environment variable that shows a caught error's traceback before its line (README, "At the command line").
+DEBUG_VARIABLE = "PES_REF_DEBUG"
+
+
 def error(exc, flags: dict | None = None) -> int:
     """Print exactly one line ``error: <message>`` to stderr; return `EXIT_ERROR`.
 
     ``flags`` maps the library's argument names to the command's own (``{"n_particles":
-    "--particles"}``): see [`flag_message`][pes_ref.cli.common.flag_message].
+    "--particles"}``): see [`flag_message`][pes_ref.cli.common.flag_message]. With ``PES_REF_DEBUG=1`` in the
+    environment
+    (`DEBUG_VARIABLE`) an exception's traceback is printed first: what was caught and
+    where, for a report.
     """
+    if isinstance(exc, BaseException) and os.environ.get(DEBUG_VARIABLE, "") not in ("", "0"):
+        import traceback
+        traceback.print_exception(type(exc), exc, exc.__traceback__, file=sys.stderr)
     print("error: " + " ".join(flag_message(exc, flags or {}).split()), file=sys.stderr)
     return EXIT_ERROR
 

@@ -58,7 +58,9 @@ def add_parser(sub) -> None:
                         "design file's, DIR made if missing): green passed, red failed; funnel: exit in the band; "
                         "oscillator: captured (torque sweep, grid of starts); a problem file's: one panel per "
                         "success test and one for all of them")
-    p.add_argument("--force", action="store_true", help="overwrite output files that exist (default: refuse)")
+    p.add_argument("--force", action="store_true", help="overwrite output files that exist (default: refuse); with "
+                   "--realized, evaluate on parts made from another design (default: refused, by the design's hash "
+                   "in the device file's [realized] table)")
     p.set_defaults(func=_run_evaluate)
 
 
@@ -67,7 +69,7 @@ FLAGS = {"n_particles": "--particles", "seed": "--seed", "realized": "--realized
 #: ``--engine NAME`` -> the engines (`pes_ref.realize.evaluation.ENGINES`) that run the realized device.
 ENGINE_CHOICES = {"surface": ("surface",), "rigid": ("rigid",), "both": ("surface", "rigid")}
 #: The figures that are no measure of the device (no difference line under ``--engine both``).
-_NO_DIFFERENCE = ("dt", "n_steps", "particles", "starts_blocked")
+_NO_DIFFERENCE = ("dt", "n_steps", "particles", "starts_blocked", "starts_run")
 
 
 def _run_evaluate(args) -> int:
@@ -198,9 +200,11 @@ def _realized(state, args) -> dict:
     """The design's figures beside the realized device's ([`pes_ref.realize.evaluation.evaluate_realized`][pes_ref.realize.evaluation.evaluate_realized])."""
     from pes_ref.core import checks
     from pes_ref.devices.device_file import load_device
-    from pes_ref.realize.evaluation import evaluate_realized
+    from pes_ref.realize.evaluation import check_design, evaluate_realized
     device = load_device(input_file(args.realized, "device file"))
     try:
+        if not args.force:
+            check_design(state.problem, state.values, device)
         return evaluate_realized(state.problem, state.values, device, seed=args.seed, n_particles=args.particles,
                                  engines=ENGINE_CHOICES[args.engine])
     except checks.InputError as exc:

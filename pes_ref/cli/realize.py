@@ -28,7 +28,7 @@ from pes_ref.cli.common import EXIT_OK, LazyChoices, LazyDefault, add_command, e
 
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
-         "drum_radius": "--drum-radius", "clearance": "--clearance", "restitution": "--restitution",
+         "drum_radius": "--drum-radius", "clearance": "--clearance", "restitution": "--restitution", "units": "--units",
          "as": "--as", "rule": "--rule", "g": "--g", "base": "--base", "seed": "--seed", "n_particles": "--particles",
          "n_steps": "--steps"}
 #: The options' destinations, by library name.
@@ -86,6 +86,8 @@ def add_parser(sub) -> None:
                    help="the plate's rim beyond its cut-out (C-space length)")
     p.add_argument("--thickness", type=float, default=_default("thickness"), metavar="T",
                    help="the plate's and the pin's height in the STL files (C-space length)")
+    p.add_argument("--units", default=_default("units"), metavar="UNIT",
+                   help="what one C-space length unit is in the DXF drawing: mm, cm, m, in or ft (its $INSUNITS)")
     p.add_argument("--drum-radius", type=float, default=_default("drum_radius"), metavar="R",
                    help="a cylinder design's drum radius (C-space length; the unrolled groove's arc length is R q1)")
     p.add_argument("--g", type=float, default=_hf_default("g"), metavar="G",

@@ -58,6 +58,9 @@ class Device:
         The rigid engine's contact ([`pes_ref.rigid`][pes_ref.rigid]): the coefficient of restitution in
         [0, 1] (0: inelastic) and of friction (>= 0; 0: frictionless). The surface model has
         neither.
+    design : str or None
+        The hash of the design a realization made the device from (``[realized] design``,
+        `pes_ref.realize.contact.design_hash`); None: not a realization's.
     """
 
     parts: tuple
@@ -78,6 +81,7 @@ class Device:
     analysis: dict = dataclasses.field(default_factory=dict)
     restitution: float = 0.0
     friction: float = 0.0
+    design: str | None = None
 
     def __post_init__(self):
         set_ = lambda k, val: object.__setattr__(self, k, val)  # noqa: E731

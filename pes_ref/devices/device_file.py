@@ -110,7 +110,7 @@ MOTIONS = {
 TOP_KEYS = {"format": Key("format"), "name": Key("text", None), "description": Key("text", ""),
             "part": Key("parts"), "cspace": Key("table"), "geometry": Key("table", {}), "energy": Key("table"),
             "dynamics": Key("table"), "rigid": Key("table", {}), "start": Key("table", {}),
-            "analysis": Key("table", None)}
+            "analysis": Key("table", None), "realized": Key("table", {})}
 PART_KEYS = {"name": Key("text", None), "motion": Key("choice", choices=tuple(MOTIONS)),
              "pivot": Key("point", None, "length"), "direction": Key("point", None),
              "radius": Key("positive", None, "length"), "shapes": Key("shapes")}
@@ -131,6 +131,8 @@ WALL_KEYS = {"k": Key("positive", unit="force / q"), "margin": Key("nonneg", 0.0
 #: ``[rigid]``: the contact of the rigid engine (``analyze --engine rigid``), each with its default.
 RIGID_KEYS = {"restitution": Key("unit", 0.0), "friction": Key("nonneg", 0.0)}
 START_KEYS = {"q": Key("point", (0.0, 0.0), "q")}
+#: ``[realized]``: what a realization's device was made from (``realize``; ``evaluate --realized`` checks it).
+REALIZED_KEYS = {"design": Key("text", None)}
 #: The device analyses a file may configure (``[analysis] kind``): their keys, each required.
 ANALYSES = {
     "ratchet": {"pitch": Key("positive", unit="rad"), "settle": Key("positive", unit="s")},
@@ -246,9 +248,10 @@ def parse_device(data: dict, path: str = "<device>") -> Device:
     start = np.array(r.table(top["start"], "start", START_KEYS)["q"])
     analysis = {} if top["analysis"] is None else _analysis(r, top["analysis"])
     rigid = r.table(top["rigid"], "rigid", RIGID_KEYS)
+    realized = r.table(top["realized"], "realized", REALIZED_KEYS)
     try:
         return Device(parts, lower, upper, shape, v, r_c, springs, mass, damping, dt, start, r_min, walls,
-                      tolerance, name, analysis, rigid["restitution"], rigid["friction"])
+                      tolerance, name, analysis, rigid["restitution"], rigid["friction"], realized["design"])
     except checks.InputError as exc:
         key = FILE_KEYS.get(exc.key, exc.key or "device")
         r.fail(key, " ".join(str(exc).split()))

@@ -14,23 +14,39 @@ travel (where the input first gets there), sampled every half input spacing, and
 - ``advance_per_cycle_each``: for a periodic input, the output's change over each full
   turn (2 pi of travel) the input completed, in order;
 - ``advance_per_cycle``: the steady advance: for a periodic input the last full turn's
-  (the first one holds the start's transient, so ``cycles >= 2`` gives the steady one),
-  NaN when the input did not complete a turn (a jam: never extrapolated from part of a
-  turn, see ``advance``); for a translation, the change per unit of the travel achieved;
-- ``moving_fraction``: the share of the input's travel during which
+  (the first one holds the start's transient: the parts settle from the file's start into
+  their play, so the default of `DEFAULT_CYCLES` turns gives a steady one), NaN when
+  the input did not complete a turn (a jam: never extrapolated from part of a turn, see
+  ``advance``); for a translation, the change per unit of the travel achieved;
+- ``moving_fraction``: the share of the input's steady travel during which
   ``|dq_out/dq_in| > threshold`` (default 0.05), the ratio taken across
   `RATIO_CELLS` input spacings;
-- ``max_ratio``: the largest ``|dq_out/dq_in|``;
+- ``max_ratio``: the largest ``|dq_out/dq_in|`` over the steady travel;
+- ``steady_from``: where the steady travel starts: a periodic input that completed two
+  turns or more leaves its first turn out of ``moving_fraction`` and ``max_ratio`` (a
+  follower set down at the surface's standoff drops onto a rigid cam at the start, a ratio
+  far above the law's); otherwise 0, and the lines say the figures include the start;
 - ``jammed``: whether the input stopped short of the requested travel, and where.
 
-Requested travel: ``cycles`` full turns of a periodic input; the distance from the start
-to the grid's edge (in the load's direction) for a translation.
+Requested travel: ``cycles`` full turns of a periodic input (default `DEFAULT_CYCLES`);
+the distance from the start to the grid's edge (in the load's direction) for a translation.
 
 Stall. The run goes in chunks; the input has stalled when, over the last stretch of
 steps in which it would move `JAM_CELLS` input spacings without resistance, it
 advanced less than `JAM_FRACTION` of a spacing (it moves at under 1% of its free
 speed). A run that reaches `MAX_FREE_FACTOR` times the steps of a free run over the
 requested travel also stops, as jammed.
+
+Creases. The surface is bilinear in each cell, so its slope along an axis is constant across
+a cell and jumps at the cell's edge; near a stiff barrier the jump can pass the load, and a
+quasistatic input then stops on the edge where the parts pass (the ratchet's pawl at a tooth's
+tip: ``dU/dq0`` 0.40 before the edge, 3.05 after it, under a load of 1; docs/rigid.md). So a
+quasistatic drive on the surface that stalls looks again from the stall point with eq. (1) of
+the exact distance to the C-space's boundary polyline (`pes_ref.devices.cspace.CSpace.segments`)
+in place of the grid, and the same other forces (`pes_ref.devices.forces.scene_forces`):
+if the input gets `CREASE_CELLS` spacings past the stall point within a stall window, the
+drive goes on from there on the surface (``crease_passes`` counts such passes; the states of the
+pass are the law's there); otherwise the stall stands.
 """
 from __future__ import annotations
 
@@ -45,12 +61,18 @@ from pes_ref.core.scene import simulate
 from pes_ref.devices.device import Device
 
 __all__ = ["DriveResult", "drive", "check_drive", "check_free", "drive_scene", "MODES", "JAM_CELLS", "JAM_FRACTION",
-           "THRESHOLD"]
+           "THRESHOLD", "DEFAULT_CYCLES", "CREASE_CELLS"]
 
 #: The drive's modes.
 MODES = ("quasistatic", "dynamic")
 #: |dq_out/dq_in| above which the output counts as moving.
 THRESHOLD = 0.05
+#: How far past a stall point (input spacings) a pass on eq. (1) of the exact distance must get
+#: for the stall to be the grid's crease (module docstring).
+CREASE_CELLS = 2.0
+#: The turns of a periodic input a drive makes by default: the first holds the start's
+#: transient, the second is steady (module docstring).
+DEFAULT_CYCLES = 2
 #: The stall window: the steps in which the unresisted input would move this many spacings ...
 JAM_CELLS = 10.0
 #: ... in which the input advanced less than this share of one spacing.
@@ -110,6 +132,17 @@ class DriveResult:
     q_out: np.ndarray = dc_field(repr=False)
     path: np.ndarray = dc_field(repr=False)
     seconds: float = 0.0
+    steady_from: float = 0.0
+    crease_passes: int = 0
+
+    def _steady_words(self) -> str:
+        """Which travel ``moving_fraction`` and ``max_ratio`` are over."""
+        cycles = len(self.advance_per_cycle_each)
+        if self.steady_from > 0.0:
+            return f"over cycles 2-{cycles} of {cycles}: the first, the start's transient, left out"
+        if self.periodic_input:
+            return "over the whole travel: it includes the start's transient (--cycles 2 or more leaves it out)"
+        return "over the whole travel from the start"
     angle_input: bool = False       # the input part rotates: its travel is in rad, a whole turn or not
 
     def summary(self) -> dict:
@@ -122,7 +155,7 @@ class DriveResult:
                 "moving_fraction": self.moving_fraction, "moving_threshold": self.threshold,
                 "max_ratio": self.max_ratio, "jammed": self.jammed, "stop_reason": self.stop_reason,
                 "stopped_at": list(self.stopped_at), "steps": self.steps, "samples": int(self.q_in.size),
-                "seconds": self.seconds}
+                "steady_from": self.steady_from, "crease_passes": self.crease_passes, "seconds": self.seconds}
 
     def as_lines(self) -> list:
         """``name: value unit`` lines; a figure that is a name, a flag or text (the device, the axis,
@@ -131,9 +164,11 @@ class DriveResult:
         stop = f"{self.stopped_at[0]:.6g},{self.stopped_at[1]:.6g}"
         if self.periodic_input:
             each = ",".join(f"{a:.6g}" for a in self.advance_per_cycle_each) or "none"
+            n = len(self.advance_per_cycle_each)
             per = [f"advance_per_cycle: {self.advance_per_cycle:.6g} output-unit per cycle ("
-                   + (f"the last of {len(self.advance_per_cycle_each)} full cycles)" if self.advance_per_cycle_each
-                      else "no full cycle: the input stopped short of a turn; see advance)"),
+                   + (f"cycle {n} of {n}; cycle 1, the start's transient, left out)" if n >= 2
+                      else "cycle 1 of 1: it includes the start's transient; --cycles 2 or more gives a steady one)"
+                      if n == 1 else "no full cycle: the input stopped short of a turn; see advance)"),
                    f"advance_per_cycle_each: {each} output-unit per cycle"]
         else:
             per = [f"advance_per_cycle: {self.advance_per_cycle:.6g} output-unit per length (over the travel achieved)"]
@@ -146,11 +181,14 @@ class DriveResult:
                 f"advance: {self.advance:.6g} output-unit over the input's travel"
                 + (" (jammed: not extrapolated)" if self.jammed else ""),
                 *per,
-                f"moving_fraction: {self.moving_fraction:.6g} 1 (|dq_out/dq_in| > {self.threshold:g})",
-                f"max_ratio: {self.max_ratio:.6g} 1",
+                f"moving_fraction: {self.moving_fraction:.6g} 1 (|dq_out/dq_in| > {self.threshold:g}; "
+                f"{self._steady_words()})",
+                f"max_ratio: {self.max_ratio:.6g} 1 ({self._steady_words()})",
                 f"jammed: {self.jammed}",
                 f"stop_reason: {self.stop_reason}",
                 f"stopped_at: {stop}",
+                *([f"crease_passes: {self.crease_passes} passes (where the surface's bilinear slope held the "
+                   f"input, eq. (1) of the exact distance to the boundary carried it on)"] if self.crease_passes else []),
                 f"steps: {self.steps} steps",
                 f"time_drive: {self.seconds:.3g} s"]
 
@@ -178,7 +216,7 @@ class _Law:
 
 def _requested(device: Device, axis: int, sign: float, start: np.ndarray, cycles):
     if device.periodic[axis]:
-        cycles = 1 if cycles is None else checks.as_positive_int("cycles", cycles)
+        cycles = DEFAULT_CYCLES if cycles is None else checks.as_positive_int("cycles", cycles)
         return 2.0 * np.pi * cycles
     if cycles is not None:
         raise checks.InputError("cycles", f"cycles counts turns of a periodic input; q{axis} is not periodic "
@@ -287,7 +325,7 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     v = np.zeros((1, 2))
     history = [0.0]                          # progress at the end of each chunk (for the stall test)
     path = [x.copy()]
-    steps, reason = 0, "done"
+    steps, reason, creases = 0, "done", 0
     every = max(1, chunk // PATH_PER_CHUNK)  # states between two drawn ones
     while True:
         traj = simulate(scene, x, v) if engine is None else engine(device, scene, x, v)
@@ -308,8 +346,19 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
             progress("drive", min(law.best, requested), requested)
         back = int(np.ceil(window / chunk))
         if len(history) > back and history[-1] - history[-1 - back] < JAM_FRACTION * h:
-            reason = "stalled"
-            break
+            passed = _crease_pass(device, scene, x, axis, sign, load, h, window) \
+                if engine is None and mode == "quasistatic" else None
+            if passed is None:
+                reason = "stalled"
+                break
+            p = sign * (passed[:, axis] - start[axis])
+            law.feed(p, passed[:, out_axis])
+            path.append(passed[1::every])
+            steps += passed.shape[0] - 1
+            creases += 1
+            x, v = passed[-1][None, :], np.zeros((1, 2))
+            history = [float(p[-1])]              # a new stall window from here
+            continue
         if steps >= max_steps:
             reason = "step limit"
             break
@@ -318,15 +367,88 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     q_in = start[axis] + sign * s
     q_out = np.array(law.out)
     travel = float(sign * (x[0, axis] - start[axis]))
-    ratio = _ratio(q_in, q_out)
-    moving = float(np.mean(np.abs(ratio) > threshold)) if ratio.size else 0.0
-    max_ratio = float(np.max(np.abs(ratio))) if ratio.size else 0.0
     jammed = reason != "done"
     advance, per_cycle, each = _advances(s, q_out, bool(device.periodic[axis]), requested, jammed)
+    steady_from = 2.0 * np.pi if len(each) >= 2 else 0.0
+    ratio = _ratio(q_in, q_out)[s >= steady_from * (1 - 1e-9)]      # the steady travel (module docstring)
+    moving = float(np.mean(np.abs(ratio) > threshold)) if ratio.size else 0.0
+    max_ratio = float(np.max(np.abs(ratio))) if ratio.size else 0.0
     return DriveResult(device.name, axis, load, mode, bool(device.periodic[axis]), requested, travel, advance,
                        per_cycle, each, moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold,
-                       steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall,
+                       steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall, steady_from, creases,
                        bool(device.parts[axis].periodic))
+
+
+def _exact_distance_each(segments, q, length, periodic) -> tuple:
+    """The distance from ``q`` (2,) to each segment of ``segments`` (M, 2, 2), the nearest image
+    across a periodic axis, and the vector from the segment's nearest point to ``q``: (M,), (M, 2)."""
+    a, ab = segments[:, 0], segments[:, 1] - segments[:, 0]
+    ab2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    dist, vec = np.full(segments.shape[0], np.inf), np.zeros((segments.shape[0], 2))
+    for k0 in ((-1, 0, 1) if periodic[0] else (0,)):
+        for k1 in ((-1, 0, 1) if periodic[1] else (0,)):
+            qq = q + np.array([k0, k1]) * length
+            t = np.clip(np.einsum("ij,ij->i", qq - a, ab) / ab2, 0.0, 1.0)
+            diff = qq - (a + t[:, None] * ab)
+            d = np.hypot(diff[:, 0], diff[:, 1])
+            closer = d < dist
+            dist[closer], vec[closer] = d[closer], diff[closer]
+    return dist, vec
+
+
+def _exact_distance(segments, q, length, periodic) -> tuple:
+    """The distance from ``q`` (2,) to the polyline ``segments`` and its gradient, the unit vector
+    from the nearest point to ``q``."""
+    dist, vec = _exact_distance_each(segments, q, length, periodic)
+    i = int(np.argmin(dist))
+    return float(dist[i]), vec[i] / max(float(dist[i]), 1e-300)
+
+
+def _crease_pass(device: Device, scene, x, axis: int, sign: float, load: float, h: float, window: int):
+    """Quasistatic steps from the stall state ``x`` (1, 2) on eq. (1) of the exact distance to the
+    C-space's boundary, the load and the scene's other forces (module docstring, "Creases"):
+    the states (K, 2) up to the first one `CREASE_CELLS` input spacings past ``x``, or
+    None when the input does not get there within ``window`` steps (the stall stands), or the
+    state leaves free space."""
+    from pes_ref.core.surface import Surface
+    from pes_ref.devices.cspace import apf_slope, default_r_min
+    from pes_ref.devices.forces import scene_forces, scene_wall_bounds
+    cspace = device.cspace()
+    if cspace.segments.size == 0:
+        return None
+    side = Surface(cspace.distance, device.lower, device.upper, device.periodic)   # the grid's signed distance
+    length = np.asarray(device.upper, dtype=float) - np.asarray(device.lower, dtype=float)
+    periodic = tuple(bool(p) for p in device.periodic)
+    r_min = device.r_min if device.r_min is not None else default_r_min(device.spacing)
+    mobility = np.broadcast_to(np.asarray(scene.mobility, dtype=float).reshape(-1), (2,))
+    lo_hi = scene_wall_bounds(scene)
+    push = np.zeros(2)
+    push[axis] = load
+    q = np.array(x[0], dtype=float)
+    # the segments that eq. (1) can see (within r_c) of any state within ``margin`` of ``ref``,
+    # chosen again once the state has moved farther
+    margin = (CREASE_CELLS + 2.0) * float(np.max(device.spacing))
+    ref = q.copy()
+    segments = cspace.segments[_exact_distance_each(cspace.segments, q, length, periodic)[0] <= device.r_c + margin]
+    goal = sign * q[axis] + CREASE_CELLS * h
+    states, other = [q.copy()], np.zeros((1, 2))
+    for _ in range(window):
+        if np.hypot(*(q - ref)) > margin:
+            ref = q.copy()
+            segments = cspace.segments[_exact_distance_each(cspace.segments, q, length, periodic)[0] <= device.r_c + margin]
+        if segments.size == 0:                  # nothing within r_c: eq. (1) is flat here
+            d, grad = np.inf, np.zeros(2)
+        else:
+            d, grad = _exact_distance(segments, q, length, periodic)
+        if d <= 0.0 or float(side.energy(q[None, :])[0]) < -0.5 * h:      # on or into blocked space
+            return None
+        slope = float(apf_slope(np.array([d]), device.v, device.r_c, r_min)[0]) if np.isfinite(d) else 0.0
+        scene_forces(device, scene, q[None, :], np.zeros((1, 2)), lo_hi, other)
+        q = q + mobility * (push + other[0] - slope * grad)
+        states.append(q.copy())
+        if sign * q[axis] >= goal:
+            return np.array(states)
+    return None
 
 
 def _advances(s: np.ndarray, q_out: np.ndarray, periodic: bool, requested: float, jammed: bool) -> tuple:

@@ -42,7 +42,7 @@ from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.synthesis.kinds import evaluate, held_out_steps, kind_of
 
 __all__ = ["RealizedRun", "RealizedEngine", "RigidRuns", "ENGINES", "realized_problem", "rigid_problem", "evaluate_realized",
-           "headline_scores", "device_spring"]
+           "headline_scores", "device_spring", "check_design"]
 
 
 class RealizedRun(NamedTuple):
@@ -67,6 +67,20 @@ def _check_grid(problem, device) -> None:
                                             f"{list(map(float, device.lower))} .. {list(map(float, device.upper))}) "
                                             f"is not the design's ({shape[0]} x {shape[1]} on "
                                             f"{list(map(float, problem.lower))} .. {list(map(float, problem.upper))})")
+
+
+def check_design(problem, values, device) -> None:
+    """Refuse (key ``realized``) a device a realization made from another design: its
+    ``[realized] design`` hash is not this design's (`pes_ref.realize.contact.design_hash`).
+    A device without one (not written by ``realize``) is not checked."""
+    from pes_ref.realize.contact import design_hash
+    if device.design is None:
+        return
+    mine = design_hash(problem, values)
+    if device.design != mine:
+        raise checks.InputError("realized", f"the parts were made from another design ([realized] design = "
+                                            f"{device.design[:19]}..., this design's {mine[:19]}...): realize this "
+                                            f"design, or give --force to evaluate it on these parts anyway")
 
 
 def realized_problem(problem, device) -> RealizedRun:
@@ -126,11 +140,13 @@ class RigidRuns:
 
     A start where the parts overlap (a design's start inside what the parts block: the
     surface model pushes it out, a rigid part cannot be put there) is not run: its path is
-    NaN throughout, so it passes no test, and `blocked` counts such starts."""
+    NaN throughout, so it passes no test, and `blocked` counts such starts of the
+    `starts` it was given (every scene's)."""
 
     def __init__(self, device):
         self.device = device
         self.blocked = 0
+        self.starts = 0
 
     def __call__(self, scenes, x0s, v0s) -> list:
         from pes_ref.core.integrator import Trajectory
@@ -141,6 +157,7 @@ class RigidRuns:
             v0 = np.zeros_like(x0) if v0 is None else np.asarray(v0, dtype=float)
             free = ~blocked_starts(self.device, x0)
             self.blocked += int(np.sum(~free))
+            self.starts += int(free.size)
             full = [np.full((scene.n_steps + 1,) + x0.shape, np.nan) for _ in range(3)]
             if free.any():
                 fext = scene.schedule(x0.shape[0])               # every particle's own draws and pushes
@@ -180,6 +197,7 @@ def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: i
     out["dt"] = (float(problem.dt),) + tuple(float(run.dt) for run in runs)
     if any(isinstance(run.engine, RigidRuns) for run in runs):        # starts a rigid part cannot be put at
         out["starts_blocked"] = (0.0,) + tuple(float(getattr(run.engine, "blocked", 0)) for run in runs)
+        out["starts_run"] = (0.0,) + tuple(float(getattr(run.engine, "starts", 0)) for run in runs)
     out["n_steps"] = (float(held_out_steps(problem)),) + tuple(float(held_out_steps(run.problem)) for run in runs)
     return out
 
@@ -187,7 +205,8 @@ def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: i
 def headline_scores(problem, values, device, seed: int = 12345, n_particles: int | None = None) -> dict:
     """The design's headline figure (its kind's, `pes_ref.synthesis.kinds.KINDS`) on held-out
     ``seed`` beside the parts' under eq. (1) (``realized_``) and in rigid contact (``rigid_``; without
-    pymunk its value says it was not run, with the pip line), with ``score_seed`` and ``score_particles``."""
+    pymunk its value says it was not run, with the pip line), with ``score_seed`` and ``score_particles``,
+    and how many of the rigid run's starts (every scene's) lie inside the parts (``rigid_starts_blocked``)."""
     from pes_ref.devices.geometry import MissingExtraError
     from pes_ref.rigid import require_pymunk
     try:
@@ -201,4 +220,9 @@ def headline_scores(problem, values, device, seed: int = 12345, n_particles: int
     out.update({ENGINES[e].prefix + name: x for e, x in zip(engines, figures[name][1:])})
     if missing is not None:
         out[ENGINES["rigid"].prefix + name] = f"not run ({missing})"
+    else:
+        blocked, starts = int(figures["starts_blocked"][-1]), int(figures["starts_run"][-1])
+        out[ENGINES["rigid"].prefix + "starts_blocked"] = (
+            f"{blocked} of {starts} starts lie inside the parts (not run in rigid contact: each fails every test; "
+            f"eq. (1) pushes them out)")
     return out

@@ -3,7 +3,9 @@
 - ``device.toml``: the device-file format (``docs/devices.md``, written with tomli-w), so
   that every device tool (``analyze``, [`pes_ref.load_device`][pes_ref.devices.device_file.load_device]) applies to it;
 - ``plate.dxf``: the plate's outline and cut-outs as closed LWPOLYLINEs on layer ``CUT``
-  (ezdxf), in the C-space's length unit (``$INSUNITS`` 0, unitless), for laser cutting;
+  (ezdxf), one C-space length unit a unit of `DXF_UNITS` (``$INSUNITS``), for laser
+  cutting; a plate of several pieces has dowel holes on layer ``DOWEL`` (`dowel_holes`),
+  drilled through the base at the same places, that locate every piece;
 - ``plate.stl``, ``base.stl``, ``pin.stl``: the plate's pieces extruded to its thickness, the
   slab they stand on (it holds the islands a cut-out leaves), and the pin as a cylinder of
   the same height (trimesh; the plate's faces triangulated by shapely's constrained
@@ -25,11 +27,19 @@ import numpy as np
 
 from pes_ref.core.runtime.files import atomic_file
 
-__all__ = ["device_text", "write_bytes", "write_text", "write_dxf", "read_dxf_plate", "plate_mesh", "base_mesh", "pin_mesh", "drum_mesh", "drum_volume", "write_stl",
-           "read_stl", "DXF_LAYER"]
+__all__ = ["device_text", "write_bytes", "write_text", "write_dxf", "read_dxf_plate", "read_dxf_units", "read_dxf_dowels",
+           "plate_mesh", "base_mesh", "pin_mesh", "drum_mesh", "drum_volume", "write_stl", "read_stl", "dowel_holes", "dowel_polygons",
+           "DXF_LAYER", "DOWEL_LAYER", "DXF_UNITS", "DOWEL_RIM_SHARE"]
 
 #: The DXF layer of the cutting lines.
 DXF_LAYER = "CUT"
+#: The DXF layer of the dowel holes that locate a plate's pieces on its base.
+DOWEL_LAYER = "DOWEL"
+#: What one C-space length unit is in a DXF file (``realize --units``): name -> the header's
+#: ``$INSUNITS`` code (the DXF reference's) and ``$MEASUREMENT`` (0 imperial, 1 metric).
+DXF_UNITS = {"mm": (4, 1), "cm": (5, 1), "m": (6, 1), "in": (1, 0), "ft": (2, 0)}
+#: A dowel hole's radius as a share of the plate's rim (every piece of a plate holds some rim).
+DOWEL_RIM_SHARE = 0.2
 
 
 def device_text(data: dict, header: str) -> str:
@@ -50,20 +60,68 @@ def write_text(path, text: str, overwrite: bool, what: str) -> None:
     write_bytes(path, text.encode("utf-8"), overwrite, what)
 
 
-def write_dxf(path, plate, overwrite: bool) -> None:
-    """The plate's rings (outlines and holes) as closed polylines on `DXF_LAYER`."""
+def dowel_holes(plate, radius: float) -> list:
+    """Where a plate of several pieces is located on its base: two dowel holes of ``radius`` in
+    each piece, ``(x, y)`` centres, the two points farthest apart of the piece shrunk by twice
+    the radius (a hole with a radius of material round it); none for a plate of one piece, and
+    none in a piece too thin to hold a hole (it is then not located: see ``plate_pieces`` and
+    ``dowel_holes`` in the report)."""
+    import shapely
+    pieces = list(getattr(plate, "geoms", [plate]))
+    if len(pieces) < 2:
+        return []
+    out = []
+    for piece in pieces:
+        room = piece.buffer(-2.0 * radius)
+        if room.is_empty:
+            continue
+        corners = shapely.get_coordinates(room.convex_hull)
+        gap = np.linalg.norm(corners[:, None, :] - corners[None, :, :], axis=2)
+        i, j = np.unravel_index(int(np.argmax(gap)), gap.shape)
+        out += [tuple(map(float, corners[min(i, j)])), tuple(map(float, corners[max(i, j)]))]
+    return out
+
+
+def dowel_polygons(centres, radius: float):
+    """The dowel holes as one shapely geometry (discs of 64 sides), what the meshes cut."""
+    import shapely
+    return shapely.union_all([shapely.Point(c).buffer(radius, quad_segs=16) for c in centres])
+
+
+def write_dxf(path, plate, overwrite: bool, units: str = "mm", dowels=(), dowel_radius: float = 0.0) -> None:
+    """The plate's rings (outlines and holes) as closed polylines on `DXF_LAYER`, in
+    ``units`` (`DXF_UNITS`), and the ``dowels`` (centres) as circles of ``dowel_radius``
+    on `DOWEL_LAYER`."""
     import ezdxf
     doc = ezdxf.new("R2010")
-    doc.header["$INSUNITS"] = 0
+    doc.header["$INSUNITS"], doc.header["$MEASUREMENT"] = DXF_UNITS[units]
     doc.layers.add(DXF_LAYER)
     msp = doc.modelspace()
     for poly in getattr(plate, "geoms", [plate]):
         for ring in [poly.exterior, *poly.interiors]:
             msp.add_lwpolyline(np.asarray(ring.coords)[:-1, :2].tolist(), close=True,
                                dxfattribs={"layer": DXF_LAYER})
+    if dowels:
+        doc.layers.add(DOWEL_LAYER)
+    for centre in dowels:
+        msp.add_circle(centre, dowel_radius, dxfattribs={"layer": DOWEL_LAYER})
     buf = io.StringIO()
     doc.write(buf)
     write_text(path, buf.getvalue(), overwrite, "DXF")
+
+
+def read_dxf_units(path) -> str:
+    """The name (`DXF_UNITS`) of a DXF file's ``$INSUNITS``, or ``"unitless"``."""
+    import ezdxf
+    code = ezdxf.readfile(path).header.get("$INSUNITS", 0)
+    return next((name for name, (c, _) in DXF_UNITS.items() if c == code), "unitless")
+
+
+def read_dxf_dowels(path) -> list:
+    """The dowel holes of a DXF file: ``(x, y, radius)`` of its circles on `DOWEL_LAYER`."""
+    import ezdxf
+    return [(float(e.dxf.center.x), float(e.dxf.center.y), float(e.dxf.radius))
+            for e in ezdxf.readfile(path).modelspace().query("CIRCLE") if e.dxf.layer == DOWEL_LAYER]
 
 
 def read_dxf_plate(path):
@@ -95,12 +153,14 @@ def plate_mesh(plate, thickness: float):
                                      for p in getattr(plate, "geoms", [plate])])
 
 
-def base_mesh(plate, thickness: float):
+def base_mesh(plate, thickness: float, holes=None):
     """The base that holds the plate's pieces (islands among them): a slab the plate's bounding
-    box wide, from z = -thickness to 0."""
+    box wide, from z = -thickness to 0, less ``holes`` (the dowel holes, a shapely geometry)."""
     import shapely
     import trimesh
-    base = trimesh.creation.extrude_triangulation(*_triangulated(shapely.box(*plate.bounds)), thickness)
+    slab = shapely.box(*plate.bounds)
+    slab = slab if holes is None or holes.is_empty else slab.difference(holes)
+    base = trimesh.creation.extrude_triangulation(*_triangulated(slab), thickness)
     base.apply_translation([0.0, 0.0, -thickness])
     return base
 

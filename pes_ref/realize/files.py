@@ -37,10 +37,12 @@ HEIGHTFIELD_FILES = {"stl": ("heightfield.stl", "STL")}
 
 
 def _plate_meshes(real) -> dict:
+    """The plate's pieces and the base, both with the dowel holes through them, and the pin."""
     from pes_ref.realize import exports
     plate, t = real.parts.plate, real.thickness
-    return {"plate_stl": exports.plate_mesh(plate, t), "base_stl": exports.base_mesh(plate, t),
-            "pin_stl": exports.pin_mesh(real.parts.pin_made, t)}
+    holes = exports.dowel_polygons(real.dowels, real.dowel_radius)
+    return {"plate_stl": exports.plate_mesh(plate.difference(holes), t),
+            "base_stl": exports.base_mesh(plate, t, holes), "pin_stl": exports.pin_mesh(real.parts.pin_made, t)}
 
 
 def _drum_meshes(real) -> dict:
@@ -82,7 +84,7 @@ def write_contact(real, problem, values, outputs: dict, force: bool) -> None:
     staging = tempfile.mkdtemp(prefix=".realize-", dir=folder)
     try:
         staged = {key: os.path.join(staging, os.path.basename(path)) for key, path in outputs.items()}
-        exports.write_dxf(staged["dxf"], real.parts.plate, False)
+        exports.write_dxf(staged["dxf"], real.parts.plate, False, real.units, real.dowels, real.dowel_radius)
         for key, mesh in MESHES[real.parts.follower][0](real).items():
             exports.write_stl(staged[key], mesh, False)
         path = held_out_positions(problem, values, VISITED_SEED, n_particles=1)[:, 0, :]
@@ -106,8 +108,15 @@ def check_contact(real, outputs: dict) -> dict:
     part = exports.read_dxf_plate(outputs["dxf"])
     file_part = device.parts[1].geometry(device.grid.tolerance)
     name = real.parts.part_name
+    dowels = exports.read_dxf_dowels(outputs["dxf"])
     out = {"device_blocked_share": float(device.cspace().blocked.mean()),
-           f"{name}_area_dxf": float(part.area), f"{name}_area_device": float(file_part.area)}
+           f"{name}_area_dxf": float(part.area), f"{name}_area_device": float(file_part.area),
+           "dxf_units": f"{exports.read_dxf_units(outputs['dxf'])} (one C-space length unit)",
+           f"{name}_pieces": len(getattr(part, "geoms", [part])),
+           "dowel_holes": f"{len(dowels)} (two in each of {len(dowels) // 2} pieces, radius {real.dowel_radius:g}, "
+                          f"layer {exports.DOWEL_LAYER}; through the base at the same places)" if dowels else "0"}
+    if dowels:
+        part = part.difference(exports.dowel_polygons([d[:2] for d in dowels], dowels[0][2]))
     for key in outputs:
         if key.endswith("_stl"):
             mesh = exports.read_stl(outputs[key])

@@ -49,7 +49,8 @@ def _prepare_contact(state, name: str, options: dict):
                                   f"and rule {rule}", names=("level", "rule"))
     kept = {key: _given(options, key, CONTACT_DEFAULTS[key]) for key in ("pin_radius", "rim", "thickness")}
     return realize_contact(state.problem, state.values, rule, level, name=name, drum_radius=options.get("drum_radius"),
-                           clearance=options.get("clearance"), restitution=options.get("restitution"), **kept)
+                           clearance=options.get("clearance"), restitution=options.get("restitution"),
+                           units=_given(options, "units", CONTACT_DEFAULTS["units"]), **kept)
 
 
 def _write_contact(real, state, outputs: dict, options: dict, force: bool) -> list:
@@ -102,7 +103,7 @@ def _write_heightfield(job, state, outputs: dict, options: dict, force: bool) ->
 #: The realizations: ``--as NAME`` -> `Realization` (``docs/realize.md``).
 REALIZATIONS = {
     "contact": Realization(("rule", "level", "pin_radius", "rim", "thickness", "drum_radius", "clearance",
-                            "restitution"), _contact_files, _prepare_contact, _write_contact),
+                            "restitution", "units"), _contact_files, _prepare_contact, _write_contact),
     "heightfield": Realization(("g", "base", "n_steps"), _heightfield_files, _prepare_heightfield,
                                _write_heightfield),
 }

@@ -18,9 +18,12 @@ its one degree of freedom:
   and the turns are counted, so the coordinate stays unwrapped.
 
 Each motion is one entry of `MOTION_BODIES` (motion type -> how its body is made, read
-and pushed), so the engine never asks which motion it has. Contact is frictionless and
+and pushed), so the engine never asks which motion it has. A part's circle without cuts is a
+pymunk circle of its radius as drawn (round, as the part is made), on a translation or a
+rotation; every other shape (a drum's drawing too) is its polygon. Contact is frictionless and
 inelastic by default; a device's ``[rigid]`` table states its restitution and friction
-(pymunk multiplies the two shapes' values, so each shape gets the square root).
+(pymunk multiplies the two shapes' values, so each shape gets the square root). A bounce
+never adds energy (`bounce_without_gain`).
 """
 from __future__ import annotations
 
@@ -32,10 +35,10 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.core.runtime.extras import pip_line, require
-from pes_ref.devices.geometry import Drum, Rotation, Translation, require_shapely
+from pes_ref.devices.geometry import Circle, Drum, Rotation, Translation, require_shapely
 
 __all__ = ["PIP_LINE", "require_pymunk", "MOTION_BODIES", "RigidParts", "rigid_parts", "convex_pieces", "SLOP_SHARE",
-           "COLLISION_BIAS", "ITERATIONS"]
+           "COLLISION_BIAS", "ITERATIONS", "round_circles", "bounce_without_gain"]
 
 #: The pip line that installs the rigid engine.
 PIP_LINE = pip_line("rigid")
@@ -144,6 +147,11 @@ class _TranslationBody:
         return body, geom, (u,)
 
     @staticmethod
+    def frame(motion, geom):
+        """The part's geometry in its body's frame (as `make` returns it)."""
+        return geom
+
+    @staticmethod
     def place(body, data, q: float) -> int:
         (u,) = data
         body.position = (q * u[0], q * u[1])
@@ -169,6 +177,10 @@ class _TranslationBody:
     def rewrap(space, body, data) -> int:
         return 0
 
+    @staticmethod
+    def circle_offset(motion, center):
+        return tuple(map(float, center))
+
 
 class _RotationBody:
     """A part turning by q about its pivot: the body sits at the pivot, turned by q."""
@@ -179,14 +191,18 @@ class _RotationBody:
 
     @staticmethod
     def make(pymunk, space, motion, inertia: float, geom):
-        shapely = require_shapely()
         pivot = np.asarray(motion.pivot, dtype=float)
         reach = _reach(geom, pivot)
         body = pymunk.Body(float(inertia) / reach ** 2, float(inertia))
         body.position = tuple(pivot)
         space.add(body)
         space.add(pymunk.PivotJoint(space.static_body, body, tuple(pivot)))
-        return body, shapely.transform(geom, lambda xy: xy - pivot), (pivot,)
+        return body, _RotationBody.frame(motion, geom), (pivot,)
+
+    @staticmethod
+    def frame(motion, geom):
+        pivot = np.asarray(motion.pivot, dtype=float)
+        return require_shapely().transform(geom, lambda xy: xy - pivot)
 
     @staticmethod
     def place(body, data, q: float) -> int:
@@ -209,6 +225,10 @@ class _RotationBody:
     def rewrap(space, body, data) -> int:
         return 0
 
+    @staticmethod
+    def circle_offset(motion, center):
+        return tuple(map(float, np.asarray(center, dtype=float) - np.asarray(motion.pivot, dtype=float)))
+
 
 class _DrumBody:
     """A drum unrolled: its tiled drawing slides along -y by ``R q``; the body is kept within
@@ -226,6 +246,10 @@ class _DrumBody:
         far = 1e9
         space.add(pymunk.GrooveJoint(space.static_body, body, (0.0, -far), (0.0, far), (0.0, 0.0)))
         return body, motion.tiled(geom), (r, 2.0 * math.pi * r)
+
+    @staticmethod
+    def frame(motion, geom):
+        return motion.tiled(geom)
 
     @staticmethod
     def place(body, data, q: float) -> int:
@@ -261,6 +285,9 @@ class _DrumBody:
         body.position = (body.position.x, y + k * period)
         space.reindex_shapes_for_body(body)
         return k
+
+    #: A drum's drawing is tiled a turn apart (`pes_ref.devices.geometry.Drum.tiled`): its circles stay polygons.
+    circle_offset = None
 
 
 #: How each motion's body is made, placed, read and pushed.
@@ -314,16 +341,81 @@ class RigidParts:
         e, mu = math.sqrt(self.restitution), math.sqrt(self.friction)
         for d, part in enumerate(self.device.parts):
             entry = MOTION_BODIES[type(part.motion)]
+            rounds, rest = round_circles(part)
             body, geom, data = entry.make(pymunk, space, part.motion, float(self.mass[d]), self._geometry(d))
-            for piece in _pieces(require_shapely().to_wkb(geom)):
-                shape = pymunk.Poly(body, [tuple(p) for p in piece])
+            if rounds and rest:                  # the polygons of the shapes that are not round
+                geom = entry.frame(part.motion, self._geometry(d, rest))
+            shapes = [pymunk.Circle(body, float(c.radius), entry.circle_offset(part.motion, c.center)) for c in rounds]
+            if rest:
+                shapes += [pymunk.Poly(body, [tuple(p) for p in piece])
+                           for piece in _pieces(require_shapely().to_wkb(geom))]
+            for shape in shapes:
                 shape.elasticity, shape.friction = e, mu
                 space.add(shape)
             handles.append((entry, body, data))
+        if self.restitution > 0.0:
+            space.on_collision(pre_solve=bounce_without_gain, data=self.restitution)
         return space, handles
 
-    def _geometry(self, d: int):
-        return self.device.parts[d].geometry(self.device.grid.tolerance)
+    def _geometry(self, d: int, shapes=None):
+        """Part ``d``'s geometry (of ``shapes`` only, when given: some of its shapes)."""
+        part = self.device.parts[d]
+        if shapes is not None and len(shapes) != len(part.shapes):
+            part = type(part)(tuple(shapes), part.motion)
+        return part.geometry(self.device.grid.tolerance)
+
+
+def round_circles(part) -> tuple:
+    """``(circles, others)``: the part's shapes that the engine makes pymunk circles (a
+    [`Circle`][pes_ref.devices.geometry.Circle] without cuts, on a motion whose body takes
+    circles: its entry's ``circle_offset``) and the rest, which are polygons."""
+    if MOTION_BODIES[type(part.motion)].circle_offset is None:
+        return (), tuple(part.shapes)
+    rounds = tuple(s for s in part.shapes if isinstance(s, Circle) and not s.minus)
+    return rounds, tuple(s for s in part.shapes if not (isinstance(s, Circle) and not s.minus))
+
+
+def _acceleration(body, point):
+    """The acceleration of ``body``'s point ``point`` (a world point) under the force and torque
+    set on it for this step (no contact): ``f / m + alpha x r``."""
+    a = np.zeros(2)
+    if math.isfinite(body.mass) and body.mass > 0:
+        a += np.array([body.force.x, body.force.y]) / body.mass
+    if math.isfinite(body.moment) and body.moment > 0:
+        alpha = body.torque / body.moment
+        r = np.array([point.x - body.position.x, point.y - body.position.y])
+        a += alpha * np.array([-r[1], r[0]])
+    return a
+
+
+def bounce_without_gain(arbiter, space, restitution) -> None:
+    """pymunk's ``pre_solve``: the contact's restitution for this step, so that a bounce never
+    adds energy.
+
+    pymunk finds a contact once the parts overlap and bounces them with ``e`` times the normal
+    speed they then have; the overlap is pushed out without work (pseudo-velocities). A part
+    pushed into the other gained speed over that overlap, so an elastic bounce would give back
+    the push's work over it (a pin pushed steadily onto a wall would never settle). The speed
+    the parts met with is the speed they have less what the forces of the step (the scene's
+    and the springs', set on the bodies; not the contact's) gave them over the overlap ``d``:
+    ``s_touch^2 = s^2 - 2 g d`` (``s`` the approach speed, ``g`` the approach acceleration
+    along the normal). The restitution is ``e s_touch / s``, never above ``e``: a bounce
+    returns at most ``e`` times the speed of the touch."""
+    points = arbiter.contact_point_set.points
+    if not points:
+        return
+    n = arbiter.contact_point_set.normal
+    a, b = arbiter.bodies
+    worst = min(points, key=lambda p: p.distance)
+    depth = max(0.0, -float(worst.distance))
+    at = worst.point_a
+    vrn = (b.velocity_at_world_point(at) - a.velocity_at_world_point(at)).dot(n)
+    arn = float(np.dot(_acceleration(b, at) - _acceleration(a, at), (n.x, n.y)))
+    if vrn < 0.0 and arn < 0.0:                         # approaching, and pushed together
+        touch = max(0.0, vrn * vrn + 2.0 * arn * depth)
+        arbiter.restitution = restitution * min(1.0, math.sqrt(touch) / -vrn)
+    else:
+        arbiter.restitution = restitution
 
 
 def _thinnest(geoms) -> float:

@@ -35,7 +35,7 @@ import numpy as np
 from pes_ref.core import budget, checks
 from pes_ref.core.integrator import Trajectory
 from pes_ref.core.runtime.progress import EVERY
-from pes_ref.core.terms import spring_add_force, wall_add_force, wall_bounds
+from pes_ref.devices.forces import scene_forces, scene_wall_bounds
 from pes_ref.devices.geometry import interiors_overlap, pose, require_shapely
 from pes_ref.rigid.bodies import rigid_parts
 
@@ -69,25 +69,7 @@ class StartBlockedError(checks.InputError):
     """A particle starts with the parts overlapping (inside blocked space)."""
 
 
-def _axis_lengths(scene) -> np.ndarray:
-    return np.asarray(scene.surface.length, dtype=float)
-
-
-def _forces(device, scene, q, v, lo_hi, out) -> np.ndarray:
-    """The generalized force on every particle (N, 2) but the contact's and the external one."""
-    out.fill(0.0)
-    length = _axis_lengths(scene)
-    periodic = scene.surface.periodic
-    for s in device.springs:
-        out[:, s.axis] += s.force(q[:, s.axis], float(length[s.axis]), bool(periodic[s.axis]))
-    if scene.spring is not None:
-        spring_add_force(q, np.broadcast_to(scene.spring.k, q.shape), np.broadcast_to(scene.spring.center, q.shape),
-                         length, periodic, out)
-    if lo_hi is not None:
-        wall_add_force(q, scene.walls.k, lo_hi[0], lo_hi[1], out)
-    if scene.mode == "dynamic" and scene.damping is not None:
-        out -= np.broadcast_to(scene.damping, q.shape) * v
-    return out
+_forces = scene_forces          # the generalized force on every particle but the contact's and the external one
 
 
 def blocked_starts(device, x0, allowance: float | None = None) -> np.ndarray:
@@ -155,10 +137,7 @@ def simulate(device, scene, x0, v0=None, *, fext="scene", progress=None) -> Traj
         fext = checks.as_float_array("fext", fext, shape=(scene.n_steps + 1, n, 2))
     parts = rigid_parts(device, mass, quasistatic)
     check_start(device, x0, START_ALLOWANCE * parts.cell)
-    lo_hi = None
-    if scene.walls is not None:
-        lo_hi = wall_bounds(scene.surface.lower, scene.surface.upper, scene.walls.margin,
-                            np.asarray(scene.walls.edges, dtype=bool))
+    lo_hi = scene_wall_bounds(scene)
     return _run(parts, scene, x0, v0, fext, lo_hi, progress)
 
 

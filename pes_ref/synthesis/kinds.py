@@ -253,7 +253,11 @@ def _problem_parts(problem) -> dict:
 
 
 def _problem_start(problem) -> list:
+    """Where a problem file's device analysis starts: the middle of its starts' box, or its first
+    point; with start groups, the first group's (the file's order)."""
     starts = problem.starts
+    while starts.groups:
+        starts = starts.groups[0].starts
     if starts.box is not None:
         return [float(0.5 * (lo + hi)) for lo, hi in zip(*starts.box)]
     return [float(x) for x in starts.points[0]]

@@ -127,7 +127,7 @@ def test_a_device_file_prints_the_drive_figures_and_writes_its_outputs(capsys, t
     law = np.loadtxt(out / "motion_law.csv", delimiter=",", skiprows=1)
     assert (out / "motion_law.csv").read_text().startswith("q_in,q_out\n")
     assert law.shape[1] == 2 and np.all(np.diff(law[:, 0]) > 0)
-    assert law[-1, 0] - law[0, 0] == pytest.approx(2 * np.pi, abs=0.05)
+    assert law[-1, 0] - law[0, 0] == pytest.approx(4 * np.pi, abs=0.05)       # two turns by default
     summary = json.loads(js.read_text())
     assert summary["jammed"] is False and summary["moving_fraction"] == pytest.approx(
         float(values["moving_fraction"].split()[0]), rel=1e-5)
@@ -163,7 +163,7 @@ def test_a_start_with_a_negative_first_number_is_a_value_and_each_cycle_is_repor
     first, last = summary["advance_per_cycle_each"]
     assert summary["advance_per_cycle"] == last and abs(last) < abs(first)
     assert values["advance_per_cycle_each"].split()[0] == f"{first:.6g},{last:.6g}"
-    assert "the last of 2 full cycles" in values["advance_per_cycle"]
+    assert "cycle 2 of 2; cycle 1, the start's transient, left out" in values["advance_per_cycle"]
     assert summary["advance"] == pytest.approx(first + last)
 
 

@@ -1,6 +1,6 @@
 """The faults of `evaluate`: each row refused in one line naming its argument, the folder left as it was
 (the harness and the assets: ``tests/_faults.py``)."""
-from _faults import Fault, fault_table
+from _faults import Fault, Works, fault_table, works_table
 
 FAULTS = [
     # ------------------------------------------------------------------ evaluate
@@ -37,7 +37,21 @@ FAULTS = [
     Fault("evaluate-plot-no-parent", "evaluate design.npz --plot nodir/plots", ("--plot nodir/plots", "does not exist")),
     Fault("evaluate-plot-read-only", "evaluate design.npz --plot ro", ("--plot ro", "not writable"),
           needs_permissions=True),
+    Fault("evaluate-realized-another-design", "evaluate groups1.npz --realized gparts/device.toml",
+          ("--realized gparts/device.toml", "the parts were made from another design", "[realized] design = sha256:",
+           "--force")),
 ]
 
 
 outcomes, test_fault = fault_table(FAULTS)
+
+#: A realized design of every feature of a problem file evaluates (``groups.toml``, ``tests/_faults.py``).
+WORKS = [
+    Works("evaluate-realized-another-design-forced", "evaluate groups1.npz --realized gparts/device.toml --force",
+          ("realized_success_fraction: ",)),
+    Works("evaluate-realized-start-groups", "evaluate groups.npz --realized gparts/device.toml --engine both",
+          ("rigid_success_out: ", "rigid_share_exits: ", "rigid_scenario_still_success_fraction: ",
+           "rigid_starts_blocked: ")),
+]
+
+worked, test_works = works_table(WORKS)

@@ -1,6 +1,6 @@
 """The faults of `realize`: each row refused in one line naming its argument, the folder left as it was
 (the harness and the assets: ``tests/_faults.py``)."""
-from _faults import Fault, fault_table
+from _faults import Fault, Works, fault_table, works_table
 
 FAULTS = [
     # ------------------------------------------------------------------ realize
@@ -66,6 +66,10 @@ FAULTS = [
           ("--clearance must be >= 0", "-0.01")),
     Fault("realize-clearance-too-large", "realize design.npz --as contact --out newparts --clearance 5",
           ("--pin-radius + --clearance must be below half the design's shortest side",)),
+    Fault("realize-units-unknown", "realize design.npz --as contact --out newparts --units furlong",
+          ("--units", "'furlong'", "mm")),
+    Fault("realize-units-heightfield", "realize design.npz --as heightfield --out newparts --units mm",
+          ("--units goes with --as contact, not --as heightfield",)),
     Fault("realize-restitution-above-one", "realize design.npz --as contact --out newparts --restitution 1.5",
           ("--restitution must be in [0, 1]", "1.5")),
     Fault("realize-restitution-heightfield", "realize design.npz --as heightfield --out newparts --restitution 0.5",
@@ -89,3 +93,16 @@ FAULTS = [
 
 
 outcomes, test_fault = fault_table(FAULTS)
+
+#: Designs of every feature of a problem file realize and evaluate (``groups.toml``, ``tests/_faults.py``:
+#: start groups, ``any_of``, a share, a scenario): each row was a crash or a refusal before its fix.
+WORKS = [
+    Works("realize-start-groups", "realize groups.npz --as contact --out rp --particles 8",
+          ("rule: level-set", "success_fraction: ", "realized_success_fraction: ", "rigid_success_fraction: "),
+          made=("rp",)),
+    # a start inside the parts is not run in rigid contact: realize says how many beside its figures
+    Works("realize-says-starts-inside-the-parts", "realize groups.npz --as contact --out rp --particles 8",
+          ("rigid_starts_blocked: 2 of 16 starts lie inside the parts",), made=("rp",)),
+]
+
+worked, test_works = works_table(WORKS)

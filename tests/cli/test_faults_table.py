@@ -13,6 +13,7 @@ from __future__ import annotations
 import importlib
 import os
 import re
+import shutil
 import stat
 import subprocess
 import sys
@@ -312,3 +313,21 @@ def test_ctrl_c_while_importing(module, how, tmp_path):
                            "--out", str(tmp_path / "new.npz")], capture_output=True, text=True, env=ENV, timeout=120)
     assert (proc.returncode, proc.stderr, proc.stdout) == (cli.EXIT_INTERRUPTED, "interrupted\n", "")
     assert os.listdir(tmp_path) == []
+
+
+# =========================================================================== PES_REF_DEBUG
+
+@pytest.mark.parametrize("value, shown", [("1", True), ("0", False), ("", False)])
+def test_debug_shows_the_traceback_of_a_caught_error(fault_assets, tmp_path, value, shown):
+    """``PES_REF_DEBUG=1``: a refusal the command catches prints its traceback, then its one line."""
+    work = tmp_path / "work"
+    shutil.copytree(fault_assets, work)
+    proc = subprocess.run([sys.executable, "-m", "pes_ref", "evaluate", "design.npz", "--particles", "0"], cwd=work,
+                          env=dict(ENV, PES_REF_DEBUG=value), capture_output=True, text=True, timeout=120,
+                          stdin=subprocess.DEVNULL)
+    assert proc.returncode == cli.EXIT_ERROR and proc.stdout == ""
+    lines = proc.stderr.splitlines()
+    assert lines[-1] == "error: --particles must be >= 1, got 0", proc.stderr
+    assert ("Traceback (most recent call last):" in proc.stderr) == shown, proc.stderr
+    if shown:
+        assert lines[0].startswith("Traceback") and "InputError" in lines[-2], proc.stderr

@@ -179,7 +179,9 @@ def test_each_cycle_is_reported_and_the_headline_is_the_last_full_one(cam_two_cy
     assert first < -0.02                                                       # the start's transient: it settles
     assert r.advance == pytest.approx(first + last, abs=1e-9)
     assert r.summary()["advance_per_cycle_each"] == [first, last]
-    assert "advance_per_cycle: " in "\n".join(r.as_lines()) and "(the last of 2 full cycles)" in "\n".join(r.as_lines())
+    lines = "\n".join(r.as_lines())
+    assert "advance_per_cycle: " in lines and "(cycle 2 of 2; cycle 1, the start's transient, left out)" in lines
+    assert "over cycles 2-2 of 2: the first, the start's transient, left out" in lines.split("max_ratio: ")[1]
 
 
 @pytest.mark.parametrize("travel, jammed, cycles, per_cycle", [
@@ -228,3 +230,31 @@ def test_a_part_started_inside_the_other_is_refused(name, shape, axis, start):
     device = device if shape is None else device.replace(shape=shape)
     with pytest.raises(ValueError, match=r"start q = \[0, (0.3|3.14159)\] is inside blocked space"):
         drive(device, axis, 0.5, start=start)
+
+
+def test_the_moving_share_and_the_largest_ratio_leave_the_first_turn_out(cam_two_cycles):
+    """With two turns or more, ``moving_fraction`` and ``max_ratio`` are the steady turns' (the
+    start's transient left out: ``steady_from``); with one, the whole travel, and the line says so."""
+    from pes_ref.devices.drive import THRESHOLD, _ratio
+    r = cam_two_cycles
+    s = np.abs(r.q_in - r.q_in[0])
+    ratio = np.abs(_ratio(r.q_in, r.q_out))
+    steady = s >= 2 * np.pi * (1 - 1e-9)
+    assert r.steady_from == 2 * np.pi and r.summary()["steady_from"] == 2 * np.pi
+    assert r.max_ratio == np.max(ratio[steady]) and r.moving_fraction == np.mean(ratio[steady] > THRESHOLD)
+    one = drive(load_device(CAM).replace(shape=(160, 41)), 0, 0.5, cycles=1, start=(0.0, 0.6))
+    assert one.steady_from == 0.0 and one.max_ratio == np.max(np.abs(_ratio(one.q_in, one.q_out)))
+    assert "it includes the start's transient" in "\n".join(one.as_lines()).split("max_ratio: ")[1]
+
+
+def test_a_quasistatic_drive_is_not_held_at_a_crease_of_the_bilinear_grid():
+    """The ratchet's pawl at a tooth's tip: the surface's slope along q0 jumps past the load at a
+    cell's edge (the stall sat on one at every resolution), where eq. (1) of the exact distance
+    passes; the drive goes on (the rigid pawl rides every tooth, docs/rigid.md) and returns the
+    pawl each turn, while a jam of the geometry still stops it (tests/rigid/test_engines.py)."""
+    from pes_ref.devices.device_file import shipped_device
+    device = shipped_device("ratchet").replace(shape=(128, 128))
+    r = drive(device, 0, 1.0, "quasistatic", 1, start=(0.0, -0.26))     # the pawl in, as it settles
+    assert r.stop_reason == "done" and r.crease_passes >= 10            # at least one pass per tooth
+    assert abs(r.advance) < np.radians(1.0)                             # the pawl back where it started
+    assert any(line.startswith("crease_passes: ") for line in r.as_lines())

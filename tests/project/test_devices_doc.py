@@ -35,6 +35,7 @@ def _nested(keys: dict, prefix: str) -> set:
     ("### `[energy]`", set(df.ENERGY_KEYS) | _nested(df.SPRING_KEYS, "springs")),
     ("### `[dynamics]`", set(df.DYNAMICS_KEYS)),
     ("### `[rigid]`", set(df.RIGID_KEYS)),
+    ("### `[realized]`", set(df.REALIZED_KEYS)),
     ("### `[start]` and `[analysis]`", _nested(df.START_KEYS, "start") | {"analysis.kind"}
      | {f"analysis.{name}" for keys in df.ANALYSES.values() for name in keys}),
 ])

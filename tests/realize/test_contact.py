@@ -126,3 +126,36 @@ def test_a_clearance_makes_the_pin_larger_than_its_cut_out_and_grows_what_the_pa
 def test_a_bad_clearance_or_restitution_is_refused_naming_it(problem, kw, words):
     with pytest.raises(ValueError, match=words):
         realize_contact(problem, _v_walls(problem), "value", LEVEL, **kw)
+
+
+@pytest.mark.parametrize("units", sorted(exports.DXF_UNITS))
+def test_the_dxf_states_its_units(realized, tmp_path, units):
+    """``$INSUNITS`` names what one C-space length unit is (a DXF without it is unitless to a machinist)."""
+    path = tmp_path / "plate.dxf"
+    exports.write_dxf(path, realized.parts.plate, False, units)
+    assert exports.read_dxf_units(path) == units
+    import ezdxf
+    header = ezdxf.readfile(path).header
+    assert (header["$INSUNITS"], header["$MEASUREMENT"]) == exports.DXF_UNITS[units] and header["$INSUNITS"] != 0
+
+
+def test_a_plate_of_several_pieces_is_located_by_dowel_holes_in_the_dxf_and_the_base(realized, tmp_path):
+    import shapely
+    plate, r, t = realized.parts.plate, realized.dowel_radius, realized.thickness
+    pieces = list(getattr(plate, "geoms", [plate]))
+    assert len(pieces) >= 2                                     # the V's exit and entry cut the frame in two
+    assert realized.units == "mm" and r == pytest.approx(exports.DOWEL_RIM_SHARE * 0.1)
+    holes = [shapely.Point(c).buffer(r) for c in realized.dowels]
+    for piece in pieces:                                        # two in each piece, a radius of material round each
+        inside = [h for h in holes if piece.contains(h.buffer(r * 0.999))]
+        assert len(inside) == 2
+    path = tmp_path / "plate.dxf"
+    exports.write_dxf(path, plate, False, realized.units, realized.dowels, r)
+    back = exports.read_dxf_dowels(path)
+    assert np.allclose([(x, y) for x, y, _ in back], realized.dowels, rtol=0, atol=1e-12) and {d[2] for d in back} == {r}
+    assert exports.read_dxf_plate(path).symmetric_difference(plate).area < 1e-9 * plate.area   # CUT unchanged
+    cut = exports.dowel_polygons(realized.dowels, r)
+    base = exports.base_mesh(plate, t, cut)
+    assert base.is_watertight and base.volume == pytest.approx((plate.envelope.area - cut.area) * t, rel=1e-9)
+    one = shapely.box(-1.0, -1.0, 1.0, 1.0).difference(shapely.box(-0.5, -0.5, 0.5, 0.5))
+    assert exports.dowel_holes(one, r) == []                    # one piece: nothing to locate

@@ -125,3 +125,16 @@ def test_a_restitution_above_one_in_the_problem_file_is_refused_naming_the_key(p
 def test_the_shipped_latch_states_the_clearance_and_restitution_its_rigid_parts_need():
     contact = load_problem(shipped_problem("latch_contact")).contact
     assert (contact.clearance, contact.restitution) == (0.035, 1.0)
+
+
+def test_a_start_inside_the_parts_moves_to_the_nearest_free_node_and_says_so(problem):
+    """The starts box's centre (0, 0) inside a drawn disc: the device's [start] is a free grid node
+    near it (an analysis of the device starts there), and a lost line says so."""
+    from pes_ref.devices.drive import check_free
+    inside = with_sets(problem, {"surface.contact.blocked": [{"circle": {"center": [0.0, 0.0], "radius": 0.2}}]})
+    real = realize_contact(inside, inside.initial_values(np.random.default_rng(0), inside.shape()))
+    start = real.device["start"]["q"]
+    device = _device(real.device)
+    check_free(device, np.array(start))                                   # refused if blocked
+    assert 0.2 + real.parts.pin_radius <= math.hypot(*start) <= 0.2 + real.parts.pin_radius + 0.2
+    assert any("the problem's start (0, 0) lies inside the parts" in line for line in real.lost)

@@ -39,10 +39,9 @@ def test_a_pin_pushed_into_the_window_s_edge_stops_at_it(mode):
     scene = device.scene(3000, (Constant([1.0, 0.0]),), **kw)
     traj = simulate(device, scene, [[0.0, 0.1]])
     slop = 10 * SLOP_SHARE * rigid_parts(device, device.mass).cell
-    # the pin's centre stops a radius from the edge: the pin is the surface model's polygon,
-    # its edges within the circles' tolerance outside the circle (docs/devices.md "Circles")
-    tol = device.grid.tolerance
-    assert 0.45 - 2 * tol - slop <= traj.x[-1, 0, 0] <= 0.45 + slop
+    # the pin's centre stops a radius from the edge: the pin is round (a pymunk circle of the
+    # radius as drawn), the contact within pymunk's slop of it
+    assert 0.45 - slop <= traj.x[-1, 0, 0] <= 0.45 + slop
     assert traj.x[-1, 0, 1] == pytest.approx(0.1, abs=1e-9)
 
 
@@ -101,7 +100,7 @@ def test_a_pin_slammed_into_the_edge_in_short_chunks_goes_on_and_rests_at_the_co
     device = _plate_device(damping=(0.0, 0.0), mass=(0.01, 1.0), dt=2e-3)
     result = drive(device, 0, load, "dynamic", start=(0.0, 0.1), engine=ENGINES["rigid"].run, chunk=7)
     assert result.stop_reason == "stalled"
-    assert 0.45 - 2 * device.grid.tolerance <= result.stopped_at[0] <= 0.45 + SLOP_SHARE * 0.025
+    assert 0.45 <= result.stopped_at[0] <= 0.45 + SLOP_SHARE * 0.025 + 1e-9    # the round pin at the slop
 
 
 @pytest.mark.parametrize("geom", [
@@ -142,3 +141,62 @@ def test_quasistatic_steps_in_blocks_give_the_step_by_step_run_with_fewer_pymunk
     cell = rigid_parts(device, device.mass).cell
     assert np.max(np.abs(blocks.x - single.x)) <= engine.BLOCK_SHARE * cell
     assert blocks.x[-1, 0, 0] == pytest.approx(0.45, abs=2 * device.grid.tolerance + 1e-3 * cell)   # at the edge
+
+
+# --------------------------------------------------------------------------- restitution adds no energy
+
+def test_a_pin_pushed_steadily_onto_a_wall_settles_at_any_restitution():
+    """An elastic bounce under damping decays: the pin comes to rest on the wall (pymunk's own
+    bounce gave back the push's work over each overlap, and the pin never settled)."""
+    for e in (1.0, 0.5):
+        device = _plate_device(damping=(4.0, 4.0), restitution=e)
+        scene = device.scene(2500, (Constant([10.0, 0.0]),), dt=2e-3)
+        traj = simulate(device, scene, [[0.3, 0.0]])
+        assert np.max(np.abs(traj.v[-250:, 0, 0])) < 1e-9, e            # at rest for the last half second
+        assert traj.x[-1, 0, 0] == pytest.approx(0.45, abs=1e-3)
+
+
+def test_an_elastic_pin_pushed_onto_a_wall_never_rebounds_past_its_start():
+    """No damping, restitution 1, a constant push from rest 0.25 off the wall: every rebound's
+    turning point is at most as far from the wall as the start (no impact adds energy)."""
+    device = _plate_device(restitution=1.0)
+    scene = device.scene(3000, (Constant([10.0, 0.0]),), dt=2e-3)
+    traj = simulate(device, scene, [[0.2, 0.0]])
+    x, v = traj.x[:, 0, 0], traj.v[:, 0, 0]
+    turns = np.nonzero((v[:-1] < 0.0) & (v[1:] >= 0.0))[0] + 1
+    assert turns.size >= 10                                              # it bounces, many times
+    assert np.all(0.45 - x[turns] <= 0.25), 0.45 - x[turns]
+
+
+@pytest.mark.parametrize("e", [1.0, 0.8])
+def test_a_free_bounce_loses_energy_at_each_impact(e):
+    """No push, a little damping: the kinetic energy after each impact is at most e^2 times the one before."""
+    device = _plate_device(damping=(0.2, 0.0), restitution=e)
+    scene = device.scene(3000, dt=2e-3)
+    traj = simulate(device, scene, [[0.0, 0.0]], [[1.0, 0.0]])
+    v = traj.v[:, 0, 0]
+    impacts = np.nonzero(np.sign(v[1:]) != np.sign(v[:-1]))[0]
+    assert impacts.size >= 3
+    for k in impacts:
+        before, after = v[k] ** 2, v[k + 1] ** 2
+        assert after < before and after <= e * e * before * (1 + 1e-12), (k, before, after)
+
+
+def test_a_circle_is_a_round_pymunk_circle_of_its_radius_as_drawn():
+    """A pin (a circle without cuts) on a translation or a rotation is a pymunk circle, not its
+    tolerance polygon; a shape with cuts stays polygons."""
+    import pymunk
+    from pes_ref.devices.geometry import Polygon
+    crank = Part((Circle([0.5, 0.0], 0.05), Polygon([[-0.1, -0.05], [0.5, -0.05], [0.5, 0.05], [-0.1, 0.05]])),
+                 Rotation([0.1, 0.0]))
+    device = Device((crank, PLATE), [0.0, -0.6], [2 * np.pi, 0.6], (32, 49), v=1e-4, r_c=0.05)
+    space, handles = rigid_parts(device, (1.0, 1.0)).space()
+    crank_shapes = [s for s in space.shapes if s.body is handles[0][1]]
+    circles = [s for s in crank_shapes if isinstance(s, pymunk.Circle)]
+    assert len(circles) == 1 and circles[0].radius == 0.05 and tuple(circles[0].offset) == pytest.approx((0.4, 0.0))
+    assert all(isinstance(s, pymunk.Poly) for s in crank_shapes if s is not circles[0]) and len(crank_shapes) > 1
+    plate_shapes = [s for s in space.shapes if s.body is handles[1][1]]
+    assert plate_shapes and all(isinstance(s, pymunk.Poly) for s in plate_shapes)
+    pin_space, pin_handles = rigid_parts(_plate_device(), (1.0, 1.0)).space()
+    (pin,) = [s for s in pin_space.shapes if s.body is pin_handles[0][1]]
+    assert isinstance(pin, pymunk.Circle) and pin.radius == 0.05 and tuple(pin.offset) == (0.0, 0.0)

@@ -85,3 +85,6 @@ def test_the_rigid_parts_advance_as_the_analytic_answer_per_cycle(name, mode):
     if case.law is not None and name == "cam_follower":        # the follower on the cam: no standoff
         rms, offset = _law_vs(r, case.law)
         assert rms <= RMS_BAR * 0.4 and abs(offset) <= RMS_BAR * 0.4
+        # the steepest lift, the law's 0.2 (0.5 + 0.2 sin q0), once the follower set down at the
+        # surface's standoff has dropped onto the cam (a ratio of 0.65 in the first turn, left out)
+        assert r.steady_from > 0 and r.max_ratio == pytest.approx(0.2, abs=0.005)
