@@ -76,17 +76,40 @@ class Trajectory(NamedTuple):
     f: np.ndarray
 
 
-def check_finite(traj: Trajectory, step_name: str) -> None:
-    """Refuse to return a trajectory that left the finite numbers.
+#: How far (in cells, ``|u|``) a position on a periodic axis may lie from ``lower``: from
+#: 2**52 on, float64 holds no fraction of a cell (every ``u`` is a whole number), and the hot
+#: loop's ``k mod n`` (:class:`pes_ref.core.grid.Locator`) is no longer exact.
+LOOKUP_RANGE = 2.0 ** 52
+
+
+def check_finite(traj: Trajectory, step_name: str, field=None) -> None:
+    """Refuse to return a trajectory that left the finite numbers, or (given its ``field``)
+    the range of the grid lookup on a periodic axis (:data:`LOOKUP_RANGE` cells).
 
     Checked once after the loop, not per step (docs/performance.md): a non-finite value
     never becomes finite again in these updates, so the last state tells, and the first
     bad state is then searched for. Until then the grid lookup of a NaN position gathers
-    a clipped (meaningless, but in-bounds) cell and yields NaN."""
+    a clipped (meaningless, but in-bounds) cell and yields NaN. A position past the
+    lookup's range is as meaningless (its cell is garbage, gathered in bounds), and a
+    scene with a periodic axis pays one pass over the positions for it; a non-periodic
+    axis clips, so any finite position there is looked up exactly."""
     if not (np.isfinite(traj.x[-1]).all() and np.isfinite(traj.v[-1]).all() and np.isfinite(traj.f[-1]).all()):
         finite = [np.isfinite(a).all(axis=(1, 2)) for a in traj]
         bad = int(np.argmax(~(finite[0] & finite[1] & finite[2])))
         raise NonFiniteError(f"the trajectory became non-finite at step {bad} ({step_name})", step=bad)
+    for d in (range(2) if field is not None else ()):
+        if not field.periodic[d]:
+            continue
+        q = traj.x[..., d]
+        reach = LOOKUP_RANGE * float(field.h[d])
+        with np.errstate(over="ignore"):        # q - lower beyond float64 is past the range too
+            if q.max() - field.lower[d] < reach and field.lower[d] - q.min() < reach:
+                continue
+            far = np.abs(q - field.lower[d]) >= reach
+        bad = int(np.argmax(far.any(axis=1)))
+        raise NonFiniteError(f"the trajectory left the range of the grid lookup at step {bad} ({step_name}): "
+                             f"q{d} = {float(q[bad][far[bad]][0]):.3g} lies 2**52 cells or more from lower on "
+                             f"periodic axis {d}, where float64 holds no fraction of a cell", step=bad)
 
 
 def reports_nonfinite(simulate_fn):
@@ -219,7 +242,7 @@ def simulate_dynamic(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: flo
             estep(xn1, vn1, en1)
     traj = Trajectory(x, v, f)
     if refuse_nonfinite:
-        check_finite(traj, f"dt={dt!r}")
+        check_finite(traj, f"dt={dt!r}", field)
     return traj
 
 
@@ -370,7 +393,7 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
         f[T] += fext[T]
     traj = Trajectory(x, quasistatic_velocities(v, out), f)
     if refuse_nonfinite:
-        check_finite(traj, f"mobility={mobility.tolist()!r}")
+        check_finite(traj, f"mobility={mobility.tolist()!r}", field)
     return traj
 
 
