@@ -50,22 +50,27 @@ def _only(ids):
 
 def test_pes_ref_passes_every_vector_and_200_random_cases_strictly(tmp_path):
     """The oracle on the whole newest set and 200 fresh cases, in strict mode, with its
-    refusals in {refusals}: two processes (valid and random cases; invalid ones)."""
+    refusals in {refusals}: three processes (valid and random cases; invalid ones; the mixed
+    batch of docs/spec.md 13.2)."""
     report = tmp_path / "r.json"
     proc = _check("--cmd", f"{ORACLE} --refusals {{refusals}} {{pairs}}", "--random", "200", "--seed", "0",
                   "--strict", "--report", str(report))
-    n = len(load_manifest()["vectors"]) + 200
+    n = len(load_manifest()["vectors"]) + 200 + 1          # and the mixed batch
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
     lines = proc.stdout.strip().splitlines()
     assert lines[-1] == f"{n} passed, 0 failed" and len(lines) == n + 1
     data = json.loads(report.read_text())
     assert data["passed"] == n and data["settings"]["strict"] is True
-    assert [b["what"] for b in data["batches"]] == ["valid", "invalid"]
+    assert [b["what"] for b in data["batches"]] == ["valid", "invalid", "mixed"]
     kinds = [c["kind"] for c in data["cases"]]
-    assert kinds == sorted(kinds, key=["valid", "invalid", "random"].index)      # random cases come last
+    assert kinds == sorted(kinds, key=["valid", "invalid", "batch", "random"].index)   # random cases come last
+    assert kinds.count("batch") == 1 and data["batches"][2]["exit"] == 2
     for case in data["cases"]:
-        assert case["seconds"] is None                                           # they ran in a batch
-        if case["kind"] == "invalid":
+        assert case["seconds"] is None and case["batch"] == ["valid", "invalid", "batch"].index(
+            {"random": "valid"}.get(case["kind"], case["kind"]))                 # they ran in a batch: which
+        if case["kind"] == "batch":
+            assert case["case_id"] == chk.MIXED_BATCH and case["detail"].startswith("exit 2: 3 of 6 cases refused")
+        elif case["kind"] == "invalid":
             assert case["key"] == next(e["key"] for e in load_manifest()["vectors"] if e["id"] == case["case_id"])
         else:
             assert case["array"] in case["errors"] and case["error"] <= case["tolerance"]
@@ -97,8 +102,10 @@ def test_an_invalid_case_a_batch_leaves_unanswered_runs_alone(tmp_path):
     ids = ["plane-dynamic", "missing-values", "mass-zero", "dt-string"]
     report = chk.check(f"{sys.executable} {BROKEN} first-refusal-only {{pairs}}", only=ids)
     assert report.ok, [o.line() for o in report.outcomes]
-    assert [b["what"] for b in report.batches] == ["valid", "invalid", "one invalid case", "one invalid case"]
-    assert [o.seconds is None for o in report.outcomes] == [False, True, False, False]   # alone: timed
+    assert [b["what"] for b in report.batches] == ["valid", "invalid", "one invalid case", "one invalid case",
+                                                   "mixed"]
+    assert [o.seconds is None for o in report.outcomes] == [False, True, False, False, True]   # alone: timed
+    assert [o.batch for o in report.outcomes] == [0, 1, 2, 3, 4]
 
 
 # =========================================================================== each kind of wrong fails
@@ -124,6 +131,8 @@ CLASSES = {
     "quasistatic-grad-v0": (["plane-quasistatic"], "grad_v0: relative error"),
     "t0-ignored": (["oscillator-t0-quasistatic"], "loss: relative error"),
     "missing-torus-result": (["torus-dynamic"], "no result written (exit 0)"),
+    "zero-gradient": (["plane-dynamic"], "grad_values: gradient missing (all zeros): relative error"),
+    "big-endian-result": (["plane-dynamic"], "x: dtype >f8, not float64 little-endian (<f8)"),
     "spring-center-sign": (["spring-per-axis"], "grad_spring_center: relative error"),
     # the kinks
     "wall-onset-split": (["wall-onset-dynamic"], "grad_x0: relative error"),
@@ -132,17 +141,26 @@ CLASSES = {
     "float32-cell-index": (["near-edge-plane-dynamic", "near-edge-cylinder-q0-dynamic",
                             "near-edge-cylinder-q1-quasistatic", "near-edge-torus-dynamic"], "v: relative error"),
     "single-wall-room-rule": (["wide-margin-dynamic", "wide-margin-quasistatic"],
-                              "no result written (exit 2): error: <case>: case key 'wall_margin'"),
+                              "no result written (exit 2 of the process of all 2 cases): error: <case>: "
+                              "case key 'wall_margin'"),
     "bool-flags-only": (["integer-flags-int8", "integer-flags-uint8"],
-                        "no result written (exit 2): error: <case>: case key 'periodic'"),
+                        "no result written (exit 2 of the process of all 2 cases): error: <case>: case key 'periodic'"),
     # refusals
-    "accept-invalid": (["mass-zero"], "mass: accepted an invalid case (exit 0)"),
-    "truncated-n-steps": (["n-steps-float-fraction"], "n_steps: accepted an invalid case (exit 0)"),
-    "refusal-without-key": (["mass-zero", "dt-string"], "mass: refused (exit 2) without naming the key"),
-    "wrong-key": (["mass-zero", "dt-string"], "mass: refused (exit 2) without naming the key"),
+    "accept-invalid": (["mass-zero"], "mass: accepted an invalid case (exit 0, a result written)"),
+    "truncated-n-steps": (["n-steps-float-fraction"], "n_steps: accepted an invalid case (exit 0, a result written)"),
+    "refusal-without-key": (["mass-zero", "dt-string"],
+                            "mass: refused (exit 2 of the process of all 2 cases) without naming the key"),
+    "wrong-key": (["mass-zero", "dt-string"], "mass: refused (exit 2 of the process of all 2 cases) without naming the key"),
+    "refusal-exits-0": (["mass-zero", "dt-string"], "mass: refused (naming the key, no result written) but exited 0"),
+    # a process of several cases (docs/spec.md 13.2): its one exit status, judged on the mixed batch
+    "last-exit-status": (["mass-zero", "plane-dynamic"], "exit status: exited 0 from a process of 2 cases"),
     "result-opened-early": (["overflow-dynamic"], "dt: wrote a result for an invalid case"),
     "error-kinds-swapped": (["mass-zero", "mass-bool"], "mass: refused as TypeError, the manifest declares ValueError"),
 }
+#: Classes caught only on the mixed batch: a process of valid and invalid cases (docs/spec.md 13.2).
+MIXED_ONLY = {"last-exit-status"}
+#: The programs the checks of spec v5 catch: the dtype, the messages, the mixed batch.
+NEW_IN_V5 = {"zero-gradient", "big-endian-result", "refusal-exits-0", "last-exit-status"}
 #: Programs that are not wrong (the baselines) or that test the timeout.
 NOT_WRONG = {"ok", "reference", "first-refusal-only", "hang"}
 #: Classes that only strict mode catches (docs/spec.md section 11).
@@ -186,7 +204,15 @@ def test_a_broken_program_fails_named_by_its_key(mode, verdicts):
     ids, expect = CLASSES[mode]
     lines = [o.line() for o in verdicts[mode].outcomes]
     failed = [line for line in lines if line.startswith("FAIL")]
-    assert failed and failed[0].startswith(f"FAIL  {ids[0]}  {expect}"), lines
+    first = chk.MIXED_BATCH if mode in MIXED_ONLY else ids[0]
+    assert failed and failed[0].startswith(f"FAIL  {first}  {expect}"), lines
+
+
+@pytest.mark.parametrize("mode", sorted(NEW_IN_V5))
+def test_a_broken_program_of_v5_fails_strictly_too(mode):
+    """Each program v5's checks catch fails ``check --strict`` too, on the same vectors."""
+    report = _broken(mode, CLASSES[mode][0], strict=True)
+    assert not report.ok and report.settings["strict"], [o.line() for o in report.outcomes]
 
 
 @pytest.mark.parametrize("mode", sorted(V4_FAMILIES))
@@ -202,7 +228,7 @@ def test_a_case_v4_added_fails_its_broken_program_on_every_vector_of_its_family(
 def test_the_readable_reference_passes_where_the_broken_ones_fail(verdicts):
     """The broken programs built on the readable reference fail by their bug alone."""
     report = verdicts["reference"]
-    assert report.ok and report.passed == len({vid for ids, _ in CLASSES.values() for vid in ids}), \
+    assert report.ok and report.passed == len({vid for ids, _ in CLASSES.values() for vid in ids}) + 1, \
         [o.line() for o in report.outcomes if not o.ok]
 
 
@@ -306,7 +332,7 @@ def test_a_failing_case_is_kept_with_a_script_that_reproduces_it(tmp_path):
     keep = tmp_path / "keep"
     report = chk.check(f"{sys.executable} {BROKEN} perturb {{pairs}}", only=["plane-dynamic", "mass-zero"],
                        keep=keep)
-    assert report.summary() == "1 passed, 1 failed"
+    assert report.summary() == "1 passed, 2 failed"            # plane-dynamic, alone and in the mixed batch
     kept = keep / "plane-dynamic"
     assert sorted(p.name for p in keep.iterdir()) == ["plane-dynamic"]
     script = (kept / "reproduce.sh").read_text()

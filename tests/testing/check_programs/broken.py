@@ -229,6 +229,16 @@ def _omit_grad_values(case, result):
     result.pop("grad_values", None)
 
 
+def _zero_grad_values(case, result):
+    result["grad_values"] = np.zeros_like(result["grad_values"])
+
+
+def _big_endian(case, result):
+    """Every array stored big-endian: float64 of the same values, but not ``<f8``."""
+    for key in result:
+        result[key] = np.asarray(result[key]).astype(">f8")
+
+
 def _nan_in_x(case, result):
     result["x"] = result["x"].copy()
     result["x"][-1, 0, 0] = np.nan
@@ -284,6 +294,11 @@ MODES = {
     "bool-flags-only": ("periodic and walls of 0/1 integers refused as a type error", {"rule": _bool_flags_only}),
     "float32-cell-index": ("the cell index from a float32 u",
                            {"run": "reference", "patch": ("lookup", _float32_cell_index)}),
+    "zero-gradient": ("grad_values written as zeros (a gradient left out)", {"after": _zero_grad_values}),
+    "big-endian-result": ("every result array stored big-endian (>f8), the values exact", {"after": _big_endian}),
+    "refusal-exits-0": ("a refusal printed and recorded as it should be, but exit status 0", {"refuse": "exit-0"}),
+    "last-exit-status": ("a run of several cases exits with the status of its last case, not non-zero if "
+                         "it refused any", {"status": "last"}),
     "first-refusal-only": ("nothing wrong, but a run ends at its first refusal", {"stop": True}),
     "hang": ("never answers", {}),
 }
@@ -342,7 +357,7 @@ def run(mode: str, case_path: str, result_path: str, prefix: str, refusals) -> i
                 exc = (CaseTypeError if isinstance(exc, TypeError) else CaseError)(_wrong_key(exc), "refused")
             print(f"{prefix}{exc}", file=sys.stderr)
             _record(refusals, case_path, exc, swap=refuse == "swap-kinds")
-            return 2
+            return 0 if refuse == "exit-0" else 2
     how.get("after", lambda c, r: None)(case, result)
     write_result(result, result_path, overwrite=True)
     return 0
@@ -355,9 +370,11 @@ def main(argv) -> int:
         refusals, files = files[1], files[2:]
     pairs = list(zip(files[::2], files[1::2]))
     status = 0
+    last = MODES[mode][1].get("status") == "last"
     for case_path, result_path in pairs:
         prefix = "error: " if len(pairs) == 1 else f"error: {case_path}: "
-        status = max(status, run(mode, case_path, result_path, prefix, refusals))
+        answer = run(mode, case_path, result_path, prefix, refusals)
+        status = answer if last else max(status, answer)
         if status and MODES[mode][1].get("stop"):
             break
     return status
