@@ -15,8 +15,9 @@ of docs/spec.md sections 11 and 13:
   from a :class:`numpy.random.Generator` seeded with ``[S, attempt]`` (no hypothesis
   needed), every topology, mode, effect, objective and broadcast shape, and at the odds
   :data:`pes_ref.testing.draws.CHECK_ODDS` a single wall's margin past half its axis,
-  positions snapped near cell edges and flags stored as 0/1 integers; pes_ref runs each
-  and so does the program. Only well-conditioned cases are kept: a perturbation of
+  positions snapped near cell edges, flags stored as 0/1 integers, and a step scaled just
+  inside or just past the stability rule's limit (a case past it must be refused naming
+  ``dt`` or ``mobility``); pes_ref runs each and so does the program. Only well-conditioned cases are kept: a perturbation of
   ``x0`` by :data:`PROBE` (relative) must grow by at most :data:`CONDITION_BOUND`
   anywhere in the trajectory, so that two correct programs, which may differ by an ulp
   per operation, agree within the trajectory tolerance. Long runs on rough bilinear
@@ -70,7 +71,7 @@ from pes_ref.testing import draws
 from pes_ref.testing.conformance import (binding_keys, compare_vector, iter_vectors, names_key,
                                          one_sided_results)
 
-__all__ = ["CaseOutcome", "CheckReport", "check", "draw_cases", "condition_number", "write_report",
+__all__ = ["CaseOutcome", "CheckReport", "check", "draw_cases", "refusal_key", "condition_number", "write_report",
            "PROBE", "CONDITION_BOUND", "Program"]
 
 #: The relative perturbation of ``x0`` that measures a case's conditioning.
@@ -211,14 +212,17 @@ def condition_number(case: dict) -> float:
 
 
 def draw_cases(n: int, seed: int, *, bound: float = CONDITION_BOUND, max_draws: int | None = None) -> list:
-    """``n`` fresh valid cases, each with conditioning <= ``bound``.
+    """``n`` fresh cases: valid ones each with conditioning <= ``bound``, and (at the odds
+    ``near_limit`` of :data:`~pes_ref.testing.draws.CHECK_ODDS`, half of them) cases just
+    past the stability rule's limit, which the oracle refuses.
 
     Attempt ``i`` draws one case from :mod:`pes_ref.testing.draws` with
     ``numpy.random.default_rng([seed, i])``, with the odds of
     :data:`~pes_ref.testing.draws.CHECK_ODDS` (wide margins of a single wall, near-edge
-    positions, flags as int8 or uint8), so the cases are the same for the same seed on any
-    machine, and one attempt does not depend on another. Returns a list of
-    ``(case_id, case dict, condition)``.
+    positions, flags as int8 or uint8, a step near the stability limit), so the cases are
+    the same for the same seed on any machine, and one attempt does not depend on another.
+    Returns a list of ``(case_id, case dict, condition)``; ``condition`` is None for a case
+    past the limit (refused: :func:`refusal_key` names its key).
     """
     if seed < 0:
         raise ValueError(f"the seed of the random cases must be >= 0, got {seed}")
@@ -234,6 +238,14 @@ def draw_cases(n: int, seed: int, *, bound: float = CONDITION_BOUND, max_draws: 
         case = case_from_scene(scene, x0, v0, obj, regularization=reg)
         flags = draws.flag_dtype(d, draws.CHECK_ODDS["integer_flags"])
         case.update({k: case[k].astype(flags) for k in ("periodic", "walls") if k in case})
+        near = draws.near_limit(d, scene, draws.CHECK_ODDS["near_limit"])
+        if near is not None:
+            key = "dt" if scene.mode == "dynamic" else "mobility"
+            case[key] = case[key] * near[1]
+            if near[0] == "past":
+                if refusal_key(case) == key:
+                    kept.append((f"random-{seed}-{len(kept):04d}", case, None))
+                continue
         with np.errstate(all="ignore"):
             try:
                 cond = condition_number(case)
@@ -245,6 +257,15 @@ def draw_cases(n: int, seed: int, *, bound: float = CONDITION_BOUND, max_draws: 
         raise RuntimeError(f"only {len(kept)} of {attempts} drawn cases are within the conditioning bound "
                            f"{bound:g}; ask for fewer (--random) or another --seed")
     return kept
+
+
+def refusal_key(case: dict):
+    """The key the oracle refuses ``case`` naming, or None when it accepts it (before the run)."""
+    try:
+        validate_case(case)
+    except CaseError as exc:
+        return exc.key
+    return None
 
 
 # =========================================================================== the cases to run
@@ -277,8 +298,12 @@ def _items(version, vectors: bool, random_n: int, seed: int, bound: float, only)
                          one_sided_results(entry, version))
             (valid if entry["kind"] == "valid" else invalid).append(item)
     fresh = []
-    for case_id, case, _cond in (draw_cases(random_n, seed, bound=bound) if random_n else ()):
-        fresh.append(_Item(case_id, "random", case, None, run_case(case), {}, []))
+    for case_id, case, cond in (draw_cases(random_n, seed, bound=bound) if random_n else ()):
+        if cond is None:                # past the stability limit: refused, judged as an invalid case
+            invalid.append(_Item(case_id, "invalid", case, None, None,
+                                 {"id": case_id, "key": refusal_key(case), "error": "ValueError"}, []))
+        else:
+            fresh.append(_Item(case_id, "random", case, None, run_case(case), {}, []))
     return valid + invalid + fresh
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pes_ref.core import stability
 from pes_ref.oracle.case import CaseError, run_case, validate_case
 from pes_ref.oracle.compare import compare_results, passes
 from pes_ref.testing import check as chk
@@ -70,6 +71,8 @@ def test_pes_ref_passes_every_vector_and_200_random_cases_strictly(tmp_path):
             {"random": "valid"}.get(case["kind"], case["kind"]))                 # they ran in a batch: which
         if case["kind"] == "batch":
             assert case["case_id"] == chk.MIXED_BATCH and case["detail"].startswith("exit 2: 3 of 6 cases refused")
+        elif case["kind"] == "invalid" and case["case_id"].startswith("random-"):
+            assert case["key"] in ("dt", "mobility")                # a random case past the stability limit
         elif case["kind"] == "invalid":
             assert case["key"] == next(e["key"] for e in load_manifest()["vectors"] if e["id"] == case["case_id"])
         else:
@@ -266,7 +269,7 @@ def test_broken_programs_fail_on_random_cases_too():
 @pytest.fixture(scope="module")
 def random_cases() -> list:
     """``check --random 30 --seed 3``'s cases, each with the reference's result."""
-    return [(case, run_case(case)) for _, case, _ in chk.draw_cases(30, seed=3)]
+    return [(case, run_case(case)) for _, case, cond in chk.draw_cases(30, seed=3) if cond is not None]
 
 
 @pytest.mark.parametrize("mode", sorted(V4_FAMILIES))
@@ -302,15 +305,21 @@ def test_the_random_draws_reach_the_rare_inputs_at_their_odds():
     """Over 400 draws of check's distribution: a wide margin on about half the scenes whose
     walls leave an axis with one wall, near-edge positions in about a quarter of the cases
     (where a coordinate is snapped, float32 misses the cell some of the time), flags as
-    int8 or uint8 in about half."""
-    assert draws.CHECK_ODDS == {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5}   # docs/spec.md 13.1
+    int8 or uint8 in about half, a step within 5% of the stability limit in about a fifth,
+    inside and past it about evenly."""
+    assert draws.CHECK_ODDS == {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5,
+                                "near_limit": 0.2}                                     # docs/spec.md 13.1
     single = wide = near = float32_misses = 0
-    dtypes = []
+    dtypes, limits = [], []
     for attempt in range(400):
         d = draws.GeneratorDraws(np.random.default_rng([7, attempt]))
         scene, x0, v0 = draws.scene_case(d, max_particles=4, near_edge=draws.CHECK_ODDS["near_edge"],
                                          wide_margin=draws.CHECK_ODDS["wide_margin"])
         dtypes.append(draws.flag_dtype(d, draws.CHECK_ODDS["integer_flags"]).name)
+        drawn = draws.near_limit(d, scene, draws.CHECK_ODDS["near_limit"])
+        if drawn is not None:
+            lim = stability.stability_limit(scene, "rule")
+            limits.append((drawn[0], lim.ratio * drawn[1]))          # the rule's value over 2 once scaled
         s = scene.surface
         if scene.walls is not None:
             edges, L, w = np.asarray(scene.walls.edges), s.length, scene.walls.margin
@@ -326,6 +335,10 @@ def test_the_random_draws_reach_the_rare_inputs_at_their_odds():
     counts = {name: dtypes.count(name) / 400 for name in ("bool", "int8", "uint8")}
     odds = draws.CHECK_ODDS["integer_flags"]
     assert abs(counts["int8"] - odds / 2) < 0.06 and abs(counts["uint8"] - odds / 2) < 0.06, counts
+    sides = [side for side, _ in limits]                    # (scenes of no stiffness or no step have none)
+    assert 0.6 * draws.CHECK_ODDS["near_limit"] < len(limits) / 400 <= 1.2 * draws.CHECK_ODDS["near_limit"], limits
+    assert abs(sides.count("past") / len(sides) - 0.5) < 0.2, sides
+    assert all(lo <= r <= hi for side, r in limits for lo, hi in [draws.NEAR_LIMIT[side]])
 
 
 def test_a_failing_case_is_kept_with_a_script_that_reproduces_it(tmp_path):
@@ -355,7 +368,7 @@ def test_random_cases_are_deterministic_and_well_conditioned():
     b = chk.draw_cases(12, seed=3)
     assert [x[0] for x in a] == [x[0] for x in b]
     for (_, ca, cond), (_, cb, _) in zip(a, b):
-        assert cond <= chk.CONDITION_BOUND
+        assert cond <= chk.CONDITION_BOUND if cond is not None else chk.refusal_key(ca) in ("dt", "mobility")
         assert ca.keys() == cb.keys() and all(np.array_equal(ca[k], cb[k]) and ca[k].dtype == cb[k].dtype for k in ca)
     modes = {str(c["mode"]) for _, c, _ in chk.draw_cases(40, seed=1)}
     assert modes == {"dynamic", "quasistatic"}
