@@ -2,6 +2,7 @@
 import configparser
 import fnmatch
 import hashlib
+import importlib.util
 import json
 import shutil
 from pathlib import Path
@@ -571,46 +572,17 @@ def test_v2_pins_the_stability_rule():
 
 # =========================================================================== v5: each rule from both sides
 
-def _rule_value(case: dict, *, mass="min", wall="any", seam=True, summed=False, edges=False, mobility="own") -> float:
-    """docs/spec.md section 10's ``max dt sqrt(K/m_d)`` or ``max mobility_d K``, written out
-    here on its own, or under one misreading of it: ``mass`` "own" (each particle's spring
-    with its own mass), "max", "other-axis" or "all" (the smallest of both axes); ``wall``
-    "every-axis" (a wall is a term of both axes) or "both" (only of an axis with both walls);
-    ``seam`` False (no cells across a periodic seam); ``summed`` (the terms of an axis added);
-    ``edges`` (the second differences added, the bound of 10.2); ``mobility`` "max" or
-    "other-axis"."""
-    G = np.asarray(case["values"], dtype=float)
-    per = np.asarray(case["periodic"]).astype(bool)
-    h = _spacing(dict(case, periodic=per))
-    closed = G
-    for d in range(2):
-        if per[d] and seam:
-            closed = np.concatenate((closed, np.take(closed, [0], axis=d)), axis=d)
-    c = np.max(np.abs(closed[1:, 1:] - closed[1:, :-1] - closed[:-1, 1:] + closed[:-1, :-1])) / (h[0] * h[1])
-    n = case["x0"].shape[0]
-    k = np.broadcast_to(np.asarray(case.get("spring_k", 0.0), dtype=float), (n, 2))
-    terms = [np.full(2, c), k.max(axis=0)]
-    if "walls" in case:
-        walls = np.asarray(case["walls"]).astype(bool)
-        on = {"any": walls.any(axis=1), "both": walls.all(axis=1), "every-axis": np.repeat(walls.any(), 2)}[wall]
-        terms.append(np.where(on, float(case["wall_k"]), 0.0))
-    if edges:
-        terms.append(np.array([np.max(np.abs(np.diff(G, 2, axis=d))) / h[d] ** 2 if G.shape[d] > 2 and not per[d]
-                               else np.max(np.abs(np.roll(G, -1, d) - 2 * G + np.roll(G, 1, d))) / h[d] ** 2
-                               if per[d] else 0.0 for d in range(2)]))
-    K = np.array([sum(terms)] if summed or edges else terms)                      # (terms, 2)
-    if str(case["mode"]) == "quasistatic":
-        mu = np.asarray(case["mobility"], dtype=float)
-        mu = {"own": mu, "max": np.full(2, mu.max()), "other-axis": mu[::-1]}[mobility]
-        return float(np.max(mu * K))
-    m = np.broadcast_to(np.asarray(case["mass"], dtype=float), (n, 2))
-    if mass == "own":          # each particle's spring over its own mass, the grid and walls over the smallest
-        own = np.max(k / m, axis=0)
-        K = np.array([K[0] / m.min(axis=0), own] + [t / m.min(axis=0) for t in K[2:]])
-        return float(np.max(float(case["dt"]) * np.sqrt(K)))
-    md = {"min": m.min(axis=0), "max": m.max(axis=0), "other-axis": m.min(axis=0)[::-1],
-          "all": np.full(2, m.min())}[mass]
-    return float(np.max(float(case["dt"]) * np.sqrt(K / md)))
+def _broken_programs():
+    """tests/testing/check_programs/broken.py, whose :func:`rule_value` states the stability
+    rule on its own, and under each misreading."""
+    path = Path(__file__).resolve().parents[1] / "testing" / "check_programs" / "broken.py"
+    spec = importlib.util.spec_from_file_location("broken_programs", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_rule_value = _broken_programs().rule_value
 
 
 #: The misreadings of the stability rule that the ``limit-*`` vectors of v5 tell apart:

@@ -155,6 +155,13 @@ CLASSES = {
                             "mass: refused (exit 2 of the process of all 2 cases) without naming the key"),
     "wrong-key": (["mass-zero", "dt-string"], "mass: refused (exit 2 of the process of all 2 cases) without naming the key"),
     "refusal-exits-0": (["mass-zero", "dt-string"], "mass: refused (naming the key, no result written) but exited 0"),
+    # the families v5 added: the stability rule from both sides, optional keys invalid, edges of ranges
+    "lenient-limit": (["limit-spring-particle-past"], "dt: accepted an invalid case (exit 0, a result written)"),
+    "seamless-curvature": (["limit-grid-seam-dynamic-past", "limit-grid-seam-quasistatic-past"],
+                           "dt: accepted an invalid case (exit 0 of the process of all 2 cases, a result written)"),
+    "own-particle-mass": (["limit-spring-particle-past"], "dt: accepted an invalid case (exit 0, a result written)"),
+    "t0-unchecked": (["optional-t0-nan", "optional-t0-inf"], "t0: accepted an invalid case (exit 0 of the process"),
+    "spring-skipped-at-zero": (["edge-spring-k-all-zero"], "grad_spring_k: missing from the result"),
     # a process of several cases (docs/spec.md 13.2): its one exit status, judged on the mixed batch
     "last-exit-status": (["mass-zero", "plane-dynamic"], "exit status: exited 0 from a process of 2 cases"),
     "result-opened-early": (["overflow-dynamic"], "dt: wrote a result for an invalid case"),
@@ -163,7 +170,8 @@ CLASSES = {
 #: Classes caught only on the mixed batch: a process of valid and invalid cases (docs/spec.md 13.2).
 MIXED_ONLY = {"last-exit-status"}
 #: The programs the checks of spec v5 catch: the dtype, the messages, the mixed batch.
-NEW_IN_V5 = {"zero-gradient", "big-endian-result", "refusal-exits-0", "last-exit-status"}
+NEW_IN_V5 = {"zero-gradient", "big-endian-result", "refusal-exits-0", "last-exit-status", "lenient-limit",
+             "seamless-curvature", "own-particle-mass", "t0-unchecked", "spring-skipped-at-zero"}
 #: Programs that are not wrong (the baselines) or that test the timeout.
 NOT_WRONG = {"ok", "reference", "first-refusal-only", "hang"}
 #: Classes that only strict mode catches (docs/spec.md section 11).
@@ -258,6 +266,16 @@ def test_lenient_messages_accept_a_refusal_without_the_key(verdicts):
 ])
 def test_the_refusal_names_the_key(message, key, named):
     assert names_key(message, key) is named
+
+
+def test_a_lenient_stability_rule_fails_on_random_cases_near_the_limit():
+    """``--random`` draws cases just past the stability limit (draws.CHECK_ODDS): a rule that
+    refuses only past 2.12 writes a result for some of them; each such verdict names the key."""
+    report = chk.check(f"{sys.executable} {BROKEN} lenient-limit {{pairs}}", vectors=False, random=24, seed=0)
+    failed = [o for o in report.outcomes if not o.ok]
+    assert failed and all(o.case_id.startswith("random-0-") and o.kind == "invalid" and o.key in ("dt", "mobility")
+                          and "a result written" in o.detail for o in failed), \
+        [o.line() for o in report.outcomes]
 
 
 def test_broken_programs_fail_on_random_cases_too():

@@ -998,6 +998,11 @@ def _edge_valid_vectors() -> list:
         case.update(spring_k=np.array([[0.0], [3.0]]), spring_center=np.array([0.0, 1.0]))
         return case
 
+    def spring_all_zero(r):
+        case = _case(r, "cylinder-q0", n=2, n_steps=15, objective="funnel-every")
+        case.update(spring_k=np.float64(0.0), spring_center=np.array([1.0, 0.0]))
+        return case
+
     def room_just_inside(r):
         case = _case(r, "plane", n=2, n_steps=15, objective="funnel-every")
         case.update(wall_k=np.float64(20.0), wall_margin=np.float64(np.nextafter(0.5, 0.0)),
@@ -1009,6 +1014,8 @@ def _edge_valid_vectors() -> list:
                "grad_spring_k on q0 is not (-delta w summed)", spring_zero_axis, flags=["edge"]),
         _valid("edge-spring-k-zero-particle", "spring_k (N, 1) = (0, 3), quasistatic on a cylinder: particle 0's "
                "spring of stiffness 0 still has a gradient", spring_zero_particle, flags=["edge"]),
+        _valid("edge-spring-k-all-zero", "spring_k = 0 (a scalar): a spring of no stiffness is still a spring; "
+               "grad_spring_k and grad_spring_center are owed", spring_all_zero, flags=["edge"]),
         _valid("edge-wall-margin-zero", "four walls with wall_margin = 0: on the domain's edges",
                lambda r: _case(r, "plane", n=2, n_steps=15, objective="quadratic", **dict(_walls((0, 0), (0, 1),
                                (1, 0), (1, 1)), wall_margin=np.float64(0.0))), flags=["edge"]),
