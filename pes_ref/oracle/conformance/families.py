@@ -26,8 +26,13 @@ from pes_ref.core.effects import Constant, Noise, PerParticle, Window, build_sch
 
 __all__ = ["VERSION", "TOPOLOGIES", "Vector", "valid_vectors", "invalid_vectors", "build_vectors"]
 
-#: The vector set these families make. v4 (spec v4) keeps every vector of v3 (the same
-#: cases and results, the same one-sided files) and adds three families of valid cases
+#: The vector set these families make. v5 (spec v5) keeps every vector of v4 and adds each
+#: refusal rule from both sides: ``limit-*``, 1% inside (valid) and past (refused) the
+#: stability rule of docs/spec.md section 10, or on it, so that each misreading of the rule
+#: lands on the wrong side of one; ``edge-*``, valid values at the edges of ranges; and
+#: ``optional-*``, every optional key NaN, infinite, misshapen or of a wrong type. v4 kept
+#: every vector of v3 (the same cases and results, the same one-sided files) and added three
+#: families of valid cases
 #: the spec accepts that no v3 vector held: a single wall of an axis with a margin of at
 #: least half the axis's length (``wide-margin-*``: docs/spec.md 8.6, the room rule binds
 #: two walls of one axis only), ``periodic`` and ``walls`` as int8 and uint8 arrays of 0

@@ -111,7 +111,7 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
     Parameters
     ----------
     directory : path, optional
-        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v4``.
+        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v5``.
         Created if missing; vector files of this naming scheme that are no longer
         part of the set are removed. Every file is made in a hidden folder beside it
         first and moved in once all are made, the manifest last: a run stopped part-way
