@@ -107,9 +107,14 @@ def test_manifest_lists_exactly_the_files():
     assert MANIFEST["tolerances"]["TRAJ_RTOL"] == TRAJ_RTOL and MANIFEST["tolerances"]["GRAD_RTOL"] == GRAD_RTOL
 
 
+#: The newest set's size budget, in bytes. A set holds every vector of the one before it
+#: (v4: 0.86 MB), so the budget grows with the sets: v5, with 55 vectors more, is 1.18 MB.
+SET_BYTES = 1_250_000
+
+
 def test_the_set_is_small_and_shipped_as_package_data():
     files = list(VECTORS.iterdir())
-    assert sum(p.stat().st_size for p in files) < 1_000_000
+    assert sum(p.stat().st_size for p in files) < SET_BYTES
     cfg = configparser.ConfigParser()
     cfg.read(Path(pes_ref.__file__).resolve().parent.parent / "setup.cfg")
     patterns = [p.strip() for p in cfg["options.package_data"]["pes_ref"].split(",")]
@@ -179,7 +184,8 @@ def test_checker_passes_the_reference_oracle():
     for e in run_only:
         case = oracle.load_case(VECTORS / e["case"])
         oracle.validate_case(case)
-        with pytest.raises(oracle.CaseError, match=f"case key '{e['key']}': the run left the finite numbers"):
+        left = "the (run|trajectory) left the (finite numbers|range of the grid lookup)"     # 12.1
+        with pytest.raises(oracle.CaseError, match=f"case key '{e['key']}': {left}"):
             oracle.run_case(case)
 
 
