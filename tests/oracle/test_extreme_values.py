@@ -166,7 +166,7 @@ def test_tiny_steps_end_cleanly(case, tiny, aim, both):
     _assert_clean(case)
 
 
-@settings(max_examples=4 * CLASS_EXAMPLES)
+@settings(max_examples=2 * CLASS_EXAMPLES)
 @given(case=valid_cases(periodic=True), value=_huge(), where=st.sampled_from(("force", "v0", "x0")), every_step=st.booleans(),
        pick=st.integers(0, 5))
 def test_positions_that_overflow_end_cleanly(case, value, where, every_step, pick):
