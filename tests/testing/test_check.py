@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import settings
 
 from pes_ref.core import stability
 from pes_ref.oracle.case import CaseError, run_case, validate_case
@@ -172,6 +173,10 @@ MIXED_ONLY = {"last-exit-status"}
 #: The programs the checks of spec v5 catch: the dtype, the messages, the mixed batch.
 NEW_IN_V5 = {"zero-gradient", "big-endian-result", "refusal-exits-0", "last-exit-status", "lenient-limit",
              "seamless-curvature", "own-particle-mass", "t0-unchecked", "spring-skipped-at-zero"}
+#: Those run again with --strict: two representatives (a result's dtype, a process's exit
+#: status), every one under ``make test-thorough`` (the thorough profile's 10x examples).
+STRICT_RERUNS = sorted(NEW_IN_V5) if settings.default.max_examples > 200 else ["big-endian-result",
+                                                                                "last-exit-status"]
 #: Programs that are not wrong (the baselines) or that test the timeout.
 NOT_WRONG = {"ok", "reference", "first-refusal-only", "hang"}
 #: Classes that only strict mode catches (docs/spec.md section 11).
@@ -199,7 +204,7 @@ def verdicts() -> dict:
     runs.update({f"{mode} (not strict)": (mode, CLASSES[mode][0], {}) for mode in STRICT_ONLY})
     runs.update({f"{mode} (lenient)": (mode, CLASSES[mode][0], {"lenient_messages": True})
                  for mode in ("refusal-without-key", "wrong-key")})
-    runs.update({f"{mode} (strict)": (mode, CLASSES[mode][0], {"strict": True}) for mode in NEW_IN_V5})
+    runs.update({f"{mode} (strict)": (mode, CLASSES[mode][0], {"strict": True}) for mode in STRICT_RERUNS})
     runs["reference"] = ("reference", sorted({vid for ids, _ in CLASSES.values() for vid in ids}), {})
     with ThreadPoolExecutor(max_workers=4) as pool:
         futures = {name: pool.submit(_broken, mode, ids, **kw) for name, (mode, ids, kw) in runs.items()}
@@ -220,7 +225,7 @@ def test_a_broken_program_fails_named_by_its_key(mode, verdicts):
     assert failed and failed[0].startswith(f"FAIL  {first}  {expect}"), lines
 
 
-@pytest.mark.parametrize("mode", sorted(NEW_IN_V5))
+@pytest.mark.parametrize("mode", STRICT_RERUNS)
 def test_a_broken_program_of_v5_fails_strictly_too(mode, verdicts):
     """Each program v5's checks catch fails ``check --strict`` too, on the same vectors."""
     report = verdicts[f"{mode} (strict)"]
