@@ -17,8 +17,8 @@ of docs/spec.md sections 11 and 13:
   :data:`pes_ref.testing.draws.CHECK_ODDS` a single wall's margin past half its axis,
   positions snapped near cell edges, flags stored as 0/1 integers, and a step scaled just
   inside or just past the stability rule's limit (a case past it must be refused naming
-  ``dt`` or ``mobility``); pes_ref runs each and so does the program. Only well-conditioned cases are kept: a perturbation of
-  ``x0`` by :data:`PROBE` (relative) must grow by at most :data:`CONDITION_BOUND`
+  ``dt`` or ``mobility``); pes_ref runs each and so does the program. Only well-conditioned
+  cases are kept: a perturbation of ``x0`` by :data:`PROBE` (relative) must grow by at most :data:`CONDITION_BOUND`
   anywhere in the trajectory, so that two correct programs, which may differ by an ulp
   per operation, agree within the trajectory tolerance. Long runs on rough bilinear
   grids amplify such differences by about 1.4x per step; the filter keeps them out.

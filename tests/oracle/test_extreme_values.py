@@ -167,8 +167,8 @@ def test_tiny_steps_end_cleanly(case, tiny, aim, both):
 
 
 @settings(max_examples=2 * CLASS_EXAMPLES)
-@given(case=valid_cases(periodic=True), value=_huge(), where=st.sampled_from(("force", "v0", "x0")), every_step=st.booleans(),
-       pick=st.integers(0, 5))
+@given(case=valid_cases(periodic=True), value=_huge(), where=st.sampled_from(("force", "v0", "x0")),
+       every_step=st.booleans(), pick=st.integers(0, 5))
 def test_positions_that_overflow_end_cleanly(case, value, where, every_step, pick):
     """Class of ``huge-force``: a huge external force (at one step or at every step), velocity
     or position of one particle, on a periodic axis if the case has one, sends a state
@@ -187,8 +187,8 @@ def test_positions_that_overflow_end_cleanly(case, value, where, every_step, pic
 
 
 @settings(max_examples=CLASS_EXAMPLES)
-@given(case=valid_cases(kinds=("quadratic",)), value=st.floats(1e306, BIGGEST), key=st.sampled_from(("wx", "wv", "regularization")),
-       every=st.booleans())
+@given(case=valid_cases(kinds=("quadratic",)), value=st.floats(1e306, BIGGEST),
+       key=st.sampled_from(("wx", "wv", "regularization")), every=st.booleans())
 def test_results_that_overflow_end_cleanly(case, value, key, every):
     """Class of ``huge-weight``: quadratic weights (in every entry or one) or a regularization
     so large that a loss term, the energy or a gradient leaves float64 while the trajectory

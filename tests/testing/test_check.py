@@ -154,7 +154,8 @@ CLASSES = {
     "truncated-n-steps": (["n-steps-float-fraction"], "n_steps: accepted an invalid case (exit 0, a result written)"),
     "refusal-without-key": (["mass-zero", "dt-string"],
                             "mass: refused (exit 2 of the process of all 2 cases) without naming the key"),
-    "wrong-key": (["mass-zero", "dt-string"], "mass: refused (exit 2 of the process of all 2 cases) without naming the key"),
+    "wrong-key": (["mass-zero", "dt-string"],
+                  "mass: refused (exit 2 of the process of all 2 cases) without naming the key"),
     "refusal-exits-0": (["mass-zero", "dt-string"], "mass: refused (naming the key, no result written) but exited 0"),
     # the families v5 added: the stability rule from both sides, optional keys invalid, edges of ranges
     "lenient-limit": (["limit-spring-particle-past"], "dt: accepted an invalid case (exit 0, a result written)"),
