@@ -90,22 +90,29 @@ def check_finite(traj: Trajectory, step_name: str, field=None) -> None:
     never becomes finite again in these updates, so the last state tells, and the first
     bad state is then searched for. Until then the grid lookup of a NaN position gathers
     a clipped (meaningless, but in-bounds) cell and yields NaN. A position past the
-    lookup's range is as meaningless (its cell is garbage, gathered in bounds), and a
-    scene with a periodic axis pays one pass over the positions for it; a non-periodic
+    lookup's range is as meaningless (its cell is garbage, gathered in bounds); a scene
+    with a periodic axis pays the largest and smallest position for it (two contiguous
+    reductions; each axis is searched only when they reach that far). A non-periodic
     axis clips, so any finite position there is looked up exactly."""
     if not (np.isfinite(traj.x[-1]).all() and np.isfinite(traj.v[-1]).all() and np.isfinite(traj.f[-1]).all()):
         finite = [np.isfinite(a).all(axis=(1, 2)) for a in traj]
         bad = int(np.argmax(~(finite[0] & finite[1] & finite[2])))
         raise NonFiniteError(f"the trajectory became non-finite at step {bad} ({step_name})", step=bad)
-    for d in (range(2) if field is not None else ()):
-        if not field.periodic[d]:
-            continue
+    axes = [d for d in range(2) if field is not None and field.periodic[d]]
+    if not axes:
+        return
+    lower = [float(field.lower[d]) for d in axes]
+    reach = [LOOKUP_RANGE * float(field.h[d]) for d in axes]
+    with np.errstate(over="ignore"):            # q - lower beyond float64 is past the range too
+        # both axes at once first (contiguous: ~10 ms at T = 100, N = 65,536; per axis, strided, 5x that)
+        if traj.x.max() - min(lower) < min(reach) and max(lower) - traj.x.min() < min(reach):
+            return
+    for d, low, r in zip(axes, lower, reach):
         q = traj.x[..., d]
-        reach = LOOKUP_RANGE * float(field.h[d])
-        with np.errstate(over="ignore"):        # q - lower beyond float64 is past the range too
-            if q.max() - field.lower[d] < reach and field.lower[d] - q.min() < reach:
-                continue
-            far = np.abs(q - field.lower[d]) >= reach
+        with np.errstate(over="ignore"):
+            far = np.abs(q - low) >= r
+        if not far.any():
+            continue
         bad = int(np.argmax(far.any(axis=1)))
         raise NonFiniteError(f"the trajectory left the range of the grid lookup at step {bad} ({step_name}): "
                              f"q{d} = {float(q[bad][far[bad]][0]):.3g} lies 2**52 cells or more from lower on "
