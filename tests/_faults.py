@@ -54,6 +54,8 @@ MANIFEST = load_manifest(conformance.LATEST)["vectors"]
 CASE = VECTORS / next(e for e in MANIFEST if e["id"] == "plane-dynamic")["case"]
 BAD_CASE = next(e for e in MANIFEST if e["kind"] == "invalid" and e.get("key") == "mass")
 WALL_CASE = VECTORS / next(e for e in MANIFEST if e["id"] == "wall-q0-lower")["case"]
+#: Fuzzed case files that once broke the oracle (their README says how).
+FUZZ_CASES = Path(__file__).resolve().parent / "oracle" / "fuzz-cases"
 IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
 #: Runs a command as root without CAP_DAC_OVERRIDE, the capability that lets root write into
 #: a read-only folder: the refusal of a read-only folder is then what it is for any user.
@@ -277,6 +279,8 @@ def make_assets(folder: Path) -> Path:
     (folder / "ro").mkdir()
     save_case(folder / "huge-wall.case.npz", **dict(load_case(WALL_CASE), wall_k=np.float64(1e308)))
     save_case(folder / "steep.case.npz", **_steep_case())
+    for fuzzed in FUZZ_CASES.glob("*.case.npz"):
+        shutil.copy(fuzzed, folder / fuzzed.name)
     (folder / "tiny.toml").write_text(TINY_SWEEP)
     (folder / "sub" / "motion_law.csv").write_text("q_in,q_out\n0,0\n")
     (folder / "sub.toml").mkdir()

@@ -331,6 +331,16 @@ def validate(raw: dict) -> dict:
                                                f"(a = {a_pos[d]}, b = {b_pos[d]}, need a < b)")
         c.update(wall_k=wk, wall_lo=np.where(edges[:, 0], a_pos, -np.inf),
                  wall_hi=np.where(edges[:, 1], b_pos, np.inf), wall_edges=edges)
+    # spec section 8.6: on a periodic axis x0 lies within 2**52 cells of lower (farther,
+    # float64 holds no fraction of a cell); checked after the scene's keys, as the reference does
+    nodes = np.array(values.shape, dtype=float)
+    with np.errstate(over="ignore"):
+        reach = 2.0 ** 52 * (upper - lower) / np.where(periodic, nodes, nodes - 1.0)
+        far = periodic & np.any(np.abs(x0 - lower) >= reach, axis=0)
+    if far.any():
+        d = int(np.argmax(far))
+        raise CaseError("x0", f"x0 on periodic axis {d} lies 2**52 cells or more from lower, where float64 "
+                              "holds no fraction of a cell")
     shape = (n_steps + 1, n, 2)
     if "force" in raw:
         f = _finite("force", _numeric("force", raw["force"]))

@@ -1211,7 +1211,7 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
                         walls, energy, lookups, direct)
     traj = Trajectory(x, v, f)
     if refuse_nonfinite:
-        check_finite(traj, f"dt={dt!r}")
+        check_finite(traj, f"dt={dt!r}", field)
     return traj
 
 
@@ -1262,7 +1262,7 @@ def simulate_quasistatic(field, x0, fext, mobility, n_steps: int, progress=None,
         K.quasistatic_steps(x, f, ext, has_fext, start, stop, blocks, mu, grid, spring, walls)
     traj = Trajectory(x, quasistatic_velocities(v, out), f)
     if refuse_nonfinite:
-        check_finite(traj, f"mobility={np.asarray(mobility).tolist()!r}")
+        check_finite(traj, f"mobility={np.asarray(mobility).tolist()!r}", field)
     return traj
 
 

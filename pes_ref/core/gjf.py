@@ -92,7 +92,7 @@ def simulate_gjf(field: Field, x0: np.ndarray, v0: np.ndarray, fext, dt: float, 
         np.add(vn1, p, out=vn1)
     traj = Trajectory(x, v, f)
     if refuse_nonfinite:
-        check_finite(traj, f"integrator='gjf', dt={dt!r}")
+        check_finite(traj, f"integrator='gjf', dt={dt!r}", field)
     return traj
 
 

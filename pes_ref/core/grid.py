@@ -242,9 +242,9 @@ class Locator:
                 k0 = kmax0 if k0 > kmax0 else k0
                 k1 = kmax1 if k1 > kmax1 else k1
             f0, f1 = uc0 - k0, uc1 - k1
-            if wraps:
-                k0 = k0 - float(floor(k0 / n0)) * n0
-                k1 = k1 - float(floor(k1 / n1)) * n1
+            if wraps:           # k mod n exactly (Python's floored %), as bind's formula is for |k| < 2**52
+                k0 = k0 % n0
+                k1 = k1 % n1
             return int(k0 * nn1 + k1), f0, f1, s0, s1
         return locate1
 

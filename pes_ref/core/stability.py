@@ -279,8 +279,17 @@ def stability_limit(scene, bound: str = "sum", backend: str = "numpy") -> Stabil
         return StabilityLimit(scene.mode, key, bound, table, "", 0, 0.0, np.inf, 0.0, suggestion)
     ratio = float(reach[t, d]) / 2.0
     term = _SUM if bound == "sum" else RULE_TERMS[names[t]]
-    return StabilityLimit(scene.mode, key, bound, table, term, int(d), float(K[t, d]), value / ratio, ratio,
-                          suggestion)
+    # value / ratio, unless the ratio underflowed (a subnormal dt or mobility): then the limit itself
+    limit = value / ratio if ratio > 0.0 else _direct_limit(scene, float(K[t, d]), int(d))
+    return StabilityLimit(scene.mode, key, bound, table, term, int(d), float(K[t, d]), limit, ratio, suggestion)
+
+
+def _direct_limit(scene, K: float, d: int) -> float:
+    """The limit of one term of stiffness ``K > 0`` on axis ``d`` from the stiffness alone:
+    ``2 / sqrt(K / min_i m_{i,d})`` (dynamic) or ``2 / K`` (quasistatic)."""
+    with np.errstate(divide="ignore"):
+        scale = _omega(K, _min_mass(scene)[d]) if scene.mode == "dynamic" else np.float64(K)
+        return float(np.float64(2.0) / scale)
 
 
 def _fmt(values) -> str:

@@ -39,7 +39,7 @@ import numpy as np
 from pes_ref.core import backends, budget, checks, stability
 from pes_ref.core.runtime import pages
 from pes_ref.core.runtime.files import ResultExistsError
-from pes_ref.core.integrator import NonFiniteError
+from pes_ref.core.integrator import LOOKUP_RANGE, NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene, gradient_names, value_and_grad
 from pes_ref.core.surface import Surface
@@ -278,6 +278,19 @@ def _state(raw: Mapping):
     return x0, v0
 
 
+def _check_lookup_range(x0: np.ndarray, surface: Surface) -> None:
+    """x0 on a periodic axis within `LOOKUP_RANGE` cells of
+    ``lower`` (docs/spec.md section 8.6): farther, float64 holds no fraction of a cell."""
+    with np.errstate(over="ignore"):        # a reach beyond float64 is no limit; x0 - lower beyond it is past
+        reach = LOOKUP_RANGE * surface.spacing
+        far_out = [np.abs(x0[:, d] - surface.lower[d]) >= reach[d] for d in range(2)]
+    for d, far in enumerate(far_out):
+        if surface.periodic[d] and far.any():
+            i = int(np.argmax(far))
+            raise CaseError("x0", f"x0[{i}, {d}] = {x0[i, d]:.3g} lies 2**52 cells (h = {reach[d] / LOOKUP_RANGE:.3g}) "
+                                  f"or more from lower on periodic axis {d}, where float64 holds no fraction of a cell")
+
+
 def _per_particle(key: str, value, n: int) -> np.ndarray:
     """mass, damping, spring_k, spring_center: numbers that broadcast to the case's (N, 2)
     (a scalar, (2,), (N, 1), (N, 2), or (1,), (1, 1), (1, 2)). Their values are the
@@ -358,10 +371,15 @@ def _force(raw: Mapping, shape: tuple) -> np.ndarray:
     if force.dtype == np.float64 and force.flags.c_contiguous:
         view = force.view()
         view.setflags(write=False)
-        flat = view.reshape(-1)
-        if all(np.isfinite(flat[i:i + FINITE_CHUNK]).all() for i in range(0, flat.size, FINITE_CHUNK)):
+        if _all_finite(view):
             return view
     return checks.as_float_array("force", force)      # (a non-finite force: refused with its message)
+
+
+def _all_finite(a: np.ndarray) -> bool:
+    """Whether every entry of a C-contiguous array is finite, `FINITE_CHUNK` entries at a time."""
+    flat = a.reshape(-1)
+    return all(np.isfinite(flat[i:i + FINITE_CHUNK]).all() for i in range(0, flat.size, FINITE_CHUNK))
 
 
 #: The keys every result holds before its gradients (docs/spec.md section 9): the trajectory,
@@ -428,6 +446,7 @@ def validate_case(raw: Mapping, *, allow_unstable: bool = False, backend: str = 
     n = x0.shape[0]
     with _core_checks():
         scene = _scene(raw, mode, n)
+        _check_lookup_range(x0, scene.surface)
         budget.check_memory(scene.n_steps, n, "case")
         shape = (scene.n_steps + 1, n, 2)
         force = _force(raw, shape)
@@ -494,7 +513,14 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
         raise CaseError("n_steps", f"a run of n_steps={scene.n_steps} does not fit in memory") from None
     values = dict(zip(TRAJECTORY_KEYS, (traj.x, traj.v, e, np.float64(loss))))
     values.update(("grad_" + name, grads[name]) for name in vc.grad_names)
-    return {k: _own_array(values[k]) for k in result_keys(vc.grad_names)}
+    result = {k: _own_array(values[k]) for k in result_keys(vc.grad_names)}
+    # x and v are finite (the run checked them); the rest is checked here, once, for an overflow
+    # that raised nothing (a sum by einsum or BLAS sets no floating-point flag)
+    bad = next((k for k in result if k not in ("x", "v") and not _all_finite(result[k])), None)
+    if bad is not None:
+        raise CaseError(blame, f"the result's {bad} is not finite: an overflow computing the loss, the energy or "
+                               f"the gradients ({scene.mode} mode; docs/spec.md section 12.1)")
+    return result
 
 
 def _own_array(a) -> np.ndarray:

@@ -17,9 +17,10 @@ of docs/spec.md sections 11 and 13:
   from a `numpy.random.Generator` seeded with ``[S, attempt]`` (no hypothesis
   needed), every topology, mode, effect, objective and broadcast shape, and at the odds
   `pes_ref.testing.draws.CHECK_ODDS` a single wall's margin past half its axis,
-  positions snapped near cell edges and flags stored as 0/1 integers; pes_ref runs each
-  and so does the program. Only well-conditioned cases are kept: a perturbation of
-  ``x0`` by `PROBE` (relative) must grow by at most `CONDITION_BOUND`
+  positions snapped near cell edges, flags stored as 0/1 integers, and a step scaled just
+  inside or just past the stability rule's limit (a case past it must be refused naming
+  ``dt`` or ``mobility``); pes_ref runs each and so does the program. Only well-conditioned
+  cases are kept: a perturbation of ``x0`` by `PROBE` (relative) must grow by at most `CONDITION_BOUND`
   anywhere in the trajectory, so that two correct programs, which may differ by an ulp
   per operation, agree within the trajectory tolerance. Long runs on rough bilinear
   grids amplify such differences by about 1.4x per step; the filter keeps them out.
@@ -72,7 +73,7 @@ from pes_ref.testing import draws
 from pes_ref.testing.conformance import (binding_keys, compare_vector, iter_vectors, names_key,
                                          one_sided_results)
 
-__all__ = ["CaseOutcome", "CheckReport", "check", "draw_cases", "condition_number", "write_report",
+__all__ = ["CaseOutcome", "CheckReport", "check", "draw_cases", "refusal_key", "condition_number", "write_report",
            "PROBE", "CONDITION_BOUND", "Program"]
 
 #: The relative perturbation of ``x0`` that measures a case's conditioning.
@@ -84,6 +85,8 @@ CONDITION_BOUND = 1e3
 _QUASISTATIC_OPTIONAL = ("grad_v0", "grad_mass", "grad_damping")
 #: How much of a program's stderr a verdict quotes.
 _QUOTE = 300
+#: The dtype of every array of a result (docs/spec.md section 9): float64, little-endian.
+RESULT_DTYPE = "<f8"
 
 
 def _tolerance(name: str) -> float:
@@ -119,6 +122,9 @@ class CaseOutcome:
         a process with other cases (the batch's time is in `CheckReport.batches`).
     errors : dict of str -> float
         Every array compared and its normalized error.
+    batch : int or None
+        The index in `CheckReport.batches` of the process whose exit status the
+        verdict read (None for a Python function).
     """
 
     case_id: str
@@ -131,6 +137,7 @@ class CaseOutcome:
     detail: str = ""
     seconds: float | None = None
     errors: dict = field(default_factory=dict)
+    batch: int | None = None
 
     def line(self) -> str:
         """The case's line of ``pes_ref check``'s output: ``ok    ID``, or ``FAIL  ID`` with the array (an
@@ -207,14 +214,17 @@ def condition_number(case: dict) -> float:
 
 
 def draw_cases(n: int, seed: int, *, bound: float = CONDITION_BOUND, max_draws: int | None = None) -> list:
-    """``n`` fresh valid cases, each with conditioning <= ``bound``.
+    """``n`` fresh cases: valid ones each with conditioning <= ``bound``, and (at the odds
+    ``near_limit`` of `CHECK_ODDS`, half of them) cases just
+    past the stability rule's limit, which the oracle refuses.
 
     Attempt ``i`` draws one case from [`pes_ref.testing.draws`][pes_ref.testing.draws] with
     ``numpy.random.default_rng([seed, i])``, with the odds of
     `CHECK_ODDS` (wide margins of a single wall, near-edge
-    positions, flags as int8 or uint8), so the cases are the same for the same seed on any
-    machine, and one attempt does not depend on another. Returns a list of
-    ``(case_id, case dict, condition)``.
+    positions, flags as int8 or uint8, a step near the stability limit), so the cases are
+    the same for the same seed on any machine, and one attempt does not depend on another.
+    Returns a list of ``(case_id, case dict, condition)``; ``condition`` is None for a case
+    past the limit (refused: `refusal_key` names its key).
     """
     if seed < 0:
         raise ValueError(f"the seed of the random cases must be >= 0, got {seed}")
@@ -230,6 +240,14 @@ def draw_cases(n: int, seed: int, *, bound: float = CONDITION_BOUND, max_draws: 
         case = case_from_scene(scene, x0, v0, obj, regularization=reg)
         flags = draws.flag_dtype(d, draws.CHECK_ODDS["integer_flags"])
         case.update({k: case[k].astype(flags) for k in ("periodic", "walls") if k in case})
+        near = draws.near_limit(d, scene, draws.CHECK_ODDS["near_limit"])
+        if near is not None:
+            key = "dt" if scene.mode == "dynamic" else "mobility"
+            case[key] = case[key] * near[1]
+            if near[0] == "past":
+                if refusal_key(case) == key:
+                    kept.append((f"random-{seed}-{len(kept):04d}", case, None))
+                continue
         with np.errstate(all="ignore"):
             try:
                 cond = condition_number(case)
@@ -241,6 +259,15 @@ def draw_cases(n: int, seed: int, *, bound: float = CONDITION_BOUND, max_draws: 
         raise RuntimeError(f"only {len(kept)} of {attempts} drawn cases are within the conditioning bound "
                            f"{bound:g}; ask for fewer (--random) or another --seed")
     return kept
+
+
+def refusal_key(case: dict):
+    """The key the oracle refuses ``case`` naming, or None when it accepts it (before the run)."""
+    try:
+        validate_case(case)
+    except CaseError as exc:
+        return exc.key
+    return None
 
 
 # =========================================================================== the cases to run
@@ -273,8 +300,12 @@ def _items(version, vectors: bool, random_n: int, seed: int, bound: float, only)
                          one_sided_results(entry, version))
             (valid if entry["kind"] == "valid" else invalid).append(item)
     fresh = []
-    for case_id, case, _cond in (draw_cases(random_n, seed, bound=bound) if random_n else ()):
-        fresh.append(_Item(case_id, "random", case, None, run_case(case), {}, []))
+    for case_id, case, cond in (draw_cases(random_n, seed, bound=bound) if random_n else ()):
+        if cond is None:                # past the stability limit: refused, judged as an invalid case
+            invalid.append(_Item(case_id, "invalid", case, None, None,
+                                 {"id": case_id, "key": refusal_key(case), "error": "ValueError"}, []))
+        else:
+            fresh.append(_Item(case_id, "random", case, None, run_case(case), {}, []))
     return valid + invalid + fresh
 
 
@@ -295,6 +326,7 @@ def _judge_result(item: _Item, got: dict, *, strict: bool) -> CaseOutcome:
     outcome = CaseOutcome(item.case_id, True, item.kind, errors=errors)
     missing = [k for k in names if k not in got]
     bad = [k for k in errors if not passes(k, errors[k])]
+    wrong_dtype = [k for k in errors if k in got and np.asarray(got[k]).dtype.str != RESULT_DTYPE]
     if missing:
         array, detail = missing[0], "missing from the result"
     elif bad:
@@ -302,6 +334,13 @@ def _judge_result(item: _Item, got: dict, *, strict: bool) -> CaseOutcome:
         err = errors[array]
         detail = ("not finite, or of the wrong shape" if not np.isfinite(err) else
                   f"relative error {err:.2e} > tolerance {_tolerance(array):.0e}")
+        if array.startswith("grad_") and _all_zero(got[array]) and not _all_zero(want.get(array, 0.0)):
+            detail = f"gradient missing (all zeros): {detail}"
+    elif wrong_dtype:
+        array = wrong_dtype[0]
+        detail = (f"dtype {np.asarray(got[array]).dtype.str}, not float64 little-endian ({RESULT_DTYPE}); "
+                  "docs/spec.md section 9")
+        bad = wrong_dtype
     else:
         array = max(errors, key=lambda k: errors[k] / _tolerance(k), default="")
         detail = f"worst {array} {errors[array]:.1e} (tolerance {_tolerance(array):.0e})" if array else "nothing compared"
@@ -312,32 +351,53 @@ def _judge_result(item: _Item, got: dict, *, strict: bool) -> CaseOutcome:
     return outcome
 
 
+def _all_zero(a) -> bool:
+    """Whether an array holds only zeros (and at least one entry)."""
+    a = np.asarray(a)
+    return a.size > 0 and a.dtype.kind in "iuf" and not np.any(a)
+
+
+def _exit(status, batch_size: int = 1) -> str:
+    """``exit 2``, or for a process of several cases ``exit 2 of the process of all 5 cases``:
+    one exit status answers for every case of a ``{pairs}`` run (docs/spec.md 13.2)."""
+    return f"exit {status}" if batch_size <= 1 else f"exit {status} of the process of all {batch_size} cases"
+
+
 def _judge_refusal(item: _Item, status, wrote: bool, message: str, record, *, lenient: bool, strict: bool,
-                   kind: str | None = None) -> CaseOutcome:
+                   kind: str | None = None, batch_size: int = 1) -> CaseOutcome:
     """The verdict on an invalid vector: refused (non-zero exit), nothing written, the
     key at fault named by ``record`` (its ``{refusals}`` line) or else by ``message`` (its
     last line on stderr) unless ``lenient``, and in strict mode the declared error kind
-    (the record's, or ``kind``, that of the exception a Python function raised)."""
+    (the record's, or ``kind``, that of the exception a Python function raised).
+    ``batch_size``: how many cases the process held, whose one exit status ``status`` is."""
     key, declared = item.entry["key"], item.entry["error"]
     out = CaseOutcome(item.case_id, False, "invalid", key=key)
     quoted = repr(message[-_QUOTE:])
     told = record.get("error") if record is not None else kind
+    exit_ = _exit(status, batch_size)
+    named = record.get("key") == key if record is not None else names_key(message, key)
     if status is None:
         out.detail = message
+    elif status == 0 and wrote:
+        out.detail = f"accepted an invalid case ({exit_}, a result written)"
+    elif status == 0 and not (message or record is not None):
+        out.detail = f"wrote no result and said nothing, but exited 0 ({exit_}): a refusal needs a non-zero exit status"
     elif status == 0:
-        out.detail = "accepted an invalid case (exit 0)"
+        said = "naming the key" if named else "without naming the key"
+        out.detail = (f"refused ({said}, no result written) but exited 0 ({exit_}): a refusal needs a non-zero "
+                      f"exit status (docs/spec.md 8.7): {quoted}")
     elif wrote:
-        out.detail = f"wrote a result for an invalid case (exit {status})"
+        out.detail = f"wrote a result for an invalid case ({exit_})"
     elif record is not None and not lenient and record.get("key") != key:
         out.detail = f"refused naming key {record.get('key')!r} in {{refusals}}, not {key!r}"
     elif record is None and not lenient and not names_key(message, key):
-        out.detail = (f"refused (exit {status}) without naming the key: {quoted}" if key is not None
-                      else f"refused (exit {status}) without a message on stderr")
+        out.detail = (f"refused ({exit_}) without naming the key: {quoted}" if key is not None
+                      else f"refused ({exit_}) without a message on stderr")
     elif strict and told != declared:
         out.detail = f"refused as {told or 'an unknown kind (nothing in {refusals})'}, the manifest declares {declared}"
     else:
         out.ok = True
-        out.detail = f"refused (exit {status}): {quoted}"
+        out.detail = f"refused ({exit_}): {quoted}"
     return out
 
 
@@ -430,12 +490,13 @@ class _Runner:
         self.program, self.tmp, self.report = program, tmp, report
         self.strict, self.lenient = strict, lenient
         self._runs = 0
+        self.batch = None
         self._number = {it.case_id: n for n, it in enumerate(items)}
 
-    def paths(self, item: _Item):
-        """The case's files, named by number (a vector's id holds key names, and a
-        message that quotes the path must not name a key by it)."""
-        stem = self.tmp / f"{self._number[item.case_id]:05d}"
+    def paths(self, item: _Item, folder: Path | None = None):
+        """The case's files in ``folder`` (the scratch folder by default), named by number (a
+        vector's id holds key names, and a message that quotes the path must not name a key by it)."""
+        stem = (folder or self.tmp) / f"{self._number[item.case_id]:05d}"
         return stem.with_suffix(".case.npz"), stem.with_suffix(".result.npz")
 
     def write_case(self, item: _Item) -> None:
@@ -445,14 +506,15 @@ class _Runner:
         else:
             save_case(path, overwrite=True, compress=False, **item.case)
 
-    def _run(self, items: list, what: str):
+    def _run(self, items: list, what: str, folder: Path | None = None):
         """Run the program on ``items`` in one process: ``(status, stderr, records)``."""
         self._runs += 1
         refusals = self.tmp / f"refusals-{self._runs}.jsonl" if self.program.refusals else None
-        pairs = [self.paths(it) for it in items]
+        pairs = [self.paths(it, folder) for it in items]
         status, stderr, seconds = self.program.run(pairs, self.program.timeout * len(items), refusals)
         self.report.batches.append({"cases": len(items), "what": what, "seconds": seconds,
                                     "exit": status})
+        self.batch = len(self.report.batches) - 1
         records = _records(refusals) if refusals is not None else {}
         return status, stderr, records, (seconds if len(items) == 1 else None)
 
@@ -469,17 +531,17 @@ class _Runner:
                     outcome = CaseOutcome(item.case_id, False, item.kind, detail=stderr if alone else
                                           f"{stderr} (the run of all {len(group)} cases)")
                 else:
-                    outcome = self._valid_outcome(item, Path(result), status,
-                                                  _message_for(stderr, case_path, alone), records.get(case_path))
-                outcome.seconds = seconds
+                    outcome = self._valid_outcome(item, Path(result), status, _message_for(stderr, case_path, alone),
+                                                  records.get(case_path), len(group))
+                outcome.seconds, outcome.batch = seconds, self.batch
                 outcomes.append(outcome)
         return outcomes
 
-    def _valid_outcome(self, item, result: Path, status, message: str, record) -> CaseOutcome:
+    def _valid_outcome(self, item, result: Path, status, message: str, record, batch_size: int = 1) -> CaseOutcome:
         fail = CaseOutcome(item.case_id, False, item.kind)
         if not result.exists():
             why = record.get("message") or f"key {record.get('key')}" if record is not None else message
-            fail.detail = f"no result written (exit {status}){': ' + why[-_QUOTE:] if why else ''}"
+            fail.detail = f"no result written ({_exit(status, batch_size)}){': ' + why[-_QUOTE:] if why else ''}"
             return fail
         got, problem = _load_result(result)
         if got is None:
@@ -503,16 +565,75 @@ class _Runner:
                 if status is None or not (message or record or wrote):
                     alone.append(item)
                 else:
-                    verdicts[item.case_id] = _judge_refusal(item, status, wrote, message, record,
-                                                            lenient=self.lenient, strict=self.strict)
+                    verdicts[item.case_id] = _judge_refusal(item, status, wrote, message, record, lenient=self.lenient,
+                                                            strict=self.strict, batch_size=len(items))
+                    verdicts[item.case_id].batch = self.batch
         for item in alone:
             status, stderr, records, seconds = self._run([item], "one invalid case")
             case_path, result = (str(p) for p in self.paths(item))
             message = stderr.strip() if status is None else _message_for(stderr, case_path, True)
             verdicts[item.case_id] = _judge_refusal(item, status, Path(result).exists(), message,
                                                     records.get(case_path), lenient=self.lenient, strict=self.strict)
-            verdicts[item.case_id].seconds = seconds
+            verdicts[item.case_id].seconds, verdicts[item.case_id].batch = seconds, self.batch
         return [verdicts[it.case_id] for it in items]
+
+
+    def mixed(self, valid: list, invalid: list) -> CaseOutcome:
+        """docs/spec.md 13.2 on one process of valid and invalid vectors interleaved
+        (`_mixed_items`, ending with a valid one): it must exit non-zero, since it
+        refuses some; each valid case it answers must have its result, right; no invalid
+        case may have one. A valid case a program left unanswered (no result, no line or
+        record naming it: it stopped at a refusal) is not judged here; it was run alone."""
+        items = _mixed_items(valid, invalid)
+        folder = self.tmp / "mixed"
+        folder.mkdir()
+        for item in items:
+            shutil.copyfile(self.paths(item)[0], self.paths(item, folder)[0])
+        status, stderr, records, _ = self._run(items, "mixed", folder)
+        outcome = CaseOutcome(MIXED_BATCH, False, "batch", batch=self.batch)
+        refused = sum(it.kind == "invalid" for it in items)
+        faults = []
+        for item in items:
+            case_path, result = (str(p) for p in self.paths(item, folder))
+            answered = Path(result).exists() or records.get(case_path) or _message_for(stderr, case_path, False)
+            if item.kind == "invalid" and Path(result).exists():
+                faults.append((item.case_id, "wrote a result for an invalid case"))
+            elif item.kind != "invalid" and answered:
+                verdict = self._valid_outcome(item, Path(result), status, _message_for(stderr, case_path, False),
+                                              records.get(case_path), len(items))
+                if not verdict.ok:
+                    faults.append(("/".join(filter(None, (item.case_id, verdict.array))), verdict.detail))
+        if status is None:
+            outcome.array, outcome.detail = "exit status", stderr
+        elif status == 0:
+            outcome.array = "exit status"
+            outcome.detail = (f"exited 0 from a process of {len(items)} cases of which {refused} are invalid: a run "
+                              f"that refuses any case exits non-zero (docs/spec.md 13.2)")
+        elif faults:
+            outcome.array, outcome.detail = faults[0]
+        else:
+            outcome.ok = True
+            outcome.detail = f"exit {status}: {refused} of {len(items)} cases refused, every valid one right"
+        return outcome
+
+
+#: The id of the process of valid and invalid cases interleaved (docs/spec.md 13.2).
+MIXED_BATCH = "mixed-batch"
+#: How many valid and how many invalid vectors it holds (at most).
+MIXED_EACH = 3
+
+
+def _mixed_items(valid: list, invalid: list) -> list:
+    """Up to `MIXED_EACH` invalid and valid vectors, spread over their lists,
+    interleaved invalid first and valid last (so that neither the first nor the last case
+    alone decides the exit status)."""
+    def spread(items):
+        k = min(MIXED_EACH, len(items))
+        return [items[i * len(items) // k] for i in range(k)]
+    out = []
+    for bad, good in zip(spread(invalid), spread(valid)):
+        out += [bad, good]
+    return out
 
 
 def _keep(keep_dir: Path, outcome: CaseOutcome, case_file: Path, program: Program) -> None:
@@ -595,7 +716,7 @@ def check(runner, *, vectors: bool = True, random: int = 0, seed: int = 0, timeo
         for outcomes in _stages(run, items):
             for outcome in outcomes:
                 report.outcomes.append(outcome)
-                if keep_dir is not None and not outcome.ok:
+                if keep_dir is not None and not outcome.ok and outcome.case_id in by_id:
                     _keep(keep_dir, outcome, run.paths(by_id[outcome.case_id])[0], program)
                 emit(outcome)
     return report
@@ -611,6 +732,8 @@ def _stages(run: _Runner, items: list):
         ran = {o.case_id: o for o in run.valid(vector_valid + fresh)}
         yield [ran[it.case_id] for it in vector_valid]
         yield run.invalid(invalid)
+        if vector_valid and invalid:
+            yield [run.mixed(vector_valid, invalid)]
         yield [ran[it.case_id] for it in fresh]
     else:
         yield run.valid(vector_valid)

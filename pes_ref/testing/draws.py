@@ -34,6 +34,7 @@ from typing import Protocol, Sequence
 
 import numpy as np
 
+from pes_ref.core import stability
 from pes_ref.core.effects import Constant, Noise, PerParticle, Window
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
 from pes_ref.core.scene import MODES, Scene
@@ -54,8 +55,13 @@ OBJECTIVE_KINDS = ("funnel_final", "funnel_every_step", "oscillator", "quadratic
 #: 13.1): ``wide_margin``, of a scene whose walls leave an axis with one wall, a margin of
 #: 0.5 to 1.25 times that axis's length (`scene`); ``near_edge``, of a case, positions
 #: snapped near cell edges (`state`); ``integer_flags``, of a case, ``periodic`` and
-#: ``walls`` stored as int8 or uint8 (`flag_dtype`).
-CHECK_ODDS = {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5}
+#: ``walls`` stored as int8 or uint8 (`flag_dtype`); ``near_limit``, of a case, its dt
+#: (dynamic) or mobility (quasistatic) scaled to `NEAR_LIMIT` of the stability rule's
+#: limit, inside or past it with even odds (`near_limit`).
+CHECK_ODDS = {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5, "near_limit": 0.2}
+#: How close to the stability rule's limit (docs/spec.md section 10) `near_limit` puts a
+#: case, as the rule's value over 2: inside, and past (the case is then refused).
+NEAR_LIMIT = {"inside": (0.95, 0.995), "past": (1.005, 1.05)}
 #: How far, in cells, `state` snaps a coordinate from a cell edge: at least 100 times
 #: the perturbation by which ``check`` measures a case's conditioning (so that it does not
 #: cross the edge), and below half a float32 ulp of every ``u >= 1`` (2**-25), so that a
@@ -522,3 +528,19 @@ def objective(d: Draws, scene: Scene, n_particles: int, *, kinds=OBJECTIVE_KINDS
         raise ValueError(f"unknown objective kind {kind!r}")
     R = d.real(1e-3, 1.0) if _given(regularization, d.flag) else 0.0
     return obj, R
+
+
+def near_limit(d: Draws, scene: Scene, odds: float = 0.0):
+    """With probability ``odds``, the step of ``scene`` scaled near the stability rule's limit
+    (docs/spec.md section 10): ``(side, scale)``, ``side`` "inside" or "past" (even odds) and
+    ``scale`` the factor for its dt (dynamic) or mobility (quasistatic, both axes) that puts
+    the rule's value at a ratio of `NEAR_LIMIT` ``[side]`` of 2; None when not drawn, or
+    for a scene of no stiffness or no step (nothing to be near)."""
+    if not _chance(d, odds):
+        return None
+    side = "past" if d.flag() else "inside"
+    ratio = d.real(*NEAR_LIMIT[side])
+    lim = stability.stability_limit(scene, "rule")
+    if scene.n_steps == 0 or not 0.0 < lim.ratio < np.inf:
+        return None
+    return side, ratio / lim.ratio

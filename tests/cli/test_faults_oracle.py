@@ -29,6 +29,10 @@ FAULTS = [
           ("case key 'dt'", "stiffest term (wall 1e+308", "a stable dt is")),
     Fault("oracle-values-beyond-float", "oracle steep.case.npz out.npz",
           ("case key 'values'", "stiffness beyond float64", "no dt is stable")),
+    Fault("oracle-fuzz-huge-force", "oracle huge-force.case.npz out.npz",
+          ("case key 'dt'", "left the range of the grid lookup", "periodic axis 1")),
+    Fault("oracle-fuzz-huge-weight", "oracle huge-weight.case.npz out.npz",
+          ("case key 'mobility'", "grad_mobility is not finite")),
 ]
 
 

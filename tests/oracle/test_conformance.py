@@ -2,6 +2,7 @@
 import configparser
 import fnmatch
 import hashlib
+import importlib.util
 import json
 import shutil
 from pathlib import Path
@@ -102,13 +103,18 @@ def test_manifest_lists_exactly_the_files():
         assert e["error"] in ("ValueError", "TypeError") and "result" not in e
     for e in VALID:
         assert ("one_sided" in e) == ("kink" in e["flags"])      # from v3 on every kink vector binds its gradients
-    assert MANIFEST["version"] == LATEST == generate.VERSION == "v4"
+    assert MANIFEST["version"] == LATEST == generate.VERSION == "v5"
     assert MANIFEST["tolerances"]["TRAJ_RTOL"] == TRAJ_RTOL and MANIFEST["tolerances"]["GRAD_RTOL"] == GRAD_RTOL
+
+
+#: The newest set's size budget, in bytes. A set holds every vector of the one before it
+#: (v4: 0.86 MB), so the budget grows with the sets: v5, with 68 vectors more, is 1.18 MB.
+SET_BYTES = 1_250_000
 
 
 def test_the_set_is_small_and_shipped_as_package_data():
     files = list(VECTORS.iterdir())
-    assert sum(p.stat().st_size for p in files) < 1_000_000
+    assert sum(p.stat().st_size for p in files) < SET_BYTES
     cfg = configparser.ConfigParser()
     cfg.read(Path(pes_ref.__file__).resolve().parent.parent / "setup.cfg")
     patterns = [p.strip() for p in cfg["options.package_data"]["pes_ref"].split(",")]
@@ -178,7 +184,8 @@ def test_checker_passes_the_reference_oracle():
     for e in run_only:
         case = oracle.load_case(VECTORS / e["case"])
         oracle.validate_case(case)
-        with pytest.raises(oracle.CaseError, match=f"case key '{e['key']}': the run left the finite numbers"):
+        left = "the (run|trajectory) left the (finite numbers|range of the grid lookup)"     # 12.1
+        with pytest.raises(oracle.CaseError, match=f"case key '{e['key']}': {left}"):
             oracle.run_case(case)
 
 
@@ -407,13 +414,14 @@ def test_cli_conformance_check_fails_on_a_changed_vector(tmp_path, capsys, monke
     assert capsys.readouterr().err.startswith("error: ")
 
 
-# =========================================================================== v1, v2 and v3, frozen
+# =========================================================================== v1 to v4, frozen
 
 #: The sha256 of each frozen set's files (name and bytes, in name order). A frozen set
 #: never changes: a new version is a new folder.
 FROZEN = {"v1": "f40a3b79b4f55d59995ef03fb99494bdd6596e88423451901815c15a6d152e52",
           "v2": "453e832da6d6c2c11e97406691958a603e0e157f4f9689c6a532ead1dd353c51",
-          "v3": "105caf716c63c858089e0d11ca5d08523ed301f0ae2da5f47397dd55680bd3a1"}
+          "v3": "105caf716c63c858089e0d11ca5d08523ed301f0ae2da5f47397dd55680bd3a1",
+          "v4": "c688a2d6cdbf05851ba1cceeb77e2b2afda2b1be9d2cab89c8c53a2e2d767be1"}
 
 
 def _digest(version: str) -> str:
@@ -428,15 +436,15 @@ def test_a_frozen_set_stays_byte_for_byte(version):
     assert _digest(version) == FROZEN[version]
 
 
-@pytest.mark.parametrize("older", ["v2", "v3"])
+@pytest.mark.parametrize("older", ["v2", "v3", "v4"])
 def test_the_newest_set_holds_every_vector_of_the_older_ones_unchanged(older):
-    """Every case, result and one-sided file of v2 and of v3 is in the newest set byte for
-    byte (with its manifest entry, but for its number), in the same order."""
+    """Every case, result and one-sided file of v2, v3 and v4 is in the newest set byte for
+    byte (from v3 on with its manifest entry, but for its number), in the same order."""
     entries = conf.load_manifest(older)["vectors"]
     for e in entries:
         for name in _files(e):
             assert (VECTORS / name).read_bytes() == (vectors_dir(older) / name).read_bytes(), name
-    if older == "v3":
+    if older != "v2":
         newest = {e["id"]: e for e in ENTRIES}
         for e in entries:
             assert dict(newest[e["id"]], tc_id=None) == dict(e, tc_id=None), e["id"]
@@ -566,3 +574,102 @@ def test_v2_pins_the_stability_rule():
         assert by_id[vid]["kind"] == "valid"
     assert MANIFEST["spec"].startswith("docs/spec.md")
     assert MANIFEST["generator"] == "pes_ref.oracle.conformance.generate"
+
+
+# =========================================================================== v5: each rule from both sides
+
+def _broken_programs():
+    """tests/testing/check_programs/broken.py, whose :func:`rule_value` states the stability
+    rule on its own, and under each misreading."""
+    path = Path(__file__).resolve().parents[1] / "testing" / "check_programs" / "broken.py"
+    spec = importlib.util.spec_from_file_location("broken_programs", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_rule_value = _broken_programs().rule_value
+
+
+#: The misreadings of the stability rule that the ``limit-*`` vectors of v5 tell apart:
+#: name -> the options of :func:`_rule_value`, or "at-2" (a value of exactly 2 refused).
+MISREADINGS = {
+    "own particle's mass": dict(mass="own"), "largest mass": dict(mass="max"),
+    "other axis's mass": dict(mass="other-axis"), "smallest mass of both axes": dict(mass="all"),
+    "wall a term of every axis": dict(wall="every-axis"), "wall a term only with both walls": dict(wall="both"),
+    "no cells across the seam": dict(seam=False), "terms summed": dict(summed=True),
+    "second differences a term": dict(edges=True), "largest mobility": dict(mobility="max"),
+    "other axis's mobility": dict(mobility="other-axis"), "exactly 2 refused": "at-2",
+}
+#: Each ``limit-*`` vector and the misreadings it catches (the misreading lands on the wrong
+#: side of 2): the closing note of v5.
+CATCHES = {
+    "limit-spring-axis-q1-inside": {"other axis's mass", "smallest mass of both axes"},
+    "limit-wall-one-upper-q1-inside": {"other axis's mass", "smallest mass of both axes", "wall a term of every axis"},
+    "limit-grid-seam-dynamic-inside": {"second differences a term"},
+    "limit-grid-seam-quasistatic-inside": {"second differences a term"},
+    "limit-mobility-axis-q1-inside": {"largest mobility", "other axis's mobility"},
+    "limit-mobility-axis-q0-inside": {"terms summed", "second differences a term"},
+    "limit-terms-one-at-a-time": {"terms summed", "second differences a term"},
+    "limit-edges-not-a-term": {"second differences a term"},
+    "limit-exact-dynamic": {"exactly 2 refused", "terms summed", "second differences a term"},
+    "limit-exact-quasistatic": {"exactly 2 refused", "terms summed", "second differences a term"},
+    "limit-spring-particle-past": {"own particle's mass", "largest mass"},
+    "limit-spring-axis-q0-past": {"other axis's mass"},
+    "limit-wall-one-lower-q0-past": {"other axis's mass", "wall a term only with both walls"},
+    "limit-wall-one-upper-q1-past": {"wall a term only with both walls"},
+    "limit-grid-seam-dynamic-past": {"no cells across the seam"},
+    "limit-grid-seam-quasistatic-past": {"no cells across the seam"},
+    "limit-mobility-axis-q0-past": {"other axis's mobility"},
+}
+
+
+def _refused_under(case: dict, how) -> bool:
+    if how == "at-2":
+        return _rule_value(case) >= 2.0
+    return _rule_value(case, **how) > 2.0
+
+
+@pytest.mark.parametrize("entry", [e for e in ENTRIES if e["id"].startswith("limit-")],
+                         ids=[e["id"] for e in ENTRIES if e["id"].startswith("limit-")])
+def test_v5_limit_vectors_sit_where_they_say_and_catch_their_misreadings(entry):
+    """A ``limit-*`` vector's rule value is 1.98 (valid), 2.02 (refused) or exactly 2 (valid),
+    by this test's own statement of the rule and by the oracle; and each misreading listed
+    in :data:`CATCHES` for it, and no other, decides it the other way."""
+    case = _case(entry["id"])
+    value = _rule_value(case)
+    assert entry["flags"] == ["limit"] and int(case["n_steps"]) > 0
+    expect = {"valid": (1.98, 2.0), "invalid": (2.02,)}[entry["kind"]]
+    assert any(abs(value - v) < 1e-12 for v in expect), value
+    assert (entry["kind"] == "invalid") == (value > 2.0)
+    if entry["kind"] == "invalid":
+        assert entry["key"] == ("mobility" if str(case["mode"]) == "quasistatic" else "dt")
+    caught = {name for name, how in MISREADINGS.items() if _refused_under(case, how) != (value > 2.0)}
+    assert caught == CATCHES.get(entry["id"], set()), sorted(caught)
+
+
+def test_v5_every_misreading_is_caught_by_a_limit_vector():
+    assert set().union(*CATCHES.values()) == set(MISREADINGS)
+    assert set(CATCHES) <= set(ALL_IDS)
+
+
+def test_v5_holds_every_optional_key_invalid_and_the_edges_of_ranges():
+    """Each optional key NaN, infinite, of a wrong shape and of a wrong type (as applies),
+    and the valid edges of the ranges, each valid edge run by the reference."""
+    optional = {"t0", "regularization", "force", "spring_k", "spring_center", "wall_k", "wall_margin", "walls",
+                "mobility"}
+    by_key = {}
+    for e in INVALID:
+        if e["id"].startswith("optional-"):
+            by_key.setdefault(e["key"], set()).add(e["id"].split("-")[-1])
+    assert optional <= set(by_key), sorted(optional - set(by_key))
+    for key in ("t0", "regularization", "spring_k", "wall_k", "mobility"):
+        assert {"nan", "inf", "string"} <= by_key[key], (key, by_key[key])
+    edges = [e for e in VALID if e["id"].startswith("edge-")]
+    assert len(edges) >= 8 and all(e["flags"] == ["edge"] for e in edges)
+    c = _case("edge-spring-k-zero-axis")
+    assert c["spring_k"][0] == 0.0
+    result = oracle.run_case(c)
+    assert result["grad_spring_k"][0] != 0.0            # a stiffness of 0 still has a gradient
+    c = _case("edge-room-just-inside")
+    assert 2 * c["wall_margin"] < c["upper"][0] - c["lower"][0] and 2 * np.nextafter(c["wall_margin"], 1) >= 1.0

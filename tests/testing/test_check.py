@@ -10,7 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import settings
 
+from pes_ref.core import stability
 from pes_ref.oracle.case import CaseError, run_case, validate_case
 from pes_ref.oracle.compare import compare_results, passes
 from pes_ref.testing import check as chk
@@ -50,22 +52,29 @@ def _only(ids):
 
 def test_pes_ref_passes_every_vector_and_200_random_cases_strictly(tmp_path):
     """The oracle on the whole newest set and 200 fresh cases, in strict mode, with its
-    refusals in {refusals}: two processes (valid and random cases; invalid ones)."""
+    refusals in {refusals}: three processes (valid and random cases; invalid ones; the mixed
+    batch of docs/spec.md 13.2)."""
     report = tmp_path / "r.json"
     proc = _check("--cmd", f"{ORACLE} --refusals {{refusals}} {{pairs}}", "--random", "200", "--seed", "0",
                   "--strict", "--report", str(report))
-    n = len(load_manifest()["vectors"]) + 200
+    n = len(load_manifest()["vectors"]) + 200 + 1          # and the mixed batch
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
     lines = proc.stdout.strip().splitlines()
     assert lines[-1] == f"{n} passed, 0 failed" and len(lines) == n + 1
     data = json.loads(report.read_text())
     assert data["passed"] == n and data["settings"]["strict"] is True
-    assert [b["what"] for b in data["batches"]] == ["valid", "invalid"]
+    assert [b["what"] for b in data["batches"]] == ["valid", "invalid", "mixed"]
     kinds = [c["kind"] for c in data["cases"]]
-    assert kinds == sorted(kinds, key=["valid", "invalid", "random"].index)      # random cases come last
+    assert kinds == sorted(kinds, key=["valid", "invalid", "batch", "random"].index)   # random cases come last
+    assert kinds.count("batch") == 1 and data["batches"][2]["exit"] == 2
     for case in data["cases"]:
-        assert case["seconds"] is None                                           # they ran in a batch
-        if case["kind"] == "invalid":
+        assert case["seconds"] is None and case["batch"] == ["valid", "invalid", "batch"].index(
+            {"random": "valid"}.get(case["kind"], case["kind"]))                 # they ran in a batch: which
+        if case["kind"] == "batch":
+            assert case["case_id"] == chk.MIXED_BATCH and case["detail"].startswith("exit 2: 3 of 6 cases refused")
+        elif case["kind"] == "invalid" and case["case_id"].startswith("random-"):
+            assert case["key"] in ("dt", "mobility")                # a random case past the stability limit
+        elif case["kind"] == "invalid":
             assert case["key"] == next(e["key"] for e in load_manifest()["vectors"] if e["id"] == case["case_id"])
         else:
             assert case["array"] in case["errors"] and case["error"] <= case["tolerance"]
@@ -97,8 +106,10 @@ def test_an_invalid_case_a_batch_leaves_unanswered_runs_alone(tmp_path):
     ids = ["plane-dynamic", "missing-values", "mass-zero", "dt-string"]
     report = chk.check(f"{sys.executable} {BROKEN} first-refusal-only {{pairs}}", only=ids)
     assert report.ok, [o.line() for o in report.outcomes]
-    assert [b["what"] for b in report.batches] == ["valid", "invalid", "one invalid case", "one invalid case"]
-    assert [o.seconds is None for o in report.outcomes] == [False, True, False, False]   # alone: timed
+    assert [b["what"] for b in report.batches] == ["valid", "invalid", "one invalid case", "one invalid case",
+                                                   "mixed"]
+    assert [o.seconds is None for o in report.outcomes] == [False, True, False, False, True]   # alone: timed
+    assert [o.batch for o in report.outcomes] == [0, 1, 2, 3, 4]
 
 
 # =========================================================================== each kind of wrong fails
@@ -124,6 +135,8 @@ CLASSES = {
     "quasistatic-grad-v0": (["plane-quasistatic"], "grad_v0: relative error"),
     "t0-ignored": (["oscillator-t0-quasistatic"], "loss: relative error"),
     "missing-torus-result": (["torus-dynamic"], "no result written (exit 0)"),
+    "zero-gradient": (["plane-dynamic"], "grad_values: gradient missing (all zeros): relative error"),
+    "big-endian-result": (["plane-dynamic"], "x: dtype >f8, not float64 little-endian (<f8)"),
     "spring-center-sign": (["spring-per-axis"], "grad_spring_center: relative error"),
     # the kinks
     "wall-onset-split": (["wall-onset-dynamic"], "grad_x0: relative error"),
@@ -132,17 +145,39 @@ CLASSES = {
     "float32-cell-index": (["near-edge-plane-dynamic", "near-edge-cylinder-q0-dynamic",
                             "near-edge-cylinder-q1-quasistatic", "near-edge-torus-dynamic"], "v: relative error"),
     "single-wall-room-rule": (["wide-margin-dynamic", "wide-margin-quasistatic"],
-                              "no result written (exit 2): error: <case>: case key 'wall_margin'"),
+                              "no result written (exit 2 of the process of all 2 cases): error: <case>: "
+                              "case key 'wall_margin'"),
     "bool-flags-only": (["integer-flags-int8", "integer-flags-uint8"],
-                        "no result written (exit 2): error: <case>: case key 'periodic'"),
+                        "no result written (exit 2 of the process of all 2 cases): error: <case>: case key 'periodic'"),
     # refusals
-    "accept-invalid": (["mass-zero"], "mass: accepted an invalid case (exit 0)"),
-    "truncated-n-steps": (["n-steps-float-fraction"], "n_steps: accepted an invalid case (exit 0)"),
-    "refusal-without-key": (["mass-zero", "dt-string"], "mass: refused (exit 2) without naming the key"),
-    "wrong-key": (["mass-zero", "dt-string"], "mass: refused (exit 2) without naming the key"),
+    "accept-invalid": (["mass-zero"], "mass: accepted an invalid case (exit 0, a result written)"),
+    "truncated-n-steps": (["n-steps-float-fraction"], "n_steps: accepted an invalid case (exit 0, a result written)"),
+    "refusal-without-key": (["mass-zero", "dt-string"],
+                            "mass: refused (exit 2 of the process of all 2 cases) without naming the key"),
+    "wrong-key": (["mass-zero", "dt-string"],
+                  "mass: refused (exit 2 of the process of all 2 cases) without naming the key"),
+    "refusal-exits-0": (["mass-zero", "dt-string"], "mass: refused (naming the key, no result written) but exited 0"),
+    # the families v5 added: the stability rule from both sides, optional keys invalid, edges of ranges
+    "lenient-limit": (["limit-spring-particle-past"], "dt: accepted an invalid case (exit 0, a result written)"),
+    "seamless-curvature": (["limit-grid-seam-dynamic-past", "limit-grid-seam-quasistatic-past"],
+                           "dt: accepted an invalid case (exit 0 of the process of all 2 cases, a result written)"),
+    "own-particle-mass": (["limit-spring-particle-past"], "dt: accepted an invalid case (exit 0, a result written)"),
+    "t0-unchecked": (["optional-t0-nan", "optional-t0-inf"], "t0: accepted an invalid case (exit 0 of the process"),
+    "spring-skipped-at-zero": (["edge-spring-k-all-zero"], "grad_spring_k: missing from the result"),
+    # a process of several cases (docs/spec.md 13.2): its one exit status, judged on the mixed batch
+    "last-exit-status": (["mass-zero", "plane-dynamic"], "exit status: exited 0 from a process of 2 cases"),
     "result-opened-early": (["overflow-dynamic"], "dt: wrote a result for an invalid case"),
     "error-kinds-swapped": (["mass-zero", "mass-bool"], "mass: refused as TypeError, the manifest declares ValueError"),
 }
+#: Classes caught only on the mixed batch: a process of valid and invalid cases (docs/spec.md 13.2).
+MIXED_ONLY = {"last-exit-status"}
+#: The programs the checks of spec v5 catch: the dtype, the messages, the mixed batch.
+NEW_IN_V5 = {"zero-gradient", "big-endian-result", "refusal-exits-0", "last-exit-status", "lenient-limit",
+             "seamless-curvature", "own-particle-mass", "t0-unchecked", "spring-skipped-at-zero"}
+#: Those run again with --strict: two representatives (a result's dtype, a process's exit
+#: status), every one under ``make test-thorough`` (the thorough profile's 10x examples).
+STRICT_RERUNS = sorted(NEW_IN_V5) if settings.default.max_examples > 200 else ["big-endian-result",
+                                                                                "last-exit-status"]
 #: Programs that are not wrong (the baselines) or that test the timeout.
 NOT_WRONG = {"ok", "reference", "first-refusal-only", "hang"}
 #: Classes that only strict mode catches (docs/spec.md section 11).
@@ -170,6 +205,7 @@ def verdicts() -> dict:
     runs.update({f"{mode} (not strict)": (mode, CLASSES[mode][0], {}) for mode in STRICT_ONLY})
     runs.update({f"{mode} (lenient)": (mode, CLASSES[mode][0], {"lenient_messages": True})
                  for mode in ("refusal-without-key", "wrong-key")})
+    runs.update({f"{mode} (strict)": (mode, CLASSES[mode][0], {"strict": True}) for mode in STRICT_RERUNS})
     runs["reference"] = ("reference", sorted({vid for ids, _ in CLASSES.values() for vid in ids}), {})
     with ThreadPoolExecutor(max_workers=4) as pool:
         futures = {name: pool.submit(_broken, mode, ids, **kw) for name, (mode, ids, kw) in runs.items()}
@@ -186,7 +222,15 @@ def test_a_broken_program_fails_named_by_its_key(mode, verdicts):
     ids, expect = CLASSES[mode]
     lines = [o.line() for o in verdicts[mode].outcomes]
     failed = [line for line in lines if line.startswith("FAIL")]
-    assert failed and failed[0].startswith(f"FAIL  {ids[0]}  {expect}"), lines
+    first = chk.MIXED_BATCH if mode in MIXED_ONLY else ids[0]
+    assert failed and failed[0].startswith(f"FAIL  {first}  {expect}"), lines
+
+
+@pytest.mark.parametrize("mode", STRICT_RERUNS)
+def test_a_broken_program_of_v5_fails_strictly_too(mode, verdicts):
+    """Each program v5's checks catch fails ``check --strict`` too, on the same vectors."""
+    report = verdicts[f"{mode} (strict)"]
+    assert not report.ok and report.settings["strict"], [o.line() for o in report.outcomes]
 
 
 @pytest.mark.parametrize("mode", sorted(V4_FAMILIES))
@@ -202,7 +246,7 @@ def test_a_case_v4_added_fails_its_broken_program_on_every_vector_of_its_family(
 def test_the_readable_reference_passes_where_the_broken_ones_fail(verdicts):
     """The broken programs built on the readable reference fail by their bug alone."""
     report = verdicts["reference"]
-    assert report.ok and report.passed == len({vid for ids, _ in CLASSES.values() for vid in ids}), \
+    assert report.ok and report.passed == len({vid for ids, _ in CLASSES.values() for vid in ids}) + 1, \
         [o.line() for o in report.outcomes if not o.ok]
 
 
@@ -231,6 +275,16 @@ def test_the_refusal_names_the_key(message, key, named):
     assert names_key(message, key) is named
 
 
+def test_a_lenient_stability_rule_fails_on_random_cases_near_the_limit():
+    """``--random`` draws cases just past the stability limit (draws.CHECK_ODDS): a rule that
+    refuses only past 2.12 writes a result for some of them; each such verdict names the key."""
+    report = chk.check(f"{sys.executable} {BROKEN} lenient-limit {{pairs}}", vectors=False, random=8, seed=0)
+    failed = [o for o in report.outcomes if not o.ok]
+    assert failed and all(o.case_id.startswith("random-0-") and o.kind == "invalid" and o.key in ("dt", "mobility")
+                          and "a result written" in o.detail for o in failed), \
+        [o.line() for o in report.outcomes]
+
+
 def test_broken_programs_fail_on_random_cases_too():
     report = chk.check(f"{sys.executable} {BROKEN} perturb {{pairs}}", vectors=False, random=5)
     failed = [o for o in report.outcomes if not o.ok]
@@ -240,7 +294,7 @@ def test_broken_programs_fail_on_random_cases_too():
 @pytest.fixture(scope="module")
 def random_cases() -> list:
     """``check --random 30 --seed 3``'s cases, each with the reference's result."""
-    return [(case, run_case(case)) for _, case, _ in chk.draw_cases(30, seed=3)]
+    return [(case, run_case(case)) for _, case, cond in chk.draw_cases(30, seed=3) if cond is not None]
 
 
 @pytest.mark.parametrize("mode", sorted(V4_FAMILIES))
@@ -276,15 +330,21 @@ def test_the_random_draws_reach_the_rare_inputs_at_their_odds():
     """Over 400 draws of check's distribution: a wide margin on about half the scenes whose
     walls leave an axis with one wall, near-edge positions in about a quarter of the cases
     (where a coordinate is snapped, float32 misses the cell some of the time), flags as
-    int8 or uint8 in about half."""
-    assert draws.CHECK_ODDS == {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5}   # docs/spec.md 13.1
+    int8 or uint8 in about half, a step within 5% of the stability limit in about a fifth,
+    inside and past it about evenly."""
+    assert draws.CHECK_ODDS == {"wide_margin": 0.5, "near_edge": 0.25, "integer_flags": 0.5,
+                                "near_limit": 0.2}                                     # docs/spec.md 13.1
     single = wide = near = float32_misses = 0
-    dtypes = []
+    dtypes, limits = [], []
     for attempt in range(400):
         d = draws.GeneratorDraws(np.random.default_rng([7, attempt]))
         scene, x0, v0 = draws.scene_case(d, max_particles=4, near_edge=draws.CHECK_ODDS["near_edge"],
                                          wide_margin=draws.CHECK_ODDS["wide_margin"])
         dtypes.append(draws.flag_dtype(d, draws.CHECK_ODDS["integer_flags"]).name)
+        drawn = draws.near_limit(d, scene, draws.CHECK_ODDS["near_limit"])
+        if drawn is not None:
+            lim = stability.stability_limit(scene, "rule")
+            limits.append((drawn[0], lim.ratio * drawn[1]))          # the rule's value over 2 once scaled
         s = scene.surface
         if scene.walls is not None:
             edges, L, w = np.asarray(scene.walls.edges), s.length, scene.walls.margin
@@ -300,13 +360,17 @@ def test_the_random_draws_reach_the_rare_inputs_at_their_odds():
     counts = {name: dtypes.count(name) / 400 for name in ("bool", "int8", "uint8")}
     odds = draws.CHECK_ODDS["integer_flags"]
     assert abs(counts["int8"] - odds / 2) < 0.06 and abs(counts["uint8"] - odds / 2) < 0.06, counts
+    sides = [side for side, _ in limits]                    # (scenes of no stiffness or no step have none)
+    assert 0.6 * draws.CHECK_ODDS["near_limit"] < len(limits) / 400 <= 1.2 * draws.CHECK_ODDS["near_limit"], limits
+    assert abs(sides.count("past") / len(sides) - 0.5) < 0.2, sides
+    assert all(lo <= r <= hi for side, r in limits for lo, hi in [draws.NEAR_LIMIT[side]])
 
 
 def test_a_failing_case_is_kept_with_a_script_that_reproduces_it(tmp_path):
     keep = tmp_path / "keep"
     report = chk.check(f"{sys.executable} {BROKEN} perturb {{pairs}}", only=["plane-dynamic", "mass-zero"],
                        keep=keep)
-    assert report.summary() == "1 passed, 1 failed"
+    assert report.summary() == "1 passed, 2 failed"            # plane-dynamic, alone and in the mixed batch
     kept = keep / "plane-dynamic"
     assert sorted(p.name for p in keep.iterdir()) == ["plane-dynamic"]
     script = (kept / "reproduce.sh").read_text()
@@ -329,7 +393,7 @@ def test_random_cases_are_deterministic_and_well_conditioned():
     b = chk.draw_cases(12, seed=3)
     assert [x[0] for x in a] == [x[0] for x in b]
     for (_, ca, cond), (_, cb, _) in zip(a, b):
-        assert cond <= chk.CONDITION_BOUND
+        assert cond <= chk.CONDITION_BOUND if cond is not None else chk.refusal_key(ca) in ("dt", "mobility")
         assert ca.keys() == cb.keys() and all(np.array_equal(ca[k], cb[k]) and ca[k].dtype == cb[k].dtype for k in ca)
     modes = {str(c["mode"]) for _, c, _ in chk.draw_cases(40, seed=1)}
     assert modes == {"dynamic", "quasistatic"}

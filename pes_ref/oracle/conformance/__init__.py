@@ -16,8 +16,8 @@ from pathlib import Path
 
 __all__ = ["LATEST", "vectors_dir"]
 
-#: The newest vector set (v1, v2 and v3, frozen, are still shipped and readable).
-LATEST = "v4"
+#: The newest vector set (v1 to v4, frozen, are still shipped and readable).
+LATEST = "v5"
 
 
 def vectors_dir(version: str = LATEST) -> Path:

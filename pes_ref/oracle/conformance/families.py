@@ -26,8 +26,13 @@ from pes_ref.core.effects import Constant, Noise, PerParticle, Window, build_sch
 
 __all__ = ["VERSION", "TOPOLOGIES", "Vector", "valid_vectors", "invalid_vectors", "build_vectors"]
 
-#: The vector set these families make. v4 (spec v4) keeps every vector of v3 (the same
-#: cases and results, the same one-sided files) and adds three families of valid cases
+#: The vector set these families make. v5 (spec v5) keeps every vector of v4 and adds each
+#: refusal rule from both sides: ``limit-*``, 1% inside (valid) and past (refused) the
+#: stability rule of docs/spec.md section 10, or on it, so that each misreading of the rule
+#: lands on the wrong side of one; ``edge-*``, valid values at the edges of ranges; and
+#: ``optional-*``, every optional key NaN, infinite, misshapen or of a wrong type. v4 kept
+#: every vector of v3 (the same cases and results, the same one-sided files) and added three
+#: families of valid cases
 #: the spec accepts that no v3 vector held: a single wall of an axis with a margin of at
 #: least half the axis's length (``wide-margin-*``: docs/spec.md 8.6, the room rule binds
 #: two walls of one axis only), ``periodic`` and ``walls`` as int8 and uint8 arrays of 0
@@ -37,7 +42,7 @@ __all__ = ["VERSION", "TOPOLOGIES", "Vector", "valid_vectors", "invalid_vectors"
 #: kink vectors to their one-sided values and added the points the spec fixes that no
 #: vector sat on, the container refusals and runs that overflow; v2 added the stability
 #: rule of section 10 to v1.)
-VERSION = "v4"
+VERSION = "v5"
 _SEED = 20210921
 
 # name -> (shape, lower, upper, periodic); every spacing is 0.25
@@ -799,7 +804,9 @@ def _unstable_vectors() -> list:
 
 def build_vectors() -> list:
     """Every vector of this version: valid ones first, then invalid ones."""
-    vectors = valid_vectors() + invalid_vectors()
+    v5 = _limit_pairs()
+    vectors = (valid_vectors() + [v for v in v5 if v.kind == "valid"] + _edge_valid_vectors()
+               + invalid_vectors() + [v for v in v5 if v.kind == "invalid"] + _optional_invalid_vectors())
     ids = [v.id for v in vectors]
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
@@ -807,3 +814,298 @@ def build_vectors() -> list:
     return vectors
 
 
+
+
+# =========================================================================== v5: each rule from both sides
+
+#: How far inside and past a limit the ``limit-*`` pairs sit: ``dt sqrt(K/m)`` or
+#: ``mobility_d K`` at 1.98 and 2.02, 1% either side of 2.
+_INSIDE, _PAST = 1.98, 2.02
+
+
+def _quiet(r, topology="plane", **kw) -> dict:
+    """A case whose grid is gentle (values 0.05 times the usual: cross curvature about 5),
+    so that the term a ``limit-*`` vector puts at the limit is the stiffest by far."""
+    case = _case(r, topology, **kw)
+    case["values"] = case["values"] * 0.05
+    return case
+
+
+def _limit(vid, comment, build, *, reach=_INSIDE, key="dt"):
+    """A ``limit-*`` vector: valid at ``reach`` 1.98 (it must run), invalid at 2.02 (refused
+    naming ``key``). ``build(r, reach)`` makes the case."""
+    if reach < 2.0:
+        return _valid(vid, comment, lambda r: build(r, reach), flags=["limit"])
+    return Vector(vid, comment, build(_rng(vid), reach), "invalid", ["limit"], key, "ValueError")
+
+
+def _spring_particle(r, reach):
+    """Particle 0 heavy (m = 4) with the stiff spring K on q0, particle 1 light (m = 1) with
+    a soft one: the rule pairs the largest K with the smallest m, dt sqrt(K / 1) = reach."""
+    dt = 0.05
+    case = _quiet(r, n=2, n_steps=20, dt=dt, objective="quadratic", mass=np.array([[4.0, 4.0], [1.0, 1.0]]))
+    case.update(spring_k=np.array([[(reach / dt) ** 2, 0.0], [1.0, 0.0]]), spring_center=np.array([0.5, 0.75]))
+    return case
+
+
+def _spring_axis(axis):
+    """Mass per axis (1, 4); a spring on ``axis`` alone with dt sqrt(K / m_axis) = reach."""
+    def build(r, reach):
+        dt, m = 0.05, np.array([1.0, 4.0])
+        k = np.zeros(2)
+        k[axis] = (reach / dt) ** 2 * m[axis]
+        case = _quiet(r, n=2, n_steps=20, dt=dt, objective="quadratic", mass=m)
+        case.update(spring_k=k, spring_center=np.array([0.5, 0.75]))
+        return case
+    return build
+
+
+def _wall_axis(axis, edge):
+    """Mass per axis (1, 4); one wall, of ``axis`` at ``edge``, with dt sqrt(k_w / m_axis) = reach."""
+    def build(r, reach):
+        dt, m = 0.05, np.array([1.0, 4.0])
+        walls = np.zeros((2, 2), dtype=bool)
+        walls[axis, edge] = True
+        case = _quiet(r, n=2, n_steps=20, dt=dt, objective="funnel-every", mass=m)
+        case.update(wall_k=np.float64((reach / dt) ** 2 * m[axis]), wall_margin=np.float64(0.3), walls=walls)
+        return case
+    return build
+
+
+def _terms_inside(r, reach):
+    """A spring and a wall of q0 each at ``reach``: one at a time inside, summed past."""
+    dt = 0.05
+    K = (reach / dt) ** 2
+    case = _quiet(r, n=2, n_steps=20, dt=dt, objective="quadratic")
+    case.update(spring_k=np.array([K, 0.0]), spring_center=np.array([0.5, 0.75]), wall_k=np.float64(K),
+                wall_margin=np.float64(0.2), walls=np.array([[True, True], [False, False]]))
+    return case
+
+
+def _seam_grid(r, topology, n_steps):
+    """A grid ``s i j`` (plus a little noise) on ``topology``, periodic in q0: the cells of
+    the interior have the cross term s, the cells across the seam of q0 (node 7 to node 0)
+    7 s: the grid's curvature c is the seam's."""
+    case = _case(r, topology, n=2, n_steps=n_steps, objective="funnel-every")
+    n0, n1 = case["values"].shape
+    case["values"] = 0.02 * np.outer(np.arange(n0), np.arange(n1)) + r.normal(0.0, 1e-3, (n0, n1))
+    return case
+
+
+def _seam_dynamic(r, reach):
+    case = _seam_grid(r, "cylinder-q0", 12)
+    case["dt"] = np.float64(reach / np.sqrt(_cross_curvature(case)))
+    return case
+
+
+def _seam_quasistatic(r, reach):
+    case = _seam_grid(r, "torus", 12)
+    case["mode"] = "quasistatic"
+    case["mobility"] = np.array([reach / _cross_curvature(case), 0.001])
+    return case
+
+
+def _edges_not_a_term(r, reach):
+    """A grid with steep second differences along q0 (``a i^2``) and a cross term: the rule
+    takes the cross curvature alone (dt sqrt(c) = reach); the summed bound of 10.2, which adds
+    the second differences, is 4 times past it."""
+    case = _case(r, "plane", n=2, n_steps=4, objective="quadratic", speed=0.1)
+    n0, n1 = case["values"].shape
+    i, j = np.meshgrid(np.arange(n0), np.arange(n1), indexing="ij")
+    case["values"] = 0.4 * i * i + 0.02 * i * j + r.normal(0.0, 1e-4, (n0, n1))
+    case["dt"] = np.float64(reach / np.sqrt(_cross_curvature(case)))
+    return case
+
+
+def _mobility_axis(axis):
+    """Quasistatic, mobility (0.02, 0.002); a spring on ``axis`` alone with mobility_axis K =
+    reach: the other axis's mobility is 10x (axis 1) or 0.1x (axis 0) its own."""
+    def build(r, reach):
+        mu = np.array([0.02, 0.002])
+        k = np.zeros(2)
+        k[axis] = reach / mu[axis]
+        case = _quiet(r, "plane", n=2, n_steps=20, mode="quasistatic", objective="funnel-every")
+        case.update(mobility=mu, spring_k=k, spring_center=np.array([0.5, 0.75]))
+        return case
+    return build
+
+
+def _exact(mode):
+    """The rule's value exactly 2 with numbers every reading computes exactly: dt = 0.5 and
+    k = 16 (m = 1), or mobility 0.125 and k = 16."""
+    def build(r):
+        kw = dict(mode="quasistatic") if mode == "quasistatic" else dict(dt=0.5)
+        case = _quiet(r, "plane", n=2, n_steps=10, objective="quadratic", **kw)
+        case["values"] = case["values"] * 0.2
+        case.update(spring_k=np.array([16.0, 0.0]), spring_center=np.array([0.5, 0.75]))
+        if mode == "quasistatic":
+            case["mobility"] = np.array([0.125, 0.01])
+        return case
+    return build
+
+
+def _limit_pairs() -> list:
+    """docs/spec.md section 10 from both sides: pairs at 1.98 (valid, must run) and 2.02
+    (refused), each built so that a misreading of the rule lands on the wrong side of one."""
+    pairs = [
+        ("spring-particle", _spring_particle, "the stiff spring on heavy particle 0 (m 4), the light particle 1 "
+         "(m 1) with a soft one: K is paired with min_i m (dt sqrt(K/1)), not with its own particle's mass"),
+        ("spring-axis-q1", _spring_axis(1), "mass per axis (1, 4), the spring on q1: dt sqrt(K/m_1); the mass of "
+         "q0 (or the smallest of both) would put it 2x past"),
+        ("spring-axis-q0", _spring_axis(0), "mass per axis (1, 4), the spring on q0: dt sqrt(K/m_0); the mass of "
+         "q1 (or the largest) would put it 2x inside"),
+        ("wall-one-lower-q0", _wall_axis(0, 0), "a single lower wall of q0, mass (1, 4): the wall is a term of "
+         "an axis with at least one wall, with that axis's mass"),
+        ("wall-one-upper-q1", _wall_axis(1, 1), "a single upper wall of q1, mass (1, 4): a term of q1 only "
+         "(with m_1 = 4), not of every axis"),
+        ("grid-seam-dynamic", _seam_dynamic, "a cylinder periodic in q0 whose cross curvature is 7x larger in "
+         "the cells across the seam than inside: the curvature closes the grid by wrap-around"),
+        ("grid-seam-quasistatic", _seam_quasistatic, "the same on a torus, quasistatic, mobility_0 c: the seam "
+         "cells count"),
+    ]
+    out = []
+    for name, build, what in pairs:
+        key = "mobility" if "quasistatic" in name else "dt"
+        out.append(_limit(f"limit-{name}-inside", f"{what}; the rule's value 1.98: valid", build))
+        out.append(_limit(f"limit-{name}-past", f"{what}; the rule's value 2.02: refused naming {key}", build,
+                          reach=_PAST, key=key))
+    for axis, other in ((1, "0.1x"), (0, "10x")):
+        build = _mobility_axis(axis)
+        what = (f"quasistatic, the spring on q{axis} alone, the mobility of the other axis {other} its own: "
+                f"mobility_{axis} K, not another axis's mobility")
+        out.append(_limit(f"limit-mobility-axis-q{axis}-inside", f"{what}; 1.98: valid", build))
+        out.append(_limit(f"limit-mobility-axis-q{axis}-past", f"{what}; 2.02: refused naming mobility", build,
+                          reach=_PAST, key="mobility"))
+    out += [
+        _limit("limit-terms-one-at-a-time", "a spring and a wall of q0, each at 1.98: the terms are taken one at "
+               "a time, so valid (summed, 2.8)", _terms_inside),
+        _limit("limit-edges-not-a-term", "steep second differences along q0 and the cross curvature at 1.98: the "
+               "second differences are no term of the rule, so valid", _edges_not_a_term),
+        _valid("limit-exact-dynamic", "dt sqrt(k/m) exactly 2 (dt 0.5, k 16, m 1): a value at 2 is accepted "
+               "(the rule is strict, > 2)", _exact("dynamic"), flags=["limit"]),
+        _valid("limit-exact-quasistatic", "mobility_0 k exactly 2 (0.125 x 16): accepted", _exact("quasistatic"),
+               flags=["limit"]),
+    ]
+    return out
+
+
+def _edge_valid_vectors() -> list:
+    """Valid values at the edge of each key's range, and optional keys at theirs."""
+    tiny = 5e-324                                            # the smallest subnormal
+
+    def spring_zero_axis(r):
+        case = _case(r, "plane", n=2, n_steps=15, objective="quadratic")
+        case.update(spring_k=np.array([0.0, 2.0]), spring_center=np.array([0.5, 0.75]))
+        return case
+
+    def spring_zero_particle(r):
+        case = _case(r, "cylinder-q1", n=2, n_steps=15, mode="quasistatic", objective="quadratic")
+        case.update(spring_k=np.array([[0.0], [3.0]]), spring_center=np.array([0.0, 1.0]))
+        return case
+
+    def spring_all_zero(r):
+        case = _case(r, "cylinder-q0", n=2, n_steps=15, objective="funnel-every")
+        case.update(spring_k=np.float64(0.0), spring_center=np.array([1.0, 0.0]))
+        return case
+
+    def room_just_inside(r):
+        case = _case(r, "plane", n=2, n_steps=15, objective="funnel-every")
+        case.update(wall_k=np.float64(20.0), wall_margin=np.float64(np.nextafter(0.5, 0.0)),
+                    walls=np.array([[True, True], [False, False]]))
+        return case
+
+    return [
+        _valid("edge-spring-k-zero-axis", "spring_k = (0, 2): a stiffness of 0 on q0 is valid; its force is 0 but "
+               "grad_spring_k on q0 is not (-delta w summed)", spring_zero_axis, flags=["edge"]),
+        _valid("edge-spring-k-zero-particle", "spring_k (N, 1) = (0, 3), quasistatic on a cylinder: particle 0's "
+               "spring of stiffness 0 still has a gradient", spring_zero_particle, flags=["edge"]),
+        _valid("edge-spring-k-all-zero", "spring_k = 0 (a scalar): a spring of no stiffness is still a spring; "
+               "grad_spring_k and grad_spring_center are owed", spring_all_zero, flags=["edge"]),
+        _valid("edge-wall-margin-zero", "four walls with wall_margin = 0: on the domain's edges",
+               lambda r: _case(r, "plane", n=2, n_steps=15, objective="quadratic", **dict(_walls((0, 0), (0, 1),
+                               (1, 0), (1, 1)), wall_margin=np.float64(0.0))), flags=["edge"]),
+        _valid("edge-room-just-inside", "both walls of q0 with 2 wall_margin one ulp below L = 1: the room rule "
+               "2 w < L holds", room_just_inside, flags=["edge"]),
+        _valid("edge-dt-subnormal", "dt = 5e-324, the smallest subnormal: > 0, valid (no state moves)",
+               lambda r: _case(r, "plane", n=2, n_steps=5, dt=tiny, objective="oscillator"), flags=["edge"]),
+        _valid("edge-mobility-subnormal", "quasistatic, mobility (5e-324, 0.02): > 0, valid",
+               lambda r: _case(r, "plane", n=2, n_steps=5, mode="quasistatic", objective="quadratic",
+                               mobility=np.array([tiny, 0.02])), flags=["edge"]),
+        _valid("edge-wall-k-subnormal", "wall_k = 5e-324: > 0, valid",
+               lambda r: _case(r, "plane", n=2, n_steps=5, objective="funnel-final",
+                               **dict(_walls((0, 0), (1, 1)), wall_k=np.float64(tiny))), flags=["edge"]),
+        _valid("edge-one-particle-no-step", "one particle and n_steps = 0: the smallest run",
+               lambda r: _case(r, "torus", n=1, n_steps=0, objective="oscillator"), flags=["edge"]),
+        _valid("edge-regularization-zero", "regularization given as 0 (its default)",
+               lambda r: _case(r, "plane", n=2, n_steps=5, objective="funnel-final",
+                               regularization=np.float64(0.0)), flags=["edge"]),
+        _valid("edge-t0-large", "t0 = 1e6: any finite t0 is valid", lambda r: _case(
+            r, "plane", n=2, n_steps=8, objective="oscillator", t0=np.float64(1e6)), flags=["edge"]),
+    ]
+
+
+def _optional_invalid_vectors() -> list:
+    """Every optional key tried NaN, infinite, of a wrong shape and of a wrong type, and
+    values just past a range's edge (by the smallest subnormal), each naming its key."""
+    V, T = "ValueError", "TypeError"
+    q = _base_quasistatic
+    nan, inf, tiny = np.nan, np.inf, 5e-324
+    spring = {"spring_k": np.float64(1.0), "spring_center": np.zeros(2)}
+    walls = {"wall_k": np.float64(10.0), "wall_margin": np.float64(0.1), "walls": np.ones((2, 2), dtype=bool)}
+    rows = [
+        ("t0-nan", "t0 NaN", "t0", V, {}, dict(t0=np.float64(nan))),
+        ("t0-inf", "t0 = -inf", "t0", V, {}, dict(t0=np.float64(-inf))),
+        ("t0-shape", "t0 of shape (1,), not 0-d", "t0", V, {}, dict(t0=np.array([0.5]))),
+        ("t0-string", "t0 holds a string", "t0", T, {}, dict(t0=np.asarray("0.5"))),
+        ("t0-bool", "t0 holds a bool", "t0", T, {}, dict(t0=np.bool_(False))),
+        ("regularization-nan", "regularization NaN", "regularization", V, {}, dict(regularization=np.float64(nan))),
+        ("regularization-inf", "regularization = inf", "regularization", V, {},
+         dict(regularization=np.float64(inf))),
+        ("regularization-shape", "regularization of shape (2,)", "regularization", V, {},
+         dict(regularization=np.array([0.1, 0.1]))),
+        ("regularization-string", "regularization holds a string", "regularization", T, {},
+         dict(regularization=np.asarray("0.1"))),
+        ("regularization-negative-tiny", "regularization = -5e-324, just below 0", "regularization", V, {},
+         dict(regularization=np.float64(-tiny))),
+        ("force-inf", "+inf in one force entry", "force", V, {},
+         dict(force=np.where(np.arange(24).reshape(6, 2, 2) == 7, inf, 0.0))),
+        ("force-string", "force holds strings", "force", T, {}, dict(force=np.full((6, 2, 2), "0"))),
+        ("force-bool", "force holds bools", "force", T, {}, dict(force=np.zeros((6, 2, 2), dtype=bool))),
+        ("spring-k-nan", "spring_k NaN", "spring_k", V, spring, dict(spring_k=np.array([1.0, nan]))),
+        ("spring-k-inf", "spring_k = inf", "spring_k", V, spring, dict(spring_k=np.float64(inf))),
+        ("spring-k-shape", "spring_k (3,) does not broadcast to (N, 2)", "spring_k", V, spring,
+         dict(spring_k=np.ones(3))),
+        ("spring-k-string", "spring_k holds a string", "spring_k", T, spring, dict(spring_k=np.asarray("1"))),
+        ("spring-k-negative-tiny", "spring_k = -5e-324 on one axis", "spring_k", V, spring,
+         dict(spring_k=np.array([1.0, -tiny]))),
+        ("spring-center-inf", "spring_center -inf", "spring_center", V, spring,
+         dict(spring_center=np.array([0.0, -inf]))),
+        ("spring-center-shape", "spring_center (3,) does not broadcast", "spring_center", V, spring,
+         dict(spring_center=np.zeros(3))),
+        ("wall-k-nan", "wall_k NaN", "wall_k", V, walls, dict(wall_k=np.float64(nan))),
+        ("wall-k-inf", "wall_k = inf", "wall_k", V, walls, dict(wall_k=np.float64(inf))),
+        ("wall-k-shape", "wall_k of shape (2,)", "wall_k", V, walls, dict(wall_k=np.array([10.0, 10.0]))),
+        ("wall-k-string", "wall_k holds a string", "wall_k", T, walls, dict(wall_k=np.asarray("10"))),
+        ("wall-margin-nan", "wall_margin NaN", "wall_margin", V, walls, dict(wall_margin=np.float64(nan))),
+        ("wall-margin-inf", "wall_margin = inf", "wall_margin", V, walls, dict(wall_margin=np.float64(inf))),
+        ("wall-margin-negative-tiny", "wall_margin = -5e-324", "wall_margin", V, walls,
+         dict(wall_margin=np.float64(-tiny))),
+        ("walls-float", "walls of floats 0.0/1.0", "walls", T, walls, dict(walls=np.ones((2, 2)))),
+        ("walls-two", "walls holds a 2", "walls", V, walls, dict(walls=np.array([[1, 2], [0, 0]], dtype=np.int8))),
+        ("damping-negative-tiny", "damping = -5e-324 on one axis", "damping", V, {},
+         dict(damping=np.array([0.0, -tiny]))),
+        ("upper-equal-lower", "upper = lower on axis 0", "upper", V, {}, dict(upper=np.array([0.0, 1.5]))),
+    ]
+    qrows = [
+        ("mobility-nan", "mobility NaN", "mobility", V, {}, dict(mobility=np.array([nan, 0.02]))),
+        ("mobility-inf", "mobility inf", "mobility", V, {}, dict(mobility=np.array([0.02, inf]))),
+        ("mobility-string", "mobility holds strings", "mobility", T, {}, dict(mobility=np.array(["0.02", "0.02"]))),
+        ("x0-beyond-lookup", "x0 2**53 cells from lower on the periodic axis q0 of a cylinder, where float64 holds "
+         "no fraction of a cell (docs/spec.md 8.6)", "x0", V, {}, dict(x0=np.array([[2.0 ** 53 * 0.25, 0.0],
+                                                                                  [0.5, 0.0]]))),
+    ]
+    out = [_invalid(f"optional-{vid}", comment, key, error, **{**group, **changes})
+           for vid, comment, key, error, group, changes in rows]
+    out += [_invalid(f"optional-{vid}", comment, key, error, base=q, **{**group, **changes})
+            for vid, comment, key, error, group, changes in qrows]
+    return out

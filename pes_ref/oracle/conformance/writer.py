@@ -77,6 +77,10 @@ def manifest_header() -> dict:
                            "rule binds only two walls of one axis (docs/spec.md 8.6)",
             "near-edge": "a state 1e-9 below or above an interior cell edge, off it: looked up in the cell floor "
                          "picks from the float64 u (docs/spec.md 2.3), where a float32 u rounds onto the edge",
+            "limit": "a case 1% inside (valid) or past (refused) the stability rule of docs/spec.md section 10, "
+                     "or exactly at it (valid), built so that a misreading of the rule lands on the wrong side",
+            "edge": "a value at the edge of its key's valid range (a stiffness or margin of 0, a subnormal "
+                    "dt, mobility or wall_k, one ulp inside the room rule, one particle and no step)",
             "file": "the case file itself breaks docs/spec.md 8.1: written byte for byte, it has no case dict",
             "nonfinite": "valid by sections 8 and 10, refused when run: its numbers leave the finite range (12.1)",
         },
@@ -107,7 +111,7 @@ def write_vectors(directory=None, *, quiet: bool = True) -> dict:
     Parameters
     ----------
     directory : path, optional
-        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v4``.
+        Default: the shipped folder of this version, ``pes_ref/oracle/conformance/v5``.
         Created if missing; vector files of this naming scheme that are no longer
         part of the set are removed. Every file is made in a hidden folder beside it
         first and moved in once all are made, the manifest last: a run stopped part-way

@@ -229,9 +229,86 @@ def _omit_grad_values(case, result):
     result.pop("grad_values", None)
 
 
+def _zero_grad_values(case, result):
+    result["grad_values"] = np.zeros_like(result["grad_values"])
+
+
+def _big_endian(case, result):
+    """Every array stored big-endian: float64 of the same values, but not ``<f8``."""
+    for key in result:
+        result[key] = np.asarray(result[key]).astype(">f8")
+
+
 def _nan_in_x(case, result):
     result["x"] = result["x"].copy()
     result["x"][-1, 0, 0] = np.nan
+
+
+# --- the stability rule (docs/spec.md section 10), misread
+
+def rule_value(case: dict, *, mass="min", wall="any", seam=True, summed=False, edges=False,
+               mobility="own") -> float:
+    """docs/spec.md section 10's ``max dt sqrt(K/m_d)`` or ``max mobility_d K``, written out
+    on its own, or under one misreading of it: ``mass`` "own" (each particle's spring with
+    its own mass), "max", "other-axis" or "all" (the smallest of both axes); ``wall``
+    "every-axis" (a wall is a term of both axes) or "both" (only of an axis with both walls);
+    ``seam`` False (no cells across a periodic seam); ``summed`` (the terms of an axis added);
+    ``edges`` (the second differences added, the bound of 10.2); ``mobility`` "max" or
+    "other-axis". (tests/oracle/test_conformance.py holds the v5 vectors to it too.)"""
+    G = np.asarray(case["values"], dtype=float)
+    per = np.asarray(case["periodic"]).astype(bool)
+    n_nodes = np.array(G.shape, dtype=float)
+    h = (np.asarray(case["upper"], dtype=float) - np.asarray(case["lower"], dtype=float)) / np.where(
+        per, n_nodes, n_nodes - 1)
+    closed = G
+    for d in range(2):
+        if per[d] and seam:
+            closed = np.concatenate((closed, np.take(closed, [0], axis=d)), axis=d)
+    c = np.max(np.abs(closed[1:, 1:] - closed[1:, :-1] - closed[:-1, 1:] + closed[:-1, :-1])) / (h[0] * h[1])
+    n = np.shape(case["x0"])[0]
+    k = np.broadcast_to(np.asarray(case.get("spring_k", 0.0), dtype=float), (n, 2))
+    terms = [np.full(2, c), k.max(axis=0)]
+    if "walls" in case:
+        walls = np.asarray(case["walls"]).astype(bool)
+        on = {"any": walls.any(axis=1), "both": walls.all(axis=1), "every-axis": np.repeat(walls.any(), 2)}[wall]
+        terms.append(np.where(on, float(case["wall_k"]), 0.0))
+    if edges:
+        second = [np.roll(G, -1, d) - 2 * G + np.roll(G, 1, d) if per[d] else np.diff(G, 2, axis=d) for d in range(2)]
+        terms.append(np.array([np.max(np.abs(second[d])) / h[d] ** 2 if second[d].size else 0.0 for d in range(2)]))
+    K = np.array([sum(terms)] if summed or edges else terms)                      # (terms, 2)
+    if str(case["mode"]) == "quasistatic":
+        mu = np.asarray(case["mobility"], dtype=float)
+        mu = {"own": mu, "max": np.full(2, mu.max()), "other-axis": mu[::-1]}[mobility]
+        return float(np.max(mu * K))
+    m = np.broadcast_to(np.asarray(case["mass"], dtype=float), (n, 2))
+    md = {"min": m.min(axis=0), "max": m.max(axis=0), "other-axis": m.min(axis=0)[::-1],
+          "all": np.full(2, m.min()), "own": m.min(axis=0)}[mass]
+    omega2 = K / md
+    if mass == "own":          # each particle's spring over its own mass
+        omega2[1] = np.max(k / m, axis=0)
+    return float(np.max(float(case["dt"]) * np.sqrt(omega2)))
+
+
+def _misread_rule(limit=2.0, **misreading):
+    """A stability rule of its own: ``rule_value`` under ``misreading`` past ``limit``."""
+    def rule(case):
+        if int(case["n_steps"]) > 0 and rule_value(case, **misreading) > limit:
+            key = "dt" if str(case["mode"]) == "dynamic" else "mobility"
+            raise CaseError(key, f"{key} is past the stability limit (as this program reads the rule)")
+    return rule
+
+
+def _t0_unchecked(case: dict) -> dict:
+    """A t0 that is not finite read as 0 (the key left unchecked, as the step times' origin)."""
+    t0 = np.asarray(case.get("t0", 0.0))
+    return case if t0.dtype.kind not in "f" or np.all(np.isfinite(t0)) else {**case, "t0": np.float64(0.0)}
+
+
+def _spring_skipped_at_zero(case: dict) -> dict:
+    """A spring whose every stiffness is 0 taken as no spring (so no grad_spring_k, grad_spring_center)."""
+    if "spring_k" in case and not np.any(np.asarray(case["spring_k"], dtype=float)):
+        return {k: v for k, v in case.items() if k not in ("spring_k", "spring_center")}
+    return case
 
 
 # =========================================================================== the modes
@@ -284,6 +361,19 @@ MODES = {
     "bool-flags-only": ("periodic and walls of 0/1 integers refused as a type error", {"rule": _bool_flags_only}),
     "float32-cell-index": ("the cell index from a float32 u",
                            {"run": "reference", "patch": ("lookup", _float32_cell_index)}),
+    "zero-gradient": ("grad_values written as zeros (a gradient left out)", {"after": _zero_grad_values}),
+    "big-endian-result": ("every result array stored big-endian (>f8), the values exact", {"after": _big_endian}),
+    "refusal-exits-0": ("a refusal printed and recorded as it should be, but exit status 0", {"refuse": "exit-0"}),
+    "last-exit-status": ("a run of several cases exits with the status of its last case, not non-zero if "
+                         "it refused any", {"status": "last"}),
+    "lenient-limit": ("the stability rule refuses only past 2.12, not 2", {"stability": _misread_rule(2.12)}),
+    "seamless-curvature": ("the grid's curvature without the cells across a periodic seam",
+                           {"stability": _misread_rule(seam=False)}),
+    "own-particle-mass": ("each particle's spring paired with its own mass in the stability rule",
+                          {"stability": _misread_rule(mass="own")}),
+    "t0-unchecked": ("a t0 that is NaN or infinite read as 0", {"before": _t0_unchecked}),
+    "spring-skipped-at-zero": ("a spring of stiffness 0 everywhere taken as no spring (no gradients of it)",
+                               {"before": _spring_skipped_at_zero}),
     "first-refusal-only": ("nothing wrong, but a run ends at its first refusal", {"stop": True}),
     "hang": ("never answers", {}),
 }
@@ -325,10 +415,16 @@ def run(mode: str, case_path: str, result_path: str, prefix: str, refusals) -> i
             if "rule" in how:
                 validate_case(case)
                 how["rule"](case)
+            if "stability" in how:          # the rule of its own in place of the oracle's
+                validate_case(case, allow_unstable=True)
+                how["stability"](case)
             if how.get("refuse") == "open-early":
                 validate_case(case)
                 open(result_path, "wb").close()
-            result = (_reference_run if how.get("run") == "reference" else run_case)(case)
+            if "stability" in how:
+                result = run_case(case, allow_unstable=True)
+            else:
+                result = (_reference_run if how.get("run") == "reference" else run_case)(case)
     except CaseError as exc:
         refuse = how.get("refuse")
         if refuse == "accept":
@@ -342,7 +438,7 @@ def run(mode: str, case_path: str, result_path: str, prefix: str, refusals) -> i
                 exc = (CaseTypeError if isinstance(exc, TypeError) else CaseError)(_wrong_key(exc), "refused")
             print(f"{prefix}{exc}", file=sys.stderr)
             _record(refusals, case_path, exc, swap=refuse == "swap-kinds")
-            return 2
+            return 0 if refuse == "exit-0" else 2
     how.get("after", lambda c, r: None)(case, result)
     write_result(result, result_path, overwrite=True)
     return 0
@@ -355,9 +451,11 @@ def main(argv) -> int:
         refusals, files = files[1], files[2:]
     pairs = list(zip(files[::2], files[1::2]))
     status = 0
+    last = MODES[mode][1].get("status") == "last"
     for case_path, result_path in pairs:
         prefix = "error: " if len(pairs) == 1 else f"error: {case_path}: "
-        status = max(status, run(mode, case_path, result_path, prefix, refusals))
+        answer = run(mode, case_path, result_path, prefix, refusals)
+        status = answer if last else max(status, answer)
         if status and MODES[mode][1].get("stop"):
             break
     return status
