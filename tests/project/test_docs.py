@@ -173,4 +173,4 @@ def test_every_docs_page_is_reachable_from_the_readme():
     pages = {str(p.relative_to(ROOT)) for p in ROOT.glob("docs/*.md")} - {"docs/index.md"}
     assert pages - linked == set(), "pages the README does not link"
     assert linked - pages == set(), "links to pages that do not exist"
-    assert len(readme.splitlines()) <= 130
+    assert len(readme.splitlines()) < 130
