@@ -66,7 +66,7 @@ def add_parser(sub) -> None:
 
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"n_particles": "--particles", "seed": "--seed", "realized": "--realized", "engine": "--engine"}
-#: ``--engine NAME`` -> the engines (`pes_ref.realize.evaluation.ENGINES`) that run the realized device.
+#: ``--engine NAME`` -> the engines (`pes_ref.rigid.engines.ENGINES`) that run the realized device.
 ENGINE_CHOICES = {"surface": ("surface",), "rigid": ("rigid",), "both": ("surface", "rigid")}
 #: The figures that are no measure of the device (no difference line under ``--engine both``).
 _NO_DIFFERENCE = ("dt", "n_steps", "particles", "starts_blocked", "starts_run")
@@ -127,7 +127,7 @@ def _lines(state, figures: dict, engines: tuple = ("surface",)) -> list:
               ("grid_iteration", state.grid_iteration), ("evaluations", state.evaluations), ("status", state.status)]
     for name, value in figures.items():
         if isinstance(value, tuple):
-            from pes_ref.realize.evaluation import ENGINES
+            from pes_ref.rigid.engines import ENGINES
             prefixes = [ENGINES[engine].prefix for engine in engines]
             lines += [(name, float(value[0]))] + [(prefix + name, float(x)) for prefix, x in zip(prefixes, value[1:])]
             if len(value) == 3 and name not in _NO_DIFFERENCE:

@@ -13,7 +13,7 @@ Modules, one idea each:
 - [`.contact`][pes_ref.realize.contact]     a contact realization: parts, the device file's tables, what is lost
 - [`.exports`][pes_ref.realize.exports]     writing and reading back device.toml, DXF (ezdxf) and STL (trimesh)
 - [`.evaluation`][pes_ref.realize.evaluation]  a design's own held-out evaluation on a realized device, under eq. (1)
-                      or its parts in rigid contact (`ENGINES`; what each
+                      or its parts in rigid contact (`pes_ref.rigid.engines.ENGINES`; what each
                       design kind needs to be realized is its kind's entry,
                       `pes_ref.synthesis.kinds.DesignKind.realizable`)
 - [`.heightfield`][pes_ref.realize.heightfield] a plate whose top is the energy, and a ball rolling on it

@@ -25,7 +25,7 @@ force schedules and noise draws, steps and figures, with the parts' contact in p
 eq. (1). That engine needs no step for the barriers (it cuts each step into substeps that
 move no part more than half a C-space cell), so it runs at the design's own ``dt`` unless the
 springs, walls or damping need less by the same rule (the rule applied to the scene on a flat
-surface). `ENGINES` names both; [`evaluate_realized`][pes_ref.realize.evaluation.evaluate_realized] runs the ones asked
+surface). `pes_ref.rigid.engines.ENGINES` names both; [`evaluate_realized`][pes_ref.realize.evaluation.evaluate_realized] runs the ones asked
 for.
 
 What a realization needs of each kind of design is its kind's entry,
@@ -41,7 +41,7 @@ from pes_ref.core import checks
 from pes_ref.core.stability import SAFETY, stability_limit
 from pes_ref.synthesis.kinds import evaluate, held_out_steps, kind_of
 
-__all__ = ["RealizedRun", "RealizedEngine", "RigidRuns", "ENGINES", "realized_problem", "rigid_problem", "evaluate_realized",
+__all__ = ["RealizedRun", "RigidRuns", "realized_run", "realized_problem", "rigid_problem", "evaluate_realized",
            "headline_scores", "device_spring", "check_design"]
 
 
@@ -169,27 +169,22 @@ class RigidRuns:
         return out
 
 
-class RealizedEngine(NamedTuple):
-    """How one engine runs the design on a realized device: ``prefix`` of its figures
-    (``realized_in_band_fraction``) and ``run(problem, device) -> RealizedRun``."""
-
-    prefix: str
-    run: Callable
-
-
-#: The engines a realized device is checked by: eq. (1) of the distance to the parts
-#: (the surface model), and the parts in rigid contact.
-ENGINES = {"surface": RealizedEngine("realized_", realized_problem),
-           "rigid": RealizedEngine("rigid_", rigid_problem)}
+def realized_run(problem, device, engine: str) -> RealizedRun:
+    """The design ``problem`` on ``device`` as engine ``engine`` of the one registry
+    ([`pes_ref.rigid.engines.ENGINES`][pes_ref.rigid.engines.ENGINES]) runs it: in contact (the
+    rigid parts, `rigid_problem`) or on eq. (1) of the distance to the parts (`realized_problem`)."""
+    from pes_ref.rigid.engines import ENGINES
+    name = checks.as_choice("engine", engine, set(ENGINES))
+    return (rigid_problem if ENGINES[name].contact else realized_problem)(problem, device)
 
 
 def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: int | None = None,
                       engines=("surface",)) -> dict:
     """The design's figures and the realized device's under each of ``engines`` (names of
-    `ENGINES`), side by side: ``{name: (design, engine 1, ...)}``, plus ``dt`` and the
+    `pes_ref.rigid.engines.ENGINES`), side by side: ``{name: (design, engine 1, ...)}``, plus ``dt`` and the
     held-out run's steps ``n_steps`` of each (a realized run's as its engine's rule allows).
     The flat surface's figures (the same for all) are left out."""
-    runs = [ENGINES[checks.as_choice("engine", name, set(ENGINES))].run(problem, device) for name in engines]
+    runs = [realized_run(problem, device, name) for name in engines]
     columns = [evaluate(problem, values, seed=seed, n_particles=n_particles)]
     columns += [evaluate(run.problem, run.values, seed=seed, n_particles=n_particles, engine=run.engine)
                 for run in runs]
@@ -207,8 +202,9 @@ def headline_scores(problem, values, device, seed: int = 12345, n_particles: int
     ``seed`` beside the parts' under eq. (1) (``realized_``) and in rigid contact (``rigid_``; without
     pymunk its value says it was not run, with the pip line), with ``score_seed`` and ``score_particles``,
     and how many of the rigid run's starts (every scene's) lie inside the parts (``rigid_starts_blocked``)."""
-    from pes_ref.devices.geometry import MissingExtraError
+    from pes_ref.core.runtime.extras import MissingExtraError
     from pes_ref.rigid import require_pymunk
+    from pes_ref.rigid.engines import ENGINES
     try:
         require_pymunk()
         engines, missing = ("surface", "rigid"), None

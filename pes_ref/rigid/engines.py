@@ -53,13 +53,17 @@ class Engine:
     the engine's
     extra is not installed; ``contact``: its figures state the engine and the contact's
     restitution and friction; ``native``: the analyses' own runs (an analysis on it is called
-    as it always was, without a ``run``)."""
+    as it always was, without a ``run``); ``prefix``: what starts the names of a realized
+    device's figures on it (``evaluate --realized``: ``realized_in_band_fraction`` on eq. (1) of
+    the parts, ``rigid_in_band_fraction`` in rigid contact,
+    [`pes_ref.realize.evaluation.evaluate_realized`][pes_ref.realize.evaluation.evaluate_realized])."""
 
     name: str
     run: object
     require: object
     contact: bool
     native: bool = False
+    prefix: str = ""
 
     def hook(self):
         """What an analysis' ``run=`` (or a drive's ``engine=``) takes: None for the native engine."""
@@ -67,8 +71,8 @@ class Engine:
 
 
 #: The engines by name (``analyze --engine NAME``).
-ENGINES = {"surface": Engine("surface", _surface_run, _nothing, False, native=True),
-           "rigid": Engine("rigid", _rigid_run, require_pymunk, True)}
+ENGINES = {"surface": Engine("surface", _surface_run, _nothing, False, native=True, prefix="realized_"),
+           "rigid": Engine("rigid", _rigid_run, require_pymunk, True, prefix="rigid_")}
 #: The choice that runs every engine of `ENGINES` and states them side by side.
 BOTH = "both"
 

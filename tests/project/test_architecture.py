@@ -85,3 +85,12 @@ def test_no_code_asks_for_a_backend_by_its_name():
     found = [f"{path.relative_to(ROOT)}:{i}" for path in sorted((ROOT / "pes_ref").rglob("*.py"))
              for i, line in enumerate(path.read_text().splitlines(), 1) if re.search(r"backend\s*[=!]=\s*['\"]", line)]
     assert not found, found
+
+
+def test_one_registry_of_engines():
+    """The engines are one registry (``pes_ref.rigid.engines.ENGINES``): no other module of the
+    package binds a name ``ENGINES``."""
+    import re
+    found = [str(path.relative_to(ROOT)) for path in sorted((ROOT / "pes_ref").rglob("*.py"))
+             if re.search(r"^ENGINES\s*[:=]", path.read_text(), re.M)]
+    assert found == ["pes_ref/rigid/engines.py"], found
