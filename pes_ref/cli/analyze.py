@@ -398,15 +398,11 @@ def _in_file_words(exc, path: str, given, start) -> ValueError:
     return ValueError(f"{path}: start.q = {where}: " + text[len("start "):] + " (or start elsewhere with --start)")
 
 
-def _motion_law_csv(result) -> bytes:
-    lines = ["q_in,q_out"] + [f"{a:.17g},{b:.17g}" for a, b in zip(result.q_in, result.q_out)]
-    return ("\n".join(lines) + "\n").encode()
-
-
 def _run_file(args) -> int:
     from pes_ref.core.runtime.progress import ShareLines
     from pes_ref.devices.clearance import check_clearance
-    from pes_ref.devices.drive import check_drive, check_free, drive
+    from pes_ref.devices.drive import check_drive, check_free
+    from pes_ref.rigid.report import DriveReport, drive_on
     from pes_ref.devices.device_file import load_device
     path = args.device_file if getattr(args, "device_file", None) else args.device
     try:
@@ -434,16 +430,17 @@ def _run_file(args) -> int:
                 device.blocked(progress)
                 check_free(device, start)      # before the boundary and the distance: a refusal computes little
                 cs = device.cspace(progress)
-                results = _drives(names, drive, device, axis, load, args.mode, cycles, start, threshold, progress)
-                stall = _stall(device, results)
+                report = DriveReport(device, drive_on(names, device, axis, load, args.mode, cycles, start,
+                                                      threshold, progress))
             finally:
                 progress.lines.end()    # the last progress line stays, whole, before anything else is printed
         except checks.InputError as exc:
             raise _in_file_words(exc, path, args.start, device.start) from None
     except (ValueError, TypeError, OSError, ImportError) as exc:
         return error(exc, DRIVE_FLAGS)
+    results = report.results
     result = next(iter(results.values()))
-    for line in _drive_lines(device, results, stall):
+    for line in report.lines():
         print(line)
     for text in device.angle_warnings():
         print(f"warning: {path}: {text}", file=sys.stderr)
@@ -455,10 +452,9 @@ def _run_file(args) -> int:
     try:
         if "csv" in outputs:
             os.makedirs(args.out, exist_ok=True)
-            _write(outputs["csv"], _motion_law_csv(result) if len(results) == 1 else _motion_laws_csv(results),
-                   args.force, "motion law")
+            _write(outputs["csv"], report.csv(), args.force, "motion law")
         if "json" in outputs:
-            summary = _drive_summary(device, results, stall)
+            summary = report.summary()
             _write(outputs["json"], (json.dumps(summary, indent=2) + "\n").encode(), args.force, "JSON")
         if "plot" in outputs:
             import io
@@ -479,67 +475,3 @@ def _run_file(args) -> int:
     return EXIT_OK
 
 
-# =========================================================================== a drive on each engine
-
-def _drives(names, drive, device, axis, load, mode, cycles, start, threshold, progress) -> dict:
-    """The drive on each engine named, by name (the surface's as it always ran)."""
-    from pes_ref.rigid.engines import ENGINES
-    return {name: drive(device, axis, load, mode, cycles, start, threshold, progress, engine=ENGINES[name].hook())
-            for name in names}
-
-
-def _stall(device, results: dict):
-    """What the rigid engine says of the surface drive's stall (None when it did not stall):
-    the rigid drive of ``--engine both``, else a rigid run from the stall point
-    ([`pes_ref.rigid.engines.tell_stall`][pes_ref.rigid.engines.tell_stall]; unknown without pymunk)."""
-    from pes_ref.rigid.engines import stall_from_runs, tell_stall
-    surface = results.get("surface")
-    if surface is None or surface.stop_reason != "stalled":
-        return None
-    if "rigid" in results:
-        return stall_from_runs(device, surface, results["rigid"])
-    return tell_stall(device, surface)
-
-
-def _drive_lines(device, results: dict, stall) -> list:
-    """The drive's lines: one engine's (the rigid engine's with its contact), or both side by side
-    with the two motion laws' difference; then the stall's verdict."""
-    from pes_ref.rigid.engines import compare_laws, law_lines, side_by_side, stated_lines
-    lines = {name: r.as_lines() + stated_lines(device, name) for name, r in results.items()}
-    if len(lines) == 1:
-        out = next(iter(lines.values()))
-    else:
-        (a, ra), (b, rb) = results.items()
-        out = side_by_side(lines) + law_lines(compare_laws(ra, rb), f"{b}-{a}")
-    return out + ([stall.line()] if stall is not None else [])
-
-
-def _drive_summary(device, results: dict, stall) -> dict:
-    """The JSON: one engine's figures with its facts, or ``{"engine": "both", name: figures, ...,
-    "difference": ...}``; the stall's verdict when the surface drive stalled."""
-    from pes_ref.rigid.engines import compare_laws, engine_facts
-    figures = {name: {**r.summary(), **engine_facts(device, name)} for name, r in results.items()}
-    if len(figures) == 1:
-        out = next(iter(figures.values()))
-    else:
-        (a, ra), (b, rb) = results.items()
-        diff = {k: getattr(rb, k) - getattr(ra, k) for k in ("advance_per_cycle", "moving_fraction", "max_ratio")}
-        out = {"engine": "both", **figures, "difference": {"of": f"{b} - {a}", **diff,
-                                                           "motion_law": compare_laws(ra, rb).summary()}}
-    if stall is not None:
-        out.update(stall.summary())
-    return out
-
-
-def _motion_laws_csv(results: dict) -> bytes:
-    """Both engines' motion laws in one file: ``q_in,q_out_<engine>,...`` on the input's samples
-    (the same for every engine: every half input spacing from the start), ``nan`` past where an
-    engine's input got."""
-    import numpy as np
-    longest = max(results.values(), key=lambda r: r.q_in.size)
-    cols = [np.full(longest.q_in.size, np.nan) for _ in results]
-    for col, r in zip(cols, results.values()):
-        col[:r.q_in.size] = r.q_out
-    lines = [",".join(["q_in"] + [f"q_out_{name}" for name in results])]
-    lines += [",".join(f"{v:.17g}" for v in row) for row in zip(longest.q_in, *cols)]
-    return ("\n".join(lines) + "\n").encode()

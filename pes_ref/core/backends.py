@@ -22,7 +22,6 @@ import importlib.util
 from typing import NamedTuple
 
 from pes_ref.core import checks, halves
-from pes_ref.core.runtime import extras
 from pes_ref.core.steppers import Stepper, stepper as numpy_stepper
 
 __all__ = ["Backend", "BACKENDS", "DEFAULT_ORDER", "installed", "default_backend", "check_backend", "stepper",
@@ -80,6 +79,11 @@ def kernel(backend: str, name: str, interpolation: str = "bilinear"):
     return getattr(importlib.import_module(b.module), name)
 
 
+def _pip_line(extra: str) -> str:
+    from pes_ref.core.runtime.extras import pip_line       # here: only a refusal needs it (the oracle's start-up)
+    return pip_line(extra)
+
+
 def default_backend() -> str:
     """The first installed backend of `DEFAULT_ORDER`."""
     return next(name for name in DEFAULT_ORDER if installed(name))
@@ -98,7 +102,7 @@ def check_backend(backend) -> str:
     if not installed(backend):
         b = BACKENDS[backend]
         raise checks.InputError("backend", f"backend={backend!r} needs {b.requires}, which is not installed: "
-                                           f"{extras.pip_line(b.extra)}")
+                                           f"{_pip_line(b.extra)}")
     return backend
 
 
