@@ -13,7 +13,8 @@ import pkgutil
 import pes_ref
 
 #: The API pages, in the order of the layers (docs/architecture.md), highest first.
-SUBPACKAGES = ("cli", "bench", "testing", "sweep", "realize", "synthesis", "rigid", "devices", "oracle", "core")
+SUBPACKAGES = ("cli", "bench", "testing", "sweep", "realize", "synthesis", "rigid", "devices", "oracle", "accel",
+               "core")
 
 
 def public_modules(package: str) -> list:

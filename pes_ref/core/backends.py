@@ -1,7 +1,8 @@
 """The registry of backends: which code runs a scene's steps and their adjoints.
 
-- ``"numpy"``: the NumPy loops (`pes_ref.core.steppers.STEPPERS`); every scene.
-- ``"numba"``: compiled loops ([`pes_ref.core.compiled`][pes_ref.core.compiled], the optional extra ``fast``:
+- ``"numpy"``: the NumPy loops (`pes_ref.core.steppers.STEPPERS`); every scene. A run of
+  many particles runs as two halves on two threads ([`pes_ref.accel.halves`][pes_ref.accel.halves], its ``threads``).
+- ``"numba"``: compiled loops ([`pes_ref.accel.compiled`][pes_ref.accel.compiled], the optional extra ``fast``:
   ``pip install 'pes_ref[fast]'``), for the bilinear grid with the paper's dynamic step and
   the quasistatic step, springs, walls, damping and the external force. A scene it does not
   cover (the bicubic grid, the GJF step) runs on NumPy. Its forward trajectories are
@@ -13,6 +14,10 @@ installed: the compiled loops when numba is, else NumPy. Whether a backend is in
 read from the import system without importing it, so choosing the default imports nothing
 (``python -m pes_ref oracle`` asks for ``"numpy"`` and never imports numba).
 [`stepper`][pes_ref.core.backends.stepper] is the one dispatch point (``core/scene.py`` and ``core/population.py``).
+
+The accelerators (``pes_ref/accel/``) are reached only here, by the module names of their
+entries, imported on first use: the method (``pes_ref/core/``) imports none of them
+(setup.cfg's import-linter contracts).
 """
 from __future__ import annotations
 
@@ -21,7 +26,7 @@ import importlib
 import importlib.util
 from typing import NamedTuple
 
-from pes_ref.core import checks, halves
+from pes_ref.core import checks
 from pes_ref.core.steppers import Stepper, stepper as numpy_stepper
 
 __all__ = ["Backend", "BACKENDS", "DEFAULT_ORDER", "installed", "default_backend", "check_backend", "stepper",
@@ -35,7 +40,9 @@ class Backend(NamedTuple):
     use; ``requires`` the package it needs (None: NumPy alone) and ``extra`` the pip extra
     that installs it; ``interpolations`` the grid rules its steppers compute; ``kernels`` the
     whole-array operations its module has of its own (the energy of a trajectory, the grid's
-    largest cross curvature: [`kernel`][pes_ref.core.backends.kernel]). What it does not
+    largest cross curvature: [`kernel`][pes_ref.core.backends.kernel]); ``threads`` the
+    module that runs a large run of its steppers on both cores (its ``MIN_PARTICLES`` and
+    ``stepper(inner)``), or None where its loops use the cores themselves. What it does not
     cover runs on ``"numpy"``.
     """
 
@@ -45,12 +52,14 @@ class Backend(NamedTuple):
     extra: str | None
     interpolations: tuple
     kernels: tuple = ()
+    threads: str | None = None
 
 
 #: Every backend by name.
 BACKENDS = {
-    "numpy": Backend("numpy", "pes_ref.core.steppers", None, None, ("bilinear", "bicubic")),
-    "numba": Backend("numba", "pes_ref.core.compiled", "numba", "fast", ("bilinear",),
+    "numpy": Backend("numpy", "pes_ref.core.steppers", None, None, ("bilinear", "bicubic"),
+                     threads="pes_ref.accel.halves"),
+    "numba": Backend("numba", "pes_ref.accel.compiled", "numba", "fast", ("bilinear",),
                      ("energy", "cross_curvature_max")),
 }
 
@@ -118,11 +127,15 @@ def covers(backend: str, mode: str, integrator: str, interpolation: str) -> bool
 def stepper(backend: str, mode: str, integrator: str, interpolation: str, n_particles: int | None = None) -> Stepper:
     """The stepper that runs ``(mode, integrator)`` on an ``interpolation`` grid for
     ``backend`` (checked): its own when it covers the scene, else NumPy's, which for a run of
-    ``n_particles`` >= `pes_ref.core.halves.MIN_PARTICLES` runs the particles as two halves
-    on two threads ([`pes_ref.core.halves.stepper`][pes_ref.core.halves.stepper]; None: one thread, as a population's
+    ``n_particles`` >= its ``threads``' ``MIN_PARTICLES`` runs the particles as two halves
+    on two threads ([`pes_ref.accel.halves.stepper`][pes_ref.accel.halves.stepper]; None: one thread, as a population's
     stacked grids need)."""
     if backend != FALLBACK and covers(backend, mode, integrator, interpolation):
         return _steppers(backend)[(mode, integrator)]
-    if n_particles is not None and n_particles >= halves.MIN_PARTICLES:
-        return halves.stepper(numpy_stepper(mode, integrator))
-    return numpy_stepper(mode, integrator)
+    numpy = numpy_stepper(mode, integrator)
+    threads = BACKENDS[FALLBACK].threads
+    if n_particles is not None and threads is not None:
+        both = importlib.import_module(threads)
+        if n_particles >= both.MIN_PARTICLES:
+            return both.stepper(numpy)
+    return numpy

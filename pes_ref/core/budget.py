@@ -60,7 +60,7 @@ __all__ = ["ARRAYS", "LOOKUP_STATES", "LOOKUP_BYTES", "GRID_ARRAYS", "RunTooLarg
 ARRAYS = {"simulate": 5, "value_and_grad": 15, "case": 21}
 
 #: A compiled dynamic run of at most this many particle-states ((T+1) N) keeps each state's
-#: grid lookup for its adjoint (`pes_ref.core.compiled._lookups`), ``LOOKUP_BYTES``
+#: grid lookup for its adjoint (`pes_ref.accel.compiled._lookups`), ``LOOKUP_BYTES``
 #: each (its position, two fractions, the cell, its row and column and switches): at most
 #: 3.1 MB, which `run_bytes` counts.
 LOOKUP_STATES = 1 << 16

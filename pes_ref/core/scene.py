@@ -22,7 +22,7 @@ from dataclasses import dataclass, field as dc_field
 
 import numpy as np
 
-from pes_ref.core import backends, budget, checks, halves
+from pes_ref.core import backends, budget, checks
 from pes_ref.core import stability
 from pes_ref.core.effects import all_zero, build_schedule, step_times
 from pes_ref.core.bilinear import BilinearForce
@@ -31,7 +31,7 @@ from pes_ref.core.grid import Locator
 from pes_ref.core.integrator import NonFiniteError, Trajectory
 from pes_ref.core.objectives import regularization
 from pes_ref.core.runtime import pages
-from pes_ref.core.steppers import INTEGRATORS, MODES, STEPPERS, StepParams, mode_gradients, modes_of
+from pes_ref.core.steppers import INTEGRATORS, MODES, STEPPERS, StepParams, for_particles, mode_gradients, modes_of
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls, spring_energy, wall_bounds
 
@@ -342,7 +342,7 @@ def energy(scene: Scene, traj: Trajectory, backend: str = "numpy", out: np.ndarr
 
     Kinetic ``sum_d m_d v_d^2 / 2`` plus ``U = U_grid + U_spring + U_wall``. On NumPy a
     chunk of `ENERGY_CHUNK` particle-states at a time; with ``backend="numba"`` (the
-    bilinear grid) the compiled loop [`pes_ref.core.compiled.energy`][pes_ref.core.compiled.energy]: the same numbers
+    bilinear grid) the compiled loop [`pes_ref.accel.compiled.energy`][pes_ref.accel.compiled.energy]: the same numbers
     bit for bit.
     """
     x, v = traj.x, traj.v
@@ -507,9 +507,9 @@ class _EnergyOut:
         self.errors_ignored = False      # computed under the NumPy loop's np.errstate (overflow ignored)
 
     def part(self, sl: slice) -> "_EnergyOut":
-        """The sink of the particles ``sl`` of the run (a half, [`pes_ref.core.halves`][pes_ref.core.halves]): its
+        """The sink of the particles ``sl`` of the run (a half, [`pes_ref.accel.halves`][pes_ref.accel.halves]): its
         columns of ``out``, with their masses."""
-        return _EnergyOut(self.scene, self.out[:, sl], halves.part(self.mass, sl, self.out.shape[1]))
+        return _EnergyOut(self.scene, self.out[:, sl], for_particles(self.mass, sl, self.out.shape[1]))
 
     def bind(self, force, field: Field):
         """``step(x, v, row)``: the energy of one state (N, 2) into ``row`` (N,), right after

@@ -91,7 +91,7 @@ def grid_cross_curvature(surface, backend: str = "numpy") -> float:
     """``max over cells |G11 - G10 - G01 + G00| / (h0 h1)``: the bilinear surface's only
     second derivative inside a cell (its Hessian has eigenvalues +-this). ``backend="numba"``
     takes the maximum in one compiled pass over the grid
-    ([`pes_ref.core.compiled.cross_curvature_max`][pes_ref.core.compiled.cross_curvature_max]), without the temporaries:
+    ([`pes_ref.accel.compiled.cross_curvature_max`][pes_ref.accel.compiled.cross_curvature_max]), without the temporaries:
     the same
     number bit for bit."""
     from pes_ref.core.backends import kernel         # here: the backends' registry imports the steppers

@@ -24,7 +24,8 @@ import numpy as np
 from pes_ref.core.gjf import adjoint_gjf, simulate_gjf
 from pes_ref.core.integrator import adjoint_dynamic, adjoint_quasistatic, simulate_dynamic, simulate_quasistatic
 
-__all__ = ["StepParams", "Stepper", "STEPPERS", "MODES", "INTEGRATORS", "stepper", "modes_of", "mode_gradients"]
+__all__ = ["StepParams", "Stepper", "STEPPERS", "MODES", "INTEGRATORS", "stepper", "modes_of", "mode_gradients",
+           "for_particles"]
 
 
 class StepParams(NamedTuple):
@@ -46,7 +47,7 @@ class StepParams(NamedTuple):
     fills it marks ``filled``; the NumPy loop computes each state's by ``energy.bind(force,
     field)`` ([`pes_ref.core.integrator.simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic]), and
     ``energy.part(sl)`` is the
-    sink of the particles ``sl`` ([`pes_ref.core.halves`][pes_ref.core.halves]). A loop that does not (the
+    sink of the particles ``sl`` ([`pes_ref.accel.halves`][pes_ref.accel.halves]). A loop that does not (the
     GJF and quasistatic steps, another grid) leaves it, and the energy to a pass after the
     run ([`pes_ref.core.scene.value_and_grad`][pes_ref.core.scene.value_and_grad]).
     """
@@ -60,6 +61,16 @@ class StepParams(NamedTuple):
     refuse_nonfinite: bool = True
     out: object = None
     energy: object = None
+
+
+def for_particles(a, sl: slice, n: int):
+    """A per-particle parameter (broadcastable to (N, 2)) of a run of ``n`` particles, for the
+    particles ``sl``: an array with a row per particle (N, 2) or (N, 1) sliced, one that is the
+    same for every particle (a scalar, (2,), (1, 2)) as it is; None as None."""
+    if a is None:
+        return None
+    arr = np.asarray(a)
+    return arr[sl] if arr.ndim == 2 and arr.shape[0] == n and n > 1 else a
 
 
 class Stepper(NamedTuple):

@@ -37,7 +37,7 @@ ORACLE_IMPORTS = {
     "pes_ref.core.scene", "pes_ref.core.stability", "pes_ref.core.steppers", "pes_ref.core.surface",
     "pes_ref.core.terms", "pes_ref.core.runtime", "pes_ref.core.runtime.files", "pes_ref.core.runtime.signals",
     "pes_ref.core.backends",                # the registry of loops: finds numba, never imports it here
-    "pes_ref.core.halves",                  # a large case's NumPy run, as two halves on two threads
+    "pes_ref.accel", "pes_ref.accel.halves",  # a large case's NumPy run, as two halves on two threads
     "pes_ref.core.runtime.pages", "mmap",   # a large run's arrays, mapped without huge-page stalls
     "argparse", "gettext", "locale", "_locale", "copy", "dataclasses",
     "zipfile", "shutil", "binascii", "zlib", "bz2", "_bz2", "lzma", "_lzma", "_compression",
@@ -198,10 +198,10 @@ def test_the_oracle_runs_numpy_and_never_imports_numba_unless_asked(tmp_path):
     oracle.save_case(tmp_path / "c.npz", **small_case())
     plain = modules_added_by_oracle(tmp_path / "c.npz", tmp_path / "r.npz")
     assert plain["status"] == 0 and not [m for m in plain["added"] if m.split(".")[0] in ("numba", "llvmlite")]
-    assert "pes_ref.core.compiled" not in plain["added"]
+    assert "pes_ref.accel.compiled" not in plain["added"]
     pytest.importorskip("numba")
     compiled = modules_added_by_oracle(tmp_path / "c.npz", tmp_path / "r2.npz", "--backend", "numba")
-    assert compiled["status"] == 0 and "numba" in compiled["added"] and "pes_ref.core.compiled" in compiled["added"]
+    assert compiled["status"] == 0 and "numba" in compiled["added"] and "pes_ref.accel.compiled" in compiled["added"]
     a, b = (oracle.read_npz(tmp_path / name) for name in ("r.npz", "r2.npz"))
     assert a["x"].tobytes() == b["x"].tobytes()
 

@@ -131,9 +131,9 @@ def test_the_idle_maps_count_as_available(monkeypatch):
 def test_the_estimate_bounds_the_measured_peak(kind, halved, monkeypatch):
     """The formula is an upper bound of what tracemalloc sees a run allocate (a scene with
     every term, a force schedule and the oscillator objective: the largest measured), on one
-    thread and as two halves on two threads (:mod:`pes_ref.core.halves`)."""
+    thread and as two halves on two threads (:mod:`pes_ref.accel.halves`)."""
     import tracemalloc
-    from pes_ref.core import halves
+    from pes_ref.accel import halves
     from pes_ref.core.runtime import pages
     if halved:
         monkeypatch.setattr(halves, "MIN_PARTICLES", 2)

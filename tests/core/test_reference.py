@@ -3,7 +3,7 @@
 :mod:`pes_ref.core.reference` writes the method once in plain NumPy; the public API
 (``pes_ref.simulate``, ``pes_ref.value_and_grad``, ``pes_ref.energy``) runs the fast
 path: the default backend, the compiled loops when the extra ``fast`` is installed (as in
-``make test``), else the NumPy loops (``tests/core/test_compiled.py`` checks the two against
+``make test``), else the NumPy loops (``tests/accel/test_compiled.py`` checks the two against
 each other, so both are held to the reference). Both run the same random scenes
 (:mod:`pes_ref.testing.strategies`) and every number is compared: the trajectory ``x, v,
 f``, the energy, the loss and every gradient the scene has. How exactly they must agree,

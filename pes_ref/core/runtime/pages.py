@@ -24,7 +24,7 @@ of another size starts from nothing kept; [`idle_bytes`][pes_ref.core.runtime.pa
 memory for
 [`pes_ref.core.budget.available_memory`][pes_ref.core.budget.available_memory]. The maps are shared by every thread
 under one
-lock (both halves of [`pes_ref.core.halves`][pes_ref.core.halves] allocate).
+lock (both halves of [`pes_ref.accel.halves`][pes_ref.accel.halves] allocate).
 
 An array of less than `THRESHOLD` bytes, or any array on a system without anonymous
 maps, comes from NumPy as usual. A map the system refuses raises `MemoryError`, as

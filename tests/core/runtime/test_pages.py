@@ -117,7 +117,7 @@ def test_an_array_of_another_size_gives_the_idle_maps_back():
 
 
 def test_two_threads_never_share_a_map():
-    """Both halves of a run allocate (pes_ref.core.halves): every live array has memory of its own."""
+    """Both halves of a run allocate (pes_ref.accel.halves): every live array has memory of its own."""
     import threading
     seen, errors = [], []
 

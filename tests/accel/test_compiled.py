@@ -1,4 +1,4 @@
-"""The compiled loops (backend ``"numba"``, ``pes_ref/core/compiled.py``) against the NumPy loops.
+"""The compiled loops (backend ``"numba"``, ``pes_ref/accel/compiled.py``) against the NumPy loops.
 
 The compiled loops do the NumPy loops' floating-point operations in the same order, so:
 
@@ -30,7 +30,7 @@ from pes_ref.testing import conformance as conf
 from pes_ref.testing import strategies as pst
 
 numba = pytest.importorskip("numba", reason="the compiled loops need the extra 'fast' (make test installs it)")
-from pes_ref.core import compiled  # noqa: E402
+from pes_ref.accel import compiled  # noqa: E402
 
 #: Gradients the compiled loops sum in another order, and their tolerance relative to the
 #: largest entry.
@@ -449,7 +449,8 @@ def test_the_dynamic_loops_coefficients_from_the_values_are_the_tables(periodic,
 def test_a_backend_s_own_kernels_are_found_by_name_in_its_registry_entry():
     """The compiled energy and cross curvature come from the registry (no code asks for a backend
     by its name): NumPy has none of its own, and a grid rule the backend does not cover has none."""
-    from pes_ref.core import backends, compiled
+    from pes_ref.accel import compiled
+    from pes_ref.core import backends
     assert backends.kernel("numba", "energy") is compiled.energy
     assert backends.kernel("numba", "cross_curvature_max") is compiled.cross_curvature_max
     assert backends.kernel("numba", "energy", "bicubic") is None

@@ -4,7 +4,7 @@ Particles never interact, so a run of N particles is two runs, of particles ``0 
 and ``N//2 .. N - 1``, on the same grid. NumPy releases the GIL inside each whole-array
 operation, so from `MIN_PARTICLES` on (where an operation on half the particles takes
 far longer than handing the GIL over) the two halves run side by side on the machine's two
-cores: the forward loops, then the adjoints. [`stepper`][pes_ref.core.halves.stepper] wraps a NumPy
+cores: the forward loops, then the adjoints. [`stepper`][pes_ref.accel.halves.stepper] wraps a NumPy
 [`Stepper`][pes_ref.core.steppers.Stepper] so; [`pes_ref.core.backends.stepper`][pes_ref.core.backends.stepper] is where
 a
 run gets it.
@@ -33,9 +33,9 @@ import numpy as np
 
 from pes_ref.core.integrator import NonFiniteError, Trajectory, trajectory_arrays
 from pes_ref.core.runtime import pages
-from pes_ref.core.steppers import Stepper, StepParams
+from pes_ref.core.steppers import Stepper, StepParams, for_particles
 
-__all__ = ["MIN_PARTICLES", "SUMMED", "split", "stepper", "part"]
+__all__ = ["MIN_PARTICLES", "SUMMED", "split", "stepper"]
 
 #: From this many particles on, a NumPy run is two halves on two threads (docs/performance.md,
 #: 'Every gradient through the oracle': a run of 100 steps takes 0.78x its one-thread time at
@@ -57,26 +57,17 @@ def split(n: int) -> tuple:
     return slice(0, n // 2), slice(n // 2, n)
 
 
-def part(a, sl: slice, n: int):
-    """A per-particle parameter (broadcastable to (N, 2)) for the particles ``sl``: an array
-    with a row per particle (N, 2) or (N, 1) sliced, one that is the same for every particle
-    (a scalar, (2,), (1, 2)) as it is; None as None."""
-    if a is None:
-        return None
-    arr = np.asarray(a)
-    return arr[sl] if arr.ndim == 2 and arr.shape[0] == n and n > 1 else a
-
-
 def _field_part(field, sl: slice, n: int):
     """``field`` with its spring's and walls' per-particle arrays cut to the particles ``sl``."""
-    spring = None if field.spring is None else tuple(part(a, sl, n) for a in field.spring)
-    walls = None if field.walls is None else tuple(part(a, sl, n) for a in field.walls)
+    spring = None if field.spring is None else tuple(for_particles(a, sl, n) for a in field.spring)
+    walls = None if field.walls is None else tuple(for_particles(a, sl, n) for a in field.walls)
     return field._replace(spring=spring, walls=walls)
 
 
 def _params_part(p: StepParams, sl: slice, n: int, out: Trajectory, energy, progress) -> StepParams:
     """``p`` for the particles ``sl``, with the half's progress callback, arrays and energy sink."""
-    return p._replace(mass=part(p.mass, sl, n), damping=part(p.damping, sl, n), mobility=part(p.mobility, sl, n),
+    return p._replace(mass=for_particles(p.mass, sl, n), damping=for_particles(p.damping, sl, n),
+                      mobility=for_particles(p.mobility, sl, n),
                       progress=progress, out=out, energy=energy)
 
 

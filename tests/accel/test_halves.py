@@ -1,4 +1,4 @@
-"""A NumPy run of many particles as two halves on two threads (:mod:`pes_ref.core.halves`):
+"""A NumPy run of many particles as two halves on two threads (:mod:`pes_ref.accel.halves`):
 each particle's numbers are the one-thread run's, bit for bit; the grid's and the mobility's
 gradients, sums over the particles, agree to 1e-13 of their largest entry and are the same on
 every run; an error in a half is the one-thread run's error and stops the other half."""
@@ -13,7 +13,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import pes_ref as pr
-from pes_ref.core import backends, halves, steppers
+from pes_ref.accel import halves
+from pes_ref.core import backends, steppers
 from pes_ref.core.integrator import NonFiniteError
 from pes_ref.testing import strategies as pst
 

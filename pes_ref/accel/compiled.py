@@ -18,9 +18,9 @@ operands (IEEE double, no fused multiply-add: numba's default ``fastmath=False``
 - every gradient but two is bit-identical too; the grid gradient is accumulated per state
   into the coefficient table's gradient (NumPy's path scatters a chunk of states at a time)
   and the mobility's is summed particle by particle (NumPy's by ``einsum``): the same sums
-  in another order, within 1e-13 of their largest entry (``tests/core/test_compiled.py``).
+  in another order, within 1e-13 of their largest entry (``tests/accel/test_compiled.py``).
 
-From `PARALLEL_MIN` particles on, the dynamic loops and [`energy`][pes_ref.core.compiled.energy] run their
+From `PARALLEL_MIN` particles on, the dynamic loops and [`energy`][pes_ref.accel.compiled.energy] run their
 particles in blocks of `BLOCK` on numba's threads (``prange``; `PARALLEL_KERNELS`).
 Each particle's operations are the same in the same order on any thread, so its numbers are
 its own run's, bit for bit; the grid gradient, a sum over particles, is accumulated in
@@ -802,7 +802,7 @@ def kernels(wraps: bool, field, parallel: bool = False) -> SimpleNamespace:
 # =========================================================================== the energy of a trajectory
 
 def _make_energy(parallel: bool):
-    """The energy kernel of [`energy`][pes_ref.core.compiled.energy]; ``parallel``: its particle blocks run on numba's
+    """The energy kernel of [`energy`][pes_ref.accel.compiled.energy]; ``parallel``: its particle blocks run on numba's
     threads (each entry is one particle-state's own arithmetic: no number depends on them)."""
     loop = prange if parallel else range
 
@@ -906,7 +906,7 @@ def particle_blocks(n: int, width: int | None = None) -> np.ndarray:
 
 def lanes_of(n: int) -> tuple:
     """``(lanes, blocks)`` of a threaded adjoint of ``n`` particles: the blocks of
-    [`particle_blocks`][pes_ref.core.compiled.particle_blocks] and `LANES` runs of consecutive blocks (fewer if there
+    [`particle_blocks`][pes_ref.accel.compiled.particle_blocks] and `LANES` runs of consecutive blocks (fewer if there
     are
     fewer blocks), ``lanes[l] .. lanes[l+1] - 1``."""
     blocks = particle_blocks(n)
@@ -1009,7 +1009,7 @@ def _direct(field) -> tuple:
 
 def _forward_terms(field, n: int, table: bool = True):
     """Whether the forward kernels take the minimum image (``wraps``, the key of
-    [`kernels`][pes_ref.core.compiled.kernels]) and their grid, spring and walls arguments: the spring only where the
+    [`kernels`][pes_ref.accel.compiled.kernels]) and their grid, spring and walls arguments: the spring only where the
     NumPy path builds its kernel (some nonzero ``k``), its minimum image where it pulls;
     the grid's coefficient table unless ``table`` is False (a placeholder then)."""
     grid = _grid(field, n, grid_table(field) if table else _NO_TABLE)
@@ -1023,7 +1023,7 @@ class _Adjoint:
     coefficient table, whose ``D0 (-1/h1)`` is the cross term, and its table gradients, the
     spring's gradients) and ``result()``, for
     [`finish_dynamic_adjoint`][pes_ref.core.integrator.finish_dynamic_adjoint]. ``lanes``
-    particle lanes ([`lanes_of`][pes_ref.core.compiled.lanes_of]), each with its own table gradient (zeroed buffers of
+    particle lanes ([`lanes_of`][pes_ref.accel.compiled.lanes_of]), each with its own table gradient (zeroed buffers of
     `_zeroed`), summed in lane order by ``result()`` as it maps them to the grid."""
 
     def __init__(self, field, xs: np.ndarray, want: frozenset, parallel: bool = False, direct=_NO_DIRECT):
@@ -1093,7 +1093,7 @@ def _forget(ref) -> None:
 
 
 def grid_table(field) -> np.ndarray:
-    """[`coefficient_table`][pes_ref.core.compiled.coefficient_table] of ``field``'s grid (or stack of grids): the one
+    """[`coefficient_table`][pes_ref.accel.compiled.coefficient_table] of ``field``'s grid (or stack of grids): the one
     kept in
     `_TABLE` when it is this values array's at this spacing, else built (and kept,
     when the array is a read-only one that owns its memory)."""
