@@ -49,7 +49,7 @@ SET_NAMES = {
 PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-final", "clip": "--clip",
               "n_particles": "--particles", "optimizer": "--optimizer", "stages": "--stages", "seed": "--seed",
               "plan": "--plan", "evaluations": "--evaluations", "polish_particles": "--polish-particles",
-              "backend": "--backend", "smoke": "--smoke", "set": "--set"}
+              "backend": "--backend", "smoke": "--smoke", "set": "--set", "workers": "--workers"}
 #: What a problem file's design names in its errors where a built-in kind names its ``--set`` fields.
 _FILE_FLAGS = {"problem": {"n_steps": "dynamics.duration / dt", "grid": "surface.shape"}}
 #: ``--plan`` choices: the keys of `pes_ref.synthesis.plans.OSCILLATOR_PLANS` (tested equal;
@@ -151,38 +151,6 @@ def _base_problem(arg: str | None, state):
     return load_problem(input_file(arg, "problem file"))
 
 
-#: ``--workers`` of a run with a polish stage when not given (both cores of a 2-core machine):
-#: a generation's 16 candidates split in two halves, one per process.
-DEFAULT_WORKERS = 2
-
-
-def polish_workers(workers, inputs, smoke: bool = False) -> int:
-    """The processes of a run's polish: ``workers`` when given, else `DEFAULT_WORKERS`
-    (at most the machine's cores) for a run with a polish stage, 1 for one without or under
-    ``--smoke`` (its polish is a few generations of a few particles: a pool would cost more
-    than it saves). The design does not depend on it."""
-    if workers is not None:
-        return workers
-    if inputs.base_polish is None or smoke:
-        return 1
-    return max(1, min(DEFAULT_WORKERS, os.cpu_count() or 1))
-
-
-def _pool(workers: int, inputs, kind: str):
-    """A process pool for the polish's candidates (None for 1 worker); its workers ignore Ctrl-C,
-    which the main process turns into a clean stop."""
-    if workers < 1:
-        raise ValueError(f"--workers must be >= 1, got {workers}")
-    if workers == 1:
-        return None
-    if inputs.base_polish is None:
-        raise ValueError(f"--workers: this {kind} run has no polish stage")
-    from concurrent.futures import ProcessPoolExecutor
-
-    from pes_ref.core.runtime.signals import ignore_interrupts
-    return ProcessPoolExecutor(workers, initializer=ignore_interrupts)
-
-
 def error_stopped(state) -> int:
     """The one line of a fresh run that stopped before finishing an iteration (no file is
     left: it would hold no iteration, and a scene that fails at once); EXIT_FAIL."""
@@ -194,6 +162,7 @@ def error_stopped(state) -> int:
 def _run_design(args) -> int:
     from pes_ref import synthesis
     from pes_ref.synthesis import design_inputs, kind_of, load_design, run_to_file, start_design
+    from pes_ref.synthesis.polish import polish_pool, polish_workers
     flags = _flags(args.kind)
     try:
         if not args.progress >= 0:
@@ -206,7 +175,7 @@ def _run_design(args) -> int:
         flags = _flags(kind.name)
         inputs = design_inputs(base, vars(args), kind.parse_sets(args.set))
         workers = polish_workers(args.workers, inputs, args.smoke)
-        executor = _pool(workers, inputs, kind.name)
+        executor = polish_pool(workers, inputs, kind.name)
         state = start_design(inputs, seed=args.seed, backend=args.backend, resume=state, where=args.resume)
         if args.resume is not None:
             out = args.out if args.out is not None else args.resume

@@ -50,7 +50,41 @@ from pes_ref.synthesis.plans import PolishPlan
 
 __all__ = ["legendre_fourier_basis", "PolishParticles", "polish_particles", "validation_particles",
            "capture_fitness", "capture_fitnesses", "captured_share", "Fitness",
-           "PolishStep", "PolishResult", "polish", "PARTICLE_SEED", "SEARCH_SEED", "VALIDATION_SEED", "MARGIN_CAP"]
+           "PolishStep", "PolishResult", "polish", "PARTICLE_SEED", "SEARCH_SEED", "VALIDATION_SEED", "MARGIN_CAP",
+           "DEFAULT_WORKERS", "polish_workers", "polish_pool"]
+
+#: The processes of a run with a polish stage when not given (both cores of a 2-core machine):
+#: a generation's 16 candidates split in two halves, one per process.
+DEFAULT_WORKERS = 2
+
+
+def polish_workers(workers, inputs, smoke: bool = False) -> int:
+    """The processes of a run's polish: ``workers`` when given, else `DEFAULT_WORKERS`
+    (at most the machine's cores) for a run with a polish stage, 1 for one without or at the
+    smoke size (its polish is a few generations of a few particles: a pool would cost more
+    than it saves). The design does not depend on it."""
+    import os
+    if workers is not None:
+        return workers
+    if inputs.base_polish is None or smoke:
+        return 1
+    return max(1, min(DEFAULT_WORKERS, os.cpu_count() or 1))
+
+
+def polish_pool(workers: int, inputs, kind: str):
+    """A process pool for the polish's candidates (None for 1 worker); its workers ignore Ctrl-C,
+    which the main process turns into a clean stop. A count below 1, or more than one for a run
+    without a polish stage, is refused (key ``workers``)."""
+    if workers < 1:
+        raise checks.InputError("workers", f"workers must be >= 1, got {workers}")
+    if workers == 1:
+        return None
+    if inputs.base_polish is None:
+        raise checks.InputError("workers", f"workers: this {kind} run has no polish stage")
+    from concurrent.futures import ProcessPoolExecutor
+
+    from pes_ref.core.runtime.signals import ignore_interrupts
+    return ProcessPoolExecutor(workers, initializer=ignore_interrupts)
 
 #: Second entry of the seed pair of the polish's training particles, ``default_rng([seed, PARTICLE_SEED])``.
 PARTICLE_SEED = 2 ** 32 + 1

@@ -223,7 +223,7 @@ def test_the_progress_line_shows_the_stage_and_a_change_of_stage_says_so(tmp_pat
 
 
 def test_the_polish_uses_both_cores_by_default_and_an_explicit_workers_wins(monkeypatch):
-    from pes_ref.cli.design import DEFAULT_WORKERS, polish_workers
+    from pes_ref.synthesis.polish import DEFAULT_WORKERS, polish_workers
     from pes_ref.synthesis import FunnelProblem, OscillatorProblem, design_inputs
     osc, funnel = design_inputs(OscillatorProblem(), {}), design_inputs(FunnelProblem(), {})
     monkeypatch.setattr(os, "cpu_count", lambda: 8)
