@@ -44,7 +44,7 @@ DARTGUN_SMOKE = {"shape": (121, 81), "dt": 5e-4, "trigger_forces": "10,30", "sea
 #: The entries of a smoke preset that change the design (the rest are option texts).
 DESIGN_KEYS = ("shape", "dt")
 #: The analyses' names of what the options set, and the options (errors name the option).
-FLAGS = {"hi": "--search-hi", "tol": "--search-tol", "duration": "--duration", "engine": "--engine"}
+FLAGS = {"hi": "--search-hi", "tol": "--search-tol", "duration": "--duration", "engine": "--engine", "torque": "--torque"}
 
 
 def _float(option: str, text: str, check=checks.as_positive_float) -> float:

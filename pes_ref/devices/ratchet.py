@@ -34,7 +34,7 @@ from pes_ref.core.stability import grid_stiffness
 from pes_ref.devices.device import Device
 from pes_ref.devices.device_file import shipped_device
 from pes_ref.devices.probes import steepest_slope, threshold_search
-from pes_ref.core.integrator import Trajectory
+from pes_ref.core.integrator import NonFiniteError, Trajectory
 from pes_ref.core.scene import Scene, simulate
 
 __all__ = ["ratchet_device", "ratchet_start", "ratchet_scene", "run_ratchet",
@@ -179,7 +179,14 @@ def analyze_ratchet(device: Device | None = None, torque: float = RATCHET_ANALYS
     start = ratchet_start(device, run)
     times["surface"] = time.perf_counter() - t
     t = time.perf_counter()
-    x = run_ratchet(device, [torque, -torque], duration, start, run).x
+    try:
+        x = run_ratchet(device, [torque, -torque], duration, start, run).x
+    except NonFiniteError:
+        raise checks.InputError("torque", f"torque = {torque:g} torque-unit drives the wheel out of the range "
+                                          f"where the surface can be looked up (it overwhelms the barrier, which "
+                                          f"holds back at most {steepest_slope(surface, 0):.6g} torque-unit, and "
+                                          f"spins the wheel freely beyond 2**52 cells in duration = {duration:g}): "
+                                          f"give a smaller torque") from None
     times["runs"] = time.perf_counter() - t
     t = time.perf_counter()
     tmin = min_advancing_torque(device, search_duration, search_hi, search_tol, start, run)

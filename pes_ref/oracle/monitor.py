@@ -1,5 +1,5 @@
 """The progress of a long oracle run, as the ``oracle`` command shows it: its estimate, then a
-progress line at most every [`PERIOD`][pes_ref.core.runtime.progress.PERIOD] seconds once the run
+progress line at most every `PERIOD` seconds once the run
 is long ([`ProgressLines`][pes_ref.oracle.monitor.ProgressLines]); [`monitor`][pes_ref.oracle.monitor.monitor]
 is what [`run_case`][pes_ref.oracle.case.run_case] takes to report through it."""
 from __future__ import annotations

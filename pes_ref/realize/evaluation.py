@@ -171,7 +171,7 @@ class RigidRuns:
 
 def realized_run(problem, device, engine: str) -> RealizedRun:
     """The design ``problem`` on ``device`` as engine ``engine`` of the one registry
-    ([`pes_ref.rigid.engines.ENGINES`][pes_ref.rigid.engines.ENGINES]) runs it: in contact (the
+    (`pes_ref.rigid.engines.ENGINES`) runs it: in contact (the
     rigid parts, `rigid_problem`) or on eq. (1) of the distance to the parts (`realized_problem`)."""
     from pes_ref.rigid.engines import ENGINES
     name = checks.as_choice("engine", engine, set(ENGINES))

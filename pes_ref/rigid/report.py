@@ -3,7 +3,7 @@
 as JSON, its motion law(s) as CSV, and what the rigid parts say of a surface drive's stall.
 
 [`drive_on`][pes_ref.rigid.report.drive_on] runs the drive on each engine named, by the engines'
-registry ([`pes_ref.rigid.engines.ENGINES`][pes_ref.rigid.engines.ENGINES]); the command parses,
+registry (`pes_ref.rigid.engines.ENGINES`); the command parses,
 prints and writes, and nothing else.
 """
 from __future__ import annotations

@@ -186,8 +186,8 @@ def test_a_missing_input_is_said_the_same_way_by_every_command(fault_assets, tmp
 # =========================================================================== warnings
 
 WARNINGS = [
-    Warned("ratchet-torque-overwhelms-the-barrier", "analyze ratchet --smoke --torque 1e30",
-           ("warning: the torque 1e+30 torque-unit exceeds", "barrier_torque_max", "overwhelms the barrier")),
+    Warned("ratchet-torque-overwhelms-the-barrier", "analyze ratchet --smoke --torque 1e6",
+           ("warning: the torque 1e+06 torque-unit exceeds", "barrier_torque_max", "overwhelms the barrier")),
     Warned("dartgun-reload-does-not-latch", "analyze dartgun --smoke --reload-force 1e12",
            ("warning: the reload with force 1e+12 did not latch", "reference latch")),
     Warned("device-channel-below-the-grid", "analyze dev-narrow.toml --drive 1 --load 0.5",

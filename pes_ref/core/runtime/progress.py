@@ -347,8 +347,8 @@ class ShareLines:
     C-space, then its drive), on stderr: ``cam.toml: drive | percent 40/100 | 8.1 percent/s |
     elapsed 0:07 | left 0:10``. A callback ``progress(phase, done, total)`` (this module's
     signature; ``done`` and ``total`` may be a travel), silent for the first
-    [`LONG_RUN`][pes_ref.core.runtime.progress.LONG_RUN] seconds, then at most one line every
-    [`PERIOD`][pes_ref.core.runtime.progress.PERIOD] seconds; the time left is the phase's elapsed
+    `LONG_RUN` seconds, then at most one line every
+    `PERIOD` seconds; the time left is the phase's elapsed
     time scaled by the share still to do. ``lines`` shows them (in place at a terminal); ``end``
     it before printing anything else."""
 
