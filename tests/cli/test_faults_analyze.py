@@ -8,7 +8,7 @@ FAULTS = [
     Fault("ratchet-torque-text", "analyze ratchet --smoke --torque strong", ("--torque", "'strong'")),
     Fault("ratchet-torque-beyond-the-lookup", "analyze ratchet --smoke --torque 1e30",
           ("--torque = 1e+30 torque-unit drives the wheel out of the range", "overwhelms the barrier",
-           "give a smaller torque")),
+           "give a smaller --torque")),
     Fault("ratchet-duration-zero", "analyze ratchet --smoke --duration 0", ("--duration", "0")),
     Fault("ratchet-duration-nan", "analyze ratchet --smoke --duration nan", ("--duration", "nan")),
     Fault("ratchet-duration-too-long-for-memory", "analyze ratchet --smoke --duration 1e9",
