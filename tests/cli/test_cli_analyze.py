@@ -6,6 +6,7 @@ import sys
 import numpy as np
 import pytest
 
+from _faults import DEVICE
 from _helpers import without_progress
 
 from pes_ref.cli import EXIT_ERROR, EXIT_OK, main
@@ -296,6 +297,7 @@ def test_an_angle_spanning_more_than_a_turn_warns_that_it_looks_like_degrees(cap
     """A rotating part's span typed in degrees (0..360) is taken as radians, 57 turns: the
     analysis runs, its travel says rad, and one warning names the axis and the radians meant."""
     device = tmp_path / "degrees.toml"
+    assert 'motion = "rotation"' in DEGREES and "upper = [360.0, 0.5]" in DEGREES
     device.write_text(DEGREES)
     code, out, err = run(capsys, str(device), "--drive", "0", "--load", "1")
     assert code == EXIT_OK and "requested_travel: 360 rad" in out, out
@@ -308,28 +310,9 @@ def test_an_angle_spanning_more_than_a_turn_warns_that_it_looks_like_degrees(cap
     assert code == EXIT_OK and "requested_travel: 6 rad" in out and "warning" not in err, err
 
 
-#: A pin on a crank (rotating about the origin) in a plate's hole, its angle's span typed in degrees.
-DEGREES = """format = 1
-[[part]]
-motion = "rotation"
-pivot = [0.0, 0.0]
-shapes = [{ circle = { center = [0.2, 0.0], radius = 0.1 } }]
-[[part]]
-motion = "translation"
-direction = [0.0, 1.0]
-shapes = [{ rectangle = { lower = [-1.0, -1.0], upper = [1.0, 1.0] }, minus = [{ circle = { center = [0.0, 0.0], radius = 0.5 } }] }]
-[cspace]
-lower = [0.0, -0.5]
-upper = [360.0, 0.5]
-shape = [21, 21]
-[energy]
-v = 1e-4
-r_c = 0.1
-springs = [{ axis = 1, k = 1.0, center = 0.0 }]
-[dynamics]
-mass = [1.0, 1.0]
-damping = [1.0, 1.0]
-walls = { k = 100.0, margin = 0.01, edges = [[true, true], [true, true]] }
-[start]
-q = [0.0, 0.0]
-"""
+#: A pin on a crank (rotating about the origin) in a plate's hole, its angle's span typed in degrees:
+#: the fault tables' device (tests/_faults.py) with its first part turned into a crank.
+DEGREES = DEVICE.replace('motion = "translation"\ndirection = [1.0, 0.0]\nshapes = [{ circle = { center = [0.0, 0.0], '
+                         'radius = 0.1 } }]', 'motion = "rotation"\npivot = [0.0, 0.0]\nshapes = [{ circle = { center = '
+                         '[0.2, 0.0], radius = 0.1 } }]', 1).replace("lower = [-0.5, -0.5]\nupper = [0.5, 0.5]",
+                                                                   "lower = [0.0, -0.5]\nupper = [360.0, 0.5]", 1)
