@@ -9,7 +9,7 @@ import os
 import sys
 import time
 
-from pes_ref.cli.common import EXIT_OK, add_command, error, input_file, output_file, output_folder
+from pes_ref.cli.common import EXIT_OK, LazyDefault, add_command, error, input_file, output_file, output_folder
 
 
 def add_parser(sub) -> None:
@@ -37,7 +37,8 @@ def add_parser(sub) -> None:
         examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191 --json osc.json --plot plots',
                   'evaluate funnel.npz --realized funnel_parts/device.toml'])
     p.add_argument("file", metavar="FILE.npz", help="a design file written by 'design'")
-    p.add_argument("--seed", type=int, default=12345, help="held-out seed (default 12345; training uses others)")
+    p.add_argument("--seed", type=int, default=LazyDefault("pes_ref.synthesis.kinds", "HELD_OUT", "seed"),
+                   help="held-out seed (default %(default)s; training uses others)")
     p.add_argument("--realized", default=None, metavar="DEVICE.toml",
                    help="also run the same held-out evaluation on this realized device (a device file written by "
                         "'realize'): its surface from the exported parts, the design's forces, at the step the "
@@ -76,6 +77,8 @@ def _run_evaluate(args) -> int:
     from pes_ref.synthesis import evaluate, load_design
     from pes_ref.core.integrator import NonFiniteError
     start = time.perf_counter()
+    if isinstance(args.seed, LazyDefault):
+        args.seed = args.seed.value()
     try:
         state = load_design(input_file(args.file, "design file"))
         engines = _engines(args)

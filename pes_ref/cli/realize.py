@@ -95,7 +95,7 @@ def add_parser(sub) -> None:
     p.add_argument("--base", type=float, default=_hf_default("base"), metavar="B",
                    help="heightfield: the plate's thickness below its lowest point (length)")
     p.add_argument("--seed", type=int, default=None, metavar="S",
-                   help="the held-out seed of the check (default 12345): contact, the design's held-out evaluation "
+                   help="the held-out seed of the check (default: the held-out seed of evaluate): contact, the design's held-out evaluation "
                         "on the parts under eq. (1) and in rigid contact (the kind's headline figure); heightfield, "
                         "the rolling-ball check")
     p.add_argument("--particles", type=int, default=None, metavar="N",

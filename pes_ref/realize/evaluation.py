@@ -39,7 +39,7 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.core.stability import SAFETY, stability_limit
-from pes_ref.synthesis.kinds import evaluate, held_out_steps, kind_of
+from pes_ref.synthesis.kinds import HELD_OUT, evaluate, held_out_steps, kind_of
 
 __all__ = ["RealizedRun", "RigidRuns", "realized_run", "realized_problem", "rigid_problem", "evaluate_realized",
            "headline_scores", "device_spring", "check_design"]
@@ -178,7 +178,7 @@ def realized_run(problem, device, engine: str) -> RealizedRun:
     return (rigid_problem if ENGINES[name].contact else realized_problem)(problem, device)
 
 
-def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: int | None = None,
+def evaluate_realized(problem, values, device, seed: int = HELD_OUT["seed"], n_particles: int | None = None,
                       engines=("surface",)) -> dict:
     """The design's figures and the realized device's under each of ``engines`` (names of
     `pes_ref.rigid.engines.ENGINES`), side by side: ``{name: (design, engine 1, ...)}``, plus ``dt`` and the
@@ -197,7 +197,7 @@ def evaluate_realized(problem, values, device, seed: int = 12345, n_particles: i
     return out
 
 
-def headline_scores(problem, values, device, seed: int = 12345, n_particles: int | None = None) -> dict:
+def headline_scores(problem, values, device, seed: int = HELD_OUT["seed"], n_particles: int | None = None) -> dict:
     """The design's headline figure (its kind's, `pes_ref.synthesis.kinds.KINDS`) on held-out
     ``seed`` beside the parts' under eq. (1) (``realized_``) and in rigid contact (``rigid_``; without
     pymunk its value says it was not run, with the pip line), with ``score_seed`` and ``score_particles``,
