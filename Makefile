@@ -20,7 +20,7 @@ venv: $(STAMP)
 # in file order); tests/project/test_architecture.py runs lint-imports on the layer and cycle
 # contracts of setup.cfg. `$(PY) -m pytest -q` runs it in one process.
 test: $(STAMP)
-	$(PY) -m pytest -q -n 2 --dist loadfile
+	$(PY) -m pytest -q -n 2 --dist loadfile -m "not thorough"
 
 # The suite in a random order (pytest-randomly; the seed is printed: rerun an order with
 # --randomly-seed=N): no test may depend on another having run. The plugin leaves NumPy's
@@ -28,8 +28,9 @@ test: $(STAMP)
 test-random: $(STAMP)
 	$(PY) -m pytest -p randomly --randomly-dont-reset-seed
 
+# The whole suite, the tests marked thorough included, with 10x the property tests' examples.
 test-thorough: $(STAMP)
-	$(PY) -m pytest -q --hypothesis-profile=thorough
+	$(PY) -m pytest -q -n 2 --dist loadfile --hypothesis-profile=thorough
 
 # The documentation site into site/ (mkdocs.yml: the docs/ pages and the API reference that
 # mkdocstrings renders from the docstrings), built strictly: a warning, such as a broken

@@ -90,7 +90,14 @@ SETUP = {
 }
 
 
-@pytest.mark.parametrize("name", QUICK)
+#: The realize and evaluate examples design, realize and evaluate at full size (56 s of the
+#: suite): make test-thorough runs them; in make test, tests/cli/test_cli_realize.py and
+#: tests/cli/test_cli_evaluate.py run the same commands (realize --as contact, evaluate,
+#: --realized) on smoke designs, and test_every_parser_shows_examples_that_parse parses them.
+_LONG = {"pes_ref evaluate", "pes_ref realize"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.thorough) if n in _LONG else n for n in QUICK])
 def test_quick_examples_run_as_written(name, tmp_path):
     parser = dict(PARSERS)[name]
     shutil.copytree(ROOT / "pes_ref" / "oracle" / "conformance" / LATEST,

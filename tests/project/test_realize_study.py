@@ -24,6 +24,8 @@ def test_the_smoke_study_writes_a_row_per_held_out_seed(tmp_path, capsys):
         assert float(r["realized_dt"]) <= 0.05                     # the smoke preset's dt, or the rule's
 
 
+@pytest.mark.thorough      # 58 s; in make test: the study's other modes below, tests/realize/test_drum_cam.py and
+#                           tests/cli/test_cli_realize.py's drum cam of a cylinder design
 def test_the_smoke_oscillator_study_writes_a_row_per_level_and_seed_and_says_what_is_not_a_wall(tmp_path, capsys):
     assert study.main(["--oscillator", "--smoke", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
