@@ -510,11 +510,10 @@ def plan_for(problem: DesignProblem, iterations: int | None = None) -> Plan:
     from the file or from the command line; a file without ``[train]``, the default plan's."""
     if iterations is None or "stages" in problem.data.get("train", {}):
         return problem.plan
-    if "train" not in problem.data:
-        stages = default_plan(problem.grid_shape, _coarse(problem.contact), iterations).stages
-    else:
-        stages = default_stages(problem.grid_shape, iterations)
-    return dataclasses.replace(problem.plan, stages=stages)
+    if "train" not in problem.data:       # the default plan's stages and screen for that count
+        plan = default_plan(problem.grid_shape, _coarse(problem.contact), iterations)
+        return dataclasses.replace(problem.plan, stages=plan.stages, screen=plan.screen)
+    return dataclasses.replace(problem.plan, stages=default_stages(problem.grid_shape, iterations))
 
 
 def _coarse(contact) -> bool:
