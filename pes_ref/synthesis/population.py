@@ -82,9 +82,11 @@ def _take(state: DesignState, member: DesignState) -> None:
     state.elapsed = elapsed
 
 
-def screen_starts(state: DesignState, *, callback: Callable | None = None, progress_every: float = 2.0) -> DesignState:
+def screen_starts(state: DesignState, iterations: int | None = None, *, callback: Callable | None = None,
+                  progress_every: float = 2.0) -> DesignState:
     """Run the plan's population of starts on a fresh ``state`` (module docstring) and leave it on
-    the chosen one: done if a start reached the target, else running at iteration ``screen``.
+    the chosen one: done if a start reached the target, else running at iteration ``screen`` (at
+    most ``iterations``, the run's; default the plan's).
     A plan with one start, or a run already under way, is left as it is. Ctrl-C stops it with
     ``state`` at its start, ``status = "interrupted"``; a start that stops on a failed iteration
     (`pes_ref.synthesis.design_state.STOPPED`) is not chosen, and if every one does, ``state`` is
@@ -92,7 +94,7 @@ def screen_starts(state: DesignState, *, callback: Callable | None = None, progr
     plan = state.plan
     if plan.starts <= 1 or state.iteration > 0 or state.history["loss"]:
         return state
-    screen = min(plan.screen, plan.iterations)
+    screen = min(plan.screen, plan.iterations if iterations is None else iterations)
     judged = []
     for j in range(plan.starts):
         if j == 0:
@@ -102,8 +104,9 @@ def screen_starts(state: DesignState, *, callback: Callable | None = None, progr
         else:
             member = new_design(state.problem, seed=start_seed(state.seed, j), plan=plan, polish=None,
                                 backend=state.backend)
+        before = member.elapsed
         run_design(member, screen, callback=callback, progress_every=progress_every, finish=False)
-        state.elapsed += member.elapsed
+        state.elapsed += member.elapsed - before
         if member.status == "interrupted":
             state.status = "interrupted"
             return state

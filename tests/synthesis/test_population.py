@@ -101,3 +101,9 @@ def test_the_default_plan_screens_its_starts_through_the_coarse_stages():
     assert synthesis.default_plan((40, 20), coarse=False).starts == 1
     problem = synthesis.parse_problem({k: v for k, v in GATHER.data.items() if k != "train"}, "gather.toml")
     assert problem.plan.screen == 150 and synthesis.plan_for(problem, 600).screen == 300
+
+
+def test_a_run_shorter_than_the_screen_screens_no_further(monkeypatch):
+    made = _counting(monkeypatch)
+    st = synthesis.run_stages(synthesis.new_design(NOWHERE, seed=4, plan=POPULATION, polish=None), 4)
+    assert st.iteration == 4 and st.status == "done" and len(made) == 2
