@@ -34,11 +34,8 @@ from pes_ref.synthesis.design_state import DesignState, new_design
 from pes_ref.synthesis.training import design_step, run_design
 from pes_ref.synthesis.validation import VALIDATION_STREAM, Best, validation_success
 
-__all__ = ["START_STREAM", "FALL", "start_seed", "screen_starts"]
+__all__ = ["START_STREAM", "start_seed", "screen_starts"]
 
-#: A start whose loss on the run's validation particles has fallen to this share of its first
-#: (the structure that passes found, not yet tuned) goes on, as one that passes some does.
-FALL = 0.5
 #: The second entry of ``SeedSequence([seed, START_STREAM, j])``, which gives start ``j``'s design seed.
 START_STREAM = 2 ** 32 + 4
 
@@ -108,7 +105,6 @@ def screen_starts(state: DesignState, iterations: int | None = None, *, callback
             member = new_design(state.problem, seed=start_seed(state.seed, j), plan=plan, polish=None,
                                 backend=state.backend)
         before = member.elapsed
-        start_loss = _judged(state, member)[1]
         run_design(member, screen, callback=callback, progress_every=progress_every, finish=False)
         state.elapsed += member.elapsed - before
         if member.status == "interrupted":
@@ -124,15 +120,13 @@ def screen_starts(state: DesignState, iterations: int | None = None, *, callback
             if j == 0:
                 first = member
             continue
-        judged_now = _judged(state, member)
-        found = member.best is not None and member.best.success > 0.0 or judged_now[1] <= FALL * start_loss
-        if found:                                   # it passes some, or its loss fell: the design goes on from it
+        if member.best is not None and member.best.success > 0.0:     # it passes some: the design goes on from it
             if j == 0:
                 _take(state, member)
             else:
-                _adopt(state, member, judged_now)
+                _adopt(state, member, _judged(state, member))
             return state
-        judged.append((judged_now, j, member))
+        judged.append((_judged(state, member), j, member))
     if not judged:
         _take(state, first)
         return state
