@@ -339,7 +339,7 @@ DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.005, "n_parti
 
 #: The default plan's population of starts (`default_starts`; measured in docs/problems.md, "Phases,
 #: classes and timing windows").
-DEFAULT_STARTS = 6
+DEFAULT_STARTS = 8
 
 
 def coarse_to_fine(n0: int, iterations: int) -> tuple:

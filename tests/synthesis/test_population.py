@@ -97,7 +97,7 @@ def test_a_population_needs_validation_and_a_screen():
 
 def test_the_default_plan_screens_its_starts_through_the_coarse_stages():
     plan = synthesis.default_plan((40, 20))
-    assert (plan.starts, plan.screen) == (6, 225) and plan.stages[-1][0] == 225
+    assert (plan.starts, plan.screen) == (8, 225) and plan.stages[-1][0] == 225
     assert synthesis.default_plan((40, 20), coarse=False).starts == 1
     problem = synthesis.parse_problem({k: v for k, v in GATHER.data.items() if k != "train"}, "gather.toml")
     assert problem.plan.screen == 150 and synthesis.plan_for(problem, 600).screen == 300
