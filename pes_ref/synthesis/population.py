@@ -82,13 +82,25 @@ def _take(state: DesignState, member: DesignState) -> None:
     state.elapsed = elapsed
 
 
+def _labelled(callback: Callable | None, start: str) -> Callable | None:
+    """``callback`` with each progress's stage named after its start too (``"start 2/8 stage 1/3"``)."""
+    if callback is None:
+        return None
+
+    def labelled(progress):
+        progress.stage = f"{start} {progress.stage}"
+        callback(progress)
+    return labelled
+
+
 def screen_starts(state: DesignState, iterations: int | None = None, *, callback: Callable | None = None,
                   progress_every: float = 2.0) -> DesignState:
     """Run the plan's population of starts on a fresh ``state`` (module docstring) and leave it on
     the chosen one: done if a start reached the target, else running at iteration ``screen`` (at
     most ``iterations``, the run's; default the plan's).
     A plan with one start, or a run already under way, is left as it is. Ctrl-C stops it with
-    ``state`` at its start, ``status = "interrupted"``; a start that stops on a failed iteration
+    ``state`` at its start, ``status = "interrupted"``; ``callback`` receives each start's progress,
+    its stage named after the start (``"start 2/8 stage 1/3"``); a start that stops on a failed iteration
     (`pes_ref.synthesis.design_state.STOPPED`) is not chosen, and if every one does, ``state`` is
     the run's own start so stopped."""
     plan = state.plan
@@ -105,7 +117,8 @@ def screen_starts(state: DesignState, iterations: int | None = None, *, callback
             member = new_design(state.problem, seed=start_seed(state.seed, j), plan=plan, polish=None,
                                 backend=state.backend)
         before = member.elapsed
-        run_design(member, screen, callback=callback, progress_every=progress_every, finish=False)
+        run_design(member, screen, callback=_labelled(callback, f"start {j + 1}/{plan.starts}"),
+                   progress_every=progress_every, finish=False)
         state.elapsed += member.elapsed - before
         if member.status == "interrupted":
             state.status = "interrupted"

@@ -78,7 +78,9 @@ def test_ctrl_c_during_the_screen_leaves_the_run_at_its_start(tmp_path):
             os.kill(os.getpid(), signal.SIGINT)
         interrupt.calls += progress.done == 6
     interrupt.calls = 0
-    st = synthesis.run_stages(start, callback=interrupt, progress_every=0.0)
+    stages = []
+    st = synthesis.run_stages(start, callback=lambda p: (stages.append(p.stage), interrupt(p)), progress_every=0.0)
+    assert stages[0] == "start 1/3 stage 1/1" and "start 2/3 stage 1/1" in stages     # the screen: the 5-node stage
     assert st.status == "interrupted" and st.iteration == 0 and st.history["loss"] == []
     np.testing.assert_array_equal(st.values, first)
     save_design(tmp_path / "d.npz", st)
