@@ -27,6 +27,7 @@ import sys
 import time
 
 from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error, input_file, output_file
+from pes_ref.cli.files import expect
 
 #: The names ``--set`` takes, per kind: the fields of each problem of
 #: `pes_ref.synthesis.KINDS` that has one (tested equal), written out for the help text because
@@ -169,7 +170,7 @@ def _run_design(args) -> int:
             raise ValueError(f"--progress must be a number of seconds >= 0, got {args.progress}")
         if args.kind is None and args.resume is None:
             raise ValueError("give what to design (funnel, oscillator or PROBLEM.toml), or --resume FILE.npz")
-        state = None if args.resume is None else load_design(input_file(args.resume, "design file"))
+        state = None if args.resume is None else load_design(expect(args.resume, "design"))
         base = _base_problem(args.kind, state)
         kind = kind_of(base)
         flags = _flags(kind.name)

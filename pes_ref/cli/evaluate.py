@@ -10,6 +10,7 @@ import sys
 import time
 
 from pes_ref.cli.common import EXIT_OK, LazyDefault, add_command, error, input_file, output_file, output_folder
+from pes_ref.cli.files import expect
 
 
 def add_parser(sub) -> None:
@@ -80,7 +81,7 @@ def _run_evaluate(args) -> int:
     if isinstance(args.seed, LazyDefault):
         args.seed = args.seed.value()
     try:
-        state = load_design(input_file(args.file, "design file"))
+        state = load_design(expect(args.file, "design"))
         engines = _engines(args)
         outputs = _outputs(args)                   # refused before anything is computed
         if args.realized is not None:

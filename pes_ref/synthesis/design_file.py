@@ -41,8 +41,12 @@ hold ``smoothing`` and ``smoothing_draws`` ([`Plan`][pes_ref.synthesis.plans.Pla
 version 1-4 file's plan reads as 0 and 4 (no smoothing).
 
 The members are stored uncompressed. The file is written by the package's one atomic
-``.npz`` writer ([`write_npz`][pes_ref.oracle.npz.write_npz]): a crash never leaves half a design, and the writer,
-not a check here beforehand, refuses an existing file unless ``overwrite=True``.
+``.npz`` writer ([`write_npz`][pes_ref.core.runtime.npz.write_npz]): a crash never leaves half a design, and the
+writer, not a check here beforehand, refuses an existing file unless ``overwrite=True``.
+
+A file is a design file by its ``format`` tag, `FORMAT`; this module knows no other format.
+What else a file may be (an oracle case or result) is told by the command line's
+[`pes_ref.cli.files`][pes_ref.cli.files], which refuses it before it gets here.
 """
 from __future__ import annotations
 
@@ -54,9 +58,7 @@ import numpy as np
 
 from pes_ref.core.backends import BACKENDS
 from pes_ref.core.runtime.keyfile import show
-from pes_ref.oracle.case import REQUIRED_KEYS, TRAJECTORY_KEYS
-from pes_ref.oracle.errors import CaseError
-from pes_ref.oracle.npz import read_npz, write_npz
+from pes_ref.core.runtime.npz import NpzError, read_npz, write_npz
 from pes_ref.synthesis.optimizers import optimizer_from_state
 from pes_ref.synthesis.plans import Plan, PolishPlan
 from pes_ref.synthesis.problem_file import ProblemFileError
@@ -64,10 +66,10 @@ from pes_ref.synthesis.kinds import KINDS, kind_of
 from pes_ref.synthesis.design_state import STAGES, DesignState
 from pes_ref.synthesis.validation import Best
 
-__all__ = ["save_design", "load_design", "design_arrays", "first_difference", "is_design_file", "DesignFileError",
-
+__all__ = ["save_design", "load_design", "design_arrays", "first_difference", "DesignFileError",
            "FORMAT", "VERSION", "READABLE_VERSIONS"]
 
+#: The ``format`` tag of a design file: what tells it from any other ``.npz``.
 FORMAT = "pes_ref.design"
 VERSION = 5
 #: The versions this package reads.
@@ -144,10 +146,10 @@ def load_design(path) -> DesignState:
         raise FileNotFoundError(f"design file {path} does not exist")
     try:
         data = read_npz(path, what="design")
-    except CaseError as exc:          # not an .npz, a damaged one, pickled members
+    except NpzError as exc:           # not an .npz, a damaged one, pickled members
         raise DesignFileError(str(exc)) from None
     if str(data.get("format", "")) != FORMAT:
-        raise DesignFileError(_what_else(path, data))
+        raise DesignFileError(f"{path} is not a design file (no format tag {FORMAT!r}; keys {sorted(data)[:8]})")
     missing = [k for k in _REQUIRED if k not in data]
     if missing:
         raise DesignFileError(f"{path} is a damaged design file: missing keys {missing}")
@@ -233,31 +235,6 @@ def _read_polish(path, data: dict, state: DesignState) -> None:
         raise DesignFileError(f"{path} is a damaged design file: polish history lengths {evals.shape}, "
                               f"{fitness.shape}")
     state.polish_history = {"evaluations": [int(e) for e in evals], "fitness": fitness.tolist()}
-
-
-#: Files of the oracle that a user may hand to a design command by mistake: their kind,
-#: the keys that give them away, and the command that reads them.
-_OTHER_FILES = (
-    ("case", set(REQUIRED_KEYS), "the oracle runs it: python -m pes_ref oracle {path} RESULT.npz"),
-    ("result", set(TRAJECTORY_KEYS), "it holds an oracle run's output"),
-)
-
-
-def _what_else(path: str, data: dict) -> str:
-    """Why the arrays ``data`` of ``path`` are not a design file, saying what they are if known."""
-    for kind, keys, advice in _OTHER_FILES:
-        if keys <= set(data):
-            return f"{path} is an oracle {kind} file, not a design file; {advice.format(path=path)}"
-    return f"{path} is not a design file (no format tag {FORMAT!r}; keys {sorted(data)[:8]})"
-
-
-def is_design_file(path) -> bool:
-    """Whether ``path`` is an ``.npz`` archive tagged as a design file (only the tag is read)."""
-    try:
-        with np.load(os.fspath(path), allow_pickle=False) as z:
-            return "format" in z.files and str(z["format"]) == FORMAT
-    except Exception:       # missing, not an .npz, a single .npy array, damaged: not a design file
-        return False
 
 
 def first_difference(a, b, where: str = "") -> str | None:

@@ -121,27 +121,18 @@ def test_a_plain_text_file_gets_no_pickle_advice(tmp_path):
     assert "pickle" not in str(info.value)
 
 
-def test_a_case_or_result_file_is_named_for_what_it_is(tmp_path):
-    from pes_ref.oracle import conformance, run_case
+def test_a_case_or_result_file_is_refused_as_no_design_file(tmp_path):
+    """Design files know no other format: what else a file is, the command line says
+    (pes_ref.cli.files, tests/cli/test_cli_files.py)."""
+    from pes_ref.oracle import conformance, load_case, run_case, write_result
     from pes_ref.testing.conformance import load_manifest
     vid = next(e for e in load_manifest(conformance.LATEST)["vectors"] if e["kind"] == "valid")
     case = conformance.vectors_dir(conformance.LATEST) / vid["case"]
-    with pytest.raises(DesignFileError, match=r"is an oracle case file, not a design file.*oracle"):
-        load_design(case)
     result = tmp_path / "r.npz"
-    from pes_ref.oracle import load_case, write_result
     write_result(run_case(load_case(case)), result)
-    with pytest.raises(DesignFileError, match="is an oracle result file, not a design file"):
-        load_design(result)
-
-
-def test_is_design_file(tmp_path):
-    from pes_ref.synthesis.design_file import is_design_file
-    save_design(tmp_path / "d.npz", tiny())
-    (tmp_path / "t.npz").write_text("hello")
-    np.savez(tmp_path / "o.npz", x=np.zeros(3))
-    assert is_design_file(tmp_path / "d.npz")
-    assert not any(is_design_file(tmp_path / n) for n in ("t.npz", "o.npz", "missing.npz"))
+    for path in (case, result):
+        with pytest.raises(DesignFileError, match=r"is not a design file \(no format tag 'pes_ref.design'"):
+            load_design(path)
 
 
 def test_a_newer_version_is_refused(tmp_path):

@@ -1,4 +1,4 @@
-"""pes_ref.oracle.npz: the .npz writer (through the one atomic writer,
+"""pes_ref.core.runtime.npz: the .npz writer (through the one atomic writer,
 pes_ref.core.runtime.files.atomic_file) and reader.
 
 A file is published in one step: a reader never sees half of it, a failed write leaves
@@ -14,7 +14,7 @@ import pytest
 
 from pes_ref.core.runtime import files
 from pes_ref.core.runtime.files import ResultExistsError
-from pes_ref.oracle import npz
+from pes_ref.core.runtime import npz
 
 ARRAYS = {"a": np.arange(6.0).reshape(2, 3), "name": "text", "n": np.int64(3)}
 
@@ -155,3 +155,15 @@ def _small_case():
     return dict(values=np.zeros((3, 3)), lower=[0.0, 0.0], upper=[1.0, 1.0], periodic=[False, False], dt=0.05,
                 n_steps=3, mode="dynamic", mass=1.0, damping=0.0, x0=[[0.3, 0.4]], v0=[[0.1, 0.0]],
                 objective="funnel", target=0.5, when="final")
+
+
+def test_the_readers_refusals_are_its_own_keyed_by_the_member(tmp_path):
+    """Each format turns them into its own errors (the oracle's CaseError, DesignFileError)."""
+    (tmp_path / "t.npz").write_text("hello")
+    with pytest.raises(npz.NpzError, match=r"^design file '.*t\.npz' is not an \.npz archive") as info:
+        npz.read_npz(tmp_path / "t.npz", what="design")
+    assert info.value.key is None and not isinstance(info.value, TypeError)
+    np.savez(tmp_path / "p.npz", a=np.zeros(2), o=np.array([None, 1], dtype=object))   # np.savez pickles it
+    with pytest.raises(npz.NpzTypeError, match="^design key 'o': cannot be read without pickle") as info:
+        npz.read_npz(tmp_path / "p.npz", what="design")
+    assert info.value.key == "o" and isinstance(info.value, ValueError)

@@ -1,11 +1,14 @@
 """``.npz`` archives of named arrays: read without pickle, written reproducibly and atomically.
 
-The case and result files of the oracle ([`pes_ref.oracle.case`][pes_ref.oracle.case]) are such archives;
-any other ``.npz`` the package writes (design files) goes through [`write_npz`][pes_ref.oracle.npz.write_npz] too,
-which writes through the package's one atomic writer,
+Every ``.npz`` the package reads or writes goes through here (the oracle's cases and results,
+design files).
+[`write_npz`][pes_ref.core.runtime.npz.write_npz] writes through the package's one atomic writer,
 [`pes_ref.core.runtime.files.atomic_file`][pes_ref.core.runtime.files.atomic_file]: a reader never sees half a file, and
-an existing
-file is never replaced unless asked.
+an existing file is never replaced unless asked.
+
+The reader knows no format: its refusals are [`NpzError`][pes_ref.core.runtime.npz.NpzError] (a ``ValueError``
+carrying the member at fault, or None for the file as a whole), which each format turns into
+its own error where it reads its files (the oracle's ``CaseError``, a design file's ``DesignFileError``).
 """
 from __future__ import annotations
 
@@ -16,9 +19,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from pes_ref.core.runtime.files import atomic_file
-from pes_ref.oracle.errors import CaseError, CaseTypeError
 
-__all__ = ["read_npz", "write_npz"]
+__all__ = ["read_npz", "write_npz", "NpzError", "NpzTypeError"]
 
 _ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")   # a zip's first member, or an empty zip
 _NPY_MAGIC = b"\x93NUMPY"
@@ -26,14 +28,41 @@ _FIXED_DATE = (1980, 1, 1, 0, 0, 0)   # the zip epoch: written files do not depe
 _ZIP64_ABOVE = 1 << 30                # zip64 headers only for members that may need them
 
 
-def read_npz(path, *, what: str = "case") -> dict:
+class NpzError(ValueError):
+    """An ``.npz`` file that cannot be read as named arrays without pickle.
+
+    The message is ``reason`` for the file as a whole (``key`` None), else
+    ``"<what> key '<key>': <reason>"``, one line.
+
+    Parameters
+    ----------
+    key : str or None
+        The member at fault (its array name), or None when the file as a whole is no readable ``.npz``.
+    reason : str
+        What is wrong with it.
+    what : str
+        What the file is ("case", "design", ...), for the message.
+    """
+
+    def __init__(self, key: str | None, reason: str, what: str = "npz"):
+        self.key = key
+        self.reason = " ".join(str(reason).split())
+        super().__init__(self.reason if key is None else f"{what} key {key!r}: {self.reason}")
+
+
+class NpzTypeError(NpzError, TypeError):
+    """A member that holds no plain array (one that would need pickle). Both an
+    [`NpzError`][pes_ref.core.runtime.npz.NpzError] and a ``TypeError``."""
+
+
+def read_npz(path, *, what: str = "npz") -> dict:
     """Read every array of an ``.npz`` file without pickle.
 
     Parameters
     ----------
     path : str or os.PathLike
     what : str
-        "case" or "result", for the error messages.
+        What the file is ("case", "result", "design"), for the error messages.
 
     Returns
     -------
@@ -43,36 +72,36 @@ def read_npz(path, *, what: str = "case") -> dict:
     ------
     OSError
         The file cannot be opened (missing, a directory, no permission).
-    CaseError
+    NpzError
         The file is not an ``.npz`` archive (judged by its first bytes, not by numpy's
         guess that anything else is pickled data), is a damaged one, or a member cannot
-        be read without pickle.
+        be read (an [`NpzTypeError`][pes_ref.core.runtime.npz.NpzTypeError] if only pickle could read it).
     """
     path = os.fspath(path)
     with open(path, "rb") as fh:        # OSError: missing, a folder, no permission
         head = fh.read(len(_NPY_MAGIC))
     if head.startswith(_NPY_MAGIC):
-        raise CaseError(None, f"{what} file {path!r} holds a single .npy array, not an .npz archive of named arrays")
+        raise NpzError(None, f"{what} file {path!r} holds a single .npy array, not an .npz archive of named arrays")
     if not head.startswith(_ZIP_MAGIC):   # numpy would take it for pickled data and say so
-        raise CaseError(None, f"{what} file {path!r} is not an .npz archive (a zip of .npy arrays)")
+        raise NpzError(None, f"{what} file {path!r} is not an .npz archive (a zip of .npy arrays)")
     try:
         npz = np.load(path, allow_pickle=False)
     except OSError:
         raise
     except Exception as exc:  # a truncated or otherwise damaged zip
-        raise CaseError(None, f"{what} file {path!r} is a damaged .npz archive ({exc})") from None
+        raise NpzError(None, f"{what} file {path!r} is a damaged .npz archive ({exc})") from None
     out = {}
     with npz:
         for key in npz.files:
             try:
                 value = npz[key]
             except ValueError as exc:
-                raise CaseTypeError(key, f"cannot be read without pickle ({exc}); {what}s hold "
-                                         "numeric, bool or unicode arrays only") from None
+                raise NpzTypeError(key, f"cannot be read without pickle ({exc}); {what}s hold "
+                                        "numeric, bool or unicode arrays only", what) from None
             except Exception as exc:
-                raise CaseError(key, f"cannot be read from {path!r} ({exc})") from None
+                raise NpzError(key, f"cannot be read from {path!r} ({exc})", what) from None
             if not isinstance(value, np.ndarray):
-                raise CaseTypeError(key, f"is not a .npy array inside {path!r}")
+                raise NpzTypeError(key, f"is not a .npy array inside {path!r}", what)
             out[key] = value
     return out
 
