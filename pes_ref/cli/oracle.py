@@ -102,7 +102,7 @@ def _is_result_file(members: set) -> bool:
 def _is_design_file(path: str) -> bool:
     """Whether ``path`` is a design file (asked of the design files' own module only for a
     file with a ``format`` member, which no case has, so the oracle's start-up stays lean)."""
-    from pes_ref.synthesis.design_file import is_design_file
+    from pes_ref.synthesis.engine.design_file import is_design_file
     return is_design_file(path)
 
 
