@@ -231,7 +231,8 @@ class LazyDefault:
 @dataclasses.dataclass(frozen=True)
 class LazyChoices:
     """An option's choices: the keys of the table ``table`` in ``module`` (a registry), read
-    only when an argument is checked or the help is shown, as [`LazyDefault`][pes_ref.cli.common.LazyDefault]."""
+    only when an argument is checked or the help is shown, as [`LazyDefault`][pes_ref.cli.common.LazyDefault].
+    The option needs a ``metavar``: without one, argparse lists the choices as it adds the option."""
 
     module: str
     table: str

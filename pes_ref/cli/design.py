@@ -100,7 +100,7 @@ def add_parser(sub) -> None:
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help=LazyHelp(_set_help))
     p.add_argument("--lr", type=float, default=None, metavar="LR", help="initial learning rate (default: the plan's)")
     p.add_argument("--lr-final", type=float, default=None, metavar="LR", help="learning rate reached at the last iteration (default: the plan's)")
-    p.add_argument("--plan", choices=PLAN_CHOICES, default=None,
+    p.add_argument("--plan", choices=PLAN_CHOICES, default=None, metavar="NAME",
                    help="oscillator only: the named training plan, i.e. the objective trained on, its aim and "
                         "the optimizer schedule: 'gait' (default: prescribed-gait shooting, then the polish), "
                         "'overshoot' (eq. (6) + eq. (7) aimed at 1.4 times the target amplitude) or 'eq6' (the "
