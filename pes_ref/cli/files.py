@@ -5,7 +5,7 @@ file handed to a command that reads another kind.
 it has a ``format`` member, that tag: ``"design"``, ``"case"``, ``"result"``, or None for
 anything else (a plain zip, a text file, a missing file). Each kind is a small class in
 `FILE_KINDS`, which says how the kind is recognized, by the facts its owning module holds
-(a design file's tag `pes_ref.synthesis.design_file.FORMAT`, a case's
+(a design file's tag `pes_ref.synthesis.engine.design_file.FORMAT`, a case's
 `pes_ref.oracle.case.REQUIRED_KEYS`, a result's `pes_ref.oracle.case.TRAJECTORY_KEYS`), and
 what to tell a user who passed it where another kind belongs. The owners are imported only when
 a file is asked about, and a design file's only for a file with a ``format`` member (which no
@@ -56,7 +56,7 @@ class FileKind:
 
 
 class DesignFile(FileKind):
-    """A design run (`pes_ref.synthesis.design_file`): its ``format`` tag is `FORMAT`."""
+    """A design run (`pes_ref.synthesis.engine.design_file`): its ``format`` tag is `FORMAT`."""
 
     name, noun, label = "design", "a design file", "design file"
     advice = "evaluate reads it: python -m pes_ref evaluate {path}"
@@ -64,7 +64,7 @@ class DesignFile(FileKind):
     def matches(self, members, tag):
         if tag is None:
             return False
-        from pes_ref.synthesis.design_file import FORMAT
+        from pes_ref.synthesis.engine.design_file import FORMAT
         return tag == FORMAT
 
 

@@ -9,7 +9,7 @@ import sys
 import time
 
 from pes_ref import synthesis
-from pes_ref.synthesis import problem_file
+from pes_ref.synthesis.problem import problem_file
 
 HELD_OUT = (12345, 9191)
 
