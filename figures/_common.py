@@ -64,7 +64,7 @@ def design_state(args, kind: str, smoke_sets=()):
 
     """
     from pes_ref.cli import main as cli_main
-    from pes_ref.synthesis.design_file import DesignFileError, load_design
+    from pes_ref.synthesis.engine.design_file import DesignFileError, load_design
 
     path = args.design
     if path is None and args.smoke:

@@ -1,7 +1,7 @@
 """Figure 5: the design gradient dL/dE of one funnel iteration, with the particle paths behind it.
 
 The paper's Fig. 5 is lost from our copy; its text says the gradient is zero wherever no
-particle passes. :func:`pes_ref.synthesis.training.design_gradient` returns one iteration's masked
+particle passes. :func:`pes_ref.synthesis.engine.training.design_gradient` returns one iteration's masked
 gradient of the funnel objective (eq. (5)) with respect to every grid value, and the
 paths of that iteration's particles. (a) the first iteration, on the flat starting surface
 at the design's final resolution; (b) the iteration after the last one, on the designed

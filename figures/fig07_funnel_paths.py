@@ -1,9 +1,9 @@
 """Figure 7: particle paths on the synthesized funnel surface, held-out particles included.
 
 (a) paths on the designed surface: one training batch (the particles of the run's next
-iteration, :func:`pes_ref.synthesis.training.design_gradient`) and held-out particles drawn with a
-seed training never uses (:func:`pes_ref.synthesis.analysis.funnel_paths`); (b) where the held-out
-particles leave the bottom edge (:func:`pes_ref.synthesis.funnel.exit_positions`), on the design
+iteration, :func:`pes_ref.synthesis.engine.training.design_gradient`) and held-out particles drawn with a
+seed training never uses (:func:`pes_ref.synthesis.kinds.analysis.funnel_paths`); (b) where the held-out
+particles leave the bottom edge (:func:`pes_ref.synthesis.kinds.funnel.exit_positions`), on the design
 and on the flat starting surface.
 """
 from __future__ import annotations

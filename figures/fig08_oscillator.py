@@ -3,7 +3,7 @@
 (a) the designed grid values of the oscillator design file (computed by ``python -m
 pes_ref design oscillator``) on the cylinder, q1 periodic; the scene adds the linear
 spring on q0. (b) 50 particles with torques evenly from the minimum to the maximum of the
-design range (:func:`pes_ref.synthesis.analysis.oscillator_torque_sweep`), started at rest at
+design range (:func:`pes_ref.synthesis.kinds.analysis.oscillator_torque_sweep`), started at rest at
 q1 = 0 and q0 = the target amplitude, as the paper's text says.
 """
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The particles of Fig. 8 (all started at rest at q1 = 0, q0 = the target amplitude, each
 with its own torque from the minimum to the maximum of the design range), run by
-:func:`pes_ref.synthesis.analysis.oscillator_torque_sweep`; :func:`pes_ref.synthesis.analysis.phase_space`
+:func:`pes_ref.synthesis.kinds.analysis.oscillator_torque_sweep`; :func:`pes_ref.synthesis.kinds.analysis.phase_space`
 keeps the states after the first three target periods. A closed loop near the target
 orbit of eq. (6) is a stable oscillation.
 """

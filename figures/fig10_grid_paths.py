@@ -1,6 +1,6 @@
 """Figure 10: particle paths from a 5 x 5 grid of starting positions at rest, maximum torque.
 
-:func:`pes_ref.synthesis.analysis.oscillator_grid_starts` starts 25 particles at rest on a 5 x 5
+:func:`pes_ref.synthesis.kinds.analysis.oscillator_grid_starts` starts 25 particles at rest on a 5 x 5
 grid of (q0, q1) and pushes each with the design's maximum torque; their paths over the
 evaluation run (the problem's ``eval_periods`` target periods) are drawn on the surface.
 """

@@ -1,9 +1,9 @@
 """Figure 11: the phase-space cycles the grid-started particles reach after 15 periods.
 
-The 25 particles of Fig. 10 (:func:`pes_ref.synthesis.analysis.oscillator_grid_starts`, at rest on a
+The 25 particles of Fig. 10 (:func:`pes_ref.synthesis.kinds.analysis.oscillator_grid_starts`, at rest on a
 5 x 5 grid, maximum torque), run for 15 + 3 target periods; the last three periods in phase
-space (:func:`pes_ref.synthesis.analysis.phase_space`). The title counts the particles that reach the
-cycle by the library's test (:func:`pes_ref.synthesis.analysis.cycle_figures`).
+space (:func:`pes_ref.synthesis.kinds.analysis.phase_space`). The title counts the particles that reach the
+cycle by the library's test (:func:`pes_ref.synthesis.kinds.analysis.cycle_figures`).
 """
 from __future__ import annotations
 

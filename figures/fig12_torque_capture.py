@@ -5,11 +5,11 @@ the maximum, started like the paper's batch, seed 12345, 15 target periods), run
 oscillator design (``--design``, the default: prescribed-gait shooting and its polish), on
 gradient descent alone on eq. (6) aimed at 1.4 A (``--baseline``, made by
 ``design oscillator --plan overshoot``) and on the hand-drawn escapement
-(:func:`pes_ref.synthesis.escapement.escapement_values`, no optimization), analysed by
-:func:`pes_ref.synthesis.analysis.cycle_figures` over the last 3 periods. (a) amplitude of
+(:func:`pes_ref.synthesis.kinds.escapement.escapement_values`, no optimization), analysed by
+:func:`pes_ref.synthesis.kinds.analysis.cycle_figures` over the last 3 periods. (a) amplitude of
 q0 per torque, filled where the particle reaches the cycle (amplitude and period within 25%
 of the targets, drift below 5% of A), with the 25% band; (b) how far q1 turns per target
-period (:func:`pes_ref.synthesis.analysis.q1_advance`): the free-running speed
+period (:func:`pes_ref.synthesis.kinds.analysis.q1_advance`): the free-running speed
 ``tau / damping1`` is a straight line through the origin; an escapement holds q1 to a fixed
 advance whatever the torque, and the gait the default design was trained on is ``gait_delta``.
 """

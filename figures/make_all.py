@@ -142,7 +142,7 @@ def cache_valid(npz: str, sidecar: str, key: str) -> bool:
             meta = json.load(fh)
         if meta.get("key") != key or meta.get("sha256") != file_hash(npz):
             return False
-        from pes_ref.synthesis.design_file import load_design
+        from pes_ref.synthesis.engine.design_file import load_design
         return load_design(npz).status == "done"
     except (OSError, ValueError):
         return False
@@ -226,7 +226,7 @@ def finish(step: Step, code: int, log: Log) -> None:
     step.status = "done" if code == 0 else f"failed (exit {code})"
     if code == 0 and step.design is not None:
         kind, npz, sidecar, key, command = step.design
-        from pes_ref.synthesis.design_file import load_design
+        from pes_ref.synthesis.engine.design_file import load_design
         state = load_design(npz)
         if state.status != "done":
             step.status = f"failed (design status {state.status!r})"

@@ -31,10 +31,10 @@ _EXPORTS = {
     **dict.fromkeys(("Device",), "pes_ref.devices.device"),
     **dict.fromkeys(("load_device", "DeviceFileError"), "pes_ref.devices.device_file"),
     **dict.fromkeys(("drive", "DriveResult"), "pes_ref.devices.drive"),
-    **dict.fromkeys(("RMSprop", "Adam"), "pes_ref.synthesis.optimizers"),
-    **dict.fromkeys(("DesignProblem",), "pes_ref.synthesis.design_problem"),
-    **dict.fromkeys(("load_problem", "parse_problem"), "pes_ref.synthesis.problem_file"),
-    **dict.fromkeys(("LevelSet",), "pes_ref.synthesis.level_set"),
+    **dict.fromkeys(("RMSprop", "Adam"), "pes_ref.synthesis.common.optimizers"),
+    **dict.fromkeys(("DesignProblem",), "pes_ref.synthesis.problem.design_problem"),
+    **dict.fromkeys(("load_problem", "parse_problem"), "pes_ref.synthesis.problem.problem_file"),
+    **dict.fromkeys(("LevelSet",), "pes_ref.synthesis.common.level_set"),
 }
 
 __all__ = [*_EXPORTS, "__version__"]
@@ -67,8 +67,8 @@ if TYPE_CHECKING:   # for type checkers and IDEs: the same names, imported eager
     from pes_ref.devices.device_file import DeviceFileError, load_device  # noqa: F401
     from pes_ref.devices.drive import DriveResult, drive  # noqa: F401
     from pes_ref.devices.geometry import Circle, Part, Polygon, Rectangle, Rotation, Translation  # noqa: F401
-    from pes_ref.synthesis.design_problem import DesignProblem  # noqa: F401
-    from pes_ref.synthesis.optimizers import Adam, RMSprop  # noqa: F401
-    from pes_ref.synthesis.problem_file import load_problem, parse_problem  # noqa: F401
-    from pes_ref.synthesis.level_set import LevelSet  # noqa: F401
+    from pes_ref.synthesis.problem.design_problem import DesignProblem  # noqa: F401
+    from pes_ref.synthesis.common.optimizers import Adam, RMSprop  # noqa: F401
+    from pes_ref.synthesis.problem.problem_file import load_problem, parse_problem  # noqa: F401
+    from pes_ref.synthesis.common.level_set import LevelSet  # noqa: F401
 

@@ -90,7 +90,7 @@ show(WORK / "geneva.png", "the Geneva's motion law on both engines")
 # particle must pass. The shipped `latch_contact` is a latch (load it by a push along q0,
 # hold it, fire it by a push along q1) whose surface is always eq. (1) of a blocked shape,
 # so that it can be made as a plate and a pin. Its first tables:
-from pes_ref.synthesis.problem_file import shipped_problem  # noqa: E402
+from pes_ref.synthesis.problem.problem_file import shipped_problem  # noqa: E402
 
 problem = Path(shipped_problem("latch_contact")).read_text()
 print(problem[problem.index("format"):problem.index("[[forces]]")])

@@ -53,7 +53,7 @@ from pes_ref.core.scene import Scene, simulate, value_and_grad
 from pes_ref.core.steppers import StepParams
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
-from pes_ref.synthesis.plans import Plan, PolishPlan
+from pes_ref.synthesis.common.plans import Plan, PolishPlan
 from pes_ref.oracle.compare import relative_error
 from pes_ref.oracle.tolerances import GRAD_RTOL
 from pes_ref.bench.targets import targets

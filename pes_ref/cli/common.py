@@ -15,12 +15,13 @@ import signal
 import sys
 import textwrap
 import threading
+from collections.abc import Callable
 
 __all__ = ["EXIT_OK", "EXIT_FAIL", "EXIT_ERROR", "EXIT_INTERRUPTED", "EXIT_PIPE", "DEBUG_VARIABLE", "error",
            "flag_message",
            "watch_pipes", "add_command",
            "HelpFormatter", "Parser", "input_file", "input_folder", "output_file", "output_folder", "LazyDefault",
-           "option_text"]
+           "LazyChoices", "LazyHelp", "option_text"]
 
 EXIT_OK = 0            #: success
 EXIT_FAIL = 1          #: a check ran and failed (check, conformance --check), or a design went non-finite
@@ -230,7 +231,8 @@ class LazyDefault:
 @dataclasses.dataclass(frozen=True)
 class LazyChoices:
     """An option's choices: the keys of the table ``table`` in ``module`` (a registry), read
-    only when an argument is checked or the help is shown, as [`LazyDefault`][pes_ref.cli.common.LazyDefault]."""
+    only when an argument is checked or the help is shown, as [`LazyDefault`][pes_ref.cli.common.LazyDefault].
+    The option needs a ``metavar``: without one, argparse lists the choices as it adds the option."""
 
     module: str
     table: str
@@ -245,12 +247,28 @@ class LazyChoices:
         return iter(self._names())
 
 
+@dataclasses.dataclass(frozen=True)
+class LazyHelp:
+    """An option's help text that names what the library holds (a registry's entries, a
+    dataclass's fields): ``make()`` reads them and writes the text, only when the help is
+    shown, as [`LazyDefault`][pes_ref.cli.common.LazyDefault]."""
+
+    make: Callable[[], str]
+
+    def __str__(self) -> str:
+        return self.make()
+
+    def strip(self) -> str:
+        """The text without its surrounding whitespace (argparse asks whether a help is blank)."""
+        return str(self).strip()
+
+
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
     """Descriptions and examples as written; each option's default appended to its help
     (unless the help already states it, or there is none)."""
 
     def _get_help_string(self, action):
-        text = action.help or ""
+        text = str(action.help or "")
         default = action.default
         if ("default" in text or default in (None, False, argparse.SUPPRESS) or not action.option_strings
                 or isinstance(default, list) and not default):

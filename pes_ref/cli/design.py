@@ -9,8 +9,8 @@
   [--particles N] [--plan gait|overshoot|eq6] [--evaluations N] [--polish-particles N]
   [--workers N] [--backend numba|numpy] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
   run (or continue) a design, its gradient stage and then its polish if it has one
-  ([`pes_ref.synthesis.stages.run_stages`][pes_ref.synthesis.stages.run_stages]), and write its file
-  ([`pes_ref.synthesis.design_file`][pes_ref.synthesis.design_file]). A progress line goes to stderr every
+  ([`pes_ref.synthesis.engine.stages.run_stages`][pes_ref.synthesis.engine.stages.run_stages]), and write its file
+  ([`pes_ref.synthesis.engine.design_file`][pes_ref.synthesis.engine.design_file]). A progress line goes to stderr every
   ``--progress``
   seconds; Ctrl-C or SIGTERM finishes the iteration or generation, saves and exits 130;
   a run that goes non-finite, or whose grid steepens past the stability rule, saves its last good
@@ -26,23 +26,9 @@ import os
 import sys
 import time
 
-from pes_ref.cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, add_command, error, input_file, output_file
-
-#: The names ``--set`` takes, per kind: the fields of each problem of
-#: `pes_ref.synthesis.KINDS` that has one (tested equal), written out for the help text because
-#: ``python -m pes_ref --help`` builds every command's parser, and building a parser imports
-#: nothing from the layers below the command line (tests/cli/test_oracle_startup.py).
-SET_NAMES = {
-    "funnel": ("grid", "width", "height", "start_zone", "exit_zone", "start_depth", "force", "noise",
-              "damping", "dt", "n_steps", "target", "wall_k", "wall_margin", "init_scale", "when",
-              "regularization", "linger", "realizable", "contact_v", "contact_r_c", "contact_r_min", "init_strip",
-               "init_shape", "init_gap"),
-    "oscillator": ("grid0", "grid1", "q0_extent", "amplitude", "omega", "spring_k", "mass", "damping0",
-                  "damping1", "torque_min", "torque_max", "kick", "start_noise", "dt", "n_steps",
-                  "eval_periods", "wall_k", "wall_margin", "init_scale", "regularization", "cost",
-                  "settle_periods", "target_scale", "spread_share", "stratified", "gait_delta", "gait_w0",
-                  "gait_w1", "gait_dead_zone", "shooting_periods"),
-}
+from pes_ref.cli.common import (EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, LazyChoices, LazyHelp, add_command, error,
+                                input_file, output_file)
+from pes_ref.cli.files import expect
 
 #: The library's names of what the options set, and the options (errors name the option):
 #: the plan's parameters here, each problem parameter ``NAME`` as ``--set NAME`` (`_flags`).
@@ -52,12 +38,40 @@ PLAN_FLAGS = {"iterations": "--iterations", "lr": "--lr", "lr_final": "--lr-fina
               "backend": "--backend", "smoke": "--smoke", "set": "--set", "workers": "--workers"}
 #: What a problem file's design names in its errors where a built-in kind names its ``--set`` fields.
 _FILE_FLAGS = {"problem": {"n_steps": "dynamics.duration / dt", "grid": "surface.shape"}}
-#: ``--plan`` choices: the keys of `pes_ref.synthesis.plans.OSCILLATOR_PLANS` (tested equal;
-#: written out for the same reason as `SET_NAMES`).
-OSCILLATOR_PLAN_NAMES = ("gait", "overshoot", "eq6")
-#: The problem files shipped with the package, by name: `pes_ref.synthesis.problem_file.SHIPPED_PROBLEMS`
-#: (tested equal; written out for the same reason as `SET_NAMES`).
-SHIPPED_NAMES = ("funnel", "latch", "latch_contact")
+#: ``--plan`` choices: the oscillator's named plans, read from their home when an argument is
+#: checked or the help shown (``python -m pes_ref --help`` builds every command's parser, and
+#: building a parser imports nothing from the layers below the command line:
+#: tests/cli/test_oracle_startup.py).
+PLAN_CHOICES = LazyChoices("pes_ref.synthesis.common.plans", "OSCILLATOR_PLANS")
+
+
+def set_names() -> dict:
+    """The names ``--set`` takes, per built-in kind: the fields of its problem
+    (`pes_ref.synthesis.kinds.registry.KINDS`, each kind's ``default_problem``)."""
+    import dataclasses
+    from pes_ref.synthesis.kinds.registry import KINDS
+    return {name: tuple(f.name for f in dataclasses.fields(kind.default_problem))
+            for name, kind in KINDS.items() if kind.default_problem is not None}
+
+
+def shipped_names() -> tuple:
+    """The problem files shipped with the package, by name
+    (`pes_ref.synthesis.problem.problem_file.SHIPPED_PROBLEMS`)."""
+    from pes_ref.synthesis.problem.problem_file import SHIPPED_PROBLEMS
+    return SHIPPED_PROBLEMS
+
+
+def _kind_help() -> str:
+    return ("the device to design: the paper's funnel or oscillator, or a problem file (docs/problems.md; a "
+            "shipped one by its name: " + ", ".join(f"{name}.toml" for name in shipped_names()) + "); with "
+            "--resume it may be left out")
+
+
+def _set_help() -> str:
+    return ("override one scene parameter (e.g. --set n_steps=200); repeatable; the names: "
+            + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in set_names().items())
+            + "; a problem file: any of its keys by its dotted name, VALUE in TOML "
+              "(e.g. --set dynamics.dt=0.005 --set objective.1.weight=2)")
 
 
 def add_parser(sub) -> None:
@@ -77,25 +91,17 @@ def add_parser(sub) -> None:
 
 
     p.add_argument("kind", nargs="?", default=None, metavar="funnel|oscillator|PROBLEM.toml",
-                   help="the device to design: the paper's funnel or oscillator, or a problem file "
-                        "(docs/problems.md; a shipped one by its name: "
-                        + ", ".join(f"{name}.toml" for name in SHIPPED_NAMES) + "); "
-
-                        "with --resume it may be left out")
+                   help=LazyHelp(_kind_help))
     p.add_argument("--iterations", type=int, default=None, metavar="N", help="total iterations (default: the plan's)")
     p.add_argument("--seed", type=int, default=None, metavar="S",
                    help="run seed (default 0; a resumed run keeps its own)")
     p.add_argument("--out", default=None, metavar="FILE.npz", help="design file to write (default KIND.npz)")
     p.add_argument("--resume", default=None, metavar="FILE.npz", help="continue the run saved in this file")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="override one scene parameter (e.g. --set n_steps=200); repeatable; the names: "
-                        + "; ".join(f"{kind}: {', '.join(names)}" for kind, names in SET_NAMES.items())
-                        + "; a problem file: any of its keys by its dotted name, VALUE in TOML "
-                          "(e.g. --set dynamics.dt=0.005 --set objective.1.weight=2)")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help=LazyHelp(_set_help))
     p.add_argument("--lr", type=float, default=None, metavar="LR", help="initial learning rate (default: the plan's)")
     p.add_argument("--lr-final", type=float, default=None, metavar="LR", help="learning rate reached at the last iteration (default: the plan's)")
-    p.add_argument("--plan", choices=OSCILLATOR_PLAN_NAMES, default=None,
+    p.add_argument("--plan", choices=PLAN_CHOICES, default=None, metavar="NAME",
                    help="oscillator only: the named training plan, i.e. the objective trained on, its aim and "
                         "the optimizer schedule: 'gait' (default: prescribed-gait shooting, then the polish), "
                         "'overshoot' (eq. (6) + eq. (7) aimed at 1.4 times the target amplitude) or 'eq6' (the "
@@ -130,7 +136,7 @@ def add_parser(sub) -> None:
 def _flags(kind: str | None) -> dict:
     """Every name an error of a ``kind`` design may carry, and the option that sets it (a
     problem file's errors name its own keys; its steps come from its dynamics)."""
-    return {**{name: f"--set {name}" for name in SET_NAMES.get(kind, ())}, **_FILE_FLAGS.get(kind, {}), **PLAN_FLAGS}
+    return {**{name: f"--set {name}" for name in set_names().get(kind, ())}, **_FILE_FLAGS.get(kind, {}), **PLAN_FLAGS}
 
 
 def _base_problem(arg: str | None, state):
@@ -140,14 +146,14 @@ def _base_problem(arg: str | None, state):
     from pes_ref.synthesis import kind_named, load_problem, shipped_problem
     if arg is None:
         return state.problem
-    if arg in SET_NAMES:
+    if arg in set_names():
         return kind_named(arg).default_problem()
     stem = arg[:-5] if arg.endswith(".toml") else arg
-    if not os.path.exists(arg) and os.sep not in arg and stem in SHIPPED_NAMES:
+    if not os.path.exists(arg) and os.sep not in arg and stem in shipped_names():
         return load_problem(shipped_problem(stem))
     if not arg.endswith(".toml") and not os.path.exists(arg):
         raise ValueError(f"design {arg!r}: expected funnel, oscillator, a problem file PATH.toml, or a shipped "
-                         f"problem ({', '.join(SHIPPED_NAMES)})")
+                         f"problem ({', '.join(shipped_names())})")
     return load_problem(input_file(arg, "problem file"))
 
 
@@ -162,14 +168,14 @@ def error_stopped(state) -> int:
 def _run_design(args) -> int:
     from pes_ref import synthesis
     from pes_ref.synthesis import design_inputs, kind_of, load_design, run_to_file, start_design
-    from pes_ref.synthesis.polish import polish_pool, polish_workers
+    from pes_ref.synthesis.engine.polish import polish_pool, polish_workers
     flags = _flags(args.kind)
     try:
         if not args.progress >= 0:
             raise ValueError(f"--progress must be a number of seconds >= 0, got {args.progress}")
         if args.kind is None and args.resume is None:
             raise ValueError("give what to design (funnel, oscillator or PROBLEM.toml), or --resume FILE.npz")
-        state = None if args.resume is None else load_design(input_file(args.resume, "design file"))
+        state = None if args.resume is None else load_design(expect(args.resume, "design"))
         base = _base_problem(args.kind, state)
         kind = kind_of(base)
         flags = _flags(kind.name)

@@ -10,6 +10,7 @@ import sys
 import time
 
 from pes_ref.cli.common import EXIT_OK, LazyDefault, add_command, error, input_file, output_file, output_folder
+from pes_ref.cli.files import expect
 
 
 def add_parser(sub) -> None:
@@ -37,7 +38,7 @@ def add_parser(sub) -> None:
         examples=['evaluate funnel.npz', 'evaluate osc.npz --seed 9191 --json osc.json --plot plots',
                   'evaluate funnel.npz --realized funnel_parts/device.toml'])
     p.add_argument("file", metavar="FILE.npz", help="a design file written by 'design'")
-    p.add_argument("--seed", type=int, default=LazyDefault("pes_ref.synthesis.kinds", "HELD_OUT", "seed"),
+    p.add_argument("--seed", type=int, default=LazyDefault("pes_ref.synthesis.kinds.registry", "HELD_OUT", "seed"),
                    help="held-out seed (default %(default)s; training uses others)")
     p.add_argument("--realized", default=None, metavar="DEVICE.toml",
                    help="also run the same held-out evaluation on this realized device (a device file written by "
@@ -80,7 +81,7 @@ def _run_evaluate(args) -> int:
     if isinstance(args.seed, LazyDefault):
         args.seed = args.seed.value()
     try:
-        state = load_design(input_file(args.file, "design file"))
+        state = load_design(expect(args.file, "design"))
         engines = _engines(args)
         outputs = _outputs(args)                   # refused before anything is computed
         if args.realized is not None:
@@ -180,10 +181,10 @@ def _stem(path: str) -> str:
 
 
 def _picture(state, args) -> bytes:
-    """The PNG of ``--plot``: the held-out panels of the design ([`pes_ref.synthesis.kinds.held_out_panels`][pes_ref.synthesis.kinds.held_out_panels])."""
+    """The PNG of ``--plot``: the held-out panels of the design ([`pes_ref.synthesis.kinds.registry.held_out_panels`][pes_ref.synthesis.kinds.registry.held_out_panels])."""
     import io
     from pes_ref.synthesis import held_out_panels
-    from pes_ref.synthesis.plots import paths_figure
+    from pes_ref.synthesis.kinds.plots import paths_figure
     panels = held_out_panels(state.problem, state.values, seed=args.seed, n_particles=args.particles)
     name = getattr(state.problem, "name", state.kind)             # a problem file's problem by its name
     title = (f"{os.path.basename(args.file)}: {name}, {state.method} to iteration {state.iteration}; "

@@ -7,11 +7,11 @@ refused."""
 from __future__ import annotations
 
 import os
-import zipfile
 
 from pes_ref.core.runtime.progress import ProgressWriter
 from pes_ref.oracle.conformance import LATEST
-from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, input_file, output_file
+from pes_ref.cli.common import EXIT_ERROR, EXIT_OK, add_command, error, output_file
+from pes_ref.cli.files import expect
 
 
 #: The shipped vectors of the newest set, as a path from the repository's root (for the examples).
@@ -68,42 +68,14 @@ def _pairs(args) -> list:
 
 
 def _check_files(case_path: str, result_path: str, force: bool) -> None:
-    """Refuse before computing, once: the case must be a readable file and neither a design
-    nor a result file; the result's folder must exist and be writable, an existing result
-    is kept unless ``--force``, and the result is never the case file itself."""
-    input_file(case_path, "case file")
-    members = _members(case_path)
-    if "format.npy" in members and _is_design_file(case_path):
-        raise ValueError(f"{case_path} is a design file, not a case; evaluate reads it: "
-                         f"python -m pes_ref evaluate {case_path}")
-    if _is_result_file(members):
-        raise ValueError(f"{case_path} is an oracle result file, not a case (the oracle wrote it)")
+    """Refuse before computing, once: the case must be a readable file and no file of another
+    kind (a design or a result: `pes_ref.cli.files.expect`); the result's folder must exist
+    and be writable, an existing result is kept unless ``--force``, and the result is never
+    the case file itself."""
+    expect(case_path, "case")
     output_file(result_path, "result", force=force)
     if os.path.exists(result_path) and os.path.samefile(case_path, result_path):
         raise ValueError(f"the result path {result_path} is the case file itself")
-
-
-def _members(path: str) -> set:
-    """The member names of the zip at ``path`` (only its directory is read; none if it is no zip)."""
-    try:
-        with zipfile.ZipFile(path) as z:
-            return set(z.namelist())
-    except (zipfile.BadZipFile, OSError):
-        return set()
-
-
-def _is_result_file(members: set) -> bool:
-    """Whether a zip of these member names holds what every result has and no case does
-    (`pes_ref.oracle.case.TRAJECTORY_KEYS`)."""
-    from pes_ref.oracle.case import TRAJECTORY_KEYS
-    return {key + ".npy" for key in TRAJECTORY_KEYS} <= members
-
-
-def _is_design_file(path: str) -> bool:
-    """Whether ``path`` is a design file (asked of the design files' own module only for a
-    file with a ``format`` member, which no case has, so the oracle's start-up stays lean)."""
-    from pes_ref.synthesis.design_file import is_design_file
-    return is_design_file(path)
 
 
 def _record_refusal(path: str, case_path: str, exc: Exception) -> None:

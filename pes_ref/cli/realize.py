@@ -24,7 +24,8 @@ import os
 import sys
 import time
 
-from pes_ref.cli.common import EXIT_OK, LazyChoices, LazyDefault, add_command, error, input_file, output_file, output_folder
+from pes_ref.cli.common import EXIT_OK, LazyChoices, LazyDefault, add_command, error, output_file, output_folder
+from pes_ref.cli.files import expect
 
 #: The library's names of what the options set, and the options (errors name the option).
 FLAGS = {"pin_radius": "--pin-radius", "rim": "--rim", "thickness": "--thickness", "level": "--level",
@@ -118,7 +119,7 @@ def _run_realize(args) -> int:
         from pes_ref.realize.realizations import check_options, realize
         from pes_ref.synthesis import load_design
         realization = check_options(args.as_, options)
-        state = load_design(input_file(args.file, "design file"))
+        state = load_design(expect(args.file, "design"))
         files = realization.files(state.problem)
         output_folder(args.out)
         paths = {key: os.path.join(args.out, name) for key, (name, _) in files.items()}

@@ -1,11 +1,10 @@
 """The oracle: the case and result ``.npz`` interchange format of docs/spec.md, the
 contract's tolerances, and the versioned conformance vectors.
 
-- [`pes_ref.oracle.case`][pes_ref.oracle.case]         case validation, running a case, result keys
+- [`pes_ref.oracle.case`][pes_ref.oracle.case]         case validation, running a case, result keys; its .npz files read
+  and written by pes_ref.core.runtime.npz, whose refusals become CaseError here
 - [`pes_ref.oracle.from_scene`][pes_ref.oracle.from_scene]   a Scene, state and objective as a case
 - [`pes_ref.oracle.errors`][pes_ref.oracle.errors]       CaseError (a keyed input error)
-- [`pes_ref.oracle.npz`][pes_ref.oracle.npz]          reading and writing .npz without pickle (atomically:
-  pes_ref.core.runtime.files)
 - [`pes_ref.oracle.compare`][pes_ref.oracle.compare]      a result against the reference, by the tolerances
 - [`pes_ref.oracle.tolerances`][pes_ref.oracle.tolerances]   the tolerances of the contract
 - [`pes_ref.oracle.conformance`][pes_ref.oracle.conformance]  the shipped vectors and their generator

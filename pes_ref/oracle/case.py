@@ -10,8 +10,8 @@ conformance vectors of [`pes_ref.oracle.conformance`][pes_ref.oracle.conformance
 The format is ``docs/spec.md`` sections 8-9 (``docs/oracle.md`` keeps the history of its decisions).
 This module holds the format (which keys, which kinds of data), the validation of a
 case and running it; the ``.npz`` files are read and written by
-[`pes_ref.oracle.npz`][pes_ref.oracle.npz], and its errors are those of
-[`pes_ref.oracle.errors`][pes_ref.oracle.errors].
+[`pes_ref.core.runtime.npz`][pes_ref.core.runtime.npz], whose refusals [`read_npz`][pes_ref.oracle.case.read_npz]
+turns into the oracle's own errors ([`pes_ref.oracle.errors`][pes_ref.oracle.errors]).
 
 Examples
 --------
@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pes_ref.core import backends, budget, checks, stability
-from pes_ref.core.runtime import pages
+from pes_ref.core.runtime import npz, pages
 from pes_ref.core.runtime.files import ResultExistsError
 from pes_ref.core.integrator import LOOKUP_RANGE, NonFiniteError
 from pes_ref.core.objectives import Funnel, Oscillator, Quadratic
@@ -45,7 +45,7 @@ from pes_ref.core.scene import MODES, Scene, gradient_names, value_and_grad
 from pes_ref.core.surface import Surface
 from pes_ref.core.terms import Spring, Walls
 from pes_ref.oracle.errors import CaseError, CaseTypeError
-from pes_ref.oracle.npz import read_npz, write_npz
+from pes_ref.core.runtime.npz import write_npz
 
 __all__ = [
     "CaseError", "CaseTypeError", "ResultExistsError", "ValidCase",
@@ -89,6 +89,25 @@ CORE_NAME_TO_CASE_KEY = {
 
 
 # =========================================================================== files
+
+def read_npz(path, *, what: str = "case") -> dict:
+    """Every array of the ``.npz`` file ``path``, read without pickle
+    ([`pes_ref.core.runtime.npz.read_npz`][pes_ref.core.runtime.npz.read_npz]), its refusals the oracle's.
+
+    Raises
+    ------
+    OSError
+        The file cannot be opened.
+    CaseError
+        Not an ``.npz`` archive, a damaged one, or a member that cannot be read (keyed by it; a
+        [`CaseTypeError`][pes_ref.oracle.errors.CaseTypeError] if only pickle could read it).
+    """
+    try:
+        return npz.read_npz(path, what=what)
+    except npz.NpzError as exc:
+        error = CaseTypeError if isinstance(exc, TypeError) else CaseError
+        raise error(exc.key, exc.reason) from None
+
 
 def load_case(path) -> dict:
     """Read a case file: ``np.load(path, allow_pickle=False)`` into a plain dict.

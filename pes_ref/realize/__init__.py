@@ -15,7 +15,7 @@ Modules, one idea each:
 - [`.evaluation`][pes_ref.realize.evaluation]  a design's own held-out evaluation on a realized device, under eq. (1)
                       or its parts in rigid contact (`pes_ref.rigid.engines.ENGINES`; what each
                       design kind needs to be realized is its kind's entry,
-                      `pes_ref.synthesis.kinds.DesignKind.realizable`)
+                      `pes_ref.synthesis.kinds.registry.DesignKind.realizable`)
 - [`.heightfield`][pes_ref.realize.heightfield] a plate whose top is the energy, and a ball rolling on it
 - [`.mujoco_ball`][pes_ref.realize.mujoco_ball] the same balls on the plate in MuJoCo (its heightfield geom)
 - [`.drawing`][pes_ref.realize.drawing]     the parts at three positions

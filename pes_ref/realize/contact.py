@@ -29,7 +29,7 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.realize.hooks import contact_parameters, start_point
-from pes_ref.synthesis.kinds import kind_of
+from pes_ref.synthesis.kinds.registry import kind_of
 from pes_ref.realize.followers import DRUM_CAM, DRUM_RADIUS, Parts, follower_for
 from pes_ref.realize.regions import Region, contact_region
 
@@ -69,7 +69,7 @@ class ContactRealization:
 
 def design_hash(problem, values) -> str:
     """``"sha256:<hex>"`` of a design: its kind, its problem's text (the design file's,
-    `pes_ref.synthesis.kinds.DesignKind.to_text`) and its grid values (shape and float64
+    `pes_ref.synthesis.kinds.registry.DesignKind.to_text`) and its grid values (shape and float64
     bytes, little-endian). Two designs with the same hash run the same."""
     kind = kind_of(problem)
     grid = np.ascontiguousarray(values, dtype="<f8")
@@ -124,7 +124,7 @@ def realize_contact(problem, values, rule: str | None = None, level: float | Non
     ``clearance``: the pin is made that much larger than part 1 is cut for; ``restitution``:
     the parts' coefficient of restitution, written to the device file's ``[rigid]`` table (the
     rigid engine's). Either None: what the design's problem states (a problem file's
-    ``[surface.contact]``, `pes_ref.synthesis.kinds.Realizable.parts`), else no clearance
+    ``[surface.contact]``, `pes_ref.synthesis.kinds.registry.Realizable.parts`), else no clearance
     and no ``[rigid]`` table (inelastic). ``units``: what one C-space length unit is in the DXF
     (`pes_ref.realize.exports.DXF_UNITS`)."""
     from pes_ref.realize.exports import DOWEL_RIM_SHARE, DXF_UNITS, dowel_holes

@@ -29,7 +29,7 @@ surface). `pes_ref.rigid.engines.ENGINES` names both; [`evaluate_realized`][pes_
 for.
 
 What a realization needs of each kind of design is its kind's entry,
-`pes_ref.synthesis.kinds.DesignKind.realizable`.
+`pes_ref.synthesis.kinds.registry.DesignKind.realizable`.
 """
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.core.stability import SAFETY, stability_limit
-from pes_ref.synthesis.kinds import HELD_OUT, evaluate, held_out_steps, kind_of
+from pes_ref.synthesis.kinds.registry import HELD_OUT, evaluate, held_out_steps, kind_of
 
 __all__ = ["RealizedRun", "RigidRuns", "realized_run", "realized_problem", "rigid_problem", "evaluate_realized",
            "headline_scores", "device_spring", "check_design"]
@@ -49,7 +49,7 @@ class RealizedRun(NamedTuple):
     """The design's problem on the realized device: ``problem`` (the design's, at the step the
     rule allows), the grid ``values`` its scenes are built on, the step ``dt`` and ``n_steps``
     it takes, and the ``engine`` that runs its scenes (None: the surface model; see
-    [`pes_ref.synthesis.kinds.evaluate`][pes_ref.synthesis.kinds.evaluate])."""
+    [`pes_ref.synthesis.kinds.registry.evaluate`][pes_ref.synthesis.kinds.registry.evaluate])."""
 
     problem: object
     values: np.ndarray
@@ -198,7 +198,7 @@ def evaluate_realized(problem, values, device, seed: int = HELD_OUT["seed"], n_p
 
 
 def headline_scores(problem, values, device, seed: int = HELD_OUT["seed"], n_particles: int | None = None) -> dict:
-    """The design's headline figure (its kind's, `pes_ref.synthesis.kinds.KINDS`) on held-out
+    """The design's headline figure (its kind's, `pes_ref.synthesis.kinds.registry.KINDS`) on held-out
     ``seed`` beside the parts' under eq. (1) (``realized_``) and in rigid contact (``rigid_``; without
     pymunk its value says it was not run, with the pip line), with ``score_seed`` and ``score_particles``,
     and how many of the rigid run's starts (every scene's) lie inside the parts (``rigid_starts_blocked``)."""

@@ -1,7 +1,7 @@
 """What a realization needs of each kind of design, read off its entry's realization hooks.
 
-Each kind of design (`pes_ref.synthesis.kinds.KINDS`) states, in its ``realizable``
-([`pes_ref.synthesis.kinds.Realizable`][pes_ref.synthesis.kinds.Realizable]), where its particles go (the paths the
+Each kind of design (`pes_ref.synthesis.kinds.registry.KINDS`) states, in its ``realizable``
+([`pes_ref.synthesis.kinds.registry.Realizable`][pes_ref.synthesis.kinds.registry.Realizable]), where its particles go (the paths the
 ``visited`` contact rule and the drawing read), where an analysis of its device starts, and the
 eq. (1) its parts' surface takes; the contact realization and the drawing ask here.
 """
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pes_ref.synthesis.kinds import kind_of
+from pes_ref.synthesis.kinds.registry import kind_of
 
 __all__ = ["contact_parameters", "start_point", "held_out_positions"]
 

@@ -6,7 +6,7 @@ heightfield geom (``hfield``) whose nodes carry the plate's heights
 ``h = (E - min E) / (m g)`` ([`pes_ref.realize.heightfield.HeightField`][pes_ref.realize.heightfield.HeightField], read
 back from
 the exported STL's top). Everything else is the design's, taken from its own held-out batch
-(``problem.plain().batch``, the sampler of [`pes_ref.synthesis.kinds.evaluate`][pes_ref.synthesis.kinds.evaluate] with
+(``problem.plain().batch``, the sampler of [`pes_ref.synthesis.kinds.registry.evaluate`][pes_ref.synthesis.kinds.registry.evaluate] with
 ``default_rng(seed)``):
 
 - **the starts**: each ball's centre over the particle's start, resting on the plate, its
@@ -45,7 +45,7 @@ design's surface extends as a constant beyond its grid), so a ball that leaves t
 (through the exit edge) rolls on before it falls. The paths are sampled at the design's
 steps (a [`pes_ref.core.integrator.Trajectory`][pes_ref.core.integrator.Trajectory] of the balls' horizontal centres and
 velocities, its ``f`` the schedule's and the walls' force at each state), so
-[`pes_ref.synthesis.exit_positions`][pes_ref.synthesis.funnel.exit_positions] reads their exits as the design's.
+[`pes_ref.synthesis.exit_positions`][pes_ref.synthesis.kinds.funnel.exit_positions] reads their exits as the design's.
 """
 from __future__ import annotations
 

@@ -17,7 +17,7 @@ __all__ = ["Realization", "REALIZATIONS", "check_options", "realize"]
 
 
 def _held_out_seed() -> int:
-    from pes_ref.synthesis.kinds import HELD_OUT          # here: the command's parser imports this module
+    from pes_ref.synthesis.kinds.registry import HELD_OUT          # here: the command's parser imports this module
     return HELD_OUT["seed"]
 
 

@@ -6,7 +6,7 @@ below the level is flat, except the springs and walls the design's scene has. Th
 chosen by a stated rule, `CONTACT_RULES` (``docs/realize.md``):
 
 - ``"level-set"`` (the default for a design made realizable, ``--set realizable=true``):
-  the design's own shape, ``{values + r_c < 0}`` ([`pes_ref.synthesis.level_set`][pes_ref.synthesis.level_set]); its
+  the design's own shape, ``{values + r_c < 0}`` ([`pes_ref.synthesis.common.level_set`][pes_ref.synthesis.common.level_set]); its
   level is eq. (1)'s energy at distance 0, and the surface it simulated is eq. (1) of this
   very region;
 - ``"visited"`` (the default otherwise): the highest energy the design's own particles
@@ -37,7 +37,7 @@ import numpy as np
 from pes_ref.core import checks
 from pes_ref.core.surface import Surface, spacing as grid_spacing
 from pes_ref.devices.cspace import apf_energy
-from pes_ref.synthesis.resampling import resample
+from pes_ref.synthesis.common.resampling import resample
 
 __all__ = ["Region", "contact_region", "CONTACT_RULES", "VISITED_QUANTILE", "VISITED_SEED", "region_polygons"]
 

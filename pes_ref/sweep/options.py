@@ -1,10 +1,10 @@
 """A sweep file's options, typed: which value each option and scene parameter takes.
 
-A sweep file names each run's *design options* (`pes_ref.synthesis.runs.DESIGN_OPTIONS`,
+A sweep file names each run's *design options* (`pes_ref.synthesis.engine.runs.DESIGN_OPTIONS`,
 the flags of ``python -m pes_ref design``) and the problem's parameters as TOML values; these
 check that each has its type ([`typed_sets`][pes_ref.sweep.options.typed_sets] for a built-in kind's scene parameters).
 What
-the options then mean is [`pes_ref.synthesis.runs.design_inputs`][pes_ref.synthesis.runs.design_inputs], the design
+the options then mean is [`pes_ref.synthesis.engine.runs.design_inputs`][pes_ref.synthesis.engine.runs.design_inputs], the design
 command's own.
 """
 from __future__ import annotations
@@ -24,7 +24,7 @@ BUILT_IN_KINDS = tuple(name for name, kind in KINDS.items() if kind.default_prob
 
 def run_inputs(kind: str, options: Mapping, problem=None) -> DesignInputs:
     """What a sweep run's ``options`` resolve to
-    ([`pes_ref.synthesis.runs.design_inputs`][pes_ref.synthesis.runs.design_inputs]):
+    ([`pes_ref.synthesis.engine.runs.design_inputs`][pes_ref.synthesis.engine.runs.design_inputs]):
     a built-in ``kind``'s scene parameters typed as its fields, or a problem file's dotted keys
     on ``problem``."""
     sets = {k: v for k, v in options.items() if k not in DESIGN_OPTIONS}

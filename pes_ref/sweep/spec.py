@@ -20,7 +20,7 @@ A sweep file (read with `tomllib`)::
     name = "big_batch"
     particles = 128
 
-An *option* is a design option (`pes_ref.synthesis.runs.DESIGN_OPTIONS`, the flags
+An *option* is a design option (`pes_ref.synthesis.engine.runs.DESIGN_OPTIONS`, the flags
 of ``python -m pes_ref design`` without the dashes, ``-`` as ``_``) or a scene parameter
 of the kind (what ``--set NAME=VALUE`` sets; for a problem file, any of its keys by its
 dotted name, quoted: ``"dynamics.dt" = 0.005``). The runs are every variant (or one run of

@@ -4,7 +4,7 @@
 [`pes_ref.sweep.spec.Run.payload`][pes_ref.sweep.spec.Run.payload] and returns
 a small dict (status, figures, wall time, worker, the design file's path), never
 trajectories or grids. The design file, written by the project's atomic writer
-([`pes_ref.synthesis.design_file.save_design`][pes_ref.synthesis.design_file.save_design]) every `CHECKPOINT_SECONDS`
+([`pes_ref.synthesis.engine.design_file.save_design`][pes_ref.synthesis.engine.design_file.save_design]) every `CHECKPOINT_SECONDS`
 and at the
 end, is the run's checkpoint: a task that finds it resumes from it (a finished design
 is only evaluated again).

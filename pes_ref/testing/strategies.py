@@ -156,7 +156,7 @@ def _away(offset: np.ndarray, half, margin: float = TERM_MARGIN) -> np.ndarray:
 
 @st.composite
 def term_cases(draw, *, max_states: int = 7, max_particles: int = 3):
-    """A state term of a problem file (`pes_ref.synthesis.objective_terms.OBJECTIVE_TERMS`,
+    """A state term of a problem file (`pes_ref.synthesis.problem.objective_terms.OBJECTIVE_TERMS`,
     every kind but the grid's) on a random domain of any topology, with a trajectory away from
     its kinks: ``(term, x, v, t)``.
 
@@ -166,7 +166,7 @@ def term_cases(draw, *, max_states: int = 7, max_particles: int = 3):
     after the run's end, where a term charges nothing).
     """
     from pes_ref.core.objectives import Quadratic
-    from pes_ref.synthesis.objective_terms import EDGES, OBJECTIVE_TERMS, Domain
+    from pes_ref.synthesis.problem.objective_terms import EDGES, OBJECTIVE_TERMS, Domain
 
     periodic = draw(topologies())
     kinds = [k for k, cls in OBJECTIVE_TERMS.items() if not hasattr(cls, "grid_value_and_grad")

@@ -5,8 +5,7 @@ import os
 import numpy as np
 import pytest
 
-from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main
-from pes_ref.cli.design import OSCILLATOR_PLAN_NAMES, SET_NAMES
+from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, build_parser, main
 from pes_ref.synthesis import KINDS, OSCILLATOR_PLANS, load_design
 
 
@@ -16,9 +15,15 @@ def run(capsys, *argv):
     return code, out, err
 
 
-def test_set_names_are_the_problem_fields():
-    assert SET_NAMES == {name: tuple(f.name for f in dataclasses.fields(kind.default_problem))
-                         for name, kind in KINDS.items() if kind.default_problem is not None}
+def test_set_help_names_every_field_of_each_kinds_problem():
+    design = next(a for a in build_parser()._actions if a.dest == "command").choices["design"]
+    entry = " ".join(design.format_help().split())
+    start = entry.index("--set NAME=VALUE override")
+    entry = entry[start:entry.index("--lr LR", start)]
+    for name, kind in KINDS.items():
+        if kind.default_problem is not None:
+            fields = ", ".join(f.name for f in dataclasses.fields(kind.default_problem))
+            assert f"{name}: {fields};" in entry
 
 
 @pytest.fixture
@@ -156,9 +161,8 @@ def test_polish_options_and_resume_through_the_command_line(tmp_path, capsys):
     assert sa.polish_history == sb.polish_history
 
 
-@pytest.mark.parametrize("name", OSCILLATOR_PLAN_NAMES)
+@pytest.mark.parametrize("name", OSCILLATOR_PLANS)
 def test_plan_selects_the_oscillator_overrides_and_plan(tmp_path, capsys, name):
-    assert set(OSCILLATOR_PLAN_NAMES) == set(OSCILLATOR_PLANS)
     path = tmp_path / "o.npz"
     code, out, err = run(capsys, "design", "oscillator", "--smoke", "--plan", name, "--out", path, "--quiet")
     assert code == EXIT_OK, err
@@ -167,7 +171,7 @@ def test_plan_selects_the_oscillator_overrides_and_plan(tmp_path, capsys, name):
     assert all(getattr(st.problem, k) == v for k, v in sets.items())
     assert st.plan.lr == plan.lr and st.iteration == 6             # the setting's plan under the smoke preset
     # resuming with another named plan is another scene, refused
-    other = [n for n in OSCILLATOR_PLAN_NAMES if n != name][0]
+    other = [n for n in OSCILLATOR_PLANS if n != name][0]
     code, out, err = run(capsys, "design", "oscillator", "--resume", path, "--plan", other, "--quiet")
     assert code == EXIT_ERROR and "another scene" in err
 
@@ -186,7 +190,7 @@ def test_a_run_that_stops_exits_1_with_its_last_good_state(tmp_path, capsys):
 
 def test_a_run_that_fails_before_its_first_iteration_leaves_no_file(tmp_path, capsys, monkeypatch):
     """The file claimed before the run is removed when nothing was done in it."""
-    from pes_ref.synthesis import runs
+    from pes_ref.synthesis.engine import runs
 
     def fail(*args, **kwargs):
         raise ValueError("n_steps must fit in memory")
@@ -197,7 +201,7 @@ def test_a_run_that_fails_before_its_first_iteration_leaves_no_file(tmp_path, ca
 
 
 def test_a_failed_resume_keeps_the_file(funnel_file, capsys, monkeypatch):
-    from pes_ref.synthesis import runs
+    from pes_ref.synthesis.engine import runs
 
     def fail(*args, **kwargs):
         raise ValueError("boom")
@@ -223,7 +227,7 @@ def test_the_progress_line_shows_the_stage_and_a_change_of_stage_says_so(tmp_pat
 
 
 def test_the_polish_uses_both_cores_by_default_and_an_explicit_workers_wins(monkeypatch):
-    from pes_ref.synthesis.polish import DEFAULT_WORKERS, polish_workers
+    from pes_ref.synthesis.engine.polish import DEFAULT_WORKERS, polish_workers
     from pes_ref.synthesis import FunnelProblem, OscillatorProblem, design_inputs
     osc, funnel = design_inputs(OscillatorProblem(), {}), design_inputs(FunnelProblem(), {})
     monkeypatch.setattr(os, "cpu_count", lambda: 8)

@@ -13,7 +13,7 @@ import _helpers
 
 import pes_ref
 from pes_ref.cli import EXIT_ERROR, EXIT_INTERRUPTED, EXIT_OK, main
-from pes_ref.cli.design import SHIPPED_NAMES
+from pes_ref.cli import build_parser
 from pes_ref.synthesis import SHIPPED_PROBLEMS, load_design
 
 ROOT = Path(pes_ref.__file__).resolve().parent.parent
@@ -35,8 +35,11 @@ def gather(tmp_path):
     return path
 
 
-def test_shipped_names_are_the_shipped_problems():
-    assert SHIPPED_NAMES == SHIPPED_PROBLEMS
+def test_the_shipped_problems_are_the_package_files_and_the_help_names_them():
+    data = Path(pes_ref.__file__).parent / "synthesis" / "data"
+    assert sorted(SHIPPED_PROBLEMS) == sorted(p.stem for p in data.glob("*.toml"))
+    design = next(a for a in build_parser()._actions if a.dest == "command").choices["design"]
+    assert ", ".join(f"{name}.toml" for name in SHIPPED_PROBLEMS) in " ".join(design.format_help().split())
 
 
 def test_design_a_problem_file_then_evaluate_and_resume(gather, tmp_path, capsys):

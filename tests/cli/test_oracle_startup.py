@@ -28,7 +28,8 @@ ROOT = Path(pes_ref.__file__).resolve().parent.parent
 #: below: add it only with its reason.
 ORACLE_IMPORTS = {
     "pes_ref", "pes_ref.cli", "pes_ref.cli.common", "pes_ref.cli.oracle",
-    "pes_ref.oracle", "pes_ref.oracle.case", "pes_ref.oracle.monitor", "pes_ref.oracle.npz", "pes_ref.oracle.errors",
+    "pes_ref.cli.files",                    # a case file told from a design or a result file
+    "pes_ref.oracle", "pes_ref.oracle.case", "pes_ref.oracle.monitor", "pes_ref.oracle.errors",
     "pes_ref.oracle.from_scene",            # re-exported by pes_ref.oracle
     "pes_ref.oracle.conformance",           # the shipped vectors' version, in the examples of --help
     "pes_ref.core", "pes_ref.core.bicubic", "pes_ref.core.bilinear", "pes_ref.core.budget", "pes_ref.core.checks",
@@ -36,6 +37,7 @@ ORACLE_IMPORTS = {
     "pes_ref.core.integrator", "pes_ref.core.interpolations", "pes_ref.core.objectives", "pes_ref.core.runtime.progress",
     "pes_ref.core.scene", "pes_ref.core.stability", "pes_ref.core.steppers", "pes_ref.core.surface",
     "pes_ref.core.terms", "pes_ref.core.runtime", "pes_ref.core.runtime.files", "pes_ref.core.runtime.signals",
+    "pes_ref.core.runtime.npz",
     "pes_ref.core.backends",                # the registry of loops: finds numba, never imports it here
     "pes_ref.accel", "pes_ref.accel.halves",  # a large case's NumPy run, as two halves on two threads
     "pes_ref.core.runtime.pages", "mmap",   # a large run's arrays, mapped without huge-page stalls

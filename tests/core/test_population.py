@@ -80,8 +80,8 @@ def test_each_member_is_its_own_run_bit_for_bit(backend, mode, topology, data):
 def test_the_polish_generation_is_each_candidates_own_run(backend):
     """The oscillator's polish scenes (cylinder, spring k = (1, 0), walls, damping, a torque per
     particle): the same bits in every byte, zeros' signs included."""
-    from pes_ref.synthesis.polish import polish_particles
-    from pes_ref.synthesis.oscillator import OscillatorProblem
+    from pes_ref.synthesis.engine.polish import polish_particles
+    from pes_ref.synthesis.kinds.oscillator import OscillatorProblem
     problem = OscillatorProblem(grid0=8, grid1=8)
     parts = polish_particles(problem, np.random.default_rng(0), n=6)
     rng = np.random.default_rng(1)

@@ -20,14 +20,14 @@ def test_import_contracts_hold():
     proc = subprocess.run([sys.executable, "-c", LINT_IMPORTS, "--config", str(ROOT / "setup.cfg"), "--no-cache",
                            "--no-logo"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, f"import-linter (setup.cfg's contracts):\n{proc.stdout}\n{proc.stderr}"
-    assert "Contracts: 4 kept, 0 broken." in proc.stdout
+    assert "Contracts: 5 kept, 0 broken." in proc.stdout
 
 
-def setup_cfg_layers() -> list:
-    """The layers of setup.cfg's contract, highest first, each a tuple of subpackages."""
+def setup_cfg_layers(contract: str = "layers") -> list:
+    """The layers of one of setup.cfg's layers contracts, highest first, each a tuple of subpackages."""
     cfg = configparser.ConfigParser()
     cfg.read(ROOT / "setup.cfg")
-    lines = cfg["importlinter:contract:layers"]["layers"].splitlines()
+    lines = cfg[f"importlinter:contract:{contract}"]["layers"].splitlines()
     return [tuple(name.strip() for name in line.split("|")) for line in lines if line.strip()]
 
 
@@ -43,6 +43,13 @@ def test_the_architecture_page_draws_the_layers_of_setup_cfg():
     layers = setup_cfg_layers()
     assert layers[0] == ("cli",) and layers[-1] == ("core",)
     assert drawn_layers((ROOT / "docs" / "architecture.md").read_text()) == layers
+
+
+def test_the_architecture_page_draws_the_rooms_of_synthesis():
+    rooms = setup_cfg_layers("synthesis")
+    assert rooms[0] == ("engine",) and len(rooms) == 4
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    assert drawn_layers(text[text.index("## synthesis's rooms"):]) == rooms
 
 
 def test_a_diagram_without_a_layer_differs():

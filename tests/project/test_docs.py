@@ -11,7 +11,7 @@ from _helpers import without_progress
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
-@pytest.mark.parametrize("module", ["pes_ref.core.scene", "pes_ref.oracle.case", "pes_ref.synthesis.optimizers"])
+@pytest.mark.parametrize("module", ["pes_ref.core.scene", "pes_ref.oracle.case", "pes_ref.synthesis.common.optimizers"])
 def test_docstring_examples(module):
     result = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
     assert result.attempted > 0 and result.failed == 0

@@ -71,7 +71,7 @@ def test_design_figure_refuses_wrong_kind(smoke_designs, tmp_path):
 def test_design_gradient_is_zero_where_no_particle_passes(smoke_designs):
     """What Fig. 5 shows: dL/dE is nonzero only at nodes of cells a path visits."""
     from pes_ref.synthesis import design_gradient
-    from pes_ref.synthesis.design_file import load_design
+    from pes_ref.synthesis.engine.design_file import load_design
     from pes_ref.core.surface import Surface
     from figures.fig05_funnel_gradient import visited_nodes
     state = load_design(smoke_designs["funnel"])
@@ -111,7 +111,7 @@ def test_cache_reused_only_when_inputs_unchanged(smoke_designs, tmp_path):
 
 def test_cache_refuses_unfinished_design(tmp_path):
     from pes_ref.synthesis import new_design
-    from pes_ref.synthesis.design_file import save_design
+    from pes_ref.synthesis.engine.design_file import save_design
     npz = str(tmp_path / "osc.npz")
     save_design(npz, new_design("oscillator", grid0=8, grid1=8))       # status "running", as a checkpoint is
     key = make_all.cache_key("s", ["design", "oscillator"])

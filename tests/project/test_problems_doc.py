@@ -7,7 +7,8 @@ import pytest
 
 from _helpers import ROOT
 
-from pes_ref.synthesis import FORCES, OBJECTIVE_TERMS, SUCCESS_TESTS, problem_file as pf
+from pes_ref.synthesis import FORCES, OBJECTIVE_TERMS, SUCCESS_TESTS
+from pes_ref.synthesis.problem import problem_file as pf
 
 TEXT = (ROOT / "docs" / "problems.md").read_text()
 

@@ -10,7 +10,7 @@ from pes_ref.devices.device_file import parse_device
 from pes_ref.realize import exports
 from pes_ref.realize.contact import realize_contact
 from pes_ref.realize.regions import contact_region
-from pes_ref.synthesis.funnel import FunnelProblem
+from pes_ref.synthesis.kinds.funnel import FunnelProblem
 
 GRID = 41
 LEVEL = 0.1

@@ -17,7 +17,7 @@ from pes_ref.realize.contact import realize_contact
 from pes_ref.realize.evaluation import evaluate_realized, realized_problem
 from pes_ref.realize.hooks import contact_parameters, held_out_positions, start_point
 from pes_ref.realize.followers import drum_cam
-from pes_ref.synthesis.oscillator import OscillatorProblem
+from pes_ref.synthesis.kinds.oscillator import OscillatorProblem
 
 GRID = 24
 LEVEL = 0.25

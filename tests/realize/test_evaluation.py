@@ -13,7 +13,7 @@ from pes_ref.devices.device_file import parse_device
 from pes_ref.realize import exports
 from pes_ref.realize.contact import realize_contact
 from pes_ref.realize.evaluation import evaluate_realized, realized_problem
-from pes_ref.synthesis.funnel import FunnelProblem
+from pes_ref.synthesis.kinds.funnel import FunnelProblem
 
 GRID = 41
 
@@ -66,7 +66,7 @@ def test_a_device_on_another_grid_is_refused(problem, device_data):
 # ------------------------------------------------------------------ the engine the scenes run on
 def test_the_surface_engine_given_as_an_engine_gives_today_s_figures_bit_for_bit(problem, device_data):
     from pes_ref.core.population import simulate_batch
-    from pes_ref.synthesis.kinds import evaluate
+    from pes_ref.synthesis.kinds.registry import evaluate
     values = _device(device_data).surface().values
     assert evaluate(problem, values, seed=3, n_particles=12, engine=simulate_batch) == \
         evaluate(problem, values, seed=3, n_particles=12)
@@ -112,7 +112,7 @@ def test_every_kind_runs_its_design_s_scenes_on_the_engine_given_with_the_same_f
     import _helpers
     from pes_ref.core.population import simulate_batch
     from pes_ref.synthesis import KINDS, problem_from_text
-    from pes_ref.synthesis.kinds import evaluate
+    from pes_ref.synthesis.kinds.registry import evaluate
     if kind == "problem":
         small = problem_from_text(_helpers.gather_problem(), "gather.toml")
     else:

@@ -8,7 +8,7 @@ from pes_ref import Scene, Surface, simulate
 from pes_ref.realize import exports
 from pes_ref.realize.heightfield import (ROLLING, HeightField, _sloped, heightfield, heightfield_mesh,
                                          heights_from_mesh, rolling_paths)
-from pes_ref.synthesis.funnel import FunnelProblem
+from pes_ref.synthesis.kinds.funnel import FunnelProblem
 
 GRID = 31
 
@@ -65,7 +65,7 @@ def test_a_ball_on_a_constant_slope_accelerates_by_the_shortened_force():
 
 
 def test_a_wrapping_surface_is_refused():
-    from pes_ref.synthesis.oscillator import OscillatorProblem
+    from pes_ref.synthesis.kinds.oscillator import OscillatorProblem
     osc = OscillatorProblem(grid0=8, grid1=8)
     with pytest.raises(ValueError, match="realizes a plane"):
         heightfield(osc, np.zeros((8, 8)))

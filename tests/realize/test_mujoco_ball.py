@@ -9,7 +9,7 @@ pytest.importorskip("mujoco")
 
 from pes_ref.realize import mujoco_ball                                             # noqa: E402
 from pes_ref.realize.heightfield import heightfield, heightfield_check, rolling_paths  # noqa: E402
-from pes_ref.synthesis.funnel import FunnelProblem                                   # noqa: E402
+from pes_ref.synthesis.kinds.funnel import FunnelProblem                                   # noqa: E402
 
 GRID = 41
 

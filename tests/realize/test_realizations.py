@@ -10,7 +10,7 @@ import pytest
 from pes_ref.core.checks import InputError
 from pes_ref.realize.files import CONTACT_FILES, HEIGHTFIELD_FILES
 from pes_ref.realize.realizations import REALIZATIONS, check_options, realize
-from pes_ref.synthesis.funnel import FunnelProblem
+from pes_ref.synthesis.kinds.funnel import FunnelProblem
 
 pytest.importorskip("ezdxf")
 pytest.importorskip("trimesh")

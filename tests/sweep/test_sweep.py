@@ -18,7 +18,7 @@ from pes_ref.cli import EXIT_ERROR, EXIT_FAIL, EXIT_OK, main  # noqa: E402
 from pes_ref.sweep import cluster, results, task as task_module  # noqa: E402
 from pes_ref.sweep.runner import run_sweep  # noqa: E402
 from pes_ref.sweep.spec import load_sweep  # noqa: E402
-from pes_ref.synthesis.design_file import load_design  # noqa: E402
+from pes_ref.synthesis.engine.design_file import load_design  # noqa: E402
 from pes_ref.synthesis import new_design, run_design  # noqa: E402
 
 #: The smoke sweep: three tiny funnel runs (the design command's --smoke preset) and one that goes

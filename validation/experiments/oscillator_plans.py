@@ -2,14 +2,14 @@
 
 Every row of the tables "Plans tried in the third session" in ``docs/synthesis.md``
 is one named plan here (:data:`PLANS`); this script regenerates it. A plan is the
-package's oscillator problem (:class:`pes_ref.synthesis.oscillator.OscillatorProblem`) and plan
-machinery (:class:`pes_ref.synthesis.plans.Plan`: RMSprop, learning-rate decay, coarse-to-fine
+package's oscillator problem (:class:`pes_ref.synthesis.kinds.oscillator.OscillatorProblem`) and plan
+machinery (:class:`pes_ref.synthesis.common.plans.Plan`: RMSprop, learning-rate decay, coarse-to-fine
 stages) plus the training variations that are not package options:
 
 - ``cost="window"``: :class:`WindowPhase`, eq. (6) with its reference phase refitted per
   particle in each period-long window (a phase slip between windows costs nothing, a
   period error within a window does);
-- ``init="escapement"``: the hand-drawn escapement surface (:func:`pes_ref.synthesis.escapement.escapement_values`);
+- ``init="escapement"``: the hand-drawn escapement surface (:func:`pes_ref.synthesis.kinds.escapement.escapement_values`);
 - ``torque_widen``: the batch's torque range grows from a narrow band to the full range;
 - ``cycle_share``: that share of each batch starts on the target cycle at a random phase
   and a random q1;

@@ -210,7 +210,7 @@ def walls(design: Path, device_file: Path, level: float) -> dict:
     from pes_ref.realize.hooks import held_out_positions
     from pes_ref.realize.regions import VISITED_SEED
     from pes_ref.synthesis import load_design
-    from pes_ref.synthesis.analysis import cycle_figures, oscillator_torque_sweep, q1_advance
+    from pes_ref.synthesis.kinds.analysis import cycle_figures, oscillator_torque_sweep, q1_advance
     state = load_design(design)
     problem, values = state.problem, state.values
     energy = np.asarray(problem.surface_values(values), dtype=np.float64)

@@ -5,7 +5,7 @@ estimates the time left, and the one line a command prints.
   stage),
   its rate, the time it has run and the time left, and the figures it shows (loss,
   metric, fitness ...). The design loop, the polish, a sweep and a long oracle run all
-  report one ([`pes_ref.synthesis.run_stages`][pes_ref.synthesis.stages.run_stages],
+  report one ([`pes_ref.synthesis.run_stages`][pes_ref.synthesis.engine.stages.run_stages],
   [`pes_ref.sweep.runner.run_sweep`][pes_ref.sweep.runner.run_sweep],
   the ``oracle`` command).
 - [`Clock`][pes_ref.core.runtime.progress.Clock]: the rate of each segment of a loop (a stage of a design, the forward

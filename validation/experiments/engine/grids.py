@@ -14,8 +14,8 @@ import time
 import types
 
 from pes_ref import synthesis
-from pes_ref.synthesis.plans import DEFAULT_FILE_PLAN, Plan
-from pes_ref.synthesis.stages import run_stages
+from pes_ref.synthesis.common.plans import DEFAULT_FILE_PLAN, Plan
+from pes_ref.synthesis.engine.stages import run_stages
 
 
 def main(path, spec, seed):

@@ -12,8 +12,8 @@ import sys
 import time
 
 from pes_ref import synthesis
-from pes_ref.synthesis.kinds import HELD_OUT
-from pes_ref.synthesis.stages import run_stages
+from pes_ref.synthesis.kinds.registry import HELD_OUT
+from pes_ref.synthesis.engine.stages import run_stages
 
 
 def main():

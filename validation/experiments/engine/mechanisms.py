@@ -11,8 +11,8 @@ iteration's gradient is the mean of K gradients, each on the grid plus SIGMA tim
 """
 import numpy as np
 from pes_ref import synthesis
-from pes_ref.synthesis.plans import Plan
-from pes_ref.synthesis.stages import run_stages
+from pes_ref.synthesis.common.plans import Plan
+from pes_ref.synthesis.engine.stages import run_stages
 
 
 def baseline(problem, seed):
@@ -49,7 +49,7 @@ def smoothed(spec):
     sigma, k = float(kv.get("s", 0.005)), int(kv.get("k", 4))
 
     def run(problem, seed):
-        from pes_ref.synthesis import training
+        from pes_ref.synthesis.engine import training
         plain = training.design_step
 
         def step(problem, values, seed, iteration, n_particles, n_steps=None, backend=None):

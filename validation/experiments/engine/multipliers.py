@@ -19,9 +19,9 @@ import numpy as np
 from pes_ref import synthesis
 from pes_ref.core.scene import simulate
 from pes_ref.synthesis import load_problem
-from pes_ref.synthesis.objective_terms import TermSum
-from pes_ref.synthesis.success import passes_all
-from pes_ref.synthesis.validation import VALIDATION_STREAM, on_grid
+from pes_ref.synthesis.problem.objective_terms import TermSum
+from pes_ref.synthesis.problem.success import passes_all
+from pes_ref.synthesis.common.validation import VALIDATION_STREAM, on_grid
 
 
 class Weighted:

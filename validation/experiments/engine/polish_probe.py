@@ -14,8 +14,8 @@ import numpy as np
 
 from pes_ref import synthesis
 from pes_ref.core.scene import simulate
-from pes_ref.synthesis.resampling import resample
-from pes_ref.synthesis.stages import run_stages
+from pes_ref.synthesis.common.resampling import resample
+from pes_ref.synthesis.engine.stages import run_stages
 
 
 def main():

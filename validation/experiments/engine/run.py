@@ -10,7 +10,7 @@ import sys
 import time
 
 from pes_ref import synthesis
-from pes_ref.synthesis.kinds import HELD_OUT as _HELD
+from pes_ref.synthesis.kinds.registry import HELD_OUT as _HELD
 
 HELD_OUT = (_HELD["seed"], _HELD["second"])
 
