@@ -84,6 +84,13 @@ class Plan:
         measured in docs/problems.md, "The default plan").
     smoothing_draws : int
         The perturbed grids of an iteration with ``smoothing`` (at most ``n_particles``).
+    starts : int
+        A population of starts (1: the run's own alone): before the rest of the run, this many
+        starts each run the first ``screen`` iterations and the run goes on from the one its
+        validation particles judge best ([`pes_ref.synthesis.engine.population`][pes_ref.synthesis.engine.population]; a plan
+        with more than one validates).
+    screen : int
+        The iterations each start runs before the choice.
     """
 
     iterations: int = 300
@@ -100,6 +107,8 @@ class Plan:
     target: float | None = None
     smoothing: float = 0.0
     smoothing_draws: int = 4
+    starts: int = 1
+    screen: int = 0
 
     def __post_init__(self):
         checks.as_positive_int("iterations", self.iterations)
@@ -121,6 +130,11 @@ class Plan:
         if self.smoothing and self.smoothing_draws > self.n_particles:
             raise checks.InputError("smoothing_draws", f"smoothing_draws = {self.smoothing_draws} is more than the "
                                                        f"{self.n_particles} particles per iteration shared among them")
+        checks.as_positive_int("starts", self.starts)
+        checks.as_nonneg_int("screen", self.screen)
+        if self.starts > 1 and not (self.validate_every and self.screen):
+            raise checks.InputError("starts", f"starts = {self.starts} chooses among starts on validation after "
+                                              f"screen iterations: give validate_every and screen > 0")
         stages = tuple(tuple(int(x) for x in st) + (0,) * (3 - len(st)) for st in self.stages)
         if any(len(st) != 3 or min(st) < 0 for st in stages):
             raise checks.InputError("stages", f"stages must be (start_iteration, grid[, n_steps]) tuples >= 0, "
@@ -323,6 +337,11 @@ DEFAULT_FILE_PLAN = {"iterations": 300, "lr": 0.005, "lr_final": 0.005, "n_parti
                      "validate_every": 10, "validation_particles": 200, "target": 0.97}
 
 
+#: The default plan's population of starts (`default_starts`; measured in docs/problems.md, "Phases,
+#: classes and timing windows").
+DEFAULT_STARTS = 8
+
+
 def coarse_to_fine(n0: int, iterations: int) -> tuple:
     """Stages of equal shares of ``iterations`` on the `COARSE_GRIDS` below ``n0`` nodes,
     then the final grid: ``((0, 5), (75, 9), (150, 17), (225, 0))`` for 300 iterations on a grid of 40."""
@@ -338,4 +357,13 @@ def default_plan(shape, coarse: bool = True, iterations: int | None = None) -> P
     designs on the final grid throughout: a coarse grid would not hold the shapes it starts from."""
     its = DEFAULT_FILE_PLAN["iterations"]
     stages = coarse_to_fine(shape[0], iterations or its) if coarse else ((0, 0),)
-    return Plan(**DEFAULT_FILE_PLAN, decay_iterations=its, stages=stages)
+    return Plan(**DEFAULT_FILE_PLAN, decay_iterations=its, stages=stages, **default_starts(stages))
+
+
+def default_starts(stages: tuple) -> dict:
+    """The default plan's population of starts for ``stages`` (``starts``, ``screen``): `DEFAULT_STARTS`
+    starts, each screened through the coarse stages (to the start of the last stage, the final
+    grid); none (one start) for a plan on its final grid throughout."""
+    if len(stages) < 2:
+        return {"starts": 1, "screen": 0}
+    return {"starts": DEFAULT_STARTS, "screen": stages[-1][0]}

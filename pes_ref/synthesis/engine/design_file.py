@@ -38,7 +38,9 @@ Version 1 files (before the polish stage) are read as gradient-only runs, versio
 and 2 files (before the compiled loops) as runs of the ``"numpy"`` backend, and version 1-3
 files (before validation) as runs with no validation made. Version 5 adds no key: its plan may
 hold ``smoothing`` and ``smoothing_draws`` ([`Plan`][pes_ref.synthesis.common.plans.Plan]), which a
-version 1-4 file's plan reads as 0 and 4 (no smoothing).
+version 1-4 file's plan reads as 0 and 4 (no smoothing). A plan may hold ``starts`` and ``screen``
+(a population of starts, [`pes_ref.synthesis.engine.population`][pes_ref.synthesis.engine.population]), which a file
+without them reads as 1 and 0 (one start).
 
 The members are stored uncompressed. The file is written by the package's one atomic
 ``.npz`` writer ([`write_npz`][pes_ref.core.runtime.npz.write_npz]): a crash never leaves half a design, and the

@@ -1,4 +1,5 @@
-"""A design run's stages, one after the other: the gradient iterations, then the polish.
+"""A design run's stages, one after the other: the gradient iterations (a population of starts
+screened first, if the plan has one), then the polish.
 
 [`run_stages`][pes_ref.synthesis.engine.stages.run_stages] is what ``python -m pes_ref design`` runs:
 [`pes_ref.synthesis.engine.training.run_design`][pes_ref.synthesis.engine.training.run_design] up to the plan's iterations, then, if
@@ -24,6 +25,7 @@ from pes_ref.core.runtime.signals import StopFlag
 from pes_ref.synthesis.engine.design_state import DesignState
 from pes_ref.synthesis.common.plans import PolishPlan
 from pes_ref.synthesis.engine.polish import PolishStep, legendre_fourier_basis, polish
+from pes_ref.synthesis.engine.population import screen_starts
 from pes_ref.synthesis.engine.training import run_design
 
 __all__ = ["run_stages", "set_polish"]
@@ -96,7 +98,9 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
                callback: Callable | None = None, progress_every: float = 2.0, checkpoint: Callable | None = None,
                checkpoint_every: float = 60.0) -> DesignState:
     """Run every stage of ``state`` that is not done: the gradient iterations up to ``iterations``
-    (default: the plan's), then the polish (if ``state.polish``).
+    (default: the plan's), a plan with a population of starts screening them first
+    ([`pes_ref.synthesis.engine.population.screen_starts`][pes_ref.synthesis.engine.population.screen_starts]), then the polish
+    (if ``state.polish``).
 
     ``callback`` receives a [`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] during
     both stages
@@ -116,6 +120,9 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
         if state.iteration < total or state.polish is None:
             if state.stage == "polish":
                 _reopen_gradient_stage(state)
+            screen_starts(state, total, callback=callback, progress_every=progress_every)
+            if state.status not in ("running", "done"):      # interrupted, or every start stopped
+                return state
             run_design(state, total, callback=callback, progress_every=progress_every, checkpoint=checkpoint,
                        checkpoint_every=checkpoint_every)
             if state.status != "done":

@@ -159,7 +159,7 @@ def _reached_target(state: DesignState) -> bool:
 
 def run_design(state: DesignState, iterations: int | None = None, *, callback: Callable | None = None,
                progress_every: float = 2.0, checkpoint: Callable | None = None,
-               checkpoint_every: float = 60.0) -> DesignState:
+               checkpoint_every: float = 60.0, finish: bool = True) -> DesignState:
     """Advance ``state`` until ``state.iteration == iterations`` (default: the plan's).
 
     Each iteration draws its batch, takes the gradient of the objective (plus eq. (7))
@@ -191,6 +191,8 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     except a realizable funnel from the ``"envelope"`` start: its channel made convex again,
     [`pes_ref.synthesis.kinds.envelope.convex_channel`][pes_ref.synthesis.kinds.envelope.convex_channel]). The
     validations are part of the state a design file holds, so a stopped run resumes bit-exactly.
+    ``finish=False`` (a start of a population, [`pes_ref.synthesis.engine.population`][pes_ref.synthesis.engine.population]):
+    a run that reaches ``iterations`` below the plan's target stays ``"running"`` on its last grid.
     """
     total = state.plan.iterations if iterations is None else checks.as_nonneg_int("iterations", iterations)
     problem, plan = state.problem, state.plan
@@ -279,7 +281,7 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
                 checkpoint(state)
                 last_ckpt = now
         else:
-            state.status = "done"
+            state.status = "done" if finish or _reached_target(state) else "running"
     if state.status == "done" and state.best is not None:
         state.values = state.best.values        # the run delivers its best validated grid
     if state.status == "done":

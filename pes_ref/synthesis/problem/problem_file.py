@@ -42,6 +42,7 @@ from pes_ref.synthesis.problem.file_keys import Key, ProblemFileError, Reader
 from pes_ref.synthesis.problem.objective_terms import OBJECTIVE_TERMS, CustomTerm, Domain, TermSum, is_grid_term
 from pes_ref.synthesis.common.plans import Plan, default_plan
 from pes_ref.synthesis.problem.problem_contact import Contact
+from pes_ref.synthesis.problem.failing import ShareCeiling, has_fail_cost
 from pes_ref.synthesis.problem.success import SUCCESS_TESTS, GroupTest, ShareCriterion, outside_domain
 from pes_ref.synthesis.problem.surrogates import DEFAULT_MARGIN, derived_terms, has_cost
 
@@ -218,8 +219,14 @@ def parse_problem(data: dict, path: str = "<problem>", text: str | None = None) 
              for i, (n, t) in enumerate(zip(names, terms)) if not is_grid_term(t)]
     if "objective" not in data:           # designed on what success means: each test's surrogate
         _refuse_costless(r, tests, "evaluate.success")
+        for i, (n, c) in enumerate(shares):
+            if c.high < 1.0 and not has_fail_cost(c.test):
+                r.fail(f"evaluate.share[{i}].max", f"share {n!r}: a max below 1 is charged by its test's surrogate "
+                                                   f"of failing, and a {c.test.KIND} test has none; give "
+                                                   f"[[objective]] terms, or max = 1")
         state = derived_terms(tests, ev["margin"]) + derived_terms(
-            [(f"share_{n}", c) for n, c in shares if c.low > 0.0], ev["margin"])
+            [(f"share_{n}", c) for n, c in shares if c.low > 0.0], ev["margin"]) + derived_terms(
+            [(f"share_{n}_max", ShareCeiling(c.test, c.high)) for n, c in shares if c.high < 1.0], ev["margin"])
     scenarios = []
     for i, sc in enumerate(_list(r, evaluate.get("scenario", []), "evaluate.scenario")):
         where = f"evaluate.scenario[{i}]"
@@ -503,11 +510,10 @@ def plan_for(problem: DesignProblem, iterations: int | None = None) -> Plan:
     from the file or from the command line; a file without ``[train]``, the default plan's."""
     if iterations is None or "stages" in problem.data.get("train", {}):
         return problem.plan
-    if "train" not in problem.data:
-        stages = default_plan(problem.grid_shape, _coarse(problem.contact), iterations).stages
-    else:
-        stages = default_stages(problem.grid_shape, iterations)
-    return dataclasses.replace(problem.plan, stages=stages)
+    if "train" not in problem.data:       # the default plan's stages and screen for that count
+        plan = default_plan(problem.grid_shape, _coarse(problem.contact), iterations)
+        return dataclasses.replace(problem.plan, stages=plan.stages, screen=plan.screen)
+    return dataclasses.replace(problem.plan, stages=default_stages(problem.grid_shape, iterations))
 
 
 def _coarse(contact) -> bool:

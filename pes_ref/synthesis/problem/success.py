@@ -602,7 +602,7 @@ class ShareCriterion:
 
     Its surrogate charges what raises a share below ``low``: the surrogates of the particles
     failing ``test`` that are cheapest to mend, as many as the share lacks; a share above
-    ``high`` is judged, not charged (a splitter's exits bound each other from below)."""
+    ``high`` is charged by [`pes_ref.synthesis.problem.failing`][pes_ref.synthesis.problem.failing]'s ``ShareCeiling``."""
 
     test: object
     low: float

@@ -214,7 +214,8 @@ SPLITTER = {
 
 def test_a_share_criterion_is_reported_and_its_lower_bound_charged():
     problem = parse_problem(SPLITTER, "splitter.toml")
-    assert problem.term_names == ("surrogate_any_of", "surrogate_share_left", "surrogate_share_right")
+    assert problem.term_names == ("surrogate_any_of", "surrogate_share_left", "surrogate_share_right",
+                                  "surrogate_share_right_max")
     tilt = np.outer(np.linspace(1.0, -1.0, 5), np.ones(5))           # downhill to the right: all go right
     figures = synthesis.evaluate(problem, tilt, seed=2)
     assert figures["share_left"] < 0.4 and figures["share_left_met"] == 0.0
@@ -238,6 +239,44 @@ def test_a_share_s_surrogate_charges_the_cheapest_failing_particles_it_lacks():
     assert np.flatnonzero(c).tolist() == cheapest.tolist() and c[cheapest] == c_all[cheapest]
     assert not ShareCriterion(left.test, 0.3, 1.0).cost(x, v, t, 0.25)[0].any()
     check_state_derivatives(Surrogate(left, 0.25, "s"), x, v, t)
+
+
+def _right_exits(k, aside=None):
+    """Ten particles at rest in the middle, ``k`` of them out by the right edge at the last state
+    (at q1 = 0.2, inside the band) and, with ``aside``, one more out at q1 = ``aside``."""
+    x = np.zeros((4, 10, 2))
+    x[-1, :k] = (1.5, 0.2)
+    if aside is not None:
+        x[-1, k] = (1.5, aside)
+    return x, np.zeros_like(x), np.arange(4) * 0.1
+
+
+def test_a_share_above_its_max_is_charged_more_the_more_it_exceeds():
+    problem = parse_problem(SPLITTER, "splitter.toml")
+    term = dict(zip(problem.term_names, problem.terms))["surrogate_share_right_max"]     # max 0.6
+    loss = [term.value_and_grad(*_right_exits(k))[0] for k in range(11)]
+    assert loss[:7] == [0.0] * 7                           # 6 of 10 out: within the max
+    assert 0.0 < loss[7] < loss[8] < loss[9] < loss[10]    # each particle over it costs its way back
+    # a particle out beside the band (half-width 1) by less than the margin (0.25 half-widths) has
+    # not failed with room to spare: the seventh counts; with margin 0 it does not
+    x, v, t = _right_exits(6, aside=1.1)
+    assert term.value_and_grad(x, v, t)[0] > 0.0
+    assert Surrogate(term.test, 0.0, "s").value_and_grad(x, v, t)[0] == 0.0
+    assert term.value_and_grad(*_right_exits(6, aside=1.3))[0] == 0.0
+    x, v, t = _right_exits(8)
+    x[-1, :8, 1] = np.linspace(-0.5, 0.9, 8)               # away from the band's rim and the edge
+    check_state_derivatives(term, x, v, t)
+
+
+def test_a_share_max_on_a_test_without_a_surrogate_of_failing_is_refused():
+    cross = {"kind": "cross", "a": [0.5, -1.0], "b": [0.5, 1.0]}
+    data = {**SPLITTER, "evaluate": {**SPLITTER["evaluate"], "share": [{"name": "c", "max": 0.5, "test": cross}]}}
+    with pytest.raises(ProblemFileError) as err:
+        parse_problem(data, "splitter.toml")
+    message = str(err.value)
+    assert message.startswith("splitter.toml: evaluate.share[0].max: ") and "cross" in message, message
+    data["objective"] = [{"kind": "final_position", "target": [0.0, 0.0]}]
+    assert parse_problem(data, "splitter.toml").shares[0][1].high == 0.5
 
 
 @pytest.mark.parametrize("share, key, words", [

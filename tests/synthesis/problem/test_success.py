@@ -11,6 +11,7 @@ from hypothesis import given, strategies as st
 
 from _helpers import check_state_derivatives
 
+from pes_ref.synthesis.problem.failing import fail_cost, has_fail_cost
 from pes_ref.synthesis.problem.objective_terms import Domain, Exit, StayIn
 from pes_ref.synthesis.problem.success import (SUCCESS_TESTS, AnyOfTest, CrossTest, CustomTest, ExitTest, FinalPositionTest,
                                                GroupTest, PositionAtTest, SpeedAtTest, StayInTest, WithinTest, applies,
@@ -300,3 +301,40 @@ def test_a_surrogate_grows_with_the_distance_from_passing(case, stretch):
 def test_surrogate_derivative_matches_central_differences_on_random_cases(case):
     test, x, v, t, margin = case
     _check(test, x, v, t, margin)
+
+
+@given(random_cases())
+def test_a_surrogate_of_failing_is_zero_exactly_when_its_test_fails_with_the_margin(case):
+    # the mirror of the surrogate, what a share above its max charges (pes_ref.synthesis.failing)
+    test, x, v, t, margin = case
+    if not has_fail_cost(test):
+        return                              # a crossing (or an any-of or group holding one): refused there
+    c, _, _ = fail_cost(test, x, v, t, margin)
+    assert c.shape == (x.shape[1],) and np.all(c >= 0.0)
+    judged = applies(test, x.shape[1])      # a group's test: the others pass it and are not charged
+    assert np.array_equal(c > 0.0, judged & test.passes(x, v, t, -margin)), (c, test.passes(x, v, t, -margin))
+
+
+@pytest.mark.parametrize("kind", sorted(set(FIXED) - {"cross", "custom"}))
+def test_a_surrogate_of_failing_grows_into_passing_and_matches_central_differences(kind):
+    # on a fixed case drawn into passing (some particles), away from its kinks
+    test = FIXED[kind]
+    x, v = _case(kind)
+    if hasattr(test, "region"):             # drawn towards the region's centre
+        centre = np.mean(test.region(), axis=0)
+        x = centre + np.array([[0.2], [0.5], [0.9], [1.0]]) * (x - centre)
+    elif kind == "exit":                    # out fast within the band (particle 0 on time)
+        x[..., 0] = 0.1 + 0.3 * (x[..., 0] - 0.1)
+        v[..., 1] = -1.5 + 0.1 * v[..., 1]
+    elif kind == "any_of":                  # two end near the first target, one near the second
+        x[-1, :2] = (0.5, 0.5) + 0.3 * x[-1, :2]
+        x[-1, 2] = (-0.5, -0.5) + 0.1 * x[-1, 2]
+    else:                                   # speed_at: slow at its time
+        v[..., 1] = 0.05 + 0.2 * v[..., 1]
+    c, _, _ = fail_cost(test, x, v, T, MARGIN)
+    assert np.array_equal(c > 0.0, test.passes(x, v, T, -MARGIN)) and np.count_nonzero(c) >= 1, c
+
+    class Failing:
+        def cost(self, x, v, t, margin):
+            return fail_cost(test, x, v, t, margin)
+    _check(Failing(), x, v, T)

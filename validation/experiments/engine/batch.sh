@@ -6,4 +6,5 @@
 cd "$(dirname "$0")"
 mech=$1; prob=$2; shift 2
 case $prob in ../*) log=examples ;; *) log=results ;; esac
-PYTHONPATH=../../.. "${PYTHON:-../../../.venv/bin/python}" run.py "$prob" "$mech" "$@" >> logs/$log.jsonl 2>> logs/err.log
+log=${LOG:-$log}        # LOG=NAME: logs/NAME.jsonl instead (a study of its own, e.g. LOG=phases)
+PYTHONPATH=../../.. nice -n 19 "${PYTHON:-../../../.venv/bin/python}" run.py "$prob" "$mech" "$@" >> logs/$log.jsonl 2>> logs/err.log

@@ -2,16 +2,17 @@
 
     python validation/experiments/engine/run.py PROBLEM.toml MECHANISM SEED [SEED ...]
 
-prints one JSON line per seed: problem, mechanism, seed, held-out successes, flat, wall seconds.
+prints one JSON line per seed: problem, mechanism, seed, held-out successes (the run's, and each scenario's),
+flat, wall seconds.
 """
 import json
 import sys
 import time
 
 from pes_ref import synthesis
-from pes_ref.synthesis.problem import problem_file
+from pes_ref.synthesis.kinds.registry import HELD_OUT as _HELD
 
-HELD_OUT = (12345, 9191)
+HELD_OUT = (_HELD["seed"], _HELD["second"])
 
 
 def main():
@@ -25,6 +26,8 @@ def main():
         res = list(synthesis.evaluate_seeds(state.problem, state.values, HELD_OUT).values())
         print(json.dumps({"problem": problem.name, "mechanism": mech, "seed": seed,
                           "success": [r["success_fraction"] for r in res],
+                          "scenarios": {k[len("scenario_"):-len("_success_fraction")]: [r[k] for r in res]
+                                        for k in res[0] if k.startswith("scenario_") and k.endswith("_success_fraction")},
                           "flat": res[0].get("flat_success_fraction"), "iterations": state.iteration,
                           "status": state.status, "wall_s": round(wall, 1)}), flush=True)
 
