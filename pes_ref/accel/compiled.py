@@ -940,8 +940,8 @@ _NO_SPRING = (False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2))
 _NO_ENERGY_WALLS = (False, np.zeros(1), _NONE2, _NONE2)
 
 #: From this many particles on, the loops run their particles in blocks on `threads`
-#: threads (both cores); below it, one block on the calling thread (handing work to
-#: threads costs more there).
+#: threads (both cores); below it, one block on the calling thread (two threads gain nothing
+#: there: docs/performance.md).
 PARALLEL_MIN = 1024
 #: Particles per block of a threaded loop: a fixed number, so the blocks, and every sum over
 #: them (the grid's and the mobility's gradients), never depend on how many threads run them.
