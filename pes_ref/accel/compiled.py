@@ -30,7 +30,7 @@ grid gradient, a sum over particles, is accumulated in `LANES` lanes of consecut
 each into its own table gradient, added in lane order (an adjoint's shares are runs of
 lanes): the partition is fixed by N, so no number depends on the thread count. The loops are
 not compiled a second time for numba's own threads (``prange``): that compilation took
-~23 s of CPU per loop pair, and the shares run as fast.
+~23 s of CPU per loop pair, and the shares run no slower (docs/performance.md).
 
 A small dynamic run (`LOOKUP_STATES`) keeps each state's grid lookup, which its adjoint
 reads where the state's position is still the one looked up (`_lookups`): the lookup's
