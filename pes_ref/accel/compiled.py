@@ -21,11 +21,16 @@ operands (IEEE double, no fused multiply-add: numba's default ``fastmath=False``
   in another order, within 1e-13 of their largest entry (``tests/accel/test_compiled.py``).
 
 From `PARALLEL_MIN` particles on, the dynamic loops and [`energy`][pes_ref.accel.compiled.energy] run their
-particles in blocks of `BLOCK` on numba's threads (``prange``; `PARALLEL_KERNELS`).
-Each particle's operations are the same in the same order on any thread, so its numbers are
-its own run's, bit for bit; the grid gradient, a sum over particles, is accumulated in
-`LANES` lanes of consecutive blocks, each into its own table gradient, added in lane
-order: the partition is fixed by N, so no number depends on the thread count.
+particles in blocks of `BLOCK` on [`threads`][pes_ref.accel.compiled.threads] threads (numba's thread count):
+each thread calls the one compiled loop (`KERNELS`, compiled ``nogil``: it runs without
+Python's lock) on its share, a run of consecutive blocks (`_spread`; the calling thread
+takes the first share, a pool's threads the others). Each particle's operations are the
+same in the same order on any thread, so its numbers are its own run's, bit for bit; the
+grid gradient, a sum over particles, is accumulated in `LANES` lanes of consecutive blocks,
+each into its own table gradient, added in lane order (an adjoint's shares are runs of
+lanes): the partition is fixed by N, so no number depends on the thread count. The loops are
+not compiled a second time for numba's own threads (``prange``): that compilation took
+~23 s of CPU per loop pair, and the shares run no slower (docs/performance.md).
 
 A small dynamic run (`LOOKUP_STATES`) keeps each state's grid lookup, which its adjoint
 reads where the state's position is still the one looked up (`_lookups`): the lookup's
@@ -47,11 +52,13 @@ them.
 from __future__ import annotations
 
 
+import os
 import weakref
+from concurrent.futures import ThreadPoolExecutor, wait
 from types import SimpleNamespace
 
 import numpy as np
-from numba import njit, prange
+from numba import config as numba_config, get_num_threads, njit
 
 from pes_ref.core import budget
 from pes_ref.core.integrator import (Trajectory, check_finite, finish_dynamic_adjoint, finish_quasistatic_adjoint,
@@ -535,7 +542,7 @@ def _kept(lkf, lki, n, i):
             1.0 if code & 1 else 0.0)
 
 
-def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -> SimpleNamespace:
+def _make_kernels(wraps: bool, per0: bool, per1: bool) -> SimpleNamespace:
     """The compiled loops, with ``wraps`` a compile-time constant: True where a spring's
     minimum image is computed (a periodic axis where it pulls, or its gradient wanted). A
     loop whose body holds the ``fmod`` call of the image runs ~30% slower even where it is
@@ -546,16 +553,17 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
     tests them several times, and a loop compiled for its topology, without the tests and
     the code of the other, runs ~12% faster (the same operations on the numbers).
 
-    ``parallel``: the dynamic loops run their particle blocks (forward) and lanes (adjoint)
-    on numba's threads (``prange``); each particle's operations are the same in the same
-    order, so its numbers are its own run's, bit for bit."""
-    loop = prange if parallel else range
-    jit = dict(_JIT, parallel=parallel)
+    The dynamic loops run the particle blocks (forward) and lanes (adjoint) they are given:
+    a threaded run gives each thread a run of consecutive ones (`_spread`). Every
+    array they write is written per particle (``x``, ``v``, ``f``, the energy, the kept
+    lookups; ``xbar``, ``vbar``, ``fbar``, ``abar``, ``cbar``, the force's, the spring's
+    ``gk`` and ``gc``) or per lane (the table gradient ``gtabs[lane]``), so no two threads
+    write one entry."""
     clips = not (per0 and per1)
 
     # ======================================================================= dynamic mode
 
-    @njit(**jit)
+    @njit(**_JIT)
     def _dynamic_steps(x, v, f, fext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, dt, grid, spring, walls,
                        energy, lookups, direct):
         """Steps ``start .. stop - 1`` of
@@ -579,7 +587,7 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
         e_on, eout, em, evalues, espring, ewalls = energy
         eson, esk, esc, eswrap0, eswrap1, eshalf, eslen = espring
         ewon, ehwk, ewlo, ewhi = ewalls
-        for b in loop(blocks.size - 1):
+        for b in range(blocks.size - 1):
             for n in range(start - 1 if start == 0 else start, stop):
                 for ii in range(blocks[b + 1] - blocks[b]):
                     # unsigned: numba indexes with a signed integer through a test for a negative
@@ -630,7 +638,7 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
                                                     ewhi)
 
 
-    @njit(**jit)
+    @njit(**_JIT)
     def _dynamic_adjoint_steps(x, v, f, gx, has_gx, gv, has_gv, start, stop, a, inv_1pc, minus_c, damped, dt,
                                xbar, vbar, fbar, want_abar, abar, want_cbar, cbar, want_force, gforce,
                                lanes, blocks, grid, nih1, gtabs, want_values, spring, want_k, gk, want_c, gc, walls,
@@ -650,7 +658,7 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
         nih0 = -1.0 / g[2]
         son, sk, sc, swrap0, swrap1, shalf, slen = spring
         won, wk, wlo, whi = walls
-        for lane in loop(lanes.size - 1):
+        for lane in range(lanes.size - 1):
             gtab = gtabs[lane]
             for blk in range(lanes[lane], lanes[lane + 1]):
                 for n in range(stop - 1, start - 2 if start == 0 else start - 1, -1):
@@ -790,41 +798,84 @@ def _make_kernels(wraps: bool, per0: bool, per1: bool, parallel: bool = False) -
 #: Keyed by ``(wraps, per0, per1)``: the minimum image and the grid's topology.
 KERNELS = {(wraps, per0, per1): _make_kernels(wraps, per0, per1)
            for wraps in (False, True) for per0 in (False, True) for per1 in (False, True)}
-#: The same on numba's threads (the dynamic loops; the quasistatic ones as in `KERNELS`).
-PARALLEL_KERNELS = {key: _make_kernels(*key, parallel=True) for key in KERNELS}
 
 
-def kernels(wraps: bool, field, parallel: bool = False) -> SimpleNamespace:
-    """The loops of `KERNELS` (`PARALLEL_KERNELS`) for ``wraps`` and ``field``'s topology."""
-    return (PARALLEL_KERNELS if parallel else KERNELS)[bool(wraps), bool(field.periodic[0]), bool(field.periodic[1])]
+def kernels(wraps: bool, field) -> SimpleNamespace:
+    """The loops of `KERNELS` for ``wraps`` and ``field``'s topology."""
+    return KERNELS[bool(wraps), bool(field.periodic[0]), bool(field.periodic[1])]
+
+
+# =========================================================================== the threads of a large run
+
+#: The worker threads of the threaded loops (`_spread`), ``{0: ThreadPoolExecutor}`` once
+#: made: numba's largest thread count less one (the calling thread runs a share too). A forked
+#: process forgets its parent's (whose threads it has not).
+_POOL: dict = {}
+os.register_at_fork(after_in_child=_POOL.clear)
+
+
+def threads() -> int:
+    """How many threads a threaded loop runs on: numba's thread count in the calling thread
+    (``NUMBA_NUM_THREADS``, by default every core, or ``numba.set_num_threads``)."""
+    return get_num_threads()
+
+
+def _pool() -> ThreadPoolExecutor:
+    """The pool of `_POOL`, made at its first use (its threads start at their first task)."""
+    pool = _POOL.get(0)
+    if pool is None:
+        pool = _POOL.setdefault(0, ThreadPoolExecutor(max(1, numba_config.NUMBA_NUM_THREADS - 1),
+                                                      thread_name_prefix="pes_ref-loop"))
+    return pool
+
+
+def _shares(starts: np.ndarray) -> np.ndarray:
+    """How `_spread` shares out units (blocks, or lanes) among `threads` threads:
+    the cuts ``0 = c_0 < c_1 < ... < c_k`` = the units, share ``t`` the units ``c_t .. c_{t+1} -
+    1``, about as many particles in each; one share below `PARALLEL_MIN` particles.
+    ``starts``: each unit's first particle, and N last."""
+    units = starts.size - 1
+    k = threads() if units > 1 and starts[-1] >= PARALLEL_MIN else 1
+    if k <= 1:
+        return np.array([0, max(units, 0)])
+    inner = np.searchsorted(starts, np.arange(1, k) * (starts[-1] / k))
+    return np.unique(np.concatenate(([0], inner, [units])))
+
+
+def _spread(run, cuts: np.ndarray, *args) -> None:
+    """``run(u0, u1, *args)`` of each share ``u0 .. u1 - 1`` of `_shares`' ``cuts``: the
+    first on the calling thread, the others on `_pool`'s threads, all ended when it returns
+    (an error in one is then raised). ``run`` calls a ``nogil`` kernel, so the shares run side
+    by side."""
+    if cuts.size <= 2:
+        run(int(cuts[0]), int(cuts[-1]), *args)
+        return
+    pool = _pool()
+    futures = [pool.submit(run, int(a), int(b), *args) for a, b in zip(cuts[1:-1], cuts[2:])]
+    try:
+        run(int(cuts[0]), int(cuts[1]), *args)
+    finally:
+        wait(futures)
+    for future in futures:
+        future.result()
 
 
 # =========================================================================== the energy of a trajectory
 
-def _make_energy(parallel: bool):
-    """The energy kernel of [`energy`][pes_ref.accel.compiled.energy]; ``parallel``: its particle blocks run on numba's
-    threads (each entry is one particle-state's own arithmetic: no number depends on them)."""
-    loop = prange if parallel else range
-
-    @njit(parallel=parallel, **_JIT)
-    def _energy(x, v, m, blocks, g, per0, per1, clips, values, son, sk, sc, swrap0, swrap1, shalf, slen,
-                won, hwk, wlo, whi, out):
-        """``out[n, i]``: `_energy_at` of each particle-state (a spring's minimum image
-        on every periodic axis)."""
-        for b in loop(blocks.size - 1):
-            for n in range(x.shape[0]):
-                for i in range(blocks[b], blocks[b + 1]):
-                    q0 = x[n, i, 0]
-                    q1 = x[n, i, 1]
-                    _, i0, j0, f0, f1, _, _ = _locate_ij(q0, q1, g, per0, per1, clips)
-                    out[n, i] = _energy_at(q0, q1, v[n, i, 0], v[n, i, 1], i, i0, j0, f0, f1, per0, per1, values, m,
-                                           True, son, sk, sc, swrap0, swrap1, shalf, slen, won, hwk, wlo, whi)
-
-    return _energy
-
-
-#: The energy kernel, serial (False) and on numba's threads (True).
-ENERGY = {parallel: _make_energy(parallel) for parallel in (False, True)}
+@njit(**_JIT)
+def _energy(x, v, m, blocks, g, per0, per1, clips, values, son, sk, sc, swrap0, swrap1, shalf, slen,
+            won, hwk, wlo, whi, out):
+    """The energy kernel of [`energy`][pes_ref.accel.compiled.energy]: ``out[n, i]``, `_energy_at` of each
+    particle-state of the ``blocks`` (a spring's minimum image on every periodic axis); each
+    entry is one particle-state's own arithmetic, written by it alone (`_spread`)."""
+    for b in range(blocks.size - 1):
+        for n in range(x.shape[0]):
+            for i in range(blocks[b], blocks[b + 1]):
+                q0 = x[n, i, 0]
+                q1 = x[n, i, 1]
+                _, i0, j0, f0, f1, _, _ = _locate_ij(q0, q1, g, per0, per1, clips)
+                out[n, i] = _energy_at(q0, q1, v[n, i, 0], v[n, i, 1], i, i0, j0, f0, f1, per0, per1, values, m,
+                                       True, son, sk, sc, swrap0, swrap1, shalf, slen, won, hwk, wlo, whi)
 
 
 def _energy_terms(field, n: int, mass, out) -> tuple:
@@ -852,16 +903,19 @@ def _energy_terms(field, n: int, mass, out) -> tuple:
 def energy(field, x: np.ndarray, v: np.ndarray, mass, out=None) -> np.ndarray:
     """Total energy per state and particle, (T+1, N), into ``out`` (fresh when None):
     [`pes_ref.core.scene.energy`][pes_ref.core.scene.energy]'s numbers bit for bit (bilinear grid, one grid),
-    compiled; the particles in blocks of `BLOCK` on numba's threads from
-    `PARALLEL_MIN` particles on."""
+    compiled; the particles in blocks of `BLOCK` on [`threads`][pes_ref.accel.compiled.threads] threads
+    from `PARALLEL_MIN` particles on."""
     x, v = _kernel_array(x), _kernel_array(v)
     T1, N = x.shape[0], x.shape[1]
     g, per0, per1, clips = _grid(field, N, _NONE2)[:4]
     out = pages.empty((T1, N)) if out is None else out
     _, out, m, values, spring, walls = _energy_terms(field, N, mass, out)
-    parallel = N >= PARALLEL_MIN
-    ENERGY[parallel](x, v, m, particle_blocks(N) if parallel else np.array([0, N], dtype=np.intp),
-                     g, per0, per1, clips, values, *spring, *walls, out)
+    blocks = particle_blocks(N) if N >= PARALLEL_MIN else np.array([0, N], dtype=np.intp)
+
+    def run(b0, b1):
+        _energy(x, v, m, blocks[b0:b1 + 1], g, per0, per1, clips, values, *spring, *walls, out)
+
+    _spread(run, _shares(blocks))
     return out
 
 
@@ -885,8 +939,9 @@ _NO_DIRECT = (False, _NONE2_RO)
 _NO_SPRING = (False, _NONE2, _NONE2, False, False, np.zeros(2), np.ones(2))
 _NO_ENERGY_WALLS = (False, np.zeros(1), _NONE2, _NONE2)
 
-#: From this many particles on, the loops run their particles in blocks on numba's threads
-#: (both cores); below it, one block on one thread (a thread pool's start costs more there).
+#: From this many particles on, the loops run their particles in blocks on `threads`
+#: threads (both cores); below it, one block on the calling thread (two threads gain nothing
+#: there: docs/performance.md).
 PARALLEL_MIN = 1024
 #: Particles per block of a threaded loop: a fixed number, so the blocks, and every sum over
 #: them (the grid's and the mobility's gradients), never depend on how many threads run them.
@@ -1026,14 +1081,14 @@ class _Adjoint:
     particle lanes ([`lanes_of`][pes_ref.accel.compiled.lanes_of]), each with its own table gradient (zeroed buffers of
     `_zeroed`), summed in lane order by ``result()`` as it maps them to the grid."""
 
-    def __init__(self, field, xs: np.ndarray, want: frozenset, parallel: bool = False, direct=_NO_DIRECT):
+    def __init__(self, field, xs: np.ndarray, want: frozenset, threaded: bool = False, direct=_NO_DIRECT):
         n = xs.shape[1]
         self.field, self.xs = field, xs
         self.want_values = "values" in want
         self.direct = direct                       # (a dynamic loop's: the cross term from the values, no table)
         self.grid = _grid(field, n, _NO_TABLE if direct[0] else grid_table(field))
         self.nih1 = -1.0 / field.h[1]                         # as cross_table's: (D0 (-1/h0)) (-1/h1)
-        self.lanes, self.blocks = lanes_of(n) if parallel else (_ONE_LANE, np.array([0, n], dtype=np.intp))
+        self.lanes, self.blocks = lanes_of(n) if threaded else (_ONE_LANE, np.array([0, n], dtype=np.intp))
         rows = field.values.size if direct[0] else self.grid[4].shape[0]
         self.gtabs = _zeroed((self.lanes.size - 1, rows, 4)) if self.want_values else _NONE3
         self.gtab = self.gtabs[0] if self.want_values else _NONE2
@@ -1043,7 +1098,7 @@ class _Adjoint:
         on = has_spring and bool(spring_axes(field.spring[0]) or self.want_k or self.want_c)
         self.spring = _spring(field, n, on, (0, 1))
         wraps = self.want_k and _wraps(self.spring)                  # the image only for k's gradient
-        self.kernels = kernels(wraps, field, parallel)
+        self.kernels = kernels(wraps, field)
         self.gk = np.zeros((n, 2)) if self.want_k else _NONE2
         self.gc = np.zeros((n, 2)) if self.want_c else _NONE2
         self.walls = _walls(field, n)
@@ -1053,9 +1108,11 @@ class _Adjoint:
         return (self.grid, self.nih1, self.gtab, self.want_values, self.spring, self.want_k, self.gk,
                 self.want_c, self.gc, self.walls)
 
-    def lane_terms(self) -> tuple:
-        """The trailing arguments of the dynamic adjoint kernel (its lanes)."""
-        return (self.lanes, self.blocks, self.grid, self.nih1, self.gtabs, self.want_values, self.spring,
+    def lane_terms(self, l0: int, l1: int) -> tuple:
+        """The trailing arguments of the dynamic adjoint kernel for the lanes ``l0 .. l1 - 1``
+        (views: their bounds and table gradients)."""
+        gtabs = self.gtabs[l0:l1] if self.want_values else self.gtabs
+        return (self.lanes[l0:l1 + 1], self.blocks, self.grid, self.nih1, gtabs, self.want_values, self.spring,
                 self.want_k, self.gk, self.want_c, self.gc, self.walls)
 
     def result(self) -> dict:
@@ -1202,13 +1259,17 @@ def simulate_dynamic(field, x0, v0, fext, dt: float, n_steps: int, mass, damping
     damped = c is not None
     inv_1pc = 1.0 / (1.0 + c) if damped else _NONE2
     c = c if damped else _NONE2
-    parallel = N >= PARALLEL_MIN
-    blocks = parallel_blocks(field, N) if parallel else _blocks(field, N)
-    K = kernels(wraps, field, parallel)
+    blocks = parallel_blocks(field, N) if N >= PARALLEL_MIN else _blocks(field, N)
+    K = kernels(wraps, field)
     lookups = _lookups(field, x, grid)
+
+    def run(b0, b1, start, stop):
+        K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks[b0:b1 + 1], a, c, inv_1pc, damped, float(dt), grid,
+                        spring, walls, energy, lookups, direct)
+
+    shares = _shares(blocks)
     for start, stop in step_blocks(T, progress, "forward"):         # from step 0: F_0 first
-        K.dynamic_steps(x, v, f, ext, has_fext, start, stop, blocks, a, c, inv_1pc, damped, float(dt), grid, spring,
-                        walls, energy, lookups, direct)
+        _spread(run, shares, start, stop)
     traj = Trajectory(x, v, f)
     if refuse_nonfinite:
         check_finite(traj, f"dt={dt!r}", field)
@@ -1222,7 +1283,7 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
     the grid's summed in another order, and in the grid's shape (n0, n1))."""
     x, v, f = (_kernel_array(a) for a in traj)
     T, N = x.shape[0] - 1, x.shape[1]
-    adj = _Adjoint(field, x, want, parallel=N >= PARALLEL_MIN, direct=_direct(field))
+    adj = _Adjoint(field, x, want, threaded=N >= PARALLEL_MIN, direct=_direct(field))
     a, c = step_coefficients(dt, mass, damping, N)
     damped = c is not None
     inv_1pc, minus_c = (1.0 / (1.0 + c), -c) if damped else (_NONE2, _NONE2)
@@ -1237,11 +1298,16 @@ def adjoint_dynamic(field, traj: Trajectory, dt: float, mass, damping, gx, gv, w
     vbar = np.zeros((N, 2)) if gv is None else gv[T].copy()
     fbar = np.zeros((N, 2))
     lookups = _kept_lookups(field, x, adj.grid)
-    for done, after in step_blocks(T, progress, "adjoint"):
-        adj.kernels.dynamic_adjoint_steps(x, v, f, gx_, has_gx, gv_, has_gv, T - after, T - done, a, inv_1pc, minus_c,
-                                          damped, float(dt), xbar, vbar, fbar, want_abar, _or(abar), want_cbar,
-                                          _or(cbar), gforce is not None, _or3(gforce), *adj.lane_terms(), lookups,
+
+    def run(l0, l1, start, stop):
+        adj.kernels.dynamic_adjoint_steps(x, v, f, gx_, has_gx, gv_, has_gv, start, stop, a, inv_1pc, minus_c, damped,
+                                          float(dt), xbar, vbar, fbar, want_abar, _or(abar), want_cbar, _or(cbar),
+                                          gforce is not None, _or3(gforce), *adj.lane_terms(l0, l1), lookups,
                                           adj.direct)
+
+    shares = _shares(adj.blocks[adj.lanes])
+    for done, after in step_blocks(T, progress, "adjoint"):
+        _spread(run, shares, T - after, T - done)
     return finish_dynamic_adjoint(adj, xbar, vbar, fbar, gforce, abar, cbar, a, c if damped else None, mass,
                                   want_damping, initial_force=False)      # (B0) was the loop's last
 

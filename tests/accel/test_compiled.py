@@ -14,6 +14,7 @@ both.) A scene the compiled loops do not cover runs on NumPy's; progress reports
 the same steps; each kernel compiles once for every scene (its arguments' types never
 change), and the oracle never imports numba unless asked (``tests/cli/test_oracle_startup.py``).
 """
+import threading
 from dataclasses import replace
 
 import numpy as np
@@ -180,9 +181,8 @@ def test_each_kernel_compiles_once_for_every_scene():
 
 
 def test_the_kernels_cache_their_machine_code_on_disk():
-    kernels = [k for table in (compiled.KERNELS, compiled.PARALLEL_KERNELS) for ns in table.values()
-               for k in vars(ns).values()]
-    for f in kernels + list(compiled.ENERGY.values()):
+    kernels = [k for ns in compiled.KERNELS.values() for k in vars(ns).values()]
+    for f in kernels + [compiled._energy]:
         assert f._cache.__class__.__name__ == "FunctionCache"
 
 
@@ -238,6 +238,44 @@ def test_a_threaded_run_does_not_depend_on_the_thread_count(threaded):
         finally:
             numba.set_num_threads(previous)
     assert all(runs[0][k].tobytes() == runs[1][k].tobytes() for k in runs[0])
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs numba's thread count 2")
+def test_a_threaded_run_calls_the_one_compiled_loop_from_two_threads_on_shares_of_its_blocks(threaded,
+                                                                                             monkeypatch):
+    """With 2 threads, the forward loop, its adjoint and the energy are each called from two
+    threads at once, each on a run of consecutive blocks (lanes), together every block once."""
+    calls, both = [], threading.Barrier(2, timeout=10)
+
+    def watched(name, kernel, units):
+        def call(*args):
+            calls.append((name, threading.get_ident(), args[units].copy()))
+            both.wait()                   # the other share is running meanwhile: two threads at once
+            return kernel(*args)
+        return call
+
+    for ns in compiled.KERNELS.values():
+        monkeypatch.setattr(ns, "dynamic_steps", watched("forward", ns.dynamic_steps, 7))
+        monkeypatch.setattr(ns, "dynamic_adjoint_steps", watched("adjoint", ns.dynamic_adjoint_steps, 23))
+    monkeypatch.setattr(compiled, "_energy", watched("energy", compiled._energy, 3))
+    n = 9
+    scene, x0 = _oracle_scene((False, True), n)
+    previous = numba.get_num_threads()
+    numba.set_num_threads(2)
+    try:
+        pr.value_and_grad(scene, x0, np.zeros((n, 2)), pr.Funnel(target=0.5), backend="numba")
+        pr.energy(scene, pr.simulate(scene, x0, backend="numba"), backend="numba")
+    finally:
+        numba.set_num_threads(previous)
+    blocks = compiled.particle_blocks(n)
+    lanes, _ = compiled.lanes_of(n)
+    for name, whole in (("forward", blocks), ("adjoint", lanes), ("energy", blocks)):
+        mine = [(thread, units) for kind, thread, units in calls if kind == name]
+        assert mine and len(mine) % 2 == 0, (name, len(mine))           # two shares a call
+        for first, second in zip(mine[::2], mine[1::2]):
+            assert first[0] != second[0], name
+            a, b = sorted((first[1], second[1]), key=lambda units: units[0])
+            assert a[-1] == b[0] and np.array_equal(np.concatenate((a, b[1:])), whole), (name, a, b)
 
 
 def test_the_default_is_the_first_installed_backend(monkeypatch):
