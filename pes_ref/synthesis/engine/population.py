@@ -94,18 +94,18 @@ def _labelled(callback: Callable | None, start: str) -> Callable | None:
 
 
 def screen_starts(state: DesignState, iterations: int | None = None, *, callback: Callable | None = None,
-                  progress_every: float = 2.0) -> DesignState:
+                  progress_every: float = 2.0) -> bool:
     """Run the plan's population of starts on a fresh ``state`` (module docstring) and leave it on
     the chosen one: done if a start reached the target, else running at iteration ``screen`` (at
-    most ``iterations``, the run's; default the plan's).
-    A plan with one start, or a run already under way, is left as it is. Ctrl-C stops it with
+    most ``iterations``, the run's; default the plan's). Returns whether it screened: a plan with
+    one start, or a run already under way (a resumed one among them), is left as it is (False). Ctrl-C stops it with
     ``state`` at its start, ``status = "interrupted"``; ``callback`` receives each start's progress,
     its stage named after the start (``"start 2/8 stage 1/3"``); a start that stops on a failed iteration
     (`pes_ref.synthesis.engine.design_state.STOPPED`) is not chosen, and if every one does, ``state`` is
     the run's own start so stopped."""
     plan = state.plan
     if plan.starts <= 1 or state.iteration > 0 or state.history["loss"]:
-        return state
+        return False
     screen = min(plan.screen, plan.iterations if iterations is None else iterations)
     judged = []
     for j in range(plan.starts):
@@ -122,13 +122,13 @@ def screen_starts(state: DesignState, iterations: int | None = None, *, callback
         state.elapsed += member.elapsed - before
         if member.status == "interrupted":
             state.status = "interrupted"
-            return state
+            return True
         if member.status == "done":                 # it reached the target: the design
             if j == 0:
                 _take(state, member)
             else:                                   # the target is judged again on the run's own particles
                 _adopt(state, member, _judged(state, member))
-            return state
+            return True
         if member.status != "running":              # stopped on a failed iteration
             if j == 0:
                 first = member
@@ -138,11 +138,11 @@ def screen_starts(state: DesignState, iterations: int | None = None, *, callback
                 _take(state, member)
             else:
                 _adopt(state, member, _judged(state, member))
-            return state
+            return True
         judged.append((_judged(state, member), j, member))
     if not judged:
         _take(state, first)
-        return state
+        return True
     best = min(judged, key=lambda m: (-m[0][0], m[0][1], m[1]))
     _adopt(state, best[2], best[0])
-    return state
+    return True

@@ -120,8 +120,8 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
         if state.iteration < total or state.polish is None:
             if state.stage == "polish":
                 _reopen_gradient_stage(state)
-            screen_starts(state, total, callback=callback, progress_every=progress_every)
-            if state.status not in ("running", "done"):      # interrupted, or every start stopped
+            screened = screen_starts(state, total, callback=callback, progress_every=progress_every)
+            if screened and state.status not in ("running", "done"):     # interrupted, or every start stopped
                 return state
             run_design(state, total, callback=callback, progress_every=progress_every, checkpoint=checkpoint,
                        checkpoint_every=checkpoint_every)
