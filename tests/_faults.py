@@ -289,6 +289,7 @@ def make_assets(folder: Path) -> Path:
     (folder / "sub2").mkdir()
     (folder / "sub2" / "heightfield.stl").write_text("solid a user's own mesh\n")
     (folder / "dev.toml").write_text(DEVICE)
+    shutil.copy(ROOT / "examples" / "devices" / "geneva4.toml", folder / "geneva4.toml")
     (folder / "broken.toml").write_text("format = 1\n[cspace\n")
     for name, (old, new) in BAD_DEVICES.items():
         assert old in DEVICE, name

@@ -16,7 +16,9 @@ both engines print the same once, any other as ``name[surface]``, ``name[rigid]`
 [`pes_ref.devices.dartgun`][pes_ref.devices.dartgun]), and on stderr one ``warning: ...`` line for each thing that
 makes some figures mean something else than they say (a torque that overwhelms the
 ratchet's barrier, a reload that did not latch, a device file whose free channels are
-narrower than eq. (1)'s reach or than its grid resolves: [`pes_ref.devices.clearance`][pes_ref.devices.clearance]).
+narrower than eq. (1)'s reach or than its grid resolves: [`pes_ref.devices.clearance`][pes_ref.devices.clearance];
+a dynamic drive on the surface of an output in free play that rigid parts would coast across:
+[`pes_ref.rigid.play`][pes_ref.rigid.play]).
 Numbers are read as text and checked here, so a bad value is one line ``error: <message>``
 on stderr and exit status 2; so is a bad device file (naming its key), a device file's drive
 that has nowhere to go (no free configuration, a start inside blocked space) and a missing
@@ -126,7 +128,8 @@ def add_parser(sub) -> None:
                     "edge for a translation). Prints input_travel, the output's advance over it, each full "
                     "cycle's (advance_per_cycle_each) and the last one's (advance_per_cycle), moving_fraction, "
                     "max_ratio and whether it jammed (and where), then a warning for each free channel the "
-                    "surface cannot be trusted in; writes the motion law to "
+                    "surface cannot be trusted in, and, in dynamic mode, for an output in free play that rigid "
+                    "parts would coast across (docs/rigid.md, Play); writes the motion law to "
                     "DIR/motion_law.csv (--out), the figures to --json and a plot of the C-space with the "
                     "path beside the motion law to --plot. --engine rigid runs the parts in rigid contact "
                     "instead (pymunk), --engine both runs both side by side (docs/rigid.md). When the drive "
@@ -448,6 +451,8 @@ def _run_file(args) -> int:
         text = finding.message if args.shape is None else \
             finding.message.replace(f"[cspace] shape = {list(device.shape)}", f"--shape {args.shape}") \
                            .replace("[cspace] shape", "--shape")
+        print(f"warning: {path}: {text}", file=sys.stderr)
+    for text in report.warnings():
         print(f"warning: {path}: {text}", file=sys.stderr)
     try:
         if "csv" in outputs:

@@ -61,7 +61,7 @@ from pes_ref.core.scene import simulate
 from pes_ref.devices.device import Device
 
 __all__ = ["DriveResult", "drive", "check_drive", "check_free", "drive_scene", "MODES", "JAM_CELLS", "JAM_FRACTION",
-           "THRESHOLD", "DEFAULT_CYCLES", "CREASE_CELLS"]
+           "THRESHOLD", "DEFAULT_CYCLES", "CREASE_CELLS", "ratio"]
 
 #: The drive's modes.
 MODES = ("quasistatic", "dynamic")
@@ -88,7 +88,7 @@ SAMPLES_PER_CELL = 2
 RATIO_CELLS = 4
 
 
-def _ratio(q_in: np.ndarray, q_out: np.ndarray) -> np.ndarray:
+def ratio(q_in: np.ndarray, q_out: np.ndarray) -> np.ndarray:
     """``dq_out/dq_in`` at every sample, by differences across `RATIO_CELLS` input spacings
     (one-sided near the ends); empty for fewer than two samples."""
     if q_in.size < 2:
@@ -370,9 +370,9 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     jammed = reason != "done"
     advance, per_cycle, each = _advances(s, q_out, bool(device.periodic[axis]), requested, jammed)
     steady_from = 2.0 * np.pi if len(each) >= 2 else 0.0
-    ratio = _ratio(q_in, q_out)[s >= steady_from * (1 - 1e-9)]      # the steady travel (module docstring)
-    moving = float(np.mean(np.abs(ratio) > threshold)) if ratio.size else 0.0
-    max_ratio = float(np.max(np.abs(ratio))) if ratio.size else 0.0
+    steady = ratio(q_in, q_out)[s >= steady_from * (1 - 1e-9)]      # the steady travel (module docstring)
+    moving = float(np.mean(np.abs(steady) > threshold)) if steady.size else 0.0
+    max_ratio = float(np.max(np.abs(steady))) if steady.size else 0.0
     return DriveResult(device.name, axis, load, mode, bool(device.periodic[axis]), requested, travel, advance,
                        per_cycle, each, moving, max_ratio, jammed, reason, tuple(float(q) for q in x[0]), threshold,
                        steps, q_in, q_out, np.concatenate(path), time.perf_counter() - t_wall, steady_from, creases,

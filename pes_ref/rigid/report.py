@@ -1,6 +1,7 @@
 """A drive on one engine or two, as the ``analyze`` command reports it
 ([`DriveReport`][pes_ref.rigid.report.DriveReport]): its ``name: value unit`` lines, its figures
-as JSON, its motion law(s) as CSV, and what the rigid parts say of a surface drive's stall.
+as JSON, its motion law(s) as CSV, what the rigid parts say of a surface drive's stall, and its
+warnings (free play a dynamic drive on the surface cannot follow: `pes_ref.rigid.play`).
 
 [`drive_on`][pes_ref.rigid.report.drive_on] runs the drive on each engine named, by the engines'
 registry (`pes_ref.rigid.engines.ENGINES`); the command parses,
@@ -12,6 +13,7 @@ import numpy as np
 
 from pes_ref.rigid.engines import (ENGINES, compare_laws, engine_facts, law_lines, side_by_side, stall_from_runs,
                                    stated_lines, tell_stall)
+from pes_ref.rigid.play import free_play
 
 __all__ = ["drive_on", "DriveReport"]
 
@@ -65,6 +67,14 @@ class DriveReport:
             (a, ra), (b, rb) = self.results.items()
             out = side_by_side(lines) + law_lines(compare_laws(ra, rb), f"{b}-{a}")
         return out + ([self.stall.line()] if self.stall is not None else [])
+
+    def warnings(self) -> list:
+        """A line for each thing that makes the surface's figures say something else than rigid parts
+        would: the free play a dynamic drive on the surface cannot follow
+        ([`pes_ref.rigid.play.free_play`][pes_ref.rigid.play.free_play])."""
+        surface = self.results.get("surface")
+        play = None if surface is None else free_play(self.device, surface)
+        return [] if play is None else [play.message()]
 
     def summary(self) -> dict:
         """The JSON: one engine's figures with its facts, or ``{"engine": "both", name: figures, ...,

@@ -198,6 +198,10 @@ WARNINGS = [
     Warned("device-barrier-wider-than-the-clearance", "analyze dev-slot.toml --drive 1 --load 0.5 --shape 81,41",
            ("warning: dev-slot.toml: [energy] r_c = 0.1 is wider than the clearance", "half-width 0.029",
             "set [energy] r_c below 0.042", "widen the clearance to 0.07 or more")),
+    Warned("device-dynamic-free-play", "analyze geneva4.toml --drive 0 --load 1 --mode dynamic",
+           ("warning: geneva4.toml: the output q1 dwells in 0.119 rad of free play between its contacts",
+            "held by no spring", "rigid parts coast across such play", "--engine rigid (or both)",
+            "docs/rigid.md")),
 ]
 
 

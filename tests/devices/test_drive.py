@@ -235,15 +235,15 @@ def test_a_part_started_inside_the_other_is_refused(name, shape, axis, start):
 def test_the_moving_share_and_the_largest_ratio_leave_the_first_turn_out(cam_two_cycles):
     """With two turns or more, ``moving_fraction`` and ``max_ratio`` are the steady turns' (the
     start's transient left out: ``steady_from``); with one, the whole travel, and the line says so."""
-    from pes_ref.devices.drive import THRESHOLD, _ratio
+    from pes_ref.devices.drive import THRESHOLD, ratio as ratio_of
     r = cam_two_cycles
     s = np.abs(r.q_in - r.q_in[0])
-    ratio = np.abs(_ratio(r.q_in, r.q_out))
+    ratio = np.abs(ratio_of(r.q_in, r.q_out))
     steady = s >= 2 * np.pi * (1 - 1e-9)
     assert r.steady_from == 2 * np.pi and r.summary()["steady_from"] == 2 * np.pi
     assert r.max_ratio == np.max(ratio[steady]) and r.moving_fraction == np.mean(ratio[steady] > THRESHOLD)
     one = drive(load_device(CAM).replace(shape=(160, 41)), 0, 0.5, cycles=1, start=(0.0, 0.6))
-    assert one.steady_from == 0.0 and one.max_ratio == np.max(np.abs(_ratio(one.q_in, one.q_out)))
+    assert one.steady_from == 0.0 and one.max_ratio == np.max(np.abs(ratio_of(one.q_in, one.q_out)))
     assert "it includes the start's transient" in "\n".join(one.as_lines()).split("max_ratio: ")[1]
 
 
