@@ -106,6 +106,7 @@ TRAIN_KEYS = {
     "validate_every": Key("count", None), "validation_particles": Key("count", 200, unit="particles"),
     "target": Key("positive", None),
     "smoothing": Key("nonneg", 0.0, unit="energy"), "smoothing_draws": Key("count", 4),
+    "starts": Key("count", 1), "screen": Key("count", None, unit="iterations"),
 }
 #: Without ``train.stages``: a coarse grid of this many nodes along axis 0 (if the final grid is
 #: finer) for the first `COARSE_SHARE` of the iterations, then the final grid.
@@ -486,11 +487,15 @@ def _train(r: Reader, table, shape, coarse: bool) -> tuple:
     stages = t["stages"] if t["stages"] is not None else default_stages(shape, its)
     lr_final = t["lr"] if t["lr_final"] is None else t["lr_final"]
     decay = its if t["decay_iterations"] is None else t["decay_iterations"]
+    screen = t["screen"] if t["screen"] is not None else stages[-1][0] if t["starts"] > 1 else 0
+    if screen > its:
+        r.fail("train.screen", f"expected at most train.iterations ({its}), got {screen}")
     try:
         plan = Plan(iterations=its, optimizer=t["optimizer"], lr=t["lr"], lr_final=lr_final, decay_iterations=decay,
                     clip=t["clip"], stages=stages, n_particles=t["particles"], scale_lr_by_grid=t["scale_lr_by_grid"],
                     validate_every=t["validate_every"] or 0, validation_particles=t["validation_particles"],
-                    target=t["target"], smoothing=t["smoothing"], smoothing_draws=t["smoothing_draws"])
+                    target=t["target"], smoothing=t["smoothing"], smoothing_draws=t["smoothing_draws"],
+                    starts=t["starts"], screen=screen)
     except (ValueError, TypeError) as exc:
         r.fail(f"train.{getattr(exc, 'key', None) or 'stages'}", " ".join(str(exc).split()))
     return plan, t["init_scale"]
@@ -513,7 +518,10 @@ def plan_for(problem: DesignProblem, iterations: int | None = None) -> Plan:
     if "train" not in problem.data:       # the default plan's stages and screen for that count
         plan = default_plan(problem.grid_shape, _coarse(problem.contact), iterations)
         return dataclasses.replace(problem.plan, stages=plan.stages, screen=plan.screen)
-    return dataclasses.replace(problem.plan, stages=default_stages(problem.grid_shape, iterations))
+    stages = default_stages(problem.grid_shape, iterations)
+    if problem.plan.starts > 1 and "screen" not in problem.data["train"]:      # screened to the last stage
+        return dataclasses.replace(problem.plan, stages=stages, screen=stages[-1][0])
+    return dataclasses.replace(problem.plan, stages=stages)
 
 
 def _coarse(contact) -> bool:

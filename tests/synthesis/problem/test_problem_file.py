@@ -178,6 +178,11 @@ BAD = [
     ({"train.optimizer": "sgd"}, "train.optimizer", "'rmsprop'"),
     ({"train.stages": [[5, 4]]}, "train.stages", "start at iteration 0"),
     ({"train.lr": "fast"}, "train.lr", "finite number"),
+    ({"train.starts": 0}, "train.starts", "expected an integer >= 1, got 0"),
+    ({"train.starts": 2.5}, "train.starts", "expected an integer >= 1, got 2.5"),
+    ({"train.screen": 0}, "train.screen", "expected an integer >= 1, got 0"),
+    ({"train.starts": 4, "train.screen": 6}, "train.screen", "expected at most train.iterations (5), got 6"),
+    ({"train.starts": 4}, "train.starts", "give validate_every"),
     ({"surface.contact": {"v": 1e-3}}, "surface.contact.r_c", "missing"),
     ({"surface.contact": {"v": 1e-3, "r_c": 0.3, "colour": 1}}, "surface.contact.colour", "unknown key"),
     ({"surface.contact": {"v": 0.0, "r_c": 0.3}}, "surface.contact.v", "> 0"),
@@ -467,3 +472,12 @@ def test_starts_and_forces_draw_from_the_generator_in_order():
 def test_the_example_problems_are_there():
     assert {p.rsplit("/", 1)[-1] for p in EXAMPLES} >= {"nest.toml", "offcentre_funnel.toml", "sorter.toml"} | {
         f"{name}.toml" for name in HAND_MADE}
+
+
+def test_train_starts_and_screen_set_the_plans_population():
+    sets = {"train.validate_every": 1, "train.stages": [[0, 5], [3, 0]]}
+    assert gather(**sets).plan.starts == 1 and gather(**sets).plan.screen == 0      # one start by default
+    plan = gather(**sets, **{"train.starts": 3}).plan
+    assert (plan.starts, plan.screen) == (3, 3)                 # screened to the start of the last stage
+    plan = gather(**sets, **{"train.starts": 3, "train.screen": 2}).plan
+    assert (plan.starts, plan.screen) == (3, 2)
