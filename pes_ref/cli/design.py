@@ -249,6 +249,8 @@ def _summary(kind: str, metric_name: str, out: str, state, iterations: int, seco
             f"({state.status.split(':')[0]}), loss {loss:.6g}, {metric_name} {metric:.3f}")
     if state.best is not None:          # a validating plan delivers its best validated grid, not the last
         line += f"; delivered: the grid of iteration {state.best.iteration}, validation {state.best.success:.3f}"
+    if state.screened["starts"]:        # a population's screening: every start's iterations, the chosen one's too
+        line += f"; screened: {state.screened['starts']} starts, {state.screened['iterations']} iterations"
     if state.stage == "polish":
         fit = state.polish_history["fitness"]
         line += (f", polish {state.evaluations} evaluations"

@@ -27,8 +27,9 @@ def add_parser(sub) -> None:
                     "scenario_NAME_success_fraction per [[evaluate.scenario]], flat_success_fraction. The "
                     "header lines name the design's kind (and problem), method (gradient, or gradient+polish), "
                     "the stage it reached, its iterations, the iteration whose grid it scores (grid_iteration: "
-                    "a validated run delivers its best validated grid, maybe an earlier one) and polish "
-                    "evaluations. --json FILE writes the same header facts and figures (with the seed and the "
+                    "a validated run delivers its best validated grid, maybe an earlier one), the starts a "
+                    "population screened and the iterations they ran together (screened_starts, "
+                    "screened_iterations; 0 without one) and polish evaluations. --json FILE writes the same header facts and figures (with the seed and the "
                     "particles) as one JSON object; a figure that "
                     "is NaN (nothing to measure, e.g. amplitude_error when no particle is captured) is written as "
                     "null, so the file is valid JSON. --plot DIR draws the held-out paths on the design's surface, "
@@ -53,7 +54,7 @@ def add_parser(sub) -> None:
                         "file's: its [evaluate] particles)")
     p.add_argument("--json", default=None, metavar="FILE",
                    help="also write the header facts (kind, problem, method, stage, iterations, grid_iteration, "
-                        "evaluations, status, "
+                        "screened_starts, screened_iterations, evaluations, status, "
                         "seed, particles) and every figure to FILE as one JSON object; NaN is written as null")
     p.add_argument("--plot", default=None, metavar="DIR",
                    help="also draw the held-out paths on the design's surface into DIR/NAME_paths.png (NAME: the "
@@ -128,7 +129,9 @@ def _lines(state, figures: dict, engines: tuple = ("surface",)) -> list:
     if hasattr(state.problem, "name"):                  # a problem file's design: its problem's name
         lines.append(("problem", state.problem.name))
     lines += [("method", state.method), ("stage", state.stage), ("iterations", state.iteration),
-              ("grid_iteration", state.grid_iteration), ("evaluations", state.evaluations), ("status", state.status)]
+              ("grid_iteration", state.grid_iteration), ("screened_starts", state.screened["starts"]),
+              ("screened_iterations", state.screened["iterations"]), ("evaluations", state.evaluations),
+              ("status", state.status)]
     for name, value in figures.items():
         if isinstance(value, tuple):
             from pes_ref.rigid.engines import ENGINES
@@ -142,7 +145,8 @@ def _lines(state, figures: dict, engines: tuple = ("surface",)) -> list:
 
 
 #: The header facts of ``evaluate --json`` (beside them: ``seed``, ``particles`` and the ``figures``).
-_HEADER = ("kind", "problem", "method", "stage", "iterations", "grid_iteration", "evaluations", "status")
+_HEADER = ("kind", "problem", "method", "stage", "iterations", "grid_iteration", "screened_starts",
+           "screened_iterations", "evaluations", "status")
 
 
 def _json(args, lines: list) -> bytes:

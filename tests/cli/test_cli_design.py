@@ -249,3 +249,25 @@ def test_the_summary_names_the_grid_a_validating_plan_delivers(tmp_path, capsys,
         assert f"; delivered: the grid of iteration {state.best.iteration}, validation {state.best.success:.3f};" in out
     else:
         assert state.best is None and "delivered" not in out
+
+
+def test_the_summary_and_evaluate_count_the_iterations_every_start_screened(tmp_path, capsys):
+    # a disc no particle reaches: no start passes, so all three are screened (2 iterations each)
+    # and the run goes on from one of them to its 4 iterations
+    import json
+    import _helpers
+    text = _helpers.gather_problem(radius=1e-6, iterations=4).replace(
+        "particles = 6", "particles = 6\nvalidate_every = 1\nvalidation_particles = 4\nstarts = 3\nscreen = 2")
+    (tmp_path / "p.toml").write_text(text)
+    code, out, _ = run(capsys, "design", tmp_path / "p.toml", "--out", tmp_path / "d.npz")
+    assert code == EXIT_OK
+    assert "iteration 4/4" in out and "; screened: 3 starts, 6 iterations;" in out
+    assert load_design(tmp_path / "d.npz").screened == {"starts": 3, "iterations": 6}
+    code, out, _ = run(capsys, "evaluate", tmp_path / "d.npz", "--particles", 4, "--json", tmp_path / "d.json")
+    printed = dict(line.split(": ", 1) for line in out.splitlines())
+    assert code == EXIT_OK and printed["screened_starts"] == "3" and printed["screened_iterations"] == "6"
+    data = json.loads((tmp_path / "d.json").read_text())
+    assert data["screened_starts"] == 3 and data["screened_iterations"] == 6
+    code, out, _ = run(capsys, "design", tmp_path / "p.toml", "--set", "train.starts=1", "--out", tmp_path / "e.npz",
+                       "--force")
+    assert code == EXIT_OK and "screened" not in out                  # one start screens none

@@ -50,7 +50,8 @@ def test_json_holds_the_printed_lines(name, designs, tmp_path, capsys):
     data = _strict(path.read_text())
     printed = dict(line.split(": ", 1) for line in out.splitlines())
     assert data["seed"] == 9191 and data["particles"] == int(float(printed["particles"]))
-    header = ("kind", "problem", "method", "stage", "iterations", "grid_iteration", "evaluations", "status")
+    header = ("kind", "problem", "method", "stage", "iterations", "grid_iteration", "screened_starts",
+              "screened_iterations", "evaluations", "status")
     assert {key: str(data[key]) for key in header if key in printed} == {k: printed[k] for k in header if k in printed}
     assert (data["problem"] is None) == ("problem" not in printed)
     figures = {k: v for k, v in printed.items() if k not in header}

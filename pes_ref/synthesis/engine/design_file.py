@@ -32,15 +32,17 @@ Keys (all plain arrays; loaded with ``allow_pickle=False``):
 ``best_iteration``  int, the best validation's iteration (-1: none yet)
 ``best_success``    float, its success (NaN: none yet)
 ``best_values``     the best validated grid ((0,) without one)
+``screened``        (2,) int64, a population's screening: the starts screened and the iterations they
+                    ran together (0, 0: none; a file without it reads as that)
 ==================  =====================================================================
 
 Version 1 files (before the polish stage) are read as gradient-only runs, version 1
 and 2 files (before the compiled loops) as runs of the ``"numpy"`` backend, and version 1-3
-files (before validation) as runs with no validation made. Version 5 adds no key: its plan may
+files (before validation) as runs with no validation made. Version 5 adds no required key: its plan may
 hold ``smoothing`` and ``smoothing_draws`` ([`Plan`][pes_ref.synthesis.common.plans.Plan]), which a
 version 1-4 file's plan reads as 0 and 4 (no smoothing). A plan may hold ``starts`` and ``screen``
 (a population of starts, [`pes_ref.synthesis.engine.population`][pes_ref.synthesis.engine.population]), which a file
-without them reads as 1 and 0 (one start).
+without them reads as 1 and 0 (one start), and a file without ``screened`` as a run that screened none.
 
 The members are stored uncompressed. The file is written by the package's one atomic
 ``.npz`` writer ([`write_npz`][pes_ref.core.runtime.npz.write_npz]): a crash never leaves half a design, and the
@@ -127,6 +129,7 @@ def design_arrays(state: DesignState) -> dict:
         "best_iteration": np.array(-1 if state.best is None else state.best.iteration, dtype=np.int64),
         "best_success": np.array(np.nan if state.best is None else state.best.success, dtype=np.float64),
         "best_values": np.zeros(0) if state.best is None else np.asarray(state.best.values, dtype=np.float64),
+        "screened": np.array([state.screened["starts"], state.screened["iterations"]], dtype=np.int64),
     }
     for k, v in state.optimizer.state_dict().items():
         arrays["opt_" + k] = v
@@ -198,6 +201,12 @@ def load_design(path) -> DesignState:
         state.backend = backend
     if version >= 4:
         _read_validation(path, data, state)
+    if "screened" in data:
+        screened = data["screened"]
+        if screened.shape != (2,) or (screened < 0).any():
+            raise DesignFileError(f"{path} is a damaged design file: screened {screened.tolist()}, expected two "
+                                  f"counts >= 0")
+        state.screened = {"starts": int(screened[0]), "iterations": int(screened[1])}
     return state
 
 

@@ -58,6 +58,10 @@ class DesignState:
     ``validation`` maps ``"iteration"`` and ``"success"`` to the iterations after which a plan
     that validates judged the grid and the validation success there; ``best`` is the best of
     them so far ([`pes_ref.synthesis.common.validation.Best`][pes_ref.synthesis.common.validation.Best], None before the first).
+
+    ``screened`` counts a population's screening
+    ([`pes_ref.synthesis.engine.population`][pes_ref.synthesis.engine.population]): ``"starts"`` screened and the
+    ``"iterations"`` they ran together (the chosen start's among them; 0 and 0 for a run that screened none).
     """
 
     problem: object
@@ -77,6 +81,7 @@ class DesignState:
     backend: str = "numpy"
     validation: dict = dataclasses.field(default_factory=lambda: {"iteration": [], "success": []})
     best: Best | None = None
+    screened: dict = dataclasses.field(default_factory=lambda: {"starts": 0, "iterations": 0})
 
     @property
     def kind(self) -> str:

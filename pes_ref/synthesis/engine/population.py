@@ -6,17 +6,22 @@ start (its initial grid and batches) and ``starts - 1`` others, start ``j`` the 
 seed [`start_seed`][pes_ref.synthesis.engine.population.start_seed]``(seed, j)`` (its own initial grid and batches).
 Each follows the plan (its stages, its validations, its early stop at the target). The starts run
 one after the other and the first that reaches the plan's target is the design, so a problem the
-run's own start solves early costs nothing more. Otherwise each start's grid after ``screen``
+run's own start solves early costs nothing more; so does one whose own start passes some of its
+validation particles by iteration ``screen``: the run goes on as itself. Otherwise the starts
+run until `COMPARED` of them pass some (or all have run), and each start's grid after ``screen``
 iterations is judged on the run's own validation particles
-([`pes_ref.synthesis.common.validation`][pes_ref.synthesis.common.validation]): by the share passing its tests, then (ties,
-such as every start at 0 before the structure that passes exists) by the objective on those
-particles, the loss the run descends. The run goes on from the best start's grid, optimizer and
-history, with its own batches from iteration ``screen`` on; its validation record restarts with
-that judgment (the starts' own validations were on their own particles).
+([`pes_ref.synthesis.common.validation`][pes_ref.synthesis.common.validation]): among those that pass
+some (all, if none does) the best by the share passing its tests, then (ties, such as every start at 0
+before the structure that passes exists) by the objective on those particles, the loss the run
+descends. The run goes on from the best start's grid, optimizer and history, with its own batches
+from iteration ``screen`` on; its validation record restarts with that judgment (the starts' own
+validations were on their own particles). ``state.screened`` counts the starts screened and the
+iterations they ran.
 
 Measured on the examples of docs/problems.md ("Phases, classes and timing windows"): on the
 light overload release whether the bowl behind the gate appears by the middle of the run decides
-the design, and it appears in some starts and not in others.
+the design, and it appears in some starts and not in others; the first start in which it appears
+is not always the one that finishes it in the final stage's iterations.
 
 The screening is not checkpointed: a run stopped during it is back at its start (iteration 0)
 and screens again from the beginning, deterministically, as a polish does.
@@ -38,6 +43,10 @@ __all__ = ["START_STREAM", "start_seed", "screen_starts"]
 
 #: The second entry of ``SeedSequence([seed, START_STREAM, j])``, which gives start ``j``'s design seed.
 START_STREAM = 2 ** 32 + 4
+#: How many starts that pass some validation particles by the screen are screened and compared
+#: before the run goes on from the best of them (the run's own start, if it passes some, is taken
+#: at once).
+COMPARED = 2
 
 
 def start_seed(seed: int, j: int) -> int:
@@ -107,7 +116,7 @@ def screen_starts(state: DesignState, iterations: int | None = None, *, callback
     if plan.starts <= 1 or state.iteration > 0 or state.history["loss"]:
         return False
     screen = min(plan.screen, plan.iterations if iterations is None else iterations)
-    judged = []
+    judged, passing, first = [], 0, None          # judged: (judgment, j, member, whether it passes some)
     for j in range(plan.starts):
         if j == 0:
             member = dataclasses.replace(state, values=state.values.copy(), optimizer=copy.deepcopy(state.optimizer),
@@ -120,29 +129,43 @@ def screen_starts(state: DesignState, iterations: int | None = None, *, callback
         run_design(member, screen, callback=_labelled(callback, f"start {j + 1}/{plan.starts}"),
                    progress_every=progress_every, finish=False)
         state.elapsed += member.elapsed - before
+        state.screened = {"starts": j + 1, "iterations": state.screened["iterations"] + member.iteration}
         if member.status == "interrupted":
             state.status = "interrupted"
+            state.screened = {"starts": 0, "iterations": 0}
             return True
         if member.status == "done":                 # it reached the target: the design
-            if j == 0:
-                _take(state, member)
-            else:                                   # the target is judged again on the run's own particles
-                _adopt(state, member, _judged(state, member))
+            _go_on(state, member, j)
             return True
         if member.status != "running":              # stopped on a failed iteration
             if j == 0:
                 first = member
             continue
-        if member.best is not None and member.best.success > 0.0:     # it passes some: the design goes on from it
-            if j == 0:
-                _take(state, member)
-            else:
-                _adopt(state, member, _judged(state, member))
+        passes = member.best is not None and member.best.success > 0.0
+        if passes and j == 0:                       # the run's own start passes some: the run itself
+            _go_on(state, member, j)
             return True
-        judged.append((_judged(state, member), j, member))
+        judged.append((_judged(state, member), j, member, passes))
+        passing += passes
+        if passing >= COMPARED:
+            break
     if not judged:
+        screened = state.screened
         _take(state, first)
+        state.screened = screened
         return True
-    best = min(judged, key=lambda m: (-m[0][0], m[0][1], m[1]))
+    candidates = [m for m in judged if m[3]] or judged         # those that pass some, if any
+    best = min(candidates, key=lambda m: (-m[0][0], m[0][1], m[1]))
     _adopt(state, best[2], best[0])
     return True
+
+
+def _go_on(state: DesignState, member: DesignState, j: int) -> None:
+    """``state`` goes on from start ``j``, ``member``: the run itself for its own start, else
+    ``member``'s grid judged again on the run's own particles."""
+    if j == 0:
+        screened = state.screened
+        _take(state, member)
+        state.screened = screened
+    else:
+        _adopt(state, member, _judged(state, member))

@@ -23,6 +23,9 @@ PLAN = Plan(iterations=12, lr=0.02, stages=((0, 5), (6, 0)), n_particles=8, vali
 POPULATION = dataclasses.replace(PLAN, starts=3, screen=6)
 #: Nothing passes: a disc no particle reaches, so every start validates at 0 and the loss chooses.
 NOWHERE = with_sets(GATHER, {"evaluate.success.0.radius": 1e-6})
+#: A small disc: with design seed 1 the run's own start passes none of its validation particles by
+#: the screen, its second and third pass some (3 and 1 of 16), its fourth too.
+SMALL = with_sets(GATHER, {"evaluate.success.0.radius": 0.05})
 
 
 def _counting(monkeypatch):
@@ -68,6 +71,28 @@ def test_with_nothing_passing_the_start_of_least_validation_loss_is_chosen(monke
     np.testing.assert_array_equal(st.best.values, final)
     done = synthesis.run_design(st)                      # goes on with the run's own batches
     assert done.iteration == 12 and done.validation["iteration"] == [6, 9, 12]
+
+
+def test_the_best_of_the_first_starts_that_pass_some_is_chosen(monkeypatch):
+    made = _counting(monkeypatch)
+    plan = dataclasses.replace(POPULATION, starts=4)
+    st = synthesis.new_design(SMALL, seed=1, plan=plan, polish=None)
+    population.screen_starts(st)
+    seeds = [1] + [population.start_seed(1, j) for j in (1, 2)]
+    assert population.COMPARED == 2 and made == seeds[1:]          # the fourth start is never made
+    assert st.screened == {"starts": 3, "iterations": 18}
+    judged, grids = [], []
+    for j, seed in enumerate(seeds):                     # each start by hand, judged on the run's particles
+        member = synthesis.new_design(SMALL, seed=seed, plan=plan, polish=None)
+        synthesis.run_design(member, 6, finish=False)
+        assert (member.best.success > 0.0) == (j > 0)
+        success, _ = validation_success(SMALL, member.values, 1, 16)
+        judged.append((-success, design_step(SMALL, member.values, 1, VALIDATION_STREAM, 16)[0], j))
+        grids.append(member.values)
+    chosen = min(judged[1:])[2]
+    assert chosen == min(judged)[2] or judged[0][0] < min(judged[1:])[0]      # a passing start, the best of them
+    np.testing.assert_array_equal(st.values, grids[chosen])
+    assert st.iteration == 6 and st.status == "running" and st.validation["success"] == [-judged[chosen][0]]
 
 
 def test_ctrl_c_during_the_screen_leaves_the_run_at_its_start(tmp_path):
