@@ -7,7 +7,7 @@ opt (rmsprop/adam), clip, val (validate_every), vn (validation particles), tgt (
 ``smooth,s=SIGMA,k=K``: the default plan with randomized smoothing (Suh et al. 2022): each
 iteration's gradient is the mean of K gradients, each on the grid plus SIGMA times a normal draw
 (masked like the design) with 1/K of the particles, so an iteration costs what the default's does.
-``pop,k=STARTS,s=SCREEN``: the default plan with a population of starts (issue 41 item 3).
+``pop,k=STARTS,s=SCREEN[,c=COMPARED]``: the default plan with a population of starts (issue 41 item 3).
 """
 import numpy as np
 from pes_ref import synthesis
@@ -69,13 +69,17 @@ def smoothed(spec):
 
 
 def population(spec):
-    """``pop,k=STARTS,s=SCREEN``: the problem's default plan with a population of ``STARTS`` starts,
-    chosen after ``SCREEN`` iterations (pes_ref.synthesis.population)."""
+    """``pop,k=STARTS,s=SCREEN[,c=COMPARED]``: the problem's default plan with a population of ``STARTS``
+    starts, chosen after ``SCREEN`` iterations (pes_ref.synthesis.engine.population), the best of the
+    first ``COMPARED`` that pass some (default: the module's; ``c=1``, the first that passes, is the rule
+    before issue 41's last turn)."""
     kv = dict(item.split("=") for item in spec.split(",")[1:])
 
     def run(problem, seed):
         import dataclasses
+        from pes_ref.synthesis.engine import population as pop
         plan = dataclasses.replace(problem.plan, starts=int(kv.get("k", 4)), screen=int(kv.get("s", 150)))
+        pop.COMPARED = int(kv.get("c", pop.COMPARED))
         return run_stages(synthesis.new_design(problem, seed=seed, plan=plan))
     return run
 

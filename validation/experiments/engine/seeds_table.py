@@ -1,6 +1,6 @@
 """A per-seed table of one study's log (one run.py JSON line per design): per problem and plan, each
-design seed's held-out success on seeds 12345 / 9191 (and each scenario's), its iterations and wall
-seconds, and how many seeds reach 0.9 on both held-out seeds in the run and in every scenario.
+design seed's held-out success on seeds 12345 / 9191 (and each scenario's), its iterations, wall
+seconds (and CPU seconds where the log has them), and how many seeds reach 0.9 on both held-out seeds in the run and in every scenario.
 
     python seeds_table.py logs/phases.jsonl [PLAN ...]     # the plans in that order (default: all)
 """
@@ -17,7 +17,8 @@ def cell(r) -> str:
     figs = f"{r['success'][0]:.3f} / {r['success'][1]:.3f}"
     for name, s in r.get("scenarios", {}).items():
         figs += f"; {name} {s[0]:.3f} / {s[1]:.3f}"
-    return f"{figs} ({r['iterations']} it, {r['wall_s']:.1f} s)"
+    cpu = f", {r['cpu_s']:.1f} s CPU" if "cpu_s" in r else ""
+    return f"{figs} ({r['iterations']} it, {r['wall_s']:.1f} s{cpu})"
 
 
 def main(log, plans):
