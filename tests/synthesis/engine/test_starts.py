@@ -1,7 +1,7 @@
 """A population of starts (pes_ref.synthesis.engine.population, Plan.starts/screen): the run's own start that
 passes some by the screen is the run itself, bit for bit, and no other start runs; otherwise the
-start its validation particles judge best is chosen and the run goes on from it with its own
-batches; Ctrl-C leaves the run at its start; the plan refuses a population it cannot choose in;
+starts run until two pass some, the better of those (else, none passing, the start of least
+validation loss) is chosen and the run goes on from it with its own batches; Ctrl-C leaves the run at its start; the plan refuses a population it cannot choose in;
 the default plan screens through its coarse stages."""
 import dataclasses
 import os
