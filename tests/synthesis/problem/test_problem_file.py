@@ -481,3 +481,6 @@ def test_train_starts_and_screen_set_the_plans_population():
     assert (plan.starts, plan.screen) == (3, 3)                 # screened to the start of the last stage
     plan = gather(**sets, **{"train.starts": 3, "train.screen": 2}).plan
     assert (plan.starts, plan.screen) == (3, 2)
+    fine = {"surface.shape": [40, 40], "train.validate_every": 1, "train.starts": 2}      # default stages
+    assert gather(**fine).plan.screen == 4 and synthesis.plan_for(gather(**fine), 100).screen == 80
+    assert synthesis.plan_for(gather(**fine, **{"train.screen": 3}), 100).screen == 3
