@@ -71,21 +71,23 @@ from pes_ref.core.terms import spring_axes
 __all__ = ["STEPPERS", "simulate_dynamic", "adjoint_dynamic", "simulate_quasistatic", "adjoint_quasistatic"]
 
 #: ``error_model="numpy"``: a division by zero gives inf or NaN as in NumPy, not an exception.
-#: The per-particle helpers are inlined into the loops (``inline="always"``): a call that
-#: passes arrays costs a reference count per array, more than the arithmetic.
+#: No reference counting (``_nrt=False``): the kernels allocate nothing, and a helper call
+#: passes its arrays without an increment and decrement each. The per-particle helpers are
+#: compiled functions of their own that LLVM inlines into the loops; numba's own inlining
+#: (``inline="always"``) gave the same step times for more than twice the compile time.
 _JIT = dict(cache=True, nogil=True, error_model="numpy", _nrt=False)
 
 
 # =========================================================================== the force of one particle
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _clip(u, lo, hi):
     """NumPy's ``clip`` ufunc on floats: ``min(max(u, lo), hi)``, NaN kept."""
     m = u if (u != u or u > lo) else lo
     return m if (m != m or m < hi) else hi
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _mod(a, length):
     """NumPy's ``np.mod`` of floats for ``length > 0`` (``fmod``, then the sign of the divisor)."""
     m = np.fmod(a, length)
@@ -97,7 +99,7 @@ def _mod(a, length):
     return m
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _locate(q0, q1, g, per0, per1, clips):
     """The lookup of [`pes_ref.core.grid.Locator.bind`][pes_ref.core.grid.Locator.bind] for one point, both axes:
     ``(cell, f0, f1, s0, s1)`` (`_locate_ij` without the cell's row and column)."""
@@ -105,7 +107,7 @@ def _locate(q0, q1, g, per0, per1, clips):
     return cell, f0, f1, s0, s1
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _locate_ij(q0, q1, g, per0, per1, clips):
     """The lookup of [`pes_ref.core.grid.Locator.bind`][pes_ref.core.grid.Locator.bind] for one point, both axes:
     ``(cell, i0, j0, f0, f1, s0, s1)``, ``cell = i0 n1 + j0``. ``g`` holds ``lower0, lower1,
@@ -146,7 +148,7 @@ def _locate_ij(q0, q1, g, per0, per1, clips):
     return 0, 0, 0, f0, f1, s0, s1
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _spring_d(q0, q1, i, sc, wraps, swrap0, swrap1, shalf, slen):
     """Particle ``i``'s spring displacement ``q - center`` (the minimum image on a wrapped axis)."""
     d0 = q0 - sc[i, 0]
@@ -159,7 +161,7 @@ def _spring_d(q0, q1, i, sc, wraps, swrap0, swrap1, shalf, slen):
     return d0, d1
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _force(q0, q1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
            won, wk, wlo, whi):
     """``F(q)`` of particle ``i`` (N, 2 row): the grid's ``(A + f D) s`` from its table row,
@@ -172,7 +174,7 @@ def _force(q0, q1, i, g, per0, per1, clips, table, offsets, son, sk, sc, wraps, 
                      slen, won, wk, wlo, whi)
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _row(cell, i, offsets, rows):
     """Particle ``i``'s table row: its ``cell`` plus its grid's offset, at most the last row;
     unsigned (both are >= 0), so that numba indexes with it without its negative-index test."""
@@ -182,7 +184,7 @@ def _row(cell, i, offsets, rows):
     return np.uint64(row)
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wraps, swrap0, swrap1, shalf, slen,
               won, wk, wlo, whi):
     """`_force` at the cell and fractions that `_locate` gave for ``(q0, q1)``."""
@@ -192,7 +194,7 @@ def _force_at(q0, q1, i, cell, f0, f1, s0, s1, table, offsets, son, sk, sc, wrap
     return _terms_force(q0, q1, i, F0, F1, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, won, wk, wlo, whi)
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _cell_nodes(values, i0, j0):
     """Cell ``(i0, j0)``'s nodes ``(i, j, ip, jp)``, the next ones wrapped, unsigned (as `_row`)."""
     ip = i0 + 1
@@ -204,7 +206,7 @@ def _cell_nodes(values, i0, j0):
     return np.uint64(i0), np.uint64(j0), np.uint64(ip), np.uint64(jp)
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _cell_coefficients(values, i0, j0, nih0, nih1):
     """Cell ``(i0, j0)``'s row ``(A0, A1, D0, D1)`` of `_coefficient_table`, from the
     grid's values: the same differences of the same nodes (the next ones wrapped), scaled
@@ -216,14 +218,14 @@ def _cell_coefficients(values, i0, j0, nih0, nih1):
             ((values[ip, jp] - values[ip, j]) - d1a) * nih1)
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _cell_d0(values, i0, j0, nih0):
     """Cell ``(i0, j0)``'s ``D0`` of `_cell_coefficients` alone (the cross term's)."""
     i, j, ip, jp = _cell_nodes(values, i0, j0)
     return ((values[ip, jp] - values[i, jp]) - (values[ip, j] - values[i, j])) * nih0
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _terms_force(q0, q1, i, F0, F1, son, sk, sc, wraps, swrap0, swrap1, shalf, slen, won, wk, wlo, whi):
     """The grid's force ``(F0, F1)`` of particle ``i`` at ``(q0, q1)`` plus the spring's
     ``-k delta`` and the walls' ``k (clip(q, a, b) - q)``, in that order."""
@@ -237,7 +239,7 @@ def _terms_force(q0, q1, i, F0, F1, son, sk, sc, wraps, swrap0, swrap1, shalf, s
     return F0, F1
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, table, nih1, offsets, gtab, want_values,
          son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, gc, walls):
     """(A6) at particle ``i``'s position for the cotangent ``w``: returns ``xbar + (dF/dx)^T w``
@@ -254,12 +256,12 @@ def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, table, nih1, offsets
                    son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, (gc, walls))
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _vjp_at(q0, q1, i, row, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, d0, nih1, gtab, want_values,
             son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, rest):
     """`_vjp` at the table row (`_row`), fractions and switches that `_locate`
     gave for ``(q0, q1)``, with the cell's ``d0`` (its coefficient table's ``D0``) (``rest``:
-    ``(gc, walls)``, a tuple: numba inlines a function of at most 30 arguments)."""
+    ``(gc, walls)``, a tuple)."""
     gc, walls = rest
     hcs = d0 * nih1
     if clips:
@@ -285,7 +287,7 @@ def _vjp_at(q0, q1, i, row, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, d0, nih1, g
         if want_c:
             gc[i, 0] = gc[i, 0] + b0
             gc[i, 1] = gc[i, 1] + b1
-    won, wk, wlo, whi = walls        # a tuple: numba inlines a function of at most 30 arguments
+    won, wk, wlo, whi = walls
     if won:
         k0 = wk[i, 0] if _clip(q0, wlo[i, 0], whi[i, 0]) != q0 else 0.0
         k1 = wk[i, 1] if _clip(q1, wlo[i, 1], whi[i, 1]) != q1 else 0.0
@@ -294,7 +296,7 @@ def _vjp_at(q0, q1, i, row, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, d0, nih1, g
     return xb0, xb1
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrapping, son, sk, sc, swrap0, swrap1,
                shalf, slen, won, hwk, wlo, whi):
     """Particle ``i``'s total energy at ``(q0, q1)`` with velocity ``(w0, w1)``, at its cell's
@@ -339,7 +341,7 @@ def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrappin
 
 # =========================================================================== the per-cell tables
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _coefficient_row(values, i, ip, j, jp, nih0, nih1, out):
     """Row ``i n1 + j`` of `_coefficient_table`: cell (i, j) with its next nodes ``ip``, ``jp``."""
     d0a = values[ip, j] - values[i, j]
@@ -378,7 +380,7 @@ def _cross_table(values, nih0, nih1, out):
             out[i * n1 + j] = (((values[ip, jp] - values[i, jp]) - (values[ip, j] - values[i, j])) * nih0) * nih1
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _table_grad_row(gtabs, i, n1, nih0, nih1, terms, clear):
     """Row ``i``'s per-cell terms of
     [`pes_ref.core.bilinear.table_grad_to_values`][pes_ref.core.bilinear.table_grad_to_values] into
@@ -434,7 +436,7 @@ def _table_grad_to_values(gtabs, nih0, nih1, n0, n1, out, rows, clear):
         prev, cur = cur, prev
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _cell_cross(a, b, j, jp):
     """``|((G11 - G10) - G01) + G00|`` of the cell at column ``j`` (next column ``jp``) between
     the rows ``b`` (i) and ``a`` (i + 1)."""
@@ -521,7 +523,7 @@ def table_grad_to_values(gtab: np.ndarray, h, shape: tuple, flat: bool = True) -
     return out.reshape(-1) if flat else out
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _keep(lkf, lki, n, i, q0, q1, cell, i0, j0, f0, f1, s0, s1):
     """Keep state ``n``'s lookup of particle ``i`` at ``(q0, q1)``: ``lkf[n, i] = (q0, q1, f0,
     f1)``, ``lki[n, i] = (4 cell + 2 s0 + s1, 2^32 i0 + j0)`` (the switches are 0 or 1)."""
@@ -533,7 +535,7 @@ def _keep(lkf, lki, n, i, q0, q1, cell, i0, j0, f0, f1, s0, s1):
     lki[n, i, 1] = (i0 << 32) + j0
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _kept(lkf, lki, n, i):
     """State ``n``'s lookup of particle ``i`` that `_keep` kept: ``(cell, i0, j0, f0, f1, s0, s1)``."""
     code = lki[n, i, 0]
