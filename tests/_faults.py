@@ -1,7 +1,8 @@
 """The harness of the command line's fault tables (``tests/cli/test_faults_*.py``).
 
-Each row runs ``python -m pes_ref ARGV`` for real (a subprocess, in a folder of its own
-holding a case, an invalid case, a result, a design, a plain-text file named ``.npz``, a
+Each row runs the command line for real, in a process of its own (``tests/_forked.py``: forked
+from one that has imported it, so a row costs its own work and not Python's start), in a folder
+of its own holding a case, an invalid case, a result, a design, a plain-text file named ``.npz``, a
 user's notes and a subfolder: :func:`make_assets`) and :func:`check_fault` checks that the
 command
 
@@ -19,8 +20,9 @@ it makes added (:func:`works_table`).
 
 A table's rows run in parallel on a small thread pool (:func:`run_rows`; each is a process
 of its own); every refusal comes before any computing, so a table takes seconds. Rows that
-need a read-only folder run without the capability that lets root write anywhere
-(``setpriv``), so that they run, and mean something, as root too. The assets are made once
+need a read-only folder run as ``python -m pes_ref ARGV`` without the capability that lets root
+write anywhere (``setpriv``), so that they run, and mean something, as root too; the closed-pipe
+rows run as ``python -m pes_ref ARGV`` too (:func:`run_piped`). The assets are made once
 per test process (``tests/cli/conftest.py``).
 """
 from __future__ import annotations
@@ -40,6 +42,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+import _forked
 import _helpers
 
 import pes_ref
@@ -332,10 +335,13 @@ def argv_of(row) -> list:
 
 def run_row(fault: Fault, work: Path) -> Outcome:
     before = snapshot(work)
-    prefix = UNPRIVILEGED if getattr(fault, "needs_permissions", False) else []
-    proc = subprocess.run([*prefix, sys.executable, "-m", "pes_ref", *argv_of(fault)], cwd=work, env=ENV,
-                          capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
-    return Outcome(proc.returncode, proc.stdout, proc.stderr, before, snapshot(work))
+    if getattr(fault, "needs_permissions", False):
+        proc = subprocess.run([*UNPRIVILEGED, sys.executable, "-m", "pes_ref", *argv_of(fault)], cwd=work, env=ENV,
+                              capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+        return Outcome(proc.returncode, proc.stdout, proc.stderr, before, snapshot(work))
+    out, err = work.parent / f"{work.name}.stdout", work.parent / f"{work.name}.stderr"
+    status = _forked.run(argv_of(fault), work, ENV, out, err, timeout=120)
+    return Outcome(status, out.read_text(), err.read_text(), before, snapshot(work))
 
 
 def run_rows(rows, assets: Path, root: Path, workers: int = 4, run=run_row) -> dict:

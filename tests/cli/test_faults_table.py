@@ -24,7 +24,7 @@ import pytest
 from _helpers import without_progress
 from _faults import (CASE, ENV, UNPRIVILEGED, Fault, Outcome, Piped, Warned, _bench_whole_or_absent, _design,
                      _parts_whole_or_absent, _result_whole, _sweep_whole_or_absent, _vectors_whole_or_absent, changes,
-                     check_fault, run_piped, run_rows, snapshot)
+                     argv_of, check_fault, run_piped, run_rows, snapshot)
 
 from pes_ref import cli
 from pes_ref.oracle import load_case
@@ -181,6 +181,43 @@ def test_a_missing_input_is_said_the_same_way_by_every_command(fault_assets, tmp
         line = outcomes[fid].err.strip()
         assert re.fullmatch(r"error: (case file|design file|--cmd: program|--check folder) "
                             r"(nothing\.npz|\./nothing\.sh|nodir) does not exist", line), (fid, line)
+
+
+# =========================================================================== the harness
+
+#: Rows of every kind the harness meets: a refusal at parsing, one after reading a file, one
+#: of an option's value, one that prints a warning and exits 0, a run that writes a file, and
+#: a refusal in a command that runs another program.
+LIKE_PYTHON_M = ["ratchet-torque-negative", "device-format-other", "design-particles-zero", "evaluate-missing",
+                 "oracle-design-file", "check-unknown-program"]
+
+
+def _python_m(row, work: Path) -> Outcome:
+    before = snapshot(work)
+    proc = subprocess.run([sys.executable, "-m", "pes_ref", *argv_of(row)], cwd=work, env=ENV, capture_output=True,
+                          text=True, timeout=120, stdin=subprocess.DEVNULL)
+    return Outcome(proc.returncode, proc.stdout, proc.stderr, before, snapshot(work))
+
+
+def _untimed(out: str) -> str:
+    """``out`` without the times it reports (``time_cspace: 0.37 s``, a design's ``..., 0.5 s``)."""
+    return re.sub(r"(?m)[\d.]+ s$", "T s", re.sub(r"(?m)^time_\w+: .*\n", "", out))
+
+
+def test_a_forked_row_is_what_python_m_pes_ref_gives(fault_assets, tmp_path_factory):
+    """The forked process of a row (``tests/_forked.py``) gives what ``python -m pes_ref`` gives:
+    the exit status, stdout, stderr and the files left behind, warning rows included."""
+    rows = [f for f in FAULTS if f.id in LIKE_PYTHON_M] + WARNINGS[:1] + [
+        Warned("design-writes", "design funnel --smoke --quiet --out new.npz", ())]
+    forked = run_rows(rows, fault_assets, tmp_path_factory.mktemp("forked"))
+    python_m = run_rows(rows, fault_assets, tmp_path_factory.mktemp("python-m"), run=_python_m)
+    assert len(rows) == len(LIKE_PYTHON_M) + 2
+    for row in rows:
+        a, b = forked[row.id], python_m[row.id]
+        assert (a.status, _untimed(a.out), a.err) == (b.status, _untimed(b.out), b.err), row.id
+        assert sorted(a.after) == sorted(b.after), row.id
+    assert {forked[r].status for r in LIKE_PYTHON_M} == {cli.EXIT_ERROR}
+    assert forked["design-writes"].status == 0 and "new.npz" in forked["design-writes"].after
 
 
 # =========================================================================== warnings
