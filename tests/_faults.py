@@ -333,12 +333,21 @@ def argv_of(row) -> list:
     return shlex.split(row.argv.replace("{python}", shlex.quote(sys.executable)))
 
 
-def run_row(fault: Fault, work: Path) -> Outcome:
+def run_python_m(fault: Fault, work: Path, prefix: list = ()) -> Outcome:
+    """``fault``'s row as ``python -m pes_ref ARGV``, a new interpreter (after ``prefix``, a command
+    that runs it)."""
     before = snapshot(work)
+    proc = subprocess.run([*prefix, sys.executable, "-m", "pes_ref", *argv_of(fault)], cwd=work, env=ENV,
+                          capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    return Outcome(proc.returncode, proc.stdout, proc.stderr, before, snapshot(work))
+
+
+def run_row(fault: Fault, work: Path) -> Outcome:
+    """``fault``'s row in a process forked from one that has imported the command line
+    (``tests/_forked.py``); one that needs root's file permissions dropped as :func:`run_python_m`."""
     if getattr(fault, "needs_permissions", False):
-        proc = subprocess.run([*UNPRIVILEGED, sys.executable, "-m", "pes_ref", *argv_of(fault)], cwd=work, env=ENV,
-                              capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
-        return Outcome(proc.returncode, proc.stdout, proc.stderr, before, snapshot(work))
+        return run_python_m(fault, work, UNPRIVILEGED)
+    before = snapshot(work)
     out, err = work.parent / f"{work.name}.stdout", work.parent / f"{work.name}.stderr"
     status = _forked.run(argv_of(fault), work, ENV, out, err, timeout=120)
     return Outcome(status, out.read_text(), err.read_text(), before, snapshot(work))

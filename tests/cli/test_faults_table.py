@@ -24,7 +24,7 @@ import pytest
 from _helpers import without_progress
 from _faults import (CASE, ENV, UNPRIVILEGED, Fault, Outcome, Piped, Warned, _bench_whole_or_absent, _design,
                      _parts_whole_or_absent, _result_whole, _sweep_whole_or_absent, _vectors_whole_or_absent, changes,
-                     argv_of, check_fault, run_piped, run_rows, snapshot)
+                     check_fault, run_piped, run_python_m, run_rows, snapshot)
 
 from pes_ref import cli
 from pes_ref.oracle import load_case
@@ -192,13 +192,6 @@ LIKE_PYTHON_M = ["ratchet-torque-negative", "device-format-other", "design-parti
                  "oracle-design-file", "check-unknown-program"]
 
 
-def _python_m(row, work: Path) -> Outcome:
-    before = snapshot(work)
-    proc = subprocess.run([sys.executable, "-m", "pes_ref", *argv_of(row)], cwd=work, env=ENV, capture_output=True,
-                          text=True, timeout=120, stdin=subprocess.DEVNULL)
-    return Outcome(proc.returncode, proc.stdout, proc.stderr, before, snapshot(work))
-
-
 def _untimed(out: str) -> str:
     """``out`` without the times it reports (``time_cspace: 0.37 s``, a design's ``..., 0.5 s``)."""
     return re.sub(r"(?m)[\d.]+ s$", "T s", re.sub(r"(?m)^time_\w+: .*\n", "", out))
@@ -210,7 +203,7 @@ def test_a_forked_row_is_what_python_m_pes_ref_gives(fault_assets, tmp_path_fact
     rows = [f for f in FAULTS if f.id in LIKE_PYTHON_M] + WARNINGS[:1] + [
         Warned("design-writes", "design funnel --smoke --quiet --out new.npz", ())]
     forked = run_rows(rows, fault_assets, tmp_path_factory.mktemp("forked"))
-    python_m = run_rows(rows, fault_assets, tmp_path_factory.mktemp("python-m"), run=_python_m)
+    python_m = run_rows(rows, fault_assets, tmp_path_factory.mktemp("python-m"), run=run_python_m)
     assert len(rows) == len(LIKE_PYTHON_M) + 2
     for row in rows:
         a, b = forked[row.id], python_m[row.id]
