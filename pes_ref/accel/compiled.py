@@ -40,14 +40,13 @@ A population ([`pes_ref.core.population`][pes_ref.core.population]) runs with th
 added to its cell (``Field.offsets``). The bicubic grid and the GJF step are not compiled:
 [`pes_ref.core.backends.stepper`][pes_ref.core.backends.stepper] runs them on NumPy.
 
-The kernels take every array C-contiguous float64 of a fixed dimension (absent terms as
-placeholders with a flag), so each compiles once; numba caches the machine code on disk
-(``cache=True``: beside this file in ``__pycache__``, or in numba's user cache directory
-when the package is installed read-only, or in ``NUMBA_CACHE_DIR``). A run without a
-progress callback is one call; with one, a call per `pes_ref.core.runtime.progress.EVERY`
-steps ([`pes_ref.core.runtime.progress.blocks`][pes_ref.core.runtime.progress.blocks]), so Ctrl-C and progress lines
-come between
-them.
+The kernels take every array C-contiguous float64 of a fixed dimension (absent terms as placeholders
+with a flag), so each compiles once; numba caches the machine code on disk (``cache=True``: beside
+this file in ``__pycache__``, or in numba's user cache directory when the package is installed
+read-only, or in ``NUMBA_CACHE_DIR``). A run without a progress callback is one call; with one, a
+call per `pes_ref.core.runtime.progress.EVERY` steps
+([`pes_ref.core.runtime.progress.blocks`][pes_ref.core.runtime.progress.blocks]), so Ctrl-C and
+progress lines come between them.
 """
 from __future__ import annotations
 
@@ -243,13 +242,12 @@ def _terms_force(q0, q1, i, F0, F1, son, sk, sc, wraps, swrap0, swrap1, shalf, s
 def _vjp(q0, q1, i, w0, w1, xb0, xb1, g, per0, per1, clips, table, nih1, offsets, gtab, want_values,
          son, sk, sc, wraps, swrap0, swrap1, shalf, slen, want_k, gk, want_c, gc, walls):
     """(A6) at particle ``i``'s position for the cotangent ``w``: returns ``xbar + (dF/dx)^T w``
-    (the grid's ``-Hc s0 s1 (w1, w0)``, the spring's ``-k w``, the walls' ``-k w`` where
-    active, in [`ForceAdjoint`][pes_ref.core.forces.ForceAdjoint]'s order) and accumulates the
-    grid's table gradient and the spring's, as wanted. The cross term ``Hc`` of a cell is
-    its coefficient table's ``D0`` times ``nih1 = -1/h1``: the operations of
-    [`pes_ref.core.bilinear.cross_table`][pes_ref.core.bilinear.cross_table] in its order, so the same number bit for
-    bit
-    (the forward's table serves the adjoint; no cross table is built)."""
+    (the grid's ``-Hc s0 s1 (w1, w0)``, the spring's ``-k w``, the walls' ``-k w`` where active, in
+    [`ForceAdjoint`][pes_ref.core.forces.ForceAdjoint]'s order) and accumulates the grid's table
+    gradient and the spring's, as wanted. The cross term ``Hc`` of a cell is its coefficient table's
+    ``D0`` times ``nih1 = -1/h1``: the operations of
+    [`pes_ref.core.bilinear.cross_table`][pes_ref.core.bilinear.cross_table] in its order, so the
+    same number bit for bit (the forward's table serves the adjoint; no cross table is built)."""
     cell, f0, f1, s0, s1 = _locate(q0, q1, g, per0, per1, clips)
     row = _row(cell, i, offsets, table.shape[0])
     return _vjp_at(q0, q1, i, row, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, table[row, 2], nih1, gtab, want_values,
@@ -300,14 +298,14 @@ def _vjp_at(q0, q1, i, row, f0, f1, s0, s1, w0, w1, xb0, xb1, clips, d0, nih1, g
 def _energy_at(q0, q1, w0, w1, i, i0, j0, f0, f1, per0, per1, values, m, wrapping, son, sk, sc, swrap0, swrap1,
                shalf, slen, won, hwk, wlo, whi):
     """Particle ``i``'s total energy at ``(q0, q1)`` with velocity ``(w0, w1)``, at its cell's
-    row and column and fractions of `_locate_ij`: [`pes_ref.core.scene.energy`][pes_ref.core.scene.energy]'s operations
-    in its order,
-    the bilinear energy of [`pes_ref.core.bilinear.grid_energy`][pes_ref.core.bilinear.grid_energy], plus the spring's
-    ``0.5 (k0 d0 d0 + k1 d1 d1)`` (the minimum image on the axes ``swrap``, the periodic ones,
-    as [`pes_ref.core.terms.spring_delta`][pes_ref.core.terms.spring_delta]; ``wrapping``, a caller's compile-time
-    constant,
-    False leaves the image out of a loop whose caller passes no ``swrap``), plus the walls'
-    ``(0.5 k) (b0 b0 + a0 a0 + (b1 b1 + a1 a1))``, plus ``0.5 (m0 v0 v0 + m1 v1 v1)``."""
+    row and column and fractions of `_locate_ij`:
+    [`pes_ref.core.scene.energy`][pes_ref.core.scene.energy]'s operations in its order, the
+    bilinear energy of [`pes_ref.core.bilinear.grid_energy`][pes_ref.core.bilinear.grid_energy],
+    plus the spring's ``0.5 (k0 d0 d0 + k1 d1 d1)`` (the minimum image on the axes ``swrap``, the
+    periodic ones, as [`pes_ref.core.terms.spring_delta`][pes_ref.core.terms.spring_delta];
+    ``wrapping``, a caller's compile-time constant, False leaves the image out of a loop whose
+    caller passes no ``swrap``), plus the walls' ``(0.5 k) (b0 b0 + a0 a0 + (b1 b1 + a1 a1))``,
+    plus ``0.5 (m0 v0 v0 + m1 v1 v1)``."""
     n0 = values.shape[0]
     n1 = values.shape[1]
     i1 = i0 + 1
@@ -488,9 +486,9 @@ def cross_curvature_max(values: np.ndarray, periodic) -> float:
 
 def _stacked(values: np.ndarray, width: int) -> tuple:
     """``(out, grids, size)``: a per-cell table (``width`` columns, 0 for one) of a grid or of
-    a stack of grids, one after another ([`pes_ref.core.grid.stacked_table`][pes_ref.core.grid.stacked_table]), the
-    grids
-    (K, n0, n1) and the cells of one."""
+    a stack of grids, one after another
+    ([`pes_ref.core.grid.stacked_table`][pes_ref.core.grid.stacked_table]), the grids (K, n0, n1)
+    and the cells of one."""
     grids = values.reshape((-1,) + values.shape[-2:])
     size = grids.shape[1] * grids.shape[2]
     out = np.empty((grids.shape[0] * size, width) if width else (grids.shape[0] * size,))
@@ -963,9 +961,8 @@ def particle_blocks(n: int, width: int | None = None) -> np.ndarray:
 
 def lanes_of(n: int) -> tuple:
     """``(lanes, blocks)`` of a threaded adjoint of ``n`` particles: the blocks of
-    [`particle_blocks`][pes_ref.accel.compiled.particle_blocks] and `LANES` runs of consecutive blocks (fewer if there
-    are
-    fewer blocks), ``lanes[l] .. lanes[l+1] - 1``."""
+    [`particle_blocks`][pes_ref.accel.compiled.particle_blocks] and `LANES` runs of consecutive
+    blocks (fewer if there are fewer blocks), ``lanes[l] .. lanes[l+1] - 1``."""
     blocks = particle_blocks(n)
     nb = blocks.size - 1
     k = min(LANES, nb)

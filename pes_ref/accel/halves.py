@@ -1,13 +1,12 @@
 """A NumPy run of many particles as two halves on two threads.
 
-Particles never interact, so a run of N particles is two runs, of particles ``0 .. N//2 - 1``
-and ``N//2 .. N - 1``, on the same grid. NumPy releases the GIL inside each whole-array
-operation, so from `MIN_PARTICLES` on (where an operation on half the particles takes
-far longer than handing the GIL over) the two halves run side by side on the machine's two
-cores: the forward loops, then the adjoints. [`stepper`][pes_ref.accel.halves.stepper] wraps a NumPy
-[`Stepper`][pes_ref.core.steppers.Stepper] so; [`pes_ref.core.backends.stepper`][pes_ref.core.backends.stepper] is where
-a
-run gets it.
+Particles never interact, so a run of N particles is two runs, of particles ``0 .. N//2 - 1`` and
+``N//2 .. N - 1``, on the same grid. NumPy releases the GIL inside each whole-array operation, so
+from `MIN_PARTICLES` on (where an operation on half the particles takes far longer than handing the
+GIL over) the two halves run side by side on the machine's two cores: the forward loops, then the
+adjoints. [`stepper`][pes_ref.accel.halves.stepper] wraps a NumPy
+[`Stepper`][pes_ref.core.steppers.Stepper] so;
+[`pes_ref.core.backends.stepper`][pes_ref.core.backends.stepper] is where a run gets it.
 
 Each half runs the stepper's own loop on its particles, written into views of the whole run's
 arrays, so every per-particle number (the trajectory, the energy, the gradients of ``x0``,
@@ -77,12 +76,12 @@ class _Stopped(Exception):
 
 def _both(first, second, progress):
     """``[first(report), second(report)]``: ``second`` on a worker thread in a copy of the
-    caller's context, ``first`` here; ``report`` is each half's progress callback (the first
-    half's passes its reports on to ``progress``). An error in either half stops the other at
-    its next report and is raised once both have ended (the first half's if both failed),
-    except a [`NonFiniteError`][pes_ref.core.integrator.NonFiniteError], which ends a half only after its loop: the
-    other half
-    runs on, and the error of the earlier bad step is raised (the one-thread run's)."""
+    caller's context, ``first`` here; ``report`` is each half's progress callback (the first half's
+    passes its reports on to ``progress``). An error in either half stops the other at its next
+    report and is raised once both have ended (the first half's if both failed), except a
+    [`NonFiniteError`][pes_ref.core.integrator.NonFiniteError], which ends a half only after its
+    loop: the other half runs on, and the error of the earlier bad step is raised (the one-thread
+    run's)."""
     stop = threading.Event()
     results, errors = [None, None], [None, None]
 

@@ -25,11 +25,11 @@ Measures, on a 200 x 200 surface and in float64:
   on each backend;
 - ``targets``: the targets of docs/performance.md, each with the measured number and met / not met.
 
-Every timing is the median of repeated wall-clock runs after one warm-up run, with its
-min and max. Nothing here is a test: [`pes_ref.bench.targets`][pes_ref.bench.targets] reads the targets off the
-results, [`pes_ref.bench.report`][pes_ref.bench.report] prints them and [`pes_ref.bench.outputs`][pes_ref.bench.outputs]
-writes them
-(JSON, with the machine, versions and date) and a scaling plot.
+Every timing is the median of repeated wall-clock runs after one warm-up run, with its min and max.
+Nothing here is a test: [`pes_ref.bench.targets`][pes_ref.bench.targets] reads the targets off the
+results, [`pes_ref.bench.report`][pes_ref.bench.report] prints them and
+[`pes_ref.bench.outputs`][pes_ref.bench.outputs] writes them (JSON, with the machine, versions and
+date) and a scaling plot.
 """
 from __future__ import annotations
 

@@ -1,15 +1,14 @@
 """The two design gradients that the benchmark times: the paper's funnel and oscillator.
 
-A [`DesignCase`][pes_ref.bench.cases.DesignCase] is one gradient evaluation written as plain arrays (surface,
-per-particle mass and damping, spring, walls, the realized external force schedule,
-initial state, objective), so that the reference ([`reference_gradient`][pes_ref.bench.cases.reference_gradient]) and
-the
-benchmark's autograd and JAX versions ([`pes_ref.bench.spec`][pes_ref.bench.spec]) compute exactly the same
-thing from the same inputs. The scenes follow the paper's design problems (funnel: a
-plane, walls at the side edges, a constant downward force plus noise, eq. (5) summed
-over every step; oscillator: a cylinder, a spring along q0, low damping along q0 and
-high along q1, a per-particle torque, eq. (6)); ``docs/performance.md`` lists their
-parameters.
+A [`DesignCase`][pes_ref.bench.cases.DesignCase] is one gradient evaluation written as plain arrays
+(surface, per-particle mass and damping, spring, walls, the realized external force schedule,
+initial state, objective), so that the reference
+([`reference_gradient`][pes_ref.bench.cases.reference_gradient]) and the benchmark's autograd and
+JAX versions ([`pes_ref.bench.spec`][pes_ref.bench.spec]) compute exactly the same thing from the
+same inputs. The scenes follow the paper's design problems (funnel: a plane, walls at the side
+edges, a constant downward force plus noise, eq. (5) summed over every step; oscillator: a cylinder,
+a spring along q0, low damping along q0 and high along q1, a per-particle torque, eq. (6));
+``docs/performance.md`` lists their parameters.
 """
 from __future__ import annotations
 

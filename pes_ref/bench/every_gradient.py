@@ -1,17 +1,16 @@
 """Every gradient a case owes, through [`pes_ref.oracle.case.run_case`][pes_ref.oracle.case.run_case], against JAX.
 
 An implementation checked against the oracle asks for every gradient of its case: ``values``,
-``x0``, ``v0``, ``force``, ``mass`` and ``damping`` (and ``spring_k``, ``spring_center`` where
-the case has a spring). This module times ``run_case`` on the paper's funnel case (the
-benchmark's [`pes_ref.bench.cases.funnel_case`][pes_ref.bench.cases.funnel_case] as case keys, its noise realized into
-``force``) against JAX's ``jit(value_and_grad)`` over the same inputs, all of them
-differentiated ([`jax_every_gradient`][pes_ref.bench.every_gradient.jax_every_gradient]), in one process: the runs are
-interleaved (one
-of each per round), and the median wall time of each is reported with the ratio to JAX's.
-The ratio is of the medians; beside it the median [min-max] of the ratios round by round
-(each run against JAX's of the same round, so that a drift of a shared machine's speed
-cancels). JAX's gradients are first checked against the oracle's (100 GRAD_RTOL of each
-gradient's largest entry); a mismatch is reported and not timed.
+``x0``, ``v0``, ``force``, ``mass`` and ``damping`` (and ``spring_k``, ``spring_center`` where the
+case has a spring). This module times ``run_case`` on the paper's funnel case (the benchmark's
+[`pes_ref.bench.cases.funnel_case`][pes_ref.bench.cases.funnel_case] as case keys, its noise
+realized into ``force``) against JAX's ``jit(value_and_grad)`` over the same inputs, all of them
+differentiated ([`jax_every_gradient`][pes_ref.bench.every_gradient.jax_every_gradient]), in one
+process: the runs are interleaved (one of each per round), and the median wall time of each is
+reported with the ratio to JAX's. The ratio is of the medians; beside it the median [min-max] of the
+ratios round by round (each run against JAX's of the same round, so that a drift of a shared
+machine's speed cancels). JAX's gradients are first checked against the oracle's (100 GRAD_RTOL of
+each gradient's largest entry); a mismatch is reported and not timed.
 
 Run: ``python -m pes_ref.bench.every_gradient [--sizes 64,4096,65536] [--rounds R]``; ``make
 bench`` prints the same rows ([`measure`][pes_ref.bench.every_gradient.measure],

@@ -1,10 +1,10 @@
 """The benchmark's design gradient by JAX (``jax.grad`` of a ``lax.scan``, under ``jax.jit``).
 
-Optional: JAX is imported only here, and only when [`available`][pes_ref.bench.with_jax.available] says it is
-installed (the ``bench`` extra). Importing this module's [`gradient_fn`][pes_ref.bench.with_jax.gradient_fn] switches
-JAX
-to float64 (``jax_enable_x64``), as docs/spec.md requires. The first call compiles; the
-benchmark reports that compile time apart from the steady-state time of later calls.
+Optional: JAX is imported only here, and only when [`available`][pes_ref.bench.with_jax.available]
+says it is installed (the ``bench`` extra). Importing this module's
+[`gradient_fn`][pes_ref.bench.with_jax.gradient_fn] switches JAX to float64 (``jax_enable_x64``), as
+docs/spec.md requires. The first call compiles; the benchmark reports that compile time apart from
+the steady-state time of later calls.
 """
 from __future__ import annotations
 

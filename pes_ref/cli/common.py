@@ -38,10 +38,9 @@ def error(exc, flags: dict | None = None) -> int:
     """Print exactly one line ``error: <message>`` to stderr; return `EXIT_ERROR`.
 
     ``flags`` maps the library's argument names to the command's own (``{"n_particles":
-    "--particles"}``): see [`flag_message`][pes_ref.cli.common.flag_message]. With ``PES_REF_DEBUG=1`` in the
-    environment
-    (`DEBUG_VARIABLE`) an exception's traceback is printed first: what was caught and
-    where, for a report.
+    "--particles"}``): see [`flag_message`][pes_ref.cli.common.flag_message]. With
+    ``PES_REF_DEBUG=1`` in the environment (`DEBUG_VARIABLE`) an exception's traceback is printed
+    first: what was caught and where, for a report.
     """
     if isinstance(exc, BaseException) and os.environ.get(DEBUG_VARIABLE, "") not in ("", "0"):
         import traceback

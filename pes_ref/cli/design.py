@@ -5,18 +5,17 @@
   ``design --resume FILE.npz`` continues a design from the problem its file holds.
 
 - ``design funnel|oscillator [--iterations N] [--seed S] [--out FILE.npz] [--resume FILE.npz]
-  [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C]
-  [--particles N] [--plan gait|overshoot|eq6] [--evaluations N] [--polish-particles N]
-  [--workers N] [--backend numba|numpy] [--stages SPEC | --no-stages] [--smoke] [--quiet]``:
-  run (or continue) a design, its gradient stage and then its polish if it has one
-  ([`pes_ref.synthesis.engine.stages.run_stages`][pes_ref.synthesis.engine.stages.run_stages]), and write its file
-  ([`pes_ref.synthesis.engine.design_file`][pes_ref.synthesis.engine.design_file]). A progress line goes to stderr every
-  ``--progress``
-  seconds; Ctrl-C or SIGTERM finishes the iteration or generation, saves and exits 130;
-  a run that goes non-finite, or whose grid steepens past the stability rule, saves its last good
-  state and exits 1 (a fresh run that stops before finishing an iteration writes no file). A scene
-  past the stability rule from the start (``--set dt=...``) is refused before anything is
-  written (docs/spec.md section 10).
+  [--force] [--set NAME=VALUE ...] [--lr LR] [--optimizer rmsprop|adam] [--clip C] [--particles N]
+  [--plan gait|overshoot|eq6] [--evaluations N] [--polish-particles N] [--workers N] [--backend
+  numba|numpy] [--stages SPEC | --no-stages] [--smoke] [--quiet]``: run (or continue) a design, its
+  gradient stage and then its polish if it has one
+  ([`pes_ref.synthesis.engine.stages.run_stages`][pes_ref.synthesis.engine.stages.run_stages]), and
+  write its file ([`pes_ref.synthesis.engine.design_file`][pes_ref.synthesis.engine.design_file]). A
+  progress line goes to stderr every ``--progress`` seconds; Ctrl-C or SIGTERM finishes the
+  iteration or generation, saves and exits 130; a run that goes non-finite, or whose grid steepens
+  past the stability rule, saves its last good state and exits 1 (a fresh run that stops before
+  finishing an iteration writes no file). A scene past the stability rule from the start (``--set
+  dt=...``) is refused before anything is written (docs/spec.md section 10).
 
 ``--smoke`` is a tiny preset for tests and a quick look (see ``docs/synthesis.md``).
 """

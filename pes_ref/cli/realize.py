@@ -14,9 +14,8 @@ area from the DXF against the device file's, and the STL meshes' watertightness 
 ``realize DESIGN.npz --as heightfield --out DIR [--g G] [--base B] [--seed S] [--particles N]
 [--steps N] [--force]`` writes ``DIR/heightfield.stl``, reads it back and prints the held-out
 figures of the design's particle, the rolling ball and the ball in MuJoCo
-([`pes_ref.realize.heightfield.heightfield_check`][pes_ref.realize.heightfield.heightfield_check]; without the extra
-``mujoco``, one
-``mujoco: not run: ...`` line with its pip line).
+([`pes_ref.realize.heightfield.heightfield_check`][pes_ref.realize.heightfield.heightfield_check];
+without the extra ``mujoco``, one ``mujoco: not run: ...`` line with its pip line).
 """
 from __future__ import annotations
 

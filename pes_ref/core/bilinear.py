@@ -16,20 +16,20 @@ fractions::
     F0 = s0 (A0 + f1 D0),   A0 = -(g10 - g00) / h0,   D0 = -((g11 - g01) - (g10 - g00)) / h0
     F1 = s1 (A1 + f0 D1),   A1 = -(g01 - g00) / h1,   D1 = -((g11 - g10) - (g01 - g00)) / h1
 
-and its Hessian has only the constant cross term ``Hc = s0 s1 (g11 - g10 - g01 + g00) /
-(h0 h1)`` (eq. (A2)). [`coefficient_table`][pes_ref.core.bilinear.coefficient_table] computes ``[A0, A1, D0, D1]`` for
-every
-cell once per surface, so a step of the hot loop ([`BilinearForce`][pes_ref.core.bilinear.BilinearForce],
-``docs/performance.md``) gathers one row of 4 numbers per particle instead of 4 corners
-and recomputing their differences. Its numbers equal those of [`grid_slope`][pes_ref.core.bilinear.grid_slope] up to
-rounding (a few ulp; the formula is regrouped); [`point_force`][pes_ref.core.bilinear.point_force] computes them without
-a table, bit-identical to the kernel.
+and its Hessian has only the constant cross term ``Hc = s0 s1 (g11 - g10 - g01 + g00) / (h0 h1)``
+(eq. (A2)). [`coefficient_table`][pes_ref.core.bilinear.coefficient_table] computes ``[A0, A1, D0,
+D1]`` for every cell once per surface, so a step of the hot loop
+([`BilinearForce`][pes_ref.core.bilinear.BilinearForce], ``docs/performance.md``) gathers one row of
+4 numbers per particle instead of 4 corners and recomputing their differences. Its numbers equal
+those of [`grid_slope`][pes_ref.core.bilinear.grid_slope] up to rounding (a few ulp; the formula is
+regrouped); [`point_force`][pes_ref.core.bilinear.point_force] computes them without a table,
+bit-identical to the kernel.
 
-The adjoint ([`BilinearAdjoint`][pes_ref.core.bilinear.BilinearAdjoint]) relocates a whole chunk of stored states at
-once,
-does only ``xbar -= Hc (w1, w0)`` per step, and scatters the grid gradient once per
-chunk (``np.bincount`` or ``np.add.at``) into the coefficient table's gradient, mapped to
-the grid values once at the end ([`table_grad_to_values`][pes_ref.core.bilinear.table_grad_to_values]).
+The adjoint ([`BilinearAdjoint`][pes_ref.core.bilinear.BilinearAdjoint]) relocates a whole chunk of
+stored states at once, does only ``xbar -= Hc (w1, w0)`` per step, and scatters the grid gradient
+once per chunk (``np.bincount`` or ``np.add.at``) into the coefficient table's gradient, mapped to
+the grid values once at the end
+([`table_grad_to_values`][pes_ref.core.bilinear.table_grad_to_values]).
 
 The point functions (``point_*``) and the kernels are this rule's entry in
 `pes_ref.core.interpolations.INTERPOLATIONS`.
@@ -134,9 +134,9 @@ def grid_slope_vjp_values(h: np.ndarray, c: Cells, w: np.ndarray, n1: int, size:
 
 def _coefficients(g00, g10, g01, g11, h: np.ndarray, out: np.ndarray) -> np.ndarray:
     """``out[..., :] = [A0, A1, D0, D1]`` from the corner values of single cells (see the
-    module docstring); the same operations as [`coefficient_table`][pes_ref.core.bilinear.coefficient_table], so the
-    forces
-    of both are bit-identical."""
+    module docstring); the same operations as
+    [`coefficient_table`][pes_ref.core.bilinear.coefficient_table], so the forces of both are
+    bit-identical."""
     nih0, nih1 = -1.0 / h[0], -1.0 / h[1]
     d0a, d0b = g10 - g00, g11 - g01
     d1a, d1b = g01 - g00, g11 - g10
@@ -186,10 +186,9 @@ def cross_table(values: np.ndarray, h: np.ndarray) -> np.ndarray:
 
 def table_grad_to_values(gtab: np.ndarray, h: np.ndarray, shape: tuple) -> np.ndarray:
     """Chain a gradient with respect to the table ``[A0, A1, D0, D1]`` (n0*n1, 4) (the
-    layout of [`coefficient_table`][pes_ref.core.bilinear.coefficient_table]; overwritten) to the grid values; returns
-    the flat
-    (n0*n1,) gradient (the transpose of [`coefficient_table`][pes_ref.core.bilinear.coefficient_table], a 2x2 stencil
-    per cell).
+    layout of [`coefficient_table`][pes_ref.core.bilinear.coefficient_table]; overwritten) to the
+    grid values; returns the flat (n0*n1,) gradient (the transpose of
+    [`coefficient_table`][pes_ref.core.bilinear.coefficient_table], a 2x2 stencil per cell).
 
     Per cell, with ``a_d = -gA_d / h_d`` and ``d_d = -gD_d / h_d``, the corners receive
     ``g00: d0 + d1 - a0 - a1``, ``g10: a0 - d0 - d1``, ``g01: a1 - d0 - d1``, ``g11: d0 + d1``.

@@ -161,10 +161,9 @@ def check_memory(n_steps: int, n_particles: int, kind: str, *, steps: str = "n_s
 
 def check_grid_memory(shape: tuple, key: str, arrays: int = GRID_ARRAYS, length: str | None = None) -> int:
     """Refuse a grid of ``shape`` (n0, n1) whose ``arrays`` float64 copies cannot fit in the
-    available memory; return their bytes. ``key`` names what sets the grid's size (a
-    design's ``grid``), in the one-line [`RunTooLargeError`][pes_ref.core.budget.RunTooLargeError]; ``length`` says how
-    it
-    reads (default: ``key``, e.g. ``"grid = 100000"``)."""
+    available memory; return their bytes. ``key`` names what sets the grid's size (a design's
+    ``grid``), in the one-line [`RunTooLargeError`][pes_ref.core.budget.RunTooLargeError];
+    ``length`` says how it reads (default: ``key``, e.g. ``"grid = 100000"``)."""
     n0, n1 = (int(n) for n in shape)
     need = arrays * n0 * n1 * 8
     avail = available_memory()

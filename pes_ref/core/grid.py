@@ -16,12 +16,11 @@ Per axis, with ``u = (q - lower) / h``:
 
 State positions are never wrapped; only the lookup wraps ([`wrap`][pes_ref.core.grid.wrap] is for display).
 
-There is one implementation of this arithmetic, [`Locator.bind`][pes_ref.core.grid.Locator.bind] (both axes at once,
-into reusable buffers: the hot loop's lookup); [`Locator.locate`][pes_ref.core.grid.Locator.locate] and
-[`locate`][pes_ref.core.grid.locate]
-are views of its result, and [`Locator.bind_scalar`][pes_ref.core.grid.Locator.bind_scalar] is the same operations on
-Python
-floats for a single particle. The functions here trust their inputs.
+There is one implementation of this arithmetic, [`Locator.bind`][pes_ref.core.grid.Locator.bind]
+(both axes at once, into reusable buffers: the hot loop's lookup);
+[`Locator.locate`][pes_ref.core.grid.Locator.locate] and [`locate`][pes_ref.core.grid.locate] are
+views of its result, and [`Locator.bind_scalar`][pes_ref.core.grid.Locator.bind_scalar] is the same
+operations on Python floats for a single particle. The functions here trust their inputs.
 """
 from __future__ import annotations
 

@@ -4,17 +4,17 @@ adjoint: one fused loop per mode and direction.
 [`simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic] and
 [`adjoint_dynamic`][pes_ref.core.integrator.adjoint_dynamic],
 [`simulate_quasistatic`][pes_ref.core.integrator.simulate_quasistatic] and
-[`adjoint_quasistatic`][pes_ref.core.integrator.adjoint_quasistatic] are each one loop over the steps that does a whole
-step's
-sub-steps inline, on preallocated buffers (nothing is allocated per step), with the force
-from a kernel built once per run ([`ForceKernel`][pes_ref.core.forces.ForceKernel],
+[`adjoint_quasistatic`][pes_ref.core.integrator.adjoint_quasistatic] are each one loop over the
+steps that does a whole step's sub-steps inline, on preallocated buffers (nothing is allocated per
+step), with the force from a kernel built once per run
+([`ForceKernel`][pes_ref.core.forces.ForceKernel],
 [`ForceAdjoint`][pes_ref.core.forces.ForceAdjoint]); the GJF option's pair is
-[`pes_ref.core.gjf`][pes_ref.core.gjf]. The loop bodies mark the sub-steps with the equation numbers of
-``docs/adjoint.md``. They are an optimization of [`pes_ref.core.reference`][pes_ref.core.reference], which
-writes each sub-step as a function beside its transpose; ``tests/core/test_reference.py``
-checks that the two agree entry by entry on random scenes of every topology, mode and
-effect (bit for bit on the bilinear grid, but for the grid gradient, summed in another
-order).
+[`pes_ref.core.gjf`][pes_ref.core.gjf]. The loop bodies mark the sub-steps with the equation numbers
+of ``docs/adjoint.md``. They are an optimization of
+[`pes_ref.core.reference`][pes_ref.core.reference], which writes each sub-step as a function beside
+its transpose; ``tests/core/test_reference.py`` checks that the two agree entry by entry on random
+scenes of every topology, mode and effect (bit for bit on the bilinear grid, but for the grid
+gradient, summed in another order).
 
 Dynamic mode, the paper's eqs. (2)-(3), with ``a = dt/(2m)``, ``c = dt gamma/(2m)``
 ([`step_coefficients`][pes_ref.core.integrator.step_coefficients])::
@@ -148,11 +148,10 @@ def step_coefficients(dt: float, mass, damping, n: int):
 
 def trajectory_arrays(n_steps: int, n_particles: int, out=None) -> tuple:
     """A run's (T+1, N, 2) arrays ``x, v, f``: new ones
-    ([`pes_ref.core.runtime.pages.empty`][pes_ref.core.runtime.pages.empty]:
-    a large run's memory is that of the last run of its size, if its arrays are gone), or
-    ``out``'s (a [`Trajectory`][pes_ref.core.integrator.Trajectory] of such arrays that a caller running many runs of
-    one size
-    keeps)."""
+    ([`pes_ref.core.runtime.pages.empty`][pes_ref.core.runtime.pages.empty]: a large run's memory is
+    that of the last run of its size, if its arrays are gone), or ``out``'s (a
+    [`Trajectory`][pes_ref.core.integrator.Trajectory] of such arrays that a caller running many
+    runs of one size keeps)."""
     if out is None:
         shape = (n_steps + 1, n_particles, 2)
         return pages.empty(shape), pages.empty(shape), pages.empty(shape)
@@ -416,9 +415,9 @@ def simulate_quasistatic(field: Field, x0: np.ndarray, fext, mobility: np.ndarra
 
 def quasistatic_velocities(v: np.ndarray, out) -> np.ndarray:
     """V of a quasistatic run, all zeros: ``out``'s array set to 0, or new zeros
-    ([`pes_ref.core.runtime.pages.zeros`][pes_ref.core.runtime.pages.zeros]: a new map's zero pages are not written) for
-    a run
-    without ``out`` (``v`` from [`trajectory_arrays`][pes_ref.core.integrator.trajectory_arrays] is then dropped)."""
+    ([`pes_ref.core.runtime.pages.zeros`][pes_ref.core.runtime.pages.zeros]: a new map's zero pages
+    are not written) for a run without ``out`` (``v`` from
+    [`trajectory_arrays`][pes_ref.core.integrator.trajectory_arrays] is then dropped)."""
     if out is None:
         return pages.zeros(v.shape)
     v.fill(0.0)

@@ -12,20 +12,19 @@ product) directly beside it, in the manner of jax-md's ``momentum_step`` /
 ``foo_T`` takes the cotangent of ``foo``'s output and returns the cotangents of its inputs
 (``xbar`` = dL/dx).
 
-Sections, numbered as ``docs/adjoint.md`` numbers them: the grid lookup (docs/spec.md
-section 2.3) first; 1. the surface, the bilinear rule (A1)-(A3); 2. springs (A4) and walls
-(A5); 3. the total force (A6); 4-5. dynamic mode, each sub-step (S1)-(S4) beside its
-transpose (B1)-(B4), then the forward loop and the backward loop with (B0), (P1) and the
-reduction of a broadcast gradient to its input's shape; 6. quasistatic mode, (Q1)-(Q2) and
-(QB1)-(QB2); 10. the Gronbech-Jensen-Farago option (G1)-(G4) / (GB1)-(GB4), (GP1); 11. the
-bicubic option (C1)-(C4) / (CB1)-(CB3). Sections 7-9 (objectives, kinks, cost) have no
-code here: the objectives are [`pes_ref.core.objectives`][pes_ref.core.objectives]'.
-[`simulate`][pes_ref.core.reference.simulate],
-[`energy`][pes_ref.core.reference.energy] and [`value_and_grad`][pes_ref.core.reference.value_and_grad] at the end take
-a
-[`Scene`][pes_ref.core.scene.Scene] and have the signatures of the public ones (so the
-property checks of [`pes_ref.testing`][pes_ref.testing] run on them too). Nothing is validated here:
-the Scene was, when it was built.
+Sections, numbered as ``docs/adjoint.md`` numbers them: the grid lookup (docs/spec.md section 2.3)
+first; 1. the surface, the bilinear rule (A1)-(A3); 2. springs (A4) and walls (A5); 3. the total
+force (A6); 4-5. dynamic mode, each sub-step (S1)-(S4) beside its transpose (B1)-(B4), then the
+forward loop and the backward loop with (B0), (P1) and the reduction of a broadcast gradient to its
+input's shape; 6. quasistatic mode, (Q1)-(Q2) and (QB1)-(QB2); 10. the Gronbech-Jensen-Farago option
+(G1)-(G4) / (GB1)-(GB4), (GP1); 11. the bicubic option (C1)-(C4) / (CB1)-(CB3). Sections 7-9
+(objectives, kinks, cost) have no code here: the objectives are
+[`pes_ref.core.objectives`][pes_ref.core.objectives]'.
+[`simulate`][pes_ref.core.reference.simulate], [`energy`][pes_ref.core.reference.energy] and
+[`value_and_grad`][pes_ref.core.reference.value_and_grad] at the end take a
+[`Scene`][pes_ref.core.scene.Scene] and have the signatures of the public ones (so the property
+checks of [`pes_ref.testing`][pes_ref.testing] run on them too). Nothing is validated here: the
+Scene was, when it was built.
 
 Floating point. Where the fast path's order of operations is as readable as the
 textbook one, this module uses it, so that most results are bit-identical:

@@ -401,13 +401,12 @@ class _BilinearEnergy:
     four corner values, column by column, then the operations of
     [`pes_ref.core.bilinear.grid_energy`][pes_ref.core.bilinear.grid_energy],
     [`pes_ref.core.terms.spring_energy`][pes_ref.core.terms.spring_energy],
-    [`pes_ref.core.terms.wall_energy`][pes_ref.core.terms.wall_energy] and the kinetic energy in their order, so the
-    same
-    numbers bit for bit as [`energy`][pes_ref.core.scene.energy]'s formula. (A sum over the axis of length 2 is
-    ``0 + a0 + a1``, which is ``a0 + a1`` here: every term is >= +0; a wall that is absent
-    adds +0 and is skipped.) For `_bilinear_energy`'s chunks of states and for the
-    NumPy forward loop, one state at a time at its own lookup (`_EnergyOut`); ``states``
-    is the most states of N particles a call takes."""
+    [`pes_ref.core.terms.wall_energy`][pes_ref.core.terms.wall_energy] and the kinetic energy in
+    their order, so the same numbers bit for bit as [`energy`][pes_ref.core.scene.energy]'s formula.
+    (A sum over the axis of length 2 is ``0 + a0 + a1``, which is ``a0 + a1`` here: every term is >=
+    +0; a wall that is absent adds +0 and is skipped.) For `_bilinear_energy`'s chunks of states and
+    for the NumPy forward loop, one state at a time at its own lookup (`_EnergyOut`); ``states`` is
+    the most states of N particles a call takes."""
 
     def __init__(self, fld: Field, mass, n: int, states: int):
         values = fld.values
@@ -567,10 +566,10 @@ def value_and_grad(scene: Scene, x0, v0, objective, *, regularization_weight: fl
         the run's stability and memory are checked. Nothing of it is done again
         (``allow_unstable`` is then moot).
     energy_out : ndarray (T+1, N), optional
-        A writable C-contiguous float64 array to fill with the run's [`energy`][pes_ref.core.scene.energy] (the same
-        numbers
-        as ``energy(scene, traj)``): the compiled dynamic loop computes it as it makes each
-        state, at the state's own grid lookup; the others after the run.
+        A writable C-contiguous float64 array to fill with the run's
+        [`energy`][pes_ref.core.scene.energy] (the same numbers as ``energy(scene, traj)``): the
+        compiled dynamic loop computes it as it makes each state, at the state's own grid lookup;
+        the others after the run.
 
     Returns
     -------

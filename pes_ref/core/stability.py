@@ -12,11 +12,10 @@ stiffness ``K`` (a force change per unit displacement):
   within one cell width, an effective stiffness ``|second difference| / h_d^2``. A step
   that crosses several cells sees their mean, so this is the worst case;
 - a C-space barrier of the paper's eq. (1), ``E = v/2 (1/r - 1/r_c)^2`` for
-  ``r < r_c``, reaches the integrator only through the grid it is sampled onto (its
-  second differences above); [`pes_ref.devices.cspace.apf_curvature`][pes_ref.devices.cspace.apf_curvature] gives its
-  analytic
-  curvature ``v (3/r^4 - 2/(r_c r^3))``, which grows without bound as ``r -> 0`` and
-  is capped at ``r_min`` on the grid.
+  ``r < r_c``, reaches the integrator only through the grid it is sampled onto (its second
+  differences above); [`pes_ref.devices.cspace.apf_curvature`][pes_ref.devices.cspace.apf_curvature]
+  gives its analytic curvature ``v (3/r^4 - 2/(r_c r^3))``, which grows without bound as ``r -> 0``
+  and is capped at ``r_min`` on the grid.
 
 Per axis ``K_d = S_d + c + k_d + k_w`` (``S_d`` the largest second-difference
 stiffness; Gershgorin's bound of the summed Hessians).
@@ -50,16 +49,15 @@ stays bounded by the grid's largest slope. A scene is refused iff, over terms an
 
 and it takes at least one step (``n_steps > 0``).
 
-One stiffness table, one limit: [`term_stiffness`][pes_ref.core.stability.term_stiffness] is each term's ``K`` per axis
-(the
-second differences too when asked), and [`stability_limit`][pes_ref.core.stability.stability_limit] takes a scene's
-[`StabilityLimit`][pes_ref.core.stability.StabilityLimit] under one of the `BOUNDS`: ``"sum"`` (every term summed
-per axis, the conservative bound above) or ``"rule"`` (each term of the refusal rule
-alone). [`check_stable`][pes_ref.core.stability.check_stable] applies the rule, raising
-[`UnstableStepError`][pes_ref.core.stability.UnstableStepError] that
-names ``dt`` or ``mobility``, the factor past the limit, the term and a stable value: the
-`StabilityLimit.suggestion` of the summed bound, which is within the per-term rule
-too (each term is at most the sum).
+One stiffness table, one limit: [`term_stiffness`][pes_ref.core.stability.term_stiffness] is each
+term's ``K`` per axis (the second differences too when asked), and
+[`stability_limit`][pes_ref.core.stability.stability_limit] takes a scene's
+[`StabilityLimit`][pes_ref.core.stability.StabilityLimit] under one of the `BOUNDS`: ``"sum"``
+(every term summed per axis, the conservative bound above) or ``"rule"`` (each term of the refusal
+rule alone). [`check_stable`][pes_ref.core.stability.check_stable] applies the rule, raising
+[`UnstableStepError`][pes_ref.core.stability.UnstableStepError] that names ``dt`` or ``mobility``,
+the factor past the limit, the term and a stable value: the `StabilityLimit.suggestion` of the
+summed bound, which is within the per-term rule too (each term is at most the sum).
 """
 from __future__ import annotations
 

@@ -6,9 +6,8 @@ to the forward loop and its adjoint.
 - ``("dynamic", "gjf")``: the second-order damped Gronbech-Jensen-Farago step
   ([`pes_ref.core.gjf`][pes_ref.core.gjf], ``docs/variants.md``);
 - ``("quasistatic", "verlet")``: the overdamped step ``X_{n+1} = X_n + mu F_n``
-  ([`pes_ref.core.integrator.simulate_quasistatic`][pes_ref.core.integrator.simulate_quasistatic]; quasistatic mode has
-  one step,
-  filed under the default integrator name).
+  ([`pes_ref.core.integrator.simulate_quasistatic`][pes_ref.core.integrator.simulate_quasistatic];
+  quasistatic mode has one step, filed under the default integrator name).
 
 Every entry has the same call signature ([`Stepper`][pes_ref.core.steppers.Stepper]), with the scene's step
 parameters in a [`StepParams`][pes_ref.core.steppers.StepParams]; `MODES` and `INTEGRATORS` are read off
@@ -32,24 +31,23 @@ class StepParams(NamedTuple):
     """A scene's step parameters, as the core takes them (validated by the scene).
 
     ``dt`` float and ``n_steps`` int (T); ``mass`` broadcastable to (N, 2); ``damping``
-    broadcastable to (N, 2), or None for an undamped scene (no damping arithmetic at
-    all); ``mobility`` (2,) in quasistatic mode, else None; ``progress`` a callback
-    ``(phase, done, total)`` called every few hundred steps of the forward loop and of
-    the adjoint ([`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress]), or None; ``refuse_nonfinite`` False
-    returns
-    a trajectory that left the finite numbers instead of raising (a population checks each
-    member's part, [`pes_ref.core.population`][pes_ref.core.population]); ``out`` a
-    [`Trajectory`][pes_ref.core.integrator.Trajectory] of (T+1, N, 2) arrays to run into, or None
-    for fresh ones ([`pes_ref.core.integrator.trajectory_arrays`][pes_ref.core.integrator.trajectory_arrays]);
-    ``energy`` None, or
-    where a dynamic forward loop puts each state's total energy as it makes the state, at
-    the state's own grid lookup: its ``out``, a float64 (T+1, N) array, which a loop that
-    fills it marks ``filled``; the NumPy loop computes each state's by ``energy.bind(force,
-    field)`` ([`pes_ref.core.integrator.simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic]), and
-    ``energy.part(sl)`` is the
-    sink of the particles ``sl`` ([`pes_ref.accel.halves`][pes_ref.accel.halves]). A loop that does not (the
-    GJF and quasistatic steps, another grid) leaves it, and the energy to a pass after the
-    run ([`pes_ref.core.scene.value_and_grad`][pes_ref.core.scene.value_and_grad]).
+    broadcastable to (N, 2), or None for an undamped scene (no damping arithmetic at all);
+    ``mobility`` (2,) in quasistatic mode, else None; ``progress`` a callback ``(phase, done,
+    total)`` called every few hundred steps of the forward loop and of the adjoint
+    ([`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress]), or None;
+    ``refuse_nonfinite`` False returns a trajectory that left the finite numbers instead of raising
+    (a population checks each member's part, [`pes_ref.core.population`][pes_ref.core.population]);
+    ``out`` a [`Trajectory`][pes_ref.core.integrator.Trajectory] of (T+1, N, 2) arrays to run into,
+    or None for fresh ones
+    ([`pes_ref.core.integrator.trajectory_arrays`][pes_ref.core.integrator.trajectory_arrays]);
+    ``energy`` None, or where a dynamic forward loop puts each state's total energy as it makes the
+    state, at the state's own grid lookup: its ``out``, a float64 (T+1, N) array, which a loop that
+    fills it marks ``filled``; the NumPy loop computes each state's by ``energy.bind(force, field)``
+    ([`pes_ref.core.integrator.simulate_dynamic`][pes_ref.core.integrator.simulate_dynamic]), and
+    ``energy.part(sl)`` is the sink of the particles ``sl``
+    ([`pes_ref.accel.halves`][pes_ref.accel.halves]). A loop that does not (the GJF and quasistatic
+    steps, another grid) leaves it, and the energy to a pass after the run
+    ([`pes_ref.core.scene.value_and_grad`][pes_ref.core.scene.value_and_grad]).
     """
 
     dt: float

@@ -1,15 +1,15 @@
 """Energy terms beside the grid: springs and walls (docs/spec.md section 3).
 
-Each term is a small set of pure functions over plain arrays (energy, force added into
-a buffer, and the adjoint of that force), plus a frozen, validated config
-([`Spring`][pes_ref.core.terms.Spring], [`Walls`][pes_ref.core.terms.Walls]) that a [`Scene`][pes_ref.core.scene.Scene]
-names only when it
-has the effect, plus the hot loop's kernels of the same arithmetic with buffers: a forward
-one ([`SpringKernel`][pes_ref.core.terms.SpringKernel], [`WallKernel`][pes_ref.core.terms.WallKernel], each a
-[`TermForce`][pes_ref.core.kernels.TermForce]) and an adjoint one over the stored states
-([`SpringAdjoint`][pes_ref.core.terms.SpringAdjoint], [`WallAdjoint`][pes_ref.core.terms.WallAdjoint], each a
-[`TermAdjoint`][pes_ref.core.kernels.TermAdjoint]). The force is ``-dU/dq``; the adjoints
-implement ``docs/adjoint.md`` eqs. (A4)-(A5).
+Each term is a small set of pure functions over plain arrays (energy, force added into a buffer, and
+the adjoint of that force), plus a frozen, validated config ([`Spring`][pes_ref.core.terms.Spring],
+[`Walls`][pes_ref.core.terms.Walls]) that a [`Scene`][pes_ref.core.scene.Scene] names only when it
+has the effect, plus the hot loop's kernels of the same arithmetic with buffers: a forward one
+([`SpringKernel`][pes_ref.core.terms.SpringKernel], [`WallKernel`][pes_ref.core.terms.WallKernel],
+each a [`TermForce`][pes_ref.core.kernels.TermForce]) and an adjoint one over the stored states
+([`SpringAdjoint`][pes_ref.core.terms.SpringAdjoint],
+[`WallAdjoint`][pes_ref.core.terms.WallAdjoint], each a
+[`TermAdjoint`][pes_ref.core.kernels.TermAdjoint]). The force is ``-dU/dq``; the adjoints implement
+``docs/adjoint.md`` eqs. (A4)-(A5).
 """
 from __future__ import annotations
 

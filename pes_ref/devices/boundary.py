@@ -1,23 +1,21 @@
 """The C-space boundary between the grid's nodes, and the signed distance to it.
 
-Eq. (1) needs r, the distance from a node to blocked space. The nodes alone say only
-which side they are on, so a distance taken from them (a Euclidean distance transform
-of the node mask, [`mask_distance`][pes_ref.devices.boundary.mask_distance]) is quantized to the grid: neighbouring
-nodes
-share a distance and a quasistatic drive stalls in a free channel. Here the boundary
-is located between the nodes instead:
+Eq. (1) needs r, the distance from a node to blocked space. The nodes alone say only which side they
+are on, so a distance taken from them (a Euclidean distance transform of the node mask,
+[`mask_distance`][pes_ref.devices.boundary.mask_distance]) is quantized to the grid: neighbouring
+nodes share a distance and a quasistatic drive stalls in a free channel. Here the boundary is
+located between the nodes instead:
 
 1. **Crossings.** On every grid edge whose two nodes differ (one blocked, one free),
-   the point where the parts start to overlap is found by bisection on the exact
-   overlap test of the posed geometry ([`locate_crossings`][pes_ref.devices.boundary.locate_crossings], ``steps``
-   halvings:
-   within ``h / 2**(steps + 1)``).
+   the point where the parts start to overlap is found by bisection on the exact overlap test of the
+   posed geometry ([`locate_crossings`][pes_ref.devices.boundary.locate_crossings], ``steps``
+   halvings: within ``h / 2**(steps + 1)``).
 2. **Polyline.** Marching squares joins the crossings of each cell into segments
-   ([`boundary_segments`][pes_ref.devices.boundary.boundary_segments]); in a cell with four crossings (two blocked
-   corners on a
-   diagonal) each blocked corner is cut off by its own segment. Where the polyline's
-   neighbouring segments run straight into a cell from both sides and their lines meet
-   inside it, that point is a corner of the obstacle and the cell's segment is bent there.
+   ([`boundary_segments`][pes_ref.devices.boundary.boundary_segments]); in a cell with four
+   crossings (two blocked corners on a diagonal) each blocked corner is cut off by its own segment.
+   Where the polyline's neighbouring segments run straight into a cell from both sides and their
+   lines meet inside it, that point is a corner of the obstacle and the cell's segment is bent
+   there.
 3. **Distance.** Every node's distance to the nearest segment
 ([`grid_distance`][pes_ref.devices.boundary.grid_distance]),
    exact within a band around the boundary (`BAND` spacings, or eq. (1)'s cut-off

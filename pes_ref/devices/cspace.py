@@ -16,10 +16,10 @@ parts' interiors overlap (shapely's ``intersects`` on every pair, with part 0's 
 prepared, then the DE-9IM test on the intersecting nodes next to a free one, where a
 mere touch is free).
 
-Distance. [`CSpaceGrid.compute`][pes_ref.devices.cspace.CSpaceGrid.compute] locates the boundary between the nodes and
-takes
-the exact distance to it ([`pes_ref.devices.boundary`][pes_ref.devices.boundary]): sub-cell accurate, so eq. (1)
-is smooth across the grid and a quasistatic drive does not stall in a free channel.
+Distance. [`CSpaceGrid.compute`][pes_ref.devices.cspace.CSpaceGrid.compute] locates the boundary
+between the nodes and takes the exact distance to it
+([`pes_ref.devices.boundary`][pes_ref.devices.boundary]): sub-cell accurate, so eq. (1) is smooth
+across the grid and a quasistatic drive does not stall in a free channel.
 
 Cap. Eq. (1) diverges at r = 0 and the grid cannot resolve r below about half a spacing,
 so [`apf_energy`][pes_ref.devices.cspace.apf_energy] uses eq. (1) only for ``r >= r_min`` (default ``min(h)/2``) and
@@ -417,12 +417,10 @@ class CSpaceGrid:
 
     def posed_blocked(self, progress=None) -> tuple:
         """The parts posed at every node and the blocked nodes ([`blocked_mask`][pes_ref.devices.cspace.blocked_mask]),
-        the
-        first and cheapest part of [`compute`][pes_ref.devices.cspace.CSpaceGrid.compute]: ``(poses, mask, times)``,
-        what
-        [`compute`][pes_ref.devices.cspace.CSpaceGrid.compute] takes as ``blocked``. A refusal that needs only the mask
-        (a C-space
-        with no free node) comes from it before the boundary and the distance are computed."""
+        the first and cheapest part of [`compute`][pes_ref.devices.cspace.CSpaceGrid.compute]:
+        ``(poses, mask, times)``, what [`compute`][pes_ref.devices.cspace.CSpaceGrid.compute] takes
+        as ``blocked``. A refusal that needs only the mask (a C-space with no free node) comes from
+        it before the boundary and the distance are computed."""
         progress = progress or _no_progress
         times = {}
         t = time.perf_counter()

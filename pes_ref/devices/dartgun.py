@@ -293,10 +293,10 @@ def analyze_dartgun(device: Device | None = None, reload_force: float = DARTGUN_
                     search_hi: float = DARTGUN_ANALYSIS["search_hi"], search_tol: float = DARTGUN_ANALYSIS["search_tol"],
                     progress=None, run=None) -> DartGunReport:
     """Reload with ``reload_force`` for ``reload_time``, the smallest force that reloads, the exit
-    speed for each trigger force (fired from the latched state), and the trajectories' bounding boxes
-    (``device`` default: [`dartgun_device`][pes_ref.devices.dartgun.dartgun_device]; ``progress`` is passed to its
-    C-space; ``run``:
-    the engine of every run, default the surface model)."""
+    speed for each trigger force (fired from the latched state), and the trajectories' bounding
+    boxes (``device`` default: [`dartgun_device`][pes_ref.devices.dartgun.dartgun_device];
+    ``progress`` is passed to its C-space; ``run``: the engine of every run, default the surface
+    model)."""
     device = dartgun_device() if device is None else device
     _analysis(device)
     reload_force = checks.as_positive_float("reload_force", reload_force)

@@ -1,11 +1,10 @@
 """Device files: a TOML file (read with `tomllib`) that describes a device completely.
 
-Every key, its unit and default is documented in ``docs/devices.md``; this module is the
-one place that reads them. A file is checked whole before anything is computed: an
-unknown key, a missing one, or a bad value raises one [`DeviceFileError`][pes_ref.devices.device_file.DeviceFileError]
-whose
-message names the file and the key (``ratchet.toml: part[1].shapes[0].circle.radius:
-expected a number > 0, got -1``).
+Every key, its unit and default is documented in ``docs/devices.md``; this module is the one place
+that reads them. A file is checked whole before anything is computed: an unknown key, a missing one,
+or a bad value raises one [`DeviceFileError`][pes_ref.devices.device_file.DeviceFileError] whose
+message names the file and the key (``ratchet.toml: part[1].shapes[0].circle.radius: expected a
+number > 0, got -1``).
 
 The format is versioned by the top-level key ``format`` (`FORMAT`); a file of
 another version is refused.

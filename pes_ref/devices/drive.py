@@ -253,11 +253,10 @@ def check_drive(device: Device, axis: int, load: float, mode: str = "quasistatic
 
 def check_free(device: Device, start) -> None:
     """Refuse a drive that has nowhere to go (a keyed [`InputError`][pes_ref.core.checks.InputError]):
-    a C-space blocked at every node (key ``cspace``), or a start inside blocked space, where
-    the posed parts' interiors overlap (key ``start``; a touch is free). Needs only the blocked
-    nodes ([`Device.blocked`][pes_ref.devices.device.Device.blocked]), not the distance: it refuses before the costly
-    part of the
-    C-space is computed. The start is tested on the exact geometry."""
+    a C-space blocked at every node (key ``cspace``), or a start inside blocked space, where the
+    posed parts' interiors overlap (key ``start``; a touch is free). Needs only the blocked nodes
+    ([`Device.blocked`][pes_ref.devices.device.Device.blocked]), not the distance: it refuses before
+    the costly part of the C-space is computed. The start is tested on the exact geometry."""
     from pes_ref.devices.geometry import interiors_overlap, posed_geometries
 
     if device.blocked().all():
@@ -307,9 +306,8 @@ def drive(device: Device, axis: int, load: float, mode: str = "quasistatic", cyc
     Raises
     ------
     pes_ref.core.checks.InputError
-        A bad argument ([`check_drive`][pes_ref.devices.drive.check_drive]), a C-space with no free node or a start
-        inside
-        blocked space ([`check_free`][pes_ref.devices.drive.check_free]).
+        A bad argument ([`check_drive`][pes_ref.devices.drive.check_drive]), a C-space with no free
+        node or a start inside blocked space ([`check_free`][pes_ref.devices.drive.check_free]).
     """
     t_wall = time.perf_counter()
     axis, load, mode, requested, start, threshold = check_drive(device, axis, load, mode, cycles, start, threshold)

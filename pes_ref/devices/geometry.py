@@ -13,19 +13,18 @@ the point is *blocked* where the posed parts' interiors overlap (touching is fre
 
 The planar geometry is shapely 2's (GEOS): unions and differences build a part once,
 [`pose`][pes_ref.devices.geometry.pose] moves it to many coordinates in one vectorized call, and
-[`interiors_overlap`][pes_ref.devices.geometry.interiors_overlap] decides many pose pairs at once. shapely is the
-optional extra
-``devices`` (``pip install 'pes_ref[devices]'``); without it, building a shape raises
-[`MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] naming that line.
+[`interiors_overlap`][pes_ref.devices.geometry.interiors_overlap] decides many pose pairs at once.
+shapely is the optional extra ``devices`` (``pip install 'pes_ref[devices]'``); without it, building
+a shape raises [`MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] naming that
+line.
 
-Circles. A circle becomes a regular polygon whose vertices lie just outside it, so that
-its edge is within ``tolerance`` (a length) of the true circle everywhere: n sides with
-``cos(pi / n) >= (r - tol) / (r + tol)``, vertices at radius ``2 r / (1 + cos(pi / n))``.
-The C-space boundary then moves by at most ``tolerance`` divided by the contact's
-separation per unit of q (1 for a translation along the contact normal, the lever arm
-for a rotation, the drum's radius for a drum). [`CSpaceGrid`][pes_ref.devices.cspace.CSpaceGrid]
-chooses the tolerance from its grid ([`default_tolerance`][pes_ref.devices.geometry.default_tolerance]): the error stays
-below h/20
+Circles. A circle becomes a regular polygon whose vertices lie just outside it, so that its edge is
+within ``tolerance`` (a length) of the true circle everywhere: n sides with ``cos(pi / n) >= (r -
+tol) / (r + tol)``, vertices at radius ``2 r / (1 + cos(pi / n))``. The C-space boundary then moves
+by at most ``tolerance`` divided by the contact's separation per unit of q (1 for a translation
+along the contact normal, the lever arm for a rotation, the drum's radius for a drum).
+[`CSpaceGrid`][pes_ref.devices.cspace.CSpaceGrid] chooses the tolerance from its grid
+([`default_tolerance`][pes_ref.devices.geometry.default_tolerance]): the error stays below h/20
 wherever that lever is at least the smallest circle's radius (a drum's lever is its radius).
 """
 from __future__ import annotations
@@ -338,10 +337,10 @@ class Part:
 
 def check_drum_drawing(part: Part, tolerance: float = 1e-3) -> None:
     """Refuse a drum's drawing that spans more than one turn: its shapes must lie within y in
-    ``[0, 2 pi R]`` ([`Drum`][pes_ref.devices.geometry.Drum]; a circle's polygon may stray ``tolerance`` beyond), else
-    the
-    copies a turn apart overlap each other and the drum is not what was drawn. A keyed
-    [`InputError`][pes_ref.core.checks.InputError] (``shapes``) naming the span; nothing for another motion."""
+    ``[0, 2 pi R]`` ([`Drum`][pes_ref.devices.geometry.Drum]; a circle's polygon may stray
+    ``tolerance`` beyond), else the copies a turn apart overlap each other and the drum is not what
+    was drawn. A keyed [`InputError`][pes_ref.core.checks.InputError] (``shapes``) naming the span;
+    nothing for another motion."""
     if not isinstance(part.motion, Drum):
         return
     period = part.motion.circumference

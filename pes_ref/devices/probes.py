@@ -1,12 +1,11 @@
 """The probes the device analyses share: how hard a device must be pushed.
 
-[`threshold_search`][pes_ref.devices.probes.threshold_search] finds the smallest push for which a monotone test passes
-(the
-ratchet's smallest advancing torque, the dart gun's smallest reload force), running each
-round's candidates as one batch of particles. [`steepest_slope`][pes_ref.devices.probes.steepest_slope] is the largest
-push
-a grid can hold back at all. (The stiffest barrier on a device's grid, which sets its
-stable step, is [`pes_ref.core.stability.grid_stiffness`][pes_ref.core.stability.grid_stiffness].)
+[`threshold_search`][pes_ref.devices.probes.threshold_search] finds the smallest push for which a
+monotone test passes (the ratchet's smallest advancing torque, the dart gun's smallest reload
+force), running each round's candidates as one batch of particles.
+[`steepest_slope`][pes_ref.devices.probes.steepest_slope] is the largest push a grid can hold back
+at all. (The stiffest barrier on a device's grid, which sets its stable step, is
+[`pes_ref.core.stability.grid_stiffness`][pes_ref.core.stability.grid_stiffness].)
 """
 from __future__ import annotations
 

@@ -164,9 +164,8 @@ def analyze_ratchet(device: Device | None = None, torque: float = RATCHET_ANALYS
                     search_tol: float = RATCHET_ANALYSIS["search_tol"],
                     search_duration: float = RATCHET_ANALYSIS["duration"], progress=None, run=None) -> RatchetReport:
     """Net rotation under +/- ``torque``, the pawl's swing, and the smallest advancing torque
-    (``device`` default: [`ratchet_device`][pes_ref.devices.ratchet.ratchet_device]; ``progress`` is passed to its
-    C-space; ``run``:
-    the engine of every run, default the surface model)."""
+    (``device`` default: [`ratchet_device`][pes_ref.devices.ratchet.ratchet_device]; ``progress`` is
+    passed to its C-space; ``run``: the engine of every run, default the surface model)."""
     device = ratchet_device() if device is None else device
     pitch = _pitch(device)
     torque = checks.as_positive_float("torque", torque)

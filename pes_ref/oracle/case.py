@@ -500,10 +500,9 @@ def run_case(case, *, allow_unstable: bool = False, monitor=None, backend: str =
     Returns
     -------
     dict of str -> ndarray (float64)
-        ``x``, ``v`` (T+1, N, 2), ``energy`` (T+1, N), ``loss`` (0-d) and
-        ``grad_<name>`` for every name of [`pes_ref.core.scene.gradient_names`][pes_ref.core.scene.gradient_names], each
-        shaped like its
-        input (``grad_force`` (T+1, N, 2)).
+        ``x``, ``v`` (T+1, N, 2), ``energy`` (T+1, N), ``loss`` (0-d) and ``grad_<name>`` for every
+        name of [`pes_ref.core.scene.gradient_names`][pes_ref.core.scene.gradient_names], each
+        shaped like its input (``grad_force`` (T+1, N, 2)).
 
     Raises
     ------

@@ -1,11 +1,10 @@
 """Comparing arrays: the one relative error, and a result against the reference by the
 contract's tolerances.
 
-[`relative_error`][pes_ref.oracle.compare.relative_error] is ``max |got - want| / scale``, one number per compared
-array:
-by default one scale for the whole array, its largest ``|want|`` (how finite
-differences, rounding and the benchmark's autodiff backends are judged); the contract
-gives every entry its own scale instead.
+[`relative_error`][pes_ref.oracle.compare.relative_error] is ``max |got - want| / scale``, one
+number per compared array: by default one scale for the whole array, its largest ``|want|`` (how
+finite differences, rounding and the benchmark's autodiff backends are judged); the contract gives
+every entry its own scale instead.
 
 The contract: ``|got - want| <= atol + rtol |want|`` per entry: trajectory keys (``x``, ``v``,
 ``energy``, ``loss``) use ``TRAJ_RTOL``/``TRAJ_ATOL``; gradients use ``GRAD_RTOL`` and

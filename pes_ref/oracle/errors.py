@@ -1,9 +1,9 @@
 """The oracle's errors: a refused case names its key.
 
-[`CaseError`][pes_ref.oracle.errors.CaseError] is a [`pes_ref.core.checks.InputError`][pes_ref.core.checks.InputError]
-(so a ``ValueError``)
-whose ``key`` is the case key at fault; the core's own keyed errors become case errors
-without any parsing of their messages ([`pes_ref.oracle.case`][pes_ref.oracle.case]).
+[`CaseError`][pes_ref.oracle.errors.CaseError] is a
+[`pes_ref.core.checks.InputError`][pes_ref.core.checks.InputError] (so a ``ValueError``) whose
+``key`` is the case key at fault; the core's own keyed errors become case errors without any parsing
+of their messages ([`pes_ref.oracle.case`][pes_ref.oracle.case]).
 """
 from __future__ import annotations
 

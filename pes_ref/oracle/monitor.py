@@ -18,17 +18,16 @@ class ProgressLines:
     ([`pes_ref.core.runtime.progress.progress_line`][pes_ref.core.runtime.progress.progress_line]), e.g.
     ``case.npz: forward | steps 1200/3000 | 250 steps/s | elapsed 0:05 | left 0:12``.
 
-    A progress callback of [`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress] (called every few hundred
-    steps).
-    ``period`` and ``after`` default to `pes_ref.core.runtime.progress.PERIOD` and
-    `pes_ref.core.runtime.progress.LONG_RUN`, read when the run starts.
-    A run estimated longer than ``after`` seconds ([`pes_ref.core.budget.estimate`][pes_ref.core.budget.estimate])
-    prints its estimate at once; one estimated shorter starts printing if it runs past
-    ``after`` seconds all the same. The time left is a
-    [`pes_ref.core.runtime.progress.Clock`][pes_ref.core.runtime.progress.Clock]
-    over the two phases, the forward run and then the adjoint, each step costing the
-    model's share of its phase ([`pes_ref.core.budget.step_cost`][pes_ref.core.budget.step_cost]): a phase not yet
-    timed is scaled from the one timed (the model's estimate until then).
+    A progress callback of [`pes_ref.core.runtime.progress`][pes_ref.core.runtime.progress] (called
+    every few hundred steps). ``period`` and ``after`` default to
+    `pes_ref.core.runtime.progress.PERIOD` and `pes_ref.core.runtime.progress.LONG_RUN`, read when
+    the run starts. A run estimated longer than ``after`` seconds
+    ([`pes_ref.core.budget.estimate`][pes_ref.core.budget.estimate]) prints its estimate at once;
+    one estimated shorter starts printing if it runs past ``after`` seconds all the same. The time
+    left is a [`pes_ref.core.runtime.progress.Clock`][pes_ref.core.runtime.progress.Clock] over the
+    two phases, the forward run and then the adjoint, each step costing the model's share of its
+    phase ([`pes_ref.core.budget.step_cost`][pes_ref.core.budget.step_cost]): a phase not yet timed
+    is scaled from the one timed (the model's estimate until then).
     """
 
     def __init__(self, label: str, estimate, period: float | None = None, clock=time.monotonic,

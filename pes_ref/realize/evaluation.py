@@ -120,10 +120,9 @@ def device_spring(device):
 def rigid_problem(problem, device) -> RealizedRun:
     """The design ``problem`` on ``device``'s parts in rigid contact (module docstring): the
     design's scenes, at its own ``dt`` unless the springs, walls or damping need less, run by
-    [`pes_ref.rigid.simulate`][pes_ref.rigid.engine.simulate]. The device's springs act in the engine
-    ([`pes_ref.devices.cspace.GridSpring.force`][pes_ref.devices.cspace.GridSpring.force]), so the scenes have none of
-    their own;
-    their surface (flat) is not used."""
+    [`pes_ref.rigid.simulate`][pes_ref.rigid.engine.simulate]. The device's springs act in the
+    engine ([`pes_ref.devices.cspace.GridSpring.force`][pes_ref.devices.cspace.GridSpring.force]),
+    so the scenes have none of their own; their surface (flat) is not used."""
     from pes_ref.rigid import require_pymunk
     require_pymunk()                           # refused before any run, with the pip line
     _check_grid(problem, device)

@@ -2,14 +2,13 @@
 their triangulation), contourpy (the blocked region's contour), ezdxf (DXF) and trimesh (STL);
 and ``mujoco``, the heightfield's check in MuJoCo ([`pes_ref.realize.mujoco_ball`][pes_ref.realize.mujoco_ball]).
 
-[`require_realize`][pes_ref.realize.extra.require_realize] imports shapely and finds the others without importing them
-(each is
-imported where it is used; importing ezdxf and trimesh takes longer than refusing a bad
-option), or raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] with the
-pip line,
-which the command line prints as its one error line. [`require_mujoco`][pes_ref.realize.extra.require_mujoco] imports
-mujoco or
-raises the same error with the extra's pip line (`MUJOCO_PIP_LINE`).
+[`require_realize`][pes_ref.realize.extra.require_realize] imports shapely and finds the others
+without importing them (each is imported where it is used; importing ezdxf and trimesh takes longer
+than refusing a bad option), or raises
+[`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] with
+the pip line, which the command line prints as its one error line.
+[`require_mujoco`][pes_ref.realize.extra.require_mujoco] imports mujoco or raises the same error
+with the extra's pip line (`MUJOCO_PIP_LINE`).
 """
 from __future__ import annotations
 

@@ -1,15 +1,13 @@
 """A realization's files: named per follower, written as one set, read back and checked.
 
-`CONTACT_FILES` names a contact realization's files per follower and
-`HEIGHTFIELD_FILES` the heightfield's, known before anything is computed (the command
-checks every path first). [`write_contact`][pes_ref.realize.files.write_contact] makes the drawings and meshes whole in
-a
+`CONTACT_FILES` names a contact realization's files per follower and `HEIGHTFIELD_FILES` the
+heightfield's, known before anything is computed (the command checks every path first).
+[`write_contact`][pes_ref.realize.files.write_contact] makes the drawings and meshes whole in a
 staging folder beside them and moves them into place
-([`pes_ref.core.runtime.files.move_into`][pes_ref.core.runtime.files.move_into]), then writes the set's index,
-``device.toml``,
-last and atomically, so that a stop part-way leaves no half file; [`check_contact`][pes_ref.realize.files.check_contact]
-reads
-every file back. [`write_heightfield`][pes_ref.realize.files.write_heightfield] writes the plate's STL and reads it
+([`pes_ref.core.runtime.files.move_into`][pes_ref.core.runtime.files.move_into]), then writes the
+set's index, ``device.toml``, last and atomically, so that a stop part-way leaves no half file;
+[`check_contact`][pes_ref.realize.files.check_contact] reads every file back.
+[`write_heightfield`][pes_ref.realize.files.write_heightfield] writes the plate's STL and reads it
 back.
 """
 from __future__ import annotations

@@ -11,15 +11,14 @@ drawn box less the free region grown by r (the pin's cut-out). What is blocked t
 pin's diameter, and a sharp free corner, cannot be kept; `Parts.lost_share` is the
 share of the grid's area that changes side.
 
-A cylinder (q0 a translation, q1 an angle) becomes a **drum cam** ([`drum_cam`][pes_ref.realize.followers.drum_cam]): a
-drum
-of a stated radius R (part 1, ``motion = "drum"``, ``docs/devices.md``) turns by q1; a pin of
-radius r (part 0) slides along the drum's axis by q0. On the drum's surface unrolled (x along
-its axis, y the arc length round it, one turn ``2 pi R`` long) the pin's centre sits at
-(q0, R q1), so the design's region in (q0, q1) is drawn at (q0, R q1) and the drum's walls
-(the material standing proud of its surface, between which the groove runs) are that region
-shrunk by r, as the plate is. The closing by the pin's disc is round on the unrolled surface,
-so in (q0, q1) it is an ellipse r wide in q0 and r / R in q1.
+A cylinder (q0 a translation, q1 an angle) becomes a **drum cam**
+([`drum_cam`][pes_ref.realize.followers.drum_cam]): a drum of a stated radius R (part 1, ``motion =
+"drum"``, ``docs/devices.md``) turns by q1; a pin of radius r (part 0) slides along the drum's axis
+by q0. On the drum's surface unrolled (x along its axis, y the arc length round it, one turn ``2 pi
+R`` long) the pin's centre sits at (q0, R q1), so the design's region in (q0, q1) is drawn at (q0, R
+q1) and the drum's walls (the material standing proud of its surface, between which the groove runs)
+are that region shrunk by r, as the plate is. The closing by the pin's disc is round on the unrolled
+surface, so in (q0, q1) it is an ellipse r wide in q0 and r / R in q1.
 """
 from __future__ import annotations
 
@@ -81,9 +80,9 @@ class Parts:
         modulo ``y_period`` on a drum.
     clearance : float
         How much larger than ``pin_radius`` (the radius part 1 is cut for) the pin is made
-        ([`pin_made`][pes_ref.realize.followers.Parts.pin_made]): the parts' C-space obstacle is then the region grown
-        by it, so a
-        rigid pin stands that far off the walls as eq. (1)'s barrier holds a particle off them.
+        ([`pin_made`][pes_ref.realize.followers.Parts.pin_made]): the parts' C-space obstacle is
+        then the region grown by it, so a rigid pin stands that far off the walls as eq. (1)'s
+        barrier holds a particle off them.
     """
 
     follower: str

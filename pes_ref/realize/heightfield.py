@@ -12,20 +12,19 @@ from the design's particle (``docs/realize.md``):
   ``-m g grad h / (1 + |grad h|^2)`` (the normal force tilts with the surface): the
   small-slope picture overstates it by ``|grad h|^2``, 1% at a slope of 0.1.
 
-[`rolling_paths`][pes_ref.realize.heightfield.rolling_paths] runs the design's held-out particles as balls: the design's
-scene with
-the mass ``7/5 m`` (pes_ref's own integrator, [`pes_ref.simulate`][pes_ref.core.scene.simulate]), and with the slope
-too (the same damped velocity Verlet, docs/spec.md section 5.1, with the surface's force
-scaled by ``1 / (1 + |grad h|^2)`` at each state; the terms of the second order in the
-velocity, ``v^T H v grad h / (1 + |grad h|^2)``, are left out). The surface is rebuilt from
-the exported STL ([`heights_from_mesh`][pes_ref.realize.heightfield.heights_from_mesh]).
+[`rolling_paths`][pes_ref.realize.heightfield.rolling_paths] runs the design's held-out particles as
+balls: the design's scene with the mass ``7/5 m`` (pes_ref's own integrator,
+[`pes_ref.simulate`][pes_ref.core.scene.simulate]), and with the slope too (the same damped velocity
+Verlet, docs/spec.md section 5.1, with the surface's force scaled by ``1 / (1 + |grad h|^2)`` at
+each state; the terms of the second order in the velocity, ``v^T H v grad h / (1 + |grad h|^2)``,
+are left out). The surface is rebuilt from the exported STL
+([`heights_from_mesh`][pes_ref.realize.heightfield.heights_from_mesh]).
 
-[`heightfield_check`][pes_ref.realize.heightfield.heightfield_check] gives the figures of ``realize --as heightfield``:
-the design's
-particle, the rolling ball with and without the slope, and the same balls in MuJoCo
-([`pes_ref.realize.mujoco_ball`][pes_ref.realize.mujoco_ball], the optional extra ``mujoco``), on the same held-out
-starts,
-pushes and noise draws, over the design's horizon or ``n_steps`` given.
+[`heightfield_check`][pes_ref.realize.heightfield.heightfield_check] gives the figures of ``realize
+--as heightfield``: the design's particle, the rolling ball with and without the slope, and the same
+balls in MuJoCo ([`pes_ref.realize.mujoco_ball`][pes_ref.realize.mujoco_ball], the optional extra
+``mujoco``), on the same held-out starts, pushes and noise draws, over the design's horizon or
+``n_steps`` given.
 """
 from __future__ import annotations
 
@@ -204,16 +203,16 @@ def heightfield_check(problem, values, hf: HeightField, seed: int, n_particles: 
     """The held-out figures of the design ``values`` realized as heightfield ``hf`` (the heights
     read back from the plate): for the design's particle (``in_band_fraction``,
     ``exited_fraction``), the rolling ball (``rolling_*``), the rolling ball with the slope
-    (``sloped_*``, and ``slope_exit_shift``: the mean ``|exit q0|`` change the slope causes over
-    the balls exiting in both) and the ball in MuJoCo (``mujoco_*``, and ``mujoco_exit_shift``
-    against the rolling ball, ``mujoco_dt`` its timestep, ``mujoco_radius`` the ball's radius,
+    (``sloped_*``, and ``slope_exit_shift``: the mean ``|exit q0|`` change the slope causes over the
+    balls exiting in both) and the ball in MuJoCo (``mujoco_*``, and ``mujoco_exit_shift`` against
+    the rolling ball, ``mujoco_dt`` its timestep, ``mujoco_radius`` the ball's radius,
     ``mujoco_seconds`` its run's wall time), each on ``n_particles`` of held-out seed ``seed`` over
     ``n_steps`` of the design's ``dt`` (default the design's). ``mujoco``: True runs MuJoCo (its
-    absence raises [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError]), False
-    leaves it out,
-    None runs it when it is installed and otherwise sets ``mujoco`` to the line that installs it.
-    ``exited`` counts the particles that reach the exit edge within the horizon: the in-band
-    fraction is at most it."""
+    absence raises
+    [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError]),
+    False leaves it out, None runs it when it is installed and otherwise sets ``mujoco`` to the line
+    that installs it. ``exited`` counts the particles that reach the exit edge within the horizon:
+    the in-band fraction is at most it."""
     import time
     from pes_ref.synthesis import exit_positions, funnel_paths
     seed = checks.as_nonneg_int("seed", seed)

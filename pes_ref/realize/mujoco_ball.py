@@ -1,12 +1,12 @@
 """The heightfield check in a real engine: balls rolling on the plate in MuJoCo.
 
-[`mujoco_paths`][pes_ref.realize.mujoco_ball.mujoco_paths] runs the design's held-out funnel particles as solid balls on
-a MuJoCo
-heightfield geom (``hfield``) whose nodes carry the plate's heights
-``h = (E - min E) / (m g)`` ([`pes_ref.realize.heightfield.HeightField`][pes_ref.realize.heightfield.HeightField], read
-back from
-the exported STL's top). Everything else is the design's, taken from its own held-out batch
-(``problem.plain().batch``, the sampler of [`pes_ref.synthesis.kinds.registry.evaluate`][pes_ref.synthesis.kinds.registry.evaluate] with
+[`mujoco_paths`][pes_ref.realize.mujoco_ball.mujoco_paths] runs the design's held-out funnel
+particles as solid balls on a MuJoCo heightfield geom (``hfield``) whose nodes carry the plate's
+heights ``h = (E - min E) / (m g)``
+([`pes_ref.realize.heightfield.HeightField`][pes_ref.realize.heightfield.HeightField], read back
+from the exported STL's top). Everything else is the design's, taken from its own held-out batch
+(``problem.plain().batch``, the sampler of
+[`pes_ref.synthesis.kinds.registry.evaluate`][pes_ref.synthesis.kinds.registry.evaluate] with
 ``default_rng(seed)``):
 
 - **the starts**: each ball's centre over the particle's start, resting on the plate, its

@@ -18,14 +18,13 @@ chosen by a stated rule, `CONTACT_RULES` (``docs/realize.md``):
 Each rule also gives its neighbouring levels (`Region.neighbours`), which the command
 reports beside the chosen one: how much of the C-space changes side.
 
-The region is the set ``{phi < 0}`` of a level function ``phi`` on the surface's grid
-(``E_c - E``, or the level set plus ``r_c``), its boundary the zero contour of ``phi``
-interpolated linearly along the grid's edges (contourpy's filled contours, the same
-marching squares as [`pes_ref.devices.boundary.boundary_segments`][pes_ref.devices.boundary.boundary_segments] apart
-from the
-choice in a cell with two blocked corners on a diagonal), drawn past the grid's edges by
-repeating the edge values (a surface extends as a constant beyond a non-periodic edge) and
-round a periodic axis by wrapping. Nodes a problem holds (its design mask is 0) are free.
+The region is the set ``{phi < 0}`` of a level function ``phi`` on the surface's grid (``E_c - E``,
+or the level set plus ``r_c``), its boundary the zero contour of ``phi`` interpolated linearly along
+the grid's edges (contourpy's filled contours, the same marching squares as
+[`pes_ref.devices.boundary.boundary_segments`][pes_ref.devices.boundary.boundary_segments] apart
+from the choice in a cell with two blocked corners on a diagonal), drawn past the grid's edges by
+repeating the edge values (a surface extends as a constant beyond a non-periodic edge) and round a
+periodic axis by wrapping. Nodes a problem holds (its design mask is 0) are free.
 """
 from __future__ import annotations
 

@@ -5,9 +5,8 @@
 scene's and is applied as a generalized force on each axis, held over each step:
 
 - the external force of the scene's effects (pushes and noise: the same draws as the
-  surface model's run, [`pes_ref.core.scene.Scene.schedule`][pes_ref.core.scene.Scene.schedule], so a noise force held
-  over
-  a step is the same impulse ``F dt``), or a given schedule ``fext``;
+  surface model's run, [`pes_ref.core.scene.Scene.schedule`][pes_ref.core.scene.Scene.schedule], so
+  a noise force held over a step is the same impulse ``F dt``), or a given schedule ``fext``;
 - the device's springs (``[energy] springs``,
   [`pes_ref.devices.cspace.GridSpring.force`][pes_ref.devices.cspace.GridSpring.force])
   and the scene's linear spring, its walls and its damping (``-c q'``).

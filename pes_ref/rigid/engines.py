@@ -49,13 +49,12 @@ def _nothing() -> None:
 @dataclass(frozen=True)
 class Engine:
     """An engine: ``run(device, scene, x0, v0=None) -> Trajectory``; ``require()`` raises
-    [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError] (with its pip line) when
-    the engine's
-    extra is not installed; ``contact``: its figures state the engine and the contact's
-    restitution and friction; ``native``: the analyses' own runs (an analysis on it is called
-    as it always was, without a ``run``); ``prefix``: what starts the names of a realized
-    device's figures on it (``evaluate --realized``: ``realized_in_band_fraction`` on eq. (1) of
-    the parts, ``rigid_in_band_fraction`` in rigid contact,
+    [`pes_ref.devices.geometry.MissingExtraError`][pes_ref.core.runtime.extras.MissingExtraError]
+    (with its pip line) when the engine's extra is not installed; ``contact``: its figures state the
+    engine and the contact's restitution and friction; ``native``: the analyses' own runs (an
+    analysis on it is called as it always was, without a ``run``); ``prefix``: what starts the names
+    of a realized device's figures on it (``evaluate --realized``: ``realized_in_band_fraction`` on
+    eq. (1) of the parts, ``rigid_in_band_fraction`` in rigid contact,
     [`pes_ref.realize.evaluation.evaluate_realized`][pes_ref.realize.evaluation.evaluate_realized])."""
 
     name: str

@@ -1,15 +1,15 @@
 """The shipped devices driven on both engines, against each other and the analytic answers:
 the table of ``docs/rigid.md`` (``make rigid-devices``).
 
-Each entry of `DRIVES` is one drive of a shipped device (the Geneva, cam-follower and
-drum-cam examples, the ratchet and the dart gun) with what is known of its answer in closed
-form. [`measure`][pes_ref.rigid.shipped.measure] runs it on the surface and the rigid engine in one mode and states the
-steady advance per cycle (the mean over the turns after the first,
-[`pes_ref.rigid.engines.steady_advance`][pes_ref.rigid.engines.steady_advance]), the difference of the two motion laws
-after
-the first turn ([`pes_ref.rigid.engines.compare_laws`][pes_ref.rigid.engines.compare_laws]; its mean is the surface
-barrier's standoff, stated apart), each engine's law against the analytic one where there
-is one, and both run times.
+Each entry of `DRIVES` is one drive of a shipped device (the Geneva, cam-follower and drum-cam
+examples, the ratchet and the dart gun) with what is known of its answer in closed form.
+[`measure`][pes_ref.rigid.shipped.measure] runs it on the surface and the rigid engine in one mode
+and states the steady advance per cycle (the mean over the turns after the first,
+[`pes_ref.rigid.engines.steady_advance`][pes_ref.rigid.engines.steady_advance]), the difference of
+the two motion laws after the first turn
+([`pes_ref.rigid.engines.compare_laws`][pes_ref.rigid.engines.compare_laws]; its mean is the surface
+barrier's standoff, stated apart), each engine's law against the analytic one where there is one,
+and both run times.
 """
 from __future__ import annotations
 

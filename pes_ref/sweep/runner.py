@@ -67,11 +67,11 @@ def run_sweep(sweep, out_dir, client, *, task: Callable = run_task, progress: Ca
         ``payload -> outcome dict``, [`pes_ref.sweep.task.run_task`][pes_ref.sweep.task.run_task] (replaceable for
         tests).
     progress : callable, optional
-        Called with a [`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] every
-        ``progress_every``
-        seconds and at the end: ``done`` counts the runs ok (this time or earlier) out of
-        all, its figures ``running`` (executing on a worker now) and ``failed`` (failed
-        twice); the time left is this session's pace (``inf`` before a run ends).
+        Called with a
+        [`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] every
+        ``progress_every`` seconds and at the end: ``done`` counts the runs ok (this time or
+        earlier) out of all, its figures ``running`` (executing on a worker now) and ``failed``
+        (failed twice); the time left is this session's pace (``inf`` before a run ends).
     stop_grace : float
         Seconds to wait on Ctrl-C for the running tasks to save and return.
     plot : bool

@@ -1,13 +1,12 @@
 """One run of a sweep, as one task on a worker: design, then evaluate on each held-out seed.
 
 [`run_task`][pes_ref.sweep.task.run_task] takes the plain data of
-[`pes_ref.sweep.spec.Run.payload`][pes_ref.sweep.spec.Run.payload] and returns
-a small dict (status, figures, wall time, worker, the design file's path), never
-trajectories or grids. The design file, written by the project's atomic writer
-([`pes_ref.synthesis.engine.design_file.save_design`][pes_ref.synthesis.engine.design_file.save_design]) every `CHECKPOINT_SECONDS`
-and at the
-end, is the run's checkpoint: a task that finds it resumes from it (a finished design
-is only evaluated again).
+[`pes_ref.sweep.spec.Run.payload`][pes_ref.sweep.spec.Run.payload] and returns a small dict (status,
+figures, wall time, worker, the design file's path), never trajectories or grids. The design file,
+written by the project's atomic writer
+([`pes_ref.synthesis.engine.design_file.save_design`][pes_ref.synthesis.engine.design_file.save_design])
+every `CHECKPOINT_SECONDS` and at the end, is the run's checkpoint: a task that finds it resumes
+from it (a finished design is only evaluated again).
 
 A task never raises: an exception, a design that goes non-finite or figures it cannot
 compute come back as ``status = "failed"`` with the error text. [`request_stop`][pes_ref.sweep.task.request_stop]

@@ -6,12 +6,11 @@ of docs/spec.md sections 11 and 13:
 
 - **the shipped vectors** ([`pes_ref.oracle.conformance`][pes_ref.oracle.conformance]): each valid case must be
   run and its result must match the shipped one within the tolerances of section 11
-  ([`pes_ref.testing.conformance.binding_keys`][pes_ref.testing.conformance.binding_keys]: on a kink the gradients bind
-  to the
-  one-sided results the manifest lists); each invalid case must end with a non-zero exit
-  status, write no result, and say which key is at fault (the last line it prints on
-  stderr for the case names it, [`pes_ref.testing.conformance.names_key`][pes_ref.testing.conformance.names_key]; or,
-  with
+  ([`pes_ref.testing.conformance.binding_keys`][pes_ref.testing.conformance.binding_keys]: on a kink
+  the gradients bind to the one-sided results the manifest lists); each invalid case must end with a
+  non-zero exit status, write no result, and say which key is at fault (the last line it prints on
+  stderr for the case names it,
+  [`pes_ref.testing.conformance.names_key`][pes_ref.testing.conformance.names_key]; or, with
   ``{refusals}``, its record does);
 - **fresh random cases** (``--random N --seed S``): drawn by [`pes_ref.testing.draws`][pes_ref.testing.draws]
   from a `numpy.random.Generator` seeded with ``[S, attempt]`` (no hypothesis

@@ -140,11 +140,9 @@ def binding_keys(entry: dict, want: dict, *, strict: bool = False) -> list:
 
 def compare_vector(got: dict, want: dict, names, alternatives=()) -> dict:
     """[`compare_results`][pes_ref.oracle.compare.compare_results] of ``names``, where each gradient entry may instead
-    match
-    the same entry of any of ``alternatives`` (the other one-sided results of a kink,
-    [`one_sided_results`][pes_ref.testing.conformance.one_sided_results]): per entry, the closest of the accepted values
-    is the one
-    compared."""
+    match the same entry of any of ``alternatives`` (the other one-sided results of a kink,
+    [`one_sided_results`][pes_ref.testing.conformance.one_sided_results]): per entry, the closest of
+    the accepted values is the one compared."""
     errors = compare_results(got, want, names)
     for k in names:
         alts = [a[k] for a in alternatives if k in a]
@@ -351,9 +349,8 @@ def check_invalid(load_fn, version: str = LATEST, *, directory=None, require_key
         ``lambda p: my_load(dict(np.load(p)))``). It must raise ``ValueError`` or
         ``TypeError`` on an invalid case.
     require_key : bool
-        The one-line message must name the key at fault ([`names_key`][pes_ref.testing.conformance.names_key],
-        docs/spec.md
-        section 8.7).
+        The one-line message must name the key at fault
+        ([`names_key`][pes_ref.testing.conformance.names_key], docs/spec.md section 8.7).
     strict_types : bool
         Also require the manifest's error type (``TypeError`` for data of the wrong
         kind, ``ValueError`` otherwise).

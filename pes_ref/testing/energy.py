@@ -1,15 +1,15 @@
 """Energy conservation, for any ``simulate``: how far a run's energy strays, the
 leading-order budget of that error, and how it scales when ``dt`` is halved.
 
-[`energy_drift`][pes_ref.testing.energy.energy_drift] runs ``simulate_fn(scene, x0, v0)`` and measures its energy error
-([`EnergyDrift`][pes_ref.testing.energy.EnergyDrift]); [`drift_ratio`][pes_ref.testing.energy.drift_ratio] does it at
-``dt`` and ``dt / 2`` (about 4
-for a second-order error, 2 for a first-order one); [`energy_error_budget`][pes_ref.testing.energy.energy_error_budget]
-bounds it
-from the run's crossings of kinks ([`pes_ref.testing.kinks`][pes_ref.testing.kinks]) and the scene's fastest
-mode ([`max_frequency`][pes_ref.testing.energy.max_frequency]); [`max_speed`][pes_ref.testing.energy.max_speed] bounds a
-particle's speed, for a step
-short enough to resolve the grid's cells.
+[`energy_drift`][pes_ref.testing.energy.energy_drift] runs ``simulate_fn(scene, x0, v0)`` and
+measures its energy error ([`EnergyDrift`][pes_ref.testing.energy.EnergyDrift]);
+[`drift_ratio`][pes_ref.testing.energy.drift_ratio] does it at ``dt`` and ``dt / 2`` (about 4 for a
+second-order error, 2 for a first-order one);
+[`energy_error_budget`][pes_ref.testing.energy.energy_error_budget] bounds it from the run's
+crossings of kinks ([`pes_ref.testing.kinks`][pes_ref.testing.kinks]) and the scene's fastest mode
+([`max_frequency`][pes_ref.testing.energy.max_frequency]);
+[`max_speed`][pes_ref.testing.energy.max_speed] bounds a particle's speed, for a step short enough
+to resolve the grid's cells.
 """
 from __future__ import annotations
 
@@ -31,14 +31,13 @@ def max_frequency(scene: Scene) -> float:
     """An upper bound on the angular frequency of the stiffest mode, ``omega_max``.
 
     ``omega_max^2 = K / min m`` with ``K`` the sum over the smooth terms of
-    [`pes_ref.core.stability.term_stiffness`][pes_ref.core.stability.term_stiffness] (the grid's cross curvature, the
-    springs, the walls) of each one's largest stiffness: a bound of the summed
-    Hessian's largest eigenvalue (Weyl's). It leaves out the slope's jumps at cell edges:
-    they are kinks, which the energy tests budget for separately
-    ([`energy_error_budget`][pes_ref.testing.energy.energy_error_budget]). Velocity Verlet is stable for ``omega_max dt
-    < 2`` and
-    its O(dt^2) energy error scales with ``(omega_max dt)^2``. Zero for a scene with no
-    position-dependent force.
+    [`pes_ref.core.stability.term_stiffness`][pes_ref.core.stability.term_stiffness] (the grid's
+    cross curvature, the springs, the walls) of each one's largest stiffness: a bound of the summed
+    Hessian's largest eigenvalue (Weyl's). It leaves out the slope's jumps at cell edges: they are
+    kinks, which the energy tests budget for separately
+    ([`energy_error_budget`][pes_ref.testing.energy.energy_error_budget]). Velocity Verlet is stable
+    for ``omega_max dt < 2`` and its O(dt^2) energy error scales with ``(omega_max dt)^2``. Zero for
+    a scene with no position-dependent force.
     """
     K = sum(float(np.max(k)) for k in term_stiffness(scene, edges=False).values())
     return float(np.sqrt(K / float(np.min(scene.mass))))
@@ -158,14 +157,12 @@ def energy_error_budget(scene: Scene, traj, *, smooth_c: float = 0.3) -> float:
     Velocity Verlet's energy error has two parts (docs/spec.md section 5):
 
     - where the force jumps (a cell edge or clip edge of the grid, the seam of a
-      periodic spring), the step that crosses adds
-      ``dE = dF (Delta/2 - s) + dt^2 (F_2^2 - F_1^2) / 8m``, with ``dF`` the jump,
-      ``Delta`` the step's displacement and ``s`` where in it the jump lies. Bounded
-      by ``|dF| (|Delta| / 2 + dt^2 F_max / 4m)``, with ``|dF| <= 2 S_d`` on the grid
-      ([`grid_slope_bound`][pes_ref.testing.energy.grid_slope_bound]) and ``k_d L_d`` at a seam. The budget adds this
-      for
-      every crossing (``kink_signature`` changes), a worst case: real errors have
-      random signs and add up far less.
+      periodic spring), the step that crosses adds ``dE = dF (Delta/2 - s) + dt^2 (F_2^2 - F_1^2) /
+      8m``, with ``dF`` the jump, ``Delta`` the step's displacement and ``s`` where in it the jump
+      lies. Bounded by ``|dF| (|Delta| / 2 + dt^2 F_max / 4m)``, with ``|dF| <= 2 S_d`` on the grid
+      ([`grid_slope_bound`][pes_ref.testing.energy.grid_slope_bound]) and ``k_d L_d`` at a seam. The
+      budget adds this for every crossing (``kink_signature`` changes), a worst case: real errors
+      have random signs and add up far less.
     - the smooth part, at most ``smooth_c (omega_max dt)^2 K`` (``K`` the kinetic
       scale; 1/4 for a harmonic oscillator), counted once per contact with a wall or a
       crossing, where the modified energy that keeps it bounded is reset.
@@ -196,14 +193,12 @@ def energy_error_budget(scene: Scene, traj, *, smooth_c: float = 0.3) -> float:
 class DriftRatio:
     """Energy errors of a run at ``dt`` and at ``dt / 2`` over the same time interval.
 
-    ``ratio = coarse.max_abs / fine.max_abs`` and ``ensemble_ratio`` (the same for the
-    particle-mean error [`EnergyDrift.ensemble_error`][pes_ref.testing.energy.EnergyDrift.ensemble_error]): about 4 for
-    a
-    second-order error, about 2 for a first-order one. Use ``ratio`` on smooth
-    terms, where ``E_n - E_0 = dt^2 g(t_n) + O(dt^4)`` for one fixed function g; use
-    ``ensemble_ratio`` over many independent particles where the error comes from
-    kinks, since each contact's error depends on its phase within the step and a
-    single trajectory's ratio is then a ratio of two random sums.
+    ``ratio = coarse.max_abs / fine.max_abs`` and ``ensemble_ratio`` (the same for the particle-mean
+    error [`EnergyDrift.ensemble_error`][pes_ref.testing.energy.EnergyDrift.ensemble_error]): about
+    4 for a second-order error, about 2 for a first-order one. Use ``ratio`` on smooth terms, where
+    ``E_n - E_0 = dt^2 g(t_n) + O(dt^4)`` for one fixed function g; use ``ensemble_ratio`` over many
+    independent particles where the error comes from kinks, since each contact's error depends on
+    its phase within the step and a single trajectory's ratio is then a ratio of two random sums.
     """
 
     coarse: EnergyDrift

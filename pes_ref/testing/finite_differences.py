@@ -1,12 +1,11 @@
 """Central finite differences and dot-product (VJP) checks.
 
-In the spirit of autograd's ``check_vjp``: for a function ``f: R^n -> R^m`` and its
-claimed vector-Jacobian product ``vjp(w) = J^T w``, a random direction ``u`` and
-cotangent ``w`` must satisfy ``<w, J u> = <J^T w, u>``, with ``J u`` from a central
-difference. For a scalar loss, [`central_gradient`][pes_ref.testing.finite_differences.central_gradient] gives the full
-gradient
-entry by entry; [`pes_ref.oracle.compare.relative_error`][pes_ref.oracle.compare.relative_error] compares it with a
-gradient.
+In the spirit of autograd's ``check_vjp``: for a function ``f: R^n -> R^m`` and its claimed
+vector-Jacobian product ``vjp(w) = J^T w``, a random direction ``u`` and cotangent ``w`` must
+satisfy ``<w, J u> = <J^T w, u>``, with ``J u`` from a central difference. For a scalar loss,
+[`central_gradient`][pes_ref.testing.finite_differences.central_gradient] gives the full gradient
+entry by entry; [`pes_ref.oracle.compare.relative_error`][pes_ref.oracle.compare.relative_error]
+compares it with a gradient.
 """
 from __future__ import annotations
 

@@ -1,11 +1,10 @@
 """Gradients against finite differences, for any ``value_and_grad``: the adjoint's
-gradient of every differentiable input of docs/spec.md section 7 against central
-differences of the loss ([`check_gradient_fd`][pes_ref.testing.gradient_check.check_gradient_fd]), with the difference's
-own rounding
-noise estimated ([`loss_conditioning`][pes_ref.testing.gradient_check.loss_conditioning]) and every perturbed run's
-smooth piece
-compared with the base run's ([`pes_ref.testing.kinks`][pes_ref.testing.kinks]), so that a difference across
-a kink is reported, not counted.
+gradient of every differentiable input of docs/spec.md section 7 against central differences of the
+loss ([`check_gradient_fd`][pes_ref.testing.gradient_check.check_gradient_fd]), with the
+difference's own rounding noise estimated
+([`loss_conditioning`][pes_ref.testing.gradient_check.loss_conditioning]) and every perturbed run's
+smooth piece compared with the base run's ([`pes_ref.testing.kinks`][pes_ref.testing.kinks]), so
+that a difference across a kink is reported, not counted.
 """
 from __future__ import annotations
 
@@ -79,11 +78,10 @@ class GradientCheck:
         ``noise / max(|g|, |fd|)``: the smallest relative error this difference can
         see. Above the tolerance, the name was checked only to its rounding noise.
     noise : dict str -> float
-        The estimated rounding error of the difference, ``eps_mach * kappa / h`` (four
-        times that for the one-sided formula), with ``kappa`` the loss's
-        conditioning ([`loss_conditioning`][pes_ref.testing.gradient_check.loss_conditioning]) and ``h`` the step. Where
-        the
-        gradient is far larger than this (the usual case) ``errors`` equals
+        The estimated rounding error of the difference, ``eps_mach * kappa / h`` (four times that
+        for the one-sided formula), with ``kappa`` the loss's conditioning
+        ([`loss_conditioning`][pes_ref.testing.gradient_check.loss_conditioning]) and ``h`` the
+        step. Where the gradient is far larger than this (the usual case) ``errors`` equals
         ``raw_errors``; where it is not, no difference can resolve it to 1e-6.
     fd, adjoint : dict str -> float or ndarray
         The finite difference and the adjoint's value (directional derivatives, or

@@ -1,15 +1,16 @@
 """Kinks: where a run's force is not smooth, so that a finite difference across it is no
 derivative.
 
-The discrete program is piecewise smooth: the bilinear slope jumps at cell edges
-(including the clip edges of a non-periodic axis, where the constant extension begins),
-a wall's force has a kink at its onset, and a spring on a periodic axis jumps at its
-minimum-image seam. [`kink_distance`][pes_ref.testing.kinks.kink_distance] measures how close a trajectory passes to any
-kink (for a cheap ``assume`` before a gradient check); [`kink_signature`][pes_ref.testing.kinks.kink_signature] records
-which smooth piece every state is in, and
-[`pes_ref.testing.gradient_check.check_gradient_fd`][pes_ref.testing.gradient_check.check_gradient_fd] compares it
-between the base and
-every perturbed run, so it knows exactly when a difference crossed a kink.
+The discrete program is piecewise smooth: the bilinear slope jumps at cell edges (including the clip
+edges of a non-periodic axis, where the constant extension begins), a wall's force has a kink at its
+onset, and a spring on a periodic axis jumps at its minimum-image seam.
+[`kink_distance`][pes_ref.testing.kinks.kink_distance] measures how close a trajectory passes to any
+kink (for a cheap ``assume`` before a gradient check);
+[`kink_signature`][pes_ref.testing.kinks.kink_signature] records which smooth piece every state is
+in, and
+[`pes_ref.testing.gradient_check.check_gradient_fd`][pes_ref.testing.gradient_check.check_gradient_fd]
+compares it between the base and every perturbed run, so it knows exactly when a difference crossed
+a kink.
 """
 from __future__ import annotations
 

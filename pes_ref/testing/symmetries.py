@@ -54,11 +54,11 @@ class ShiftCheck:
     Attributes
     ----------
     differences : dict str -> float
-        Relative errors ([`pes_ref.oracle.compare.relative_error`][pes_ref.oracle.compare.relative_error]) of ``force0``
-        (the force at
-        state 0), ``force``, ``x`` (after subtracting the shift; scaled by the largest
-        position of either run), ``v`` and ``energy`` (per state and particle). All
-        are rounding-level (~1e-13) unless a position lies within rounding of a kink.
+        Relative errors
+        ([`pes_ref.oracle.compare.relative_error`][pes_ref.oracle.compare.relative_error]) of
+        ``force0`` (the force at state 0), ``force``, ``x`` (after subtracting the shift; scaled by
+        the largest position of either run), ``v`` and ``energy`` (per state and particle). All are
+        rounding-level (~1e-13) unless a position lies within rounding of a kink.
     kink_distance : float
         [`kink_distance`][pes_ref.testing.kinks.kink_distance] of the unshifted run: within rounding of a kink, the two
         lookups may pick different cells (either one-sided value is allowed there).
@@ -114,10 +114,9 @@ def check_grid_roll(simulate_fn, scene: Scene, x0, v0, *, axis: int = 0, k: int 
                     energy_fn=None) -> ShiftCheck:
     """Roll the grid by ``k`` nodes along a periodic axis and shift everything with it.
 
-    ``values' = np.roll(values, k, axis)`` puts node ``i`` at ``i + k``; moving every
-    particle (and the spring centre, [`rolled_scene`][pes_ref.testing.symmetries.rolled_scene]) by ``k h`` along that
-    axis
-    must give the same run, positions shifted by ``k h``.
+    ``values' = np.roll(values, k, axis)`` puts node ``i`` at ``i + k``; moving every particle (and
+    the spring centre, [`rolled_scene`][pes_ref.testing.symmetries.rolled_scene]) by ``k h`` along
+    that axis must give the same run, positions shifted by ``k h``.
 
     Returns
     -------

@@ -19,11 +19,11 @@ the umask).
 
 An existing file that is not to be replaced raises [`ResultExistsError`][pes_ref.core.runtime.files.ResultExistsError].
 
-A set of files that belong together (the conformance vectors and their manifest) is made
-whole in a staging folder beside the destination, then [`move_into`][pes_ref.core.runtime.files.move_into] moves each
-into
-place with `os.replace`; the caller writes the set's index last, through
-[`atomic_file`][pes_ref.core.runtime.files.atomic_file], so a stop part-way leaves the old set's index in place.
+A set of files that belong together (the conformance vectors and their manifest) is made whole in a
+staging folder beside the destination, then [`move_into`][pes_ref.core.runtime.files.move_into]
+moves each into place with `os.replace`; the caller writes the set's index last, through
+[`atomic_file`][pes_ref.core.runtime.files.atomic_file], so a stop part-way leaves the old set's
+index in place.
 """
 from __future__ import annotations
 

@@ -2,16 +2,15 @@
 in one line.
 
 Device files (``docs/devices.md``), problem files (``docs/problems.md``) and sweep files
-(``docs/sweeps.md``) are read the same way: the text (UTF-8), then the TOML, then every key
-checked, and every refusal is one [`KeyFileError`][pes_ref.core.runtime.keyfile.KeyFileError] line naming the file and
-the key at
-fault, ``"PATH: KEY: what was expected, got VALUE"``. A section of a file is declared as a
-dict ``name -> Key`` (the key's type, default and unit);
-[`KeyReader.table`][pes_ref.core.runtime.keyfile.KeyReader.table] checks a TOML
-table against it: an unknown key, a missing required one or a value of the wrong type is
-refused naming the key. The converters are looked up by the key's type in the reader's
-`KeyReader.types` (dispatch by data): `TYPES` here, which each kind of file
-extends with its own (and subclasses the error and the reader).
+(``docs/sweeps.md``) are read the same way: the text (UTF-8), then the TOML, then every key checked,
+and every refusal is one [`KeyFileError`][pes_ref.core.runtime.keyfile.KeyFileError] line naming the
+file and the key at fault, ``"PATH: KEY: what was expected, got VALUE"``. A section of a file is
+declared as a dict ``name -> Key`` (the key's type, default and unit);
+[`KeyReader.table`][pes_ref.core.runtime.keyfile.KeyReader.table] checks a TOML table against it: an
+unknown key, a missing required one or a value of the wrong type is refused naming the key. The
+converters are looked up by the key's type in the reader's `KeyReader.types` (dispatch by data):
+`TYPES` here, which each kind of file extends with its own (and subclasses the error and the
+reader).
 """
 from __future__ import annotations
 

@@ -1,10 +1,9 @@
 """``.npz`` archives of named arrays: read without pickle, written reproducibly and atomically.
 
-Every ``.npz`` the package reads or writes goes through here (the oracle's cases and results,
-design files).
-[`write_npz`][pes_ref.core.runtime.npz.write_npz] writes through the package's one atomic writer,
-[`pes_ref.core.runtime.files.atomic_file`][pes_ref.core.runtime.files.atomic_file]: a reader never sees half a file, and
-an existing file is never replaced unless asked.
+Every ``.npz`` the package reads or writes goes through here (the oracle's cases and results, design
+files). [`write_npz`][pes_ref.core.runtime.npz.write_npz] writes through the package's one atomic
+writer, [`pes_ref.core.runtime.files.atomic_file`][pes_ref.core.runtime.files.atomic_file]: a reader
+never sees half a file, and an existing file is never replaced unless asked.
 
 The reader knows no format: its refusals are [`NpzError`][pes_ref.core.runtime.npz.NpzError] (a ``ValueError``
 carrying the member at fault, or None for the file as a whole), which each format turns into
@@ -119,10 +118,9 @@ def write_npz(path, arrays: Mapping, *, overwrite: bool = False, compress: bool 
               what: str = "result") -> None:
     """Write named arrays to an ``.npz`` file atomically and reproducibly.
 
-    The archive is written through [`atomic_file`][pes_ref.core.runtime.files.atomic_file], so a reader never sees half
-    a
-    file and an existing file is never replaced unless ``overwrite``. Every member
-    carries the same fixed date, so the same arrays always give the same bytes.
+    The archive is written through [`atomic_file`][pes_ref.core.runtime.files.atomic_file], so a
+    reader never sees half a file and an existing file is never replaced unless ``overwrite``. Every
+    member carries the same fixed date, so the same arrays always give the same bytes.
 
     Parameters
     ----------

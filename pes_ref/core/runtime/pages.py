@@ -10,27 +10,24 @@ the machine's memory is: 0.1 to 1.3 s of system time for one oracle run at N = 6
 T = 100 on the reference machine, against a steady 0.35 s with base pages
 (docs/performance.md, "Large runs and huge pages").
 
-[`empty`][pes_ref.core.runtime.pages.empty] and [`zeros`][pes_ref.core.runtime.pages.zeros] give such arrays from
-anonymous private maps
-(`mmap`), without that advice. And they reuse them: memory that is new costs a page
-fault per 4 KiB page on first touch (about 1.5 us each: 0.71-0.79 s a run at N = 65,536,
-T = 100, against 0.61 s in memory touched before). So a map whose arrays are all gone
-(nothing refers to it but this module, as its reference count tells) is kept, idle, and the
-next array of its size in bytes is made in it (zeroed first for [`zeros`][pes_ref.core.runtime.pages.zeros]). An
-allocation that finds no idle map of its size first gives every idle map back to the system
-([`release`][pes_ref.core.runtime.pages.release]), so what is kept is at most the arrays of the last size of run, and a
-run
-of another size starts from nothing kept; [`idle_bytes`][pes_ref.core.runtime.pages.idle_bytes] counts as available
-memory for
-[`pes_ref.core.budget.available_memory`][pes_ref.core.budget.available_memory]. The maps are shared by every thread
-under one
-lock (both halves of [`pes_ref.accel.halves`][pes_ref.accel.halves] allocate).
+[`empty`][pes_ref.core.runtime.pages.empty] and [`zeros`][pes_ref.core.runtime.pages.zeros] give
+such arrays from anonymous private maps (`mmap`), without that advice. And they reuse them: memory
+that is new costs a page fault per 4 KiB page on first touch (about 1.5 us each: 0.71-0.79 s a run
+at N = 65,536, T = 100, against 0.61 s in memory touched before). So a map whose arrays are all gone
+(nothing refers to it but this module, as its reference count tells) is kept, idle, and the next
+array of its size in bytes is made in it (zeroed first for
+[`zeros`][pes_ref.core.runtime.pages.zeros]). An allocation that finds no idle map of its size first
+gives every idle map back to the system ([`release`][pes_ref.core.runtime.pages.release]), so what
+is kept is at most the arrays of the last size of run, and a run of another size starts from nothing
+kept; [`idle_bytes`][pes_ref.core.runtime.pages.idle_bytes] counts as available memory for
+[`pes_ref.core.budget.available_memory`][pes_ref.core.budget.available_memory]. The maps are shared
+by every thread under one lock (both halves of [`pes_ref.accel.halves`][pes_ref.accel.halves]
+allocate).
 
-An array of less than `THRESHOLD` bytes, or any array on a system without anonymous
-maps, comes from NumPy as usual. A map the system refuses raises `MemoryError`, as
-NumPy's refusal does. [`owns`][pes_ref.core.runtime.pages.owns] tells an array made here, which owns its memory as an
-array
-from `numpy.empty` does.
+An array of less than `THRESHOLD` bytes, or any array on a system without anonymous maps, comes from
+NumPy as usual. A map the system refuses raises `MemoryError`, as NumPy's refusal does.
+[`owns`][pes_ref.core.runtime.pages.owns] tells an array made here, which owns its memory as an
+array from `numpy.empty` does.
 """
 from __future__ import annotations
 

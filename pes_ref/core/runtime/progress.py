@@ -12,9 +12,9 @@ estimates the time left, and the one line a command prints.
   run and the adjoint of an oracle run) and the time left, summed over the segments
   still to run.
 - [`progress_line`][pes_ref.core.runtime.progress.progress_line] and
-  [`clock_time`][pes_ref.core.runtime.progress.clock_time]: a [`Progress`][pes_ref.core.runtime.progress.Progress] as
-  one line of text,
-  and a duration as ``m:ss``, for every command.
+  [`clock_time`][pes_ref.core.runtime.progress.clock_time]: a
+  [`Progress`][pes_ref.core.runtime.progress.Progress] as one line of text, and a duration as
+  ``m:ss``, for every command.
 - [`ProgressWriter`][pes_ref.core.runtime.progress.ProgressWriter]: how a command shows those lines on stderr: at a
   terminal one
   line rewritten in place, elsewhere (a pipe, a file, a log) plain lines.
@@ -280,16 +280,15 @@ class ProgressWriter:
     """How a command shows its progress lines ([`progress_line`][pes_ref.core.runtime.progress.progress_line]) on
     stderr.
 
-    At a terminal (``stream.isatty()``, and ``TERM`` not ``dumb``) each line replaces the
-    one before in place: a carriage return, the cursor moved up over the rows a line
-    wider than the terminal wrapped onto, the old text cleared (to the end of the line, or
-    of the screen after a wrapped line), then the new line, without a newline. Anywhere
-    else (a pipe, a file, a CI log) each is a plain line, as before.
-    [`note`][pes_ref.core.runtime.progress.ProgressWriter.note] prints a
-    line of its own that stays (a change of stage), [`end`][pes_ref.core.runtime.progress.ProgressWriter.end] ends the
-    line in place
-    with a newline; a command calls it before it prints anything else, so that its last
-    progress line stays on the screen, whole.
+    At a terminal (``stream.isatty()``, and ``TERM`` not ``dumb``) each line replaces the one before
+    in place: a carriage return, the cursor moved up over the rows a line wider than the terminal
+    wrapped onto, the old text cleared (to the end of the line, or of the screen after a wrapped
+    line), then the new line, without a newline. Anywhere else (a pipe, a file, a CI log) each is a
+    plain line, as before. [`note`][pes_ref.core.runtime.progress.ProgressWriter.note] prints a line
+    of its own that stays (a change of stage),
+    [`end`][pes_ref.core.runtime.progress.ProgressWriter.end] ends the line in place with a newline;
+    a command calls it before it prints anything else, so that its last progress line stays on the
+    screen, whole.
 
     Parameters
     ----------

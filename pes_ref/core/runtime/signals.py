@@ -113,11 +113,10 @@ def _note_interrupt(signum, frame):
 
 def note_interrupts() -> None:
     """Handle Ctrl-C (SIGINT) as Python does, by `KeyboardInterrupt`, and note that
-    it came ([`interrupted`][pes_ref.core.runtime.signals.interrupted]): a C extension being imported (NumPy's) may turn
-    the
-    KeyboardInterrupt into another error, which the command line then reports as the
-    interruption it is. Python's own handler only is replaced (not a SIGINT ignored, as in a
-    shell's background job)."""
+    it came ([`interrupted`][pes_ref.core.runtime.signals.interrupted]): a C extension being
+    imported (NumPy's) may turn the KeyboardInterrupt into another error, which the command line
+    then reports as the interruption it is. Python's own handler only is replaced (not a SIGINT
+    ignored, as in a shell's background job)."""
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
         signal.signal(signal.SIGINT, _note_interrupt)
 

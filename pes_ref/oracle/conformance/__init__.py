@@ -6,11 +6,10 @@ In the style of Project Wycheproof, each version folder (``v1/``, ...) holds a
 ([`pes_ref.oracle.case`][pes_ref.oracle.case]). Valid vectors pin down trajectories and gradients; invalid
 vectors are cases that a conforming reader must refuse, naming the key at fault.
 
-A version, once shipped, is frozen: a change of docs/spec.md, of the format or of the
-vector set makes a new folder (the next ``v<k>/``), and old folders stay readable. The files are
-made by [`pes_ref.oracle.conformance.generate`][pes_ref.oracle.conformance.generate] (``python -m pes_ref conformance
---write``)
-and used by [`pes_ref.testing.conformance`][pes_ref.testing.conformance].
+A version, once shipped, is frozen: a change of docs/spec.md, of the format or of the vector set
+makes a new folder (the next ``v<k>/``), and old folders stay readable. The files are made by
+[`pes_ref.oracle.conformance.generate`][pes_ref.oracle.conformance.generate] (``python -m pes_ref
+conformance --write``) and used by [`pes_ref.testing.conformance`][pes_ref.testing.conformance].
 """
 from pathlib import Path
 

@@ -1,11 +1,10 @@
 """Generate the conformance vectors (``python -m pes_ref conformance --write [DIR]``).
 
-The set is built by [`pes_ref.oracle.conformance.families`][pes_ref.oracle.conformance.families], written with its
-results and
-manifest by [`pes_ref.oracle.conformance.writer`][pes_ref.oracle.conformance.writer] and compared with another folder by
-[`pes_ref.oracle.conformance.compare`][pes_ref.oracle.conformance.compare]; this module is the command the manifest
-names as
-its generator (`pes_ref.oracle.conformance.writer.GENERATOR`).
+The set is built by [`pes_ref.oracle.conformance.families`][pes_ref.oracle.conformance.families],
+written with its results and manifest by
+[`pes_ref.oracle.conformance.writer`][pes_ref.oracle.conformance.writer] and compared with another
+folder by [`pes_ref.oracle.conformance.compare`][pes_ref.oracle.conformance.compare]; this module is
+the command the manifest names as its generator (`pes_ref.oracle.conformance.writer.GENERATOR`).
 """
 from __future__ import annotations
 

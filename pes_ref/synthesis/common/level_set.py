@@ -21,17 +21,16 @@ surface: a node's value moves the contour's crossing on each grid edge it ends, 
 crossing moves the distance of every node whose nearest contour point is on a segment
 ending there.
 
-The gradient ([`LevelSet.vjp`][pes_ref.synthesis.common.level_set.LevelSet.vjp]) is exact for that map: with ``t = phi_a /
-(phi_a -
-phi_b)`` the crossing's fraction of a spacing on the edge a -> b, ``c`` a node's nearest
-point on segment (p, q) at parameter ``s`` (clipped to [0, 1]) and ``u`` the unit vector from
-``c`` to the node, ``d dist / d p = -u (1 - s)`` and ``d dist / d q = -u s`` (the nearest
-point's own motion is second order), ``d p / d phi_a = -h e phi_b / (phi_a - phi_b)^2``,
-``d p / d phi_b = h e phi_a / (phi_a - phi_b)^2`` (``e`` the edge's unit vector, ``h`` its
-spacing). It is piecewise smooth: it has kinks where a node's nearest segment changes (the
-medial axis), where a nearest point reaches a segment's end, and where a node changes sign
-(the contour's topology), and it is zero away from the contour (the shape only moves; a wall
-appears only where the contour reaches: `LevelSet.initial_values` starts from one).
+The gradient ([`LevelSet.vjp`][pes_ref.synthesis.common.level_set.LevelSet.vjp]) is exact for that
+map: with ``t = phi_a / (phi_a - phi_b)`` the crossing's fraction of a spacing on the edge a -> b,
+``c`` a node's nearest point on segment (p, q) at parameter ``s`` (clipped to [0, 1]) and ``u`` the
+unit vector from ``c`` to the node, ``d dist / d p = -u (1 - s)`` and ``d dist / d q = -u s`` (the
+nearest point's own motion is second order), ``d p / d phi_a = -h e phi_b / (phi_a - phi_b)^2``, ``d
+p / d phi_b = h e phi_a / (phi_a - phi_b)^2`` (``e`` the edge's unit vector, ``h`` its spacing). It
+is piecewise smooth: it has kinks where a node's nearest segment changes (the medial axis), where a
+nearest point reaches a segment's end, and where a node changes sign (the contour's topology), and
+it is zero away from the contour (the shape only moves; a wall appears only where the contour
+reaches: `LevelSet.initial_values` starts from one).
 """
 from __future__ import annotations
 

@@ -195,14 +195,14 @@ POLISH_METHODS = ("cma", "de")
 class PolishPlan:
     """The polish stage: a gradient-free search over ``coef`` in ``values + B coef``.
 
-    ``B`` ([`pes_ref.synthesis.engine.polish.legendre_fourier_basis`][pes_ref.synthesis.engine.polish.legendre_fourier_basis]) is
-    ``legendre_terms``
-    Legendre polynomials in ``q0 / q0_extent`` times ``1, cos k q1, sin k q1`` for
-    ``k <= fourier_order`` (72 terms by default); ``values`` is the gradient stage's grid.
-    The fitness ([`pes_ref.synthesis.engine.polish.capture_fitness`][pes_ref.synthesis.engine.polish.capture_fitness]) runs
-    ``n_particles`` fixed
-    training particles for ``periods`` target periods (None: the problem's
-    ``eval_periods``) and judges them with the capture test of ``evaluate``.
+    ``B``
+    ([`pes_ref.synthesis.engine.polish.legendre_fourier_basis`][pes_ref.synthesis.engine.polish.legendre_fourier_basis])
+    is ``legendre_terms`` Legendre polynomials in ``q0 / q0_extent`` times ``1, cos k q1, sin k q1``
+    for ``k <= fourier_order`` (72 terms by default); ``values`` is the gradient stage's grid. The
+    fitness
+    ([`pes_ref.synthesis.engine.polish.capture_fitness`][pes_ref.synthesis.engine.polish.capture_fitness])
+    runs ``n_particles`` fixed training particles for ``periods`` target periods (None: the
+    problem's ``eval_periods``) and judges them with the capture test of ``evaluate``.
 
     Parameters
     ----------
@@ -226,10 +226,9 @@ class PolishPlan:
         Stop early once the best fitness is at or below it.
     validation_particles : int
         0 (off), or the fixed validation particles the best candidate is judged on
-        ([`pes_ref.synthesis.engine.polish.validation_particles`][pes_ref.synthesis.engine.polish.validation_particles]: shaped like
-        the held-out torque
-        sweep and grid of starts, from their own seed) by the share the capture test of
-        ``evaluate`` passes.
+        ([`pes_ref.synthesis.engine.polish.validation_particles`][pes_ref.synthesis.engine.polish.validation_particles]:
+        shaped like the held-out torque sweep and grid of starts, from their own seed) by the share
+        the capture test of ``evaluate`` passes.
     validate_every : int
         With validation: after every this many generations, the best candidate so far is
         judged (unless it was judged already).

@@ -1,13 +1,13 @@
 """The state of one design run, and how a fresh one starts.
 
-A [`DesignState`][pes_ref.synthesis.engine.design_state.DesignState] is one run in progress (problem, plan, seed, grid values,
-optimizer
-state, iteration, loss history, and the optional polish stage's plan and progress), which
+A [`DesignState`][pes_ref.synthesis.engine.design_state.DesignState] is one run in progress
+(problem, plan, seed, grid values, optimizer state, iteration, loss history, and the optional polish
+stage's plan and progress), which
 [`pes_ref.synthesis.engine.design_file`][pes_ref.synthesis.engine.design_file] saves and loads;
-[`new_design`][pes_ref.synthesis.engine.design_state.new_design] starts one, after
-the refusals of [`pes_ref.synthesis.engine.refusals`][pes_ref.synthesis.engine.refusals].
-[`pes_ref.synthesis.engine.training`][pes_ref.synthesis.engine.training] advances
-its gradient stage and [`pes_ref.synthesis.engine.stages`][pes_ref.synthesis.engine.stages] runs both stages.
+[`new_design`][pes_ref.synthesis.engine.design_state.new_design] starts one, after the refusals of
+[`pes_ref.synthesis.engine.refusals`][pes_ref.synthesis.engine.refusals].
+[`pes_ref.synthesis.engine.training`][pes_ref.synthesis.engine.training] advances its gradient stage
+and [`pes_ref.synthesis.engine.stages`][pes_ref.synthesis.engine.stages] runs both stages.
 """
 from __future__ import annotations
 
@@ -37,12 +37,11 @@ STAGES = ("gradient", "polish")
 class DesignState:
     """One design run: problem, plan, seed, grid values, optimizer, iteration, history, polish.
 
-    Mutable on purpose (it is what the design loop advances); every field is plain data
-    that [`pes_ref.synthesis.engine.design_file`][pes_ref.synthesis.engine.design_file] writes and reads back bit-exactly. ``history``
-    maps
-    ``"loss"`` and ``"metric"`` to lists with one float per finished iteration;
-    ``status`` is ``"running"``, ``"done"``, ``"interrupted"``, or one of `STOPPED`
-    followed by ``": iteration k: <reason>"``.
+    Mutable on purpose (it is what the design loop advances); every field is plain data that
+    [`pes_ref.synthesis.engine.design_file`][pes_ref.synthesis.engine.design_file] writes and reads
+    back bit-exactly. ``history`` maps ``"loss"`` and ``"metric"`` to lists with one float per
+    finished iteration; ``status`` is ``"running"``, ``"done"``, ``"interrupted"``, or one of
+    `STOPPED` followed by ``": iteration k: <reason>"``.
 
     ``polish`` is the [`PolishPlan`][pes_ref.synthesis.common.plans.PolishPlan] of the stage that follows
     the gradient iterations (None: none). ``stage`` is the stage the run is in (`STAGES`);

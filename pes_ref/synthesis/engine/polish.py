@@ -1,31 +1,29 @@
 """The polish stage: a gradient-free search on a smooth correction of a designed surface.
 
-After the gradient stage (prescribed-gait shooting for the oscillator) the design is close;
-the polish searches ``coef`` in ``values + B coef``
-([`legendre_fourier_basis`][pes_ref.synthesis.engine.polish.legendre_fourier_basis], 72
-terms by default) with pycma's CMA-ES (or scipy's differential evolution, for the
-comparison), on a forward-only fitness ([`capture_fitness`][pes_ref.synthesis.engine.polish.capture_fitness]): the capture test
-of
-``python -m pes_ref evaluate`` ([`pes_ref.synthesis.kinds.analysis.cycle_figures`][pes_ref.synthesis.kinds.analysis.cycle_figures])
-on a fixed
-set of training particles ([`polish_particles`][pes_ref.synthesis.engine.polish.polish_particles]) drawn from their own seed,
-disjoint
-from every held-out set. [`polish`][pes_ref.synthesis.engine.polish.polish] runs it. The candidates of a generation are run
-as one population ([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch],
-[`capture_fitnesses`][pes_ref.synthesis.engine.polish.capture_fitnesses]):
-each candidate's trajectory, hence its fitness, is bit-identical to its own run, at a
-fraction of the per-step cost. They are independent, so an executor (anything with ``map``,
-e.g. a `concurrent.futures.ProcessPoolExecutor` or a Dask client's
-``get_executor()``) can evaluate a generation in ``tasks`` parts in parallel, with the same
-result as serial.
+After the gradient stage (prescribed-gait shooting for the oscillator) the design is close; the
+polish searches ``coef`` in ``values + B coef``
+([`legendre_fourier_basis`][pes_ref.synthesis.engine.polish.legendre_fourier_basis], 72 terms by
+default) with pycma's CMA-ES (or scipy's differential evolution, for the comparison), on a
+forward-only fitness ([`capture_fitness`][pes_ref.synthesis.engine.polish.capture_fitness]): the
+capture test of ``python -m pes_ref evaluate``
+([`pes_ref.synthesis.kinds.analysis.cycle_figures`][pes_ref.synthesis.kinds.analysis.cycle_figures])
+on a fixed set of training particles
+([`polish_particles`][pes_ref.synthesis.engine.polish.polish_particles]) drawn from their own seed,
+disjoint from every held-out set. [`polish`][pes_ref.synthesis.engine.polish.polish] runs it. The
+candidates of a generation are run as one population
+([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch],
+[`capture_fitnesses`][pes_ref.synthesis.engine.polish.capture_fitnesses]): each candidate's
+trajectory, hence its fitness, is bit-identical to its own run, at a fraction of the per-step cost.
+They are independent, so an executor (anything with ``map``, e.g. a
+`concurrent.futures.ProcessPoolExecutor` or a Dask client's ``get_executor()``) can evaluate a
+generation in ``tasks`` parts in parallel, with the same result as serial.
 
-With validation (the plan's ``validation_particles``), the best candidate so far is judged
-every few generations on fixed validation particles shaped like the held-out sets
-([`validation_particles`][pes_ref.synthesis.engine.polish.validation_particles]) by the share the capture test passes, and the
-search stops
-once that share reaches the plan's ``validation_target``: the training fitness keeps
-falling after the held-out share has stopped rising, so a budget of evaluations alone
-either stops too early for some seeds or runs long past the point for others.
+With validation (the plan's ``validation_particles``), the best candidate so far is judged every few
+generations on fixed validation particles shaped like the held-out sets
+([`validation_particles`][pes_ref.synthesis.engine.polish.validation_particles]) by the share the
+capture test passes, and the search stops once that share reaches the plan's ``validation_target``:
+the training fitness keeps falling after the held-out share has stopped rising, so a budget of
+evaluations alone either stops too early for some seeds or runs long past the point for others.
 
 Seeds: the training particles come from ``default_rng([seed, 2**32 + 1])``, the search's
 own draws from ``default_rng([seed, 2**32 + 2])``, the validation particles from
@@ -177,14 +175,13 @@ def capture_fitness(problem, values, particles: PolishParticles, periods: float 
     """Forward-only fitness of a grid (lower is better): the share *not* captured plus a smooth margin.
 
     Each particle runs ``periods`` target periods (default ``problem.eval_periods``) and
-    [`pes_ref.synthesis.kinds.analysis.cycle_figures`][pes_ref.synthesis.kinds.analysis.cycle_figures] judges its last periods
-    exactly as
-    ``evaluate`` does. The margin term ``margin_weight * mean(min(3, m_i))``, with ``m_i``
-    the largest of ``amp_err / 0.25``, ``per_err / 0.25`` and ``drift / 0.05`` (3 without a
-    measurable period), ranks candidates that capture as many and keeps the captured ones
-    away from the test's edges. With ``strictness < 1`` a particle counts as captured only
-    when also ``m_i < strictness`` (the test's tolerances times ``strictness``). A run that
-    leaves the finite numbers scores ``1 + margin_weight * 3``, the worst. ``backend`` as in
+    [`pes_ref.synthesis.kinds.analysis.cycle_figures`][pes_ref.synthesis.kinds.analysis.cycle_figures]
+    judges its last periods exactly as ``evaluate`` does. The margin term ``margin_weight *
+    mean(min(3, m_i))``, with ``m_i`` the largest of ``amp_err / 0.25``, ``per_err / 0.25`` and
+    ``drift / 0.05`` (3 without a measurable period), ranks candidates that capture as many and
+    keeps the captured ones away from the test's edges. With ``strictness < 1`` a particle counts as
+    captured only when also ``m_i < strictness`` (the test's tolerances times ``strictness``). A run
+    that leaves the finite numbers scores ``1 + margin_weight * 3``, the worst. ``backend`` as in
     [`pes_ref.simulate`][pes_ref.core.scene.simulate] (the fitness does not depend on it).
     """
     return capture_fitnesses(problem, [values], particles, periods, margin_weight, strictness, backend)[0]
@@ -193,10 +190,9 @@ def capture_fitness(problem, values, particles: PolishParticles, periods: float 
 def capture_fitnesses(problem, grids, particles: PolishParticles, periods: float | None = None,
                       margin_weight: float = 0.05, strictness: float = 1.0, backend: str | None = None) -> list:
     """[`capture_fitness`][pes_ref.synthesis.engine.polish.capture_fitness] of each grid of ``grids``, their runs as one
-    population
-    ([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch]): each value is bit-identical to
-    the grid's
-    own [`capture_fitness`][pes_ref.synthesis.engine.polish.capture_fitness]."""
+    population ([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch]):
+    each value is bit-identical to the grid's own
+    [`capture_fitness`][pes_ref.synthesis.engine.polish.capture_fitness]."""
     periods = problem.eval_periods if periods is None else periods
     scenes = [problem.torque_scene(values, particles.torques, periods) for values in grids]
     workspace = _WORKSPACES.__dict__.setdefault("arrays", {})

@@ -2,10 +2,9 @@
 iterations that cannot fit in the memory there is.
 
 Both take a [`DesignState`][pes_ref.synthesis.engine.design_state.DesignState] (a fresh one, or one
-resumed with a changed plan) and raise a keyed error naming what to change; the
-``design`` command and [`pes_ref.synthesis.new_design`][pes_ref.synthesis.engine.design_state.new_design] call them before
-anything
-is written or run.
+resumed with a changed plan) and raise a keyed error naming what to change; the ``design`` command
+and [`pes_ref.synthesis.new_design`][pes_ref.synthesis.engine.design_state.new_design] call them
+before anything is written or run.
 """
 from __future__ import annotations
 

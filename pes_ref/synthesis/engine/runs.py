@@ -1,18 +1,15 @@
 """A design run from what a user names: its options resolved, then started or resumed.
 
 One design run is named by *design options*, the flags of ``python -m pes_ref design``
-(`DESIGN_OPTIONS`: ``iterations``, ``lr``, ``plan``, ``smoke``, ...), and by the
-*problem's parameters* it changes (``--set NAME=VALUE``: a built-in kind's fields, a problem
-file's dotted keys). [`design_inputs`][pes_ref.synthesis.engine.runs.design_inputs] resolves them against the problem and its
-kind
-(`pes_ref.synthesis.kinds.registry.KINDS`) into the problem, the plan and the polish plan;
-[`start_design`][pes_ref.synthesis.engine.runs.start_design] starts the run, or resumes a saved one after checking that it is
-the run
-asked for. The ``design`` command, every run of a sweep and the studies go through both, so a
-sweep file's options mean exactly what the same flags mean on the command line.
-[`run_to_file`][pes_ref.synthesis.engine.runs.run_to_file] runs a design to its end in its design file (claimed first,
-checkpointed,
-never left holding nothing).
+(`DESIGN_OPTIONS`: ``iterations``, ``lr``, ``plan``, ``smoke``, ...), and by the *problem's
+parameters* it changes (``--set NAME=VALUE``: a built-in kind's fields, a problem file's dotted
+keys). [`design_inputs`][pes_ref.synthesis.engine.runs.design_inputs] resolves them against the
+problem and its kind (`pes_ref.synthesis.kinds.registry.KINDS`) into the problem, the plan and the
+polish plan; [`start_design`][pes_ref.synthesis.engine.runs.start_design] starts the run, or resumes
+a saved one after checking that it is the run asked for. The ``design`` command, every run of a
+sweep and the studies go through both, so a sweep file's options mean exactly what the same flags
+mean on the command line. [`run_to_file`][pes_ref.synthesis.engine.runs.run_to_file] runs a design
+to its end in its design file (claimed first, checkpointed, never left holding nothing).
 """
 from __future__ import annotations
 

@@ -1,11 +1,11 @@
 """A design run's stages, one after the other: the gradient iterations (a population of starts
 screened first, if the plan has one), then the polish.
 
-[`run_stages`][pes_ref.synthesis.engine.stages.run_stages] is what ``python -m pes_ref design`` runs:
-[`pes_ref.synthesis.engine.training.run_design`][pes_ref.synthesis.engine.training.run_design] up to the plan's iterations, then, if
-the run
-has a polish plan, [`pes_ref.synthesis.engine.polish.polish`][pes_ref.synthesis.engine.polish.polish] from the gradient stage's grid.
-Progress, checkpoints and Ctrl-C work the same in both.
+[`run_stages`][pes_ref.synthesis.engine.stages.run_stages] is what ``python -m pes_ref design``
+runs: [`pes_ref.synthesis.engine.training.run_design`][pes_ref.synthesis.engine.training.run_design]
+up to the plan's iterations, then, if the run has a polish plan,
+[`pes_ref.synthesis.engine.polish.polish`][pes_ref.synthesis.engine.polish.polish] from the gradient
+stage's grid. Progress, checkpoints and Ctrl-C work the same in both.
 
 Resuming: the gradient stage continues bit-exactly from the saved optimizer state. The
 polish's search state is not saved: a polish stopped part-way starts again from its
@@ -102,18 +102,17 @@ def run_stages(state: DesignState, iterations: int | None = None, *, executor=No
     ([`pes_ref.synthesis.engine.population.screen_starts`][pes_ref.synthesis.engine.population.screen_starts]), then the polish
     (if ``state.polish``).
 
-    ``callback`` receives a [`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] during
-    both stages
-    (its stage ``"stage 1/2"`` ... in the gradient stage, ``"polish"`` in the polish, with
-    the ``fitness``, its ``start`` and, once judged, the best's ``validation`` share among
-    the figures), every ``progress_every`` seconds
-    and at the end of each; ``checkpoint(state)`` is called every ``checkpoint_every``
-    seconds. Ctrl-C stops either stage after its current iteration or generation with
-    ``status = "interrupted"``; a gradient stage that goes non-finite stops as
-    [`pes_ref.synthesis.engine.training.run_design`][pes_ref.synthesis.engine.training.run_design] says, and the polish does not
-    start.
-    ``executor`` evaluates the polish's candidates in ``tasks`` parts (see
-    [`pes_ref.synthesis.engine.polish.polish`][pes_ref.synthesis.engine.polish.polish]); both stages run on ``state.backend``.
+    ``callback`` receives a
+    [`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] during both
+    stages (its stage ``"stage 1/2"`` ... in the gradient stage, ``"polish"`` in the polish, with
+    the ``fitness``, its ``start`` and, once judged, the best's ``validation`` share among the
+    figures), every ``progress_every`` seconds and at the end of each; ``checkpoint(state)`` is
+    called every ``checkpoint_every`` seconds. Ctrl-C stops either stage after its current iteration
+    or generation with ``status = "interrupted"``; a gradient stage that goes non-finite stops as
+    [`pes_ref.synthesis.engine.training.run_design`][pes_ref.synthesis.engine.training.run_design]
+    says, and the polish does not start. ``executor`` evaluates the polish's candidates in ``tasks``
+    parts (see [`pes_ref.synthesis.engine.polish.polish`][pes_ref.synthesis.engine.polish.polish]);
+    both stages run on ``state.backend``.
     """
     total = state.plan.iterations if iterations is None else checks.as_nonneg_int("iterations", iterations)
     with StopFlag() as flag:

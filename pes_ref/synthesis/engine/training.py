@@ -1,14 +1,13 @@
 """The loop of a design run's gradient stage.
 
 [`run_design`][pes_ref.synthesis.engine.training.run_design] advances a
-[`DesignState`][pes_ref.synthesis.engine.design_state.DesignState], one
-optimizer step on the adjoint gradient of the batch's objective per iteration
-([`pes_ref.synthesis.engine.stages`][pes_ref.synthesis.engine.stages] runs the polish after it). It reports a
-[`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] with the stage, its grid and horizon,
-the loss,
-the metric, the rate and the time left (a [`pes_ref.core.runtime.progress.Clock`][pes_ref.core.runtime.progress.Clock]
-over the
-plan's stages); Ctrl-C and SIGTERM stop it between two iterations
+[`DesignState`][pes_ref.synthesis.engine.design_state.DesignState], one optimizer step on the
+adjoint gradient of the batch's objective per iteration
+([`pes_ref.synthesis.engine.stages`][pes_ref.synthesis.engine.stages] runs the polish after it). It
+reports a [`pes_ref.core.runtime.progress.Progress`][pes_ref.core.runtime.progress.Progress] with
+the stage, its grid and horizon, the loss, the metric, the rate and the time left (a
+[`pes_ref.core.runtime.progress.Clock`][pes_ref.core.runtime.progress.Clock] over the plan's
+stages); Ctrl-C and SIGTERM stop it between two iterations
 ([`pes_ref.core.runtime.signals.StopFlag`][pes_ref.core.runtime.signals.StopFlag]).
 
 Iteration ``k`` of a run with seed ``s`` draws its particles (start positions, noise,
@@ -182,17 +181,18 @@ def run_design(state: DesignState, iterations: int | None = None, *, callback: C
     run, before the plan's target is reached) stops it too (``"uncharged: ..."``): its
     gradient is 0, so the run could only end on the grid it has; what fails is not charged.
 
-    A plan that validates (``validate_every``, [`pes_ref.synthesis.common.validation`][pes_ref.synthesis.common.validation]) judges
-    the
-    grid before the first iteration, every that many and after the last, keeps the best (``state.best``), stops
-    early once one reaches the plan's ``target``, and a run that is done ends on the best grid
-    (``state.values``); resuming a done run for more iterations continues from that grid. A
-    run that is done ends on its problem's ``final_values`` of that grid (the grid itself,
-    except a realizable funnel from the ``"envelope"`` start: its channel made convex again,
-    [`pes_ref.synthesis.kinds.envelope.convex_channel`][pes_ref.synthesis.kinds.envelope.convex_channel]). The
-    validations are part of the state a design file holds, so a stopped run resumes bit-exactly.
-    ``finish=False`` (a start of a population, [`pes_ref.synthesis.engine.population`][pes_ref.synthesis.engine.population]):
-    a run that reaches ``iterations`` below the plan's target stays ``"running"`` on its last grid.
+    A plan that validates (``validate_every``,
+    [`pes_ref.synthesis.common.validation`][pes_ref.synthesis.common.validation]) judges the grid
+    before the first iteration, every that many and after the last, keeps the best (``state.best``),
+    stops early once one reaches the plan's ``target``, and a run that is done ends on the best grid
+    (``state.values``); resuming a done run for more iterations continues from that grid. A run that
+    is done ends on its problem's ``final_values`` of that grid (the grid itself, except a
+    realizable funnel from the ``"envelope"`` start: its channel made convex again,
+    [`pes_ref.synthesis.kinds.envelope.convex_channel`][pes_ref.synthesis.kinds.envelope.convex_channel]).
+    The validations are part of the state a design file holds, so a stopped run resumes bit-exactly.
+    ``finish=False`` (a start of a population,
+    [`pes_ref.synthesis.engine.population`][pes_ref.synthesis.engine.population]): a run that
+    reaches ``iterations`` below the plan's target stays ``"running"`` on its last grid.
     """
     total = state.plan.iterations if iterations is None else checks.as_nonneg_int("iterations", iterations)
     problem, plan = state.problem, state.plan

@@ -1,27 +1,25 @@
 """Held-out analysis of each kind of design: paths, torque sweeps, phase space, cycle figures, figures, panels.
 
-Held-out particles come from seeds training never uses. The funnel's figures are where its
-particles exit ([`pes_ref.synthesis.kinds.funnel.exit_positions`][pes_ref.synthesis.kinds.funnel.exit_positions]); the oscillator's
-are
-per-particle amplitude, period and drift over the last `ANALYSIS_PERIODS` periods
-([`cycle_figures`][pes_ref.synthesis.kinds.analysis.cycle_figures]), and whether a particle reaches the target cycle; a
-problem file's,
-its success tests. ``evaluate_KIND`` gives one kind's figures of several held-out seeds, their
-runs (design and flat surface, every seed) as one population
-([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch]: each run's numbers are its own),
-and
-``KIND_panels`` the same held-out particles' paths, each with whether it passed, for
-``evaluate --plot`` ([`pes_ref.synthesis.kinds.plots`][pes_ref.synthesis.kinds.plots]).
-[`pes_ref.synthesis.kinds.registry`][pes_ref.synthesis.kinds.registry] holds
-them as each kind's entry, and its [`evaluate`][pes_ref.synthesis.kinds.registry.evaluate] serves every kind.
+Held-out particles come from seeds training never uses. The funnel's figures are where its particles
+exit
+([`pes_ref.synthesis.kinds.funnel.exit_positions`][pes_ref.synthesis.kinds.funnel.exit_positions]);
+the oscillator's are per-particle amplitude, period and drift over the last `ANALYSIS_PERIODS`
+periods ([`cycle_figures`][pes_ref.synthesis.kinds.analysis.cycle_figures]), and whether a particle
+reaches the target cycle; a problem file's, its success tests. ``evaluate_KIND`` gives one kind's
+figures of several held-out seeds, their runs (design and flat surface, every seed) as one
+population ([`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch]: each
+run's numbers are its own), and ``KIND_panels`` the same held-out particles' paths, each with
+whether it passed, for ``evaluate --plot``
+([`pes_ref.synthesis.kinds.plots`][pes_ref.synthesis.kinds.plots]).
+[`pes_ref.synthesis.kinds.registry`][pes_ref.synthesis.kinds.registry] holds them as each kind's
+entry, and its [`evaluate`][pes_ref.synthesis.kinds.registry.evaluate] serves every kind.
 
-The ``evaluate_KIND`` functions take an ``engine``: what runs the scenes on the design's
-surface, ``engine(scenes, x0s, v0s) -> [Trajectory]`` (as
-[`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch], one trajectory per scene), the
-surface model
-when None. A layer above supplies another, such as parts in rigid contact
-([`pes_ref.realize.evaluation`][pes_ref.realize.evaluation]); the figures are computed from its trajectories as from the
-surface's.
+The ``evaluate_KIND`` functions take an ``engine``: what runs the scenes on the design's surface,
+``engine(scenes, x0s, v0s) -> [Trajectory]`` (as
+[`pes_ref.core.population.simulate_batch`][pes_ref.core.population.simulate_batch], one trajectory
+per scene), the surface model when None. A layer above supplies another, such as parts in rigid
+contact ([`pes_ref.realize.evaluation`][pes_ref.realize.evaluation]); the figures are computed from
+its trajectories as from the surface's.
 """
 from __future__ import annotations
 

@@ -18,18 +18,17 @@ the left edge
    by its convex minorant in q1, the right by its concave majorant), so the free region is one
    convex channel with no pocket to hold a particle;
 4. **the feet in the band**: each wall moved along q0 until its foot, where it meets the exit
-   edge, is `FOOT_INSET` inside the band's edge ([`feet_in_band`][pes_ref.synthesis.kinds.envelope.feet_in_band]). A particle
-   that
-   slides down a rigid wall leaves at its foot (eq. (1) holds it off the wall, a rigid wall
-   does not), so a foot outside the band sends every particle that touched that wall out of it;
-   a foot far inside makes a narrow exit that particles reach late.
+   edge, is `FOOT_INSET` inside the band's edge
+   ([`feet_in_band`][pes_ref.synthesis.kinds.envelope.feet_in_band]). A particle that slides down a
+   rigid wall leaves at its foot (eq. (1) holds it off the wall, a rigid wall does not), so a foot
+   outside the band sends every particle that touched that wall out of it; a foot far inside makes a
+   narrow exit that particles reach late.
 
 The blocked region is everything outside that channel
-([`interval_distance`][pes_ref.synthesis.kinds.envelope.interval_distance]). A design
-that starts from it finishes with [`convex_channel`][pes_ref.synthesis.kinds.envelope.convex_channel]: the level set's free
-channel after
-the gradient stage, made convex with its feet in the band again (gradient steps notch a level
-set's walls, and a rigid pin stops in the notches).
+([`interval_distance`][pes_ref.synthesis.kinds.envelope.interval_distance]). A design that starts
+from it finishes with [`convex_channel`][pes_ref.synthesis.kinds.envelope.convex_channel]: the level
+set's free channel after the gradient stage, made convex with its feet in the band again (gradient
+steps notch a level set's walls, and a rigid pin stops in the notches).
 """
 from __future__ import annotations
 
@@ -54,10 +53,10 @@ FOOT_INSET = 0.02
 
 def smooth_funnel(problem, seed: int, plan=FUNNEL_PLAN, backend: str | None = None) -> np.ndarray:
     """The grid of ``problem`` (a funnel with ``realizable`` off) designed by ``plan`` from run seed
-    ``seed``: the iterations of [`pes_ref.synthesis.engine.training.run_design`][pes_ref.synthesis.engine.training.run_design] (its
-    particles
-    ``default_rng([seed, k])``, initial draw ``default_rng([seed, 2**32])``, the stages'
-    resampling and the optimizer's reset), for a plan without validation or smoothing: the
+    ``seed``: the iterations of
+    [`pes_ref.synthesis.engine.training.run_design`][pes_ref.synthesis.engine.training.run_design]
+    (its particles ``default_rng([seed, k])``, initial draw ``default_rng([seed, 2**32])``, the
+    stages' resampling and the optimizer's reset), for a plan without validation or smoothing: the
     grid ``design funnel --seed SEED`` writes for the same problem."""
     if plan.validate_every or plan.smoothing:
         raise ValueError("smooth_funnel runs a plan without validation or smoothing")

@@ -1,10 +1,9 @@
 """The funnel of the paper's Figs. 6-7: particles pushed down a plane to exit near a target.
 
-Its design metric is the share of the batch that exits within `IN_BAND_SHARE` of the
-domain width from the target ([`exit_positions`][pes_ref.synthesis.kinds.funnel.exit_positions]); its objective is eq. (5),
-charged where
-each particle leaves the domain by default (`FUNNEL_OBJECTIVES`). Made realizable, its
-grid values are a level set that starts from one of `INIT_SHAPES`.
+Its design metric is the share of the batch that exits within `IN_BAND_SHARE` of the domain width
+from the target ([`exit_positions`][pes_ref.synthesis.kinds.funnel.exit_positions]); its objective
+is eq. (5), charged where each particle leaves the domain by default (`FUNNEL_OBJECTIVES`). Made
+realizable, its grid values are a level set that starts from one of `INIT_SHAPES`.
 """
 from __future__ import annotations
 
@@ -36,33 +35,33 @@ IN_BAND_SHARE = 0.10
 class FunnelProblem(_Problem):
     """The funnel of the paper's Figs. 6-7 on the plane ``[-width/2, width/2] x [0, height]``.
 
-    Particles start at uniform random q0 across the top, ``start_depth`` below it, inside
-    a strip of depth ``start_zone`` held at zero energy; a constant force ``-force`` along
-    q1 plus Gaussian noise of std ``noise`` per step and axis push them down; walls of
-    stiffness ``wall_k`` stand ``wall_margin`` inside the two side edges (q0). The
-    objective is eq. (5) with weight-``regularization`` eq. (7) added, charged where it is
-    chosen by ``when`` (`FUNNEL_OBJECTIVES`): ``"exit"`` (the default) at the q0 where
-    each particle leaves the domain ([`pes_ref.synthesis.common.exits.FunnelExit`][pes_ref.synthesis.common.exits.FunnelExit]),
-    ``"final"``
-    at the last step, ``"every_step"`` summed over every step. A strip of depth ``exit_zone``
-    at the bottom is held at zero energy (0 by default: none). ``"final"`` needs one
-    (docs/synthesis.md measures it with ``exit_zone = 0.05``): the surface extends as a constant beyond
-    the bottom edge, so without it a design charged at the last step can keep steering
-    particles after they leave the domain. Grid axis 0 is q0, axis 1 is q1; ``grid`` nodes
-    per axis. ``linger`` weighs a term of the exit cost on the time particles spend above the
-    exit edge ([`pes_ref.synthesis.common.exits.FunnelExit`][pes_ref.synthesis.common.exits.FunnelExit]).
+    Particles start at uniform random q0 across the top, ``start_depth`` below it, inside a strip of
+    depth ``start_zone`` held at zero energy; a constant force ``-force`` along q1 plus Gaussian
+    noise of std ``noise`` per step and axis push them down; walls of stiffness ``wall_k`` stand
+    ``wall_margin`` inside the two side edges (q0). The objective is eq. (5) with
+    weight-``regularization`` eq. (7) added, charged where it is chosen by ``when``
+    (`FUNNEL_OBJECTIVES`): ``"exit"`` (the default) at the q0 where each particle leaves the domain
+    ([`pes_ref.synthesis.common.exits.FunnelExit`][pes_ref.synthesis.common.exits.FunnelExit]),
+    ``"final"`` at the last step, ``"every_step"`` summed over every step. A strip of depth
+    ``exit_zone`` at the bottom is held at zero energy (0 by default: none). ``"final"`` needs one
+    (docs/synthesis.md measures it with ``exit_zone = 0.05``): the surface extends as a constant
+    beyond the bottom edge, so without it a design charged at the last step can keep steering
+    particles after they leave the domain. Grid axis 0 is q0, axis 1 is q1; ``grid`` nodes per axis.
+    ``linger`` weighs a term of the exit cost on the time particles spend above the exit edge
+    ([`pes_ref.synthesis.common.exits.FunnelExit`][pes_ref.synthesis.common.exits.FunnelExit]).
 
-    ``realizable`` makes the design realizable as designed (``docs/realize.md``): the grid
-    values become a level set ([`pes_ref.synthesis.common.level_set.LevelSet`][pes_ref.synthesis.common.level_set.LevelSet]), the
-    shape
-    ``{values + contact_r_c < 0}``, and the surface is eq. (1) with strength ``contact_v``,
-    cut-off ``contact_r_c`` and cap ``contact_r_min`` of the exact distance to that shape, on
-    the ``grid`` x ``grid`` surface whatever the stage's grid of values. The shape starts as
-    ``init_shape`` (`INIT_SHAPES`): the convex envelope of a smooth funnel's paths, made
-    by design (``"envelope"``, the default: [`pes_ref.synthesis.kinds.envelope`][pes_ref.synthesis.kinds.envelope]), two strips
-    ``init_strip`` wide along the walled sides (``"strips"``), or a V whose gap at the exit edge
-    is ``2 init_gap`` wide (``"vee"``). A design from the envelope ends on its channel with
-    convex walls ([`final_values`][pes_ref.synthesis.kinds.funnel.FunnelProblem.final_values]).
+    ``realizable`` makes the design realizable as designed (``docs/realize.md``): the grid values
+    become a level set
+    ([`pes_ref.synthesis.common.level_set.LevelSet`][pes_ref.synthesis.common.level_set.LevelSet]),
+    the shape ``{values + contact_r_c < 0}``, and the surface is eq. (1) with strength
+    ``contact_v``, cut-off ``contact_r_c`` and cap ``contact_r_min`` of the exact distance to that
+    shape, on the ``grid`` x ``grid`` surface whatever the stage's grid of values. The shape starts
+    as ``init_shape`` (`INIT_SHAPES`): the convex envelope of a smooth funnel's paths, made by
+    design (``"envelope"``, the default:
+    [`pes_ref.synthesis.kinds.envelope`][pes_ref.synthesis.kinds.envelope]), two strips
+    ``init_strip`` wide along the walled sides (``"strips"``), or a V whose gap at the exit edge is
+    ``2 init_gap`` wide (``"vee"``). A design from the envelope ends on its channel with convex
+    walls ([`final_values`][pes_ref.synthesis.kinds.funnel.FunnelProblem.final_values]).
     """
 
     kind: ClassVar[str] = "funnel"

@@ -1,14 +1,13 @@
 """Prescribed-gait multiple shooting for the oscillator: the cost and the starts.
 
-Every training particle starts *on* the target cycle at a random phase ``theta``, on a random
-tooth ``k`` of a prescribed gait of q1 (an advance of ``delta`` per target period, like an
-escapement's tooth), with a random torque from the whole range
-([`sample_gait_starts`][pes_ref.synthesis.kinds.gait.sample_gait_starts]).
-It runs for one target period and is charged [`GaitShooting`][pes_ref.synthesis.kinds.gait.GaitShooting], the distance to
-where
-the gait says it should be. Each run is short, so its gradient through the adjoint is
-informative (over several periods of chaotic motion it is not), and tying q1 to the phase
-breaks the q1 symmetry that makes on-cycle starts with a random q1 pure noise.
+Every training particle starts *on* the target cycle at a random phase ``theta``, on a random tooth
+``k`` of a prescribed gait of q1 (an advance of ``delta`` per target period, like an escapement's
+tooth), with a random torque from the whole range
+([`sample_gait_starts`][pes_ref.synthesis.kinds.gait.sample_gait_starts]). It runs for one target
+period and is charged [`GaitShooting`][pes_ref.synthesis.kinds.gait.GaitShooting], the distance to
+where the gait says it should be. Each run is short, so its gradient through the adjoint is
+informative (over several periods of chaotic motion it is not), and tying q1 to the phase breaks the
+q1 symmetry that makes on-cycle starts with a random q1 pure noise.
 
 The plan that optimizes it (Adam, 16 x 16 then 32 x 32) is ``OSCILLATOR_PLANS["gait"]``
 in [`pes_ref.synthesis.common.plans`][pes_ref.synthesis.common.plans]; ``docs/synthesis.md`` ("The oscillator") has the formulas

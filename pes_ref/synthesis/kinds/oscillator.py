@@ -48,15 +48,14 @@ class OscillatorProblem(_Problem):
       periods and is charged [`pes_ref.synthesis.kinds.gait.GaitShooting`][pes_ref.synthesis.kinds.gait.GaitShooting] with weights
       ``gait_w0``, ``gait_w1`` and a dead zone of ``gait_dead_zone * gait_delta`` on q1.
     - ``"eq6"`` (the paper's): particles start at rest at ``q1 = 0``,
-      ``q0 = amplitude (1 + kick) + start_noise * normal``, and eq. (6) is summed over every
-      step of ``n_steps``; ``"cycle"``
+      ``q0 = amplitude (1 + kick) + start_noise * normal``, and eq. (6) is summed over every step of
+      ``n_steps``; ``"cycle"``
       ([`pes_ref.core.objectives.OscillatorCycle`][pes_ref.core.objectives.OscillatorCycle], the
-      phase-free distance to the target ellipse, counted from ``settle_periods`` periods on)
-      and ``"phase_then_cycle"`` ([`PhaseThenCycle`][pes_ref.synthesis.kinds.oscillator.PhaseThenCycle]: eq. (6) before
-      ``settle_periods``,
-      the cycle cost after) start the same way. ``stratified`` draws one torque per equal
-      slice of the range; ``spread_share`` of each batch starts at rest anywhere in
-      ``[-1.5 A, 1.5 A] x [0, 2 pi)`` like the 5 x 5 grid.
+      phase-free distance to the target ellipse, counted from ``settle_periods`` periods on) and
+      ``"phase_then_cycle"`` ([`PhaseThenCycle`][pes_ref.synthesis.kinds.oscillator.PhaseThenCycle]:
+      eq. (6) before ``settle_periods``, the cycle cost after) start the same way. ``stratified``
+      draws one torque per equal slice of the range; ``spread_share`` of each batch starts at rest
+      anywhere in ``[-1.5 A, 1.5 A] x [0, 2 pi)`` like the 5 x 5 grid.
 
     Every cost aims at ``amplitude * target_scale`` (the eq. (6) designs' cycles fall short of
     their training target, so aiming above A lands them nearer A) and adds eq. (7) with

@@ -109,9 +109,9 @@ class DesignKind:
         The ``--smoke`` preset.
     evaluate : callable
         ``(problem, values, seeds, n, engine) -> {seed: figures}``: the held-out figures
-        ([`evaluate_seeds`][pes_ref.synthesis.kinds.registry.evaluate_seeds]); ``engine`` runs the scenes on the design's surface
-        (None: the
-        surface model; [`pes_ref.synthesis.kinds.analysis`][pes_ref.synthesis.kinds.analysis]).
+        ([`evaluate_seeds`][pes_ref.synthesis.kinds.registry.evaluate_seeds]); ``engine`` runs the
+        scenes on the design's surface (None: the surface model;
+        [`pes_ref.synthesis.kinds.analysis`][pes_ref.synthesis.kinds.analysis]).
     eval_particles : callable
         ``problem -> int``: the held-out particles by default.
     held_out_steps : callable

@@ -53,9 +53,9 @@ def _uniform(rng, lower, upper, n: int) -> np.ndarray:
 class Starts(NamedTuple):
     """Where particles start: uniform in ``box`` (lower, upper), or particle ``i`` at
     ``points[i % len(points)]``; velocities uniform in ``velocity`` (lower, upper). Or in start
-    ``groups``, each a [`StartGroup`][pes_ref.synthesis.problem.design_problem.StartGroup]: a batch's particles in consecutive
-    blocks, one per
-    group, sized by the groups' shares ([`counts`][pes_ref.synthesis.problem.design_problem.Starts.counts])."""
+    ``groups``, each a [`StartGroup`][pes_ref.synthesis.problem.design_problem.StartGroup]: a
+    batch's particles in consecutive blocks, one per group, sized by the groups' shares
+    ([`counts`][pes_ref.synthesis.problem.design_problem.Starts.counts])."""
 
     box: tuple | None
     points: tuple | None

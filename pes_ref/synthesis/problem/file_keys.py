@@ -1,13 +1,13 @@
 """The keys of a problem file: each key's type, default and unit, and the one reader that checks them.
 
-A section of a problem file (``[surface]``, one ``[[objective]]`` term, ...) is declared as
-a dict ``name -> Key`` ([`pes_ref.core.runtime.keyfile.Key`][pes_ref.core.runtime.keyfile.Key], as every input file's);
-`Reader.table` checks a TOML table against it: an unknown key, a missing required one
-or a value of the wrong type raises one [`ProblemFileError`][pes_ref.synthesis.problem.file_keys.ProblemFileError] whose message
-names the
+A section of a problem file (``[surface]``, one ``[[objective]]`` term, ...) is declared as a dict
+``name -> Key`` ([`pes_ref.core.runtime.keyfile.Key`][pes_ref.core.runtime.keyfile.Key], as every
+input file's); `Reader.table` checks a TOML table against it: an unknown key, a missing required one
+or a value of the wrong type raises one
+[`ProblemFileError`][pes_ref.synthesis.problem.file_keys.ProblemFileError] whose message names the
 file and the key (``latch.toml: objective[2].weight: expected a number >= 0, got -1``). The
-converters are looked up by the key's type in `TYPES` (dispatch by data): every file's
-and a problem file's own. ``docs/problems.md`` documents every key; a test keeps the two equal.
+converters are looked up by the key's type in `TYPES` (dispatch by data): every file's and a problem
+file's own. ``docs/problems.md`` documents every key; a test keeps the two equal.
 """
 from __future__ import annotations
 

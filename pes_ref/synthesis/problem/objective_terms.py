@@ -9,12 +9,11 @@ class (dispatch by data): a class declares its file keys (``KEYS``, [`.file_keys
 builds itself from them (``from_keys``), so a new kind of term, on the states or on the
 grid, is one more entry.
 
-Every term is a sum over the particles, like the paper's eq. (5) (``cycle`` keeps eq. (6)'s
-own normalization), times its ``weight``. Positions are the unwrapped states of the
-simulation; a difference along a periodic axis is taken the short way round (the minimum
-image, [`Domain.wrap`][pes_ref.synthesis.problem.objective_terms.Domain.wrap]). Where a term is not smooth in the states the
-paper's maths
-leaves a choice, and the term takes the smooth penalty form:
+Every term is a sum over the particles, like the paper's eq. (5) (``cycle`` keeps eq. (6)'s own
+normalization), times its ``weight``. Positions are the unwrapped states of the simulation; a
+difference along a periodic axis is taken the short way round (the minimum image,
+[`Domain.wrap`][pes_ref.synthesis.problem.objective_terms.Domain.wrap]). Where a term is not smooth
+in the states the paper's maths leaves a choice, and the term takes the smooth penalty form:
 
 - ``stay_in`` charges the squared distance to the box (zero inside it), whose derivative is
   continuous at the box's faces, rather than an indicator;
@@ -338,13 +337,13 @@ def call_user(label: str, fn, *args):
 class CustomTerm:
     """A user's own objective, ``object.value_and_grad(x, v, t) -> (value, gx, gv)``, times
     ``weight``; its shapes are checked on every call
-    ([`pes_ref.core.objectives.Custom`][pes_ref.core.objectives.Custom]).
-    In a file ``object`` is ``"module:object"`` (imported and checked when the file is read,
-    [`.file_keys`][pes_ref.synthesis.problem.file_keys]); in code, the object itself. Whatever the object raises comes out as
-    one
-    [`CustomTermError`][pes_ref.synthesis.problem.objective_terms.CustomTermError] naming the term by ``label`` (``objective[1]
-    (custom 'spread',
-    mymod:SPREAD)``), except a FloatingPointError: a non-finite run, which the design stops on."""
+    ([`pes_ref.core.objectives.Custom`][pes_ref.core.objectives.Custom]). In a file ``object`` is
+    ``"module:object"`` (imported and checked when the file is read,
+    [`.file_keys`][pes_ref.synthesis.problem.file_keys]); in code, the object itself. Whatever the
+    object raises comes out as one
+    [`CustomTermError`][pes_ref.synthesis.problem.objective_terms.CustomTermError] naming the term
+    by ``label`` (``objective[1] (custom 'spread', mymod:SPREAD)``), except a FloatingPointError: a
+    non-finite run, which the design stops on."""
 
     KIND: ClassVar[str] = "custom"
     KEYS: ClassVar[dict] = {"object": Key("object"), **_WEIGHT}

@@ -7,13 +7,12 @@ one [`ProblemFileError`][pes_ref.synthesis.problem.file_keys.ProblemFileError] w
 the key (``latch.toml: objective[2].weight: expected a number >= 0, got -1``). The format is
 versioned by the top-level key ``format`` (`FORMAT`); a file of another version is refused.
 
-The same tables, as a dict, state a problem in code ([`parse_problem`][pes_ref.synthesis.problem.problem_file.parse_problem]),
-where a
-``custom`` term's ``object`` may be the object itself. [`with_sets`][pes_ref.synthesis.problem.problem_file.with_sets] changes
-keys of a
-problem by their dotted names (``--set dynamics.dt=0.005``);
-[`problem_text`][pes_ref.synthesis.problem.problem_file.problem_text] is the
-TOML text a design file embeds (the file's own text when nothing was changed).
+The same tables, as a dict, state a problem in code
+([`parse_problem`][pes_ref.synthesis.problem.problem_file.parse_problem]), where a ``custom`` term's
+``object`` may be the object itself. [`with_sets`][pes_ref.synthesis.problem.problem_file.with_sets]
+changes keys of a problem by their dotted names (``--set dynamics.dt=0.005``);
+[`problem_text`][pes_ref.synthesis.problem.problem_file.problem_text] is the TOML text a design file
+embeds (the file's own text when nothing was changed).
 """
 from __future__ import annotations
 
@@ -477,9 +476,9 @@ def _test(r: Reader, entry: dict, at: str, domain: Domain, duration: float, dt: 
 
 def _train(r: Reader, table, shape, coarse: bool) -> tuple:
     """The plan and initial grid's scale: ``[train]``'s, or without the table the default plan
-    ([`pes_ref.synthesis.common.plans.default_plan`][pes_ref.synthesis.common.plans.default_plan]; ``coarse``: it may start on coarse
-    grids, False
-    for a design that starts from drawn shapes) and ``init_scale``."""
+    ([`pes_ref.synthesis.common.plans.default_plan`][pes_ref.synthesis.common.plans.default_plan];
+    ``coarse``: it may start on coarse grids, False for a design that starts from drawn shapes) and
+    ``init_scale``."""
     if table is None:
         return default_plan(shape, coarse), TRAIN_KEYS["init_scale"].default
     t = r.table(table, "train", TRAIN_KEYS)

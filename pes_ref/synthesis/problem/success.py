@@ -1,15 +1,14 @@
 """Per-particle success tests of a problem file (``[[evaluate.success]]``): did each particle do the job?
 
 A test is a frozen object with ``passes(x, v, t, margin=0) -> (N,) bool`` on a trajectory's
-positions and velocities (T+1, N, 2) and times (T+1,) (``margin``: whether each particle
-passes with that room to spare, the surrogate's notion below; a user's own test takes none).
-A particle succeeds when it passes every test of its problem; ``evaluate`` prints the share
-that does (``success_fraction``) and the share passing each test. `SUCCESS_TESTS` maps a
-kind to its class (dispatch by data); the kinds mirror the objective terms of
-[`pes_ref.synthesis.problem.objective_terms`][pes_ref.synthesis.problem.objective_terms], each with a tolerance where the term has a
-target.
-Differences along a periodic axis are taken the short way round, times at the nearest state,
-as there.
+positions and velocities (T+1, N, 2) and times (T+1,) (``margin``: whether each particle passes with
+that room to spare, the surrogate's notion below; a user's own test takes none). A particle succeeds
+when it passes every test of its problem; ``evaluate`` prints the share that does
+(``success_fraction``) and the share passing each test. `SUCCESS_TESTS` maps a kind to its class
+(dispatch by data); the kinds mirror the objective terms of
+[`pes_ref.synthesis.problem.objective_terms`][pes_ref.synthesis.problem.objective_terms], each with
+a tolerance where the term has a target. Differences along a periodic axis are taken the short way
+round, times at the nearest state, as there.
 
 Beside each test's ``passes`` is its smooth surrogate, ``cost(x, v, t, margin) -> (c, gx,
 gv)``: ``c`` (N,) is zero exactly for a particle that passes with room to spare (``passes(...,

@@ -1,13 +1,13 @@
 """The objective a problem derives from its success tests, when its file states none.
 
-A problem file may leave out ``[[objective]]``: it is then designed on what success means.
-Each ``[[evaluate.success]]`` test becomes one state term, [`Surrogate`][pes_ref.synthesis.problem.surrogates.Surrogate], that
-charges
-the test's smooth surrogate ([`pes_ref.synthesis.problem.success`][pes_ref.synthesis.problem.success], each test's ``cost``) summed
-over the particles: zero for a particle that passes with room to spare (``[evaluate]
-margin``, a fraction of each test's tolerance), growing with the squared distance from
-passing in units of the test's tolerance, so the terms of tests of different sizes are
-comparable. The terms are named ``surrogate_NAME`` after their tests.
+A problem file may leave out ``[[objective]]``: it is then designed on what success means. Each
+``[[evaluate.success]]`` test becomes one state term,
+[`Surrogate`][pes_ref.synthesis.problem.surrogates.Surrogate], that charges the test's smooth
+surrogate ([`pes_ref.synthesis.problem.success`][pes_ref.synthesis.problem.success], each test's
+``cost``) summed over the particles: zero for a particle that passes with room to spare
+(``[evaluate] margin``, a fraction of each test's tolerance), growing with the squared distance from
+passing in units of the test's tolerance, so the terms of tests of different sizes are comparable.
+The terms are named ``surrogate_NAME`` after their tests.
 """
 from __future__ import annotations
 
