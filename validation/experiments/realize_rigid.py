@@ -9,7 +9,9 @@ a new design: ``--clearance``, a pin larger than its cut-out in the same plate, 
 ``evaluate DESIGN --realized DEVICE --engine both --seed S``. It prints one row per variant,
 candidate and seed (the design's headline figure, the parts' under eq. (1) and in rigid contact,
 each evaluation's wall time and the load) and writes them to ``OUT/realize_rigid.csv``.
-``--smoke`` designs with ``--smoke`` and evaluates 8 particles (seconds; for a try).
+``--smoke`` designs with ``--smoke`` and evaluates 8 particles (seconds; for a try). ``--only
+VARIANT``, ``--candidate CANDIDATE`` and ``--seed S`` (each repeatable) run a piece, written to
+``OUT/realize_rigid_PID.csv``; with ``--reuse`` the pieces share the designs.
 """
 from __future__ import annotations
 
@@ -47,6 +49,7 @@ CANDIDATES = {
                                                                           "0"]),
     "clearance 0.03, restitution 0.5": ((LATCH,), ["--clearance", "0.03", "--restitution", "0.5"]),
     "clearance 0.03, restitution 0.9": ((LATCH, VEE, ENVELOPE), ["--clearance", "0.03", "--restitution", "0.9"]),
+    "no clearance, restitution 1": ((ENVELOPE,), ["--clearance", "0", "--restitution", "1"]),
     "clearance 0.035, restitution 1 (latch_contact.toml's)": ((LATCH, VEE), ["--clearance", "0.035",
                                                                              "--restitution", "1"]),
 }
@@ -56,7 +59,7 @@ def _load() -> str:
     return f"{os.getloadavg()[0]:.1f}"
 
 
-def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT) -> list:
+def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT, candidates=None) -> list:
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for name, (stem, args, headline) in VARIANTS.items():
@@ -68,7 +71,7 @@ def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT) -> list
             _, t_design = _cli(["design", *args, *(["--smoke"] if smoke else []), "--quiet", "--force",
                                 "--out", str(design)])
         for i, (candidate, (applies, extra)) in enumerate(CANDIDATES.items()):
-            if name not in applies:
+            if name not in applies or (candidates and candidate not in candidates):
                 continue
             parts = out / f"{stem}_parts{i}"
             _, t_realize = _cli(["realize", str(design), "--as", "contact", "--out", str(parts), "--force",
@@ -101,12 +104,21 @@ def main(argv=None) -> int:
     p.add_argument("--smoke", action="store_true", help="smoke designs, 8 held-out particles (seconds)")
     p.add_argument("--reuse", action="store_true", help="keep a design file OUT/NAME.npz that exists")
     p.add_argument("--only", action="append", default=None, metavar="VARIANT", help="run only this variant")
+    p.add_argument("--candidate", action="append", default=None, metavar="CANDIDATE",
+                   help="run only this candidate (a key of CANDIDATES)")
     p.add_argument("--seed", action="append", type=int, default=None, help="only this held-out seed")
     args = p.parse_args(argv)
     start = time.perf_counter()
-    rows = run(args.out, args.smoke, args.reuse, args.only, tuple(args.seed or HELD_OUT))
+    for key, given, known in (("only", args.only, VARIANTS), ("candidate", args.candidate, CANDIDATES)):
+        unknown = [x for x in given or () if x not in known]
+        if unknown:
+            p.error(f"--{key} must be one of {', '.join(repr(k) for k in known)}, got {unknown[0]!r}")
+    rows = run(args.out, args.smoke, args.reuse, args.only, tuple(args.seed or HELD_OUT), args.candidate)
+    if not rows:
+        p.error("no candidate given is tried on a variant given (CANDIDATES names the variants of each)")
     print(table(rows))
-    name = "realize_rigid.csv" if not (args.only or args.seed) else f"realize_rigid_{os.getpid()}.csv"
+    piece = args.only or args.seed or args.candidate
+    name = f"realize_rigid_{os.getpid()}.csv" if piece else "realize_rigid.csv"
     _study.write_csv(args.out / name, rows)
     print(f"wrote {args.out / name} ({time.perf_counter() - start:.0f} s)")
     return 0
