@@ -1,6 +1,6 @@
 """A population of starts (pes_ref.synthesis.engine.population, Plan.starts/screen): the run's own start that
-passes some by the screen is the run itself, bit for bit, and no other start runs; otherwise the
-starts run until two pass some, the better of those (else, none passing, the start of least
+passes at least OWN_SHARE by the screen is the run itself, bit for bit, and no other start runs; otherwise the
+starts run until two pass some (the own start among them if it passes some), the better of those (else, none passing, the start of least
 validation loss) is chosen and the run goes on from it with its own batches; Ctrl-C leaves the run at its start; the plan refuses a population it cannot choose in;
 the default plan screens through its coarse stages."""
 import dataclasses
@@ -93,6 +93,30 @@ def test_the_best_of_the_first_starts_that_pass_some_is_chosen(monkeypatch):
     assert chosen == min(judged)[2] or judged[0][0] < min(judged[1:])[0]      # a passing start, the best of them
     np.testing.assert_array_equal(st.values, grids[chosen])
     assert st.iteration == 6 and st.status == "running" and st.validation["success"] == [-judged[chosen][0]]
+
+
+def test_an_own_start_that_passes_less_than_its_share_is_compared_with_the_others(monkeypatch):
+    made = _counting(monkeypatch)
+    plan = dataclasses.replace(POPULATION, starts=4)
+    st = synthesis.new_design(SMALL, seed=0, plan=plan, polish=None)
+    population.screen_starts(st)
+    seeds = [0] + [population.start_seed(0, j) for j in (1, 2, 3)]
+    judged, grids = [], []
+    for j, seed in enumerate(seeds):                     # each start by hand, judged on the run's particles
+        member = synthesis.new_design(SMALL, seed=seed, plan=plan, polish=None)
+        synthesis.run_design(member, 6, finish=False)
+        if j == 0:                                       # the case this test is about
+            assert 0.0 < member.best.success < population.OWN_SHARE
+        if member.best.success > 0.0:
+            success, _ = validation_success(SMALL, member.values, 0, 16)
+            judged.append((-success, design_step(SMALL, member.values, 0, VALIDATION_STREAM, 16)[0], j))
+            grids.append(member.values)
+        if len(judged) == population.COMPARED:
+            break
+    assert made == seeds[1:j + 1]                        # screened until two pass some, the own start one of them
+    chosen = min(judged)
+    np.testing.assert_array_equal(st.values, grids[judged.index(chosen)])
+    assert st.iteration == 6 and st.status == "running" and st.validation["success"] == [-chosen[0]]
 
 
 def test_ctrl_c_during_the_screen_leaves_the_run_at_its_start(tmp_path):
