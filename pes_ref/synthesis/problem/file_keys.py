@@ -11,13 +11,27 @@ file's own. ``docs/problems.md`` documents every key; a test keeps the two equal
 """
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import os
 import sys
 
 from pes_ref.core.runtime.keyfile import REQUIRED, TYPES as FILE_TYPES, Key, KeyFileError, KeyReader, show
 
-__all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES", "import_object"]
+__all__ = ["Key", "REQUIRED", "Reader", "ProblemFileError", "TYPES", "import_object", "from_table"]
+
+
+#: The fields of a table's class whose file key is a Python keyword: ``from`` and ``to``.
+FIELD_KEYS = {"start": "from", "end": "to"}
+
+
+def from_table(cls, keys: dict, domain, duration: float):
+    """An instance of ``cls``, a dataclass that declares a table's ``KEYS`` (an objective term, a
+    success test), from that table's checked keys: each field takes the key of its name (`FIELD_KEYS`:
+    ``start`` and ``end`` take ``from`` and ``to``), a field ``domain`` the problem's ``domain``. A
+    class whose fields are not its keys so has a ``from_keys`` of its own; ``duration`` is for those."""
+    return cls(**{f.name: domain if f.name == "domain" else keys[FIELD_KEYS.get(f.name, f.name)]
+                  for f in dataclasses.fields(cls)})
 
 
 class ProblemFileError(KeyFileError):

@@ -36,7 +36,7 @@ import numpy as np
 
 from pes_ref.core.objectives import Custom, Oscillator, regularization
 from pes_ref.synthesis.common.exits import exit_steps
-from pes_ref.synthesis.problem.file_keys import Key
+from pes_ref.synthesis.problem.file_keys import Key, from_table
 
 __all__ = ["Domain", "EDGES", "OBJECTIVE_TERMS", "TermSum", "FinalPosition", "PositionAt", "StayIn", "SpeedAt",
            "Cycle", "Exit", "Regularization", "CustomTerm", "CustomTermError", "call_user", "excess", "step_at", "window_steps"]
@@ -116,11 +116,7 @@ class FinalPosition:
     weight: float
     domain: Domain
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
-        problem file's reader builds every term (this module's docstring)."""
-        return cls(keys["target"], keys["weight"], domain)
+    from_keys = classmethod(from_table)
 
     def value_and_grad(self, x, v, t):
         """The term and its ``gx`` (``gv`` is None); a state term: the objective protocol of
@@ -139,11 +135,7 @@ class PositionAt:
     weight: float
     domain: Domain
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
-        problem file's reader builds every term (this module's docstring)."""
-        return cls(keys["time"], keys["target"], keys["weight"], domain)
+    from_keys = classmethod(from_table)
 
     def value_and_grad(self, x, v, t):
         """The term and its ``gx`` (``gv`` is None; 0 and no derivative when ``time`` is after the run's end);
@@ -182,11 +174,7 @@ class StayIn:
     weight: float
     domain: Domain
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
-        problem file's reader builds every term (this module's docstring)."""
-        return cls(keys["lower"], keys["upper"], keys["from"], keys["to"], keys["weight"], domain)
+    from_keys = classmethod(from_table)
 
     def offsets(self, x: np.ndarray) -> np.ndarray:
         """How far each state lies outside the box, per axis (..., 2)."""
@@ -220,11 +208,7 @@ class SpeedAt:
     target: float
     weight: float
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
-        problem file's reader builds every term (this module's docstring)."""
-        return cls(keys["time"], keys["axis"], keys["target"], keys["weight"])
+    from_keys = classmethod(from_table)
 
     def value_and_grad(self, x, v, t):
         """The term and its ``gv`` (``gx`` is None; 0 and no derivative when ``time`` is after the run's end);
@@ -251,11 +235,7 @@ class Cycle:
     axis: int
     weight: float
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
-        problem file's reader builds every term (this module's docstring)."""
-        return cls(keys["amplitude"], keys["omega"], keys["axis"], keys["weight"])
+    from_keys = classmethod(from_table)
 
     def value_and_grad(self, x, v, t):
         """Eq. (6) on ``axis`` times ``weight``, with its ``gx`` and ``gv``; a state term: the objective
@@ -291,11 +271,7 @@ class Exit:
         if self.domain.periodic[EDGES[self.edge][0]]:
             raise ValueError(f"edge {self.edge!r} is on a periodic axis, which has no edge to leave by")
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
-        problem file's reader builds every term (this module's docstring)."""
-        return cls(keys["edge"], keys["center"], keys["halfwidth"], keys["weight"], domain)
+    from_keys = classmethod(from_table)
 
 
     def steps(self, x: np.ndarray):
@@ -379,11 +355,7 @@ class Regularization:
     KEYS: ClassVar[dict] = {"R": Key("nonneg", unit="1/energy")}
     R: float
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The term from its ``[[objective]]`` entry's checked keys (``KEYS``), on ``domain``; how the
-        problem file's reader builds every term (this module's docstring)."""
-        return cls(keys["R"])
+    from_keys = classmethod(from_table)
 
     def grid_value_and_grad(self, values):
         """``(R sum_ij G_ij^2, 2 R G)`` of the grid ``values`` (``(0.0, None)`` when R is 0); a grid term

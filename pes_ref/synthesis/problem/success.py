@@ -27,7 +27,7 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
-from pes_ref.synthesis.problem.file_keys import Key
+from pes_ref.synthesis.problem.file_keys import Key, from_table
 from pes_ref.synthesis.problem.objective_terms import (EDGES, CustomTermError, Domain, Exit, StayIn, call_user, excess,
                                                        step_at, window_steps)
 
@@ -98,12 +98,7 @@ class FinalPositionTest:
     radius: float
     domain: Domain
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
-        the problem file's reader builds every test, as it builds the objective terms
-        ([`pes_ref.synthesis.problem.objective_terms`][pes_ref.synthesis.problem.objective_terms])."""
-        return cls(keys["target"], keys["radius"], domain)
+    from_keys = classmethod(from_table)
 
     def region(self) -> tuple:
         """``(lower, upper)``: the box around the disc a particle must reach (the domain check's)."""
@@ -133,12 +128,7 @@ class PositionAtTest:
     radius: float
     domain: Domain
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
-        the problem file's reader builds every test, as it builds the objective terms
-        ([`pes_ref.synthesis.problem.objective_terms`][pes_ref.synthesis.problem.objective_terms])."""
-        return cls(keys["time"], keys["target"], keys["radius"], domain)
+    from_keys = classmethod(from_table)
 
     def region(self) -> tuple:
         """``(lower, upper)``: the box around the disc a particle must reach (the domain check's)."""
@@ -223,12 +213,7 @@ class WithinTest:
     end: float
     domain: Domain
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
-        the problem file's reader builds every test, as it builds the objective terms
-        ([`pes_ref.synthesis.problem.objective_terms`][pes_ref.synthesis.problem.objective_terms])."""
-        return cls(keys["center"], keys["radius"], keys["from"], keys["to"], domain)
+    from_keys = classmethod(from_table)
 
     def region(self) -> tuple:
         """``(lower, upper)``: the box around the disc a particle must reach (the domain check's)."""
@@ -360,12 +345,7 @@ class CrossTest:
         if self.a == self.b:
             raise ValueError(f"a and b are the same point {list(self.a)}: a segment has two ends")
 
-    @classmethod
-    def from_keys(cls, keys: dict, domain: Domain, duration: float):
-        """The test from its ``[[evaluate.success]]`` entry's checked keys (``KEYS``), on ``domain``; how
-        the problem file's reader builds every test, as it builds the objective terms
-        ([`pes_ref.synthesis.problem.objective_terms`][pes_ref.synthesis.problem.objective_terms])."""
-        return cls(keys["a"], keys["b"], keys["from"], keys["to"], domain)
+    from_keys = classmethod(from_table)
 
     def region(self) -> tuple:
         """``(lower, upper)``: the box around the segment a particle must cross (the domain check's)."""
