@@ -82,9 +82,10 @@ realize-study: $(STAMP)
 realize-oscillator: $(STAMP)
 	$(PY) validation/experiments/realize_study.py --oscillator --out validation/out/realize_oscillator
 
-# docs/realize.md's "Parts under the rigid engine": the latch, three realizable funnels and the
-# oscillator realized by contact, each (and the candidates tried) evaluated under eq. (1) and in
-# rigid contact on held-out seeds 12345 and 9191 (needs pymunk: the extra rigid).
+# docs/realize.md's "Parts under the rigid engine" and "Realizable design for any problem": the
+# latch, three realizable funnels, the oscillator and the example problems designed from their
+# paths (design seeds 0-3) realized by contact, each (and the candidates tried) evaluated under
+# eq. (1) and in rigid contact on held-out seeds 12345 and 9191 (needs pymunk: the extra rigid).
 realize-rigid: $(STAMP)
 	$(PY) validation/experiments/realize_rigid.py
 

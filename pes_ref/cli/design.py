@@ -181,14 +181,13 @@ def _run_design(args) -> int:
         inputs = design_inputs(base, vars(args), kind.parse_sets(args.set))
         workers = polish_workers(args.workers, inputs, args.smoke)
         executor = polish_pool(workers, inputs, kind.name)
-        state = start_design(inputs, seed=args.seed, backend=args.backend, resume=state, where=args.resume)
         if args.resume is not None:
             out = args.out if args.out is not None else args.resume
             may_overwrite = args.force or os.path.abspath(out) == os.path.abspath(args.resume)
         else:
             out = args.out if args.out is not None else f"{getattr(inputs.problem, 'name', kind.name)}.npz"
             may_overwrite = args.force
-        output_file(out, "design", force=may_overwrite)
+        output_file(out, "design", force=may_overwrite)      # before a start that takes a run of its own
     except (OSError, ValueError, TypeError, ImportError) as exc:   # ImportError: a missing extra, with its pip line
         return error(exc, flags)
     for line in getattr(inputs.problem, "warnings", ()):       # a problem file's, before the run
@@ -198,6 +197,22 @@ def _run_design(args) -> int:
 
     shown = []                          # the stages shown so far
     lines = ProgressWriter()            # in place at a terminal, plain lines elsewhere
+
+    def start_progress(p):
+        if not args.quiet:
+            p.label = f"start (smooth design): {p.label}"
+            lines.show(p)
+
+    try:
+        if args.resume is None and synthesis.needs_paths_start(inputs.problem) and not args.quiet:
+            lines.note(f"{inputs.problem.name}: its start is made from the passing paths of a smooth design of "
+                       f"the same problem (docs/realize.md, \"Realizable design for any problem\")")
+        state = start_design(inputs, seed=args.seed, backend=args.backend, resume=state, where=args.resume,
+                             start_callback=start_progress)
+        lines.end()
+    except (OSError, ValueError, TypeError, ImportError) as exc:
+        lines.end()
+        return error(exc, flags)
 
     def progress(p):
         if args.quiet:

@@ -29,7 +29,8 @@ import numpy as np
 
 from pes_ref.core import checks
 from pes_ref.devices.geometry import Drum
-from pes_ref.realize.regions import Region, region_polygons
+from pes_ref.devices.contours import region_polygons
+from pes_ref.realize.regions import Region
 
 __all__ = ["Parts", "Follower", "pin_in_plate", "drum_cam", "FOLLOWERS", "follower_for", "plate_outline_tolerance",
            "DRUM_RADIUS", "PIN_IN_PLATE", "DRUM_CAM"]

@@ -19,16 +19,12 @@ Each rule also gives its neighbouring levels (`Region.neighbours`), which the co
 reports beside the chosen one: how much of the C-space changes side.
 
 The region is the set ``{phi < 0}`` of a level function ``phi`` on the surface's grid (``E_c - E``,
-or the level set plus ``r_c``), its boundary the zero contour of ``phi`` interpolated linearly along
-the grid's edges (contourpy's filled contours, the same marching squares as
-[`pes_ref.devices.boundary.boundary_segments`][pes_ref.devices.boundary.boundary_segments] apart
-from the choice in a cell with two blocked corners on a diagonal), drawn past the grid's edges by
-repeating the edge values (a surface extends as a constant beyond a non-periodic edge) and round a
-periodic axis by wrapping. Nodes a problem holds (its design mask is 0) are free.
+or the level set plus ``r_c``), drawn as polygons by
+[`pes_ref.devices.contours.region_polygons`][pes_ref.devices.contours.region_polygons]. Nodes a
+problem holds (its design mask is 0) are free.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,7 +34,7 @@ from pes_ref.core.surface import Surface, spacing as grid_spacing
 from pes_ref.devices.cspace import apf_energy
 from pes_ref.synthesis.common.resampling import resample
 
-__all__ = ["Region", "contact_region", "CONTACT_RULES", "VISITED_QUANTILE", "VISITED_SEED", "region_polygons"]
+__all__ = ["Region", "contact_region", "CONTACT_RULES", "VISITED_QUANTILE", "VISITED_SEED"]
 
 #: The ``"visited"`` rule's quantile of the energies the design's own particles reach.
 VISITED_QUANTILE = 0.99
@@ -156,38 +152,3 @@ def contact_region(problem, values, rule: str | None = None, level: float | None
                   np.asarray(problem.upper, dtype=np.float64), tuple(bool(p) for p in problem.periodic), neighbours)
 
 
-# --------------------------------------------------------------------------- polygons
-
-def region_polygons(phi, lower, upper, periodic, margin: float):
-    """The region ``{phi < 0}`` as shapely polygons in (q0, q1), drawn ``margin`` past the grid's
-    edges (repeating the edge values on a non-periodic axis, wrapping a periodic one).
-
-    Returns ``(geometry, box)``: a (Multi)Polygon (empty if nothing is blocked) and the box
-    ``(lower, upper)`` it is drawn in.
-    """
-    import contourpy
-    from pes_ref.realize.extra import require_realize
-    shapely = require_realize()["shapely"]
-    phi = np.asarray(phi, dtype=np.float64)
-    lower = np.asarray(lower, dtype=np.float64)
-    h = grid_spacing(lower, np.asarray(upper, dtype=np.float64), phi.shape, np.asarray(periodic))
-    pads = [int(math.ceil(margin / h[d])) + 1 for d in range(2)]
-    padded = phi
-    for d in range(2):
-        width = [(0, 0), (0, 0)]
-        width[d] = (pads[d], pads[d])
-        padded = np.pad(padded, width, mode="wrap" if periodic[d] else "edge")
-    nodes = [lower[d] + h[d] * (np.arange(padded.shape[d]) - pads[d]) for d in range(2)]
-    box_lo = np.array([nodes[0][0], nodes[1][0]])
-    box_hi = np.array([nodes[0][-1], nodes[1][-1]])
-    if not (padded < 0).any():
-        return shapely.Polygon(), (box_lo, box_hi)
-    gen = contourpy.contour_generator(nodes[0], nodes[1], padded.T, fill_type="OuterOffset")
-    points, offsets = gen.filled(-np.inf, 0.0)
-    polys = []
-    for pts, off in zip(points, offsets):
-        rings = [pts[a:b] for a, b in zip(off[:-1], off[1:])]
-        poly = shapely.Polygon(rings[0], rings[1:])
-        polys.append(poly if poly.is_valid else shapely.make_valid(poly))
-    geom = shapely.union_all(polys)
-    return shapely.normalize(geom), (box_lo, box_hi)

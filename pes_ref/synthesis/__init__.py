@@ -47,6 +47,7 @@ from pes_ref.synthesis.engine.polish import (PolishParticles, PolishResult, capt
 from pes_ref.synthesis.engine.stages import run_stages
 from pes_ref.synthesis.engine.design_file import (DesignFileError, design_arrays, first_difference, load_design,
                                                   save_design)
+from pes_ref.synthesis.engine.paths_start import needs_paths_start, paths_start
 from pes_ref.synthesis.engine.runs import (DESIGN_OPTIONS, DesignInputs, check_resume, design_inputs, run_to_file,
                                            start_design)
 
@@ -65,7 +66,7 @@ __all__ = [
     "phase_space", "cycle_figures", "q1_advance", "evaluate", "evaluate_seeds", "CYCLE_TOLERANCE", "CYCLE_DRIFT",
     "ANALYSIS_PERIODS",
     "legendre_fourier_basis", "PolishParticles", "polish_particles", "capture_fitness", "PolishResult", "polish",
-    "run_stages",
+    "run_stages", "needs_paths_start", "paths_start",
     "escapement_values",
     "KINDS", "DesignKind", "Realizable", "kind_of", "kind_named", "held_out_steps", "held_out_panels",
     "DESIGN_OPTIONS", "DesignInputs", "design_inputs", "start_design", "check_resume", "run_to_file",

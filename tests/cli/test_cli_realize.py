@@ -206,3 +206,23 @@ def test_realize_without_pymunk_says_the_rigid_score_is_not_run_with_the_pip_lin
     got = figures(out)
     assert "realized_in_band_fraction" in got
     assert got["rigid_in_band_fraction"].startswith("not run") and "pip install 'pes_ref[rigid]'" in out
+
+
+def test_an_example_that_draws_no_shape_is_designed_from_its_paths_realized_and_run_rigid(capsys, tmp_path):
+    from _helpers import ROOT
+    example = ROOT / "examples" / "problems" / "lanes_parts.toml"
+    design_file, parts = tmp_path / "lanes.npz", tmp_path / "parts"
+    code, out, err = run(capsys, "design", str(example), "--smoke", "--progress", "0", "--out", str(design_file))
+    assert code == EXIT_OK, err
+    assert "lanes_parts: its start is made from the passing paths of a smooth design" in err
+    assert "start (smooth design): design lanes_parts" in err
+    code, out, err = run(capsys, "realize", str(design_file), "--as", "contact", "--out", str(parts),
+                         "--particles", "4")
+    assert code == EXIT_OK, err
+    assert "the pin is made 0.04 larger" in out                     # the file's clearance
+    code, out, err = run(capsys, "evaluate", str(design_file), "--realized", str(parts / "device.toml"),
+                         "--engine", "both", "--particles", "6")
+    assert code == EXIT_OK, err
+    got = figures(out)
+    assert 0.0 <= float(got["rigid_success_fraction"]) <= 1.0
+    assert got["rigid_starts_blocked"] == "0"                        # every start is free in the parts

@@ -52,10 +52,11 @@ def test_the_latch_study_writes_a_row_per_held_out_seed(tmp_path, capsys):
         assert 0.0 <= float(r["realized_success_fraction"]) <= 1.0
 
 
-def test_the_smoke_rigid_study_writes_both_engines_scores_per_candidate_and_seed(tmp_path, capsys):
+@pytest.mark.parametrize("name, shares", [("funnel, realizable, V start, linger 20", "-"),
+                                          ("splitter_parts, design seed 0", "of 2")])
+def test_the_smoke_rigid_study_writes_both_engines_scores_per_candidate_and_seed(tmp_path, capsys, name, shares):
     pytest.importorskip("pymunk")
     rigid = load_script(ROOT / "validation" / "experiments" / "realize_rigid.py")
-    name = "funnel, realizable, V start, linger 20"
     assert rigid.main(["--smoke", "--out", str(tmp_path), "--only", name]) == 0
     out = capsys.readouterr().out
     tried = [c for c, (applies, _) in rigid.CANDIDATES.items() if name in applies]
@@ -64,3 +65,4 @@ def test_the_smoke_rigid_study_writes_both_engines_scores_per_candidate_and_seed
     assert [r["candidate"] for r in rows] == [c for c in tried for _ in rigid.HELD_OUT]
     for r in rows:
         assert 0.0 <= float(r["soft"]) <= 1.0 and 0.0 <= float(r["rigid"]) <= 1.0
+        assert r["rigid_shares"].endswith(shares)             # the splitter's two [[evaluate.share]] criteria

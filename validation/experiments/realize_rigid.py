@@ -8,7 +8,10 @@ a new design: ``--clearance``, a pin larger than its cut-out in the same plate, 
 ``--restitution``) and for each held-out seed
 ``evaluate DESIGN --realized DEVICE --engine both --seed S``. It prints one row per variant,
 candidate and seed (the design's headline figure, the parts' under eq. (1) and in rigid contact,
-each evaluation's wall time and the load) and writes them to ``OUT/realize_rigid.csv``.
+each evaluation's wall time and the load) and writes them to ``OUT/realize_rigid.csv``. The
+variants are the shipped designs of docs/realize.md's "Parts under the rigid engine" and, for its
+"Realizable design for any problem", the example problems designed from their paths
+(`PATHS_PROBLEMS`, design seeds `PATHS_SEEDS`), realized with their files' parts.
 ``--smoke`` designs with ``--smoke`` and evaluates 8 particles (seconds; for a try). ``--only
 VARIANT``, ``--candidate CANDIDATE`` and ``--seed S`` (each repeatable) run a piece, written to
 ``OUT/realize_rigid_PID.csv``; with ``--reuse`` the pieces share the designs.
@@ -41,10 +44,20 @@ VARIANTS = {
 }
 LATCH, VEE = "latch_contact (shipped plan)", "funnel, realizable, V start, linger 20"
 ENVELOPE = "funnel, realizable, default plan (envelope)"
+#: The example problems designed as parts from no drawn shape (their start the passing paths of a
+#: smooth design, `pes_ref.synthesis.engine.paths_start`), each on design seeds 0-3.
+PATHS_PROBLEMS = ("offcentre_parts", "lanes_parts", "splitter_parts")
+PATHS_SEEDS = (0, 1, 2, 3)
+PATHS = tuple(f"{name}, design seed {seed}" for name in PATHS_PROBLEMS for seed in PATHS_SEEDS)
+VARIANTS.update({f"{name}, design seed {seed}": (f"{name}_s{seed}", [str(ROOT / "examples" / "problems" / f"{name}.toml"),
+                                                                       "--seed", str(seed)], "success_fraction")
+                 for name in PATHS_PROBLEMS for seed in PATHS_SEEDS})
+OWN = tuple(v for v in VARIANTS if v not in PATHS)
 #: candidate -> (the variants it is tried on, the realize command's extra arguments): what a
 #: machinist can choose without a new design (a pin larger than its cut-out, the parts' restitution).
 CANDIDATES = {
-    "pin 0.02, no clearance, inelastic": (tuple(VARIANTS), ["--clearance", "0", "--restitution", "0"]),
+    "pin 0.02, no clearance, inelastic": (OWN, ["--clearance", "0", "--restitution", "0"]),
+    "the problem file's parts (its [surface.contact]: clearance 0.04, inelastic)": (PATHS, []),
     "clearance 0.03 (pin 0.05, the same plate)": ((LATCH, VEE, ENVELOPE), ["--clearance", "0.03", "--restitution",
                                                                           "0"]),
     "clearance 0.03, restitution 0.5": ((LATCH,), ["--clearance", "0.03", "--restitution", "0.5"]),
@@ -53,6 +66,12 @@ CANDIDATES = {
     "clearance 0.035, restitution 1 (latch_contact.toml's)": ((LATCH, VEE), ["--clearance", "0.035",
                                                                              "--restitution", "1"]),
 }
+
+
+def _shares(figures: dict) -> str:
+    """The rigid run's ``[[evaluate.share]]`` criteria: ``"2 of 2"`` met, or ``"-"`` (none)."""
+    met = [v for k, v in figures.items() if k.startswith("rigid_share_") and k.endswith("_met")]
+    return f"{sum(float(v) == 1.0 for v in met)} of {len(met)}" if met else "-"
 
 
 def _load() -> str:
@@ -86,6 +105,7 @@ def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT, candida
                              "design": f[headline], "soft": f[f"realized_{headline}"],
                              "rigid": f[f"rigid_{headline}"], "rigid_dt": f["rigid_dt"],
                              "blocked_starts": f.get("rigid_starts_blocked", "0"),
+                             "rigid_shares": _shares(f),
                              "design_s": f"{t_design:.1f}", "realize_s": f"{t_realize:.1f}",
                              "evaluate_s": f"{t_eval:.1f}", "load": f"{load}-{_load()}"})
                 print(" | ".join(str(v) for v in rows[-1].values()), flush=True)
@@ -94,7 +114,7 @@ def run(out: Path, smoke: bool, reuse: bool, names=None, seeds=HELD_OUT, candida
 
 def table(rows: list) -> str:
     head = ["variant", "candidate", "seed", "figure", "design", "soft (eq. (1))", "rigid", "rigid dt",
-            "starts in the parts", "design s", "realize s", "evaluate s (both engines)", "load"]
+            "starts in the parts", "rigid shares met", "design s", "realize s", "evaluate s (both engines)", "load"]
     return _study.markdown(head, list(rows[0]), rows)
 
 

@@ -20,7 +20,7 @@ from pes_ref.core import backends, checks
 from pes_ref.synthesis.kinds.registry import kind_named
 from pes_ref.synthesis.common.plans import Plan, PolishPlan
 from pes_ref.synthesis.engine.refusals import check_run_memory, check_stable_design
-from pes_ref.synthesis.common.validation import Best
+from pes_ref.synthesis.common.validation import Best, on_grid
 
 __all__ = ["DesignState", "new_design", "STOPPED", "STAGES"]
 
@@ -108,7 +108,7 @@ class DesignState:
 
 
 def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan | None = None,
-               backend: str | None = None, **params) -> DesignState:
+               backend: str | None = None, start_values=None, **params) -> DesignState:
     """A fresh run of a problem ``kind`` (a problem object: a
     [`DesignProblem`][pes_ref.synthesis.problem.design_problem.DesignProblem] from a problem file or built in code,
     a [`FunnelProblem`][pes_ref.synthesis.kinds.funnel.FunnelProblem] or
@@ -120,6 +120,9 @@ def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan
     default polish stage (`pes_ref.synthesis.kinds.registry.DesignKind.default_polish`); with a
     ``plan`` it has the ``polish`` given (None: the gradient stage alone). ``backend`` (None:
     [`pes_ref.core.backends.default_backend`][pes_ref.core.backends.default_backend]) runs it.
+    ``start_values`` (a grid of the problem's) is the start made elsewhere (a realizable problem
+    file's without drawn shapes: [`pes_ref.synthesis.engine.paths_start`][pes_ref.synthesis.engine.paths_start]),
+    resampled to the plan's first grid; None: the problem's ``initial_values``.
     """
     seed = checks.as_nonneg_int("seed", seed)
     backend = backends.check_backend(backend)
@@ -140,7 +143,8 @@ def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan
         plan, polish = entry.default_plan(problem), entry.default_polish if polish is None else polish
     check_run_memory(problem, plan, polish)         # before the first grid is made
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
-    values = problem.initial_values(rng, plan.grid_at(0, problem))
+    shape = plan.grid_at(0, problem)
+    values = problem.initial_values(rng, shape) if start_values is None else on_grid(problem, start_values, shape)
     problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
     state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish, backend=backend)
     check_stable_design(state)

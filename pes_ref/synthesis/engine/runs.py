@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from typing import Mapping, NamedTuple
+from typing import Callable, Mapping, NamedTuple
 
 from pes_ref.core import backends
 from pes_ref.core.checks import InputError
@@ -25,6 +25,7 @@ from pes_ref.synthesis.engine.design_state import STOPPED, DesignState, new_desi
 from pes_ref.synthesis.kinds.registry import kind_of
 from pes_ref.synthesis.common.plans import Plan
 from pes_ref.synthesis.engine.refusals import check_design_memory, check_stable_design
+from pes_ref.synthesis.engine.paths_start import needs_paths_start, paths_start
 from pes_ref.synthesis.engine.stages import run_stages, set_polish
 
 __all__ = ["DESIGN_OPTIONS", "POLISH_OPTIONS", "DesignInputs", "design_inputs", "plan_overrides", "parse_stages",
@@ -196,8 +197,12 @@ def _dotted(data: dict, name: str):
 
 def start_design(inputs: DesignInputs, *, seed: int | None = None, backend: str | None = None,
                  resume: DesignState | None = None, where: str = "the resumed design",
-                 exact: bool = False) -> DesignState:
+                 exact: bool = False, start_callback: Callable | None = None) -> DesignState:
     """The run ``inputs`` names: a fresh one (seed ``seed``, default 0), or ``resume`` continued.
+
+    A fresh run of a realizable problem file that draws no starting shape starts from its smooth
+    design's paths ([`pes_ref.synthesis.engine.paths_start`][pes_ref.synthesis.engine.paths_start]),
+    that smooth design's progress going to ``start_callback``.
 
     A resumed run keeps its problem, seed, optimizer and backend (each given one must be its
     own: [`check_resume`][pes_ref.synthesis.engine.runs.check_resume]) and its plan and polish, with the options given applied
@@ -211,8 +216,12 @@ def start_design(inputs: DesignInputs, *, seed: int | None = None, backend: str 
         A resumed design of another run, or an option that contradicts it (one line naming it).
     """
     if resume is None:
-        return new_design(inputs.problem, seed=0 if seed is None else seed, plan=inputs.plan(),
-                          polish=inputs.polish(), backend=backend)
+        seed = 0 if seed is None else seed
+        plan, start = inputs.plan(), None
+        if needs_paths_start(inputs.problem):
+            start, _ = paths_start(inputs.problem, seed, plan.iterations, backend, callback=start_callback)
+        return new_design(inputs.problem, seed=seed, plan=plan, polish=inputs.polish(), backend=backend,
+                          start_values=start)
     state = resume
     if exact:
         if state.problem != inputs.problem or state.plan != inputs.plan() or state.seed != seed or \

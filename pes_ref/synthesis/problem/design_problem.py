@@ -34,6 +34,7 @@ from pes_ref.core.scene import Scene, simulate
 from pes_ref.core.surface import Surface, spacing as grid_spacing
 from pes_ref.synthesis.problem.file_keys import Key
 from pes_ref.synthesis.problem.objective_terms import Domain, TermSum
+from pes_ref.synthesis.problem.paths_region import smoothed_values
 from pes_ref.synthesis.problem.problem_contact import signed_distance
 from pes_ref.synthesis.common.problems import Batch, _Problem
 from pes_ref.synthesis.problem.success import passes_all
@@ -237,11 +238,26 @@ class DesignProblem(_Problem):
         shapes ``[surface.contact] blocked`` ([`pes_ref.synthesis.problem.problem_contact`][pes_ref.synthesis.problem.problem_contact])."""
         if self.level_set is None:
             return super().initial_values(rng, shape)
+        if self.paths_start:
+            raise ValueError(f"{self.name}: a realizable design that draws no blocked shapes starts from its smooth "
+                             f"design's paths; start it with pes_ref.synthesis.start_design (what design runs)")
         spacing = grid_spacing(np.asarray(self.lower, dtype=np.float64), np.asarray(self.upper, dtype=np.float64),
                                shape, np.asarray(self.periodic))
         d = signed_distance(self.contact.blocked, self.nodes(shape, 0), self.nodes(shape, 1), self.lower, self.upper,
                             self.periodic, spacing)
         return self.level_set.from_distance(d) * self.mask(shape)
+
+    @property
+    def paths_start(self) -> bool:
+        """Whether the design is a realizable one that draws no starting shape: it starts from
+        its smooth design's paths ([`pes_ref.synthesis.engine.paths_start`][pes_ref.synthesis.engine.paths_start])
+        and ends on its shape smoothed as that start is."""
+        return self.level_set is not None and not self.contact.blocked
+
+    def final_values(self, values) -> np.ndarray:
+        """The grid a finished run delivers: ``values``, or for a design from its paths its shape
+        smoothed ([`pes_ref.synthesis.problem.paths_region.smoothed_values`][pes_ref.synthesis.problem.paths_region.smoothed_values])."""
+        return smoothed_values(self, values) if self.paths_start else values
 
     def plain(self) -> "DesignProblem":
         """This problem with its grid values the surface's energies (a realizable design's level

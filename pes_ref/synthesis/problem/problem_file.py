@@ -299,9 +299,6 @@ def _contact(r: Reader, table, surface: dict) -> Contact | None:
                                           f"({r_min:g}), got {keys['r_c']:g}")
     elif not r_min < keys["r_c"]:
         r.fail("surface.contact.r_min", f"expected r_min < r_c = {keys['r_c']:g}, got {r_min:g}")
-    if keys["realizable"] and keys["blocked"] is None:
-        r.fail("surface.contact.blocked", "missing: a realizable design starts from blocked shapes (a level set's "
-                                          "walls grow only from walls)")
     if not keys["realizable"] and keys["blocked"] is not None:
         r.fail("surface.contact.blocked", "is the starting shape of a realizable design; set "
                                           "surface.contact.realizable = true, or leave blocked out")

@@ -1,0 +1,96 @@
+"""A realizable problem file that draws no shape starts from its smooth design's paths (engine.paths_start)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pes_ref import synthesis
+from pes_ref.synthesis import design_inputs, needs_paths_start, paths_start, problem_from_text, start_design
+from pes_ref.synthesis.engine import runs
+
+pytest.importorskip("shapely")
+
+#: Particles dropped along the top of a 2 x 2 plane leave its open bottom edge, in the band
+#: 0 < q0 < 0.6 to pass. ``{contact}`` is the ``[surface.contact]`` table's extra lines.
+TEXT = """format = 1
+name = "drop"
+[surface]
+lower = [-1.0, 0.0]
+upper = [1.0, 2.0]
+shape = [16, 16]
+[surface.contact]
+v = 1e-4
+r_c = 0.1
+{contact}
+[[surface.hold]]
+lower = [-1.0, 1.8]
+upper = [1.0, 2.0]
+[dynamics]
+dt = 0.02
+n_steps = 150
+damping = 1.0
+walls = {{ k = 100.0, margin = 0.05, edges = [[true, true], [false, true]] }}
+[starts]
+box = {{ lower = [-0.9, 1.9], upper = [0.9, 1.9] }}
+[[forces]]
+kind = "constant"
+force = [0.0, -1.0]
+[[forces]]
+kind = "noise"
+std = 0.1
+[[evaluate.success]]
+kind = "exit"
+edge = "q1_lower"
+center = 0.3
+halfwidth = 0.3
+"""
+DRAWN = 'blocked = [{ rectangle = { lower = [-1.0, 0.0], upper = [-0.5, 0.5] } }]'
+
+
+def drop(contact="realizable = true"):
+    return problem_from_text(TEXT.format(contact=contact))
+
+
+@pytest.mark.parametrize("contact, needs", [("realizable = true", True), (f"realizable = true\n{DRAWN}", False),
+                                            ("", False)])
+def test_only_a_realizable_file_without_drawn_shapes_starts_from_paths(contact, needs):
+    assert needs_paths_start(drop(contact)) is needs
+
+
+def test_the_funnel_and_a_file_without_contact_draw_their_own_starts():
+    assert not needs_paths_start(synthesis.FunnelProblem(realizable=True))
+    plain = problem_from_text(TEXT.format(contact="").replace("[surface.contact]\nv = 1e-4\nr_c = 0.1\n\n", ""))
+    assert plain.contact is None
+    assert not needs_paths_start(plain)
+
+
+def test_the_start_is_the_same_to_the_bit_free_at_the_starts_and_blocked_where_no_path_goes():
+    problem = drop()
+    a, smooth = paths_start(problem, 3, 4)
+    b, _ = paths_start(problem, 3, 4)
+    np.testing.assert_array_equal(a, b)
+    assert smooth.iteration == 4 and smooth.problem.level_set is None      # the smooth design: energies
+    phi = a + problem.contact.r_c                                           # free where phi >= 0
+    q0, q1 = (problem.nodes(problem.shape(), d) for d in (0, 1))
+    top = np.abs(q1 - 1.9).argmin()
+    assert np.all(phi[np.abs(q0) <= 0.9, top] >= 0.0)                        # every start is free
+    assert phi[np.abs(q0 + 0.95).argmin(), np.abs(q1 - 0.1).argmin()] < 0.0  # far left of the band, low down
+    other, _ = paths_start(problem, 4, 4)
+    assert not np.array_equal(a, other)
+
+
+def test_a_fresh_run_starts_there_and_a_resumed_one_does_not_make_it_again(monkeypatch):
+    problem = drop()
+    inputs = design_inputs(problem, {"iterations": 4})
+    state = start_design(inputs, seed=3)
+    np.testing.assert_array_equal(state.values, paths_start(problem, 3, 4)[0])
+
+    def made_again(*args, **kwargs):
+        raise AssertionError("a resumed run made its start again")
+    monkeypatch.setattr(runs, "paths_start", made_again)
+    assert start_design(inputs, seed=3, resume=state) is state
+
+
+def test_new_design_alone_refuses_the_problem_and_names_start_design():
+    with pytest.raises(ValueError, match=r"drop: a realizable design that draws no blocked shapes .*start_design"):
+        synthesis.new_design(drop(), plan=synthesis.Plan(iterations=2, n_particles=4))
