@@ -185,3 +185,49 @@ class _Raises:
 
 
 RAISES_TEST = _Raises()
+
+
+#: A realizable problem file (``[surface.contact]`` without drawn shapes): particles dropped near the
+#: top of a 2 x 2 plane under a push of 1 down leave its bottom edge, in the band ``center +- 0.3``
+#: to pass; the held box is the top strip. The tests of a start made from paths fill it in.
+DROP_TEXT = """format = 1
+name = "drop"
+[surface]
+lower = [-1.0, 0.0]
+upper = [1.0, 2.0]
+{surface}
+[surface.contact]
+v = 1e-4
+r_c = 0.1
+{contact}
+[[surface.hold]]
+lower = [-1.0, 1.8]
+upper = [1.0, 2.0]
+[dynamics]
+dt = {dt}
+n_steps = {steps}
+damping = 1.0
+walls = {{ k = 100.0, margin = 0.05, edges = {edges} }}
+[starts]
+{starts}
+[[forces]]
+kind = "constant"
+force = [0.0, -1.0]
+[[forces]]
+kind = "noise"
+std = {noise}
+[[evaluate.success]]
+kind = "exit"
+edge = "q1_lower"
+center = {center}
+halfwidth = 0.3
+"""
+
+
+def drop_problem(*, surface: str = "shape = [21, 21]", contact: str = "realizable = true", edges: str = "[[true, true], [false, true]]",
+                 starts: str = "points = [[0.0, 1.9]]", noise: float = 0.0, center: float = 0.0, dt: float = 0.01,
+                 steps: int = 300):
+    """`DROP_TEXT` read as a problem (its bottom edge open unless ``edges`` says otherwise)."""
+    from pes_ref.synthesis import problem_from_text
+    return problem_from_text(DROP_TEXT.format(surface=surface, contact=contact, edges=edges, starts=starts, noise=noise,
+                                              center=center, dt=dt, steps=steps))

@@ -4,51 +4,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from _helpers import drop_problem
 from pes_ref import synthesis
-from pes_ref.synthesis import design_inputs, needs_paths_start, paths_start, problem_from_text, start_design
+from pes_ref.synthesis import design_inputs, needs_paths_start, paths_start, start_design
 from pes_ref.synthesis.engine import runs
 
 pytest.importorskip("shapely")
 
-#: Particles dropped along the top of a 2 x 2 plane leave its open bottom edge, in the band
-#: 0 < q0 < 0.6 to pass. ``{contact}`` is the ``[surface.contact]`` table's extra lines.
-TEXT = """format = 1
-name = "drop"
-[surface]
-lower = [-1.0, 0.0]
-upper = [1.0, 2.0]
-shape = [16, 16]
-[surface.contact]
-v = 1e-4
-r_c = 0.1
-{contact}
-[[surface.hold]]
-lower = [-1.0, 1.8]
-upper = [1.0, 2.0]
-[dynamics]
-dt = 0.02
-n_steps = 150
-damping = 1.0
-walls = {{ k = 100.0, margin = 0.05, edges = [[true, true], [false, true]] }}
-[starts]
-box = {{ lower = [-0.9, 1.9], upper = [0.9, 1.9] }}
-[[forces]]
-kind = "constant"
-force = [0.0, -1.0]
-[[forces]]
-kind = "noise"
-std = 0.1
-[[evaluate.success]]
-kind = "exit"
-edge = "q1_lower"
-center = 0.3
-halfwidth = 0.3
-"""
 DRAWN = 'blocked = [{ rectangle = { lower = [-1.0, 0.0], upper = [-0.5, 0.5] } }]'
 
 
 def drop(contact="realizable = true"):
-    return problem_from_text(TEXT.format(contact=contact))
+    """Particles dropped along the top, 0 < q0 < 0.6 at the bottom edge to pass."""
+    return drop_problem(surface="shape = [16, 16]", contact=contact, dt=0.02, steps=150, noise=0.1, center=0.3,
+                        starts="box = { lower = [-0.9, 1.9], upper = [0.9, 1.9] }")
 
 
 @pytest.mark.parametrize("contact, needs", [("realizable = true", True), (f"realizable = true\n{DRAWN}", False),
@@ -59,7 +28,7 @@ def test_only_a_realizable_file_without_drawn_shapes_starts_from_paths(contact, 
 
 def test_the_funnel_and_a_file_without_contact_draw_their_own_starts():
     assert not needs_paths_start(synthesis.FunnelProblem(realizable=True))
-    plain = problem_from_text(TEXT.format(contact="").replace("[surface.contact]\nv = 1e-4\nr_c = 0.1\n\n", ""))
+    plain = synthesis.with_sets(drop(), {"surface.contact": None})
     assert plain.contact is None
     assert not needs_paths_start(plain)
 

@@ -4,50 +4,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pes_ref.synthesis import problem_from_text
+from _helpers import drop_problem
 from pes_ref.synthesis.problem import paths_region
 
 shapely = pytest.importorskip("shapely")
 
-#: A plane 2 x 2 with a push down, walls on the side edges, the bottom open: a particle from
-#: (0, 1.9) falls straight out through the bottom edge. ``{edges}``, ``{center}`` and ``{noise}`` vary.
-TEXT = """format = 1
-name = "drop"
-[surface]
-lower = [-1.0, 0.0]
-upper = [1.0, 2.0]
-shape = [21, 21]
-[surface.contact]
-v = 1e-4
-r_c = 0.1
-realizable = true
-[[surface.hold]]
-lower = [-1.0, 1.8]
-upper = [1.0, 2.0]
-[dynamics]
-dt = 0.01
-n_steps = 300
-damping = 1.0
-walls = {{ k = 100.0, margin = 0.05, edges = {edges} }}
-[starts]
-points = [[0.0, 1.9]]
-[[forces]]
-kind = "constant"
-force = [0.0, -1.0]
-[[forces]]
-kind = "noise"
-std = {noise}
-[[evaluate.success]]
-kind = "exit"
-edge = "q1_lower"
-center = {center}
-halfwidth = 0.3
-"""
-OPEN_BOTTOM = "[[true, true], [false, true]]"
-
-
-def drop(edges=OPEN_BOTTOM, center=0.0, noise=0.0):
-    return problem_from_text(TEXT.format(edges=edges, center=center, noise=noise))
+def drop(edges="[[true, true], [false, true]]", center=0.0):
+    return drop_problem(edges=edges, center=center)
 
 
 def test_a_passing_path_is_cut_where_it_leaves_and_carried_straight_out():
@@ -98,8 +61,7 @@ def test_the_signed_distance_is_positive_inside_and_repeats_along_a_periodic_axi
     exact_in = np.minimum(0.5 - np.abs(x), 0.5 - np.abs(y - 1.0))
     np.testing.assert_allclose(d[inside], exact_in[inside], atol=1e-12)
     assert np.all(d[~inside & ((np.abs(x) > 0.5 + 1e-9) | (np.abs(y - 1.0) > 0.5 + 1e-9))] < 0.0)
-    ring = problem_from_text(TEXT.format(edges="[[false, false], [false, true]]", center=0.0, noise=0.0)
-                             .replace('shape = [21, 21]', 'shape = [20, 21]\nperiodic = [true, false]'))
+    ring = drop_problem(edges="[[false, false], [false, true]]", surface="shape = [20, 21]\nperiodic = [true, false]")
     strip = shapely.box(0.9, 0.5, 1.0, 1.5)                                 # at the right end of the period
     d = paths_region.region_distance(ring, strip, ring.shape())
     q0 = ring.nodes(ring.shape(), 0)
@@ -109,8 +71,7 @@ def test_the_signed_distance_is_positive_inside_and_repeats_along_a_periodic_axi
 
 
 def test_a_finished_design_from_paths_ends_on_its_shape_without_the_notch_gradient_steps_cut():
-    problem = problem_from_text(TEXT.format(edges=OPEN_BOTTOM, center=0.0, noise=0.0)
-                                .replace("shape = [21, 21]", "shape = [81, 81]"))
+    problem = drop_problem(surface="shape = [81, 81]")
     assert problem.paths_start
     shape = problem.shape()
     channel = shapely.box(-0.5, -0.5, 0.5, 2.5)
@@ -123,7 +84,6 @@ def test_a_finished_design_from_paths_ends_on_its_shape_without_the_notch_gradie
     assert phi(final, 0.625, 1.0) < 0.0                                     # and blocked once smoothed
     assert phi(final, 0.0, 1.0) > 0.0 and phi(final, 0.0, 0.0) > 0.0         # the channel, to the open edge
     assert phi(final, -0.8, 1.0) < 0.0 and phi(final, 0.8, 0.5) < 0.0
-    drawn = problem_from_text(TEXT.format(edges=OPEN_BOTTOM, center=0.0, noise=0.0).replace(
-        "realizable = true", "realizable = true\nblocked = [{ rectangle = { lower = [-1, 0], upper = [-0.5, 1] } }]"))
+    drawn = drop_problem(contact="realizable = true\nblocked = [{ rectangle = { lower = [-1, 0], upper = [-0.5, 1] } }]")
     v = np.zeros(drawn.shape())
     assert drawn.final_values(v) is v                                       # a drawn start's design: as it is
