@@ -43,7 +43,7 @@ from pes_ref.core.surface import Surface, spacing as grid_spacing
 from pes_ref.devices import boundary
 from pes_ref.devices.geometry import Part, default_tolerance, pose, require_shapely, tolerance_bound
 
-__all__ = ["CSpaceGrid", "CSpace", "blocked_mask", "apf_energy", "apf_slope", "apf_curvature",
+__all__ = ["CSpaceGrid", "CSpace", "blocked_mask", "apf_energy", "apf_slope", "apf_curvature", "apf_standoff",
            "default_r_min", "GridSpring", "spring_grid", "build_surface", "CHUNK_PAIRS"]
 
 TWO_PI = 2.0 * np.pi
@@ -215,6 +215,20 @@ def apf_energy(r, v: float, r_c: float, r_min: float) -> np.ndarray:
 def apf_slope(r, v: float, r_c: float, r_min: float) -> np.ndarray:
     """dE/dr of [`apf_energy`][pes_ref.devices.cspace.apf_energy]: ``-v (1/r - 1/r_c) / r^2`` on [r_min, r_c), ``E'(r_min)`` below, 0 above."""
     return _apf(*_apf_args(r, v, r_c, r_min))[1]
+
+
+def apf_standoff(force: float, v: float, r_c: float, r_min: float) -> float:
+    """Where eq. (1) holds a particle pushed onto blocked space by ``force`` (>= 0): the distance
+    ``d`` in ``[r_min, r_c]`` at which the barrier's force ``|dE/dr| = v (1/d - 1/r_c) / d^2`` meets
+    it (decreasing in ``d``: the root of ``force r_c d^3 + v d - v r_c = 0`` there); ``r_c`` for no
+    force, ``r_min`` for a force the capped barrier cannot hold (above ``|E'(r_min)|``)."""
+    if force <= 0.0:
+        return float(r_c)
+    if force >= -float(apf_slope(np.array(r_min), v, r_c, r_min)):
+        return float(r_min)
+    roots = np.roots([force * r_c, 0.0, v, -v * r_c])
+    real = roots[np.abs(roots.imag) < 1e-12].real
+    return float(real[(real >= r_min) & (real <= r_c)][0])
 
 
 def apf_curvature(r, v: float, r_c: float, r_min: float) -> np.ndarray:

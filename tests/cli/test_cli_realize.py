@@ -219,7 +219,7 @@ def test_an_example_that_draws_no_shape_is_designed_from_its_paths_realized_and_
     code, out, err = run(capsys, "realize", str(design_file), "--as", "contact", "--out", str(parts),
                          "--particles", "4")
     assert code == EXIT_OK, err
-    assert "the pin is made 0.04 larger" in out                     # the file's clearance
+    assert "the pin is made 0.0353853 larger" in out                # eq. (1)'s standoff under a push of 1
     code, out, err = run(capsys, "evaluate", str(design_file), "--realized", str(parts / "device.toml"),
                          "--engine", "both", "--particles", "6")
     assert code == EXIT_OK, err

@@ -172,6 +172,18 @@ def test_eq1_against_hand_computed_points(r, energy, slope, curvature):
     assert c.apf_curvature(r, 2.0, 1.0, 0.25) == pytest.approx(curvature, rel=1e-14)
 
 
+# The same eq. (1) (v = 2, r_c = 1, r_min = 0.25): |E'| is 8 at 0.5 and 96 at the cap 0.25.
+@pytest.mark.parametrize("force, standoff", [(8.0, 0.5), (96.0, 0.25), (500.0, 0.25), (0.0, 1.0)])
+def test_the_standoff_is_where_eq1_holds_a_push(force, standoff):
+    assert c.apf_standoff(force, 2.0, 1.0, 0.25) == pytest.approx(standoff, rel=1e-12)
+
+
+@pytest.mark.parametrize("force", [0.01, 0.7, 3.0, 50.0])
+def test_eq1s_force_at_the_standoff_is_the_push(force):
+    d = c.apf_standoff(force, 2.0, 1.0, 0.25)
+    assert 0.25 < d < 1.0 and -c.apf_slope(d, 2.0, 1.0, 0.25) == pytest.approx(force, rel=1e-12)
+
+
 @pytest.mark.parametrize("r", [0.3, 0.6, 0.95, 0.1, -0.5])
 def test_eq1_slope_and_curvature_match_finite_differences(r):
     x = np.array([r])

@@ -242,11 +242,12 @@ def _problem_contact(problem, energy) -> tuple:
 
 
 def _problem_parts(problem) -> dict:
-    """A problem file's ``[surface.contact]`` clearance and restitution (those it states)."""
+    """A problem file's parts: their clearance (`DesignProblem.parts_clearance`) and the restitution
+    ``[surface.contact]`` states."""
     contact = problem.contact
     if contact is None:
         return {}
-    out = {"clearance": contact.clearance}
+    out = {"clearance": problem.parts_clearance}
     if contact.restitution is not None:
         out["restitution"] = contact.restitution
     return out

@@ -32,6 +32,7 @@ import numpy as np
 from pes_ref.core.effects import Constant, Noise, PerParticle, Window, step_times
 from pes_ref.core.scene import Scene, simulate
 from pes_ref.core.surface import Surface, spacing as grid_spacing
+from pes_ref.devices.cspace import apf_standoff
 from pes_ref.synthesis.problem.file_keys import Key
 from pes_ref.synthesis.problem.objective_terms import Domain, TermSum
 from pes_ref.synthesis.problem.paths_region import smoothed_values
@@ -253,6 +254,22 @@ class DesignProblem(_Problem):
         its smooth design's paths ([`pes_ref.synthesis.engine.paths_start`][pes_ref.synthesis.engine.paths_start])
         and ends on its shape smoothed as that start is."""
         return self.level_set is not None and not self.contact.blocked
+
+    @property
+    def parts_clearance(self) -> float:
+        """The clearance its realized parts are made with (length): ``[surface.contact]
+        clearance`` as stated; unstated, for a design from its paths eq. (1)'s standoff under the
+        largest constant push of the schedule
+        ([`pes_ref.devices.cspace.apf_standoff`][pes_ref.devices.cspace.apf_standoff]: a rigid pin then
+        keeps off the walls where eq. (1) kept the particles, inside the region their passing paths
+        covered), and 0 otherwise."""
+        contact = self.contact
+        if contact.clearance is not None:
+            return contact.clearance
+        if not self.paths_start:
+            return 0.0
+        pushes = [np.hypot(*f.keys["force"]) for f in self.forces if f.kind == "constant"]
+        return apf_standoff(max(pushes, default=0.0), contact.v, contact.r_c, contact.r_min)
 
     def final_values(self, values) -> np.ndarray:
         """The grid a finished run delivers: ``values``, or for a design from its paths its shape

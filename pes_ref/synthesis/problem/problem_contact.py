@@ -26,14 +26,15 @@ class Contact(NamedTuple):
     """``[surface.contact]``: eq. (1)'s ``v``, ``r_c``, ``r_min``, whether the design is a level set
     (``realizable``), its starting shapes ``blocked`` ([`pes_ref.devices.geometry`][pes_ref.devices.geometry] shapes;
     ``()``: none),
-    and the realized parts' ``clearance`` and ``restitution`` (None: not stated)."""
+    and the realized parts' ``clearance`` and ``restitution`` (None: not stated; the clearance then
+    follows from the problem, `DesignProblem.parts_clearance`)."""
 
     v: float
     r_c: float
     r_min: float
     realizable: bool
     blocked: tuple
-    clearance: float = 0.0
+    clearance: float | None = None
     restitution: float | None = None
 
     def level_set(self) -> LevelSet | None:

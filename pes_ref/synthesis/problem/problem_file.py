@@ -66,7 +66,7 @@ SURFACE_KEYS = {
 CONTACT_KEYS = {
     "v": Key("positive", unit="energy length^2"), "r_c": Key("positive", unit="length"),
     "r_min": Key("positive", None, unit="length"), "realizable": Key("bool", False),
-    "blocked": Key("shapes", None, unit="length"), "clearance": Key("nonneg", 0.0, unit="length"),
+    "blocked": Key("shapes", None, unit="length"), "clearance": Key("nonneg", None, unit="length"),
     "restitution": Key("nonneg", None),
 }
 HOLD_KEYS = {"lower": Key("point", unit="length"), "upper": Key("point", unit="length")}

@@ -87,3 +87,17 @@ def test_a_finished_design_from_paths_ends_on_its_shape_without_the_notch_gradie
     drawn = drop_problem(contact="realizable = true\nblocked = [{ rectangle = { lower = [-1, 0], upper = [-0.5, 1] } }]")
     v = np.zeros(drawn.shape())
     assert drawn.final_values(v) is v                                       # a drawn start's design: as it is
+
+
+def test_the_parts_of_a_design_from_paths_keep_eq1s_standoff_unless_the_file_states_a_clearance():
+    from pes_ref.devices.cspace import apf_standoff
+    from pes_ref.synthesis import kind_of
+    problem = drop()
+    c = problem.contact
+    assert problem.parts_clearance == apf_standoff(1.0, c.v, c.r_c, c.r_min)          # the push of 1 down
+    assert 0.0 < problem.parts_clearance < c.r_c
+    assert kind_of(problem).realizable.parts(problem) == {"clearance": problem.parts_clearance}
+    stated = drop_problem(contact="realizable = true\nclearance = 0.01\nrestitution = 0.5")
+    assert kind_of(stated).realizable.parts(stated) == {"clearance": 0.01, "restitution": 0.5}
+    drawn = drop_problem(contact="realizable = true\nblocked = [{ rectangle = { lower = [-1, 0], upper = [-0.5, 1] } }]")
+    assert drawn.parts_clearance == 0.0
