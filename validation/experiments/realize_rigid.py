@@ -57,7 +57,7 @@ OWN = tuple(v for v in VARIANTS if v not in PATHS)
 #: machinist can choose without a new design (a pin larger than its cut-out, the parts' restitution).
 CANDIDATES = {
     "pin 0.02, no clearance, inelastic": (OWN, ["--clearance", "0", "--restitution", "0"]),
-    "the problem file's parts (its [surface.contact]: clearance 0.04, inelastic)": (PATHS, []),
+    "the problem file's parts (clearance eq. (1)'s standoff, 0.0354; inelastic)": (PATHS, []),
     "clearance 0.03 (pin 0.05, the same plate)": ((LATCH, VEE, ENVELOPE), ["--clearance", "0.03", "--restitution",
                                                                           "0"]),
     "clearance 0.03, restitution 0.5": ((LATCH,), ["--clearance", "0.03", "--restitution", "0.5"]),
