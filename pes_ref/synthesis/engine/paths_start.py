@@ -53,12 +53,20 @@ def paths_start(problem, seed: int, iterations: int, backend: str | None = None,
     """``(values, smooth)``: the start of a realizable ``problem`` without drawn shapes (module
     docstring) on its problem grid, the level set's grid values, and the smooth design's state.
     The smooth design runs ``iterations`` (the run's own count) on ``backend``; ``callback``
-    receives its progress."""
+    receives its progress.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        If Ctrl-C or SIGTERM stopped the smooth design: a fresh run has nothing to keep yet, so
+        the command stops as it does on a second Ctrl-C."""
     plain = problem.plain()
     plan = default_plan(problem.grid_shape, coarse=True, iterations=iterations)
     plan = dataclasses.replace(plan, iterations=iterations, decay_iterations=iterations)
     smooth = new_design(plain, seed=smooth_seed(seed), plan=plan, backend=backend)
     smooth = run_stages(smooth, iterations, callback=callback)
+    if smooth.status == "interrupted":         # Ctrl-C or SIGTERM while the start is made: the run stops
+        raise KeyboardInterrupt
     paths_seed = int(np.random.default_rng([seed, PATHS_STREAM]).integers(2 ** 31))
     paths = passing_paths(plain, smooth.values, paths_seed, PATHS_PARTICLES)
     shape = problem.shape()

@@ -63,3 +63,14 @@ def test_a_fresh_run_starts_there_and_a_resumed_one_does_not_make_it_again(monke
 def test_new_design_alone_refuses_the_problem_and_names_start_design():
     with pytest.raises(ValueError, match=r"drop: a realizable design that draws no blocked shapes .*start_design"):
         synthesis.new_design(drop(), plan=synthesis.Plan(iterations=2, n_particles=4))
+
+
+def test_a_stop_while_the_start_is_made_stops_the_run(monkeypatch):
+    from pes_ref.synthesis.engine import paths_start as module
+
+    def stopped(state, iterations, callback=None):
+        state.status = "interrupted"
+        return state
+    monkeypatch.setattr(module, "run_stages", stopped)
+    with pytest.raises(KeyboardInterrupt):
+        paths_start(drop(), 3, 4)
