@@ -24,7 +24,7 @@ from pes_ref.synthesis.engine.design_file import DesignFileError, first_differen
 from pes_ref.synthesis.engine.design_state import STOPPED, DesignState, new_design
 from pes_ref.synthesis.kinds.registry import kind_of
 from pes_ref.synthesis.common.plans import Plan
-from pes_ref.synthesis.engine.refusals import check_design_memory, check_stable_design
+from pes_ref.synthesis.engine.refusals import check_design_memory, check_run_memory, check_stable_design
 from pes_ref.synthesis.engine.paths_start import needs_paths_start, paths_start
 from pes_ref.synthesis.engine.stages import run_stages, set_polish
 
@@ -219,6 +219,7 @@ def start_design(inputs: DesignInputs, *, seed: int | None = None, backend: str 
         seed = 0 if seed is None else seed
         plan, start = inputs.plan(), None
         if needs_paths_start(inputs.problem):
+            check_run_memory(inputs.problem, plan, inputs.polish())      # before the start's own run
             start, _ = paths_start(inputs.problem, seed, plan.iterations, backend, callback=start_callback)
         return new_design(inputs.problem, seed=seed, plan=plan, polish=inputs.polish(), backend=backend,
                           start_values=start)

@@ -74,3 +74,15 @@ def test_a_stop_while_the_start_is_made_stops_the_run(monkeypatch):
     monkeypatch.setattr(module, "run_stages", stopped)
     with pytest.raises(KeyboardInterrupt):
         paths_start(drop(), 3, 4)
+
+
+def test_the_runs_memory_is_checked_before_the_start_is_made(monkeypatch):
+    def refused(problem, plan, polish):
+        raise ValueError("refused for its memory")
+
+    def made(*args, **kwargs):
+        raise AssertionError("the start was made before the memory check")
+    monkeypatch.setattr(runs, "check_run_memory", refused)
+    monkeypatch.setattr(runs, "paths_start", made)
+    with pytest.raises(ValueError, match="refused for its memory"):
+        start_design(design_inputs(drop(), {"iterations": 4}), seed=3)
