@@ -226,3 +226,16 @@ def test_an_example_that_draws_no_shape_is_designed_from_its_paths_realized_and_
     got = figures(out)
     assert 0.0 <= float(got["rigid_success_fraction"]) <= 1.0
     assert got["rigid_starts_blocked"] == "0"                        # every start is free in the parts
+
+
+@pytest.mark.parametrize("module", ["contourpy", "shapely"])
+def test_a_design_from_paths_without_the_extra_is_one_line_with_the_pip_line_before_any_run(capsys, monkeypatch,
+                                                                                          tmp_path, module):
+    from _helpers import ROOT
+    monkeypatch.setitem(sys.modules, module, None)           # import MODULE -> ImportError
+    out_file = tmp_path / "lanes.npz"
+    code, out, err = run(capsys, "design", str(ROOT / "examples" / "problems" / "lanes_parts.toml"), "--smoke",
+                         "--quiet", "--out", str(out_file))
+    assert code == EXIT_ERROR and out == ""
+    assert err.count("\n") == 1 and "pip install 'pes_ref[" in err and module in err
+    assert not out_file.exists()

@@ -120,7 +120,7 @@ def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan
     default polish stage (`pes_ref.synthesis.kinds.registry.DesignKind.default_polish`); with a
     ``plan`` it has the ``polish`` given (None: the gradient stage alone). ``backend`` (None:
     [`pes_ref.core.backends.default_backend`][pes_ref.core.backends.default_backend]) runs it.
-    ``start_values`` (a grid of the problem's) is the start made elsewhere (a realizable problem
+    ``start_values`` (a finite grid of the problem's final shape) is the start made elsewhere (a realizable problem
     file's without drawn shapes: [`pes_ref.synthesis.engine.paths_start`][pes_ref.synthesis.engine.paths_start]),
     resampled to the plan's first grid; None: the problem's ``initial_values``.
     """
@@ -144,7 +144,11 @@ def new_design(kind, seed: int = 0, plan: Plan | None = None, polish: PolishPlan
     check_run_memory(problem, plan, polish)         # before the first grid is made
     rng = np.random.default_rng([seed, 2 ** 32])       # the init draw, apart from every iteration's
     shape = plan.grid_at(0, problem)
-    values = problem.initial_values(rng, shape) if start_values is None else on_grid(problem, start_values, shape)
+    if start_values is None:
+        values = problem.initial_values(rng, shape)
+    else:
+        values = on_grid(problem, checks.as_float_array("start_values", start_values, shape=tuple(problem.shape())),
+                         shape)
     problem.scene(values)           # the scene's own checks (dt, wall margins ...), once, before any run
     state = DesignState(problem, plan, seed, values, plan.make_optimizer(), polish=polish, backend=backend)
     check_stable_design(state)

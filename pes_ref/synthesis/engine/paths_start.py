@@ -25,6 +25,8 @@ import dataclasses
 
 import numpy as np
 
+from pes_ref.core.runtime.extras import found
+from pes_ref.devices.geometry import require_shapely
 from pes_ref.synthesis.common.plans import default_plan
 from pes_ref.synthesis.engine.design_state import new_design
 from pes_ref.synthesis.engine.stages import run_stages
@@ -57,9 +59,13 @@ def paths_start(problem, seed: int, iterations: int, backend: str | None = None,
 
     Raises
     ------
+    MissingExtraError
+        (an ImportError) Without shapely or contourpy (the optional extra ``realize``), before any run.
     KeyboardInterrupt
         If Ctrl-C or SIGTERM stopped the smooth design: a fresh run has nothing to keep yet, so
         the command stops as it does on a second Ctrl-C."""
+    found("contourpy", "realize", "a design from its paths (its shape's contour)")    # before any run: the
+    require_shapely()                                                       # end's smoothing needs both
     plain = problem.plain()
     plan = default_plan(problem.grid_shape, coarse=True, iterations=iterations)
     plan = dataclasses.replace(plan, iterations=iterations, decay_iterations=iterations)

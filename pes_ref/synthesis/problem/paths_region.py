@@ -37,6 +37,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from pes_ref.core.surface import spacing as grid_spacing
+from pes_ref.synthesis.problem.problem_contact import outside_distance
+
 __all__ = ["PATHS_PARTICLES", "EXIT_REACH", "PATHS_BUFFER", "START_BUFFER", "SMOOTHING", "passing_paths", "free_region",
            "region_distance", "smoothed_values"]
 
@@ -109,7 +112,9 @@ def free_region(problem, paths):
     (module docstring)."""
     from pes_ref.devices.geometry import require_shapely
     shapely = require_shapely()
-    h = float(np.min((np.asarray(problem.upper) - np.asarray(problem.lower)) / (np.asarray(problem.grid_shape) - 1)))
+    h = float(np.min(grid_spacing(np.asarray(problem.lower, dtype=np.float64),
+                                  np.asarray(problem.upper, dtype=np.float64), problem.grid_shape,
+                                  np.asarray(problem.periodic))))
     tubes = [shapely.LineString(p).simplify(h / 4) if len(p) > 1 else shapely.Point(p[0]) for p in paths]
     return _smoothed(shapely, problem, shapely.buffer(tubes, PATHS_BUFFER * problem.contact.r_c, quad_segs=4)
                      if tubes else [])
@@ -137,13 +142,5 @@ def smoothed_values(problem, values) -> np.ndarray:
 def region_distance(problem, region, shape: tuple) -> np.ndarray:
     """The signed distance (> 0 free) from the nodes of a grid of ``shape`` to the boundary of
     ``region`` (repeated one period either way along a periodic axis)."""
-    from pes_ref.devices.geometry import require_shapely
-    shapely = require_shapely()
-    lower, upper = problem.lower, problem.upper
-    shifts = [(0.0,) if not problem.periodic[d] else (-(upper[d] - lower[d]), 0.0, upper[d] - lower[d])
-              for d in range(2)]
-    region = shapely.union_all([shapely.affinity.translate(region, a, b) for a in shifts[0] for b in shifts[1]])
-    x, y = np.meshgrid(problem.nodes(shape, 0), problem.nodes(shape, 1), indexing="ij")
-    d = shapely.distance(region.boundary, shapely.points(x.ravel(), y.ravel()))
-    inside = shapely.contains_xy(region, x.ravel(), y.ravel())
-    return np.where(inside, d, -d).reshape(x.shape)
+    return -outside_distance(region, problem.nodes(shape, 0), problem.nodes(shape, 1), problem.lower, problem.upper,
+                             problem.periodic)

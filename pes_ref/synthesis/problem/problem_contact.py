@@ -19,7 +19,7 @@ import numpy as np
 
 from pes_ref.synthesis.common.level_set import LevelSet
 
-__all__ = ["Contact", "signed_distance"]
+__all__ = ["Contact", "signed_distance", "outside_distance"]
 
 
 class Contact(NamedTuple):
@@ -49,7 +49,15 @@ def signed_distance(shapes, q0, q1, lower, upper, periodic, spacing) -> np.ndarr
     from pes_ref.devices.geometry import require_shapely
     shapely = require_shapely()
     tolerance = float(np.min(spacing)) / 20.0
-    geom = shapely.union_all([s.geometry(tolerance) for s in shapes])
+    return outside_distance(shapely.union_all([s.geometry(tolerance) for s in shapes]), q0, q1, lower, upper,
+                            periodic)
+
+
+def outside_distance(geom, q0, q1, lower, upper, periodic) -> np.ndarray:
+    """The signed distance (> 0 outside, < 0 inside) from the nodes ``q0 x q1`` to the shapely
+    geometry ``geom``, repeated one period either way along a periodic axis."""
+    from pes_ref.devices.geometry import require_shapely
+    shapely = require_shapely()
     shifts = [(0.0,) if not periodic[d] else (-(upper[d] - lower[d]), 0.0, upper[d] - lower[d]) for d in range(2)]
     geom = shapely.union_all([shapely.affinity.translate(geom, a, b) for a in shifts[0] for b in shifts[1]])
     x, y = np.meshgrid(np.asarray(q0, dtype=np.float64), np.asarray(q1, dtype=np.float64), indexing="ij")

@@ -86,3 +86,10 @@ def test_the_runs_memory_is_checked_before_the_start_is_made(monkeypatch):
     monkeypatch.setattr(runs, "paths_start", made)
     with pytest.raises(ValueError, match="refused for its memory"):
         start_design(design_inputs(drop(), {"iterations": 4}), seed=3)
+
+
+@pytest.mark.parametrize("values, match", [(np.zeros((3, 3)), r"start_values.*shape"),
+                                           (np.full((16, 16), np.nan), r"start_values.*finite")])
+def test_a_start_given_to_new_design_is_the_problems_grid_of_finite_values(values, match):
+    with pytest.raises(ValueError, match=match):
+        synthesis.new_design(drop(), plan=synthesis.Plan(iterations=2, n_particles=4), start_values=values)
